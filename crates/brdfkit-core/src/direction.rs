@@ -1,0 +1,99 @@
+//! Direction vectors in the local shading frame (z = normal).
+
+/// A 3-vector in the local frame: z is the surface normal, x the tangent.
+pub type Vec3 = nalgebra::Vector3<f64>;
+
+/// The surface normal of the local frame.
+pub const NORMAL: Vec3 = Vec3::new(0.0, 0.0, 1.0);
+/// The binormal (y axis), the axis of the θh rotation in Rusinkiewicz coordinates.
+pub const BINORMAL: Vec3 = Vec3::new(0.0, 1.0, 0.0);
+
+/// Unit vector of polar angle `theta` (from the normal) and azimuth `phi` (from x).
+pub fn spherical(theta: f64, phi: f64) -> Vec3 {
+    let s = theta.sin();
+    Vec3::new(s * phi.cos(), s * phi.sin(), theta.cos())
+}
+
+/// Polar angle and azimuth of a unit vector. The polar angle is computed with `atan2`
+/// of (|xy|, z), which keeps full precision near the pole where `acos(z)` loses half
+/// of the digits. The azimuth of a vector on the pole is 0.
+pub fn to_spherical(w: &Vec3) -> (f64, f64) {
+    let rho = w.x.hypot(w.y);
+    let phi = if w.x == 0.0 && w.y == 0.0 {
+        0.0
+    } else {
+        w.y.atan2(w.x)
+    };
+    (rho.atan2(w.z), phi)
+}
+
+/// Mirror reflection of `w` about the normal: (−x, −y, z).
+pub fn reflect(w: &Vec3) -> Vec3 {
+    Vec3::new(-w.x, -w.y, w.z)
+}
+
+/// Strictly above the horizon: z > 0. Analytic models return zero otherwise.
+pub fn above_horizon(w: &Vec3) -> bool {
+    w.z > 0.0
+}
+
+/// Rotates `v` by `angle` about the unit `axis` (Rodrigues' formula), with the same
+/// sequence of floating-point operations as `rotate_vector` of the MERL reference code,
+/// so the Rusinkiewicz angles (and hence the table bins) are bit-identical to it.
+pub fn rotate(v: &Vec3, axis: &Vec3, angle: f64) -> Vec3 {
+    let cos_ang = angle.cos();
+    let sin_ang = angle.sin();
+    let mut out = Vec3::new(v[0] * cos_ang, v[1] * cos_ang, v[2] * cos_ang);
+    let mut temp = axis[0] * v[0] + axis[1] * v[1] + axis[2] * v[2];
+    temp *= 1.0 - cos_ang;
+    out[0] += axis[0] * temp;
+    out[1] += axis[1] * temp;
+    out[2] += axis[2] * temp;
+    let cross = Vec3::new(
+        axis[1] * v[2] - axis[2] * v[1],
+        axis[2] * v[0] - axis[0] * v[2],
+        axis[0] * v[1] - axis[1] * v[0],
+    );
+    out[0] += cross[0] * sin_ang;
+    out[1] += cross[1] * sin_ang;
+    out[2] += cross[2] * sin_ang;
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn spherical_round_trip() {
+        for &(t, p) in &[(0.3, 1.2), (1.5, -2.0), (1e-9, 0.7), (0.0, 0.0)] {
+            let w = spherical(t, p);
+            let (t2, p2) = to_spherical(&w);
+            assert_relative_eq!(t, t2, epsilon = 1e-15);
+            if t > 0.0 {
+                assert_relative_eq!(p, p2, epsilon = 1e-12);
+            } else {
+                assert_eq!(p2, 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn rotation_matches_the_right_hand_rule() {
+        let x = Vec3::new(1.0, 0.0, 0.0);
+        let r = rotate(&x, &NORMAL, std::f64::consts::FRAC_PI_2);
+        assert_relative_eq!(r, Vec3::new(0.0, 1.0, 0.0), epsilon = 1e-15);
+        let z = rotate(&NORMAL, &BINORMAL, std::f64::consts::FRAC_PI_2);
+        assert_relative_eq!(z, Vec3::new(1.0, 0.0, 0.0), epsilon = 1e-15);
+    }
+
+    #[test]
+    fn reflect_keeps_the_normal_component() {
+        let w = spherical(0.4, 0.9);
+        let r = reflect(&w);
+        assert_eq!(r.z, w.z);
+        assert_relative_eq!(r.x, -w.x);
+        assert_relative_eq!(r.y, -w.y);
+    }
+}

@@ -1,0 +1,215 @@
+//! Per-pair geometry precomputed once, as a structure of arrays.
+//!
+//! A fit evaluates the same million direction pairs hundreds of times with different
+//! parameters. Everything that depends only on the directions (the vectors, the half
+//! vector, cos θd) is computed once here; [`Model::eval_batch`](crate::Model::eval_batch)
+//! then runs tight loops over plain `f64` slices that the compiler can vectorise, and
+//! rayon splits a batch into [`GeomSlice`]s.
+
+use crate::Vec3;
+
+/// Geometry of many direction pairs, one column per quantity.
+///
+/// For pair k: `wi = (wi_x[k], wi_y[k], wi_z[k])`, likewise `wo`; `h` is the unit
+/// half vector (the normal when wi = −wo), `cos_d = wi·h` (= wo·h = cos θd).
+/// `wi_z` and `wo_z` are cos θi and cos θo.
+#[derive(Clone, Debug, Default)]
+pub struct GeometryBatch {
+    pub wi_x: Vec<f64>,
+    pub wi_y: Vec<f64>,
+    pub wi_z: Vec<f64>,
+    pub wo_x: Vec<f64>,
+    pub wo_y: Vec<f64>,
+    pub wo_z: Vec<f64>,
+    pub h_x: Vec<f64>,
+    pub h_y: Vec<f64>,
+    pub h_z: Vec<f64>,
+    pub cos_d: Vec<f64>,
+}
+
+/// A borrowed run of a [`GeometryBatch`]: the unit a model's fast path works on.
+#[derive(Clone, Copy, Debug)]
+pub struct GeomSlice<'a> {
+    pub wi_x: &'a [f64],
+    pub wi_y: &'a [f64],
+    pub wi_z: &'a [f64],
+    pub wo_x: &'a [f64],
+    pub wo_y: &'a [f64],
+    pub wo_z: &'a [f64],
+    pub h_x: &'a [f64],
+    pub h_y: &'a [f64],
+    pub h_z: &'a [f64],
+    pub cos_d: &'a [f64],
+}
+
+/// Unit half vector of a pair; the normal when wi = −wo (no half vector exists).
+pub fn half_vector(wi: &Vec3, wo: &Vec3) -> Vec3 {
+    let s = wi + wo;
+    let n = s.norm();
+    if n > 0.0 {
+        s / n
+    } else {
+        Vec3::new(0.0, 0.0, 1.0)
+    }
+}
+
+impl GeometryBatch {
+    /// Empty batch with room for `n` pairs.
+    pub fn with_capacity(n: usize) -> Self {
+        let v = || Vec::with_capacity(n);
+        GeometryBatch {
+            wi_x: v(),
+            wi_y: v(),
+            wi_z: v(),
+            wo_x: v(),
+            wo_y: v(),
+            wo_z: v(),
+            h_x: v(),
+            h_y: v(),
+            h_z: v(),
+            cos_d: v(),
+        }
+    }
+
+    /// Geometry of the given pairs.
+    pub fn from_pairs(pairs: &[(Vec3, Vec3)]) -> Self {
+        let mut b = Self::with_capacity(pairs.len());
+        for (wi, wo) in pairs {
+            b.push(wi, wo);
+        }
+        b
+    }
+
+    /// Appends one pair.
+    pub fn push(&mut self, wi: &Vec3, wo: &Vec3) {
+        let h = half_vector(wi, wo);
+        self.wi_x.push(wi.x);
+        self.wi_y.push(wi.y);
+        self.wi_z.push(wi.z);
+        self.wo_x.push(wo.x);
+        self.wo_y.push(wo.y);
+        self.wo_z.push(wo.z);
+        self.h_x.push(h.x);
+        self.h_y.push(h.y);
+        self.h_z.push(h.z);
+        self.cos_d.push(wi.dot(&h));
+    }
+
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        self.wi_x.len()
+    }
+
+    /// True when there are no pairs.
+    pub fn is_empty(&self) -> bool {
+        self.wi_x.is_empty()
+    }
+
+    /// The whole batch as a slice.
+    pub fn as_slice(&self) -> GeomSlice<'_> {
+        GeomSlice {
+            wi_x: &self.wi_x,
+            wi_y: &self.wi_y,
+            wi_z: &self.wi_z,
+            wo_x: &self.wo_x,
+            wo_y: &self.wo_y,
+            wo_z: &self.wo_z,
+            h_x: &self.h_x,
+            h_y: &self.h_y,
+            h_z: &self.h_z,
+            cos_d: &self.cos_d,
+        }
+    }
+
+    /// Pairs `range` of the batch.
+    pub fn slice(&self, range: std::ops::Range<usize>) -> GeomSlice<'_> {
+        self.as_slice().sub(range)
+    }
+
+    /// Bytes held by the columns (for memory reports).
+    pub fn heap_bytes(&self) -> usize {
+        10 * self.wi_x.capacity() * std::mem::size_of::<f64>()
+    }
+}
+
+impl<'a> GeomSlice<'a> {
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        self.wi_x.len()
+    }
+
+    /// True when there are no pairs.
+    pub fn is_empty(&self) -> bool {
+        self.wi_x.is_empty()
+    }
+
+    /// A sub-run of this slice.
+    pub fn sub(&self, r: std::ops::Range<usize>) -> GeomSlice<'a> {
+        GeomSlice {
+            wi_x: &self.wi_x[r.clone()],
+            wi_y: &self.wi_y[r.clone()],
+            wi_z: &self.wi_z[r.clone()],
+            wo_x: &self.wo_x[r.clone()],
+            wo_y: &self.wo_y[r.clone()],
+            wo_z: &self.wo_z[r.clone()],
+            h_x: &self.h_x[r.clone()],
+            h_y: &self.h_y[r.clone()],
+            h_z: &self.h_z[r.clone()],
+            cos_d: &self.cos_d[r],
+        }
+    }
+
+    /// Pair `k` as vectors (for slow paths and tests).
+    pub fn pair(&self, k: usize) -> (Vec3, Vec3) {
+        (
+            Vec3::new(self.wi_x[k], self.wi_y[k], self.wi_z[k]),
+            Vec3::new(self.wo_x[k], self.wo_y[k], self.wo_z[k]),
+        )
+    }
+
+    /// Splits into runs of at most `size` pairs (the last may be shorter).
+    pub fn chunks(&self, size: usize) -> impl Iterator<Item = GeomSlice<'a>> + '_ {
+        let n = self.len();
+        let size = size.max(1);
+        (0..n.div_ceil(size)).map(move |c| self.sub(c * size..((c + 1) * size).min(n)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::direction::spherical;
+
+    #[test]
+    fn batch_columns_hold_the_pair_geometry() {
+        let wi = spherical(0.4, 0.1);
+        let wo = spherical(0.9, 2.0);
+        let b = GeometryBatch::from_pairs(&[(wi, wo), (wo, wi)]);
+        assert_eq!(b.len(), 2);
+        let s = b.as_slice();
+        let (a, c) = s.pair(0);
+        assert_eq!(a, wi);
+        assert_eq!(c, wo);
+        let h = (wi + wo).normalize();
+        assert!((s.h_z[0] - h.z).abs() < 1e-15);
+        assert!((s.cos_d[0] - wi.dot(&h)).abs() < 1e-15);
+        assert!((s.cos_d[0] - wo.dot(&h)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn chunks_cover_the_batch() {
+        let pairs: Vec<_> = (0..10)
+            .map(|k| (spherical(0.1 * k as f64, 0.0), spherical(0.2, 1.0)))
+            .collect();
+        let b = GeometryBatch::from_pairs(&pairs);
+        let lens: Vec<usize> = b.as_slice().chunks(4).map(|c| c.len()).collect();
+        assert_eq!(lens, vec![4, 4, 2]);
+        assert_eq!(b.slice(3..5).wi_z[0], b.wi_z[3]);
+    }
+
+    #[test]
+    fn opposite_pair_takes_the_normal_as_half_vector() {
+        let wi = Vec3::new(1.0, 0.0, 0.0);
+        assert_eq!(half_vector(&wi, &-wi), Vec3::new(0.0, 0.0, 1.0));
+    }
+}

@@ -1,0 +1,32 @@
+//! Geometry and shared types of brdfkit.
+//!
+//! Conventions (see `docs/conventions.md` and `../shared/conventions.md`):
+//! - a local shading frame with z the surface normal, x the tangent (the direction of
+//!   `alpha_x` / `n_u`), y = z × x;
+//! - `wi` and `wo` are unit vectors pointing **away** from the surface;
+//! - [`Brdf::eval`] returns f_r in 1/sr **without** the cosine factor;
+//! - angles are radians.
+//!
+//! Modules:
+//! - [`direction`]: vector helpers and spherical coordinates;
+//! - [`rusinkiewicz`]: (wi, wo) <-> (θh, φh, θd, φd) exactly as the MERL reference code;
+//! - [`rgb`]: the [`Rgb`] triple;
+//! - [`brdf`]: the [`Brdf`] trait;
+//! - [`model`]: the parametric [`Model`] trait the fitter drives (parameters, gradients,
+//!   the fast path over precomputed geometry);
+//! - [`geometry`]: [`GeometryBatch`], per-pair geometry precomputed once as a structure
+//!   of arrays.
+
+pub mod brdf;
+pub mod direction;
+pub mod geometry;
+pub mod model;
+pub mod rgb;
+pub mod rusinkiewicz;
+
+pub use brdf::Brdf;
+pub use direction::Vec3;
+pub use geometry::{GeomSlice, GeometryBatch};
+pub use model::{Model, ModelError, ParamRole, ParamSpec};
+pub use rgb::Rgb;
+pub use rusinkiewicz::{HalfDiff, from_half_diff, to_half_diff};

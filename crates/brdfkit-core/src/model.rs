@@ -1,0 +1,286 @@
+//! Parametric models: the interface between an analytic BRDF and the fitter.
+//!
+//! A [`Model`] is a [`Brdf`] whose continuous parameters form a flat vector with names,
+//! domains and a default start ([`ParamSpec`]). Structural choices (the microfacet
+//! distribution, the Fresnel kind, the number of lobes) are fixed when the model is
+//! built and are not part of the vector.
+//!
+//! Gradients are with respect to the physical parameters of that vector; the fitter
+//! applies its own reparameterisation (log / logit) on top.
+
+use crate::{Brdf, GeomSlice, Rgb, Vec3};
+use std::fmt;
+use thiserror::Error;
+
+/// Errors of model construction and parameter handling.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ModelError {
+    /// A parameter value outside its domain.
+    #[error("parameter `{name}` = {value} is outside its domain {domain}")]
+    OutOfDomain {
+        name: String,
+        value: f64,
+        domain: Domain,
+    },
+    /// A parameter vector of the wrong length.
+    #[error("expected {expected} parameters, got {got}")]
+    ParamCount { expected: usize, got: usize },
+    /// A model description that does not parse or names unknown things.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// The interval a parameter lives in. Infinite ends are allowed (always open).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Domain {
+    pub lo: f64,
+    pub hi: f64,
+    pub lo_open: bool,
+    pub hi_open: bool,
+}
+
+impl Domain {
+    /// [lo, hi]
+    pub const fn closed(lo: f64, hi: f64) -> Self {
+        Domain {
+            lo,
+            hi,
+            lo_open: false,
+            hi_open: false,
+        }
+    }
+    /// (lo, hi)
+    pub const fn open(lo: f64, hi: f64) -> Self {
+        Domain {
+            lo,
+            hi,
+            lo_open: true,
+            hi_open: true,
+        }
+    }
+    /// [lo, ∞)
+    pub const fn at_least(lo: f64) -> Self {
+        Domain {
+            lo,
+            hi: f64::INFINITY,
+            lo_open: false,
+            hi_open: true,
+        }
+    }
+    /// (lo, ∞)
+    pub const fn above(lo: f64) -> Self {
+        Domain {
+            lo,
+            hi: f64::INFINITY,
+            lo_open: true,
+            hi_open: true,
+        }
+    }
+    /// (-∞, ∞)
+    pub const fn real() -> Self {
+        Domain::open(f64::NEG_INFINITY, f64::INFINITY)
+    }
+
+    /// True when `v` is finite and inside the interval.
+    pub fn contains(&self, v: f64) -> bool {
+        if !v.is_finite() {
+            return false;
+        }
+        let lo_ok = if self.lo_open {
+            v > self.lo
+        } else {
+            v >= self.lo
+        };
+        let hi_ok = if self.hi_open {
+            v < self.hi
+        } else {
+            v <= self.hi
+        };
+        lo_ok && hi_ok
+    }
+}
+
+impl fmt::Display for Domain {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let end = |v: f64| {
+            if v == f64::INFINITY {
+                "inf".to_string()
+            } else if v == f64::NEG_INFINITY {
+                "-inf".to_string()
+            } else {
+                format!("{v}")
+            }
+        };
+        write!(
+            f,
+            "{}{}, {}{}",
+            if self.lo_open { '(' } else { '[' },
+            end(self.lo),
+            end(self.hi),
+            if self.hi_open { ')' } else { ']' }
+        )
+    }
+}
+
+/// Checks `value` against `domain`, naming the parameter in the error.
+pub fn check_param(name: &str, value: f64, domain: Domain) -> Result<f64, ModelError> {
+    if domain.contains(value) {
+        Ok(value)
+    } else {
+        Err(ModelError::OutOfDomain {
+            name: name.to_string(),
+            value,
+            domain,
+        })
+    }
+}
+
+/// How a parameter couples to the colour channels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParamRole {
+    /// Affects only channel `0..3` (albedo-like: ρd, ρs, Schlick f0, eta, k).
+    Channel(usize),
+    /// Affects every channel (lobe shape: roughness, exponent, σ).
+    Shared,
+}
+
+/// One entry of a model's flat parameter vector.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamSpec {
+    /// Name as in the JSON contract, with a channel suffix for per-channel entries
+    /// (`rho_d.r`) and an index for lists (`lobes[1].n`).
+    pub name: String,
+    pub role: ParamRole,
+    /// Where the model is defined; builders reject values outside.
+    pub domain: Domain,
+    /// A sensible default start for a fit.
+    pub default: f64,
+    /// False for parameters a fit keeps fixed unless asked (e.g. the complex index of
+    /// refraction of a conductor, which trades off against ρs).
+    pub fit_by_default: bool,
+}
+
+impl ParamSpec {
+    /// A shared (lobe-shape) parameter, fitted by default.
+    pub fn shared(name: impl Into<String>, domain: Domain, default: f64) -> Self {
+        ParamSpec {
+            name: name.into(),
+            role: ParamRole::Shared,
+            domain,
+            default,
+            fit_by_default: true,
+        }
+    }
+
+    /// Three per-channel entries `name.r`, `name.g`, `name.b`, fitted by default.
+    pub fn per_channel(name: &str, domain: Domain, default: f64) -> [Self; 3] {
+        ["r", "g", "b"].map(|c| {
+            let ch = match c {
+                "r" => 0,
+                "g" => 1,
+                _ => 2,
+            };
+            ParamSpec {
+                name: format!("{name}.{c}"),
+                role: ParamRole::Channel(ch),
+                domain,
+                default,
+                fit_by_default: true,
+            }
+        })
+    }
+
+    /// The same spec, not fitted by default.
+    pub fn fixed(mut self) -> Self {
+        self.fit_by_default = false;
+        self
+    }
+}
+
+/// A parametric, differentiable BRDF model.
+///
+/// Every implementation must keep four paths numerically identical: [`Brdf::eval`],
+/// [`Model::eval_grad`] (value part), [`Model::eval_batch`] and
+/// [`Model::eval_grad_batch`]; and return exactly 0 (value and gradient) for a pair
+/// with either direction at or below the horizon.
+pub trait Model: Brdf + fmt::Debug {
+    /// The model's name in the JSON contract (`"cook-torrance"`).
+    fn name(&self) -> &'static str;
+
+    /// Names, domains and default start of the flat parameter vector.
+    fn param_specs(&self) -> Vec<ParamSpec>;
+
+    /// Current values of the flat parameter vector.
+    fn params(&self) -> Vec<f64>;
+
+    /// Number of parameters.
+    fn num_params(&self) -> usize {
+        self.param_specs().len()
+    }
+
+    /// Replaces every parameter; rejects a wrong length or an out-of-domain value
+    /// (naming the parameter) and then leaves the model unchanged.
+    fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError>;
+
+    /// f_r and its gradient: `grad[p]` is ∂f/∂param_p per channel (`grad.len()` ==
+    /// `num_params()`).
+    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb;
+
+    /// f_r for every pair of a precomputed batch: `out[k]` for pair k.
+    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]);
+
+    /// f_r and gradients for a batch. `grad` is parameter-major:
+    /// `grad[p * g.len() + k]` is ∂f/∂param_p at pair k.
+    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]);
+
+    /// The model in the JSON contract: `{"model": name, "params": {...}}`.
+    fn to_json(&self) -> serde_json::Value;
+
+    /// A boxed copy (models are small; a fit clones one per candidate parameter).
+    fn clone_box(&self) -> Box<dyn Model>;
+
+    /// f(wi, wo) = f(wo, wi) for all parameters. The original Phong model does not.
+    fn is_reciprocal(&self) -> bool {
+        true
+    }
+
+    /// Directional albedo ≤ 1 whenever the model's albedo parameters allow it
+    /// (documented per model). The original Phong model makes no such promise.
+    fn conserves_energy(&self) -> bool {
+        true
+    }
+}
+
+impl Clone for Box<dyn Model> {
+    fn clone(&self) -> Self {
+        self.clone_box()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn domains_check_and_print() {
+        let d = Domain::closed(0.0, 1.0);
+        assert!(d.contains(0.0) && d.contains(1.0) && !d.contains(1.0000001));
+        assert!(!d.contains(f64::NAN));
+        let a = Domain::above(0.0);
+        assert!(!a.contains(0.0) && a.contains(1e-300) && !a.contains(f64::INFINITY));
+        assert_eq!(format!("{a}"), "(0, inf)");
+        assert_eq!(format!("{d}"), "[0, 1]");
+        let e = check_param("alpha", -1.0, a).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "parameter `alpha` = -1 is outside its domain (0, inf)"
+        );
+    }
+
+    #[test]
+    fn per_channel_specs_name_their_channel() {
+        let s = ParamSpec::per_channel("rho_d", Domain::closed(0.0, 1.0), 0.5);
+        assert_eq!(s[1].name, "rho_d.g");
+        assert_eq!(s[2].role, ParamRole::Channel(2));
+    }
+}

@@ -1,0 +1,11 @@
+//! brdfkit: measured BRDFs made practical.
+//!
+//! This facade re-exports the workspace crates so a user depends on one crate:
+//!
+//! - [`core`]: directions, the local frame, Rusinkiewicz coordinates, [`core::Rgb`],
+//!   the [`core::Brdf`] trait and the shared scattering math.
+//! - [`merl`]: the MERL binary table format, lookup and resampling.
+//! - [`models`]: the analytic BRDF models and their JSON contract.
+pub use brdfkit_core as core;
+pub use brdfkit_merl as merl;
+pub use brdfkit_models as models;
