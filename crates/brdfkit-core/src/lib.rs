@@ -14,6 +14,7 @@
 //! - [`brdf`]: the [`Brdf`] trait;
 //! - [`model`]: the parametric [`Model`] trait the fitter drives (parameters, gradients,
 //!   the fast path over precomputed geometry);
+//! - [`quadrature`]: Gauss-Legendre rules and the directional albedo of any BRDF;
 //! - [`geometry`]: [`GeometryBatch`], per-pair geometry precomputed once as a structure
 //!   of arrays.
 
@@ -21,6 +22,7 @@ pub mod brdf;
 pub mod direction;
 pub mod geometry;
 pub mod model;
+pub mod quadrature;
 pub mod rgb;
 pub mod rusinkiewicz;
 
