@@ -1,0 +1,169 @@
+//! Typed errors: one variant per way a file or an in-memory table can be wrong.
+
+use crate::grid::DimsError;
+use std::fmt;
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// A colour channel of the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Channel {
+    Red,
+    Green,
+    Blue,
+}
+
+impl Channel {
+    /// The channels in file order.
+    pub const ALL: [Channel; 3] = [Channel::Red, Channel::Green, Channel::Blue];
+
+    /// 0, 1, 2 for R, G, B.
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+}
+
+impl fmt::Display for Channel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Channel::Red => "red",
+            Channel::Green => "green",
+            Channel::Blue => "blue",
+        })
+    }
+}
+
+/// Errors reading or writing a table file (or bytes given a name). Every message starts
+/// with the file's path (or the name given to [`from_bytes`](crate::MerlTable::from_bytes)).
+#[derive(Debug, Error)]
+pub enum MerlError {
+    /// Shorter than the 12-byte header.
+    #[error("{}: {len} bytes is shorter than the 12-byte header", path.display())]
+    TooShort { path: PathBuf, len: u64 },
+
+    /// Dims ≤ 0, or so large the size overflows.
+    #[error("{}: {source}", path.display())]
+    Dims {
+        path: PathBuf,
+        #[source]
+        source: DimsError,
+    },
+
+    /// Fewer bytes than the header's dims require.
+    #[error(
+        "{}: truncated: dims {dims} need {expected} bytes (12 + 3 x {cells} x 8), the file has {actual}",
+        path.display()
+    )]
+    Truncated {
+        path: PathBuf,
+        dims: crate::Dims,
+        cells: usize,
+        expected: u64,
+        actual: u64,
+    },
+
+    /// More bytes than the header's dims account for.
+    #[error(
+        "{}: {} trailing bytes: dims {dims} need {expected} bytes (12 + 3 x {cells} x 8), the file has {actual}",
+        path.display(), actual - expected
+    )]
+    TrailingBytes {
+        path: PathBuf,
+        dims: crate::Dims,
+        cells: usize,
+        expected: u64,
+        actual: u64,
+    },
+
+    /// A NaN or infinite value (the first one in file order).
+    #[error(
+        "{}: non-finite value {value} in the {channel} channel at cell (θh {i}, θd {j}, φd {k}) (flat index {index})",
+        path.display()
+    )]
+    NonFinite {
+        path: PathBuf,
+        channel: Channel,
+        i: usize,
+        j: usize,
+        k: usize,
+        index: usize,
+        value: f64,
+    },
+
+    /// The path names a directory, not a table.
+    #[error("{}: is a directory, not a table file", path.display())]
+    IsDirectory { path: PathBuf },
+
+    /// An I/O error while `action` (opening, reading, writing, renaming ...).
+    #[error("{}: {action}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        action: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl MerlError {
+    /// The file (or name) the error is about.
+    pub fn path(&self) -> &std::path::Path {
+        match self {
+            MerlError::TooShort { path, .. }
+            | MerlError::Dims { path, .. }
+            | MerlError::Truncated { path, .. }
+            | MerlError::TrailingBytes { path, .. }
+            | MerlError::NonFinite { path, .. }
+            | MerlError::IsDirectory { path }
+            | MerlError::Io { path, .. } => path,
+        }
+    }
+
+    pub(crate) fn io(path: &std::path::Path, action: &'static str, source: std::io::Error) -> Self {
+        MerlError::Io {
+            path: path.to_path_buf(),
+            action,
+            source,
+        }
+    }
+}
+
+/// Errors building or changing a table in memory.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum TableError {
+    /// A raw buffer or plane of the wrong length.
+    #[error("expected {expected} values for dims {dims}, got {actual}")]
+    Length {
+        dims: crate::Dims,
+        expected: usize,
+        actual: usize,
+    },
+    /// A NaN or infinite value.
+    #[error("non-finite value {value} in the {channel} channel at cell ({i}, {j}, {k})")]
+    NonFinite {
+        channel: Channel,
+        i: usize,
+        j: usize,
+        k: usize,
+        value: f64,
+    },
+    /// A negative physical value: it would be stored as a negative raw value, which the
+    /// format reserves for missing samples. Use `None` for a missing cell.
+    #[error(
+        "negative value {value} in the {channel} channel at cell ({i}, {j}, {k}): negative raw values mean 'missing'; give None instead"
+    )]
+    Negative {
+        channel: Channel,
+        i: usize,
+        j: usize,
+        k: usize,
+        value: f64,
+    },
+    /// A cell index outside the grid.
+    #[error("cell ({i}, {j}, {k}) is outside the grid {dims}")]
+    OutOfRange {
+        dims: crate::Dims,
+        i: usize,
+        j: usize,
+        k: usize,
+    },
+}

@@ -1,0 +1,305 @@
+//! Reading and writing the binary format.
+//!
+//! Layout: three little-endian int32 dims (θh, θd, φd), then 3 × n little-endian
+//! float64, whole channel planes R, G, B, each in the order `k + nφd · (j + nθd · i)`.
+//!
+//! Reading checks the header against the file's length (from its metadata) **before**
+//! allocating, so a corrupt header cannot make the reader allocate more than the file
+//! holds; then it reads the body straight into the table's buffer in chunks of
+//! [`CHUNK`] values and validates each chunk while it is still in cache (finite values,
+//! the missing mask), one pass over the data.
+//!
+//! Writing goes to a temporary file in the destination directory, synced, then renamed
+//! over the destination: a reader sees the old file or the new one, never a partial
+//! one, and a failed write removes its temporary file and leaves the old file intact.
+
+use crate::error::{Channel, MerlError};
+use crate::grid::{Dims, HEADER_BYTES};
+use crate::table::{MerlTable, raw_valid};
+use byteorder::{ByteOrder, LittleEndian, ReadBytesExt};
+use std::fs::File;
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+
+/// Values read and validated per step: 32 Ki f64 = 256 KiB, small enough to stay in
+/// L2 between the kernel's copy and the validation.
+pub const CHUNK: usize = 32 * 1024;
+
+/// Parses the header and checks it against the total length in bytes.
+fn parse_header(header: &[u8; 12], len: u64, path: &Path) -> Result<Dims, MerlError> {
+    let d = [
+        LittleEndian::read_i32(&header[0..4]) as i64,
+        LittleEndian::read_i32(&header[4..8]) as i64,
+        LittleEndian::read_i32(&header[8..12]) as i64,
+    ];
+    let dims = Dims::new(d[0], d[1], d[2]).map_err(|source| MerlError::Dims {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let expected = dims.file_bytes();
+    let (cells, path) = (dims.cells(), path.to_path_buf());
+    if len < expected {
+        return Err(MerlError::Truncated {
+            path,
+            dims,
+            cells,
+            expected,
+            actual: len,
+        });
+    }
+    if len > expected {
+        return Err(MerlError::TrailingBytes {
+            path,
+            dims,
+            cells,
+            expected,
+            actual: len,
+        });
+    }
+    Ok(dims)
+}
+
+/// Fills the raw planes chunk by chunk with `fill` and validates each chunk while it is
+/// hot: the first non-finite value in file order is an error, and a cell is valid when
+/// all its channels are ≥ 0.
+fn fill_and_validate(
+    dims: Dims,
+    path: &Path,
+    mut fill: impl FnMut(&mut [f64]) -> io::Result<()>,
+) -> Result<MerlTable, MerlError> {
+    let n = dims.cells();
+    let mut raw = vec![0.0f64; 3 * n];
+    let mut valid = vec![true; n];
+    for (c, plane) in raw.chunks_mut(n).enumerate() {
+        for (q, (chunk, v)) in plane
+            .chunks_mut(CHUNK)
+            .zip(valid.chunks_mut(CHUNK))
+            .enumerate()
+        {
+            fill(chunk).map_err(|e| MerlError::io(path, "reading", e))?;
+            // A non-short-circuiting fold so the loop vectorises; the rare bad chunk is
+            // searched again below.
+            let mut finite = true;
+            for (&x, v) in chunk.iter().zip(v.iter_mut()) {
+                finite &= x.is_finite();
+                *v &= x >= 0.0;
+            }
+            if !finite {
+                let off = chunk.iter().position(|x| !x.is_finite()).unwrap_or(0);
+                let index = q * CHUNK + off;
+                let (i, j, k) = dims.unflatten(index);
+                return Err(MerlError::NonFinite {
+                    path: path.to_path_buf(),
+                    channel: Channel::ALL[c],
+                    i,
+                    j,
+                    k,
+                    index,
+                    value: chunk[off],
+                });
+            }
+        }
+    }
+    debug_assert!(
+        valid
+            .iter()
+            .enumerate()
+            .all(|(x, &v)| v == raw_valid(raw[x], raw[n + x], raw[2 * n + x]))
+    );
+    let n_valid = valid.iter().filter(|&&v| v).count();
+    Ok(MerlTable {
+        dims,
+        raw,
+        valid,
+        n_valid,
+    })
+}
+
+impl MerlTable {
+    /// Reads a table file. Every failure is a [`MerlError`] naming the file.
+    pub fn read(path: impl AsRef<Path>) -> Result<MerlTable, MerlError> {
+        let path = path.as_ref();
+        let mut file = File::open(path).map_err(|e| MerlError::io(path, "opening", e))?;
+        let meta = file
+            .metadata()
+            .map_err(|e| MerlError::io(path, "reading metadata", e))?;
+        if meta.is_dir() {
+            return Err(MerlError::IsDirectory {
+                path: path.to_path_buf(),
+            });
+        }
+        if !meta.is_file() {
+            // A pipe or a device has no length to check the header against: read what
+            // is there (memory grows with the data actually present, not with the
+            // header's claim) and parse that.
+            let mut bytes = Vec::new();
+            file.read_to_end(&mut bytes)
+                .map_err(|e| MerlError::io(path, "reading", e))?;
+            return Self::from_bytes(&bytes, path);
+        }
+        let len = meta.len();
+        if len < HEADER_BYTES {
+            return Err(MerlError::TooShort {
+                path: path.to_path_buf(),
+                len,
+            });
+        }
+        let mut header = [0u8; 12];
+        file.read_exact(&mut header)
+            .map_err(|e| MerlError::io(path, "reading the header", e))?;
+        let dims = parse_header(&header, len, path)?;
+        // Reads straight into the f64 buffer (byteorder reinterprets it as bytes and
+        // swaps in place on big-endian hosts: no intermediate copy).
+        fill_and_validate(dims, path, |chunk| {
+            file.read_f64_into::<LittleEndian>(chunk)
+        })
+    }
+
+    /// Parses a table from bytes; `name` stands for the file in error messages.
+    pub fn from_bytes(bytes: &[u8], name: impl AsRef<Path>) -> Result<MerlTable, MerlError> {
+        let path = name.as_ref();
+        let len = bytes.len() as u64;
+        if len < HEADER_BYTES {
+            return Err(MerlError::TooShort {
+                path: path.to_path_buf(),
+                len,
+            });
+        }
+        let header: [u8; 12] = bytes[..12].try_into().expect("12 bytes");
+        let dims = parse_header(&header, len, path)?;
+        let mut at = HEADER_BYTES as usize;
+        fill_and_validate(dims, path, |chunk| {
+            let end = at + 8 * chunk.len();
+            LittleEndian::read_f64_into(&bytes[at..end], chunk);
+            at = end;
+            Ok(())
+        })
+    }
+
+    /// The file image: header then the raw planes, exactly the bytes [`write`](Self::write)
+    /// stores.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = vec![0u8; self.dims.file_bytes() as usize];
+        write_header(self.dims, &mut out[..12]);
+        LittleEndian::write_f64_into(&self.raw, &mut out[12..]);
+        out
+    }
+
+    /// Writes the table to `path` atomically (temporary file in the same directory,
+    /// synced, renamed into place). On error the old file, if any, is untouched and no
+    /// temporary file is left.
+    pub fn write(&self, path: impl AsRef<Path>) -> Result<(), MerlError> {
+        atomic_write(path.as_ref(), |file| {
+            let mut header = [0u8; 12];
+            write_header(self.dims, &mut header);
+            file.write_all(&header)?;
+            let mut buf = vec![0u8; 8 * CHUNK];
+            for chunk in self.raw.chunks(CHUNK) {
+                let bytes = &mut buf[..8 * chunk.len()];
+                LittleEndian::write_f64_into(chunk, bytes);
+                file.write_all(bytes)?;
+            }
+            Ok(())
+        })
+    }
+}
+
+fn write_header(dims: Dims, out: &mut [u8]) {
+    // Dims::new guarantees every dimension fits in an i32.
+    LittleEndian::write_i32(&mut out[0..4], dims.theta_h() as i32);
+    LittleEndian::write_i32(&mut out[4..8], dims.theta_d() as i32);
+    LittleEndian::write_i32(&mut out[8..12], dims.phi_d() as i32);
+}
+
+/// Writes a file atomically: `body` writes into a temporary file created in the
+/// destination's directory; the file is synced and renamed over `path`. A failure at any
+/// step drops (and so deletes) the temporary file, leaving `path` as it was.
+///
+/// The new file takes the permissions of the file it replaces, or 0644 when there was
+/// none (a temporary file is created 0600).
+pub fn atomic_write(
+    path: &Path,
+    body: impl FnOnce(&mut File) -> io::Result<()>,
+) -> Result<(), MerlError> {
+    let dir: PathBuf = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".brdfkit-merl-")
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .map_err(|e| MerlError::io(path, "creating a temporary file in its directory", e))?;
+    body(tmp.as_file_mut()).map_err(|e| MerlError::io(path, "writing", e))?;
+    let perms = match std::fs::metadata(path) {
+        Ok(m) => Some(m.permissions()),
+        Err(_) => default_permissions(),
+    };
+    if let Some(p) = perms {
+        tmp.as_file()
+            .set_permissions(p)
+            .map_err(|e| MerlError::io(path, "setting permissions", e))?;
+    }
+    tmp.as_file()
+        .sync_all()
+        .map_err(|e| MerlError::io(path, "syncing", e))?;
+    tmp.persist(path)
+        .map_err(|e| MerlError::io(path, "renaming the temporary file into place", e.error))?;
+    Ok(())
+}
+
+#[cfg(unix)]
+fn default_permissions() -> Option<std::fs::Permissions> {
+    use std::os::unix::fs::PermissionsExt;
+    Some(std::fs::Permissions::from_mode(0o644))
+}
+
+#[cfg(not(unix))]
+fn default_permissions() -> Option<std::fs::Permissions> {
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn leftovers(dir: &Path) -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(".brdfkit-merl-"))
+            .collect()
+    }
+
+    #[test]
+    fn failing_body_leaves_old_file_and_no_temp() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.binary");
+        std::fs::write(&p, b"old contents").unwrap();
+        let err = atomic_write(&p, |f| {
+            f.write_all(b"half of the new")?;
+            Err(io::Error::other("disk full (simulated)"))
+        })
+        .unwrap_err();
+        assert!(matches!(
+            err,
+            MerlError::Io {
+                action: "writing",
+                ..
+            }
+        ));
+        assert!(err.to_string().contains("t.binary"), "{err}");
+        assert_eq!(std::fs::read(&p).unwrap(), b"old contents");
+        assert!(leftovers(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn successful_write_replaces_and_cleans_up() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.binary");
+        std::fs::write(&p, b"old").unwrap();
+        atomic_write(&p, |f| f.write_all(b"new")).unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"new");
+        assert!(leftovers(dir.path()).is_empty());
+    }
+}
