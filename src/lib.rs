@@ -6,6 +6,9 @@
 //!   the [`core::Brdf`] trait and the shared scattering math.
 //! - [`merl`]: the MERL binary table format, lookup and resampling.
 //! - [`models`]: the analytic BRDF models and their JSON contract.
+//! - [`synth`]: synthetic materials with known parameters (the `data-synthetic/` specs).
 pub use brdfkit_core as core;
 pub use brdfkit_merl as merl;
 pub use brdfkit_models as models;
+
+pub mod synth;

@@ -1,0 +1,125 @@
+//! Command-line syntax (clap derive). Validation beyond syntax happens in `commands`.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "fit-brdf",
+    version,
+    about = "Inspect, evaluate, resample, synthesise and fit measured BRDFs (MERL tables)",
+    long_about = "fit-brdf works on MERL binary BRDF tables and on analytic models given as JSON \
+                  ({\"model\": \"<name>\", \"params\": {...}}).\n\
+                  Exit codes: 0 success, 1 runtime failure, 2 bad input or usage."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Print a table's dims, valid fraction, per-channel statistics and albedo.
+    #[command(
+        after_help = "Examples:\n  fit-brdf info gold-metallic-paint.binary\n  fit-brdf info table.binary --json"
+    )]
+    Info(InfoArgs),
+    /// Evaluate a table or a model at direction pairs read from a CSV file.
+    #[command(
+        after_help = "Examples:\n  fit-brdf eval --table t.binary --dirs pairs.csv --interp linear --out values.csv\n  \
+                            fit-brdf eval --model params.json --dirs pairs.csv\n\n\
+                            IN.csv: header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z then one unit-vector pair per line \
+                            (local frame, z = normal, both pointing away from the surface).\n\
+                            OUT.csv: header r,g,b; f_r without the cosine; empty fields where the table has no valid sample."
+    )]
+    Eval(EvalArgs),
+    /// Resample a table onto another grid, or write a model as a table.
+    #[command(
+        after_help = "Examples:\n  fit-brdf resample --table t.binary --dims 45,45,90 --out small.binary\n  \
+                            fit-brdf resample --model params.json --dims 90,90,180 --out model.binary"
+    )]
+    Resample(ResampleArgs),
+    /// Generate the table of a synthetic material spec (data-synthetic/*.toml).
+    #[command(
+        after_help = "Example:\n  fit-brdf synth data-synthetic/red-plastic.toml --out red-plastic.binary"
+    )]
+    Synth(SynthArgs),
+    /// Run the whole job on the embedded demo material (no downloads).
+    #[command(after_help = "Example:\n  fit-brdf demo --out demo-out")]
+    Demo(DemoArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// The MERL binary table.
+    pub table: PathBuf,
+    /// Print machine-readable JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Where values come from: a measured table or an analytic model.
+#[derive(Args, Debug)]
+#[group(required = true, multiple = false)]
+pub struct Source {
+    /// A MERL binary table.
+    #[arg(long, value_name = "TABLE")]
+    pub table: Option<PathBuf>,
+    /// A model as JSON: {"model": "<name>", "params": {...}}.
+    #[arg(long, value_name = "PARAMS.json")]
+    pub model: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interp {
+    /// The bin the direction pair falls in (the MERL reference lookup).
+    Nearest,
+    /// Multilinear interpolation between bins, missing cells left out.
+    Linear,
+}
+
+#[derive(Args, Debug)]
+pub struct EvalArgs {
+    #[command(flatten)]
+    pub source: Source,
+    /// Direction pairs (CSV with header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z).
+    #[arg(long, value_name = "IN.csv")]
+    pub dirs: PathBuf,
+    /// Table lookup (ignored for models).
+    #[arg(long, value_enum, default_value = "nearest")]
+    pub interp: Interp,
+    /// Output CSV (default: standard output).
+    #[arg(long, value_name = "OUT.csv")]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct ResampleArgs {
+    #[command(flatten)]
+    pub source: Source,
+    /// Target grid as θh,θd,φd bin counts, e.g. 90,90,180.
+    #[arg(long, value_name = "A,B,C")]
+    pub dims: String,
+    /// Table lookup when resampling a table.
+    #[arg(long, value_enum, default_value = "linear")]
+    pub interp: Interp,
+    /// Output table.
+    #[arg(long, value_name = "NEW")]
+    pub out: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct SynthArgs {
+    /// The spec (TOML).
+    pub spec: PathBuf,
+    /// Output table.
+    #[arg(long, value_name = "TABLE")]
+    pub out: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Directory for the demo's outputs.
+    #[arg(long, default_value = "brdfkit-demo")]
+    pub out: PathBuf,
+}

@@ -1,0 +1,69 @@
+//! One module per subcommand; `run` dispatches.
+
+mod demo;
+mod eval;
+mod info;
+mod resample;
+mod synth;
+
+use crate::cli::{Cli, Command, Interp};
+use crate::error::{CliResult, bad_input, bad_msg, runtime};
+use anyhow::Context;
+use brdfkit::core::Model;
+use brdfkit::merl::{Dims, Lookup, MerlError, MerlTable};
+use std::path::Path;
+
+pub fn run(cli: Cli) -> CliResult<()> {
+    match cli.command {
+        Command::Info(a) => info::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::Resample(a) => resample::run(a),
+        Command::Synth(a) => synth::run(a),
+        Command::Demo(a) => demo::run(a),
+    }
+}
+
+/// Reads a table; every read failure is the user's input (exit 2).
+pub fn read_table(path: &Path) -> CliResult<MerlTable> {
+    MerlTable::read(path).map_err(bad_input)
+}
+
+/// Writes a table atomically; a failure is a runtime failure (exit 1).
+pub fn write_table(table: &MerlTable, path: &Path) -> CliResult<()> {
+    table.write(path).map_err(|e: MerlError| runtime(e))
+}
+
+/// Reads a model description (JSON) from a file.
+pub fn read_model(path: &Path) -> CliResult<Box<dyn Model>> {
+    let bytes = std::fs::read(path)
+        .with_context(|| format!("{}: cannot read the model description", path.display()))
+        .map_err(bad_input)?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| bad_msg(format!("{}: not valid UTF-8", path.display())))?;
+    brdfkit::models::from_json_str(&text).map_err(|e| bad_msg(format!("{}: {e}", path.display())))
+}
+
+/// Parses `A,B,C` into grid dims.
+pub fn parse_dims(s: &str) -> CliResult<Dims> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let bad = || {
+        bad_msg(format!(
+            "--dims `{s}`: expected three positive integers A,B,C (θh, θd, φd bins)"
+        ))
+    };
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let mut v = [0i64; 3];
+    for (k, p) in parts.iter().enumerate() {
+        v[k] = p.parse().map_err(|_| bad())?;
+    }
+    Dims::new(v[0], v[1], v[2]).map_err(|e| bad_msg(format!("--dims `{s}`: {e}")))
+}
+
+pub fn lookup_mode(i: Interp) -> Lookup {
+    match i {
+        Interp::Nearest => Lookup::Nearest,
+        Interp::Linear => Lookup::Interpolated,
+    }
+}

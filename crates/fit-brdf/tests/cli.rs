@@ -1,0 +1,295 @@
+//! Drives the `fit-brdf` binary as a user would: every subcommand and its failure modes.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn bin() -> Command {
+    Command::cargo_bin("fit-brdf").unwrap()
+}
+
+const SMALL_LAMBERT: &str = r#"
+name = "small"
+dims = [16, 16, 32]
+[material]
+model = "lambert"
+params = { rho_d = [0.5, 0.25, 0.125] }
+"#;
+
+/// Writes a spec and synthesises its table in `dir`; returns the table path.
+fn small_table(dir: &Path) -> PathBuf {
+    let spec = dir.join("small.toml");
+    std::fs::write(&spec, SMALL_LAMBERT).unwrap();
+    let out = dir.join("small.binary");
+    bin()
+        .args(["synth"])
+        .arg(&spec)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    out
+}
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn synth_then_info_text_and_json() {
+    let d = tempfile::tempdir().unwrap();
+    let t = small_table(d.path());
+    assert_eq!(
+        std::fs::metadata(&t).unwrap().len(),
+        12 + 3 * 8 * 16 * 16 * 32
+    );
+    let o = bin().arg("info").arg(&t).output().unwrap();
+    assert!(o.status.success());
+    let s = String::from_utf8(o.stdout).unwrap();
+    assert!(s.contains("16 x 16 x 32"), "{s}");
+    let o = bin().arg("info").arg(&t).arg("--json").output().unwrap();
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["dims"], serde_json::json!([16, 16, 32]));
+    let med = v["channels"]["r"]["median"].as_f64().unwrap();
+    assert!((med - 0.5 / std::f64::consts::PI).abs() < 1e-12);
+    let a0 = v["albedo"][0]["albedo"][0].as_f64().unwrap();
+    assert!((a0 - 0.5).abs() < 5e-3, "albedo at normal incidence {a0}");
+}
+
+#[test]
+fn info_rejects_bad_tables_with_exit_2_and_the_file_name() {
+    let d = tempfile::tempdir().unwrap();
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        ("empty.binary", vec![]),
+        ("short.binary", vec![0u8; 11]),
+        (
+            "negdims.binary",
+            [
+                (-1i32).to_le_bytes(),
+                1i32.to_le_bytes(),
+                1i32.to_le_bytes(),
+            ]
+            .concat(),
+        ),
+        ("truncated.binary", {
+            let mut v = [1i32.to_le_bytes(), 1i32.to_le_bytes(), 2i32.to_le_bytes()].concat();
+            v.extend_from_slice(&[0u8; 8 * 5]);
+            v
+        }),
+    ];
+    for (name, bytes) in cases {
+        let p = d.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let o = bin().arg("info").arg(&p).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{name}");
+        let e = stderr(&o);
+        assert!(e.starts_with("error: ") && e.contains(name), "{name}: {e}");
+    }
+    let o = bin().arg("info").arg(d.path()).output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "a directory is bad input");
+    let o = bin()
+        .arg("info")
+        .arg(d.path().join("nope.binary"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("nope.binary"));
+}
+
+#[test]
+fn eval_table_and_model_write_one_row_per_pair() {
+    let d = tempfile::tempdir().unwrap();
+    let t = small_table(d.path());
+    let dirs = d.path().join("dirs.csv");
+    // Normal incidence, a generic pair, and a below-horizon pair (no sample).
+    std::fs::write(
+        &dirs,
+        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0.6,0,0.8,0,0.6,0.8\n1,0,0,0,0,1\n",
+    )
+    .unwrap();
+    for interp in ["nearest", "linear"] {
+        let out = d.path().join(format!("{interp}.csv"));
+        bin()
+            .args(["eval", "--table"])
+            .arg(&t)
+            .arg("--dirs")
+            .arg(&dirs)
+            .args(["--interp", interp, "--out"])
+            .arg(&out)
+            .assert()
+            .success();
+        let s = std::fs::read_to_string(&out).unwrap();
+        let lines: Vec<&str> = s.lines().collect();
+        assert_eq!(lines.len(), 4, "{s}");
+        assert_eq!(lines[0], "r,g,b");
+        let r: f64 = lines[1].split(',').next().unwrap().parse().unwrap();
+        assert!((r - 0.5 / std::f64::consts::PI).abs() < 1e-12);
+        assert_eq!(lines[3], ",,", "below the horizon there is no sample");
+    }
+    let model = d.path().join("m.json");
+    std::fs::write(&model, r#"{"model": "lambert", "params": {"rho_d": 0.3}}"#).unwrap();
+    let o = bin()
+        .args(["eval", "--model"])
+        .arg(&model)
+        .arg("--dirs")
+        .arg(&dirs)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = String::from_utf8(o.stdout).unwrap();
+    let lines: Vec<&str> = s.lines().collect();
+    assert_eq!(lines.len(), 4);
+    assert_eq!(lines[3], "0,0,0", "a model is exactly 0 below the horizon");
+}
+
+#[test]
+fn eval_rejects_bad_input_with_exit_2() {
+    let d = tempfile::tempdir().unwrap();
+    let t = small_table(d.path());
+    let dirs = d.path().join("bad.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,2,0,0,1\n").unwrap();
+    let o = bin()
+        .args(["eval", "--table"])
+        .arg(&t)
+        .arg("--dirs")
+        .arg(&dirs)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("bad.csv: line 2"), "{}", stderr(&o));
+    let model = d.path().join("m.json");
+    for (text, what) in [
+        (r#"{"model": "lambert", "params": {"rho_d": 1.5}}"#, "rho_d"),
+        (r#"{"model": "lambrt"}"#, "unknown model"),
+        ("{not json", "not valid JSON"),
+    ] {
+        std::fs::write(&model, text).unwrap();
+        let good = d.path().join("good.csv");
+        std::fs::write(&good, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+        let o = bin()
+            .args(["eval", "--model"])
+            .arg(&model)
+            .arg("--dirs")
+            .arg(&good)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "{text}");
+        let e = stderr(&o);
+        assert!(e.contains("m.json") && e.contains(what), "{e}");
+    }
+    // Both sources, or none: usage errors.
+    let o = bin().args(["eval", "--dirs", "x.csv"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let o = bin()
+        .args(["eval", "--table", "a", "--model", "b", "--dirs", "x.csv"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn resample_table_and_model() {
+    let d = tempfile::tempdir().unwrap();
+    let t = small_table(d.path());
+    let out = d.path().join("big.binary");
+    bin()
+        .args(["resample", "--table"])
+        .arg(&t)
+        .args(["--dims", "32,16,64", "--interp", "nearest", "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+    assert_eq!(
+        std::fs::metadata(&out).unwrap().len(),
+        12 + 24 * 32 * 16 * 64
+    );
+    let model = d.path().join("m.json");
+    std::fs::write(
+        &model,
+        r#"{"model": "lambert", "params": {"rho_d": [0.1, 0.2, 0.3]}}"#,
+    )
+    .unwrap();
+    let mt = d.path().join("model.binary");
+    bin()
+        .args(["resample", "--model"])
+        .arg(&model)
+        .args(["--dims", "8,8,16", "--out"])
+        .arg(&mt)
+        .assert()
+        .success();
+    let o = bin().arg("info").arg(&mt).arg("--json").output().unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let g = v["channels"]["g"]["max"].as_f64().unwrap();
+    assert!((g - 0.2 / std::f64::consts::PI).abs() < 1e-12);
+    for bad in ["1,2", "0,1,1", "a,b,c", "-1,2,3"] {
+        let o = bin()
+            .args(["resample", "--table"])
+            .arg(&t)
+            .args(["--dims", bad, "--out"])
+            .arg(d.path().join("x.binary"))
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "--dims {bad}");
+        assert!(stderr(&o).contains("--dims"), "{}", stderr(&o));
+    }
+}
+
+#[test]
+fn write_failure_is_exit_1_and_leaves_nothing_behind() {
+    let d = tempfile::tempdir().unwrap();
+    let spec = d.path().join("small.toml");
+    std::fs::write(&spec, SMALL_LAMBERT).unwrap();
+    let o = bin()
+        .arg("synth")
+        .arg(&spec)
+        .arg("--out")
+        .arg(d.path().join("no-such-dir").join("t.binary"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("t.binary"));
+    let names: Vec<_> = std::fs::read_dir(d.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 1, "only the spec: {names:?}");
+}
+
+#[test]
+fn synth_rejects_a_bad_spec_with_exit_2() {
+    let d = tempfile::tempdir().unwrap();
+    let spec = d.path().join("bad.toml");
+    std::fs::write(
+        &spec,
+        "name = \"x\"\ncolour = 1\n[material]\nmodel = \"lambert\"\n",
+    )
+    .unwrap();
+    let o = bin()
+        .arg("synth")
+        .arg(&spec)
+        .arg("--out")
+        .arg(d.path().join("t.binary"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("bad.toml") && e.contains("colour"), "{e}");
+    assert!(!d.path().join("t.binary").exists());
+}
+
+#[test]
+fn unknown_subcommand_is_a_usage_error() {
+    let o = bin().arg("frobnicate").output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn demo_runs_on_its_embedded_material() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("demo");
+    let o = bin().arg("demo").arg("--out").arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = String::from_utf8(o.stdout).unwrap();
+    assert!(s.contains("identical to what was written"), "{s}");
+    assert!(out.join("demo-plastic.binary").exists());
+}
