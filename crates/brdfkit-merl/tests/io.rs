@@ -1,0 +1,418 @@
+//! The binary format: bit-exact round trips, every malformed-file class, atomic writes.
+
+use brdfkit_merl::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+
+/// A file image built by hand (independent of the crate's writer).
+fn image(dims: [i32; 3], raw: &[f64]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(12 + 8 * raw.len());
+    for d in dims {
+        out.extend_from_slice(&d.to_le_bytes());
+    }
+    for x in raw {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    out
+}
+
+/// Raw values of every kind a file can hold: log-uniform positives, zeros of both
+/// signs, negatives (missing), subnormals and extremes.
+fn random_raw(rng: &mut ChaCha8Rng, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|_| match rng.random_range(0..10) {
+            0 => -1.0,
+            1 => -rng.random::<f64>() * 100.0,
+            2 => -0.0,
+            3 => 0.0,
+            4 => f64::from_bits(rng.random_range(1..(1u64 << 52))), // subnormal
+            5 => f64::MAX * rng.random::<f64>(),
+            _ => 10f64.powf(rng.random_range(-6.0..5.0)),
+        })
+        .collect()
+}
+
+fn write_file(dir: &Path, name: &str, bytes: &[u8]) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+#[test]
+fn read_write_round_trip_is_bit_exact_for_several_dims() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let dir = tempfile::tempdir().unwrap();
+    for dims in [[90, 90, 180], [45, 45, 90], [3, 1, 2], [1, 1, 1], [4, 7, 5]] {
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        let raw = random_raw(&mut rng, 3 * n);
+        let bytes = image(dims, &raw);
+        let src = write_file(dir.path(), "src.binary", &bytes);
+        let t = MerlTable::read(&src).unwrap();
+        assert_eq!(
+            t.dims(),
+            Dims::new(dims[0] as i64, dims[1] as i64, dims[2] as i64).unwrap()
+        );
+        let dst = dir.path().join("dst.binary");
+        t.write(&dst).unwrap();
+        assert_eq!(std::fs::read(&dst).unwrap(), bytes, "dims {dims:?}");
+        assert_eq!(t.to_bytes(), bytes);
+        assert_eq!(MerlTable::from_bytes(&bytes, "mem").unwrap(), t);
+        // Values: raw × scale for valid cells; a cell with any negative channel is missing.
+        for x in 0..n {
+            let r = [raw[x], raw[n + x], raw[2 * n + x]];
+            let valid = r.iter().all(|&v| v >= 0.0);
+            assert_eq!(t.is_valid(x), valid);
+            match t.get_flat(x) {
+                Some(v) => {
+                    for c in 0..3 {
+                        assert_eq!(v[c].to_bits(), (r[c] * SCALES[c]).to_bits());
+                    }
+                }
+                None => assert!(!valid),
+            }
+        }
+        assert_eq!(
+            t.valid_count(),
+            t.valid_mask().iter().filter(|v| **v).count()
+        );
+    }
+}
+
+#[test]
+fn negative_zero_is_a_valid_zero_and_is_kept() {
+    let raw = [-0.0, 0.0, -0.0];
+    let bytes = image([1, 1, 1], &raw);
+    let t = MerlTable::from_bytes(&bytes, "z").unwrap();
+    assert!(t.is_valid(0));
+    assert_eq!(t.get_flat(0).unwrap()[1], 0.0);
+    assert_eq!(t.to_bytes(), bytes);
+}
+
+#[test]
+fn in_memory_tables_write_value_over_scale_and_missing_as_minus_one() {
+    let d = Dims::new(2, 2, 2).unwrap();
+    let t = MerlTable::from_fn(d, |i, j, k| {
+        (i + j + k != 3).then(|| brdfkit_core::Rgb::new(0.5, 0.25 * i as f64, 7.0))
+    })
+    .unwrap();
+    let back = MerlTable::from_bytes(&t.to_bytes(), "mem").unwrap();
+    let n = d.cells();
+    for x in 0..n {
+        let (i, j, k) = d.unflatten(x);
+        let raw = back.raw_at(x);
+        if i + j + k == 3 {
+            assert_eq!(raw, [-1.0; 3]);
+            assert_eq!(back.get_flat(x), None);
+        } else {
+            assert_eq!(raw[0], 0.5 / SCALES[0]);
+            assert_eq!(raw[1], 0.25 * i as f64 / SCALES[1]);
+            assert_eq!(raw[2], 7.0 / SCALES[2]);
+        }
+    }
+    assert_eq!(back, t);
+}
+
+fn assert_names(err: &MerlError, name: &str) {
+    let msg = err.to_string();
+    assert!(msg.contains(name), "message does not name {name}: {msg}");
+    assert!(err.path().to_string_lossy().contains(name));
+}
+
+#[test]
+fn too_short_for_the_header() {
+    let dir = tempfile::tempdir().unwrap();
+    for len in [0usize, 5, 11] {
+        let p = write_file(dir.path(), "short.binary", &vec![1u8; len]);
+        let e = MerlTable::read(&p).unwrap_err();
+        assert!(
+            matches!(e, MerlError::TooShort { len: l, .. } if l == len as u64),
+            "{e}"
+        );
+        assert_names(&e, "short.binary");
+    }
+    let e = MerlTable::from_bytes(&[0u8; 3], "bytes-name").unwrap_err();
+    assert!(matches!(e, MerlError::TooShort { .. }));
+    assert_names(&e, "bytes-name");
+}
+
+#[test]
+fn dims_not_positive() {
+    let dir = tempfile::tempdir().unwrap();
+    for dims in [[90, 0, 180], [-1, 90, 180], [90, 90, i32::MIN]] {
+        let p = write_file(dir.path(), "dims.binary", &image(dims, &[0.0; 9]));
+        let e = MerlTable::read(&p).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                MerlError::Dims {
+                    source: DimsError::NotPositive(..),
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert_names(&e, "dims.binary");
+        assert!(e.to_string().contains("positive"), "{e}");
+    }
+}
+
+#[test]
+fn dims_whose_size_overflows() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_file(
+        dir.path(),
+        "huge.binary",
+        &image([i32::MAX, i32::MAX, i32::MAX], &[0.0; 3]),
+    );
+    let e = MerlTable::read(&p).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MerlError::Dims {
+                source: DimsError::Overflow(..),
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert_names(&e, "huge.binary");
+}
+
+#[test]
+fn header_claiming_a_huge_table_is_refused_before_allocating() {
+    // 2^20 x 2^10 x 2^5 cells = 824 GB of data claimed by a 36-byte file: the length
+    // check against the metadata refuses it without trying to allocate.
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_file(
+        dir.path(),
+        "liar.binary",
+        &image([1 << 20, 1 << 10, 1 << 5], &[1.0; 3]),
+    );
+    let e = MerlTable::read(&p).unwrap_err();
+    match &e {
+        MerlError::Truncated {
+            expected, actual, ..
+        } => {
+            assert_eq!(*expected, 12 + 24 * (1u64 << 35));
+            assert_eq!(*actual, 36);
+        }
+        other => panic!("{other}"),
+    }
+    assert_names(&e, "liar.binary");
+}
+
+#[test]
+fn data_shorter_than_the_dims_require() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = image([2, 3, 4], &[1.0; 72]);
+    bytes.truncate(bytes.len() - 5);
+    let p = write_file(dir.path(), "trunc.binary", &bytes);
+    let e = MerlTable::read(&p).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MerlError::Truncated {
+                expected: 588,
+                actual: 583,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(msg.contains("588") && msg.contains("583"), "{msg}");
+    assert_names(&e, "trunc.binary");
+}
+
+#[test]
+fn trailing_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = image([2, 3, 4], &[1.0; 72]);
+    bytes.push(0);
+    let p = write_file(dir.path(), "trail.binary", &bytes);
+    let e = MerlTable::read(&p).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MerlError::TrailingBytes {
+                expected: 588,
+                actual: 589,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("1 trailing bytes"), "{e}");
+    assert_names(&e, "trail.binary");
+    let e = MerlTable::from_bytes(&bytes, "trail-bytes").unwrap_err();
+    assert!(matches!(e, MerlError::TrailingBytes { .. }));
+}
+
+#[test]
+fn nan_and_infinite_values_name_channel_and_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = Dims::new(3, 4, 5).unwrap();
+    let n = d.cells();
+    for (channel, bad) in [
+        (Channel::Red, f64::NAN),
+        (Channel::Green, f64::INFINITY),
+        (Channel::Blue, f64::NEG_INFINITY),
+    ] {
+        let mut raw = vec![1.0; 3 * n];
+        let cell = d.index(2, 1, 3);
+        raw[channel.index() * n + cell] = bad;
+        // A later bad value must not be the one reported.
+        raw[3 * n - 1] = f64::NAN;
+        let p = write_file(dir.path(), "nan.binary", &image([3, 4, 5], &raw));
+        let e = MerlTable::read(&p).unwrap_err();
+        match &e {
+            MerlError::NonFinite {
+                channel: c,
+                i,
+                j,
+                k,
+                index,
+                ..
+            } => {
+                assert_eq!((*c, *i, *j, *k, *index), (channel, 2, 1, 3, cell));
+            }
+            other => panic!("{other}"),
+        }
+        assert!(e.to_string().contains(&channel.to_string()), "{e}");
+        assert_names(&e, "nan.binary");
+    }
+}
+
+#[test]
+fn non_finite_value_in_a_large_table_is_found_past_the_first_chunk() {
+    let d = Dims::new(10, 90, 180).unwrap(); // 162,000 cells: several chunks per plane
+    let n = d.cells();
+    let mut raw = vec![2.0; 3 * n];
+    let cell = d.index(9, 89, 170);
+    raw[n + cell] = f64::NAN;
+    let e = MerlTable::from_bytes(&image([10, 90, 180], &raw), "big").unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MerlError::NonFinite {
+                channel: Channel::Green,
+                i: 9,
+                j: 89,
+                k: 170,
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn io_errors_name_the_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such.binary");
+    let e = MerlTable::read(&missing).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MerlError::Io {
+                action: "opening",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert_names(&e, "no-such.binary");
+    // A directory given as a table.
+    let sub = dir.path().join("a-directory.binary");
+    std::fs::create_dir(&sub).unwrap();
+    let e = MerlTable::read(&sub).unwrap_err();
+    assert!(matches!(e, MerlError::IsDirectory { .. }), "{e}");
+    assert_names(&e, "a-directory.binary");
+}
+
+fn temp_leftovers(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+fn small_table() -> MerlTable {
+    MerlTable::from_fn(Dims::new(2, 2, 2).unwrap(), |i, _, _| {
+        Some(brdfkit_core::Rgb::splat(i as f64))
+    })
+    .unwrap()
+}
+
+#[test]
+fn write_into_a_nonexistent_directory_fails_typed() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("nope").join("t.binary");
+    let e = small_table().write(&p).unwrap_err();
+    assert!(matches!(e, MerlError::Io { .. }), "{e}");
+    assert_names(&e, "t.binary");
+    assert!(!p.exists());
+    assert!(temp_leftovers(dir.path()).is_empty());
+}
+
+#[test]
+fn write_into_a_read_only_directory_fails_and_keeps_the_old_file() {
+    // /proc refuses new files even to root.
+    let e = small_table()
+        .write("/proc/brdfkit-test.binary")
+        .unwrap_err();
+    assert!(matches!(e, MerlError::Io { .. }), "{e}");
+    assert_names(&e, "brdfkit-test.binary");
+
+    // A directory with mode 0555 holding an old file: refused to ordinary users
+    // (root bypasses the mode bits, so there the probe write succeeds and only the
+    // /proc case above applies).
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_file(dir.path(), "old.binary", b"old contents");
+    std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o555)).unwrap();
+    let probe = dir.path().join("probe");
+    let writable = std::fs::write(&probe, b"x").is_ok();
+    if !writable {
+        let e = small_table().write(&p).unwrap_err();
+        assert!(matches!(e, MerlError::Io { .. }), "{e}");
+        assert_names(&e, "old.binary");
+        assert_eq!(std::fs::read(&p).unwrap(), b"old contents");
+        assert!(temp_leftovers(dir.path()).is_empty());
+    } else {
+        eprintln!("running as root: mode 0555 does not stop writes; /proc case checked");
+        std::fs::remove_file(&probe).unwrap();
+    }
+    std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+#[test]
+fn failed_rename_leaves_the_destination_and_no_temp_file() {
+    // The destination is a non-empty directory: the temporary file is written, the
+    // rename fails, the temporary file must be gone and the destination untouched.
+    let dir = tempfile::tempdir().unwrap();
+    let dest = dir.path().join("occupied.binary");
+    std::fs::create_dir(&dest).unwrap();
+    std::fs::write(dest.join("inside"), b"keep").unwrap();
+    let e = small_table().write(&dest).unwrap_err();
+    assert!(matches!(e, MerlError::Io { .. }), "{e}");
+    assert_names(&e, "occupied.binary");
+    assert_eq!(std::fs::read(dest.join("inside")).unwrap(), b"keep");
+    assert!(
+        temp_leftovers(dir.path()).is_empty(),
+        "{:?}",
+        temp_leftovers(dir.path())
+    );
+}
+
+#[test]
+fn write_replaces_an_old_file_atomically() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_file(dir.path(), "t.binary", b"old contents");
+    let t = small_table();
+    t.write(&p).unwrap();
+    assert_eq!(MerlTable::read(&p).unwrap(), t);
+    assert!(temp_leftovers(dir.path()).is_empty());
+}
