@@ -17,6 +17,7 @@
 //! - [`quadrature`]: Gauss-Legendre rules and the directional albedo of any BRDF;
 //! - [`geometry`]: [`GeometryBatch`], per-pair geometry precomputed once as a structure
 //!   of arrays.
+//! - [`scattering`]: Fresnel, microfacet distributions and masking, with derivatives.
 
 pub mod brdf;
 pub mod direction;
@@ -25,6 +26,7 @@ pub mod model;
 pub mod quadrature;
 pub mod rgb;
 pub mod rusinkiewicz;
+pub mod scattering;
 
 pub use brdf::Brdf;
 pub use direction::Vec3;
