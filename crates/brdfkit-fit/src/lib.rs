@@ -1,1 +1,57 @@
-//! placeholder
+//! Nonlinear least-squares fitting of analytic BRDF models to measured tables.
+//!
+//! A fit takes the valid cells of a table ([`FitData`]), a model family with its fixed
+//! structural choices (any [`brdfkit_core::Model`], normally from
+//! [`brdfkit_models::from_json`] or [`brdfkit_models::default_model`]), a loss and
+//! options ([`FitConfig`]), and returns the fitted parameters in the model JSON contract
+//! plus a [`FitRecord`]: every loss per channel and overall on the fitted cells and on
+//! the full table, iterations, cost and Jacobian evaluations, wall time, the
+//! termination reason and every start tried.
+//!
+//! ```no_run
+//! use brdfkit_fit::{FitConfig, FitData, Loss, fit};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let table = brdfkit_merl::MerlTable::read("gold-metallic-paint.binary")?;
+//! let data = FitData::from_table(&table)?;
+//! let model = brdfkit_models::default_model("lambert")?;
+//! let cfg = FitConfig::default().loss(Loss::Cbrt).starts(4)?;
+//! let out = fit(model.as_ref(), &data, &cfg, None)?;
+//! println!("{}", out.fitted.to_json());
+//! println!("{}", serde_json::to_string_pretty(&out.record)?);
+//! # Ok(()) }
+//! ```
+//!
+//! Modules:
+//! - [`loss`]: the four losses (`l2`, `cosine`, `cbrt`, `log`) and the cell weights;
+//! - [`reparam`]: the smooth log / logit reparameterisation that enforces bounds;
+//! - [`data`]: the cells, their cutoff and stratified subsampling;
+//! - [`problem`]: residuals, the normal equations in one parallel pass, argmin traits;
+//! - [`lm`]: Levenberg-Marquardt and Gauss-Newton as argmin solvers;
+//! - [`starts`]: the multi-start scheme;
+//! - [`config`], [`record`], [`observer`]: options, the JSON record, progress events;
+//! - [`synth`]: synthetic tables from a model (tests, benchmarks).
+//!
+//! The formulas, sources and measured performance are in `docs/fitting.md`.
+
+pub mod config;
+pub mod data;
+pub mod error;
+mod fit;
+pub mod lm;
+pub mod loss;
+pub mod observer;
+pub mod problem;
+pub mod record;
+pub mod reparam;
+pub mod starts;
+pub mod synth;
+
+pub use config::{FitConfig, Sharing, SolverKind};
+pub use data::FitData;
+pub use error::FitError;
+pub use fit::{FitResult, Fitted, fit, fit_table, resolve_free};
+pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
+pub use loss::{ChannelLoss, Loss, LossReport, Weighting};
+pub use observer::{FitObserver, FitPlan, IterEvent, StartDone};
+pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses};
+pub use record::{FitRecord, ParamRecord, StartRecord};

@@ -1,0 +1,363 @@
+//! [`FitConfig`]: everything a fit needs besides the model and the cells.
+
+use crate::error::FitError;
+use crate::lm::Tolerances;
+use crate::loss::{Loss, Weighting};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// The optimiser.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum SolverKind {
+    /// Levenberg-Marquardt on the normal equations (this crate's argmin solver); the
+    /// default.
+    #[default]
+    Lm,
+    /// Gauss-Newton with argmin's backtracking (Armijo) line search.
+    GaussNewton,
+    /// argmin's trust-region method with the Steihaug subproblem and JᵀJ as Hessian.
+    TrustRegion,
+    /// argmin's L-BFGS (memory 7) with the Moré-Thuente line search.
+    Lbfgs,
+    /// argmin's Nelder-Mead simplex: no derivatives (a fallback for a model whose
+    /// gradient is suspect).
+    NelderMead,
+}
+
+impl SolverKind {
+    /// Every solver.
+    pub const ALL: [SolverKind; 5] = [
+        SolverKind::Lm,
+        SolverKind::GaussNewton,
+        SolverKind::TrustRegion,
+        SolverKind::Lbfgs,
+        SolverKind::NelderMead,
+    ];
+
+    /// The name on the command line and in records.
+    pub fn name(&self) -> &'static str {
+        match self {
+            SolverKind::Lm => "lm",
+            SolverKind::GaussNewton => "gauss-newton",
+            SolverKind::TrustRegion => "trust-region",
+            SolverKind::Lbfgs => "lbfgs",
+            SolverKind::NelderMead => "nelder-mead",
+        }
+    }
+
+    /// Default iteration cap: derivative-free and first-order methods need many more
+    /// (cheaper) iterations than the Newton-type ones.
+    pub fn default_max_iters(&self) -> u64 {
+        match self {
+            SolverKind::Lm | SolverKind::GaussNewton => 200,
+            SolverKind::TrustRegion => 500,
+            SolverKind::Lbfgs => 2000,
+            SolverKind::NelderMead => 5000,
+        }
+    }
+}
+
+impl fmt::Display for SolverKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for SolverKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        SolverKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| {
+                format!("unknown solver `{s}` (known: lm, gauss-newton, trust-region, lbfgs, nelder-mead)")
+            })
+    }
+}
+
+/// How parameters couple across the colour channels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Sharing {
+    /// Albedo-like parameters per channel, lobe-shape parameters shared by the three
+    /// channels (Ngan et al. 2005); one fit over all channels. The default.
+    #[default]
+    SharedShape,
+    /// Three independent fits, one per channel, each with its own shape parameters.
+    PerChannel,
+}
+
+impl Sharing {
+    /// The name on the command line and in records.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Sharing::SharedShape => "shared-shape",
+            Sharing::PerChannel => "per-channel",
+        }
+    }
+}
+
+impl FromStr for Sharing {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "shared-shape" => Ok(Sharing::SharedShape),
+            "per-channel" => Ok(Sharing::PerChannel),
+            _ => Err(format!(
+                "unknown sharing `{s}` (known: shared-shape, per-channel)"
+            )),
+        }
+    }
+}
+
+/// Options of a fit. Start from [`FitConfig::default`] and chain the builders; numeric
+/// options are validated and return [`FitError::InvalidOption`] when out of range.
+///
+/// ```
+/// use brdfkit_fit::{FitConfig, Loss, SolverKind};
+/// let cfg = FitConfig::default()
+///     .loss(Loss::Cbrt)
+///     .solver(SolverKind::Lm)
+///     .starts(8)?
+///     .subsample(0.25, 7)?
+///     .theta_d_max_deg(80.0)?;
+/// assert_eq!(cfg.get_starts(), 8);
+/// # Ok::<(), brdfkit_fit::FitError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FitConfig {
+    pub(crate) loss: Loss,
+    pub(crate) weighting: Weighting,
+    pub(crate) solver: SolverKind,
+    pub(crate) sharing: Sharing,
+    pub(crate) starts: usize,
+    pub(crate) seed: u64,
+    pub(crate) subsample: Option<f64>,
+    pub(crate) theta_d_max: Option<f64>,
+    pub(crate) max_iters: Option<u64>,
+    pub(crate) ftol: f64,
+    pub(crate) xtol: f64,
+    pub(crate) gtol: f64,
+    pub(crate) tau: f64,
+    pub(crate) free: Vec<String>,
+    pub(crate) fixed: Vec<String>,
+}
+
+impl Default for FitConfig {
+    fn default() -> Self {
+        let t = Tolerances::default();
+        FitConfig {
+            loss: Loss::Cbrt,
+            weighting: Weighting::SolidAngle,
+            solver: SolverKind::Lm,
+            sharing: Sharing::SharedShape,
+            starts: 1,
+            seed: 0,
+            subsample: None,
+            theta_d_max: None,
+            max_iters: None,
+            ftol: t.ftol,
+            xtol: t.xtol,
+            gtol: t.gtol,
+            tau: 1e-3,
+            free: Vec::new(),
+            fixed: Vec::new(),
+        }
+    }
+}
+
+fn bad(option: &'static str, value: impl fmt::Display, reason: &str) -> FitError {
+    FitError::InvalidOption {
+        option,
+        value: value.to_string(),
+        reason: reason.into(),
+    }
+}
+
+impl FitConfig {
+    /// The loss to minimise (default `cbrt`).
+    pub fn loss(mut self, l: Loss) -> Self {
+        self.loss = l;
+        self
+    }
+
+    /// The cell weights (default solid angle).
+    pub fn weighting(mut self, w: Weighting) -> Self {
+        self.weighting = w;
+        self
+    }
+
+    /// The optimiser (default LM).
+    pub fn solver(mut self, s: SolverKind) -> Self {
+        self.solver = s;
+        self
+    }
+
+    /// Shared shape parameters (default) or independent per-channel fits.
+    pub fn sharing(mut self, s: Sharing) -> Self {
+        self.sharing = s;
+        self
+    }
+
+    /// Number of starts (≥ 1; start 0 is the model's own parameters, the others spread
+    /// over the shape parameters; see [`crate::starts`]).
+    pub fn starts(mut self, n: usize) -> Result<Self, FitError> {
+        if n == 0 || n > 4096 {
+            return Err(bad("starts", n, "must be in 1..=4096"));
+        }
+        self.starts = n;
+        Ok(self)
+    }
+
+    /// Seed of the start spread and of the subsample.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Fit on a stratified subsample of about `fraction` ∈ (0, 1] of the cells, drawn
+    /// with `seed` (see [`crate::FitData::stratified_subsample`]). The record always
+    /// reports the losses over all cells as well.
+    pub fn subsample(mut self, fraction: f64, seed: u64) -> Result<Self, FitError> {
+        if !(fraction > 0.0 && fraction <= 1.0) {
+            return Err(bad("subsample", fraction, "must be in (0, 1]"));
+        }
+        self.subsample = (fraction < 1.0).then_some(fraction);
+        self.seed = seed;
+        Ok(self)
+    }
+
+    /// Leave out cells with θd above `deg` degrees (in (0, 90]).
+    pub fn theta_d_max_deg(mut self, deg: f64) -> Result<Self, FitError> {
+        if !(deg > 0.0 && deg <= 90.0) {
+            return Err(bad("theta_d_max", deg, "must be in (0, 90] degrees"));
+        }
+        self.theta_d_max = (deg < 90.0).then_some(deg.to_radians());
+        Ok(self)
+    }
+
+    /// Iteration cap per start (default per solver: [`SolverKind::default_max_iters`]).
+    pub fn max_iters(mut self, n: u64) -> Result<Self, FitError> {
+        if n == 0 {
+            return Err(bad("max_iters", n, "must be at least 1"));
+        }
+        self.max_iters = Some(n);
+        Ok(self)
+    }
+
+    /// Stopping tolerances (see [`Tolerances`]); each in [0, 1).
+    pub fn tolerances(mut self, ftol: f64, xtol: f64, gtol: f64) -> Result<Self, FitError> {
+        for (name, v) in [("ftol", ftol), ("xtol", xtol), ("gtol", gtol)] {
+            if !(0.0..1.0).contains(&v) {
+                return Err(bad(
+                    match name {
+                        "ftol" => "ftol",
+                        "xtol" => "xtol",
+                        _ => "gtol",
+                    },
+                    v,
+                    "must be in [0, 1)",
+                ));
+            }
+        }
+        self.ftol = ftol;
+        self.xtol = xtol;
+        self.gtol = gtol;
+        Ok(self)
+    }
+
+    /// LM's initial damping factor τ (μ₀ = τ · max diag JᵀJ), > 0.
+    pub fn lm_tau(mut self, tau: f64) -> Result<Self, FitError> {
+        if !(tau > 0.0 && tau.is_finite()) {
+            return Err(bad("lm_tau", tau, "must be a positive number"));
+        }
+        self.tau = tau;
+        Ok(self)
+    }
+
+    /// Frees parameters the model keeps fixed by default (`fit_by_default == false`).
+    /// A name is a parameter (`eta.r`) or a per-channel group (`eta`: all three);
+    /// checked against the model when the fit starts.
+    pub fn free_params<S: Into<String>>(mut self, names: impl IntoIterator<Item = S>) -> Self {
+        self.free.extend(names.into_iter().map(Into::into));
+        self
+    }
+
+    /// Fixes parameters at the model's value (same naming as [`free_params`](Self::free_params)).
+    pub fn fix_params<S: Into<String>>(mut self, names: impl IntoIterator<Item = S>) -> Self {
+        self.fixed.extend(names.into_iter().map(Into::into));
+        self
+    }
+
+    /// The loss.
+    pub fn get_loss(&self) -> Loss {
+        self.loss
+    }
+    /// The weighting.
+    pub fn get_weighting(&self) -> Weighting {
+        self.weighting
+    }
+    /// The solver.
+    pub fn get_solver(&self) -> SolverKind {
+        self.solver
+    }
+    /// The sharing mode.
+    pub fn get_sharing(&self) -> Sharing {
+        self.sharing
+    }
+    /// Number of starts.
+    pub fn get_starts(&self) -> usize {
+        self.starts
+    }
+    /// The seed.
+    pub fn get_seed(&self) -> u64 {
+        self.seed
+    }
+    /// Subsample fraction, if any.
+    pub fn get_subsample(&self) -> Option<f64> {
+        self.subsample
+    }
+    /// θd cutoff in radians, if any.
+    pub fn get_theta_d_max(&self) -> Option<f64> {
+        self.theta_d_max
+    }
+    /// Effective iteration cap.
+    pub fn get_max_iters(&self) -> u64 {
+        self.max_iters.unwrap_or(self.solver.default_max_iters())
+    }
+    /// The tolerances.
+    pub fn get_tolerances(&self) -> Tolerances {
+        Tolerances {
+            ftol: self.ftol,
+            xtol: self.xtol,
+            gtol: self.gtol,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builders_validate() {
+        let c = FitConfig::default();
+        assert!(c.clone().starts(0).is_err());
+        assert!(c.clone().subsample(0.0, 1).is_err());
+        assert!(c.clone().subsample(1.5, 1).is_err());
+        assert!(c.clone().subsample(f64::NAN, 1).is_err());
+        assert!(c.clone().theta_d_max_deg(95.0).is_err());
+        assert!(c.clone().max_iters(0).is_err());
+        assert!(c.clone().tolerances(1.0, 0.0, 0.0).is_err());
+        assert!(c.clone().lm_tau(-1.0).is_err());
+        let e = c.clone().subsample(2.0, 0).unwrap_err().to_string();
+        assert!(e.contains("subsample") && e.contains('2'), "{e}");
+        let ok = c.subsample(1.0, 3).unwrap();
+        assert_eq!(ok.get_subsample(), None, "a fraction of 1 is the full set");
+        for s in SolverKind::ALL {
+            assert_eq!(s.name().parse::<SolverKind>().unwrap(), s);
+        }
+    }
+}

@@ -1,0 +1,607 @@
+//! The fit driver: cells → passes → starts (in parallel) → solver → best → record.
+
+use crate::config::{FitConfig, Sharing, SolverKind};
+use crate::data::FitData;
+use crate::error::FitError;
+use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
+use crate::observer::{Bridge, FitObserver, FitPlan, StartDone};
+use crate::problem::{FitProblem, NormalEquations, evaluate_losses};
+use crate::record::{FitRecord, ParamRecord, StartRecord};
+use crate::starts::start_points;
+use argmin::core::observers::ObserverMode;
+use argmin::core::{Executor, IterState, State, TerminationReason};
+use argmin::solver::linesearch::MoreThuenteLineSearch as MoreThuente;
+use argmin::solver::neldermead::NelderMead;
+use argmin::solver::quasinewton::LBFGS;
+use argmin::solver::trustregion::{Steihaug, TrustRegion};
+use brdfkit_core::{Model, ParamRole};
+use brdfkit_merl::MerlTable;
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use serde_json::{Value, json};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The fitted model(s).
+#[derive(Debug, Clone)]
+pub enum Fitted {
+    /// One model for all channels (shared shape parameters).
+    Shared(Box<dyn Model>),
+    /// One model per channel (R, G, B); model c is meant for channel c only.
+    PerChannel([Box<dyn Model>; 3]),
+}
+
+impl Fitted {
+    /// The model of channel c.
+    pub fn channel_model(&self, c: usize) -> &dyn Model {
+        match self {
+            Fitted::Shared(m) => m.as_ref(),
+            Fitted::PerChannel(ms) => ms[c].as_ref(),
+        }
+    }
+
+    /// The shared model, if the fit was shared.
+    pub fn shared(&self) -> Option<&dyn Model> {
+        match self {
+            Fitted::Shared(m) => Some(m.as_ref()),
+            Fitted::PerChannel(_) => None,
+        }
+    }
+
+    /// The JSON contract of the result: the model's `to_json()`, or
+    /// `{"per_channel": [r, g, b]}`.
+    pub fn to_json(&self) -> Value {
+        match self {
+            Fitted::Shared(m) => m.to_json(),
+            Fitted::PerChannel(ms) => {
+                json!({"per_channel": [ms[0].to_json(), ms[1].to_json(), ms[2].to_json()]})
+            }
+        }
+    }
+}
+
+/// A fit's outcome: the model(s) and the record.
+#[derive(Debug, Clone)]
+pub struct FitResult {
+    /// The fitted model(s).
+    pub fitted: Fitted,
+    /// What was done and how well it went.
+    pub record: FitRecord,
+}
+
+/// The outcome of one start.
+#[derive(Debug, Clone)]
+struct Outcome {
+    u: DVector<f64>,
+    cost: f64,
+    iterations: u64,
+    cost_evals: u64,
+    jac_evals: u64,
+    termination: String,
+    converged: bool,
+}
+
+/// Which parameters a config frees: the model's `fit_by_default` ones, plus
+/// `config.free`, minus `config.fixed`. A name matches a parameter exactly or as its
+/// group (`rho_d` matches `rho_d.r`, `rho_d.g`, `rho_d.b`).
+pub fn resolve_free(model: &dyn Model, config: &FitConfig) -> Result<Vec<usize>, FitError> {
+    let specs = model.param_specs();
+    let matches = |name: &str| -> Result<Vec<usize>, FitError> {
+        let v: Vec<usize> = specs
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| {
+                s.name == name
+                    || (s.name.starts_with(name) && s.name[name.len()..].starts_with('.'))
+            })
+            .map(|(p, _)| p)
+            .collect();
+        if v.is_empty() {
+            Err(FitError::UnknownParam {
+                model: model.name().into(),
+                name: name.into(),
+                known: specs
+                    .iter()
+                    .map(|s| s.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+        } else {
+            Ok(v)
+        }
+    };
+    let mut free: Vec<bool> = specs.iter().map(|s| s.fit_by_default).collect();
+    for n in &config.free {
+        for p in matches(n)? {
+            free[p] = true;
+        }
+    }
+    for n in &config.fixed {
+        for p in matches(n)? {
+            free[p] = false;
+        }
+    }
+    Ok((0..specs.len()).filter(|&p| free[p]).collect())
+}
+
+fn describe(reason: Option<&TerminationReason>, criterion: Option<&str>) -> (String, bool) {
+    match reason {
+        Some(TerminationReason::SolverConverged) => (
+            format!("converged: {}", criterion.unwrap_or("solver's own test")),
+            true,
+        ),
+        Some(TerminationReason::TargetCostReached) => (
+            "converged: cost at the round-off floor of a perfect fit".into(),
+            true,
+        ),
+        Some(TerminationReason::MaxItersReached) => ("maximum iterations reached".into(), false),
+        Some(TerminationReason::SolverExit(s)) => (format!("solver gave up: {s}"), false),
+        Some(other) => (format!("stopped: {other}"), false),
+        None => ("not terminated".into(), false),
+    }
+}
+
+/// Runs one start with the configured solver.
+fn run_start(
+    problem: FitProblem<'_>,
+    u0: DVector<f64>,
+    config: &FitConfig,
+    observer: Option<&Arc<dyn FitObserver>>,
+    start: usize,
+    channel: Option<usize>,
+) -> Result<Outcome, FitError> {
+    let mi = config.get_max_iters();
+    let tol = config.get_tolerances();
+    let floor = problem.cost_floor();
+    let err = |e: argmin::core::Error| FitError::Solver {
+        solver: config.solver.name().into(),
+        start,
+        reason: e.to_string(),
+    };
+    let bridge = || {
+        observer.map(|o| Bridge {
+            obs: o.clone(),
+            start,
+            channel,
+        })
+    };
+    macro_rules! run {
+        ($solver:expr, $state:ty, $init:expr) => {{
+            let mut ex = Executor::new(problem.clone(), $solver)
+                .configure(|s: $state| $init(s).max_iters(mi).target_cost(floor))
+                .ctrlc(false);
+            if let Some(b) = bridge() {
+                ex = ex.add_observer(b, ObserverMode::Always);
+            }
+            ex.run().map_err(err)?
+        }};
+    }
+    // (best u, best cost, iterations, reason, criterion, evals)
+    let (u, cost, iters, term, evals) = match config.solver {
+        SolverKind::Lm => {
+            let r = run!(
+                LevenbergMarquardt::new(config.tau, tol),
+                LsState,
+                |s: LsState| s.param(u0.clone())
+            );
+            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
+            let p = r
+                .problem
+                .problem
+                .as_ref()
+                .map(|p| (p.cost_evals(), p.jacobian_evals()));
+            (
+                r.state.get_best_param().cloned(),
+                r.state.get_best_cost(),
+                r.state.get_iter(),
+                (t, c),
+                p,
+            )
+        }
+        SolverKind::GaussNewton => {
+            let r = run!(GaussNewtonLs::new(tol), LsState, |s: LsState| s
+                .param(u0.clone()));
+            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
+            let p = r
+                .problem
+                .problem
+                .as_ref()
+                .map(|p| (p.cost_evals(), p.jacobian_evals()));
+            (
+                r.state.get_best_param().cloned(),
+                r.state.get_best_cost(),
+                r.state.get_iter(),
+                (t, c),
+                p,
+            )
+        }
+        SolverKind::TrustRegion => {
+            type S = IterState<DVector<f64>, DVector<f64>, (), DMatrix<f64>, (), f64>;
+            let tr = TrustRegion::new(Steihaug::new().with_max_iters(50))
+                .with_radius(1.0)
+                .and_then(|t| t.with_max_radius(100.0))
+                .map_err(err)?;
+            let r = run!(Stall::new(tr, tol.ftol, 5, floor), S, |s: S| s
+                .param(u0.clone()));
+            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
+            let p = r
+                .problem
+                .problem
+                .as_ref()
+                .map(|p| (p.cost_evals(), p.jacobian_evals()));
+            (
+                r.state.get_best_param().cloned(),
+                r.state.get_best_cost(),
+                r.state.get_iter(),
+                (t, c),
+                p,
+            )
+        }
+        SolverKind::Lbfgs => {
+            let c0 = problem.cost_at(&u0);
+            let lb = LBFGS::new(MoreThuente::new(), 7)
+                .with_tolerance_cost(tol.ftol * c0.max(floor))
+                .and_then(|l| l.with_tolerance_grad(0.0))
+                .map_err(err)?;
+            let r = run!(
+                Stall::new(lb, tol.ftol, 10, floor),
+                LsState,
+                |s: LsState| s.param(u0.clone())
+            );
+            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
+            let p = r
+                .problem
+                .problem
+                .as_ref()
+                .map(|p| (p.cost_evals(), p.jacobian_evals()));
+            (
+                r.state.get_best_param().cloned(),
+                r.state.get_best_cost(),
+                r.state.get_iter(),
+                (t, c),
+                p,
+            )
+        }
+        SolverKind::NelderMead => {
+            type S = IterState<DVector<f64>, (), (), (), (), f64>;
+            // Initial simplex: u0 and u0 + 0.5 e_q (a factor e^0.5 on a log
+            // parameter, a quarter of the logit's central range).
+            let mut simplex = vec![u0.clone()];
+            for q in 0..u0.len() {
+                let mut v = u0.clone();
+                v[q] += 0.5;
+                simplex.push(v);
+            }
+            let nm = NelderMead::new(simplex)
+                .with_sd_tolerance(0.0)
+                .map_err(err)?;
+            let r = run!(
+                Stall::new(nm, tol.ftol, 50 * u0.len().max(1), floor),
+                S,
+                |s: S| s
+            );
+            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
+            let p = r
+                .problem
+                .problem
+                .as_ref()
+                .map(|p| (p.cost_evals(), p.jacobian_evals()));
+            (
+                r.state.get_best_param().cloned(),
+                r.state.get_best_cost(),
+                r.state.get_iter(),
+                (t, c),
+                p,
+            )
+        }
+    };
+    // argmin's `run()` is Ok even when a solver gave up; the best point can also be
+    // missing (a solver that never produced a cost). Fall back to the start.
+    let (u, cost) = match u {
+        Some(u) if cost.is_finite() && u.iter().all(|v| v.is_finite()) => (u, cost),
+        _ => {
+            let c = problem.cost_at(&u0);
+            (u0, c)
+        }
+    };
+    let (ce, je) = evals.unwrap_or((0, 0));
+    Ok(Outcome {
+        u,
+        cost,
+        iterations: iters,
+        cost_evals: ce,
+        jac_evals: je,
+        termination: term.0,
+        converged: term.1,
+    })
+}
+
+struct PassResult {
+    model: Box<dyn Model>,
+    free: Vec<usize>,
+    starts: Vec<StartRecord>,
+    best: Outcome,
+    transforms: Vec<crate::reparam::Transform>,
+}
+
+fn run_pass(
+    data: &FitData,
+    model: &dyn Model,
+    free: Vec<usize>,
+    channels: Vec<usize>,
+    config: &FitConfig,
+    observer: Option<&Arc<dyn FitObserver>>,
+) -> Result<PassResult, FitError> {
+    let channel = (channels.len() == 1).then(|| channels[0]);
+    let problem = FitProblem::new(
+        data,
+        model,
+        free.clone(),
+        channels,
+        config.loss,
+        config.weighting,
+    )?;
+    let specs = model.param_specs();
+    let x0 = model.params();
+    let points = start_points(&specs, &x0, &free, config.starts, config.seed);
+    let outcomes: Vec<Result<Outcome, FitError>> = points
+        .par_iter()
+        .enumerate()
+        .map(|(k, x)| {
+            let p = problem.clone();
+            let u0 = p.to_u(x);
+            let o = run_start(p, u0, config, observer, k, channel);
+            if let (Some(obs), Ok(o)) = (observer, &o) {
+                obs.on_start_done(&StartDone {
+                    start: k,
+                    channel,
+                    loss: (2.0 * o.cost).sqrt(),
+                    iterations: o.iterations,
+                    termination: o.termination.clone(),
+                });
+            }
+            o
+        })
+        .collect();
+    let mut best: Option<usize> = None;
+    let mut records = Vec::with_capacity(points.len());
+    let mut first_err = None;
+    for (k, o) in outcomes.iter().enumerate() {
+        let start: Vec<f64> = free.iter().map(|&p| points[k][p]).collect();
+        match o {
+            Ok(o) => {
+                if o.cost.is_finite()
+                    && best.is_none_or(|b| {
+                        o.cost
+                            < outcomes[b]
+                                .as_ref()
+                                .map(|x| x.cost)
+                                .unwrap_or(f64::INFINITY)
+                    })
+                {
+                    best = Some(k);
+                }
+                records.push(StartRecord {
+                    index: k,
+                    channel,
+                    start,
+                    final_loss: (2.0 * o.cost).sqrt(),
+                    iterations: o.iterations,
+                    cost_evals: o.cost_evals,
+                    jacobian_evals: o.jac_evals,
+                    termination: o.termination.clone(),
+                    converged: o.converged,
+                    kept: false,
+                });
+            }
+            Err(e) => {
+                if first_err.is_none() {
+                    first_err = Some(e.to_string());
+                }
+                records.push(StartRecord {
+                    index: k,
+                    channel,
+                    start,
+                    final_loss: f64::INFINITY,
+                    iterations: 0,
+                    cost_evals: 0,
+                    jacobian_evals: 0,
+                    termination: format!("error: {e}"),
+                    converged: false,
+                    kept: false,
+                });
+            }
+        }
+    }
+    let Some(b) = best else {
+        return Err(FitError::Solver {
+            solver: config.solver.name().into(),
+            start: 0,
+            reason: format!(
+                "no start reached a finite loss ({})",
+                first_err.unwrap_or_else(|| "every cost was infinite or NaN".into())
+            ),
+        });
+    };
+    records[b].kept = true;
+    let best = outcomes[b].as_ref().expect("best is Ok").clone();
+    let fitted = problem.model_at(&best.u)?;
+    Ok(PassResult {
+        model: fitted,
+        transforms: problem.transforms().to_vec(),
+        free,
+        starts: records,
+        best,
+    })
+}
+
+/// Fits `model`'s family to the cells of `data`.
+///
+/// `model` fixes the family and its structural choices (distribution, Fresnel, lobe
+/// count) and gives start 0 and the values of the fixed parameters (normally
+/// [`brdfkit_models::default_model`] or a user's JSON). See the crate doc and
+/// `docs/fitting.md` for what happens; `observer` receives progress events (pass
+/// `None` for a silent fit).
+pub fn fit(
+    model: &dyn Model,
+    data: &FitData,
+    config: &FitConfig,
+    observer: Option<Arc<dyn FitObserver>>,
+) -> Result<FitResult, FitError> {
+    let t0 = Instant::now();
+    let full_owned;
+    let full: &FitData = match config.theta_d_max {
+        Some(t) => {
+            full_owned = data.with_theta_d_max(t);
+            &full_owned
+        }
+        None => data,
+    };
+    if full.is_empty() {
+        return Err(FitError::NoCells(format!(
+            "{} cells, none with θd ≤ the cutoff",
+            data.len()
+        )));
+    }
+    let sub_owned;
+    let fitset: &FitData = match config.subsample {
+        Some(f) => {
+            sub_owned = full.stratified_subsample(f, config.seed);
+            &sub_owned
+        }
+        None => full,
+    };
+    let specs = model.param_specs();
+    let free = resolve_free(model, config)?;
+    if free.is_empty() {
+        return Err(FitError::NothingToFit(model.name().into()));
+    }
+    let passes: Vec<(Vec<usize>, Vec<usize>)> = match config.sharing {
+        Sharing::SharedShape => vec![(free.clone(), vec![0, 1, 2])],
+        Sharing::PerChannel => (0..3)
+            .map(|c| {
+                let f: Vec<usize> = free
+                    .iter()
+                    .copied()
+                    .filter(|&p| match specs[p].role {
+                        ParamRole::Shared => true,
+                        ParamRole::Channel(k) => k == c,
+                    })
+                    .collect();
+                (f, vec![c])
+            })
+            .collect(),
+    };
+    if let Some(o) = &observer {
+        o.on_plan(&FitPlan {
+            starts: config.starts,
+            passes: passes.len(),
+            max_iters: config.get_max_iters(),
+            cells: fitset.len(),
+        });
+    }
+    let results: Vec<PassResult> = passes
+        .into_iter()
+        .map(|(f, ch)| run_pass(fitset, model, f, ch, config, observer.as_ref()))
+        .collect::<Result<_, _>>()?;
+
+    let fitted = if results.len() == 1 {
+        Fitted::Shared(results[0].model.clone())
+    } else {
+        Fitted::PerChannel([
+            results[0].model.clone(),
+            results[1].model.clone(),
+            results[2].model.clone(),
+        ])
+    };
+    let ms = [
+        fitted.channel_model(0),
+        fitted.channel_model(1),
+        fitted.channel_model(2),
+    ];
+    let losses_fit = evaluate_losses(ms, fitset, config.weighting);
+    let losses_full = if std::ptr::eq(fitset, full) {
+        losses_fit
+    } else {
+        evaluate_losses(ms, full, config.weighting)
+    };
+
+    let x0 = model.params();
+    let params: Vec<ParamRecord> = specs
+        .iter()
+        .enumerate()
+        .map(|(p, s)| {
+            // Per-channel fits: a channel parameter from its channel's pass, a shared
+            // one from the green pass (the record's `model` holds all three).
+            let pass = match (s.role, results.len()) {
+                (_, 1) => 0,
+                (ParamRole::Channel(c), _) => c,
+                (ParamRole::Shared, _) => 1,
+            };
+            let r = &results[pass];
+            let q = r.free.iter().position(|&f| f == p);
+            ParamRecord {
+                name: s.name.clone(),
+                value: r.model.params()[p],
+                start: x0[p],
+                free: q.is_some(),
+                transform: q.map(|q| r.transforms[q].name().to_string()),
+            }
+        })
+        .collect();
+    let free_params = free.iter().map(|&p| specs[p].name.clone()).collect();
+    let starts: Vec<StartRecord> = results.iter().flat_map(|r| r.starts.clone()).collect();
+    let (termination, converged) = if results.len() == 1 {
+        (
+            results[0].best.termination.clone(),
+            results[0].best.converged,
+        )
+    } else {
+        (
+            ["r", "g", "b"]
+                .iter()
+                .zip(&results)
+                .map(|(c, r)| format!("{c}: {}", r.best.termination))
+                .collect::<Vec<_>>()
+                .join("; "),
+            results.iter().all(|r| r.best.converged),
+        )
+    };
+    let record = FitRecord {
+        model: fitted.to_json(),
+        family: model.name().into(),
+        loss: config.loss,
+        weighting: config.weighting,
+        solver: config.solver,
+        sharing: config.sharing,
+        theta_d_max_deg: config.theta_d_max.map(f64::to_degrees),
+        subsample: config.subsample,
+        seed: config.seed,
+        starts_per_pass: config.starts,
+        free_params,
+        params,
+        cells_fit: fitset.len(),
+        cells_full: full.len(),
+        losses_fit,
+        losses_full,
+        iterations: results.iter().map(|r| r.best.iterations).sum(),
+        cost_evals: starts.iter().map(|s| s.cost_evals).sum(),
+        jacobian_evals: starts.iter().map(|s| s.jacobian_evals).sum(),
+        wall_time_s: t0.elapsed().as_secs_f64(),
+        termination,
+        converged,
+        starts,
+    };
+    Ok(FitResult { fitted, record })
+}
+
+/// [`fit`] on the valid cells of a table.
+pub fn fit_table(
+    model: &dyn Model,
+    table: &MerlTable,
+    config: &FitConfig,
+    observer: Option<Arc<dyn FitObserver>>,
+) -> Result<FitResult, FitError> {
+    let data = FitData::from_table(table)?;
+    fit(model, &data, config, observer)
+}

@@ -1,0 +1,552 @@
+//! Least-squares solvers on the normal equations, as argmin [`Solver`]s: a
+//! Levenberg-Marquardt method (argmin has none) and Gauss-Newton with argmin's
+//! backtracking line search; plus [`Stall`], a termination wrapper for argmin solvers
+//! whose own stopping test never fires.
+//!
+//! Both work on [`NormalEquations`]: JᵀJ and Jᵀr come from one parallel pass over the
+//! cells, so the m × m system is all they factor, whatever the number of residuals.
+
+use crate::problem::{NormalEq, NormalEquations};
+use argmin::core::{
+    CostFunction, Error, Executor, Gradient, IterState, KV, LineSearch, Problem, Solver, State,
+    TerminationReason, TerminationStatus,
+};
+use argmin::solver::linesearch::BacktrackingLineSearch;
+use argmin::solver::linesearch::condition::ArmijoCondition;
+use nalgebra::{DMatrix, DVector};
+
+/// The state type of the least-squares solvers: parameter and gradient vectors.
+pub type LsState = IterState<DVector<f64>, DVector<f64>, (), (), (), f64>;
+
+/// Stopping tolerances shared by the solvers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tolerances {
+    /// Relative cost decrease of an accepted step below which the fit has converged.
+    pub ftol: f64,
+    /// Step length, relative to ‖u‖ + xtol, below which the fit has converged.
+    pub xtol: f64,
+    /// Largest cosine between the residual vector and a Jacobian column,
+    /// |Jᵀr|_q / (‖r‖ ‖J_q‖), below which the fit has converged (MINPACK's gtol).
+    pub gtol: f64,
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Tolerances {
+            ftol: 1e-12,
+            xtol: 1e-10,
+            gtol: 1e-10,
+        }
+    }
+}
+
+/// MINPACK's gtol measure: max_q |g_q| / (‖r‖ · ‖J_q‖), with ‖r‖ = sqrt(2 cost) and
+/// ‖J_q‖ = sqrt((JᵀJ)_qq). A column that is identically zero does not count.
+fn gradient_cosine(ne: &NormalEq) -> f64 {
+    let rn = (2.0 * ne.cost).sqrt();
+    if rn == 0.0 {
+        return 0.0;
+    }
+    (0..ne.jtr.len())
+        .filter(|&q| ne.jtj[(q, q)] > 0.0)
+        .map(|q| ne.jtr[q].abs() / (rn * ne.jtj[(q, q)].sqrt()))
+        .fold(0.0, f64::max)
+}
+
+/// Marquardt's scaling D = diag(JᵀJ), each entry floored at 1e-12 of the largest: a
+/// parameter with no influence at the current point (a lobe of zero albedo, a logit at
+/// saturation) would otherwise get no damping and a singular system.
+fn scaling(a: &DMatrix<f64>) -> DVector<f64> {
+    let m = a.nrows();
+    let max = (0..m).map(|q| a[(q, q)]).fold(0.0, f64::max);
+    let floor = if max > 0.0 { 1e-12 * max } else { 1.0 };
+    DVector::from_iterator(m, (0..m).map(|q| a[(q, q)].max(floor)))
+}
+
+/// Solves (A + μ D) h = −g by Cholesky; `None` when the matrix is not numerically
+/// positive definite (the caller raises μ).
+fn damped_step(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    d: &DVector<f64>,
+    mu: f64,
+) -> Option<DVector<f64>> {
+    let mut m = a.clone();
+    for q in 0..m.nrows() {
+        m[(q, q)] += mu * d[q];
+    }
+    let ch = m.cholesky()?;
+    let h = ch.solve(&(-g));
+    h.iter().all(|v| v.is_finite()).then_some(h)
+}
+
+/// Levenberg-Marquardt with Marquardt's diagonal scaling and Nielsen's damping update.
+///
+/// Iteration (Madsen, Nielsen & Tingleff, *Methods for Non-Linear Least Squares
+/// Problems*, 2nd ed. 2004, Algorithm 3.16; scaling after Moré, "The Levenberg-Marquardt
+/// algorithm: implementation and theory", 1978):
+///
+/// 1. Solve (JᵀJ + μ D) h = −Jᵀr, D = diag(JᵀJ) (floored, see `scaling`).
+/// 2. Gain ratio ρ = (F(u) − F(u + h)) / (L(0) − L(h)), with the predicted decrease
+///    L(0) − L(h) = ½ hᵀ(μ D h − Jᵀr).
+/// 3. ρ > 0: accept, μ ← μ · max(1/3, 1 − (2ρ − 1)³), ν ← 2, and form the normal
+///    equations at the new point. Otherwise μ ← μ ν, ν ← 2ν and solve again.
+///
+/// μ starts at τ · max diag(JᵀJ). One argmin iteration is one accepted step (with the
+/// rejected trials it took); it stops when
+/// - the cost is at the round-off floor of a perfect fit ([`NormalEquations::cost_floor`]),
+/// - the gradient is orthogonal to the residuals to `gtol` (cosine test),
+/// - an accepted step reduced the cost by less than `ftol` relative,
+/// - the step is below `xtol` relative to ‖u‖,
+/// - or (a failure) μ grows past 1e30 · max diag without a descent step.
+#[derive(Debug, Clone)]
+pub struct LevenbergMarquardt {
+    tau: f64,
+    tol: Tolerances,
+    mu: f64,
+    nu: f64,
+    ne: Option<NormalEq>,
+    /// Which rule stopped the solver.
+    pub criterion: Option<&'static str>,
+    failed: Option<&'static str>,
+}
+
+impl LevenbergMarquardt {
+    /// With the initial damping factor τ (1e-3 for a start believed close; 1 when far).
+    pub fn new(tau: f64, tol: Tolerances) -> Self {
+        LevenbergMarquardt {
+            tau,
+            tol,
+            mu: 0.0,
+            nu: 2.0,
+            ne: None,
+            criterion: None,
+            failed: None,
+        }
+    }
+}
+
+impl<O> Solver<O, LsState> for LevenbergMarquardt
+where
+    O: NormalEquations + CostFunction<Param = DVector<f64>, Output = f64>,
+{
+    fn name(&self) -> &str {
+        "Levenberg-Marquardt"
+    }
+
+    fn init(
+        &mut self,
+        problem: &mut Problem<O>,
+        state: LsState,
+    ) -> Result<(LsState, Option<KV>), Error> {
+        let u = state
+            .get_param()
+            .cloned()
+            .ok_or_else(|| Error::msg("Levenberg-Marquardt needs a start point"))?;
+        let ne = problem.problem("jacobian_count", |p| p.normal_equations(&u))?;
+        if !ne.cost.is_finite() {
+            return Err(Error::msg("the cost at the start point is not finite"));
+        }
+        let max = (0..ne.jtj.nrows())
+            .map(|q| ne.jtj[(q, q)])
+            .fold(0.0, f64::max);
+        self.mu = self.tau * if max > 0.0 { max } else { 1.0 };
+        self.nu = 2.0;
+        let cost = ne.cost;
+        let g = ne.jtr.clone();
+        self.ne = Some(ne);
+        Ok((state.param(u).cost(cost).gradient(g), None))
+    }
+
+    fn next_iter(
+        &mut self,
+        problem: &mut Problem<O>,
+        mut state: LsState,
+    ) -> Result<(LsState, Option<KV>), Error> {
+        let u = state
+            .take_param()
+            .ok_or_else(|| Error::msg("Levenberg-Marquardt lost its parameter"))?;
+        let ne = self
+            .ne
+            .take()
+            .ok_or_else(|| Error::msg("not initialised"))?;
+        let d = scaling(&ne.jtj);
+        let maxd = d.max();
+        let mut rejected = 0u64;
+        loop {
+            if self.mu > 1e30 * maxd.max(1e-300) {
+                self.failed = Some("damping grew past 1e30 without a descent step");
+                let cost = ne.cost;
+                self.ne = Some(ne);
+                return Ok((
+                    state.param(u).cost(cost),
+                    Some(argmin::kv!("rejected" => rejected;)),
+                ));
+            }
+            let Some(h) = damped_step(&ne.jtj, &ne.jtr, &d, self.mu) else {
+                self.mu *= self.nu;
+                self.nu *= 2.0;
+                rejected += 1;
+                continue;
+            };
+            if h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol) {
+                self.criterion = Some("step below xtol");
+                let cost = ne.cost;
+                self.ne = Some(ne);
+                return Ok((
+                    state.param(u).cost(cost),
+                    Some(argmin::kv!("rejected" => rejected;)),
+                ));
+            }
+            let un = &u + &h;
+            let fnew = problem.cost(&un)?;
+            let dh = h.component_mul(&d);
+            let pred = 0.5 * h.dot(&(self.mu * dh - &ne.jtr));
+            let actual = ne.cost - fnew;
+            let rho = if pred > 0.0 { actual / pred } else { -1.0 };
+            if fnew.is_finite() && rho > 0.0 {
+                let t = 2.0 * rho - 1.0;
+                self.mu *= (1.0f64 / 3.0).max(1.0 - t * t * t);
+                self.nu = 2.0;
+                let ne2 = problem.problem("jacobian_count", |p| p.normal_equations(&un))?;
+                if actual <= self.tol.ftol * ne.cost {
+                    self.criterion = Some("relative cost decrease below ftol");
+                }
+                let g = ne2.jtr.clone();
+                let cost = ne2.cost;
+                self.ne = Some(ne2);
+                return Ok((
+                    state.param(un).cost(cost).gradient(g),
+                    Some(argmin::kv!("mu" => self.mu; "rejected" => rejected;)),
+                ));
+            }
+            self.mu *= self.nu;
+            self.nu *= 2.0;
+            rejected += 1;
+        }
+    }
+
+    fn terminate(&mut self, state: &LsState) -> TerminationStatus {
+        if let Some(why) = self.failed {
+            return TerminationStatus::Terminated(TerminationReason::SolverExit(why.into()));
+        }
+        if self.criterion.is_some() {
+            return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+        }
+        if let Some(ne) = &self.ne {
+            let floor = state.get_problem_floor();
+            if ne.cost <= floor {
+                self.criterion = Some("cost at the round-off floor of a perfect fit");
+                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+            }
+            if gradient_cosine(ne) <= self.tol.gtol {
+                self.criterion = Some("gradient orthogonal to the residuals (gtol)");
+                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+            }
+        }
+        TerminationStatus::NotTerminated
+    }
+}
+
+/// Access to the cost floor from a state (the solvers store it as the target cost).
+trait FloorOf {
+    fn get_problem_floor(&self) -> f64;
+}
+
+impl FloorOf for LsState {
+    fn get_problem_floor(&self) -> f64 {
+        // The executor is configured with target_cost = floor; argmin's own
+        // TargetCostReached test uses the *best* cost, this one the current cost.
+        self.get_target_cost()
+    }
+}
+
+/// Gauss-Newton with a backtracking (Armijo) line search from argmin.
+///
+/// The direction solves JᵀJ h = −Jᵀr (with a Tikhonov term 1e-12 · max diag(JᵀJ)
+/// on the diagonal so a parameter without influence does not make the system
+/// singular); argmin's [`BacktrackingLineSearch`] with the Armijo condition (c = 1e-4,
+/// step halving) then picks the step length along it, starting from 1. Stops on the
+/// cost floor, gtol, ftol, xtol as [`LevenbergMarquardt`]; a line search that cannot
+/// decrease the cost ends the run (SolverExit).
+///
+/// (argmin's own `GaussNewtonLS` needs the dense Jacobian — 4.4 M × m for a MERL
+/// table, copied twice — and measures the line-search cost as ‖r‖ while it passes the
+/// gradient of ½‖r‖²; this one shares the normal-equation pass with LM.)
+#[derive(Debug, Clone)]
+pub struct GaussNewtonLs {
+    tol: Tolerances,
+    ne: Option<NormalEq>,
+    /// Which rule stopped the solver.
+    pub criterion: Option<&'static str>,
+    failed: Option<&'static str>,
+}
+
+impl GaussNewtonLs {
+    /// With the given tolerances.
+    pub fn new(tol: Tolerances) -> Self {
+        GaussNewtonLs {
+            tol,
+            ne: None,
+            criterion: None,
+            failed: None,
+        }
+    }
+}
+
+impl<O> Solver<O, LsState> for GaussNewtonLs
+where
+    O: NormalEquations
+        + CostFunction<Param = DVector<f64>, Output = f64>
+        + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>,
+{
+    fn name(&self) -> &str {
+        "Gauss-Newton with line search"
+    }
+
+    fn init(
+        &mut self,
+        problem: &mut Problem<O>,
+        state: LsState,
+    ) -> Result<(LsState, Option<KV>), Error> {
+        let u = state
+            .get_param()
+            .cloned()
+            .ok_or_else(|| Error::msg("Gauss-Newton needs a start point"))?;
+        let ne = problem.problem("jacobian_count", |p| p.normal_equations(&u))?;
+        if !ne.cost.is_finite() {
+            return Err(Error::msg("the cost at the start point is not finite"));
+        }
+        let (c, g) = (ne.cost, ne.jtr.clone());
+        self.ne = Some(ne);
+        Ok((state.param(u).cost(c).gradient(g), None))
+    }
+
+    fn next_iter(
+        &mut self,
+        problem: &mut Problem<O>,
+        mut state: LsState,
+    ) -> Result<(LsState, Option<KV>), Error> {
+        let u = state
+            .take_param()
+            .ok_or_else(|| Error::msg("Gauss-Newton lost its parameter"))?;
+        let ne = self
+            .ne
+            .take()
+            .ok_or_else(|| Error::msg("not initialised"))?;
+        let m = ne.jtj.nrows();
+        let maxd = (0..m).map(|q| ne.jtj[(q, q)]).fold(0.0, f64::max);
+        let ones = DVector::from_element(m, 1.0);
+        let Some(h) = damped_step(&ne.jtj, &ne.jtr, &ones, 1e-12 * maxd.max(1e-300)) else {
+            self.failed = Some("the Gauss-Newton system is not positive definite");
+            let c = ne.cost;
+            self.ne = Some(ne);
+            return Ok((state.param(u).cost(c), None));
+        };
+        if h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol) {
+            self.criterion = Some("step below xtol");
+            let c = ne.cost;
+            self.ne = Some(ne);
+            return Ok((state.param(u).cost(c), None));
+        }
+        let mut ls = BacktrackingLineSearch::new(ArmijoCondition::new(1e-4)?).rho(0.5)?;
+        ls.search_direction(h);
+        ls.initial_step_length(1.0)?;
+        let inner = problem
+            .take_problem()
+            .ok_or_else(|| Error::msg("Gauss-Newton lost its problem"))?;
+        let res = Executor::new(inner, ls)
+            .configure(|s| {
+                s.param(u.clone())
+                    .gradient(ne.jtr.clone())
+                    .cost(ne.cost)
+                    .max_iters(40)
+            })
+            .ctrlc(false)
+            .run()?;
+        let mut lsp = res.problem;
+        problem.problem = lsp.take_problem();
+        problem.consume_func_counts(lsp);
+        let ok = matches!(
+            res.state.get_termination_reason(),
+            Some(TerminationReason::SolverConverged)
+        );
+        let un = res.state.get_param().cloned().unwrap_or_else(|| u.clone());
+        let fnew = res.state.get_cost();
+        if !ok || !(fnew < ne.cost) {
+            self.failed =
+                Some("the line search found no decrease along the Gauss-Newton direction");
+            let c = ne.cost;
+            self.ne = Some(ne);
+            return Ok((state.param(u).cost(c), None));
+        }
+        let ne2 = problem.problem("jacobian_count", |p| p.normal_equations(&un))?;
+        if ne.cost - ne2.cost <= self.tol.ftol * ne.cost {
+            self.criterion = Some("relative cost decrease below ftol");
+        }
+        let (c, g) = (ne2.cost, ne2.jtr.clone());
+        self.ne = Some(ne2);
+        Ok((state.param(un).cost(c).gradient(g), None))
+    }
+
+    fn terminate(&mut self, state: &LsState) -> TerminationStatus {
+        if let Some(why) = self.failed {
+            return TerminationStatus::Terminated(TerminationReason::SolverExit(why.into()));
+        }
+        if self.criterion.is_some() {
+            return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+        }
+        if let Some(ne) = &self.ne {
+            if ne.cost <= state.get_problem_floor() {
+                self.criterion = Some("cost at the round-off floor of a perfect fit");
+                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+            }
+            if gradient_cosine(ne) <= self.tol.gtol {
+                self.criterion = Some("gradient orthogonal to the residuals (gtol)");
+                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+            }
+        }
+        TerminationStatus::NotTerminated
+    }
+}
+
+/// Wraps an argmin solver and stops it when the best cost has not decreased by more
+/// than `ftol` (relative) over `window` consecutive iterations, or has reached the
+/// round-off floor. argmin's trust-region method has no working stop test of its own
+/// (it runs to `max_iters`); a rejected trust-region step keeps the cost, so the
+/// window must span several shrinking steps, not one.
+#[derive(Debug, Clone)]
+pub struct Stall<S> {
+    inner: S,
+    ftol: f64,
+    window: usize,
+    floor: f64,
+    history: Vec<f64>,
+    /// Which rule stopped the solver.
+    pub criterion: Option<&'static str>,
+}
+
+impl<S> Stall<S> {
+    /// Wraps `inner`.
+    pub fn new(inner: S, ftol: f64, window: usize, floor: f64) -> Self {
+        Stall {
+            inner,
+            ftol,
+            window: window.max(1),
+            floor,
+            history: Vec::new(),
+            criterion: None,
+        }
+    }
+}
+
+impl<O, S, I> Solver<O, I> for Stall<S>
+where
+    S: Solver<O, I>,
+    I: State<Float = f64>,
+{
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+    fn init(&mut self, problem: &mut Problem<O>, state: I) -> Result<(I, Option<KV>), Error> {
+        self.inner.init(problem, state)
+    }
+    fn next_iter(&mut self, problem: &mut Problem<O>, state: I) -> Result<(I, Option<KV>), Error> {
+        self.inner.next_iter(problem, state)
+    }
+    fn terminate(&mut self, state: &I) -> TerminationStatus {
+        let inner = self.inner.terminate(state);
+        if inner.terminated() {
+            return inner;
+        }
+        let best = state.get_best_cost();
+        if best <= self.floor {
+            self.criterion = Some("cost at the round-off floor of a perfect fit");
+            return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+        }
+        self.history.push(best);
+        let n = self.history.len();
+        if n > self.window {
+            let old = self.history[n - 1 - self.window];
+            if old - best <= self.ftol * old.abs() {
+                self.criterion =
+                    Some("best cost stalled (relative decrease below ftol over the window)");
+                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+            }
+        }
+        TerminationStatus::NotTerminated
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use argmin::core::Executor;
+
+    /// Rosenbrock as least squares: r = (10 (y − x²), 1 − x); minimum 0 at (1, 1).
+    struct Rosen;
+    impl Rosen {
+        fn rj(u: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+            let (x, y) = (u[0], u[1]);
+            let r = DVector::from_vec(vec![10.0 * (y - x * x), 1.0 - x]);
+            let j = DMatrix::from_row_slice(2, 2, &[-20.0 * x, 10.0, -1.0, 0.0]);
+            (r, j)
+        }
+    }
+    impl NormalEquations for Rosen {
+        fn normal_equations(&self, u: &DVector<f64>) -> Result<NormalEq, Error> {
+            let (r, j) = Rosen::rj(u);
+            Ok(NormalEq {
+                jtj: j.transpose() * &j,
+                jtr: j.transpose() * &r,
+                cost: 0.5 * r.norm_squared(),
+            })
+        }
+    }
+    impl CostFunction for Rosen {
+        type Param = DVector<f64>;
+        type Output = f64;
+        fn cost(&self, u: &DVector<f64>) -> Result<f64, Error> {
+            Ok(0.5 * Rosen::rj(u).0.norm_squared())
+        }
+    }
+    impl Gradient for Rosen {
+        type Param = DVector<f64>;
+        type Gradient = DVector<f64>;
+        fn gradient(&self, u: &DVector<f64>) -> Result<DVector<f64>, Error> {
+            let (r, j) = Rosen::rj(u);
+            Ok(j.transpose() * r)
+        }
+    }
+
+    #[test]
+    fn lm_solves_rosenbrock() {
+        let res = Executor::new(Rosen, LevenbergMarquardt::new(1e-3, Tolerances::default()))
+            .configure(|s: LsState| s.param(DVector::from_vec(vec![-1.2, 1.0])).max_iters(200))
+            .run()
+            .unwrap();
+        let u = res.state.get_best_param().unwrap();
+        assert!(
+            (u[0] - 1.0).abs() < 1e-8 && (u[1] - 1.0).abs() < 1e-8,
+            "{u}"
+        );
+        assert_eq!(
+            res.state.get_termination_reason(),
+            Some(&TerminationReason::SolverConverged)
+        );
+        assert!(res.state.get_iter() < 100);
+    }
+
+    #[test]
+    fn gauss_newton_solves_rosenbrock() {
+        let res = Executor::new(Rosen, GaussNewtonLs::new(Tolerances::default()))
+            .configure(|s: LsState| s.param(DVector::from_vec(vec![-1.2, 1.0])).max_iters(200))
+            .run()
+            .unwrap();
+        let u = res.state.get_best_param().unwrap();
+        assert!(
+            (u[0] - 1.0).abs() < 1e-8 && (u[1] - 1.0).abs() < 1e-8,
+            "{u}"
+        );
+    }
+}

@@ -1,0 +1,240 @@
+//! Loss functions: a per-cell transform t of the BRDF value, compared in weighted
+//! root-mean-square over the valid cells.
+//!
+//! For cell k with measured value f̂ₖ, model value fₖ, cos θi = cₖ and weight wₖ, the
+//! loss of one channel is
+//!
+//! ```text
+//! L = sqrt( Σₖ wₖ (t(fₖ, cₖ) − t(f̂ₖ, cₖ))² / Σₖ wₖ )
+//! ```
+//!
+//! and the overall loss is the root of the mean of the three channels' squares. The
+//! transforms:
+//!
+//! | loss     | t(f, c)          | source                                              |
+//! |----------|------------------|-----------------------------------------------------|
+//! | `l2`     | f                | plain least squares on the BRDF value              |
+//! | `cosine` | f · c            | Ngan, Durand & Matusik, EGSR 2005 (cosine-weighted) |
+//! | `cbrt`   | ∛(f · c)         | perceptual (CIE L* is a cube root of luminance)     |
+//! | `log`    | ln(1 + f · c)    | Löw, Kronander, Ynnerman & Unger, ACM TOG 2012      |
+//!
+//! The weight is the cell's measure of (wi, wo) pairs ([`Weighting::SolidAngle`]) or 1
+//! ([`Weighting::Uniform`]).
+//!
+//! # The cube root's infinite slope at 0
+//! d∛x/dx = 1 / (3 x^(2/3)) is infinite at x = 0, which a model that is exactly 0 in a
+//! cell (a mirror-sharp lobe far from its peak, or a below-horizon direction) reaches.
+//! The Jacobian uses the slope at max(|x|, [`CBRT_FLOOR`]) instead: finite, and equal to
+//! the true slope wherever |f · c| ≥ 1e-12 sr⁻¹ (eight orders below the dimmest
+//! measured MERL value). The value itself is never altered.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// Below this |f · c| (1/sr) the cube root's slope is taken at the floor; see the
+/// module doc.
+pub const CBRT_FLOOR: f64 = 1e-12;
+
+/// The comparison a fit minimises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Loss {
+    /// t = f.
+    L2,
+    /// t = f cos θi (Ngan et al. 2005).
+    Cosine,
+    /// t = ∛(f cos θi); the default.
+    #[default]
+    Cbrt,
+    /// t = ln(1 + f cos θi) (Löw et al. 2012).
+    Log,
+}
+
+impl Loss {
+    /// Every loss, in record order.
+    pub const ALL: [Loss; 4] = [Loss::L2, Loss::Cosine, Loss::Cbrt, Loss::Log];
+
+    /// The name used on the command line and in records.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Loss::L2 => "l2",
+            Loss::Cosine => "cosine",
+            Loss::Cbrt => "cbrt",
+            Loss::Log => "log",
+        }
+    }
+
+    /// t(f, c).
+    #[inline]
+    pub fn transform(&self, f: f64, cos_i: f64) -> f64 {
+        match self {
+            Loss::L2 => f,
+            Loss::Cosine => f * cos_i,
+            Loss::Cbrt => (f * cos_i).cbrt(),
+            Loss::Log => (f * cos_i).ln_1p(),
+        }
+    }
+
+    /// t(f, c) and ∂t/∂f (with the cube-root guard of the module doc).
+    #[inline]
+    pub fn transform_deriv(&self, f: f64, cos_i: f64) -> (f64, f64) {
+        match self {
+            Loss::L2 => (f, 1.0),
+            Loss::Cosine => (f * cos_i, cos_i),
+            Loss::Cbrt => {
+                let x = f * cos_i;
+                let t = x.cbrt();
+                // 1/(3 x^(2/3)) = 1/(3 t²), with |x| floored (see CBRT_FLOOR).
+                let tf = x.abs().max(CBRT_FLOOR).cbrt();
+                (t, cos_i / (3.0 * tf * tf))
+            }
+            Loss::Log => {
+                let x = f * cos_i;
+                // A model is ≥ 0, so 1 + x ≥ 1; no pole.
+                (x.ln_1p(), cos_i / (1.0 + x))
+            }
+        }
+    }
+}
+
+impl fmt::Display for Loss {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Loss {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Loss::ALL
+            .into_iter()
+            .find(|l| l.name() == s)
+            .ok_or_else(|| format!("unknown loss `{s}` (known: l2, cosine, cbrt, log)"))
+    }
+}
+
+/// The weight of a cell in the loss.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Weighting {
+    /// The cell's measure of (wi, wo) pairs (its bin's solid-angle product): the loss
+    /// is then a Riemann sum of the integral over pairs of directions, independent of
+    /// the grid's non-uniform θh spacing. The default.
+    #[default]
+    SolidAngle,
+    /// Every cell counts the same (the table's own sampling density: dense near the
+    /// specular peak, where MERL's θh spacing is fine).
+    Uniform,
+}
+
+impl Weighting {
+    /// The name used on the command line and in records.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Weighting::SolidAngle => "solid-angle",
+            Weighting::Uniform => "uniform",
+        }
+    }
+}
+
+impl FromStr for Weighting {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "solid-angle" => Ok(Weighting::SolidAngle),
+            "uniform" => Ok(Weighting::Uniform),
+            _ => Err(format!(
+                "unknown weighting `{s}` (known: solid-angle, uniform)"
+            )),
+        }
+    }
+}
+
+/// One loss's weighted RMS per channel and overall.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ChannelLoss {
+    /// Red, green, blue.
+    pub channels: [f64; 3],
+    /// sqrt of the mean of the channels' squares.
+    pub overall: f64,
+}
+
+/// Every loss of a model against a cell set (see [`crate::evaluate_losses`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LossReport {
+    pub l2: ChannelLoss,
+    pub cosine: ChannelLoss,
+    pub cbrt: ChannelLoss,
+    pub log: ChannelLoss,
+    /// Number of cells the losses were taken over.
+    pub cells: usize,
+}
+
+impl LossReport {
+    /// The entry of one loss.
+    pub fn get(&self, loss: Loss) -> &ChannelLoss {
+        match loss {
+            Loss::L2 => &self.l2,
+            Loss::Cosine => &self.cosine,
+            Loss::Cbrt => &self.cbrt,
+            Loss::Log => &self.log,
+        }
+    }
+
+    /// From Σ w r² per loss and channel and Σ w.
+    pub(crate) fn from_sums(sums: [[f64; 3]; 4], wsum: f64, cells: usize) -> Self {
+        let mk = |s: [f64; 3]| {
+            let ch = s.map(|v| if wsum > 0.0 { (v / wsum).sqrt() } else { 0.0 });
+            let overall = ((ch[0] * ch[0] + ch[1] * ch[1] + ch[2] * ch[2]) / 3.0).sqrt();
+            ChannelLoss {
+                channels: ch,
+                overall,
+            }
+        };
+        LossReport {
+            l2: mk(sums[0]),
+            cosine: mk(sums[1]),
+            cbrt: mk(sums[2]),
+            log: mk(sums[3]),
+            cells,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        for loss in Loss::ALL {
+            for &(f, c) in &[(0.3, 0.8), (12.0, 0.1), (1e-3, 0.99)] {
+                let (t, d) = loss.transform_deriv(f, c);
+                assert_eq!(t, loss.transform(f, c));
+                let h = 1e-6 * f;
+                let fd = (loss.transform(f + h, c) - loss.transform(f - h, c)) / (2.0 * h);
+                assert!((fd - d).abs() <= 1e-7 * d.abs(), "{loss}: {fd} vs {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn cbrt_slope_is_finite_at_zero() {
+        let (t, d) = Loss::Cbrt.transform_deriv(0.0, 0.5);
+        assert_eq!(t, 0.0);
+        assert!(d.is_finite() && d > 0.0);
+        let (_, d) = Loss::Cbrt.transform_deriv(0.0, 0.0);
+        assert_eq!(d, 0.0);
+    }
+
+    #[test]
+    fn names_parse() {
+        for l in Loss::ALL {
+            assert_eq!(l.name().parse::<Loss>().unwrap(), l);
+        }
+        assert!("L2".parse::<Loss>().is_err());
+        assert_eq!(Loss::default(), Loss::Cbrt);
+        assert_eq!(serde_json::to_string(&Loss::Cosine).unwrap(), "\"cosine\"");
+    }
+}

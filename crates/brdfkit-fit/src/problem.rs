@@ -1,0 +1,664 @@
+//! [`FitProblem`]: the weighted least-squares problem of one model against one cell set,
+//! in the reparameterised coordinates u, with residuals, normal equations and the argmin
+//! operator traits.
+//!
+//! # Residuals
+//! For active channel c and cell k,
+//!
+//! ```text
+//! r_ck(u) = s_k · ( t(f_c(x(u); k), cos θi_k) − t(f̂_ck, cos θi_k) ),
+//! s_k = sqrt( w_k / (n_ch · Σ_j w_j) ),
+//! ```
+//!
+//! so the cost ½ Σ r² is half the mean over channels of the weighted mean square, and
+//! sqrt(2 · cost) is the overall loss of [`crate::loss`]. The Jacobian is
+//!
+//! ```text
+//! ∂r_ck/∂u_q = s_k · t'(f_ck) · ∂f_c/∂x_p · dx_p/du_q      (p the model index of u_q)
+//! ```
+//!
+//! # Evaluation
+//! The cells are split into chunks of [`CHUNK`]; rayon folds over the chunks with one
+//! scratch set per fold (model values, the model's parameter-major gradient, the
+//! Jacobian columns of the chunk), so nothing is allocated per cell. Per chunk and
+//! channel the Jacobian columns of the parameters that act on that channel (the
+//! channel's own albedo-like parameters and the shared ones; see
+//! [`brdfkit_core::ParamRole`]) are formed as contiguous arrays, and JᵀJ and Jᵀr are
+//! accumulated as dot products of those columns. The full Jacobian (4.4 M rows for a
+//! MERL table) is never stored.
+
+use crate::data::FitData;
+use crate::error::FitError;
+use crate::loss::{Loss, Weighting};
+use crate::reparam::{Transform, nudge_into};
+use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
+use brdfkit_core::model::Domain;
+use brdfkit_core::{Model, ParamRole, Rgb};
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// Cells per chunk of the parallel evaluation: big enough to amortise a model call and
+/// a rayon task, small enough that a chunk's scratch (12 params × 2048 × 24 B ≈ 0.6 MB)
+/// stays in the L2 cache.
+pub const CHUNK: usize = 2048;
+
+/// JᵀJ, Jᵀr and the cost at one point.
+#[derive(Debug, Clone)]
+pub struct NormalEq {
+    /// JᵀJ (m × m, symmetric).
+    pub jtj: DMatrix<f64>,
+    /// Jᵀr, the gradient of the cost ½‖r‖².
+    pub jtr: DVector<f64>,
+    /// ½‖r‖².
+    pub cost: f64,
+}
+
+/// Problems a least-squares solver can drive through their normal equations.
+pub trait NormalEquations {
+    /// JᵀJ, Jᵀr and ½‖r‖² at `u`. A point where the model is not finite must give a
+    /// non-finite cost (the solvers then reject the step), not an error.
+    fn normal_equations(&self, u: &DVector<f64>) -> Result<NormalEq, ArgminError>;
+
+    /// A cost at or below which the residuals are round-off (a perfect fit): solvers
+    /// stop there. 0 disables the test.
+    fn cost_floor(&self) -> f64 {
+        0.0
+    }
+}
+
+struct Inner<'a> {
+    data: &'a FitData,
+    proto: Box<dyn Model>,
+    base: Vec<f64>,
+    free: Vec<usize>,
+    names: Vec<String>,
+    transforms: Vec<Transform>,
+    domains: Vec<Domain>,
+    channels: Vec<usize>,
+    loss: Loss,
+    /// t(f̂) per channel (empty for inactive channels).
+    target: [Vec<f64>; 3],
+    /// s_k.
+    scale: Vec<f64>,
+    /// Per channel: positions q (into the free vector) of the parameters acting on it.
+    cols: [Vec<usize>; 3],
+    floor: f64,
+}
+
+/// The least-squares problem of one model family against a cell set.
+///
+/// Cheap to clone (the precomputed arrays are shared); each clone has its own
+/// evaluation counters.
+pub struct FitProblem<'a> {
+    inner: Arc<Inner<'a>>,
+    cost_evals: AtomicU64,
+    jac_evals: AtomicU64,
+    cache: Mutex<Option<(DVector<f64>, NormalEq)>>,
+}
+
+impl Clone for FitProblem<'_> {
+    fn clone(&self) -> Self {
+        FitProblem {
+            inner: self.inner.clone(),
+            cost_evals: AtomicU64::new(0),
+            jac_evals: AtomicU64::new(0),
+            cache: Mutex::new(None),
+        }
+    }
+}
+
+impl std::fmt::Debug for FitProblem<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FitProblem")
+            .field("model", &self.inner.proto.name())
+            .field("free", &self.inner.names)
+            .field("channels", &self.inner.channels)
+            .field("loss", &self.inner.loss)
+            .field("cells", &self.inner.data.len())
+            .finish()
+    }
+}
+
+/// Sum of products with four independent accumulators, so the loop vectorises (a single
+/// accumulator is a serial dependency the compiler may not reorder).
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut s = [0.0f64; 4];
+    let ca = a.chunks_exact(4);
+    let cb = b.chunks_exact(4);
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        s[0] += x[0] * y[0];
+        s[1] += x[1] * y[1];
+        s[2] += x[2] * y[2];
+        s[3] += x[3] * y[3];
+    }
+    let mut t = (s[0] + s[1]) + (s[2] + s[3]);
+    for (x, y) in ra.iter().zip(rb) {
+        t += x * y;
+    }
+    t
+}
+
+struct Scratch {
+    out: Vec<Rgb>,
+    grad: Vec<Rgb>,
+    jcol: Vec<f64>,
+    r: Vec<f64>,
+    d: Vec<f64>,
+    jtj: Vec<f64>,
+    jtr: Vec<f64>,
+    cost: f64,
+}
+
+impl<'a> FitProblem<'a> {
+    /// A problem: `model` at its start parameters (fixed parameters keep these values),
+    /// `free` the model-vector indices to fit, the active `channels`, the loss and the
+    /// weighting.
+    pub fn new(
+        data: &'a FitData,
+        model: &dyn Model,
+        free: Vec<usize>,
+        channels: Vec<usize>,
+        loss: Loss,
+        weighting: Weighting,
+    ) -> Result<Self, FitError> {
+        let specs = model.param_specs();
+        let base = model.params();
+        if data.is_empty() {
+            return Err(FitError::NoCells("the cell set is empty".into()));
+        }
+        if free.is_empty() {
+            return Err(FitError::NothingToFit(model.name().into()));
+        }
+        if channels.is_empty() || channels.iter().any(|&c| c > 2) {
+            return Err(FitError::InvalidOption {
+                option: "channels",
+                value: format!("{channels:?}"),
+                reason: "must be a non-empty subset of 0, 1, 2".into(),
+            });
+        }
+        for &p in &free {
+            if p >= specs.len() {
+                return Err(FitError::Data(format!(
+                    "free parameter index {p} beyond the model's {} parameters",
+                    specs.len()
+                )));
+            }
+        }
+        let names = free.iter().map(|&p| specs[p].name.clone()).collect();
+        let domains: Vec<Domain> = free.iter().map(|&p| specs[p].domain).collect();
+        let transforms = domains.iter().map(Transform::for_domain).collect();
+        let weights = data.weights(weighting);
+        let wsum: f64 = weights.iter().sum();
+        let nch = channels.len() as f64;
+        let scale: Vec<f64> = weights.iter().map(|w| (w / (nch * wsum)).sqrt()).collect();
+        let cos_i = &data.geometry().wi_z;
+        let mut target: [Vec<f64>; 3] = Default::default();
+        let mut cols: [Vec<usize>; 3] = Default::default();
+        let mut ms = 0.0;
+        for &c in &channels {
+            target[c] = data.values()[c]
+                .par_iter()
+                .zip(cos_i.par_iter())
+                .map(|(&f, &ci)| loss.transform(f, ci))
+                .collect();
+            ms += target[c]
+                .iter()
+                .zip(&scale)
+                .map(|(t, s)| (t * s) * (t * s))
+                .sum::<f64>();
+            cols[c] = free
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| match specs[**p].role {
+                    ParamRole::Shared => true,
+                    ParamRole::Channel(k) => k == c,
+                })
+                .map(|(q, _)| q)
+                .collect();
+        }
+        // A perfect fit leaves residuals of the order of the round-off of t itself,
+        // ~1e-16 of the targets' RMS; the floor is (1e-14 · RMS)², a hundred times that.
+        let floor = 0.5 * ms * 1e-28;
+        Ok(FitProblem {
+            inner: Arc::new(Inner {
+                data,
+                proto: model.clone_box(),
+                base,
+                free,
+                names,
+                transforms,
+                domains,
+                channels,
+                loss,
+                target,
+                scale,
+                cols,
+                floor,
+            }),
+            cost_evals: AtomicU64::new(0),
+            jac_evals: AtomicU64::new(0),
+            cache: Mutex::new(None),
+        })
+    }
+
+    /// Number of free parameters m.
+    pub fn dim(&self) -> usize {
+        self.inner.free.len()
+    }
+
+    /// Number of residuals (cells × active channels).
+    pub fn num_residuals(&self) -> usize {
+        self.inner.data.len() * self.inner.channels.len()
+    }
+
+    /// Names of the free parameters, in u order.
+    pub fn free_names(&self) -> &[String] {
+        &self.inner.names
+    }
+
+    /// Model-vector indices of the free parameters.
+    pub fn free_indices(&self) -> &[usize] {
+        &self.inner.free
+    }
+
+    /// The transforms of the free parameters.
+    pub fn transforms(&self) -> &[Transform] {
+        &self.inner.transforms
+    }
+
+    /// The active channels.
+    pub fn channels(&self) -> &[usize] {
+        &self.inner.channels
+    }
+
+    /// The loss minimised.
+    pub fn loss(&self) -> Loss {
+        self.inner.loss
+    }
+
+    /// Cost evaluations (passes over the cells without derivatives) so far.
+    pub fn cost_evals(&self) -> u64 {
+        self.cost_evals.load(Ordering::Relaxed)
+    }
+
+    /// Jacobian evaluations (passes over the cells with derivatives) so far.
+    pub fn jacobian_evals(&self) -> u64 {
+        self.jac_evals.load(Ordering::Relaxed)
+    }
+
+    /// u of a full physical parameter vector (its free entries).
+    pub fn to_u(&self, x: &[f64]) -> DVector<f64> {
+        DVector::from_iterator(
+            self.dim(),
+            self.inner
+                .free
+                .iter()
+                .zip(&self.inner.transforms)
+                .map(|(&p, t)| t.inverse(x[p])),
+        )
+    }
+
+    /// u of the start model.
+    pub fn start_u(&self) -> DVector<f64> {
+        self.to_u(&self.inner.base)
+    }
+
+    /// The full physical vector at u and dx/du of each free entry.
+    pub fn params_at(&self, u: &DVector<f64>) -> (Vec<f64>, Vec<f64>) {
+        let mut x = self.inner.base.clone();
+        let mut dx = vec![0.0; self.dim()];
+        for q in 0..self.dim() {
+            let (v, d) = self.inner.transforms[q].forward(u[q]);
+            x[self.inner.free[q]] = nudge_into(&self.inner.domains[q], v);
+            dx[q] = d;
+        }
+        (x, dx)
+    }
+
+    /// The model at u.
+    pub fn model_at(&self, u: &DVector<f64>) -> Result<Box<dyn Model>, FitError> {
+        let (x, _) = self.params_at(u);
+        let mut m = self.inner.proto.clone_box();
+        m.set_params(&x).map_err(|e| FitError::Model {
+            model: m.name().into(),
+            source: e,
+        })?;
+        Ok(m)
+    }
+
+    fn model_or_nan(&self, u: &DVector<f64>) -> Option<(Box<dyn Model>, Vec<f64>)> {
+        if u.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let (x, dx) = self.params_at(u);
+        let mut m = self.inner.proto.clone_box();
+        m.set_params(&x).ok()?;
+        Some((m, dx))
+    }
+
+    /// ½‖r(u)‖² (+∞ where the model is not finite or rejects the parameters).
+    pub fn cost_at(&self, u: &DVector<f64>) -> f64 {
+        self.cost_evals.fetch_add(1, Ordering::Relaxed);
+        let Some((m, _)) = self.model_or_nan(u) else {
+            return f64::INFINITY;
+        };
+        let inn = &*self.inner;
+        let n = inn.data.len();
+        let g = inn.data.geometry();
+        let nchunks = n.div_ceil(CHUNK);
+        let c = (0..nchunks)
+            .into_par_iter()
+            .with_min_len(4)
+            .fold(
+                || (vec![Rgb::ZERO; CHUNK], 0.0f64),
+                |(mut out, mut acc), ci| {
+                    let s = ci * CHUNK;
+                    let e = (s + CHUNK).min(n);
+                    let len = e - s;
+                    m.eval_batch(&g.slice(s..e), &mut out[..len]);
+                    let cos_i = &g.wi_z[s..e];
+                    let sc = &inn.scale[s..e];
+                    for &c in &inn.channels {
+                        let tg = &inn.target[c][s..e];
+                        let mut part = 0.0;
+                        for k in 0..len {
+                            let r = sc[k] * (inn.loss.transform(out[k][c], cos_i[k]) - tg[k]);
+                            part += r * r;
+                        }
+                        acc += part;
+                    }
+                    (out, acc)
+                },
+            )
+            .map(|(_, a)| a)
+            .sum::<f64>();
+        let c = 0.5 * c;
+        if c.is_finite() { c } else { f64::INFINITY }
+    }
+
+    /// JᵀJ, Jᵀr and the cost at u in one parallel pass (see the module doc).
+    pub fn normal_eq(&self, u: &DVector<f64>) -> NormalEq {
+        if let Some((cu, ne)) = self.cache.lock().expect("cache lock").as_ref()
+            && cu == u
+        {
+            return ne.clone();
+        }
+        self.jac_evals.fetch_add(1, Ordering::Relaxed);
+        let mdim = self.dim();
+        let bad = || NormalEq {
+            jtj: DMatrix::zeros(mdim, mdim),
+            jtr: DVector::zeros(mdim),
+            cost: f64::INFINITY,
+        };
+        let Some((model, dx)) = self.model_or_nan(u) else {
+            return bad();
+        };
+        let inn = &*self.inner;
+        let n = inn.data.len();
+        let np = inn.proto.num_params();
+        let g = inn.data.geometry();
+        let nchunks = n.div_ceil(CHUNK);
+        let maxcols = inn.cols.iter().map(Vec::len).max().unwrap_or(0);
+        let acc = (0..nchunks)
+            .into_par_iter()
+            .with_min_len(4)
+            .fold(
+                || Scratch {
+                    out: vec![Rgb::ZERO; CHUNK],
+                    grad: vec![Rgb::ZERO; np * CHUNK],
+                    jcol: vec![0.0; maxcols * CHUNK],
+                    r: vec![0.0; CHUNK],
+                    d: vec![0.0; CHUNK],
+                    jtj: vec![0.0; mdim * mdim],
+                    jtr: vec![0.0; mdim],
+                    cost: 0.0,
+                },
+                |mut sc, ci| {
+                    let s = ci * CHUNK;
+                    let e = (s + CHUNK).min(n);
+                    let len = e - s;
+                    model.eval_grad_batch(
+                        &g.slice(s..e),
+                        &mut sc.out[..len],
+                        &mut sc.grad[..np * len],
+                    );
+                    let cos_i = &g.wi_z[s..e];
+                    let scale = &inn.scale[s..e];
+                    for &c in &inn.channels {
+                        let tg = &inn.target[c][s..e];
+                        for k in 0..len {
+                            let (t, dt) = inn.loss.transform_deriv(sc.out[k][c], cos_i[k]);
+                            sc.r[k] = scale[k] * (t - tg[k]);
+                            sc.d[k] = scale[k] * dt;
+                        }
+                        let cols = &inn.cols[c];
+                        for (a, &q) in cols.iter().enumerate() {
+                            let p = inn.free[q];
+                            let dxq = dx[q];
+                            let gp = &sc.grad[p * len..(p + 1) * len];
+                            let col = &mut sc.jcol[a * len..(a + 1) * len];
+                            for k in 0..len {
+                                col[k] = sc.d[k] * gp[k][c] * dxq;
+                            }
+                        }
+                        for (a, &qa) in cols.iter().enumerate() {
+                            let ca = &sc.jcol[a * len..(a + 1) * len];
+                            sc.jtr[qa] += dot(ca, &sc.r[..len]);
+                            for (b, &qb) in cols.iter().enumerate().take(a + 1) {
+                                let cb = &sc.jcol[b * len..(b + 1) * len];
+                                sc.jtj[qa * mdim + qb] += dot(ca, cb);
+                            }
+                        }
+                        sc.cost += 0.5 * dot(&sc.r[..len], &sc.r[..len]);
+                    }
+                    sc
+                },
+            )
+            .map(|sc| (sc.jtj, sc.jtr, sc.cost))
+            .reduce(
+                || (vec![0.0; mdim * mdim], vec![0.0; mdim], 0.0),
+                |mut a, b| {
+                    for (x, y) in a.0.iter_mut().zip(&b.0) {
+                        *x += y;
+                    }
+                    for (x, y) in a.1.iter_mut().zip(&b.1) {
+                        *x += y;
+                    }
+                    a.2 += b.2;
+                    a
+                },
+            );
+        let (jtj_l, jtr, cost) = acc;
+        // Only the lower triangle was accumulated (column lists increase in q, so
+        // qb ≤ qa): mirror it.
+        let mut jtj = DMatrix::zeros(mdim, mdim);
+        for a in 0..mdim {
+            for b in 0..mdim {
+                let v = jtj_l[a * mdim + b];
+                if v != 0.0 {
+                    jtj[(a, b)] += v;
+                    if a != b {
+                        jtj[(b, a)] += v;
+                    }
+                }
+            }
+        }
+        let ne = NormalEq {
+            jtj,
+            jtr: DVector::from_vec(jtr),
+            cost,
+        };
+        if !(ne.cost.is_finite()
+            && ne.jtr.iter().all(|v| v.is_finite())
+            && ne.jtj.iter().all(|v| v.is_finite()))
+        {
+            return bad();
+        }
+        *self.cache.lock().expect("cache lock") = Some((u.clone(), ne.clone()));
+        ne
+    }
+
+    /// The residual vector r(u), channel-major (all cells of the first active channel,
+    /// then the next). Dense; for tests and small cell sets.
+    pub fn residuals(&self, u: &DVector<f64>) -> Result<DVector<f64>, FitError> {
+        let m = self.model_at(u)?;
+        let inn = &*self.inner;
+        let n = inn.data.len();
+        let g = inn.data.geometry();
+        let mut out = vec![Rgb::ZERO; n];
+        m.eval_batch(&g.as_slice(), &mut out);
+        let mut r = DVector::zeros(n * inn.channels.len());
+        for (ci, &c) in inn.channels.iter().enumerate() {
+            for k in 0..n {
+                r[ci * n + k] =
+                    inn.scale[k] * (inn.loss.transform(out[k][c], g.wi_z[k]) - inn.target[c][k]);
+            }
+        }
+        Ok(r)
+    }
+
+    /// The Jacobian ∂r/∂u (rows as in [`residuals`](Self::residuals)). Dense; for tests,
+    /// small cell sets and argmin's dense Gauss-Newton.
+    pub fn jacobian_dense(&self, u: &DVector<f64>) -> Result<DMatrix<f64>, FitError> {
+        let m = self.model_at(u)?;
+        let (_, dx) = self.params_at(u);
+        let inn = &*self.inner;
+        let n = inn.data.len();
+        let np = inn.proto.num_params();
+        let g = inn.data.geometry();
+        let mut out = vec![Rgb::ZERO; n];
+        let mut grad = vec![Rgb::ZERO; np * n];
+        m.eval_grad_batch(&g.as_slice(), &mut out, &mut grad);
+        let mut j = DMatrix::zeros(n * inn.channels.len(), self.dim());
+        for (ci, &c) in inn.channels.iter().enumerate() {
+            for k in 0..n {
+                let (_, dt) = inn.loss.transform_deriv(out[k][c], g.wi_z[k]);
+                for q in 0..self.dim() {
+                    let p = inn.free[q];
+                    j[(ci * n + k, q)] = inn.scale[k] * dt * grad[p * n + k][c] * dx[q];
+                }
+            }
+        }
+        Ok(j)
+    }
+}
+
+impl NormalEquations for FitProblem<'_> {
+    fn normal_equations(&self, u: &DVector<f64>) -> Result<NormalEq, ArgminError> {
+        Ok(self.normal_eq(u))
+    }
+    fn cost_floor(&self) -> f64 {
+        self.inner.floor
+    }
+}
+
+impl CostFunction for FitProblem<'_> {
+    type Param = DVector<f64>;
+    type Output = f64;
+    fn cost(&self, u: &DVector<f64>) -> Result<f64, ArgminError> {
+        Ok(self.cost_at(u))
+    }
+}
+
+impl Gradient for FitProblem<'_> {
+    type Param = DVector<f64>;
+    type Gradient = DVector<f64>;
+    fn gradient(&self, u: &DVector<f64>) -> Result<DVector<f64>, ArgminError> {
+        Ok(self.normal_eq(u).jtr)
+    }
+}
+
+impl Hessian for FitProblem<'_> {
+    type Param = DVector<f64>;
+    type Hessian = DMatrix<f64>;
+    /// The Gauss-Newton approximation JᵀJ.
+    fn hessian(&self, u: &DVector<f64>) -> Result<DMatrix<f64>, ArgminError> {
+        Ok(self.normal_eq(u).jtj)
+    }
+}
+
+impl Operator for FitProblem<'_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, u: &DVector<f64>) -> Result<DVector<f64>, ArgminError> {
+        self.cost_evals.fetch_add(1, Ordering::Relaxed);
+        Ok(self.residuals(u)?)
+    }
+}
+
+impl Jacobian for FitProblem<'_> {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, u: &DVector<f64>) -> Result<DMatrix<f64>, ArgminError> {
+        self.jac_evals.fetch_add(1, Ordering::Relaxed);
+        Ok(self.jacobian_dense(u)?)
+    }
+}
+
+/// Every loss of per-channel models against a cell set: channel c is evaluated with
+/// `models[c]` (pass the same model three times for a shared fit).
+pub fn evaluate_losses(
+    models: [&dyn Model; 3],
+    data: &FitData,
+    weighting: Weighting,
+) -> crate::loss::LossReport {
+    let n = data.len();
+    let g = data.geometry();
+    let w = data.weights(weighting);
+    let wsum: f64 = w.iter().sum();
+    let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
+    let nchunks = n.div_ceil(CHUNK);
+    let sums = (0..nchunks)
+        .into_par_iter()
+        .fold(
+            || {
+                (
+                    [vec![Rgb::ZERO; CHUNK], vec![Rgb::ZERO; CHUNK]],
+                    [[0.0f64; 3]; 4],
+                )
+            },
+            |(mut out, mut acc), ci| {
+                let s = ci * CHUNK;
+                let e = (s + CHUNK).min(n);
+                let len = e - s;
+                let gs = g.slice(s..e);
+                models[0].eval_batch(&gs, &mut out[0][..len]);
+                for c in 0..3 {
+                    let vals: &[Rgb] = if same || c == 0 {
+                        &out[0][..len]
+                    } else {
+                        models[c].eval_batch(&gs, &mut out[1][..len]);
+                        &out[1][..len]
+                    };
+                    for k in 0..len {
+                        let (f, fm, ci_, wk) =
+                            (vals[k][c], data.values()[c][s + k], g.wi_z[s + k], w[s + k]);
+                        for (l, loss) in Loss::ALL.iter().enumerate() {
+                            let r = loss.transform(f, ci_) - loss.transform(fm, ci_);
+                            acc[l][c] += wk * r * r;
+                        }
+                    }
+                }
+                (out, acc)
+            },
+        )
+        .map(|(_, a)| a)
+        .reduce(
+            || [[0.0; 3]; 4],
+            |mut a, b| {
+                for l in 0..4 {
+                    for c in 0..3 {
+                        a[l][c] += b[l][c];
+                    }
+                }
+                a
+            },
+        );
+    crate::loss::LossReport::from_sums(sums, wsum, n)
+}

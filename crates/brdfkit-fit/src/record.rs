@@ -1,0 +1,103 @@
+//! The fit record: what was fitted, how, and how well. Serialises to JSON (see
+//! `docs/fitting.md` for the field list).
+
+use crate::config::{Sharing, SolverKind};
+use crate::loss::{Loss, LossReport, Weighting};
+use serde::{Deserialize, Serialize};
+
+/// One parameter of the fitted model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParamRecord {
+    /// Name as in the model's parameter vector (`rho_d.r`, `alpha`).
+    pub name: String,
+    /// Fitted value (per-channel fits: the value of the fit of the channel this
+    /// parameter belongs to, or of each channel for shared names, see
+    /// [`FitRecord::model`]).
+    pub value: f64,
+    /// Value at start 0.
+    pub start: f64,
+    /// True when the fit moved it; false when it was held fixed.
+    pub free: bool,
+    /// The reparameterisation the solver used (`logit`, `log`, `neg-log`,
+    /// `identity`); `None` for a fixed parameter.
+    pub transform: Option<String>,
+}
+
+/// One start of one pass.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StartRecord {
+    /// Start index within its pass (0: the model's own parameters).
+    pub index: usize,
+    /// Channel of a per-channel pass (0, 1, 2), `None` for a shared fit.
+    pub channel: Option<usize>,
+    /// Starting values of the free parameters, in the order of
+    /// [`FitRecord::free_params`] (of the pass).
+    pub start: Vec<f64>,
+    /// Final value of the optimised loss (weighted RMS over the fitted cells; for a
+    /// per-channel pass, that channel's).
+    pub final_loss: f64,
+    /// Iterations.
+    pub iterations: u64,
+    /// Cost evaluations (passes over the cells without derivatives).
+    pub cost_evals: u64,
+    /// Jacobian evaluations (passes with derivatives: normal equations or gradients).
+    pub jacobian_evals: u64,
+    /// Why it stopped.
+    pub termination: String,
+    /// True when a convergence test fired (not an iteration cap or a give-up).
+    pub converged: bool,
+    /// True for the start kept (the lowest final loss of its pass).
+    pub kept: bool,
+}
+
+/// The whole record of a fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FitRecord {
+    /// The fitted model in the JSON contract (`{"model": ..., "params": {...}}`); for
+    /// a per-channel fit `{"per_channel": [r, g, b]}` with one model per channel.
+    pub model: serde_json::Value,
+    /// The model family.
+    pub family: String,
+    /// The loss minimised.
+    pub loss: Loss,
+    /// The cell weights.
+    pub weighting: Weighting,
+    /// The solver.
+    pub solver: SolverKind,
+    /// Shared shape parameters or per-channel fits.
+    pub sharing: Sharing,
+    /// θd cutoff in degrees, if any.
+    pub theta_d_max_deg: Option<f64>,
+    /// Subsample fraction, if any.
+    pub subsample: Option<f64>,
+    /// Seed of the starts and the subsample.
+    pub seed: u64,
+    /// Number of starts per pass.
+    pub starts_per_pass: usize,
+    /// Free parameters (shared fit) or the union over the channel passes.
+    pub free_params: Vec<String>,
+    /// Every model parameter: fitted value, start, free or fixed, transform.
+    pub params: Vec<ParamRecord>,
+    /// Cells the solver saw (after cutoff and subsample).
+    pub cells_fit: usize,
+    /// Valid cells after the cutoff (the "full table").
+    pub cells_full: usize,
+    /// Every loss over the fitted cells.
+    pub losses_fit: LossReport,
+    /// Every loss over all valid cells (after the cutoff), the figure to compare.
+    pub losses_full: LossReport,
+    /// Iterations of the kept start(s) (summed over channel passes).
+    pub iterations: u64,
+    /// Cost evaluations of every start and pass.
+    pub cost_evals: u64,
+    /// Jacobian evaluations of every start and pass.
+    pub jacobian_evals: u64,
+    /// Wall time of the whole fit, seconds.
+    pub wall_time_s: f64,
+    /// Why the kept start stopped (per-channel: `r: …; g: …; b: …`).
+    pub termination: String,
+    /// True when the kept start(s) converged.
+    pub converged: bool,
+    /// Every start tried.
+    pub starts: Vec<StartRecord>,
+}
