@@ -10,14 +10,14 @@ pub mod testing;
 
 // Models (one file each).
 pub mod lambert;
-// pub mod oren_nayar;
-// pub mod phong;
-// pub mod plausible_phong;
-// pub mod blinn_phong;
-// pub mod lafortune;
-// pub mod sum;
+pub mod oren_nayar;
+pub mod phong;
+pub mod plausible_phong;
+pub mod blinn_phong;
+pub mod lafortune;
+pub mod sum;
 // pub mod ward;
-// pub mod cook_torrance;
+pub mod cook_torrance;
 // pub mod ashikhmin_shirley;
 
 use brdfkit_core::{Model, ModelError};
@@ -70,14 +70,14 @@ pub fn from_name_and_params(name: &str, params: &Value) -> Result<Box<dyn Model>
     }
     match name {
         "lambert" => boxed(lambert::Lambert::from_params_json(params)),
-        // "oren-nayar" => boxed(oren_nayar::OrenNayar::from_params_json(params)),
-        // "phong" => boxed(phong::Phong::from_params_json(params)),
-        // "plausible-phong" => boxed(plausible_phong::PlausiblePhong::from_params_json(params)),
-        // "blinn-phong" => boxed(blinn_phong::BlinnPhong::from_params_json(params)),
-        // "lafortune" => boxed(lafortune::Lafortune::from_params_json(params)),
-        // "sum" => boxed(sum::Sum::from_params_json(params)),
+        "oren-nayar" => boxed(oren_nayar::OrenNayar::from_params_json(params)),
+        "phong" => boxed(phong::Phong::from_params_json(params)),
+        "plausible-phong" => boxed(plausible_phong::PlausiblePhong::from_params_json(params)),
+        "blinn-phong" => boxed(blinn_phong::BlinnPhong::from_params_json(params)),
+        "lafortune" => boxed(lafortune::Lafortune::from_params_json(params)),
+        "sum" => boxed(sum::Sum::from_params_json(params)),
         // "ward" => boxed(ward::Ward::from_params_json(params)),
-        // "cook-torrance" => boxed(cook_torrance::CookTorrance::from_params_json(params)),
+        "cook-torrance" => boxed(cook_torrance::CookTorrance::from_params_json(params)),
         // "ashikhmin-shirley" => boxed(ashikhmin_shirley::AshikhminShirley::from_params_json(params)),
         other => Err(ModelError::Invalid(format!(
             "unknown model `{other}` (known: {})",

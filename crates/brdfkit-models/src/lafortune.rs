@@ -1,0 +1,414 @@
+//! `lafortune`: a diffuse term plus any number of generalised cosine lobes.
+//!
+//! f_r(wi, wo) = ρd/π + Σⱼ ρⱼ · max(0, bⱼ)^nⱼ,
+//! bⱼ = cxyⱼ (wi.x wo.x + wi.y wo.y) + czⱼ wi.z wo.z
+//!
+//! (the isotropic form, Cx = Cy = cxy). E. P. F. Lafortune, S.-C. Foo, K. E. Torrance,
+//! D. P. Greenberg, "Non-Linear Approximation of Reflectance Functions", SIGGRAPH 1997.
+//! With directions pointing away from the surface, the mirror of wi is (−wi.x, −wi.y,
+//! wi.z), so cxy = −cz gives a lobe about the mirror direction (cxy = −1, cz = 1 is
+//! cosⁿθr, the Phong lobe); cxy < 0 with |cxy| ≠ cz tilts the lobe towards (|cxy| > cz)
+//! or away from (|cxy| < cz) grazing angles, as measured materials show; cxy > 0 makes
+//! a retro-reflective lobe. A negative base gives zero.
+//!
+//! | parameter | JSON             | per channel | domain  | default |
+//! |-----------|------------------|-------------|---------|---------|
+//! | ρd        | `rho_d`          | yes         | [0, 1]  | 0.5     |
+//! | cxy       | `lobes[i].cxy`   | no          | ℝ       | −1      |
+//! | cz        | `lobes[i].cz`    | no          | ℝ       | 1 (not fitted by default) |
+//! | n         | `lobes[i].n`     | no          | [0, ∞)  | 20      |
+//! | ρ         | `lobes[i].rho`   | yes         | [0, ∞)  | 1       |
+//!
+//! The default is one lobe. JSON: `{"model": "lafortune", "params": {"rho_d": 0.5,
+//! "lobes": [{"cxy": -1, "cz": 1, "n": 20, "rho": [1, 1, 1]}]}}`; an empty list is a
+//! Lambertian surface. Flat parameter names: `rho_d.r`, …, `lobes[0].cxy`,
+//! `lobes[0].cz`, `lobes[0].n`, `lobes[0].rho.r`, ….
+//!
+//! Redundancy: scaling (cxy, cz) by t > 0 and ρ by t^(−n) leaves f unchanged, so a lobe
+//! has one degree of freedom fewer than its parameters; cz is therefore marked not
+//! fitted by default (`fit_by_default = false`), which keeps the family for cz > 0.
+//!
+//! Reciprocal (b is symmetric in wi and wo). Energy: the lobes are not normalised, so
+//! nothing in the parameters bounds the albedo by 1 and [`Model::conserves_energy`] is
+//! false. [`Lafortune::albedo_bound`] gives a sufficient bound: since
+//! b = wi·v with v = (cxy wo.x, cxy wo.y, cz wo.z), |v| ≤ M = max(|cxy|, |cz|), a lobe's
+//! albedo is at most ρ Mⁿ · 2π/(n+2) (a cosine lobe's albedo is largest about the normal,
+//! Lewis 1994, as the plausible-phong tests measure), and the surface conserves energy
+//! when ρd + Σ ρⱼ Mⱼ^nⱼ 2π/(nⱼ+2) ≤ 1.
+
+use crate::json;
+use crate::phong::{N_DOMAIN, channel, check_count, check_rgb};
+use crate::plausible_phong::RHO_DOMAIN;
+use brdfkit_core::model::{Domain, check_param};
+use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use serde_json::{Map, Value, json};
+use std::f64::consts::{FRAC_1_PI, PI};
+
+/// The domain of cxy and cz.
+pub const C_DOMAIN: Domain = Domain::real();
+/// The domain of a lobe's ρ (not an albedo: the lobe integral depends on c and n).
+pub const LOBE_RHO_DOMAIN: Domain = Domain::at_least(0.0);
+
+/// Parameters per lobe in the flat vector: cxy, cz, n, ρ (3).
+const PER_LOBE: usize = 6;
+
+/// max(0, b)ⁿ and its derivatives with respect to b and n.
+///
+/// Bases below the smallest normal double (2.2e-308, including 0 and the negative
+/// bases of the lobe's definition) count as 0: there nⁿ⁻¹ = n bⁿ/b overflows for n < 1,
+/// and such a base only arises within ~1e-154 rad of the horizon or of the lobe's
+/// zero set. At b = 0 this also settles 0⁰ as 0, the limit of 0ⁿ as n → 0⁺ (as in
+/// [`crate::phong::cos_pow`]).
+#[inline(always)]
+fn lobe_pow(b: f64, n: f64) -> f64 {
+    if b >= f64::MIN_POSITIVE {
+        b.powf(n)
+    } else {
+        0.0
+    }
+}
+
+/// (bⁿ, ∂bⁿ/∂b = n bⁿ/b, ∂bⁿ/∂n = bⁿ ln b); see [`lobe_pow`].
+#[inline(always)]
+fn lobe_pow_grad(b: f64, n: f64) -> (f64, f64, f64) {
+    if b >= f64::MIN_POSITIVE {
+        let p = b.powf(n);
+        (p, n * p / b, p * b.ln())
+    } else {
+        (0.0, 0.0, 0.0)
+    }
+}
+
+/// One generalised cosine lobe ρ · max(0, cxy (wi.x wo.x + wi.y wo.y) + cz wi.z wo.z)ⁿ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LafortuneLobe {
+    cxy: f64,
+    cz: f64,
+    n: f64,
+    rho: Rgb,
+}
+
+impl Default for LafortuneLobe {
+    /// The Phong lobe cos²⁰θr with ρ = 1 (albedo at most 2π/22 ≈ 0.286).
+    fn default() -> Self {
+        LafortuneLobe {
+            cxy: -1.0,
+            cz: 1.0,
+            n: 20.0,
+            rho: Rgb::splat(1.0),
+        }
+    }
+}
+
+impl LafortuneLobe {
+    /// A lobe; cxy, cz real, n ∈ [0, ∞), ρ per channel in [0, ∞).
+    pub fn new(cxy: f64, cz: f64, n: f64, rho: Rgb) -> Result<Self, ModelError> {
+        Self::checked(cxy, cz, n, rho, "")
+    }
+
+    /// Validates with parameter names prefixed by `prefix` (e.g. `lobes[1].`).
+    fn checked(cxy: f64, cz: f64, n: f64, rho: Rgb, prefix: &str) -> Result<Self, ModelError> {
+        Ok(LafortuneLobe {
+            cxy: check_param(&format!("{prefix}cxy"), cxy, C_DOMAIN)?,
+            cz: check_param(&format!("{prefix}cz"), cz, C_DOMAIN)?,
+            n: check_param(&format!("{prefix}n"), n, N_DOMAIN)?,
+            rho: check_rgb(&format!("{prefix}rho"), rho, LOBE_RHO_DOMAIN)?,
+        })
+    }
+
+    /// The coefficient of wi.x wo.x + wi.y wo.y.
+    pub fn cxy(&self) -> f64 {
+        self.cxy
+    }
+
+    /// The coefficient of wi.z wo.z.
+    pub fn cz(&self) -> f64 {
+        self.cz
+    }
+
+    /// The exponent.
+    pub fn n(&self) -> f64 {
+        self.n
+    }
+
+    /// The lobe's scale ρ.
+    pub fn rho(&self) -> Rgb {
+        self.rho
+    }
+
+    /// An upper bound of the lobe's directional albedo, ρ Mⁿ 2π/(n+2) with
+    /// M = max(|cxy|, |cz|) (module doc).
+    pub fn albedo_bound(&self) -> Rgb {
+        let m = self.cxy.abs().max(self.cz.abs());
+        self.rho * (m.powf(self.n) * 2.0 * PI / (self.n + 2.0))
+    }
+
+    fn to_json(self) -> Value {
+        json!({"cxy": self.cxy, "cz": self.cz, "n": self.n, "rho": json::rgb_value(self.rho)})
+    }
+}
+
+/// The Lafortune model: ρd/π plus generalised cosine lobes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lafortune {
+    rho_d: Rgb,
+    lobes: Vec<LafortuneLobe>,
+}
+
+impl Default for Lafortune {
+    fn default() -> Self {
+        Lafortune {
+            rho_d: Rgb::splat(0.5),
+            lobes: vec![LafortuneLobe::default()],
+        }
+    }
+}
+
+impl Lafortune {
+    /// ρd per channel in [0, 1] and any number of lobes.
+    pub fn new(rho_d: Rgb, lobes: Vec<LafortuneLobe>) -> Result<Self, ModelError> {
+        Lafortune::default().with_rho_d(rho_d)?.with_lobes(lobes)
+    }
+
+    /// Sets ρd (each channel in [0, 1]).
+    pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
+        self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
+        Ok(self)
+    }
+
+    /// Replaces the lobes (each already validated by [`LafortuneLobe::new`]).
+    pub fn with_lobes(mut self, lobes: Vec<LafortuneLobe>) -> Result<Self, ModelError> {
+        self.lobes = lobes;
+        Ok(self)
+    }
+
+    /// Appends a lobe.
+    pub fn with_lobe(mut self, lobe: LafortuneLobe) -> Result<Self, ModelError> {
+        self.lobes.push(lobe);
+        Ok(self)
+    }
+
+    /// The diffuse albedo ρd.
+    pub fn rho_d(&self) -> Rgb {
+        self.rho_d
+    }
+
+    /// The lobes.
+    pub fn lobes(&self) -> &[LafortuneLobe] {
+        &self.lobes
+    }
+
+    /// A sufficient bound of the directional albedo: ρd + Σ ρⱼ Mⱼ^nⱼ 2π/(nⱼ+2) per
+    /// channel (module doc). Energy is conserved when every channel is ≤ 1.
+    pub fn albedo_bound(&self) -> Rgb {
+        self.lobes
+            .iter()
+            .fold(self.rho_d, |a, l| a + l.albedo_bound())
+    }
+
+    /// From the `params` object of the JSON contract.
+    pub fn from_params_json(params: &Value) -> Result<Self, ModelError> {
+        const M: &str = "lafortune";
+        let o = json::params_object(params, M)?;
+        json::deny_unknown(&o, &["rho_d", "lobes"], M)?;
+        let d = Lafortune::default();
+        let rho_d = json::rgb_or(&o, "rho_d", d.rho_d.r(), M)?;
+        let lobes = match o.get("lobes") {
+            None => d.lobes,
+            Some(Value::Array(a)) => a
+                .iter()
+                .enumerate()
+                .map(|(i, v)| lobe_from_json(i, v))
+                .collect::<Result<_, _>>()?,
+            Some(v) => {
+                return Err(ModelError::Invalid(format!(
+                    "`lobes` of `lafortune` must be an array of lobe objects, found {}",
+                    json::kind(v)
+                )));
+            }
+        };
+        Lafortune::new(rho_d, lobes)
+    }
+}
+
+/// Lobe `i` of the JSON `lobes` list; absent fields take the default lobe's values.
+fn lobe_from_json(i: usize, v: &Value) -> Result<LafortuneLobe, ModelError> {
+    let what = format!("lafortune lobes[{i}]");
+    let o: &Map<String, Value> = v.as_object().ok_or_else(|| {
+        ModelError::Invalid(format!(
+            "`lobes[{i}]` of `lafortune` must be an object {{\"cxy\", \"cz\", \"n\", \"rho\"}}, found {}",
+            json::kind(v)
+        ))
+    })?;
+    json::deny_unknown(o, &["cxy", "cz", "n", "rho"], &what)?;
+    let d = LafortuneLobe::default();
+    LafortuneLobe::checked(
+        json::number_or(o, "cxy", d.cxy, &what)?,
+        json::number_or(o, "cz", d.cz, &what)?,
+        json::number_or(o, "n", d.n, &what)?,
+        json::rgb_or(o, "rho", d.rho.r(), &what)?,
+        &format!("lobes[{i}]."),
+    )
+}
+
+impl Lafortune {
+    /// f from the products wi.x wo.x + wi.y wo.y and wi.z wo.z (both directions above the
+    /// horizon); the single kernel of `eval` and `eval_batch`.
+    #[inline(always)]
+    fn kernel(&self, xy: f64, zz: f64) -> Rgb {
+        let mut f = self.rho_d * FRAC_1_PI;
+        for l in &self.lobes {
+            f += l.rho * lobe_pow(l.cxy * xy + l.cz * zz, l.n);
+        }
+        f
+    }
+
+    /// f and the gradient into `grad[p * stride]` for parameter p; the single kernel of
+    /// `eval_grad` (stride 1) and `eval_grad_batch` (stride = batch length).
+    #[inline(always)]
+    fn kernel_grad(&self, xy: f64, zz: f64, grad: &mut [Rgb], stride: usize) -> Rgb {
+        let mut f = self.rho_d * FRAC_1_PI;
+        for c in 0..3 {
+            grad[c * stride] = channel(c, FRAC_1_PI);
+        }
+        for (j, l) in self.lobes.iter().enumerate() {
+            let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
+            f += l.rho * p;
+            let base = (3 + PER_LOBE * j) * stride;
+            grad[base] = l.rho * (dp_db * xy);
+            grad[base + stride] = l.rho * (dp_db * zz);
+            grad[base + 2 * stride] = l.rho * dp_dn;
+            for c in 0..3 {
+                grad[base + (3 + c) * stride] = channel(c, p);
+            }
+        }
+        f
+    }
+}
+
+impl Brdf for Lafortune {
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.kernel(wi.x * wo.x + wi.y * wo.y, wi.z * wo.z)
+    }
+}
+
+impl Model for Lafortune {
+    fn name(&self) -> &'static str {
+        "lafortune"
+    }
+
+    fn param_specs(&self) -> Vec<ParamSpec> {
+        let d = LafortuneLobe::default();
+        let mut v = ParamSpec::per_channel("rho_d", RHO_DOMAIN, 0.5).to_vec();
+        for j in 0..self.lobes.len() {
+            v.push(ParamSpec::shared(
+                format!("lobes[{j}].cxy"),
+                C_DOMAIN,
+                d.cxy,
+            ));
+            v.push(ParamSpec::shared(format!("lobes[{j}].cz"), C_DOMAIN, d.cz).fixed());
+            v.push(ParamSpec::shared(format!("lobes[{j}].n"), N_DOMAIN, d.n));
+            v.extend(ParamSpec::per_channel(
+                &format!("lobes[{j}].rho"),
+                LOBE_RHO_DOMAIN,
+                d.rho.r(),
+            ));
+        }
+        v
+    }
+
+    fn params(&self) -> Vec<f64> {
+        let mut v = self.rho_d.0.to_vec();
+        for l in &self.lobes {
+            v.extend([l.cxy, l.cz, l.n]);
+            v.extend(l.rho.0);
+        }
+        v
+    }
+
+    fn num_params(&self) -> usize {
+        3 + PER_LOBE * self.lobes.len()
+    }
+
+    fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
+        check_count(self.num_params(), p.len())?;
+        let lobes = p[3..]
+            .chunks_exact(PER_LOBE)
+            .enumerate()
+            .map(|(j, q)| {
+                LafortuneLobe::checked(
+                    q[0],
+                    q[1],
+                    q[2],
+                    Rgb::new(q[3], q[4], q[5]),
+                    &format!("lobes[{j}]."),
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        *self = Lafortune::new(Rgb::new(p[0], p[1], p[2]), lobes)?;
+        Ok(())
+    }
+
+    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
+        let np = self.num_params();
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            grad[..np].fill(Rgb::ZERO);
+            return Rgb::ZERO;
+        }
+        self.kernel_grad(wi.x * wo.x + wi.y * wo.y, wi.z * wo.z, grad, 1)
+    }
+
+    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
+        let n = g.len();
+        let out = &mut out[..n];
+        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
+        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
+        for k in 0..n {
+            out[k] = if iz[k] > 0.0 && oz[k] > 0.0 {
+                self.kernel(ix[k] * ox[k] + iy[k] * oy[k], iz[k] * oz[k])
+            } else {
+                Rgb::ZERO
+            };
+        }
+    }
+
+    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
+        let n = g.len();
+        let np = self.num_params();
+        let out = &mut out[..n];
+        let grad = &mut grad[..np * n];
+        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
+        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
+        for k in 0..n {
+            if iz[k] > 0.0 && oz[k] > 0.0 {
+                let xy = ix[k] * ox[k] + iy[k] * oy[k];
+                out[k] = self.kernel_grad(xy, iz[k] * oz[k], &mut grad[k..], n);
+            } else {
+                out[k] = Rgb::ZERO;
+                for p in 0..np {
+                    grad[p * n + k] = Rgb::ZERO;
+                }
+            }
+        }
+    }
+
+    fn to_json(&self) -> Value {
+        let lobes: Vec<Value> = self.lobes.iter().map(|l| l.to_json()).collect();
+        json!({"model": "lafortune", "params": {
+            "rho_d": json::rgb_value(self.rho_d),
+            "lobes": lobes,
+        }})
+    }
+
+    fn clone_box(&self) -> Box<dyn Model> {
+        Box::new(self.clone())
+    }
+
+    /// False: the lobes are not normalised; see [`Lafortune::albedo_bound`].
+    fn conserves_energy(&self) -> bool {
+        false
+    }
+}
