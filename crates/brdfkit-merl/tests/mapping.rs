@@ -146,7 +146,7 @@ fn flat_index_of_hand_computed_angles() {
 
 fn random_pair(rng: &mut ChaCha8Rng) -> (Vec3, Vec3) {
     // z uniform in (0, 1]: uniform over the hemisphere, strictly above the horizon.
-    let mut dir = |rng: &mut ChaCha8Rng| {
+    let dir = |rng: &mut ChaCha8Rng| {
         let z: f64 = 1.0 - rng.random::<f64>();
         spherical(z.acos(), rng.random_range(-PI..PI))
     };
