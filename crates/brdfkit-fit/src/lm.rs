@@ -63,6 +63,18 @@ fn scaling(a: &DMatrix<f64>) -> DVector<f64> {
     DVector::from_iterator(m, (0..m).map(|q| a[(q, q)].max(floor)))
 }
 
+/// Largest change of any reparameterised coordinate in one step. A Newton step can be
+/// huge where the model is far from the data; taken whole, it drives a logit to
+/// saturation (dx/du ≈ 0) where the parameter can never come back. e³ ≈ 20 is a big
+/// move for a log parameter, and 0.05 → 0.5 for a logit one.
+pub const MAX_STEP: f64 = 3.0;
+
+/// Scales a step so no coordinate changes by more than [`MAX_STEP`].
+fn clip_step(h: DVector<f64>) -> DVector<f64> {
+    let m = h.amax();
+    if m > MAX_STEP { h * (MAX_STEP / m) } else { h }
+}
+
 /// Solves (A + μ D) h = −g by Cholesky; `None` when the matrix is not numerically
 /// positive definite (the caller raises μ).
 fn damped_step(
@@ -189,19 +201,13 @@ where
                 rejected += 1;
                 continue;
             };
-            if h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol) {
-                self.criterion = Some("step below xtol");
-                let cost = ne.cost;
-                self.ne = Some(ne);
-                return Ok((
-                    state.param(u).cost(cost),
-                    Some(argmin::kv!("rejected" => rejected;)),
-                ));
-            }
+            let h = clip_step(h);
+            let small = h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol);
             let un = &u + &h;
             let fnew = problem.cost(&un)?;
-            let dh = h.component_mul(&d);
-            let pred = 0.5 * h.dot(&(self.mu * dh - &ne.jtr));
+            // Predicted decrease of the quadratic model, −hᵀg − ½ hᵀ(JᵀJ)h: valid for
+            // the clipped step too (the closed form ½ hᵀ(μDh − g) is not).
+            let pred = -h.dot(&ne.jtr) - 0.5 * h.dot(&(&ne.jtj * &h));
             let actual = ne.cost - fnew;
             let rho = if pred > 0.0 { actual / pred } else { -1.0 };
             if fnew.is_finite() && rho > 0.0 {
@@ -209,7 +215,10 @@ where
                 self.mu *= (1.0f64 / 3.0).max(1.0 - t * t * t);
                 self.nu = 2.0;
                 let ne2 = problem.problem("jacobian_count", |p| p.normal_equations(&un))?;
-                if actual <= self.tol.ftol * ne.cost {
+                if small {
+                    // MINPACK's xtol: tested on a step that was taken.
+                    self.criterion = Some("step below xtol");
+                } else if actual <= self.tol.ftol * ne.cost {
                     self.criterion = Some("relative cost decrease below ftol");
                 }
                 let g = ne2.jtr.clone();
@@ -218,6 +227,16 @@ where
                 return Ok((
                     state.param(un).cost(cost).gradient(g),
                     Some(argmin::kv!("mu" => self.mu; "rejected" => rejected;)),
+                ));
+            }
+            if small {
+                // A rejected step this small: more damping only shrinks it further.
+                self.criterion = Some("step below xtol");
+                let cost = ne.cost;
+                self.ne = Some(ne);
+                return Ok((
+                    state.param(u).cost(cost),
+                    Some(argmin::kv!("rejected" => rejected;)),
                 ));
             }
             self.mu *= self.nu;
@@ -343,6 +362,7 @@ where
             self.ne = Some(ne);
             return Ok((state.param(u).cost(c), None));
         };
+        let h = clip_step(h);
         if h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol) {
             self.criterion = Some("step below xtol");
             let c = ne.cost;
