@@ -55,7 +55,7 @@ const PER_LOBE: usize = 6;
 /// max(0, b)ⁿ and its derivatives with respect to b and n.
 ///
 /// Bases below the smallest normal double (2.2e-308, including 0 and the negative
-/// bases of the lobe's definition) count as 0: there nⁿ⁻¹ = n bⁿ/b overflows for n < 1,
+/// bases of the lobe's definition) count as 0: there n bⁿ⁻¹ = n bⁿ/b overflows for n < 1,
 /// and such a base only arises within ~1e-154 rad of the horizon or of the lobe's
 /// zero set. At b = 0 this also settles 0⁰ as 0, the limit of 0ⁿ as n → 0⁺ (as in
 /// [`crate::phong::cos_pow`]).
@@ -410,5 +410,227 @@ impl Model for Lafortune {
     /// False: the lobes are not normalised; see [`Lafortune::albedo_bound`].
     fn conserves_energy(&self) -> bool {
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lambert::Lambert;
+    use crate::plausible_phong::PlausiblePhong;
+    use crate::testing::*;
+    use brdfkit_core::direction::spherical;
+    use proptest::prelude::*;
+    use std::f64::consts::PI;
+
+    fn lobe(cxy: f64, cz: f64, n: f64, rho: Rgb) -> LafortuneLobe {
+        LafortuneLobe::new(cxy, cz, n, rho).unwrap()
+    }
+
+    /// A forward-scattering lobe tilted towards grazing plus a retro-reflective one.
+    fn model() -> Lafortune {
+        Lafortune::new(
+            Rgb::new(0.2, 0.3, 0.4),
+            vec![
+                lobe(-1.1, 0.9, 15.0, Rgb::new(0.8, 0.6, 0.4)),
+                lobe(0.6, 0.7, 4.0, Rgb::new(0.1, 0.2, 0.3)),
+            ],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn value_matches_the_angle_formula() {
+        let m = model();
+        let mut r = SplitMix64(15);
+        for _ in 0..500 {
+            let (ti, pi, to, po) = (
+                r.uniform(0.0, 1.5),
+                r.uniform(-3.0, 3.0),
+                r.uniform(0.0, 1.5),
+                r.uniform(-3.0, 3.0),
+            );
+            let xy = ti.sin() * to.sin() * (pi - po).cos();
+            let zz = ti.cos() * to.cos();
+            let f = m.eval(&spherical(ti, pi), &spherical(to, po));
+            for c in 0..3 {
+                let mut want = m.rho_d()[c] / PI;
+                for l in m.lobes() {
+                    let b = l.cxy() * xy + l.cz() * zz;
+                    if b > 0.0 {
+                        want += l.rho()[c] * b.powf(l.n());
+                    }
+                }
+                assert!((f[c] - want).abs() <= 1e-12 * want, "{} vs {want}", f[c]);
+            }
+        }
+    }
+
+    #[test]
+    fn phong_lobe_is_plausible_phong() {
+        // cxy = −1, cz = 1: the base is cos θr; ρ = ρs (n+2)/(2π) is plausible Phong.
+        let n = 35.0;
+        let rho_s = Rgb::new(0.5, 0.3, 0.1);
+        let p = PlausiblePhong::new(Rgb::new(0.2, 0.4, 0.6), rho_s, n).unwrap();
+        let l = Lafortune::new(
+            Rgb::new(0.2, 0.4, 0.6),
+            vec![lobe(-1.0, 1.0, n, rho_s * ((n + 2.0) / (2.0 * PI)))],
+        )
+        .unwrap();
+        for (wi, wo) in random_pairs(5, 1000) {
+            let (a, b) = (l.eval(&wi, &wo), p.eval(&wi, &wo));
+            for c in 0..3 {
+                assert!((a[c] - b[c]).abs() <= 1e-12 * b[c], "{a:?} vs {b:?}");
+            }
+        }
+        // No lobes: Lambert, exactly.
+        let l = Lafortune::new(Rgb::new(0.2, 0.4, 0.6), vec![]).unwrap();
+        let lam = Lambert::new(Rgb::new(0.2, 0.4, 0.6)).unwrap();
+        for (wi, wo) in random_pairs(6, 100) {
+            assert_eq!(l.eval(&wi, &wo), lam.eval(&wi, &wo));
+        }
+    }
+
+    #[test]
+    fn retro_lobe_peaks_at_the_viewer() {
+        let m = Lafortune::new(Rgb::ZERO, vec![lobe(1.0, 1.0, 50.0, Rgb::splat(1.0))]).unwrap();
+        let wo = spherical(0.8, 0.5);
+        assert!((m.eval(&wo, &wo).r() - 1.0).abs() < 1e-13);
+        assert!(m.eval(&Vec3::new(-wo.x, -wo.y, wo.z), &wo).r() < 1e-10);
+    }
+
+    #[test]
+    fn lobe_pow_conventions() {
+        assert_eq!(lobe_pow(0.0, 0.0), 0.0);
+        assert_eq!(lobe_pow(-1.0, 2.0), 0.0);
+        assert_eq!(lobe_pow(1e-310, 0.01), 0.0, "subnormal bases count as 0");
+        assert_eq!(lobe_pow(0.5, 2.0), 0.25);
+        assert_eq!(lobe_pow_grad(0.5, 2.0), (0.25, 1.0, 0.25 * 0.5f64.ln()));
+        let (p, db, dn) = lobe_pow_grad(f64::MIN_POSITIVE, 0.01);
+        assert!(p > 0.0 && db.is_finite() && dn.is_finite());
+    }
+
+    #[test]
+    fn builder_and_set_params_validate() {
+        let e = LafortuneLobe::new(-1.0, 1.0, -2.0, Rgb::splat(1.0)).unwrap_err();
+        assert!(e.to_string().contains("`n`"), "{e}");
+        assert!(LafortuneLobe::new(f64::NAN, 1.0, 2.0, Rgb::splat(1.0)).is_err());
+        assert!(LafortuneLobe::new(-1.0, 1.0, 2.0, Rgb::new(1.0, -1.0, 1.0)).is_err());
+        let mut m = model();
+        let mut p = m.params();
+        assert_eq!(p.len(), 15);
+        p[3 + 6 + 2] = -1.0; // lobes[1].n
+        let e = m.set_params(&p).unwrap_err();
+        assert!(e.to_string().contains("`lobes[1].n`"), "{e}");
+        assert!(m.set_params(&p[..14]).is_err());
+        assert_eq!(m, model());
+        let specs = m.param_specs();
+        let names: Vec<_> = specs.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(
+            &names[..9],
+            [
+                "rho_d.r",
+                "rho_d.g",
+                "rho_d.b",
+                "lobes[0].cxy",
+                "lobes[0].cz",
+                "lobes[0].n",
+                "lobes[0].rho.r",
+                "lobes[0].rho.g",
+                "lobes[0].rho.b"
+            ]
+        );
+        assert_eq!(names[14], "lobes[1].rho.b");
+        assert!(!specs[4].fit_by_default && specs[3].fit_by_default);
+        assert!(m.is_reciprocal() && !m.conserves_energy());
+        let mut q = m.params();
+        q[3] = -0.5;
+        m.set_params(&q).unwrap();
+        assert_eq!(m.lobes()[0].cxy(), -0.5);
+    }
+
+    #[test]
+    fn json_round_trip_and_errors() {
+        let m = model();
+        let back = crate::from_json(&m.to_json()).unwrap();
+        assert_eq!(back.params(), m.params());
+        let d = crate::default_model("lafortune").unwrap();
+        assert_eq!(
+            d.params(),
+            vec![0.5, 0.5, 0.5, -1.0, 1.0, 20.0, 1.0, 1.0, 1.0]
+        );
+        let two = crate::from_json_str(
+            r#"{"model":"lafortune","params":{"lobes":[{"cxy":-0.9,"rho":[0.1,0.2,0.3]},{"n":3}]}}"#,
+        )
+        .unwrap();
+        assert_eq!(two.num_params(), 15);
+        assert_eq!(two.params()[3..9], [-0.9, 1.0, 20.0, 0.1, 0.2, 0.3]);
+        let none = crate::from_json_str(r#"{"model":"lafortune","params":{"lobes":[]}}"#).unwrap();
+        assert_eq!(none.num_params(), 3);
+        for (bad, needle) in [
+            (r#"{"lobes":[{"cx":1}]}"#, "`cx`"),
+            (r#"{"lobes":[{"n":-1}]}"#, "`lobes[0].n`"),
+            (r#"{"lobes":[{}, 3]}"#, "`lobes[1]`"),
+            (r#"{"lobes":{"cxy":1}}"#, "`lobes`"),
+            (r#"{"lobe":[]}"#, "`lobe`"),
+        ] {
+            let v: Value = serde_json::from_str(bad).unwrap();
+            let e = Lafortune::from_params_json(&v).unwrap_err();
+            assert!(e.to_string().contains(needle), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn shared_checks() {
+        let m = model();
+        let pairs = random_pairs(16, 300);
+        assert_paths_agree(&m, &pairs, 0.0);
+        assert_paths_agree(&m, &hard_case_pairs(), 0.0);
+        assert_reciprocal(&m, &pairs, 1e-12);
+        assert_reciprocal(&m, &hard_case_pairs(), 1e-12);
+        assert_reciprocal(&m, &dense_grid_pairs(20, 8), 1e-12);
+        assert_nonnegative(&m, &dense_grid_pairs(40, 16));
+        assert_zero_below_horizon(&m);
+        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+    }
+
+    #[test]
+    fn hard_cases_stay_finite() {
+        for n in [0.0, 1.0, 1e3, 1e6] {
+            for rho in [0.0, 1.0, 100.0] {
+                let m = Lafortune::new(
+                    Rgb::splat(0.5),
+                    vec![
+                        lobe(-1.0, 1.0, n, Rgb::splat(rho)),
+                        lobe(-0.9, 0.95, n, Rgb::splat(rho)),
+                        lobe(1.0, 1.0, n, Rgb::splat(rho)),
+                        lobe(0.5, -0.2, n, Rgb::splat(rho)),
+                    ],
+                )
+                .unwrap();
+                assert_finite_everywhere(&m, &hard_case_pairs());
+                assert_paths_agree(&m, &hard_case_pairs(), 0.0);
+                assert_zero_below_horizon(&m);
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn gradient_matches_finite_differences(
+            cxy in -1.2f64..-0.3, cz in 0.3f64..1.2, n in 2.0f64..100.0, rho in 0.01f64..3.0,
+            rcxy in 0.1f64..1.0, rn in 2.0f64..10.0, d in 0.01f64..0.99, seed in any::<u64>()
+        ) {
+            let m = Lafortune::new(
+                Rgb::new(d, 0.5, 0.3),
+                vec![lobe(cxy, cz, n, Rgb::new(rho, 0.5 * rho, 0.2)), lobe(rcxy, 0.8, rn, Rgb::splat(0.3))],
+            )
+            .unwrap();
+            let pairs = random_pairs(seed, 12);
+            assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+            assert_paths_agree(&m, &pairs, 0.0);
+            assert_reciprocal(&m, &pairs, 1e-12);
+        }
     }
 }

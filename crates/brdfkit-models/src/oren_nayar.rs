@@ -244,3 +244,137 @@ impl Model for OrenNayar {
         false
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lambert::Lambert;
+    use crate::testing::*;
+    use brdfkit_core::direction::spherical;
+    use proptest::prelude::*;
+    use std::f64::consts::PI;
+
+    fn model() -> OrenNayar {
+        OrenNayar::new(Rgb::new(0.2, 0.5, 0.9), 0.4).unwrap()
+    }
+
+    #[test]
+    fn value_matches_the_trigonometric_formula() {
+        // Independent truth: the paper's formula with angles, α, β and tan β.
+        let m = model();
+        let (a, b, _, _) = coefficients(0.4);
+        let mut r = SplitMix64(10);
+        for _ in 0..1000 {
+            let (ti, pi, to, po) = (
+                r.uniform(0.0, 1.55),
+                r.uniform(-3.0, 3.0),
+                r.uniform(0.0, 1.55),
+                r.uniform(-3.0, 3.0),
+            );
+            let (al, be) = (ti.max(to), ti.min(to));
+            let t = (pi - po).cos().max(0.0) * al.sin() * be.tan();
+            let f = m.eval(&spherical(ti, pi), &spherical(to, po));
+            for c in 0..3 {
+                let want = m.rho_d()[c] / PI * (a + b * t);
+                assert!((f[c] - want).abs() <= 1e-12 * want, "{} vs {want}", f[c]);
+            }
+        }
+    }
+
+    #[test]
+    fn coefficients_match_the_paper() {
+        let (a, b, _, _) = coefficients(0.0);
+        assert_eq!((a, b), (1.0, 0.0));
+        let s: f64 = 0.3 * 0.3;
+        let (a, b, _, _) = coefficients(0.3);
+        assert!((a - (1.0 - s / (2.0 * (s + 0.33)))).abs() < 1e-15);
+        assert!((b - 0.45 * s / (s + 0.09)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn sigma_zero_is_lambert() {
+        let m = OrenNayar::new(Rgb::new(0.2, 0.5, 0.9), 0.0).unwrap();
+        let l = Lambert::new(Rgb::new(0.2, 0.5, 0.9)).unwrap();
+        for (wi, wo) in random_pairs(4, 500).iter().chain(&hard_case_pairs()) {
+            assert_eq!(m.eval(wi, wo), l.eval(wi, wo));
+        }
+    }
+
+    #[test]
+    fn builder_and_set_params_validate() {
+        let e = OrenNayar::new(Rgb::splat(0.5), 2.0).unwrap_err();
+        assert!(e.to_string().contains("`sigma`"), "{e}");
+        assert!(e.to_string().contains("[0, 1.57"), "{e}");
+        assert!(OrenNayar::new(Rgb::new(0.5, 0.5, -0.5), 0.2).is_err());
+        let mut m = model();
+        assert!(m.set_params(&[0.1, 0.1, 0.1, -0.1]).is_err());
+        assert!(m.set_params(&[0.1, 0.1, 0.1]).is_err());
+        assert_eq!(m, model());
+        let names: Vec<_> = m.param_specs().into_iter().map(|s| s.name).collect();
+        assert_eq!(names, ["rho_d.r", "rho_d.g", "rho_d.b", "sigma"]);
+        assert!(m.is_reciprocal() && !m.conserves_energy());
+    }
+
+    #[test]
+    fn json_round_trip_and_errors() {
+        let m = model();
+        let back = crate::from_json(&m.to_json()).unwrap();
+        assert_eq!(back.params(), m.params());
+        assert_eq!(
+            crate::default_model("oren-nayar").unwrap().params(),
+            vec![0.5, 0.5, 0.5, 0.3]
+        );
+        let e = crate::from_json_str(r#"{"model":"oren-nayar","params":{"roughness":0.1}}"#)
+            .unwrap_err();
+        assert!(e.to_string().contains("`roughness`"), "{e}");
+        let e = crate::from_json_str(r#"{"model":"oren-nayar","params":{"sigma":[0.1,0.1,0.1]}}"#)
+            .unwrap_err();
+        assert!(e.to_string().contains("`sigma`"), "{e}");
+    }
+
+    #[test]
+    fn shared_checks() {
+        let m = model();
+        let pairs = random_pairs(14, 300);
+        assert_paths_agree(&m, &pairs, 0.0);
+        assert_paths_agree(&m, &hard_case_pairs(), 0.0);
+        assert_reciprocal(&m, &pairs, 1e-12);
+        assert_reciprocal(&m, &hard_case_pairs(), 1e-12);
+        assert_reciprocal(&m, &dense_grid_pairs(20, 8), 1e-12);
+        assert_nonnegative(&m, &dense_grid_pairs(40, 16));
+        assert_zero_below_horizon(&m);
+        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+    }
+
+    #[test]
+    fn hard_cases_stay_finite() {
+        for sigma in [0.0, 1e-6, 0.3, FRAC_PI_2] {
+            for rho in [0.0, 0.5, 1.0] {
+                let m = OrenNayar::new(Rgb::splat(rho), sigma).unwrap();
+                assert_finite_everywhere(&m, &hard_case_pairs());
+                assert_paths_agree(&m, &hard_case_pairs(), 0.0);
+                assert_zero_below_horizon(&m);
+            }
+        }
+        // Both directions above the horizon by a subnormal: the term is capped by MIN_COS.
+        let m = OrenNayar::new(Rgb::splat(1.0), FRAC_PI_2).unwrap();
+        let w = Vec3::new(1.0, 0.0, 1e-310);
+        let mut g = vec![Rgb::ZERO; 4];
+        let f = m.eval_grad(&w, &w, &mut g);
+        assert!(f.is_finite() && g.iter().all(Rgb::is_finite), "{f:?} {g:?}");
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn gradient_matches_finite_differences(
+            rho in 0.01f64..0.99, sigma in 0.001f64..1.5, seed in any::<u64>()
+        ) {
+            let m = OrenNayar::new(Rgb::new(rho, 0.5, 0.9 * rho), sigma).unwrap();
+            let pairs = random_pairs(seed, 12);
+            assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+            assert_paths_agree(&m, &pairs, 0.0);
+            assert_reciprocal(&m, &pairs, 1e-12);
+        }
+    }
+}

@@ -243,3 +243,202 @@ impl Model for Sum {
         self.terms.iter().all(|t| t.conserves_energy())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::blinn_phong::BlinnPhong;
+    use crate::lafortune::{Lafortune, LafortuneLobe};
+    use crate::lambert::Lambert;
+    use crate::oren_nayar::OrenNayar;
+    use crate::phong::Phong;
+    use crate::plausible_phong::PlausiblePhong;
+    use crate::testing::*;
+    use brdfkit_core::GeometryBatch;
+    use proptest::prelude::*;
+
+    fn terms() -> Vec<Box<dyn Model>> {
+        vec![
+            Box::new(OrenNayar::new(Rgb::new(0.3, 0.2, 0.1), 0.3).unwrap()),
+            Box::new(PlausiblePhong::new(Rgb::splat(0.05), Rgb::new(0.2, 0.3, 0.4), 25.0).unwrap()),
+            Box::new(
+                Lafortune::new(
+                    Rgb::splat(0.01),
+                    vec![LafortuneLobe::new(-1.05, 0.95, 200.0, Rgb::splat(5.0)).unwrap()],
+                )
+                .unwrap(),
+            ),
+        ]
+    }
+
+    fn model() -> Sum {
+        Sum::new(terms()).unwrap()
+    }
+
+    #[test]
+    fn value_and_gradient_are_the_terms_summed_and_concatenated() {
+        let m = model();
+        let t = terms();
+        assert_eq!(m.num_params(), 4 + 7 + 9);
+        let mut g = vec![Rgb::ZERO; m.num_params()];
+        for (wi, wo) in random_pairs(17, 300).iter().chain(&hard_case_pairs()) {
+            let f = m.eval_grad(wi, wo, &mut g);
+            let mut want = Rgb::ZERO;
+            let mut off = 0;
+            for term in &t {
+                let mut gt = vec![Rgb::ZERO; term.num_params()];
+                want += term.eval_grad(wi, wo, &mut gt);
+                assert_eq!(&g[off..off + gt.len()], &gt[..]);
+                off += gt.len();
+            }
+            assert_eq!(f, want);
+            assert_eq!(m.eval(wi, wo), want);
+        }
+        // The batch gradient holds each term's parameter-major block in place.
+        let pairs = random_pairs(18, 50);
+        let b = GeometryBatch::from_pairs(&pairs);
+        let (mut out, mut grad) = (vec![Rgb::ZERO; 50], vec![Rgb::ZERO; 20 * 50]);
+        m.eval_grad_batch(&b.as_slice(), &mut out, &mut grad);
+        let (mut o1, mut g1) = (vec![Rgb::ZERO; 50], vec![Rgb::ZERO; 7 * 50]);
+        t[1].eval_grad_batch(&b.as_slice(), &mut o1, &mut g1);
+        assert_eq!(&grad[4 * 50..11 * 50], &g1[..]);
+    }
+
+    #[test]
+    fn parameters_are_prefixed_and_validated() {
+        let mut m = model();
+        let names: Vec<_> = m.param_specs().into_iter().map(|s| s.name).collect();
+        assert_eq!(names[0], "terms[0].rho_d.r");
+        assert_eq!(names[3], "terms[0].sigma");
+        assert_eq!(names[10], "terms[1].n");
+        assert_eq!(names[14], "terms[2].lobes[0].cxy");
+        assert!(
+            !m.param_specs()[15].fit_by_default,
+            "lafortune cz stays fixed"
+        );
+        let before = m.params();
+        let mut p = before.clone();
+        p[0] = 0.9; // valid, but the next one is not: nothing may change
+        p[10] = -1.0;
+        let e = m.set_params(&p).unwrap_err();
+        assert!(e.to_string().contains("`terms[1].n`"), "{e}");
+        assert_eq!(m.params(), before);
+        assert!(m.set_params(&p[..5]).is_err());
+        p[10] = 3.0;
+        m.set_params(&p).unwrap();
+        assert_eq!(m.params(), p);
+        assert!(Sum::new(vec![]).is_err());
+        let m2 = Sum::new(vec![Box::new(Lambert::default())])
+            .unwrap()
+            .with_term(Box::new(BlinnPhong::default()))
+            .unwrap();
+        assert_eq!(m2.num_params(), 10);
+    }
+
+    #[test]
+    fn flags_are_combined() {
+        assert!(model().is_reciprocal());
+        assert!(
+            !model().conserves_energy(),
+            "oren-nayar and lafortune do not promise it"
+        );
+        let pp = || Box::new(PlausiblePhong::default()) as Box<dyn Model>;
+        let s = Sum::new(vec![Box::new(Lambert::default()), pp()]).unwrap();
+        assert!(s.is_reciprocal() && s.conserves_energy() && s.is_isotropic());
+        let s = s.with_term(Box::new(Phong::default())).unwrap();
+        assert!(!s.is_reciprocal() && !s.conserves_energy());
+        assert!(max_reciprocity_error(&s, &random_pairs(1, 200)) > 0.1);
+        let s = Sum::new(vec![pp(), Box::new(BlinnPhong::default())]).unwrap();
+        assert!(s.is_reciprocal() && !s.conserves_energy());
+    }
+
+    #[test]
+    fn json_round_trip_nesting_and_errors() {
+        let m = model();
+        let back = crate::from_json(&m.to_json()).unwrap();
+        assert_eq!(back.params(), m.params());
+        assert_eq!(back.to_json(), m.to_json());
+        let d = crate::default_model("sum").unwrap();
+        assert_eq!(d.num_params(), 3 + 7 + 7);
+        assert_eq!(d.params()[..3], [0.4, 0.4, 0.4]);
+        let nested = json!({"model": "sum", "params": {"terms": [
+            {"model": "lambert"},
+            {"model": "sum", "params": {"terms": [{"model": "phong"}]}}
+        ]}});
+        let n = crate::from_json(&nested).unwrap();
+        assert_eq!(n.param_specs()[3].name, "terms[1].terms[0].k_d.r");
+        assert!(!n.is_reciprocal());
+        for (bad, needle) in [
+            (json!({"terms": []}), "at least one"),
+            (json!({"terms": {"model": "lambert"}}), "`terms`"),
+            (json!({"term": []}), "`term`"),
+            (
+                json!({"terms": [{"model": "lambert"}, {"model": "nope"}]}),
+                "`terms[1]`",
+            ),
+            (
+                json!({"terms": [{"model": "lambert"}, {"model": "phong", "params": {"n": -1}}]}),
+                "`terms[1].n`",
+            ),
+            (
+                json!({"terms": [{"model": "lambert", "params": {"x": 1}}]}),
+                "`x`",
+            ),
+        ] {
+            let e = Sum::from_params_json(&bad).unwrap_err();
+            assert!(e.to_string().contains(needle), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn shared_checks() {
+        let m = model();
+        let pairs = random_pairs(19, 300);
+        assert_paths_agree(&m, &pairs, 0.0);
+        assert_paths_agree(&m, &hard_case_pairs(), 0.0);
+        assert_reciprocal(&m, &pairs, 1e-12);
+        assert_reciprocal(&m, &dense_grid_pairs(20, 8), 1e-12);
+        assert_nonnegative(&m, &dense_grid_pairs(40, 16));
+        assert_zero_below_horizon(&m);
+        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+        assert_finite_everywhere(&m, &hard_case_pairs());
+        let d = Sum::default();
+        assert_paths_agree(&d, &pairs, 0.0);
+        assert_zero_below_horizon(&d);
+    }
+
+    #[test]
+    fn hard_cases_stay_finite() {
+        for n in [0.0, 1.0, 1e3, 1e6] {
+            for sigma in [0.0, 1e-6, std::f64::consts::FRAC_PI_2] {
+                let m = Sum::new(vec![
+                    Box::new(OrenNayar::new(Rgb::splat(0.5), sigma).unwrap()),
+                    Box::new(PlausiblePhong::new(Rgb::splat(0.1), Rgb::splat(0.4), n).unwrap()),
+                    Box::new(BlinnPhong::new(Rgb::splat(0.1), Rgb::splat(0.4), n).unwrap()),
+                ])
+                .unwrap();
+                assert_finite_everywhere(&m, &hard_case_pairs());
+                assert_paths_agree(&m, &hard_case_pairs(), 0.0);
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        #[test]
+        fn gradient_matches_finite_differences(
+            rho in 0.01f64..0.99, sigma in 0.01f64..1.5, s in 0.01f64..0.99,
+            n1 in 0.5f64..100.0, n2 in 100.0f64..2000.0, seed in any::<u64>()
+        ) {
+            let m = Sum::new(vec![
+                Box::new(OrenNayar::new(Rgb::new(rho, 0.5, 0.2), sigma).unwrap()),
+                Box::new(PlausiblePhong::new(Rgb::splat(0.05), Rgb::new(s, 0.3, 0.1), n1).unwrap()),
+                Box::new(BlinnPhong::new(Rgb::splat(0.05), Rgb::new(0.1, s, 0.3), n2).unwrap()),
+            ])
+            .unwrap();
+            let pairs = random_pairs(seed, 10);
+            assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+            assert_paths_agree(&m, &pairs, 0.0);
+        }
+    }
+}
