@@ -27,12 +27,13 @@
 //! normal. The term genuinely diverges when both directions graze the horizon; the
 //! denominator is floored at [`MIN_COS`] (see there).
 //!
-//! Reciprocal. Energy: the directional albedo is ρd · A at normal incidence and rises
-//! towards ρd (A + B/2) as θo → 90° (where the integral of max(0, wi·wo)_xy over the
-//! hemisphere is π/2). A + B/2 exceeds 1 for 0 < σ < 0.56, by at most 1.52 % at
-//! σ ≈ 0.199 — the qualitative model adds a little energy at grazing angles. So
-//! ρd ≤ 1 is not enough and [`Model::conserves_energy`] is false; ρd ≤ 0.985
-//! suffices (the tests measure the albedo over θo ≤ 89° and σ ∈ [0, π/2]).
+//! Reciprocal. Energy: the directional albedo is exactly ρd · A at normal incidence and
+//! rises monotonically towards ρd (A + B/2) as θo → 90° (there max(wi.z, wo.z) = wi.z
+//! and ∫ max(0, wi.x wo.x + wi.y wo.y) dωi = π/2). A + B/2 exceeds 1 for
+//! 0 < σ < 0.326 (σ² < 0.02925/0.275), by at most 1.52 % at σ ≈ 0.199: the
+//! qualitative model adds a little energy at grazing angles (measured: albedo 1.0144 ρd
+//! at σ = 0.2, θo = 89°). So ρd ≤ 1 is not enough and [`Model::conserves_energy`] is
+//! false; ρd ≤ 1/1.0152 = 0.985 suffices.
 
 use crate::json;
 use crate::phong::{channel, check_count, check_rgb};
