@@ -16,7 +16,7 @@ pub mod plausible_phong;
 pub mod blinn_phong;
 pub mod lafortune;
 pub mod sum;
-// pub mod ward;
+pub mod ward;
 pub mod cook_torrance;
 // pub mod ashikhmin_shirley;
 
@@ -76,7 +76,7 @@ pub fn from_name_and_params(name: &str, params: &Value) -> Result<Box<dyn Model>
         "blinn-phong" => boxed(blinn_phong::BlinnPhong::from_params_json(params)),
         "lafortune" => boxed(lafortune::Lafortune::from_params_json(params)),
         "sum" => boxed(sum::Sum::from_params_json(params)),
-        // "ward" => boxed(ward::Ward::from_params_json(params)),
+        "ward" => boxed(ward::Ward::from_params_json(params)),
         "cook-torrance" => boxed(cook_torrance::CookTorrance::from_params_json(params)),
         // "ashikhmin-shirley" => boxed(ashikhmin_shirley::AshikhminShirley::from_params_json(params)),
         other => Err(ModelError::Invalid(format!(
