@@ -1,0 +1,156 @@
+//! Evaluations per second of every registered model over the 1,458,000 cells of a MERL
+//! grid (90 θh × 90 θd × 180 φd, φh = 0), single thread and all threads:
+//!
+//! - `eval`: the direction path, `Brdf::eval` over (wi, wo) pairs;
+//! - `eval_batch`: the fast path over precomputed `GeometryBatch` geometry;
+//! - `eval_grad_batch`: value and gradient, as a fit needs them.
+//!
+//! Run with `cargo bench --bench models`. Each measurement is one pass over all cells
+//! (`Throughput::Elements(1_458_000)`). The batch is cut into runs of `CHUNK` cells
+//! (`GeomSlice::sub`) that rayon spreads over a pool of 1 thread or of all threads;
+//! the gradient is written into a per-thread buffer of `CHUNK × num_params` (the full
+//! gradient of a 17-parameter model over the grid would be 0.6 GB).
+//! A model name of `brdfkit_models::MODEL_NAMES` that is not registered yet is reported
+//! and skipped.
+
+use brdfkit_core::{GeometryBatch, HalfDiff, Model, Rgb, Vec3, from_half_diff};
+use brdfkit_models::{MODEL_NAMES, default_model};
+use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use rayon::ThreadPool;
+use rayon::prelude::*;
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::hint::black_box;
+use std::sync::Mutex;
+use std::time::Duration;
+
+/// Cells per rayon task: large enough to amortise scheduling, small enough that the
+/// per-thread gradient buffer stays in the cache hierarchy.
+const CHUNK: usize = 8192;
+
+/// The (wi, wo) pairs of the MERL cells, θh = (i/90)² π/2, θd = j/90 · π/2,
+/// φd = k/180 · π, φh = 0, in table order.
+fn merl_pairs() -> Vec<(Vec3, Vec3)> {
+    let mut v = Vec::with_capacity(90 * 90 * 180);
+    for i in 0..90 {
+        let th = (i as f64 / 90.0).powi(2) * FRAC_PI_2;
+        for j in 0..90 {
+            let td = j as f64 / 90.0 * FRAC_PI_2;
+            for k in 0..180 {
+                let pd = k as f64 / 180.0 * PI;
+                v.push(from_half_diff(&HalfDiff::new(th, 0.0, td, pd)));
+            }
+        }
+    }
+    v
+}
+
+fn pool(threads: Option<usize>) -> ThreadPool {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        b = b.num_threads(t);
+    }
+    b.build().expect("a rayon pool")
+}
+
+fn eval_pairs(pool: &ThreadPool, m: &dyn Model, pairs: &[(Vec3, Vec3)], out: &mut [Rgb]) {
+    pool.install(|| {
+        out.par_chunks_mut(CHUNK)
+            .zip(pairs.par_chunks(CHUNK))
+            .for_each(|(o, p)| {
+                for (o, (wi, wo)) in o.iter_mut().zip(p) {
+                    *o = m.eval(wi, wo);
+                }
+            })
+    });
+}
+
+fn eval_batch(pool: &ThreadPool, m: &dyn Model, g: &GeometryBatch, out: &mut [Rgb]) {
+    let s = g.as_slice();
+    pool.install(|| {
+        out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| {
+            let start = c * CHUNK;
+            m.eval_batch(&s.sub(start..start + o.len()), o);
+        })
+    });
+}
+
+/// One gradient buffer per pool thread (locked once per chunk, never contended).
+fn eval_grad_batch(
+    pool: &ThreadPool,
+    m: &dyn Model,
+    g: &GeometryBatch,
+    out: &mut [Rgb],
+    bufs: &[Mutex<Vec<Rgb>>],
+) {
+    let s = g.as_slice();
+    let np = m.num_params();
+    pool.install(|| {
+        out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| {
+            let start = c * CHUNK;
+            let t = rayon::current_thread_index().unwrap_or(0);
+            let mut grad = bufs[t].lock().expect("an unpoisoned buffer");
+            m.eval_grad_batch(&s.sub(start..start + o.len()), o, &mut grad[..np * o.len()]);
+            black_box(&grad[0]);
+        })
+    });
+}
+
+fn bench_models(c: &mut Criterion) {
+    let pairs = merl_pairs();
+    let n = pairs.len();
+    assert_eq!(n, 1_458_000);
+    let batch = GeometryBatch::from_pairs(&pairs);
+    let pools = [("1-thread", pool(Some(1))), ("all-threads", pool(None))];
+    println!(
+        "models bench: {n} MERL cells, pools of 1 and {} threads, chunks of {CHUNK}",
+        pools[1].1.current_num_threads()
+    );
+    let mut out = vec![Rgb::ZERO; n];
+    let mut out2 = vec![Rgb::ZERO; n];
+    for &name in MODEL_NAMES {
+        let m = match default_model(name) {
+            Ok(m) => m,
+            Err(e) => {
+                println!("{name}: not benchmarked ({e})");
+                continue;
+            }
+        };
+        let m = m.as_ref();
+        let np = m.num_params();
+        // The fast path must give the direction path's numbers on every cell.
+        eval_pairs(&pools[1].1, m, &pairs, &mut out);
+        eval_batch(&pools[1].1, m, &batch, &mut out2);
+        let differ = out.iter().zip(&out2).filter(|(a, b)| a != b).count();
+        let lit = out.iter().filter(|v| v.max_channel() > 0.0).count();
+        println!(
+            "{name}: {np} parameters, {lit} of {n} cells non-zero, {differ} cells where eval_batch != eval"
+        );
+
+        let mut group = c.benchmark_group(name);
+        group
+            .throughput(Throughput::Elements(n as u64))
+            .sampling_mode(SamplingMode::Flat)
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(300))
+            .measurement_time(Duration::from_secs(2));
+        for (label, p) in &pools {
+            group.bench_function(format!("eval/{label}"), |b| {
+                b.iter(|| eval_pairs(p, m, &pairs, &mut out))
+            });
+            group.bench_function(format!("eval_batch/{label}"), |b| {
+                b.iter(|| eval_batch(p, m, &batch, &mut out))
+            });
+            let bufs: Vec<Mutex<Vec<Rgb>>> = (0..p.current_num_threads())
+                .map(|_| Mutex::new(vec![Rgb::ZERO; np * CHUNK]))
+                .collect();
+            group.bench_function(format!("eval_grad_batch/{label}"), |b| {
+                b.iter(|| eval_grad_batch(p, m, &batch, &mut out, &bufs))
+            });
+        }
+        group.finish();
+        black_box(&out);
+    }
+}
+
+criterion_group!(benches, bench_models);
+criterion_main!(benches);
