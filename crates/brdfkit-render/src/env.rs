@@ -1,0 +1,358 @@
+//! The environment: a constant radiance or a latitude-longitude image, its radiance
+//! lookup, and its importance-sampling distribution.
+//!
+//! # Lat-long mapping (Mitsuba 3's `envmap` convention, world y up)
+//!
+//! A world direction d maps to texture coordinates
+//!
+//! u = atan2(d.x, −d.z) / (2π)  (wrapped into [0, 1)),   v = acos(d.y) / π,
+//!
+//! texel (⌊u W⌋, ⌊v H⌋), row 0 at the top (v = 0 is straight up, +y). The inverse is
+//! d = (sin θ sin φ, cos θ, −sin θ cos φ) with θ = π v, φ = 2π u. Radiance is the
+//! texel's value (piecewise constant, no filtering), which is exactly the function the
+//! sampling density below is built for.
+//!
+//! # Sampling
+//!
+//! A texel is drawn with probability ∝ Y(texel) · sin θ_row (Y the Rec. 709 luminance,
+//! θ_row the polar angle of the row's centre) from a marginal CDF over rows and a
+//! conditional CDF per row (pbrt-v3 §14.2.4), then (u, v) uniformly inside it. Since
+//! dω = 2π² sin θ du dv, the solid-angle density is
+//!
+//! p(d) = P(texel) · W H / (2π² sin θ(d)).
+//!
+//! A constant environment is sampled uniformly over the sphere, p = 1/(4π).
+
+use crate::rng::Pcg32;
+use crate::sampling::sample_uniform_sphere;
+use brdfkit_core::{Rgb, Vec3};
+use std::f64::consts::PI;
+use std::path::PathBuf;
+
+/// Rec. 709 / sRGB luminance of linear RGB.
+#[inline]
+pub fn luminance(c: &Rgb) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// A lat-long radiance image, already scaled, row-major with row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct LatLong {
+    pub path: PathBuf,
+    pub width: usize,
+    pub height: usize,
+    pub texels: Vec<Rgb>,
+}
+
+/// The environment's radiance (W m⁻² sr⁻¹, linear RGB) in every world direction.
+#[derive(Clone, Debug)]
+pub enum Environment {
+    /// The same radiance from every direction.
+    Constant(Rgb),
+    /// A lat-long image.
+    Image(LatLong),
+}
+
+/// (u, v) of a unit world direction.
+#[inline]
+pub fn direction_to_uv(d: &Vec3) -> (f64, f64) {
+    let mut u = d.x.atan2(-d.z) * (0.5 / PI);
+    u -= u.floor();
+    // |d.y| can exceed 1 by an ulp after normalisation.
+    let v = d.y.clamp(-1.0, 1.0).acos() / PI;
+    (u, v)
+}
+
+/// The unit world direction of (u, v).
+#[inline]
+pub fn uv_to_direction(u: f64, v: f64) -> Vec3 {
+    let (st, ct) = (PI * v).sin_cos();
+    let (sp, cp) = (2.0 * PI * u).sin_cos();
+    Vec3::new(st * sp, ct, -st * cp)
+}
+
+impl LatLong {
+    #[inline]
+    fn texel_of(&self, d: &Vec3) -> usize {
+        let (u, v) = direction_to_uv(d);
+        // u < 1 and v ≤ 1: the min keeps v = 1 (straight down) in the last row.
+        let x = ((u * self.width as f64) as usize).min(self.width - 1);
+        let y = ((v * self.height as f64) as usize).min(self.height - 1);
+        y * self.width + x
+    }
+}
+
+impl Environment {
+    /// Radiance arriving from world direction `d` (unit), i.e. seen looking along d.
+    #[inline]
+    pub fn radiance(&self, d: &Vec3) -> Rgb {
+        match self {
+            Environment::Constant(c) => *c,
+            Environment::Image(img) => img.texels[img.texel_of(d)],
+        }
+    }
+}
+
+/// The sampling distribution of an [`Environment`], built when a render asks for the
+/// `environment` effect.
+#[derive(Clone, Debug)]
+pub enum EnvDistribution {
+    /// Uniform over the sphere (constant environment).
+    Uniform,
+    /// Luminance × sin θ over texels.
+    Image {
+        width: usize,
+        height: usize,
+        /// Marginal CDF over rows (height + 1).
+        marginal: Vec<f64>,
+        /// Conditional CDF per row (height × (width + 1)).
+        conditional: Vec<f64>,
+        /// P(texel), row-major.
+        pmf: Vec<f64>,
+    },
+    /// An all-black environment: nothing to sample.
+    Black,
+}
+
+/// A sampled environment direction.
+#[derive(Clone, Copy, Debug)]
+pub struct EnvSample {
+    pub dir: Vec3,
+    pub radiance: Rgb,
+    pub pdf: f64,
+}
+
+impl EnvDistribution {
+    /// Builds the distribution of `env`.
+    pub fn build(env: &Environment) -> Self {
+        match env {
+            Environment::Constant(c) => {
+                if c.max_channel() > 0.0 {
+                    EnvDistribution::Uniform
+                } else {
+                    EnvDistribution::Black
+                }
+            }
+            Environment::Image(img) => {
+                let (w, h) = (img.width, img.height);
+                let mut weights = vec![0.0; w * h];
+                for y in 0..h {
+                    let s = ((y as f64 + 0.5) / h as f64 * PI).sin();
+                    for x in 0..w {
+                        weights[y * w + x] = luminance(&img.texels[y * w + x]) * s;
+                    }
+                }
+                let total: f64 = weights.iter().sum();
+                if total <= 0.0 {
+                    return EnvDistribution::Black;
+                }
+                let mut conditional = vec![0.0; h * (w + 1)];
+                let mut row_sums = vec![0.0; h];
+                for y in 0..h {
+                    let row = &weights[y * w..(y + 1) * w];
+                    let cdf = &mut conditional[y * (w + 1)..(y + 1) * (w + 1)];
+                    cdf[0] = 0.0;
+                    for x in 0..w {
+                        cdf[x + 1] = cdf[x] + row[x];
+                    }
+                    row_sums[y] = cdf[w];
+                    if cdf[w] > 0.0 {
+                        let t = cdf[w];
+                        cdf.iter_mut().for_each(|c| *c /= t);
+                        cdf[w] = 1.0;
+                    }
+                }
+                let mut marginal = vec![0.0; h + 1];
+                for y in 0..h {
+                    marginal[y + 1] = marginal[y] + row_sums[y];
+                }
+                let t = marginal[h];
+                marginal.iter_mut().for_each(|c| *c /= t);
+                marginal[h] = 1.0;
+                let pmf = weights.iter().map(|w| w / total).collect();
+                EnvDistribution::Image {
+                    width: w,
+                    height: h,
+                    marginal,
+                    conditional,
+                    pmf,
+                }
+            }
+        }
+    }
+
+    /// False for an all-black environment.
+    pub fn can_sample(&self) -> bool {
+        !matches!(self, EnvDistribution::Black)
+    }
+
+    /// Draws a direction from the environment (four uniforms).
+    #[inline]
+    pub fn sample(&self, env: &Environment, u: [f64; 4]) -> Option<EnvSample> {
+        match self {
+            EnvDistribution::Black => None,
+            EnvDistribution::Uniform => {
+                let dir = sample_uniform_sphere(u[0], u[1]);
+                Some(EnvSample {
+                    dir,
+                    radiance: env.radiance(&dir),
+                    pdf: 0.25 / PI,
+                })
+            }
+            EnvDistribution::Image {
+                width,
+                height,
+                marginal,
+                conditional,
+                ..
+            } => {
+                let (w, h) = (*width, *height);
+                let y = pick(marginal, u[0]);
+                let x = pick(&conditional[y * (w + 1)..(y + 1) * (w + 1)], u[1]);
+                let uu = (x as f64 + u[2]) / w as f64;
+                let vv = (y as f64 + u[3]) / h as f64;
+                let dir = uv_to_direction(uu, vv);
+                let pdf = self.pdf(&dir);
+                if pdf <= 0.0 {
+                    // Only at the exact poles (sin θ = 0), a set of measure zero.
+                    return None;
+                }
+                Some(EnvSample {
+                    dir,
+                    radiance: env.radiance(&dir),
+                    pdf,
+                })
+            }
+        }
+    }
+
+    /// Density (solid angle) of drawing world direction `d`.
+    #[inline]
+    pub fn pdf(&self, d: &Vec3) -> f64 {
+        match self {
+            EnvDistribution::Black => 0.0,
+            EnvDistribution::Uniform => 0.25 / PI,
+            EnvDistribution::Image {
+                width, height, pmf, ..
+            } => {
+                let (w, h) = (*width, *height);
+                let sin_theta = (1.0 - d.y * d.y).max(0.0).sqrt();
+                if sin_theta < 1e-12 {
+                    // At the poles the density in (u, v) maps to an infinite solid-angle
+                    // density; such directions have measure zero, report none.
+                    return 0.0;
+                }
+                let (u, v) = direction_to_uv(d);
+                let x = ((u * w as f64) as usize).min(w - 1);
+                let y = ((v * h as f64) as usize).min(h - 1);
+                pmf[y * w + x] * (w * h) as f64 / (2.0 * PI * PI * sin_theta)
+            }
+        }
+    }
+}
+
+#[inline]
+fn pick(cdf: &[f64], u: f64) -> usize {
+    let n = cdf.len() - 1;
+    cdf.partition_point(|&c| c <= u)
+        .saturating_sub(1)
+        .min(n - 1)
+}
+
+/// For tests: a random direction estimate of ∫ L dω over the sphere through this
+/// distribution (should equal the exact integral).
+#[doc(hidden)]
+pub fn estimate_total_power(env: &Environment, dist: &EnvDistribution, n: usize, seed: u64) -> Rgb {
+    let mut rng = Pcg32::new(seed, 0);
+    let mut sum = Rgb::ZERO;
+    for _ in 0..n {
+        let u = [rng.uniform(), rng.uniform(), rng.uniform(), rng.uniform()];
+        if let Some(s) = dist.sample(env, u) {
+            sum += s.radiance / s.pdf;
+        }
+    }
+    sum / n as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(w: usize, h: usize, f: impl Fn(usize, usize) -> Rgb) -> Environment {
+        let mut texels = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                texels.push(f(x, y));
+            }
+        }
+        Environment::Image(LatLong {
+            path: PathBuf::from("test.exr"),
+            width: w,
+            height: h,
+            texels,
+        })
+    }
+
+    #[test]
+    fn uv_round_trip_and_axes() {
+        for &(u, v) in &[(0.1, 0.2), (0.6, 0.9), (0.99, 0.5), (0.25, 0.5)] {
+            let d = uv_to_direction(u, v);
+            let (u2, v2) = direction_to_uv(&d);
+            assert!((u - u2).abs() < 1e-12 && (v - v2).abs() < 1e-12);
+        }
+        // v = 0 is +y; u = 0 at the equator is −z; u = 1/4 is +x.
+        assert!((uv_to_direction(0.0, 0.0) - Vec3::new(0.0, 1.0, 0.0)).norm() < 1e-12);
+        assert!((uv_to_direction(0.0, 0.5) - Vec3::new(0.0, 0.0, -1.0)).norm() < 1e-12);
+        assert!((uv_to_direction(0.25, 0.5) - Vec3::new(1.0, 0.0, 0.0)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn image_pdf_integrates_to_one_and_sampling_recovers_power() {
+        // Texel (x, y) radiance 1 + x + 2y; exact ∫ L dω = Σ L_texel Ω_texel with
+        // Ω = (2π/W)(cos θ_y − cos θ_{y+1}).
+        let (w, h) = (8, 6);
+        let env = image(w, h, |x, y| {
+            Rgb::new(1.0 + x as f64, 1.0 + 2.0 * y as f64, 0.5)
+        });
+        let dist = EnvDistribution::build(&env);
+        let mut exact = Rgb::ZERO;
+        let Environment::Image(img) = &env else {
+            unreachable!()
+        };
+        for y in 0..h {
+            let om = 2.0 * PI / w as f64
+                * ((y as f64 / h as f64 * PI).cos() - ((y + 1) as f64 / h as f64 * PI).cos());
+            for x in 0..w {
+                exact += img.texels[y * w + x] * om;
+            }
+        }
+        // ∫ p dω = ∫∫ p sin θ dθ dφ by a fine midpoint rule in (θ, φ) (p sin θ is
+        // bounded; p itself has a 1/sin θ factor at the poles).
+        let n = 1200;
+        let mut ip = 0.0;
+        for a in 0..n {
+            let th = (a as f64 + 0.5) * PI / n as f64;
+            let (st, ct) = th.sin_cos();
+            for b in 0..n {
+                let p = (b as f64 + 0.5) * 2.0 * PI / n as f64;
+                ip += dist.pdf(&Vec3::new(st * p.cos(), ct, st * p.sin())) * st;
+            }
+        }
+        ip *= (PI / n as f64) * (2.0 * PI / n as f64);
+        assert!((ip - 1.0).abs() < 1e-3, "∫p = {ip}");
+        let est = estimate_total_power(&env, &dist, 400_000, 5);
+        for c in 0..3 {
+            assert!(
+                ((est[c] - exact[c]) / exact[c]).abs() < 1e-2,
+                "{est:?} vs {exact:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn black_environment_has_no_distribution() {
+        assert!(!EnvDistribution::build(&Environment::Constant(Rgb::ZERO)).can_sample());
+        let env = image(4, 2, |_, _| Rgb::ZERO);
+        assert!(!EnvDistribution::build(&env).can_sample());
+    }
+}

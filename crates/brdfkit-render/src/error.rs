@@ -1,0 +1,151 @@
+//! Typed errors: reading a scene ([`SceneError`]), rendering ([`RenderError`]) and
+//! writing images ([`OutputError`]). Every message starts with the file it is about.
+
+use brdfkit_core::ModelError;
+use brdfkit_merl::MerlError;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// A scene file that cannot be read, parsed, or that asks for something impossible.
+///
+/// The CLI treats every variant as bad input (exit code 2).
+#[derive(Debug, Error)]
+pub enum SceneError {
+    /// The scene file itself cannot be read.
+    #[error("{}: cannot read the scene file: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// Not valid TOML, an unknown key, a value of the wrong type or a missing field.
+    /// The message of the TOML parser names the key and the line.
+    #[error("{}: {message}", path.display())]
+    Syntax { path: PathBuf, message: String },
+
+    /// A value outside its domain, or keys that contradict each other.
+    #[error("{}: `{key}`: {message}", path.display())]
+    Invalid {
+        path: PathBuf,
+        key: String,
+        message: String,
+    },
+
+    /// A file the scene refers to (model JSON, MERL table, environment image) cannot be
+    /// read.
+    #[error("{}: `{key}`: cannot read {}: {source}", scene.display(), file.display())]
+    File {
+        scene: PathBuf,
+        key: String,
+        file: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// A model JSON file that is not valid JSON.
+    #[error("{}: `{key}`: {} is not valid JSON: {source}", scene.display(), file.display())]
+    ModelJson {
+        scene: PathBuf,
+        key: String,
+        file: PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+
+    /// A model description that `brdfkit_models::from_json` rejects (unknown model,
+    /// unknown parameter, parameter out of its domain). `file` is the JSON file when the
+    /// model was given by path.
+    #[error("{}: `{key}`{}: {source}", scene.display(), file.as_ref().map(|f| format!(" ({})", f.display())).unwrap_or_default())]
+    Model {
+        scene: PathBuf,
+        key: String,
+        file: Option<PathBuf>,
+        #[source]
+        source: ModelError,
+    },
+
+    /// A MERL table that cannot be read (its message names the table file).
+    #[error("{}: `{key}`: {source}", scene.display())]
+    Table {
+        scene: PathBuf,
+        key: String,
+        #[source]
+        source: MerlError,
+    },
+
+    /// An environment image that cannot be decoded or holds unusable values.
+    #[error("{}: `{key}`: {}: {message}", scene.display(), file.display())]
+    Image {
+        scene: PathBuf,
+        key: String,
+        file: PathBuf,
+        message: String,
+    },
+}
+
+impl SceneError {
+    /// The scene file the error is about.
+    pub fn scene_path(&self) -> &Path {
+        match self {
+            SceneError::Read { path, .. }
+            | SceneError::Syntax { path, .. }
+            | SceneError::Invalid { path, .. } => path,
+            SceneError::File { scene, .. }
+            | SceneError::ModelJson { scene, .. }
+            | SceneError::Model { scene, .. }
+            | SceneError::Table { scene, .. }
+            | SceneError::Image { scene, .. } => scene,
+        }
+    }
+
+    /// The dotted key the error is about (`camera.fov`, `light[1].intensity`), when one
+    /// applies.
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            SceneError::Read { .. } | SceneError::Syntax { .. } => None,
+            SceneError::Invalid { key, .. }
+            | SceneError::File { key, .. }
+            | SceneError::ModelJson { key, .. }
+            | SceneError::Model { key, .. }
+            | SceneError::Table { key, .. }
+            | SceneError::Image { key, .. } => Some(key),
+        }
+    }
+}
+
+/// A render that produced something unusable.
+#[derive(Debug, Error)]
+pub enum RenderError {
+    /// A pixel came out NaN or infinite: a material returned a non-finite value.
+    #[error(
+        "{}: pixel ({x}, {y}) is not finite ({value:?}): the material returned a non-finite value",
+        scene.display()
+    )]
+    NonFinite {
+        scene: PathBuf,
+        x: usize,
+        y: usize,
+        value: [f64; 3],
+    },
+}
+
+/// An image that cannot be written.
+#[derive(Debug, Error)]
+pub enum OutputError {
+    /// Creating, writing or renaming the file failed.
+    #[error("{}: {action}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        action: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The image encoder failed.
+    #[error("{}: encoding failed: {source}", path.display())]
+    Encode {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+}

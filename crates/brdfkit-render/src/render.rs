@@ -1,0 +1,696 @@
+//! The renderer: direct light from the declared lights and the environment by
+//! multiple importance sampling, and nothing that was not asked for.
+//!
+//! # What a pixel gets
+//!
+//! Per pixel, `spp` samples k; sample k looks through camera ray c(k) (the pixel centre
+//! for the `center` filter, a uniform point in the pixel for `box`). Where the ray meets
+//! an object at x with normal n, viewing direction wo, the sample's value is
+//!
+//! L = Σ_lights L_light + L_env,
+//!
+//! with no global illumination (objects reflect only the lights and the environment).
+//!
+//! - Point light of intensity I (W/sr) at distance r along wi:
+//!   L = f_r(wi, wo) · I · cos θi / r²  (V = 1 unless `shadows`).
+//! - Directional light of irradiance E (W/m²) travelling along −wi:
+//!   L = f_r(wi, wo) · E · cos θi.
+//! - Environment, one light sample w_l ~ p_env and one BRDF sample w_b ~ p_brdf, combined
+//!   by Veach's multi-sample MIS estimator (Veach & Guibas, SIGGRAPH 1995, eq. 8):
+//!
+//!   L_env = w_l · f L_e cos θ / p_env (at w_l) + w_b · f L_e cos θ / p_brdf (at w_b),
+//!
+//!   with the power heuristic w_a = p_a² / (p_a² + p_b²) (or the balance heuristic
+//!   p_a / (p_a + p_b)), each p evaluated for the other's sample too. p_env and p_brdf are
+//!   [`EnvDistribution`] and [`LobeSampler`]. An all-black environment is not sampled
+//!   (BRDF sampling alone, weight 1).
+//!
+//! With `shadows`, every contribution is multiplied by the visibility V of its direction
+//! (a shadow ray towards the light, up to the light for a point light). A convex object
+//! cannot occlude itself along a direction above its tangent plane, so a shadow ray is
+//! tested against the *other* object only, exactly, with no offset epsilon.
+//!
+//! The pixel is the mean of its samples; its standard error is the sample standard
+//! deviation / √spp ([`RenderOutput::std_error`]). Pixels are seeded independently
+//! (PCG32 stream = pixel index), so the image is bit-identical for any thread count.
+//!
+//! # Cost accounting
+//!
+//! Work runs per row in chunks of pixels and phases (camera rays, direct, environment,
+//! shadows); each phase's time is measured once per chunk and summed over threads
+//! ([`EffectCost::time`] is worker time, not wall time). A phase whose effect was not
+//! requested does not run: its time and counters stay exactly zero.
+
+use crate::env::{EnvDistribution, Environment};
+use crate::error::RenderError;
+use crate::geometry::Ray;
+use crate::output::RenderOutput;
+use crate::rng::Pcg32;
+use crate::sampling::LobeSampler;
+use crate::scene::{Effect, Light, Mis, PixelFilter, Scene};
+use brdfkit_core::quadrature::frame_around;
+use brdfkit_core::{Rgb, Vec3};
+use rayon::prelude::*;
+use std::fmt;
+use std::time::{Duration, Instant};
+
+/// The cost of one effect (or of the camera rays).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EffectCost {
+    /// Whether the scene asked for it (camera rays: always).
+    pub requested: bool,
+    /// Wall time of its precomputation (environment: sampling distribution and the
+    /// BRDF lobe tables).
+    pub setup: Duration,
+    /// BRDF evaluations spent in the precomputation.
+    pub setup_evals: u64,
+    /// Worker time of its phases, summed over threads.
+    pub time: Duration,
+    /// Camera: camera samples. Direct: (hit, light) pairs. Environment: light samples
+    /// plus BRDF samples drawn. Shadows: directions tested.
+    pub samples: u64,
+    /// BRDF evaluations during the render.
+    pub brdf_evals: u64,
+    /// Rays traced: camera rays, or shadow rays.
+    pub rays: u64,
+    /// Environment radiance lookups (environment: samples and background pixels).
+    pub lookups: u64,
+    /// Shadows: shadow rays that hit an occluder.
+    pub occluded: u64,
+}
+
+impl EffectCost {
+    fn add(&mut self, o: &EffectCost) {
+        self.time += o.time;
+        self.samples += o.samples;
+        self.brdf_evals += o.brdf_evals;
+        self.rays += o.rays;
+        self.lookups += o.lookups;
+        self.occluded += o.occluded;
+    }
+
+    /// True when nothing at all was spent (time and every counter zero).
+    pub fn is_zero(&self) -> bool {
+        self.setup.is_zero()
+            && self.setup_evals == 0
+            && self.time.is_zero()
+            && self.samples == 0
+            && self.brdf_evals == 0
+            && self.rays == 0
+            && self.lookups == 0
+            && self.occluded == 0
+    }
+}
+
+/// What a render cost, per effect.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Camera rays (always computed).
+    pub camera: EffectCost,
+    pub direct: EffectCost,
+    pub environment: EffectCost,
+    pub shadows: EffectCost,
+    /// Table lookups that found no sample (missing cells), rendered as zero.
+    pub table_misses: u64,
+    /// Wall time of the whole render, setup included.
+    pub wall: Duration,
+    /// Worker threads.
+    pub threads: usize,
+}
+
+impl RenderStats {
+    /// The cost of `effect`.
+    pub fn effect(&self, effect: Effect) -> &EffectCost {
+        match effect {
+            Effect::Direct => &self.direct,
+            Effect::Environment => &self.environment,
+            Effect::Shadows => &self.shadows,
+        }
+    }
+}
+
+impl fmt::Display for RenderStats {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{:<12} {:>9} {:>10} {:>11} {:>12} {:>12} {:>12} {:>11}",
+            "effect",
+            "requested",
+            "setup ms",
+            "thread ms",
+            "samples",
+            "brdf evals",
+            "rays",
+            "env lookups"
+        )?;
+        let rows = [
+            ("camera", &self.camera),
+            ("direct", &self.direct),
+            ("environment", &self.environment),
+            ("shadows", &self.shadows),
+        ];
+        for (name, c) in rows {
+            writeln!(
+                f,
+                "{:<12} {:>9} {:>10.3} {:>11.3} {:>12} {:>12} {:>12} {:>11}",
+                name,
+                if c.requested { "yes" } else { "no" },
+                c.setup.as_secs_f64() * 1e3,
+                c.time.as_secs_f64() * 1e3,
+                c.samples,
+                c.brdf_evals + c.setup_evals,
+                c.rays,
+                c.lookups
+            )?;
+        }
+        if self.shadows.requested {
+            writeln!(f, "occluded shadow rays: {}", self.shadows.occluded)?;
+        }
+        if self.table_misses > 0 {
+            writeln!(
+                f,
+                "table lookups with no sample (rendered 0): {}",
+                self.table_misses
+            )?;
+        }
+        write!(
+            f,
+            "wall {:.3} ms on {} threads",
+            self.wall.as_secs_f64() * 1e3,
+            self.threads
+        )
+    }
+}
+
+/// Per-chunk counters.
+#[derive(Clone, Copy, Debug, Default)]
+struct Counters {
+    camera: EffectCost,
+    direct: EffectCost,
+    environment: EffectCost,
+    shadows: EffectCost,
+    table_misses: u64,
+}
+
+impl Counters {
+    fn merge(mut self, o: Counters) -> Counters {
+        self.camera.add(&o.camera);
+        self.direct.add(&o.direct);
+        self.environment.add(&o.environment);
+        self.shadows.add(&o.shadows);
+        self.table_misses += o.table_misses;
+        self
+    }
+}
+
+/// Which object a ray met.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Obj {
+    Sphere,
+    Plane,
+}
+
+/// A shading point: position, frame (t, b, n) and the local viewing direction.
+#[derive(Clone, Copy, Debug)]
+struct Shading {
+    p: Vec3,
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+    wo: Vec3,
+    obj: Obj,
+    material: usize,
+}
+
+impl Shading {
+    #[inline]
+    fn to_local(&self, v: &Vec3) -> Vec3 {
+        Vec3::new(v.dot(&self.t), v.dot(&self.b), v.dot(&self.n))
+    }
+    #[inline]
+    fn to_world(&self, v: &Vec3) -> Vec3 {
+        v.x * self.t + v.y * self.b + v.z * self.n
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum CamHit {
+    /// A front-facing surface point.
+    Surface(Shading),
+    /// The back of the plane: black, opaque.
+    Back,
+    /// Nothing: the environment (if shown) along this direction.
+    Miss(Vec3),
+}
+
+/// A contribution waiting for its visibility test.
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    origin: Vec3,
+    dir: Vec3,
+    t_max: f64,
+    from: Obj,
+    value: Rgb,
+    target: u32,
+}
+
+#[derive(Default)]
+struct Scratch {
+    rngs: Vec<Pcg32>,
+    cams: Vec<CamHit>,
+    cam_value: Vec<Rgb>,
+    values: Vec<Rgb>,
+    direct_cands: Vec<Candidate>,
+    env_cands: Vec<Candidate>,
+}
+
+struct Ctx<'a> {
+    scene: &'a Scene,
+    env: Option<(&'a Environment, EnvDistribution)>,
+    lobes: Vec<LobeSampler>,
+}
+
+impl Ctx<'_> {
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> CamHit {
+        let s = &self.scene;
+        let mut best: Option<(f64, Obj)> = None;
+        if let Some(sp) = &s.sphere
+            && let Some(t) = sp.shape.intersect(ray, f64::INFINITY)
+        {
+            best = Some((t, Obj::Sphere));
+        }
+        if let Some(pl) = &s.plane
+            && let Some(t) = pl.shape.intersect(ray, best.map_or(f64::INFINITY, |b| b.0))
+        {
+            best = Some((t, Obj::Plane));
+        }
+        let Some((t, obj)) = best else {
+            return CamHit::Miss(ray.dir);
+        };
+        let p = ray.origin + t * ray.dir;
+        let (n, material) = match obj {
+            Obj::Sphere => {
+                let sp = s.sphere.as_ref().unwrap();
+                (sp.shape.normal_at(&p), sp.material)
+            }
+            Obj::Plane => {
+                let pl = s.plane.as_ref().unwrap();
+                (pl.shape.normal, pl.material)
+            }
+        };
+        let (tt, bb) = frame_around(&n);
+        let view = -ray.dir;
+        let wo = Vec3::new(view.dot(&tt), view.dot(&bb), view.dot(&n));
+        if wo.z <= 0.0 {
+            // Seen from behind (the plane's back; the sphere only at grazing round-off).
+            return CamHit::Back;
+        }
+        CamHit::Surface(Shading {
+            p,
+            t: tt,
+            b: bb,
+            n,
+            wo,
+            obj,
+            material,
+        })
+    }
+
+    /// Whether the segment from a point on object `from` is blocked by the other object.
+    #[inline]
+    fn occluded(&self, c: &Candidate) -> bool {
+        let ray = Ray {
+            origin: c.origin,
+            dir: c.dir,
+        };
+        match c.from {
+            Obj::Sphere => self
+                .scene
+                .plane
+                .as_ref()
+                .is_some_and(|p| p.shape.intersect(&ray, c.t_max).is_some()),
+            Obj::Plane => self
+                .scene
+                .sphere
+                .as_ref()
+                .is_some_and(|s| s.shape.intersect(&ray, c.t_max).is_some()),
+        }
+    }
+}
+
+#[inline]
+fn mis_weight(mis: Mis, a: f64, b: f64) -> f64 {
+    match mis {
+        Mis::Balance => a / (a + b),
+        Mis::Power => (a * a) / (a * a + b * b),
+    }
+}
+
+#[inline]
+fn u5(r: &mut Pcg32) -> [f64; 5] {
+    [
+        r.uniform(),
+        r.uniform(),
+        r.uniform(),
+        r.uniform(),
+        r.uniform(),
+    ]
+}
+
+/// Renders `scene`. Only the effects in `scene.effects` are computed.
+pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
+    let start = Instant::now();
+    let film = &scene.film;
+    let (w, h, spp) = (film.width, film.height, film.spp);
+    let fx = scene.effects;
+
+    // Environment setup: only when asked for.
+    let mut env_setup = EffectCost::default();
+    let mut ctx = Ctx {
+        scene,
+        env: None,
+        lobes: Vec::new(),
+    };
+    if fx.environment {
+        let t0 = Instant::now();
+        let env = scene
+            .environment
+            .as_ref()
+            .expect("a validated scene with the environment effect has an environment");
+        ctx.env = Some((env, EnvDistribution::build(env)));
+        ctx.lobes = scene.materials.par_iter().map(LobeSampler::build).collect();
+        env_setup.setup = t0.elapsed();
+        env_setup.setup_evals = ctx.lobes.iter().map(|l| l.build_evaluations).sum();
+    }
+
+    let n_cam = match film.filter {
+        PixelFilter::Center => 1,
+        PixelFilter::Box => spp,
+    };
+    // Pixels per chunk: enough work per phase that timing it costs nothing.
+    let chunk_px = (4096 / spp).clamp(1, w);
+
+    let mut radiance = vec![Rgb::ZERO; w * h];
+    let mut std_error = vec![Rgb::ZERO; w * h];
+    let counters = radiance
+        .par_chunks_mut(w)
+        .zip(std_error.par_chunks_mut(w))
+        .enumerate()
+        .map_init(Scratch::default, |scratch, (y, (rad_row, se_row))| {
+            let mut c = Counters::default();
+            let mut x0 = 0;
+            while x0 < w {
+                let x1 = (x0 + chunk_px).min(w);
+                render_chunk(&ctx, y, x0, x1, n_cam, scratch, &mut c, rad_row, se_row);
+                x0 = x1;
+            }
+            c
+        })
+        .reduce(Counters::default, Counters::merge);
+
+    for (i, v) in radiance.iter().enumerate() {
+        if !v.is_finite() {
+            return Err(RenderError::NonFinite {
+                scene: scene.path.clone(),
+                x: i % w,
+                y: i / w,
+                value: v.0,
+            });
+        }
+    }
+
+    let mut stats = RenderStats {
+        camera: counters.camera,
+        direct: counters.direct,
+        environment: counters.environment,
+        shadows: counters.shadows,
+        table_misses: counters.table_misses,
+        wall: Duration::ZERO,
+        threads: rayon::current_num_threads(),
+    };
+    stats.camera.requested = true;
+    stats.direct.requested = fx.direct;
+    stats.environment.requested = fx.environment;
+    stats.environment.setup = env_setup.setup;
+    stats.environment.setup_evals = env_setup.setup_evals;
+    stats.shadows.requested = fx.shadows;
+    stats.wall = start.elapsed();
+    Ok(RenderOutput {
+        width: w,
+        height: h,
+        spp,
+        radiance,
+        std_error,
+        exposure: film.exposure,
+        stats,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn render_chunk(
+    ctx: &Ctx,
+    y: usize,
+    x0: usize,
+    x1: usize,
+    n_cam: usize,
+    s: &mut Scratch,
+    c: &mut Counters,
+    rad_row: &mut [Rgb],
+    se_row: &mut [Rgb],
+) {
+    let scene = ctx.scene;
+    let film = &scene.film;
+    let fx = scene.effects;
+    let spp = film.spp;
+    let npx = x1 - x0;
+    let cam_of = |p: usize, k: usize| if n_cam == 1 { p } else { p * spp + k };
+
+    // Camera rays.
+    let t0 = Instant::now();
+    s.rngs.clear();
+    s.cams.clear();
+    for x in x0..x1 {
+        let mut rng = Pcg32::for_pixel(film.seed, (y * film.width + x) as u64);
+        for _ in 0..n_cam {
+            let (jx, jy) = match film.filter {
+                PixelFilter::Center => (0.5, 0.5),
+                PixelFilter::Box => (rng.uniform(), rng.uniform()),
+            };
+            let ray = scene.camera.ray(x as f64 + jx, y as f64 + jy);
+            s.cams.push(ctx.intersect(&ray));
+        }
+        s.rngs.push(rng);
+    }
+    s.cam_value.clear();
+    s.cam_value.resize(s.cams.len(), Rgb::ZERO);
+    s.values.clear();
+    s.values.resize(npx * spp, Rgb::ZERO);
+    c.camera.samples += (npx * n_cam) as u64;
+    c.camera.rays += (npx * n_cam) as u64;
+    c.camera.time += t0.elapsed();
+
+    // Direct light.
+    s.direct_cands.clear();
+    if fx.direct {
+        let t0 = Instant::now();
+        let d = &mut c.direct;
+        for (ci, cam) in s.cams.iter().enumerate() {
+            let CamHit::Surface(sh) = cam else { continue };
+            let mat = &scene.materials[sh.material];
+            for light in &scene.lights {
+                d.samples += 1;
+                let (dir, t_max, scale) = match light {
+                    Light::Point {
+                        position,
+                        intensity,
+                    } => {
+                        let to = position - sh.p;
+                        let r2 = to.norm_squared();
+                        let r = r2.sqrt();
+                        (to / r, r, *intensity / r2)
+                    }
+                    Light::Directional {
+                        direction,
+                        irradiance,
+                    } => (-direction, f64::INFINITY, *irradiance),
+                };
+                let wi = sh.to_local(&dir);
+                if wi.z <= 0.0 {
+                    continue;
+                }
+                d.brdf_evals += 1;
+                let (f, miss) = mat.eval(&wi, &sh.wo);
+                c.table_misses += miss as u64;
+                let value = f * scale * wi.z;
+                if value.max_channel() <= 0.0 && value.is_finite() {
+                    continue;
+                }
+                if fx.shadows {
+                    s.direct_cands.push(Candidate {
+                        origin: sh.p,
+                        dir,
+                        t_max,
+                        from: sh.obj,
+                        value,
+                        target: ci as u32,
+                    });
+                } else {
+                    s.cam_value[ci] += value;
+                }
+            }
+        }
+        d.time += t0.elapsed();
+    }
+
+    // Environment.
+    s.env_cands.clear();
+    if let Some((env, dist)) = &ctx.env {
+        let t0 = Instant::now();
+        let e = &mut c.environment;
+        let mis = film.mis;
+        if film.show_environment {
+            for (ci, cam) in s.cams.iter().enumerate() {
+                if let CamHit::Miss(dir) = cam {
+                    e.lookups += 1;
+                    s.cam_value[ci] += env.radiance(dir);
+                }
+            }
+        }
+        for p in 0..npx {
+            let rng = &mut s.rngs[p];
+            for k in 0..spp {
+                let CamHit::Surface(sh) = &s.cams[cam_of(p, k)] else {
+                    continue;
+                };
+                let target = (p * spp + k) as u32;
+                let mat = &scene.materials[sh.material];
+                let lobe = &ctx.lobes[sh.material];
+                // Light sample.
+                let ul = [rng.uniform(), rng.uniform(), rng.uniform(), rng.uniform()];
+                if let Some(ls) = dist.sample(env, ul) {
+                    e.samples += 1;
+                    e.lookups += 1;
+                    let wi = sh.to_local(&ls.dir);
+                    if wi.z > 0.0 {
+                        e.brdf_evals += 1;
+                        let (f, miss) = mat.eval(&wi, &sh.wo);
+                        c.table_misses += miss as u64;
+                        let wgt = mis_weight(mis, ls.pdf, lobe.pdf(&wi, &sh.wo));
+                        let value = f * ls.radiance * (wi.z * wgt / ls.pdf);
+                        push_env(
+                            &mut s.env_cands,
+                            &mut s.values,
+                            fx.shadows,
+                            sh,
+                            ls.dir,
+                            value,
+                            target,
+                        );
+                    }
+                }
+                // BRDF sample.
+                let bs = lobe.sample(&sh.wo, u5(rng));
+                e.samples += 1;
+                if bs.wi.z > 0.0 && bs.pdf > 0.0 {
+                    let dir = sh.to_world(&bs.wi);
+                    e.lookups += 1;
+                    let le = env.radiance(&dir);
+                    if le.max_channel() > 0.0 {
+                        e.brdf_evals += 1;
+                        let (f, miss) = mat.eval(&bs.wi, &sh.wo);
+                        c.table_misses += miss as u64;
+                        let wgt = if dist.can_sample() {
+                            mis_weight(mis, bs.pdf, dist.pdf(&dir))
+                        } else {
+                            1.0
+                        };
+                        let value = f * le * (bs.wi.z * wgt / bs.pdf);
+                        push_env(
+                            &mut s.env_cands,
+                            &mut s.values,
+                            fx.shadows,
+                            sh,
+                            dir,
+                            value,
+                            target,
+                        );
+                    }
+                }
+            }
+        }
+        e.time += t0.elapsed();
+    }
+
+    // Shadows.
+    if fx.shadows {
+        let t0 = Instant::now();
+        let sc = &mut c.shadows;
+        for cand in &s.direct_cands {
+            sc.samples += 1;
+            sc.rays += 1;
+            if ctx.occluded(cand) {
+                sc.occluded += 1;
+            } else {
+                s.cam_value[cand.target as usize] += cand.value;
+            }
+        }
+        for cand in &s.env_cands {
+            sc.samples += 1;
+            sc.rays += 1;
+            if ctx.occluded(cand) {
+                sc.occluded += 1;
+            } else {
+                s.values[cand.target as usize] += cand.value;
+            }
+        }
+        sc.time += t0.elapsed();
+    }
+
+    // Pixel means and standard errors (part of the camera phase's bookkeeping).
+    let t0 = Instant::now();
+    let n = spp as f64;
+    for p in 0..npx {
+        let mut sum = Rgb::ZERO;
+        let mut sum2 = Rgb::ZERO;
+        for k in 0..spp {
+            let v = s.values[p * spp + k] + s.cam_value[cam_of(p, k)];
+            sum += v;
+            sum2 += v * v;
+        }
+        let mean = sum / n;
+        rad_row[x0 + p] = mean;
+        se_row[x0 + p] = if spp > 1 {
+            // Unbiased sample variance; round-off can make it a hair negative.
+            let var = (sum2 - mean * mean * n).map(|v| v.max(0.0)) / (n - 1.0);
+            (var / n).map(f64::sqrt)
+        } else {
+            Rgb::ZERO
+        };
+    }
+    c.camera.time += t0.elapsed();
+}
+
+#[inline]
+fn push_env(
+    cands: &mut Vec<Candidate>,
+    values: &mut [Rgb],
+    shadows: bool,
+    sh: &Shading,
+    dir: Vec3,
+    value: Rgb,
+    target: u32,
+) {
+    if shadows {
+        cands.push(Candidate {
+            origin: sh.p,
+            dir,
+            t_max: f64::INFINITY,
+            from: sh.obj,
+            value,
+            target,
+        });
+    } else {
+        values[target as usize] += value;
+    }
+}
