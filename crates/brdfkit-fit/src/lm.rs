@@ -393,7 +393,7 @@ where
         );
         let un = res.state.get_param().cloned().unwrap_or_else(|| u.clone());
         let fnew = res.state.get_cost();
-        if !ok || !(fnew < ne.cost) {
+        if !ok || fnew.is_nan() || fnew >= ne.cost {
             self.failed =
                 Some("the line search found no decrease along the Gauss-Newton direction");
             let c = ne.cost;

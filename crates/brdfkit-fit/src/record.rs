@@ -34,8 +34,9 @@ pub struct StartRecord {
     /// [`FitRecord::free_params`] (of the pass).
     pub start: Vec<f64>,
     /// Final value of the optimised loss (weighted RMS over the fitted cells; for a
-    /// per-channel pass, that channel's).
-    pub final_loss: f64,
+    /// per-channel pass, that channel's); `None` when the start failed (see
+    /// `termination`).
+    pub final_loss: Option<f64>,
     /// Iterations.
     pub iterations: u64,
     /// Cost evaluations (passes over the cells without derivatives).

@@ -9,11 +9,12 @@
 //! With one shape parameter (roughness, exponent) this is a regular grid; with several,
 //! every stratum of every parameter is still visited once.
 //!
-//! Ranges in u, about the start value u₀:
-//! - log transform (roughness, exponent on (0, ∞)): u₀ ± ln 100, i.e. the start value
-//!   ×/÷ 100;
-//! - logit transform (a bounded shape parameter): [u₀ − 5, u₀ + 5] clipped to [−7, 7]
-//!   (σ(±7) is 0.1 % from either end);
+//! Ranges, about the start value x₀ (see [`shape_range`]):
+//! - a half-line (exponent on [0, ∞)), or a bounded domain with x₀ in its lowest tenth
+//!   (roughness on [1e-6, 100]): x₀ ×/÷ 100, measured from the lower end, clipped to
+//!   90 % of a bounded interval. The logit is logarithmic near its lower end, so the
+//!   grid is log-spaced either way;
+//! - other bounded domains: u₀ ± 3 in the logit, clipped to [−7, 7];
 //! - identity (a signed coefficient): u₀ ± max(1, |u₀|).
 
 use crate::reparam::Transform;
@@ -22,14 +23,28 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-/// Range of u searched for a shape parameter of transform `t` starting at `u0`.
-pub fn shape_range(t: &Transform, u0: f64) -> (f64, f64) {
-    match t {
-        Transform::Log { .. } | Transform::NegLog { .. } => {
-            let w = 100f64.ln();
-            (u0 - w, u0 + w)
+/// Range of u searched for a shape parameter of transform `t` (from its domain), starting
+/// at `x0`: the start value ×/÷ 100 (measured from the lower end) for a half-line or
+/// for a bounded domain whose start sits in the lowest tenth (roughness on [1e-6,
+/// 100]: the logit is logarithmic there), clipped to 90 % of a bounded interval;
+/// otherwise u₀ ± 3 clipped to [−7, 7] (logit) or u₀ ± max(1, |u₀|) (identity).
+pub fn shape_range(t: &Transform, x0: f64) -> (f64, f64) {
+    let u0 = t.inverse(x0);
+    match *t {
+        Transform::Log { lo } => (
+            t.inverse(lo + (x0 - lo) / 100.0),
+            t.inverse(lo + (x0 - lo) * 100.0),
+        ),
+        Transform::NegLog { hi } => (
+            t.inverse(hi - (hi - x0) * 100.0),
+            t.inverse(hi - (hi - x0) / 100.0),
+        ),
+        Transform::Logit { lo, hi } if (x0 - lo) < 0.1 * (hi - lo) => {
+            let a = ((x0 - lo) / 100.0).max(crate::reparam::END_OFFSET * (hi - lo));
+            let b = ((x0 - lo) * 100.0).min(0.9 * (hi - lo));
+            (t.inverse(lo + a), t.inverse(lo + b))
         }
-        Transform::Logit { .. } => ((u0 - 5.0).max(-7.0), (u0 + 5.0).min(7.0)),
+        Transform::Logit { .. } => ((u0 - 3.0).max(-7.0), (u0 + 3.0).min(7.0)),
         Transform::Identity => {
             let w = u0.abs().max(1.0);
             (u0 - w, u0 + w)
@@ -70,11 +85,12 @@ pub fn start_points(
             p
         })
         .collect();
+    #[allow(clippy::needless_range_loop)] // k indexes the inner permutations, not `perms`
     for k in 0..m {
         let mut x = x0.to_vec();
         for (j, &p) in shape.iter().enumerate() {
             let t = Transform::for_domain(&specs[p].domain);
-            let (lo, hi) = shape_range(&t, t.inverse(x0[p]));
+            let (lo, hi) = shape_range(&t, x0[p]);
             let u = lo + (hi - lo) * (perms[j][k] as f64 + 0.5) / m as f64;
             x[p] = crate::reparam::nudge_into(&specs[p].domain, t.forward(u).0);
         }

@@ -40,7 +40,7 @@ fn check(truth_json: &str, at_json: &str) {
                     "{}: column {q} identically zero",
                     p.free_names()[q]
                 );
-                let diff = &col - &fd;
+                let diff = col - &fd;
                 let err = diff.amax() / scale;
                 worst = worst.max(err);
                 assert!(

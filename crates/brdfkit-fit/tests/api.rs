@@ -1,0 +1,342 @@
+//! The library surface the CLI uses: record contents and JSON, options (subsample,
+//! cutoff, per-channel, fixed and freed parameters, weighting), every solver, the
+//! observer, multi-start determinism, typed errors.
+
+mod common;
+use brdfkit_fit::synth::Coverage;
+use brdfkit_fit::{
+    FitConfig, FitData, FitError, FitObserver, FitRecord, IterEvent, Loss, Sharing, SolverKind,
+    StartDone, Weighting, fit,
+};
+use common::*;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+const CT_TRUTH: &str = r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.15}}"#;
+const CT_START: &str = r#"{"model":"cook-torrance","params":{"fresnel":"schlick"}}"#;
+
+fn ct_data(d: (i64, i64, i64)) -> FitData {
+    synth(
+        model(CT_TRUTH).as_ref(),
+        dims(d.0, d.1, d.2),
+        Coverage::AboveHorizon,
+    )
+}
+
+#[test]
+fn record_has_every_loss_and_round_trips_through_json() {
+    let data = ct_data((20, 20, 40));
+    let cfg = FitConfig::default().starts(3).unwrap();
+    let res = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+    let r = &res.record;
+    assert_eq!(r.family, "cook-torrance");
+    assert_eq!(r.loss, Loss::Cbrt);
+    assert_eq!(r.starts.len(), 3);
+    assert_eq!(r.starts.iter().filter(|s| s.kept).count(), 1);
+    assert!(r.iterations > 0 && r.cost_evals > 0 && r.jacobian_evals > 0);
+    assert!(r.wall_time_s > 0.0);
+    assert_eq!(r.model, res.fitted.to_json());
+    assert_eq!(r.params.len(), 10);
+    assert_eq!(r.params[6].name, "alpha");
+    assert_eq!(r.params[6].transform.as_deref(), Some("logit"));
+    for l in Loss::ALL {
+        let e = r.losses_full.get(l);
+        assert!(
+            e.overall < 1e-9 && e.channels.iter().all(|c| c.is_finite()),
+            "{l}"
+        );
+    }
+    let text = serde_json::to_string_pretty(r).unwrap();
+    for key in [
+        "\"losses_full\"",
+        "\"cosine\"",
+        "\"log\"",
+        "\"l2\"",
+        "\"termination\"",
+        "\"starts\"",
+        "\"wall_time_s\"",
+        "\"jacobian_evals\"",
+    ] {
+        assert!(text.contains(key), "{key} missing");
+    }
+    let back: FitRecord = serde_json::from_str(&text).unwrap();
+    assert_eq!(&back, r);
+    // The fitted model's JSON is the contract: it builds the same model.
+    let m = brdfkit_models::from_json(&r.model).unwrap();
+    assert_eq!(m.params(), res.fitted.channel_model(0).params());
+}
+
+#[test]
+fn subsample_is_stratified_seeded_and_reports_the_full_loss() {
+    let data = ct_data((30, 30, 60));
+    let a = data.stratified_subsample(0.1, 1);
+    let b = data.stratified_subsample(0.1, 1);
+    let c = data.stratified_subsample(0.1, 2);
+    assert_eq!(a.theta_h(), b.theta_h());
+    assert_ne!(a.theta_h(), c.theta_h());
+    let frac = a.len() as f64 / data.len() as f64;
+    assert!((frac - 0.1).abs() < 0.01, "{frac}");
+    // Multiplicities make the subsample's total measure that of the full set.
+    let wa: f64 = a.weights(Weighting::SolidAngle).iter().sum();
+    let wf: f64 = data.weights(Weighting::SolidAngle).iter().sum();
+    assert!(rel(wa, wf) < 0.05, "{wa} vs {wf}");
+    let wu: f64 = a.weights(Weighting::Uniform).iter().sum();
+    assert!(rel(wu, data.len() as f64) < 1e-12);
+
+    let cfg = FitConfig::default().subsample(0.1, 1).unwrap();
+    let res = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+    assert_eq!(res.record.cells_fit, a.len());
+    assert_eq!(res.record.cells_full, data.len());
+    assert_eq!(res.record.losses_full.cells, data.len());
+    assert_eq!(res.record.subsample, Some(0.1));
+    // Noise-free: the subsample recovers the truth, and the full table agrees.
+    assert!(
+        res.record.losses_full.cbrt.overall < 1e-10,
+        "{}",
+        show(&res)
+    );
+}
+
+#[test]
+fn theta_d_cutoff_leaves_out_grazing_cells() {
+    let data = ct_data((20, 20, 40));
+    let cut = 80f64.to_radians();
+    let expect = data.theta_d().iter().filter(|&&t| t <= cut).count();
+    assert!(expect < data.len());
+    let cfg = FitConfig::default().theta_d_max_deg(80.0).unwrap();
+    let res = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+    assert_eq!(res.record.cells_full, expect);
+    assert_eq!(res.record.theta_d_max_deg, Some(80.0));
+}
+
+#[test]
+fn per_channel_fits_three_models() {
+    let data = ct_data((20, 20, 40));
+    let cfg = FitConfig::default()
+        .sharing(Sharing::PerChannel)
+        .starts(2)
+        .unwrap();
+    let res = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+    let j = res.fitted.to_json();
+    assert_eq!(j["per_channel"].as_array().unwrap().len(), 3);
+    assert!(res.fitted.shared().is_none());
+    assert_eq!(res.record.starts.len(), 6);
+    assert_eq!(res.record.starts.iter().filter(|s| s.kept).count(), 3);
+    let truth = model(CT_TRUTH).params();
+    for c in 0..3 {
+        let p = res.fitted.channel_model(c).params();
+        // Each channel's own albedos and the (common) roughness come back.
+        for q in [c, 3 + c, 6, 7 + c] {
+            assert!(
+                rel(p[q], truth[q]) < 1e-4,
+                "channel {c} param {q}: {} vs {}",
+                p[q],
+                truth[q]
+            );
+        }
+    }
+    assert!(
+        res.record.termination.starts_with("r: "),
+        "{}",
+        res.record.termination
+    );
+}
+
+#[test]
+fn fixed_and_freed_parameters() {
+    let data = ct_data((20, 20, 40));
+    // alpha fixed at a wrong value: it stays there.
+    let start = model(r#"{"model":"cook-torrance","params":{"fresnel":"schlick","alpha":0.3}}"#);
+    let cfg = FitConfig::default().fix_params(["alpha"]);
+    let res = fit(start.as_ref(), &data, &cfg, None).unwrap();
+    assert_eq!(res.fitted.channel_model(0).params()[6], 0.3);
+    assert!(!res.record.params[6].free);
+    assert!(!res.record.free_params.contains(&"alpha".to_string()));
+    // Lafortune's cz is fixed by default and can be freed by name.
+    let l = model(r#"{"model":"lafortune"}"#);
+    let specs = l.param_specs();
+    let cz = specs.iter().position(|s| s.name == "lobes[0].cz").unwrap();
+    let lt = model(
+        r#"{"model":"lafortune","params":{"rho_d":0.2,"lobes":[{"cxy":-0.9,"cz":1,"n":30,"rho":2}]}}"#,
+    );
+    let ldata = synth(lt.as_ref(), dims(15, 15, 30), Coverage::AboveHorizon);
+    let res = fit(
+        l.as_ref(),
+        &ldata,
+        &FitConfig::default().max_iters(5).unwrap(),
+        None,
+    )
+    .unwrap();
+    assert!(!res.record.params[cz].free);
+    let res = fit(
+        l.as_ref(),
+        &ldata,
+        &FitConfig::default()
+            .free_params(["lobes[0].cz"])
+            .max_iters(5)
+            .unwrap(),
+        None,
+    )
+    .unwrap();
+    assert!(res.record.params[cz].free);
+    assert_eq!(res.record.params[cz].transform.as_deref(), Some("identity"));
+    // Group names: `rho_d` frees or fixes all three channels.
+    let res = fit(
+        start.as_ref(),
+        &data,
+        &FitConfig::default().fix_params(["rho_d"]),
+        None,
+    )
+    .unwrap();
+    assert!(res.record.params[..3].iter().all(|p| !p.free));
+}
+
+#[test]
+fn typed_errors() {
+    let data = ct_data((10, 10, 20));
+    let e = fit(
+        model(CT_START).as_ref(),
+        &data,
+        &FitConfig::default().fix_params(["alhpa"]),
+        None,
+    )
+    .unwrap_err();
+    assert!(matches!(e, FitError::UnknownParam { .. }));
+    assert!(
+        e.to_string().contains("alhpa") && e.to_string().contains("alpha"),
+        "{e}"
+    );
+    let all = ["rho_d", "rho_s", "alpha", "f0"];
+    let e = fit(
+        model(CT_START).as_ref(),
+        &data,
+        &FitConfig::default().fix_params(all),
+        None,
+    )
+    .unwrap_err();
+    assert!(matches!(e, FitError::NothingToFit(_)), "{e}");
+    let e = FitData::from_parts(
+        data.geometry().clone(),
+        [vec![0.0; 3], vec![0.0; 3], vec![0.0; 3]],
+        vec![1.0; 3],
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("values"), "{e}");
+    let mut bad = data.values().clone();
+    bad[1][4] = f64::NAN;
+    let e = FitData::from_parts(data.geometry().clone(), bad, data.measure().to_vec()).unwrap_err();
+    assert!(
+        e.to_string().contains("channel 1") && e.to_string().contains("cell 4"),
+        "{e}"
+    );
+    let empty = brdfkit_merl::MerlTable::all_missing(dims(4, 4, 8));
+    assert!(matches!(
+        FitData::from_table(&empty),
+        Err(FitError::NoCells(_))
+    ));
+}
+
+#[test]
+fn every_solver_reaches_the_truth_on_an_easy_problem() {
+    let truth = model(
+        r#"{"model":"plausible-phong","params":{"rho_d":[0.3,0.2,0.1],"rho_s":[0.2,0.3,0.4],"n":60}}"#,
+    );
+    let data = synth(truth.as_ref(), dims(20, 20, 40), Coverage::AboveHorizon);
+    let start = model(r#"{"model":"plausible-phong","params":{"rho_d":0.25,"rho_s":0.25,"n":40}}"#);
+    for (solver, tol) in [
+        (SolverKind::Lm, 1e-8),
+        (SolverKind::GaussNewton, 1e-8),
+        (SolverKind::TrustRegion, 1e-5),
+        (SolverKind::Lbfgs, 1e-4),
+        (SolverKind::NelderMead, 1e-2),
+    ] {
+        let res = fit(
+            start.as_ref(),
+            &data,
+            &FitConfig::default().solver(solver),
+            None,
+        )
+        .unwrap();
+        let (err, name) = worst_param(&res, truth.as_ref());
+        assert!(err < tol, "{solver}: {name} off by {err:e}: {}", show(&res));
+        assert_eq!(res.record.solver, solver);
+        eprintln!(
+            "{solver}: worst {err:.1e}, iterations {}, {}",
+            res.record.iterations, res.record.termination
+        );
+    }
+}
+
+#[test]
+fn uniform_weighting_and_every_loss_recover_the_truth() {
+    let data = ct_data((20, 20, 40));
+    for loss in Loss::ALL {
+        for w in [Weighting::SolidAngle, Weighting::Uniform] {
+            let cfg = FitConfig::default().loss(loss).weighting(w);
+            let res = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+            let (err, name) = worst_param(&res, model(CT_TRUTH).as_ref());
+            assert!(err < 1e-4, "{loss} {w:?}: {name} {err:e}: {}", show(&res));
+        }
+    }
+}
+
+#[derive(Default)]
+struct Counter {
+    iters: AtomicUsize,
+    done: AtomicUsize,
+    plans: AtomicUsize,
+}
+
+impl FitObserver for Counter {
+    fn on_plan(&self, p: &brdfkit_fit::FitPlan) {
+        assert_eq!(p.starts, 4);
+        self.plans.fetch_add(1, Ordering::Relaxed);
+    }
+    fn on_iter(&self, ev: &IterEvent) {
+        assert!(ev.cost.is_finite() && ev.start < 4);
+        self.iters.fetch_add(1, Ordering::Relaxed);
+    }
+    fn on_start_done(&self, d: &StartDone) {
+        assert!(d.loss.is_finite());
+        self.done.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+#[test]
+fn observer_sees_every_start_and_iteration() {
+    let data = ct_data((15, 15, 30));
+    let obs = Arc::new(Counter::default());
+    let cfg = FitConfig::default().starts(4).unwrap();
+    let res = fit(model(CT_START).as_ref(), &data, &cfg, Some(obs.clone())).unwrap();
+    assert_eq!(obs.plans.load(Ordering::Relaxed), 1);
+    assert_eq!(obs.done.load(Ordering::Relaxed), 4);
+    let total: u64 = res.record.starts.iter().map(|s| s.iterations).sum();
+    assert_eq!(obs.iters.load(Ordering::Relaxed) as u64, total);
+}
+
+#[test]
+fn starts_are_deterministic_and_spread_over_the_shape_parameter() {
+    let data = ct_data((15, 15, 30));
+    let cfg = FitConfig::default().starts(5).unwrap().seed(9);
+    let a = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+    let b = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+    let sa: Vec<Vec<f64>> = a.record.starts.iter().map(|s| s.start.clone()).collect();
+    let sb: Vec<Vec<f64>> = b.record.starts.iter().map(|s| s.start.clone()).collect();
+    assert_eq!(sa, sb);
+    let finals_a: Vec<Option<f64>> = a.record.starts.iter().map(|s| s.final_loss).collect();
+    let finals_b: Vec<Option<f64>> = b.record.starts.iter().map(|s| s.final_loss).collect();
+    assert_eq!(finals_a, finals_b, "same seed, same fits");
+    // alpha (index 6 of the free list) differs between starts; albedos do not.
+    let alphas: Vec<f64> = sa.iter().map(|s| s[6]).collect();
+    for i in 0..alphas.len() {
+        for j in 0..i {
+            assert_ne!(alphas[i], alphas[j]);
+        }
+    }
+    assert!(sa.iter().all(|s| s[0] == sa[0][0]));
+    // The grid spans two decades either side of the default.
+    let (lo, hi) = alphas
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(l, h), &a| (l.min(a), h.max(a)));
+    assert!(lo < 0.02 && hi > 0.9, "{alphas:?}");
+}
