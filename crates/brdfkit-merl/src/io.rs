@@ -5,9 +5,9 @@
 //!
 //! Reading checks the header against the file's length (from its metadata) **before**
 //! allocating, so a corrupt header cannot make the reader allocate more than the file
-//! holds; then it reads the body straight into the table's buffer in chunks of
-//! [`CHUNK`] values and validates each chunk while it is still in cache (finite values,
-//! the missing mask), one pass over the data.
+//! holds. The body is then read in parallel (rayon) by positional reads of [`CHUNK`]
+//! cells per channel into small buffers that stay in cache, and converted, validated
+//! (finite values, the missing mask) and stored from there: one pass over the data.
 //!
 //! Writing goes to a temporary file in the destination directory, synced, then renamed
 //! over the destination: a reader sees the old file or the new one, never a partial
@@ -16,14 +16,39 @@
 use crate::error::{Channel, MerlError};
 use crate::grid::{Dims, HEADER_BYTES};
 use crate::table::{MerlTable, raw_valid};
-use byteorder::{ByteOrder, LittleEndian, ReadBytesExt};
+use byteorder::{ByteOrder, LittleEndian};
+use rayon::prelude::*;
 use std::fs::File;
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 
-/// Values read and validated per step: 32 Ki f64 = 256 KiB, small enough to stay in
-/// L2 between the kernel's copy and the validation.
-pub const CHUNK: usize = 32 * 1024;
+/// Cells per parallel task: each task reads this many values of each channel (3 × 64
+/// KiB) into a buffer that stays in L2, converts and validates them from there, and
+/// writes them to the table. 64 KiB stays under glibc's mmap threshold, so the
+/// per-task buffers come from the heap rather than fresh (faulting) pages.
+pub const CHUNK: usize = 8 * 1024;
+
+/// Where the body's bytes come from: a file read positionally (parallel tasks share it)
+/// or a byte slice.
+trait Source: Sync {
+    /// The `len` bytes at byte offset `off` of the body, read into `buf` if needed.
+    fn bytes<'a>(&'a self, off: usize, buf: &'a mut [u8]) -> io::Result<&'a [u8]>;
+}
+
+impl Source for [u8] {
+    fn bytes<'a>(&'a self, off: usize, buf: &'a mut [u8]) -> io::Result<&'a [u8]> {
+        Ok(&self[off..off + buf.len()])
+    }
+}
+
+#[cfg(unix)]
+impl Source for File {
+    fn bytes<'a>(&'a self, off: usize, buf: &'a mut [u8]) -> io::Result<&'a [u8]> {
+        use std::os::unix::fs::FileExt;
+        self.read_exact_at(buf, HEADER_BYTES + off as u64)?;
+        Ok(buf)
+    }
+}
 
 /// Parses the header and checks it against the total length in bytes.
 fn parse_header(header: &[u8; 12], len: u64, path: &Path) -> Result<Dims, MerlError> {
@@ -59,46 +84,64 @@ fn parse_header(header: &[u8; 12], len: u64, path: &Path) -> Result<Dims, MerlEr
     Ok(dims)
 }
 
-/// Fills the raw planes chunk by chunk with `fill` and validates each chunk while it is
-/// hot: the first non-finite value in file order is an error, and a cell is valid when
-/// all its channels are ≥ 0.
-fn fill_and_validate(
+/// Reads the body (3 planes of little-endian f64) from `src` into a new table, in
+/// parallel over runs of [`CHUNK`] cells, validating in the same pass: each task takes
+/// the same cells from the three planes, so it alone owns their mask entries. The first
+/// non-finite value in file order is an error (searched for only when a task saw one).
+fn read_body(
     dims: Dims,
     path: &Path,
-    mut fill: impl FnMut(&mut [f64]) -> io::Result<()>,
+    src: &(impl Source + ?Sized),
 ) -> Result<MerlTable, MerlError> {
     let n = dims.cells();
     let mut raw = vec![0.0f64; 3 * n];
-    let mut valid = vec![true; n];
-    for (c, plane) in raw.chunks_mut(n).enumerate() {
-        for (q, (chunk, v)) in plane
-            .chunks_mut(CHUNK)
-            .zip(valid.chunks_mut(CHUNK))
-            .enumerate()
-        {
-            fill(chunk).map_err(|e| MerlError::io(path, "reading", e))?;
-            // A non-short-circuiting fold so the loop vectorises; the rare bad chunk is
-            // searched again below.
-            let mut finite = true;
-            for (&x, v) in chunk.iter().zip(v.iter_mut()) {
-                finite &= x.is_finite();
-                *v &= x >= 0.0;
-            }
-            if !finite {
-                let off = chunk.iter().position(|x| !x.is_finite()).unwrap_or(0);
-                let index = q * CHUNK + off;
-                let (i, j, k) = dims.unflatten(index);
-                return Err(MerlError::NonFinite {
-                    path: path.to_path_buf(),
-                    channel: Channel::ALL[c],
-                    i,
-                    j,
-                    k,
-                    index,
-                    value: chunk[off],
-                });
-            }
-        }
+    let mut valid = vec![false; n];
+    let (r, gb) = raw.split_at_mut(n);
+    let (g, b) = gb.split_at_mut(n);
+    let (n_valid, finite) = r
+        .par_chunks_mut(CHUNK)
+        .zip(g.par_chunks_mut(CHUNK))
+        .zip(b.par_chunks_mut(CHUNK))
+        .zip(valid.par_chunks_mut(CHUNK))
+        .enumerate()
+        .map_init(
+            || vec![0u8; 8 * CHUNK],
+            |buf, (q, (((r, g), b), v))| -> io::Result<(usize, bool)> {
+                let mut finite = true;
+                for (c, dst) in [r, g, b].into_iter().enumerate() {
+                    let off = 8 * (c * n + q * CHUNK);
+                    let bytes = src.bytes(off, &mut buf[..8 * dst.len()])?;
+                    // Non-short-circuiting so the loop vectorises.
+                    for ((d, s), ok) in dst.iter_mut().zip(bytes.chunks_exact(8)).zip(v.iter_mut())
+                    {
+                        let x = f64::from_le_bytes(s.try_into().expect("8 bytes"));
+                        finite &= x.is_finite();
+                        *d = x;
+                        // A cell is valid when no channel is negative (−0.0 is not).
+                        *ok = (c == 0 || *ok) & (x >= 0.0);
+                    }
+                }
+                Ok((v.iter().filter(|&&x| x).count(), finite))
+            },
+        )
+        .try_reduce(|| (0, true), |a, b| Ok((a.0 + b.0, a.1 & b.1)))
+        .map_err(|e| MerlError::io(path, "reading", e))?;
+    if !finite {
+        let at = raw
+            .iter()
+            .position(|x| !x.is_finite())
+            .expect("a task saw one");
+        let (c, index) = (at / n, at % n);
+        let (i, j, k) = dims.unflatten(index);
+        return Err(MerlError::NonFinite {
+            path: path.to_path_buf(),
+            channel: Channel::ALL[c],
+            i,
+            j,
+            k,
+            index,
+            value: raw[at],
+        });
     }
     debug_assert!(
         valid
@@ -106,7 +149,6 @@ fn fill_and_validate(
             .enumerate()
             .all(|(x, &v)| v == raw_valid(raw[x], raw[n + x], raw[2 * n + x]))
     );
-    let n_valid = valid.iter().filter(|&&v| v).count();
     Ok(MerlTable {
         dims,
         raw,
@@ -148,11 +190,19 @@ impl MerlTable {
         file.read_exact(&mut header)
             .map_err(|e| MerlError::io(path, "reading the header", e))?;
         let dims = parse_header(&header, len, path)?;
-        // Reads straight into the f64 buffer (byteorder reinterprets it as bytes and
-        // swaps in place on big-endian hosts: no intermediate copy).
-        fill_and_validate(dims, path, |chunk| {
-            file.read_f64_into::<LittleEndian>(chunk)
-        })
+        #[cfg(unix)]
+        {
+            read_body(dims, path, &file)
+        }
+        #[cfg(not(unix))]
+        {
+            // No positional reads: the body in one buffer (its size was checked
+            // against the file's length above), then the same conversion.
+            let mut bytes = vec![0u8; len as usize - 12];
+            file.read_exact(&mut bytes)
+                .map_err(|e| MerlError::io(path, "reading", e))?;
+            read_body(dims, path, &bytes[..])
+        }
     }
 
     /// Parses a table from bytes; `name` stands for the file in error messages.
@@ -167,13 +217,7 @@ impl MerlTable {
         }
         let header: [u8; 12] = bytes[..12].try_into().expect("12 bytes");
         let dims = parse_header(&header, len, path)?;
-        let mut at = HEADER_BYTES as usize;
-        fill_and_validate(dims, path, |chunk| {
-            let end = at + 8 * chunk.len();
-            LittleEndian::read_f64_into(&bytes[at..end], chunk);
-            at = end;
-            Ok(())
-        })
+        read_body(dims, path, &bytes[HEADER_BYTES as usize..])
     }
 
     /// The file image: header then the raw planes, exactly the bytes [`write`](Self::write)

@@ -305,6 +305,26 @@ fn non_finite_value_in_a_large_table_is_found_past_the_first_chunk() {
         ),
         "{e}"
     );
+    // Several bad values in different parallel tasks: the first in file order (the red
+    // plane comes first, whatever the cell) is reported, from a file too.
+    raw[2 * n + 5] = f64::INFINITY;
+    raw[d.index(7, 3, 1)] = f64::NEG_INFINITY;
+    let dir = tempfile::tempdir().unwrap();
+    let p = write_file(dir.path(), "big.binary", &image([10, 90, 180], &raw));
+    let e = MerlTable::read(&p).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MerlError::NonFinite {
+                channel: Channel::Red,
+                i: 7,
+                j: 3,
+                k: 1,
+                ..
+            }
+        ),
+        "{e}"
+    );
 }
 
 #[test]
