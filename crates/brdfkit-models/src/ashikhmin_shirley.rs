@@ -1,0 +1,300 @@
+//! `ashikhmin-shirley`: the anisotropic Phong BRDF of Ashikhmin and Shirley, with its
+//! coupled diffuse term.
+//!
+//! M. Ashikhmin and P. Shirley, "An Anisotropic Phong BRDF Model", Journal of Graphics
+//! Tools 5(2), 2000, eqs. 4, 5 and 6 (with h = (wi + wo)/|wi + wo|, k = wi or wo, the
+//! tangent x carrying n_u and the binormal y carrying n_v):
+//!
+//! f_r = ρ_spec + ρ_diff,
+//!
+//! ρ_spec = √((n_u + 1)(n_v + 1)) / (8π) · (n·h)^((n_u hx² + n_v hy²)/(1 − hz²))
+//!          / ((h·k) max(cos θi, cos θo)) · F(h·k),
+//! F(c) = Rs + (1 − Rs)(1 − c)⁵ (Schlick),
+//!
+//! ρ_diff = 28 Rd / (23π) · (1 − Rs) · (1 − (1 − cos θi/2)⁵) · (1 − (1 − cos θo/2)⁵),
+//!
+//! per channel with Rd = `rho_d`, Rs = `rho_s`.
+//!
+//! | parameter | JSON | per channel | domain | default |
+//! |-----------|------|-------------|--------|---------|
+//! | Rd | `rho_d` | yes | [0, 1] | 0.3 |
+//! | Rs | `rho_s` | yes | [0, 1] | 0.3 |
+//! | n (isotropic) | `n` | no | [0, 1e6] | 100 |
+//! | n_u, n_v (anisotropic) | `n_u`, `n_v` | no | [0, 1e6] | 100 |
+//!
+//! The flat parameter vector is `rho_d.{r,g,b}`, `rho_s.{r,g,b}`, then `n` or `n_u`,
+//! `n_v`.
+//!
+//! **Evaluation.** The power is exp(e · ln hz) with e · ln hz = (n_u hx² + n_v hy²) ·
+//! ln(hz)/(hx² + hy²), where ln hz = ½ ln(1 − (hx² + hy²)) (by `ln_1p`, exact near the
+//! normal, where the ratio tends to −½) below hx² + hy² = ½ and ln hz above (exact near
+//! the horizon, where 1 − (hx² + hy²) cancels). At h = n the power is 1 for every
+//! exponent, including 0. h·k is taken as |wi + wo|/2, which equals wi·h = wo·h for unit
+//! vectors and is symmetric in (wi, wo) to the last bit (wi·h is not, which would
+//! break reciprocity at grazing pairs where h·k ~ 1e-16).
+//!
+//! **Reciprocal. Energy:** the diffuse term integrates to Rd (1 − Rs)(1 − (1 −
+//! cos θ/2)⁵) ≤ (31/32) Rd (1 − Rs) (the 28/23 is chosen for this); the albedo is
+//! bilinear in (Rd, Rs), so its maximum over [0, 1]² is at a corner, and the tests
+//! measure the corners: see [`Model::conserves_energy`] and `docs/models.md`.
+
+use crate::cook_torrance::{Shape, batch_pair, check_rgb, pair_geometry};
+use crate::json;
+use brdfkit_core::model::Domain;
+use brdfkit_core::scattering::fresnel::schlick_weight;
+use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use serde_json::{Map, Value, json};
+use std::f64::consts::PI;
+
+/// The domain of Rd and Rs.
+pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
+/// The domain of the exponents.
+pub const N_DOMAIN: Domain = Domain::closed(0.0, 1e6);
+
+/// 28/(23π), the diffuse normalisation.
+const DIFFUSE_NORM: f64 = 28.0 / (23.0 * PI);
+
+/// Largest parameter count: 3 Rd + 3 Rs + 2 exponents.
+const MAXP: usize = 8;
+
+/// The Ashikhmin-Shirley BRDF.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AshikhminShirley {
+    rho_d: Rgb,
+    rho_s: Rgb,
+    n: Shape,
+}
+
+impl Default for AshikhminShirley {
+    fn default() -> Self {
+        AshikhminShirley {
+            rho_d: Rgb::splat(0.3),
+            rho_s: Rgb::splat(0.3),
+            n: Shape::Isotropic(100.0),
+        }
+    }
+}
+
+/// 1 − (1 − c/2)⁵, the diffuse term's angular factor.
+#[inline]
+fn diffuse_factor(c: f64) -> f64 {
+    let m = 1.0 - 0.5 * c;
+    let m2 = m * m;
+    1.0 - m2 * m2 * m
+}
+
+impl AshikhminShirley {
+    /// The default model (see the module table).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Sets Rd (each channel in [0, 1]).
+    pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
+        self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
+        Ok(self)
+    }
+
+    /// Sets Rs (each channel in [0, 1]).
+    pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
+        self.rho_s = check_rgb("rho_s", rho_s, RHO_DOMAIN)?;
+        Ok(self)
+    }
+
+    /// An isotropic exponent n in [0, 1e6].
+    pub fn with_n(self, n: f64) -> Result<Self, ModelError> {
+        self.with_shape(Shape::Isotropic(n))
+    }
+
+    /// Anisotropic exponents (n_u along the tangent x, n_v), each in [0, 1e6].
+    pub fn with_n_uv(self, n_u: f64, n_v: f64) -> Result<Self, ModelError> {
+        self.with_shape(Shape::Anisotropic(n_u, n_v))
+    }
+
+    /// Sets the exponents.
+    pub fn with_shape(mut self, n: Shape) -> Result<Self, ModelError> {
+        self.n = n.check("n", "n_u", "n_v", N_DOMAIN)?;
+        Ok(self)
+    }
+
+    /// Rd.
+    pub fn rho_d(&self) -> Rgb {
+        self.rho_d
+    }
+    /// Rs.
+    pub fn rho_s(&self) -> Rgb {
+        self.rho_s
+    }
+    /// The exponents.
+    pub fn n(&self) -> Shape {
+        self.n
+    }
+
+    /// From the `params` object of the JSON contract.
+    pub fn from_params_json(params: &Value) -> Result<Self, ModelError> {
+        const M: &str = "ashikhmin-shirley";
+        let o = json::params_object(params, M)?;
+        json::deny_unknown(&o, &["rho_d", "rho_s", "n", "n_u", "n_v"], M)?;
+        AshikhminShirley::new()
+            .with_rho_d(json::rgb_or(&o, "rho_d", 0.3, M)?)?
+            .with_rho_s(json::rgb_or(&o, "rho_s", 0.3, M)?)?
+            .with_shape(Shape::from_json(&o, ("n", "n_u", "n_v"), 100.0, M)?)
+    }
+
+    /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
+    #[inline]
+    fn kernel(
+        &self,
+        wi: [f64; 3],
+        wo: [f64; 3],
+        h: [f64; 3],
+        grad: Option<&mut [Rgb; MAXP]>,
+    ) -> Rgb {
+        if wi[2] <= 0.0 || wo[2] <= 0.0 {
+            if let Some(g) = grad {
+                *g = [Rgb::ZERO; MAXP];
+            }
+            return Rgb::ZERO;
+        }
+        let (nu, nv) = self.n.xy();
+        let (hx2, hy2) = (h[0] * h[0], h[1] * h[1]);
+        let s2 = hx2 + hy2;
+        // ln(hz)/(hx² + hy²): see the module doc. h.z > 0 whenever both directions are
+        // above the horizon, so ln(hz) is finite.
+        let r = if s2 == 0.0 {
+            -0.5
+        } else if s2 < 0.5 {
+            0.5 * (-s2).ln_1p() / s2
+        } else {
+            h[2].ln() / s2
+        };
+        let pw = ((nu * hx2 + nv * hy2) * r).exp();
+        let u = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let kh = 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+        let norm = ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI);
+        let p = norm * pw / (kh * wi[2].max(wo[2]));
+        let w = schlick_weight(kh);
+        let dd = DIFFUSE_NORM * diffuse_factor(wi[2]) * diffuse_factor(wo[2]);
+        let mut out = Rgb::ZERO;
+        let mut f = [0.0; 3];
+        for c in 0..3 {
+            let rs = self.rho_s[c];
+            f[c] = rs + (1.0 - rs) * w;
+            out[c] = dd * self.rho_d[c] * (1.0 - rs) + p * f[c];
+        }
+        if let Some(gr) = grad {
+            *gr = [Rgb::ZERO; MAXP];
+            for c in 0..3 {
+                gr[c][c] = dd * (1.0 - self.rho_s[c]);
+                gr[3 + c][c] = -dd * self.rho_d[c] + p * (1.0 - w);
+            }
+            // ∂P/∂n_u = P (1/(2(n_u + 1)) + hx² ln(hz)/(hx² + hy²)), likewise n_v.
+            let p_u = p * (0.5 / (nu + 1.0) + hx2 * r);
+            let p_v = p * (0.5 / (nv + 1.0) + hy2 * r);
+            let fr = Rgb::new(f[0], f[1], f[2]);
+            match self.n {
+                Shape::Isotropic(_) => gr[6] = fr * (p_u + p_v),
+                Shape::Anisotropic(..) => {
+                    gr[6] = fr * p_u;
+                    gr[7] = fr * p_v;
+                }
+            }
+        }
+        out
+    }
+}
+
+impl Brdf for AshikhminShirley {
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        let (a, b, h, _) = pair_geometry(wi, wo);
+        self.kernel(a, b, h, None)
+    }
+
+    fn is_isotropic(&self) -> bool {
+        let (x, y) = self.n.xy();
+        x == y
+    }
+}
+
+impl Model for AshikhminShirley {
+    fn name(&self) -> &'static str {
+        "ashikhmin-shirley"
+    }
+
+    fn param_specs(&self) -> Vec<ParamSpec> {
+        let mut v: Vec<ParamSpec> = ParamSpec::per_channel("rho_d", RHO_DOMAIN, 0.3).to_vec();
+        v.extend(ParamSpec::per_channel("rho_s", RHO_DOMAIN, 0.3));
+        v.extend(self.n.specs("n", "n_u", "n_v", N_DOMAIN, 100.0));
+        v
+    }
+
+    fn params(&self) -> Vec<f64> {
+        let mut v = Vec::with_capacity(self.num_params());
+        v.extend_from_slice(&self.rho_d.0);
+        v.extend_from_slice(&self.rho_s.0);
+        self.n.push_to(&mut v);
+        v
+    }
+
+    fn num_params(&self) -> usize {
+        6 + self.n.len()
+    }
+
+    fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
+        let n = self.num_params();
+        if p.len() != n {
+            return Err(ModelError::ParamCount {
+                expected: n,
+                got: p.len(),
+            });
+        }
+        let m = self
+            .clone()
+            .with_rho_d(Rgb::new(p[0], p[1], p[2]))?
+            .with_rho_s(Rgb::new(p[3], p[4], p[5]))?
+            .with_shape(self.n.with_values(&p[6..]))?;
+        *self = m;
+        Ok(())
+    }
+
+    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
+        let (a, b, h, _) = pair_geometry(wi, wo);
+        let mut g = [Rgb::ZERO; MAXP];
+        let f = self.kernel(a, b, h, Some(&mut g));
+        let n = self.num_params();
+        grad[..n].copy_from_slice(&g[..n]);
+        f
+    }
+
+    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
+        for (k, o) in out.iter_mut().enumerate().take(g.len()) {
+            let (a, b, h, _) = batch_pair(g, k);
+            *o = self.kernel(a, b, h, None);
+        }
+    }
+
+    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
+        let n = g.len();
+        let np = self.num_params();
+        let mut gk = [Rgb::ZERO; MAXP];
+        for (k, o) in out.iter_mut().enumerate().take(n) {
+            let (a, b, h, _) = batch_pair(g, k);
+            *o = self.kernel(a, b, h, Some(&mut gk));
+            for (p, v) in gk.iter().enumerate().take(np) {
+                grad[p * n + k] = *v;
+            }
+        }
+    }
+
+    fn to_json(&self) -> Value {
+        let mut o = Map::new();
+        o.insert("rho_d".into(), json::rgb_value(self.rho_d));
+        o.insert("rho_s".into(), json::rgb_value(self.rho_s));
+        self.n.to_json(&mut o, ("n", "n_u", "n_v"));
+        json!({"model": "ashikhmin-shirley", "params": o})
+    }
+
+    fn clone_box(&self) -> Box<dyn Model> {
+        Box::new(self.clone())
+    }
+}
