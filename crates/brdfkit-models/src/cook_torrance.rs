@@ -39,16 +39,19 @@
 //! `eta.{r,g,b}`, `k.{r,g,b}`, or `eta`.
 //!
 //! **Mitsuba 3.** With ρd = 0, ρs = 1, `smith-separable`, `conductor` Fresnel, and
-//! Beckmann with `beckmann_g1 = rational` (or GGX), this is Mitsuba 3's `roughconductor`
-//! (its `eval` divided by cos θo, Mitsuba's `wo` being our `wi`... the model is
-//! reciprocal, so either way). Mitsuba zeroes D where D cos θh < 1e-20, a float32
-//! guard this model does not copy (it changes values below 1e-20 only).
+//! Beckmann with `beckmann_g1 = rational` (or GGX), this is Mitsuba 3's `roughconductor`:
+//! Mitsuba's `eval` is f_r cos θ of its light-side direction, so divide by that cosine
+//! (the model is reciprocal, and F is taken at wi·h = wo·h, so the naming of the two
+//! directions does not matter). Mitsuba also zeroes D where D cos θh < 1e-20, a float32
+//! guard not copied here (it only changes values below 1e-20). A test compares against
+//! an independent transcription of Mitsuba's formulas (agreement 2e-13 relative).
 //!
 //! **Reciprocal.** **Energy:** for F ≤ 1 and ρd + ρs ≤ 1 the directional albedo is
-//! ≤ 1 with the exact Smith forms and the V-cavity, whose G ≤ G1(wo) satisfies the weak
-//! white furnace ∫ G1(wo) D ⟨wo·h⟩ dωh = cos θo (Heitz 2014); Walter's rational
-//! Beckmann G1 overshoots the exact one by up to 0.31 % and so can the albedo (see
-//! [`Model::conserves_energy`] and `docs/models.md` for the measured figures).
+//! ≤ 1: with the exact Smith forms and the V-cavity, G ≤ G1(wo) and G1 passes the weak
+//! white furnace ∫ G1(wo) D ⟨wo·h⟩ dωh = cos θo (Heitz 2014), so the specular albedo
+//! is ≤ ρs. Walter's rational Beckmann G1 exceeds the exact one by up to 0.31 %, but only
+//! where the lobe is also shadowed or cut by the horizon: the measured albedo stays
+//! ≤ 1 (figures in `docs/models.md`).
 //!
 //! The roughness domain [1e-6, 100] keeps every value and gradient finite in double
 //! precision (D ≤ 1/(π αx αy) ≈ 3e11 at the peak for α = 1e-6); both ends are tested.
