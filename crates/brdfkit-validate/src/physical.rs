@@ -169,7 +169,7 @@ pub struct NonNegativityCheck {
     pub negative: usize,
     /// Smallest value found (any channel).
     pub min_value: f64,
-    /// Where the smallest value is (values: [f]).
+    /// Where the smallest value is (values: `[f]`).
     pub worst: Option<PairAt>,
 }
 
