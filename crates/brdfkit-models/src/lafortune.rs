@@ -265,6 +265,9 @@ impl Lafortune {
 
     /// f and the gradient into `grad[p * stride]` for parameter p; the single kernel of
     /// `eval_grad` (stride 1) and `eval_grad_batch` (stride = batch length).
+    ///
+    /// With p = bⁿ: ∂f/∂ρd = 1/π, ∂f/∂cxy = ρ n bⁿ⁻¹ (wi.x wo.x + wi.y wo.y),
+    /// ∂f/∂cz = ρ n bⁿ⁻¹ wi.z wo.z, ∂f/∂n = ρ bⁿ ln b, ∂f/∂ρ = bⁿ (per channel).
     #[inline(always)]
     fn kernel_grad(&self, xy: f64, zz: f64, grad: &mut [Rgb], stride: usize) -> Rgb {
         let mut f = self.rho_d * FRAC_1_PI;

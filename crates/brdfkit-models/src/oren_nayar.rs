@@ -172,6 +172,8 @@ impl Model for OrenNayar {
         Ok(())
     }
 
+    /// ∂f/∂ρd = (A + B t)/π in its channel, ∂f/∂σ = ρd (A′ + B′ t)/π, with t the
+    /// angular term and A′, B′ from [`coefficients`].
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
         grad[..NP].fill(Rgb::ZERO);
         if wi.z <= 0.0 || wo.z <= 0.0 {

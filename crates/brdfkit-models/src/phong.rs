@@ -177,8 +177,9 @@ impl Phong {
         self.k_d + self.k_s * s
     }
 
-    /// f and the partials (∂/∂kd and ∂/∂ks are the same in every channel; ∂/∂n per
-    /// channel); the single kernel of `eval_grad` and `eval_grad_batch`.
+    /// f and the partials, the single kernel of `eval_grad` and `eval_grad_batch`:
+    /// ∂f/∂kd = 1 and ∂f/∂ks = cⁿ/cos θi (each in its own channel),
+    /// ∂f/∂n = ks cⁿ ln c / cos θi (every channel).
     #[inline(always)]
     fn kernel_grad(
         &self,
