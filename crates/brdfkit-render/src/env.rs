@@ -24,7 +24,7 @@
 //! A constant environment is sampled uniformly over the sphere, p = 1/(4π).
 
 use crate::rng::Pcg32;
-use crate::sampling::sample_uniform_sphere;
+use crate::sampling::{pick, sample_uniform_sphere};
 use brdfkit_core::{Rgb, Vec3};
 use std::f64::consts::PI;
 use std::path::PathBuf;
@@ -186,9 +186,10 @@ impl EnvDistribution {
         !matches!(self, EnvDistribution::Black)
     }
 
-    /// Draws a direction from the environment (four uniforms).
+    /// Draws a direction from the environment with two uniforms (rows then columns
+    /// of the CDF, each uniform reused for the offset inside its bin).
     #[inline]
-    pub fn sample(&self, env: &Environment, u: [f64; 4]) -> Option<EnvSample> {
+    pub fn sample(&self, env: &Environment, u: [f64; 2]) -> Option<EnvSample> {
         match self {
             EnvDistribution::Black => None,
             EnvDistribution::Uniform => {
@@ -207,10 +208,10 @@ impl EnvDistribution {
                 ..
             } => {
                 let (w, h) = (*width, *height);
-                let y = pick(marginal, u[0]);
-                let x = pick(&conditional[y * (w + 1)..(y + 1) * (w + 1)], u[1]);
-                let uu = (x as f64 + u[2]) / w as f64;
-                let vv = (y as f64 + u[3]) / h as f64;
+                let (y, ry) = pick(marginal, u[0]);
+                let (x, rx) = pick(&conditional[y * (w + 1)..(y + 1) * (w + 1)], u[1]);
+                let uu = (x as f64 + rx) / w as f64;
+                let vv = (y as f64 + ry) / h as f64;
                 let dir = uv_to_direction(uu, vv);
                 let pdf = self.pdf(&dir);
                 if pdf <= 0.0 {
@@ -251,14 +252,6 @@ impl EnvDistribution {
     }
 }
 
-#[inline]
-fn pick(cdf: &[f64], u: f64) -> usize {
-    let n = cdf.len() - 1;
-    cdf.partition_point(|&c| c <= u)
-        .saturating_sub(1)
-        .min(n - 1)
-}
-
 /// For tests: a random direction estimate of ∫ L dω over the sphere through this
 /// distribution (should equal the exact integral).
 #[doc(hidden)]
@@ -266,8 +259,7 @@ pub fn estimate_total_power(env: &Environment, dist: &EnvDistribution, n: usize,
     let mut rng = Pcg32::new(seed, 0);
     let mut sum = Rgb::ZERO;
     for _ in 0..n {
-        let u = [rng.uniform(), rng.uniform(), rng.uniform(), rng.uniform()];
-        if let Some(s) = dist.sample(env, u) {
+        if let Some(s) = dist.sample(env, [rng.uniform(), rng.uniform()]) {
             sum += s.radiance / s.pdf;
         }
     }

@@ -30,8 +30,14 @@
 //! cannot occlude itself along a direction above its tangent plane, so a shadow ray is
 //! tested against the *other* object only, exactly, with no offset epsilon.
 //!
+//! Sample positions are stratified per pixel: the `box` filter's camera jitter, the
+//! light sample's two dimensions and the BRDF sample's two dimensions each come from a
+//! jittered ⌊√spp⌋² grid in shuffled order ([`stratified_2d`]); the cosine/table choice
+//! of the lobe sampler is an independent uniform.
+//!
 //! The pixel is the mean of its samples; its standard error is the sample standard
-//! deviation / √spp ([`RenderOutput::std_error`]). Pixels are seeded independently
+//! deviation / √spp ([`RenderOutput::std_error`]), which for stratified samples is an
+//! upper bound in expectation (stratification only removes variance). Pixels are seeded independently
 //! (PCG32 stream = pixel index), so the image is bit-identical for any thread count.
 //!
 //! # Cost accounting
@@ -45,7 +51,7 @@ use crate::env::{EnvDistribution, Environment};
 use crate::error::RenderError;
 use crate::geometry::Ray;
 use crate::output::RenderOutput;
-use crate::rng::Pcg32;
+use crate::rng::{Pcg32, stratified_2d};
 use crate::sampling::LobeSampler;
 use crate::scene::{Effect, Light, Mis, PixelFilter, Scene};
 use brdfkit_core::quadrature::frame_around;
@@ -262,6 +268,8 @@ struct Scratch {
     values: Vec<Rgb>,
     direct_cands: Vec<Candidate>,
     env_cands: Vec<Candidate>,
+    strat_a: Vec<[f64; 2]>,
+    strat_b: Vec<[f64; 2]>,
 }
 
 struct Ctx<'a> {
@@ -472,13 +480,18 @@ fn render_chunk(
     s.cams.clear();
     for x in x0..x1 {
         let mut rng = Pcg32::for_pixel(film.seed, (y * film.width + x) as u64);
-        for _ in 0..n_cam {
-            let (jx, jy) = match film.filter {
-                PixelFilter::Center => (0.5, 0.5),
-                PixelFilter::Box => (rng.uniform(), rng.uniform()),
-            };
-            let ray = scene.camera.ray(x as f64 + jx, y as f64 + jy);
-            s.cams.push(ctx.intersect(&ray));
+        match film.filter {
+            PixelFilter::Center => {
+                let ray = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                s.cams.push(ctx.intersect(&ray));
+            }
+            PixelFilter::Box => {
+                stratified_2d(&mut rng, n_cam, &mut s.strat_a);
+                for j in &s.strat_a {
+                    let ray = scene.camera.ray(x as f64 + j[0], y as f64 + j[1]);
+                    s.cams.push(ctx.intersect(&ray));
+                }
+            }
         }
         s.rngs.push(rng);
     }
@@ -559,6 +572,9 @@ fn render_chunk(
         }
         for p in 0..npx {
             let rng = &mut s.rngs[p];
+            // Stratified light and BRDF sample positions over the pixel's samples.
+            stratified_2d(rng, spp, &mut s.strat_a);
+            stratified_2d(rng, spp, &mut s.strat_b);
             for k in 0..spp {
                 let CamHit::Surface(sh) = &s.cams[cam_of(p, k)] else {
                     continue;
@@ -567,8 +583,7 @@ fn render_chunk(
                 let mat = &scene.materials[sh.material];
                 let lobe = &ctx.lobes[sh.material];
                 // Light sample.
-                let ul = [rng.uniform(), rng.uniform(), rng.uniform(), rng.uniform()];
-                if let Some(ls) = dist.sample(env, ul) {
+                if let Some(ls) = dist.sample(env, s.strat_a[k]) {
                     e.samples += 1;
                     e.lookups += 1;
                     let wi = sh.to_local(&ls.dir);
@@ -590,7 +605,7 @@ fn render_chunk(
                     }
                 }
                 // BRDF sample.
-                let bs = lobe.sample(&sh.wo, u5(rng));
+                let bs = lobe.sample(&sh.wo, rng.uniform(), s.strat_b[k]);
                 e.samples += 1;
                 if bs.wi.z > 0.0 && bs.pdf > 0.0 {
                     let dir = sh.to_world(&bs.wi);

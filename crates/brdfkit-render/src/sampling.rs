@@ -70,14 +70,26 @@ pub fn sample_uniform_sphere(u1: f64, u2: f64) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
-/// Index i with cdf[i] ≤ u < cdf[i+1] in a normalised CDF (cdf[0] = 0, last = 1),
-/// skipping empty bins.
+/// Inverts a normalised CDF (cdf[0] = 0, last = 1): the bin i with
+/// cdf[i] ≤ u < cdf[i+1] (never an empty one), and the position of u inside it,
+/// (u − cdf[i]) / (cdf[i+1] − cdf[i]) ∈ [0, 1), so one uniform number yields both the
+/// bin and a uniform offset within it and stratification of u carries through.
 #[inline]
-fn pick(cdf: &[f64], u: f64) -> usize {
+pub fn pick(cdf: &[f64], u: f64) -> (usize, f64) {
     let n = cdf.len() - 1;
     // partition_point: first index with cdf > u; the bin is one before it.
-    let i = cdf.partition_point(|&c| c <= u);
-    i.saturating_sub(1).min(n - 1)
+    let i = cdf
+        .partition_point(|&c| c <= u)
+        .saturating_sub(1)
+        .min(n - 1);
+    let width = cdf[i + 1] - cdf[i];
+    // width > 0 for any bin u can land in; the clamp keeps round-off inside [0, 1).
+    let r = if width > 0.0 {
+        ((u - cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON)
+    } else {
+        0.5
+    };
+    (i, r)
 }
 
 /// Builds a normalised CDF from non-negative weights; returns the total.
@@ -256,24 +268,25 @@ impl LobeSampler {
         self.theta_edges.len() - 1
     }
 
-    /// Draws wi for the outgoing direction `wo` (local frame, wo.z > 0) from five
-    /// uniforms. The density is that of [`pdf`](Self::pdf); wi may lie below the
-    /// horizon (the integrand is zero there).
+    /// Draws wi for the outgoing direction `wo` (local frame, wo.z > 0): `choice`
+    /// picks the defensive cosine part or the table, `u` places the direction (its
+    /// stratification carries through both warps). The density is that of
+    /// [`pdf`](Self::pdf); wi may lie below the horizon (the integrand is zero there).
     #[inline]
-    pub fn sample(&self, wo: &Vec3, u: [f64; 5]) -> DirSample {
+    pub fn sample(&self, wo: &Vec3, choice: f64, u: [f64; 2]) -> DirSample {
         let k = Self::node(wo);
-        let wi = if u[0] < Self::DEFENSIVE || !self.usable[k] {
-            sample_cosine(u[1], u[2])
+        let wi = if choice < Self::DEFENSIVE || !self.usable[k] {
+            sample_cosine(u[0], u[1])
         } else {
             let nt = self.nt();
             let np = Self::N_PHI;
-            let i = pick(&self.marginal[k * (nt + 1)..(k + 1) * (nt + 1)], u[1]);
+            let (i, r1) = pick(&self.marginal[k * (nt + 1)..(k + 1) * (nt + 1)], u[0]);
             let base = (k * nt + i) * (np + 1);
-            let j = pick(&self.conditional[base..base + np + 1], u[2]);
+            let (j, r2) = pick(&self.conditional[base..base + np + 1], u[1]);
             let (ca, cb) = (self.cos_edges[i], self.cos_edges[i + 1]);
-            let ct = ca + u[3] * (cb - ca);
+            let ct = ca + r1 * (cb - ca);
             let st = (1.0 - ct * ct).max(0.0).sqrt();
-            let phi = (j as f64 + u[4]) * (2.0 * PI / np as f64);
+            let phi = (j as f64 + r2) * (2.0 * PI / np as f64);
             let (e1, e2, m) = mirror_frame(wo);
             st * phi.cos() * e1 + st * phi.sin() * e2 + ct * m
         };
