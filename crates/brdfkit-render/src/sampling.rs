@@ -378,14 +378,7 @@ mod tests {
         let n = 400_000;
         let (mut sum, mut sum2) = (0.0, 0.0);
         for _ in 0..n {
-            let u = [
-                rng.uniform(),
-                rng.uniform(),
-                rng.uniform(),
-                rng.uniform(),
-                rng.uniform(),
-            ];
-            let d = s.sample(&wo, u);
+            let d = s.sample(&wo, rng.uniform(), [rng.uniform(), rng.uniform()]);
             assert!(d.pdf > 0.0, "a sampled direction has zero density");
             assert!((d.wi.norm() - 1.0).abs() < 1e-12);
             let v = if d.wi.z > 0.0 { d.wi.z / d.pdf } else { 0.0 };
