@@ -84,17 +84,21 @@ fn advise_huge_pages(buf: &mut [f64]) {
 #[cfg(not(target_os = "linux"))]
 fn advise_huge_pages(_buf: &mut [f64]) {}
 
-/// Parses the header and checks it against the total length in bytes.
-fn parse_header(header: &[u8; 12], len: u64, path: &Path) -> Result<Dims, MerlError> {
+/// The dims of a header (positive, within int32, size representable).
+fn header_dims(header: &[u8; 12], path: &Path) -> Result<Dims, MerlError> {
     let d = [
         LittleEndian::read_i32(&header[0..4]) as i64,
         LittleEndian::read_i32(&header[4..8]) as i64,
         LittleEndian::read_i32(&header[8..12]) as i64,
     ];
-    let dims = Dims::new(d[0], d[1], d[2]).map_err(|source| MerlError::Dims {
+    Dims::new(d[0], d[1], d[2]).map_err(|source| MerlError::Dims {
         path: path.to_path_buf(),
         source,
-    })?;
+    })
+}
+
+/// Checks a total length in bytes against the dims.
+fn check_length(dims: Dims, len: u64, path: &Path) -> Result<(), MerlError> {
     let expected = dims.file_bytes();
     let (cells, path) = (dims.cells(), path.to_path_buf());
     if len < expected {
@@ -115,7 +119,45 @@ fn parse_header(header: &[u8; 12], len: u64, path: &Path) -> Result<Dims, MerlEr
             actual: len,
         });
     }
+    Ok(())
+}
+
+/// Parses the header and checks it against the total length in bytes.
+fn parse_header(header: &[u8; 12], len: u64, path: &Path) -> Result<Dims, MerlError> {
+    let dims = header_dims(header, path)?;
+    check_length(dims, len, path)?;
     Ok(dims)
+}
+
+/// Reads a table from a stream without a known length (a pipe, a device): the header,
+/// then the body through `take`, so the buffer grows with the bytes actually present
+/// and never beyond what the header claims; any excess is counted, not stored.
+fn read_stream(mut r: impl Read, path: &Path) -> Result<MerlTable, MerlError> {
+    let mut header = [0u8; 12];
+    let mut got = 0;
+    while got < 12 {
+        match r.read(&mut header[got..]) {
+            Ok(0) => {
+                return Err(MerlError::TooShort {
+                    path: path.to_path_buf(),
+                    len: got as u64,
+                });
+            }
+            Ok(k) => got += k,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(MerlError::io(path, "reading the header", e)),
+        }
+    }
+    let dims = header_dims(&header, path)?;
+    let body_len = dims.file_bytes() - HEADER_BYTES;
+    let mut body = Vec::new();
+    (&mut r)
+        .take(body_len)
+        .read_to_end(&mut body)
+        .map_err(|e| MerlError::io(path, "reading", e))?;
+    let extra = io::copy(&mut r, &mut io::sink()).map_err(|e| MerlError::io(path, "reading", e))?;
+    check_length(dims, HEADER_BYTES + body.len() as u64 + extra, path)?;
+    read_body(dims, path, &body[..])
 }
 
 /// Reads the body (3 planes of little-endian f64) from `src` into a new table, in
@@ -206,13 +248,8 @@ impl MerlTable {
             });
         }
         if !meta.is_file() {
-            // A pipe or a device has no length to check the header against: read what
-            // is there (memory grows with the data actually present, not with the
-            // header's claim) and parse that.
-            let mut bytes = Vec::new();
-            file.read_to_end(&mut bytes)
-                .map_err(|e| MerlError::io(path, "reading", e))?;
-            return Self::from_bytes(&bytes, path);
+            // A pipe or a device has no length to check the header against.
+            return read_stream(file, path);
         }
         let len = meta.len();
         if len < HEADER_BYTES {

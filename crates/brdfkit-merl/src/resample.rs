@@ -214,30 +214,56 @@ impl MerlTable {
     /// below the horizon, if a table has any (MERL files do not).
     pub fn cell_batch(&self) -> CellBatch {
         let indices: Vec<usize> = (0..self.cells()).filter(|&x| self.valid[x]).collect();
-        let cells: Vec<Cell> = indices
-            .par_iter()
-            .with_min_len(4096)
-            .map(|&x| self.cell(x).expect("index is valid"))
+        // Runs of cells build their columns in parallel, then are appended in order:
+        // the peak is about twice the result, never a Vec of whole `Cell`s.
+        let parts: Vec<CellBatch> = indices
+            .par_chunks(8192)
+            .map(|run| {
+                let mut part = CellBatch {
+                    indices: run.to_vec(),
+                    geometry: GeometryBatch::with_capacity(run.len()),
+                    values: std::array::from_fn(|_| Vec::with_capacity(run.len())),
+                    weights: Vec::with_capacity(run.len()),
+                };
+                for &x in run {
+                    let c = self.cell(x).expect("index is valid");
+                    part.geometry.push(&c.wi, &c.wo);
+                    for ch in Channel::ALL {
+                        part.values[ch.index()].push(c.value[ch.index()]);
+                    }
+                    part.weights.push(c.weight);
+                }
+                part
+            })
             .collect();
-        let mut geometry = GeometryBatch::with_capacity(cells.len());
-        let mut values = [
-            Vec::with_capacity(cells.len()),
-            Vec::with_capacity(cells.len()),
-            Vec::with_capacity(cells.len()),
-        ];
-        let mut weights = Vec::with_capacity(cells.len());
-        for c in &cells {
-            geometry.push(&c.wi, &c.wo);
-            for ch in Channel::ALL {
-                values[ch.index()].push(c.value[ch.index()]);
-            }
-            weights.push(c.weight);
-        }
-        CellBatch {
+        let m = indices.len();
+        let mut out = CellBatch {
             indices,
-            geometry,
-            values,
-            weights,
+            geometry: GeometryBatch::with_capacity(m),
+            values: std::array::from_fn(|_| Vec::with_capacity(m)),
+            weights: Vec::with_capacity(m),
+        };
+        for p in parts {
+            let (g, pg) = (&mut out.geometry, &p.geometry);
+            for (dst, src) in [
+                (&mut g.wi_x, &pg.wi_x),
+                (&mut g.wi_y, &pg.wi_y),
+                (&mut g.wi_z, &pg.wi_z),
+                (&mut g.wo_x, &pg.wo_x),
+                (&mut g.wo_y, &pg.wo_y),
+                (&mut g.wo_z, &pg.wo_z),
+                (&mut g.h_x, &pg.h_x),
+                (&mut g.h_y, &pg.h_y),
+                (&mut g.h_z, &pg.h_z),
+                (&mut g.cos_d, &pg.cos_d),
+            ] {
+                dst.extend_from_slice(src);
+            }
+            for ch in 0..3 {
+                out.values[ch].extend_from_slice(&p.values[ch]);
+            }
+            out.weights.extend_from_slice(&p.weights);
         }
+        out
     }
 }

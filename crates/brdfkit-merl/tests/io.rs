@@ -436,3 +436,46 @@ fn write_replaces_an_old_file_atomically() {
     assert_eq!(MerlTable::read(&p).unwrap(), t);
     assert!(temp_leftovers(dir.path()).is_empty());
 }
+
+/// Sends `bytes` through a named pipe and reads the table from it.
+fn read_through_fifo(bytes: Vec<u8>) -> Result<MerlTable, MerlError> {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.binary");
+    let ok = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let f2 = fifo.clone();
+    let writer = std::thread::spawn(move || {
+        use std::io::Write;
+        let mut w = std::fs::OpenOptions::new().write(true).open(&f2).unwrap();
+        // The reader may stop early (bad header): a broken pipe is fine.
+        let _ = w.write_all(&bytes);
+    });
+    let r = MerlTable::read(&fifo);
+    writer.join().unwrap();
+    r
+}
+
+#[test]
+fn streams_without_a_length_are_read_and_checked() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let raw = random_raw(&mut rng, 3 * 4 * 5 * 6);
+    let bytes = image([4, 5, 6], &raw);
+    let t = read_through_fifo(bytes.clone()).unwrap();
+    assert_eq!(t.to_bytes(), bytes);
+    let mut long = bytes.clone();
+    long.extend_from_slice(&[0u8; 100]);
+    let e = read_through_fifo(long).unwrap_err();
+    assert!(e.to_string().contains("100 trailing bytes"), "{e}");
+    assert_names(&e, "pipe.binary");
+    let e = read_through_fifo(bytes[..bytes.len() - 8].to_vec()).unwrap_err();
+    assert!(matches!(e, MerlError::Truncated { .. }), "{e}");
+    let e = read_through_fifo(bytes[..7].to_vec()).unwrap_err();
+    assert!(matches!(e, MerlError::TooShort { len: 7, .. }), "{e}");
+    // A character device with nothing in it.
+    let e = MerlTable::read("/dev/null").unwrap_err();
+    assert!(matches!(e, MerlError::TooShort { len: 0, .. }), "{e}");
+    assert_names(&e, "/dev/null");
+}

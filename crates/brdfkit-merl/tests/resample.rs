@@ -336,6 +336,25 @@ fn valid_cell_view_and_batch_agree_with_the_table() {
 }
 
 #[test]
+fn cell_batch_of_a_larger_table_keeps_file_order_across_runs() {
+    let d = Dims::new(45, 45, 90).unwrap();
+    let t = MerlTable::from_brdf(&Glossy, d).unwrap();
+    let b = t.cell_batch();
+    let want: Vec<usize> = (0..d.cells()).filter(|&x| t.is_valid(x)).collect();
+    assert!(want.len() > 3 * 8192, "several parallel runs");
+    assert_eq!(b.indices, want);
+    assert_eq!(b.geometry.len(), want.len());
+    assert_eq!(b.weights.len(), want.len());
+    let g = b.geometry.as_slice();
+    for m in (0..want.len()).step_by(997).chain([want.len() - 1]) {
+        let c = t.cell(want[m]).unwrap();
+        assert_eq!(g.pair(m), (c.wi, c.wo));
+        assert_eq!(b.values[2][m], c.value[2]);
+        assert_eq!(b.weights[m], c.weight);
+    }
+}
+
+#[test]
 fn albedo_of_a_lambert_table_is_its_reflectance() {
     let rho = Rgb::new(0.2, 0.5, 0.8);
     let t = MerlTable::from_brdf(&Lambert(rho), Dims::MERL).unwrap();
