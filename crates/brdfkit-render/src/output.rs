@@ -22,7 +22,8 @@ use std::path::Path;
 pub struct RenderOutput {
     pub width: usize,
     pub height: usize,
-    /// Samples per pixel.
+    /// Samples per pixel actually taken: `film.spp`, or 1 with the `center` filter and
+    /// no environment (every sample would repeat the same deterministic value).
     pub spp: usize,
     /// Linear radiance (W m⁻² sr⁻¹ per channel), row-major, row 0 at the top.
     pub radiance: Vec<Rgb>,

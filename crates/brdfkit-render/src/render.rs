@@ -355,17 +355,6 @@ fn mis_weight(mis: Mis, a: f64, b: f64) -> f64 {
     }
 }
 
-#[inline]
-fn u5(r: &mut Pcg32) -> [f64; 5] {
-    [
-        r.uniform(),
-        r.uniform(),
-        r.uniform(),
-        r.uniform(),
-        r.uniform(),
-    ]
-}
-
 /// Renders `scene`. Only the effects in `scene.effects` are computed.
 pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
     let start = Instant::now();
@@ -392,6 +381,13 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
         env_setup.setup_evals = ctx.lobes.iter().map(|l| l.build_evaluations).sum();
     }
 
+    // With the centre filter and no environment every sample of a pixel would repeat
+    // the same deterministic computation: one is enough.
+    let spp = if film.filter == PixelFilter::Center && !fx.environment {
+        1
+    } else {
+        spp
+    };
     let n_cam = match film.filter {
         PixelFilter::Center => 1,
         PixelFilter::Box => spp,
@@ -410,7 +406,9 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
             let mut x0 = 0;
             while x0 < w {
                 let x1 = (x0 + chunk_px).min(w);
-                render_chunk(&ctx, y, x0, x1, n_cam, scratch, &mut c, rad_row, se_row);
+                render_chunk(
+                    &ctx, y, x0, x1, spp, n_cam, scratch, &mut c, rad_row, se_row,
+                );
                 x0 = x1;
             }
             c
@@ -461,6 +459,7 @@ fn render_chunk(
     y: usize,
     x0: usize,
     x1: usize,
+    spp: usize,
     n_cam: usize,
     s: &mut Scratch,
     c: &mut Counters,
@@ -470,7 +469,6 @@ fn render_chunk(
     let scene = ctx.scene;
     let film = &scene.film;
     let fx = scene.effects;
-    let spp = film.spp;
     let npx = x1 - x0;
     let cam_of = |p: usize, k: usize| if n_cam == 1 { p } else { p * spp + k };
 
@@ -666,19 +664,21 @@ fn render_chunk(
     let t0 = Instant::now();
     let n = spp as f64;
     for p in 0..npx {
+        let sample = |k: usize| s.values[p * spp + k] + s.cam_value[cam_of(p, k)];
         let mut sum = Rgb::ZERO;
-        let mut sum2 = Rgb::ZERO;
         for k in 0..spp {
-            let v = s.values[p * spp + k] + s.cam_value[cam_of(p, k)];
-            sum += v;
-            sum2 += v * v;
+            sum += sample(k);
         }
         let mean = sum / n;
         rad_row[x0 + p] = mean;
         se_row[x0 + p] = if spp > 1 {
-            // Unbiased sample variance; round-off can make it a hair negative.
-            let var = (sum2 - mean * mean * n).map(|v| v.max(0.0)) / (n - 1.0);
-            (var / n).map(f64::sqrt)
+            // Two-pass unbiased sample variance: exactly zero when all samples agree.
+            let mut ss = Rgb::ZERO;
+            for k in 0..spp {
+                let d = sample(k) - mean;
+                ss += d * d;
+            }
+            (ss / (n * (n - 1.0))).map(f64::sqrt)
         } else {
             Rgb::ZERO
         };
