@@ -104,6 +104,10 @@ fn damped_step(
 /// 3. ρ > 0: accept, μ ← μ · max(1/3, 1 − (2ρ − 1)³), ν ← 2, and form the normal
 ///    equations at the new point. Otherwise μ ← μ ν, ν ← 2ν and solve again.
 ///
+/// Steps are clipped to [`MAX_STEP`] per coordinate. A trial after an accepted step
+/// is evaluated with the full normal equations (it is usually accepted, and then they
+/// are needed anyway); a trial after a rejection with a cost pass only.
+///
 /// μ starts at τ · max diag(JᵀJ). One argmin iteration is one accepted step (with the
 /// rejected trials it took); it stops when
 /// - the cost is at the round-off floor of a perfect fit ([`NormalEquations::cost_floor`]),
@@ -121,6 +125,7 @@ pub struct LevenbergMarquardt {
     /// Which rule stopped the solver.
     pub criterion: Option<&'static str>,
     failed: Option<&'static str>,
+    last_accepted: bool,
 }
 
 impl LevenbergMarquardt {
@@ -134,6 +139,7 @@ impl LevenbergMarquardt {
             ne: None,
             criterion: None,
             failed: None,
+            last_accepted: true,
         }
     }
 }
@@ -204,7 +210,19 @@ where
             let h = clip_step(h);
             let small = h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol);
             let un = &u + &h;
-            let fnew = problem.cost(&un)?;
+            // After an accepted step the next trial is usually accepted too: evaluate
+            // the normal equations there at once (one pass instead of a cost pass and
+            // then a Jacobian pass). After a rejection, probe with the cheaper cost
+            // pass until a step is accepted.
+            let trial = if self.last_accepted {
+                Some(problem.problem("jacobian_count", |p| p.normal_equations(&un))?)
+            } else {
+                None
+            };
+            let fnew = match &trial {
+                Some(t) => t.cost,
+                None => problem.cost(&un)?,
+            };
             // Predicted decrease of the quadratic model, −hᵀg − ½ hᵀ(JᵀJ)h: valid for
             // the clipped step too (the closed form ½ hᵀ(μDh − g) is not).
             let pred = -h.dot(&ne.jtr) - 0.5 * h.dot(&(&ne.jtj * &h));
@@ -214,7 +232,11 @@ where
                 let t = 2.0 * rho - 1.0;
                 self.mu *= (1.0f64 / 3.0).max(1.0 - t * t * t);
                 self.nu = 2.0;
-                let ne2 = problem.problem("jacobian_count", |p| p.normal_equations(&un))?;
+                self.last_accepted = true;
+                let ne2 = match trial {
+                    Some(t) => t,
+                    None => problem.problem("jacobian_count", |p| p.normal_equations(&un))?,
+                };
                 if small {
                     // MINPACK's xtol: tested on a step that was taken.
                     self.criterion = Some("step below xtol");
@@ -229,6 +251,7 @@ where
                     Some(argmin::kv!("mu" => self.mu; "rejected" => rejected;)),
                 ));
             }
+            self.last_accepted = false;
             if small {
                 // A rejected step this small: more damping only shrinks it further.
                 self.criterion = Some("step below xtol");

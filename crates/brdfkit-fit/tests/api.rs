@@ -33,7 +33,13 @@ fn record_has_every_loss_and_round_trips_through_json() {
     assert_eq!(r.loss, Loss::Cbrt);
     assert_eq!(r.starts.len(), 3);
     assert_eq!(r.starts.iter().filter(|s| s.kept).count(), 1);
-    assert!(r.iterations > 0 && r.cost_evals > 0 && r.jacobian_evals > 0);
+    assert!(r.iterations > 0 && r.jacobian_evals > r.iterations / 2);
+    let per_start: u64 = r
+        .starts
+        .iter()
+        .map(|s| s.cost_evals + s.jacobian_evals)
+        .sum();
+    assert_eq!(per_start, r.cost_evals + r.jacobian_evals);
     assert!(r.wall_time_s > 0.0);
     assert_eq!(r.model, res.fitted.to_json());
     assert_eq!(r.params.len(), 10);

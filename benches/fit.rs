@@ -1,0 +1,220 @@
+//! Benchmark of the fitter: a full-table fit of Cook-Torrance (GGX, separable Smith,
+//! Schlick Fresnel, with the model's own Lambertian ρd — not a `sum`) with the `cbrt`
+//! loss on a synthetic 90 × 90 × 180 table, against the fit an ordinary user would
+//! write in Python (numpy + scipy.optimize.least_squares, `benches/peers/fit_scipy.py`)
+//! on the same cells, weights, loss, start and bounds.
+//!
+//! Run: `cargo bench --bench fit` (add `-- --no-python` to skip the peer; `-- --runs N`
+//! for N timed Rust fits, default 5). The peer runs in `/work/main/.venv`-style
+//! `<workspace>/.venv`, created with `python3 -m venv .venv && .venv/bin/pip install
+//! -r benches/peers/requirements.txt` when missing.
+//!
+//! Prints the timings, evaluation counts, both final losses (each recomputed by the
+//! Rust loss code from the returned parameters) and the time ratio.
+
+use brdfkit::core::Model;
+use brdfkit::fit::{FitConfig, FitData, evaluate_losses, fit};
+use brdfkit::merl::{Dims, MerlTable};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+const TRUTH: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","masking":"smith-separable",
+    "fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.08}}"#;
+const START: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","masking":"smith-separable","fresnel":"schlick"}}"#;
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+/// Writes the cells in the peer's format (see `fit_scipy.py`).
+fn write_cells(data: &FitData, path: &Path) -> std::io::Result<()> {
+    let g = data.geometry();
+    let w = data.measure();
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    f.write_all(b"BRDFCELL")?;
+    f.write_all(&(data.len() as u64).to_le_bytes())?;
+    let v = data.values();
+    for col in [
+        &g.wi_x, &g.wi_y, &g.wi_z, &g.wo_x, &g.wo_y, &g.wo_z, &g.h_x, &g.h_y, &g.h_z, &g.cos_d,
+        &v[0], &v[1], &v[2],
+    ] {
+        for x in col.iter() {
+            f.write_all(&x.to_le_bytes())?;
+        }
+    }
+    for x in w {
+        f.write_all(&x.to_le_bytes())?;
+    }
+    f.flush()
+}
+
+fn workspace() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The venv's python, creating the venv and installing the pinned requirements when
+/// missing.
+fn python() -> Option<PathBuf> {
+    let root = workspace();
+    let py = root.join(".venv/bin/python");
+    let ok = |py: &Path| {
+        Command::new(py)
+            .args(["-c", "import numpy, scipy"])
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false)
+    };
+    if py.exists() && ok(&py) {
+        return Some(py);
+    }
+    eprintln!("setting up .venv with benches/peers/requirements.txt ...");
+    if !py.exists() {
+        let s = Command::new("python3")
+            .args(["-m", "venv", ".venv"])
+            .current_dir(&root)
+            .status()
+            .ok()?;
+        if !s.success() {
+            return None;
+        }
+    }
+    let s = Command::new(root.join(".venv/bin/pip"))
+        .args(["install", "-q", "-r", "benches/peers/requirements.txt"])
+        .current_dir(&root)
+        .status()
+        .ok()?;
+    (s.success() && ok(&py)).then_some(py)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let no_python = args.iter().any(|a| a == "--no-python");
+    let runs: usize = args
+        .iter()
+        .position(|a| a == "--runs")
+        .and_then(|i| args.get(i + 1))
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5);
+
+    let truth = brdfkit::models::from_json_str(TRUTH).expect("truth model");
+    let start = brdfkit::models::from_json_str(START).expect("start model");
+    let t = Instant::now();
+    let table = MerlTable::from_brdf(truth.as_ref(), Dims::MERL).expect("table");
+    let t_table = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let data = FitData::from_table(&table).expect("cells");
+    let t_cells = t.elapsed().as_secs_f64();
+    println!(
+        "table 90x90x180 from the model: {:.3} s; valid cells {} ({:.1} %); cells prepared in {:.3} s",
+        t_table,
+        data.len(),
+        100.0 * table.valid_fraction(),
+        t_cells
+    );
+    println!("threads: {}", rayon::current_num_threads());
+
+    let cfg = FitConfig::default();
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let t = Instant::now();
+        let res = fit(start.as_ref(), &data, &cfg, None).expect("fit");
+        times.push(t.elapsed().as_secs_f64());
+        last = Some(res);
+    }
+    let res = last.expect("at least one run");
+    let r = &res.record;
+    let t_rust = median(&mut times.clone());
+    let best = times.iter().copied().fold(f64::INFINITY, f64::min);
+    println!(
+        "rust  (brdfkit-fit, LM, cbrt, 1 start): median {:.3} s, min {:.3} s over {} runs; \
+         {} iterations, {} cost + {} Jacobian evaluations; {}",
+        t_rust,
+        best,
+        times.len(),
+        r.iterations,
+        r.cost_evals,
+        r.jacobian_evals,
+        r.termination
+    );
+    println!(
+        "rust  final cbrt loss {:.6e} (per channel {:?}); alpha {:.6}",
+        r.losses_full.cbrt.overall,
+        r.losses_full.cbrt.channels,
+        res.fitted.channel_model(0).params()[6]
+    );
+    let weighting = cfg.get_weighting();
+
+    if no_python {
+        return;
+    }
+    let Some(py) = python() else {
+        println!("python peer skipped: no python3 venv with numpy + scipy could be set up");
+        return;
+    };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cells = dir.path().join("cells.bin");
+    write_cells(&data, &cells).expect("write cells");
+    let out = Command::new(&py)
+        .arg(workspace().join("benches/peers/fit_scipy.py"))
+        .arg(&cells)
+        .output()
+        .expect("run the python peer");
+    if !out.status.success() {
+        println!(
+            "python peer failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        return;
+    }
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("peer JSON");
+    let t_py = v["time_s"].as_f64().expect("time_s");
+    let p: Vec<f64> = v["params"]
+        .as_array()
+        .expect("params")
+        .iter()
+        .map(|x| x.as_f64().expect("number"))
+        .collect();
+    // The peer's loss recomputed by the Rust loss code (a check that both sides
+    // minimise the same thing).
+    let mut m = start.clone();
+    let py_loss_rust = match m.set_params(&p) {
+        Ok(()) => {
+            let mm: &dyn Model = m.as_ref();
+            evaluate_losses([mm, mm, mm], &data, weighting).cbrt.overall
+        }
+        Err(e) => {
+            println!("peer parameters rejected by the model: {e}");
+            f64::NAN
+        }
+    };
+    println!(
+        "python (scipy {} least_squares trf, 2-point Jacobian): {:.3} s; nfev {}, njev {}; status {} ({})",
+        v["numpy"].as_str().unwrap_or("?"),
+        t_py,
+        v["nfev"],
+        v["njev"],
+        v["status"],
+        v["message"].as_str().unwrap_or("")
+    );
+    println!(
+        "python final cbrt loss {:.6e} (its own), {:.6e} (recomputed in Rust); alpha {:.6}",
+        v["loss_cbrt"].as_f64().unwrap_or(f64::NAN),
+        py_loss_rust,
+        p.get(6).copied().unwrap_or(f64::NAN)
+    );
+    println!(
+        "ratio python / rust (median): {:.1}x; losses rust {:.3e} vs python {:.3e} ({})",
+        t_py / t_rust,
+        r.losses_full.cbrt.overall,
+        py_loss_rust,
+        if r.losses_full.cbrt.overall <= py_loss_rust {
+            "rust equal or lower"
+        } else {
+            "rust higher"
+        }
+    );
+}

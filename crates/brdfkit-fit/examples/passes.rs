@@ -1,0 +1,86 @@
+//! Times the passes a fit is made of on the full synthetic MERL grid (Cook-Torrance
+//! GGX + Schlick, cbrt loss): a cost pass, a normal-equation pass, a model-only pass and
+//! the loss report. `cargo run --release -p brdfkit-fit --example passes`.
+
+use brdfkit_core::Rgb;
+use brdfkit_fit::problem::{CHUNK, FitProblem};
+use brdfkit_fit::synth::{Coverage, synth_data};
+use brdfkit_fit::{FitConfig, Loss, Weighting, evaluate_losses, resolve_free};
+use rayon::prelude::*;
+use std::time::Instant;
+
+fn time<T>(what: &str, reps: usize, mut f: impl FnMut() -> T) -> T {
+    let mut out = None;
+    let t = Instant::now();
+    for _ in 0..reps {
+        out = Some(f());
+    }
+    println!(
+        "{what}: {:.1} ms",
+        1e3 * t.elapsed().as_secs_f64() / reps as f64
+    );
+    out.expect("reps > 0")
+}
+
+fn main() {
+    let truth = brdfkit_models::from_json_str(
+        r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.08}}"#,
+    )
+    .expect("model");
+    let data = synth_data(
+        truth.as_ref(),
+        brdfkit_merl::Dims::MERL,
+        Coverage::AboveHorizon,
+    )
+    .expect("data");
+    let start = brdfkit_models::from_json_str(
+        r#"{"model":"cook-torrance","params":{"fresnel":"schlick"}}"#,
+    )
+    .expect("start");
+    let free = resolve_free(start.as_ref(), &FitConfig::default()).expect("free");
+    let p = FitProblem::new(
+        &data,
+        start.as_ref(),
+        free,
+        vec![0, 1, 2],
+        Loss::Cbrt,
+        Weighting::SolidAngle,
+    )
+    .expect("problem");
+    let u = p.start_u();
+    println!("cells {}", data.len());
+    let n = data.len();
+    let g = data.geometry();
+    let np = start.num_params();
+    time("model eval_batch only (parallel)", 5, || {
+        (0..n.div_ceil(CHUNK)).into_par_iter().for_each_init(
+            || vec![Rgb::ZERO; CHUNK],
+            |out, ci| {
+                let s = ci * CHUNK;
+                let e = (s + CHUNK).min(n);
+                start.eval_batch(&g.slice(s..e), &mut out[..e - s]);
+            },
+        )
+    });
+    time("model eval_grad_batch only (parallel)", 5, || {
+        (0..n.div_ceil(CHUNK)).into_par_iter().for_each_init(
+            || (vec![Rgb::ZERO; CHUNK], vec![Rgb::ZERO; np * CHUNK]),
+            |(out, gr), ci| {
+                let s = ci * CHUNK;
+                let e = (s + CHUNK).min(n);
+                start.eval_grad_batch(&g.slice(s..e), &mut out[..e - s], &mut gr[..np * (e - s)]);
+            },
+        )
+    });
+    time("cost pass", 5, || p.cost_at(&u));
+    let mut v = u.clone();
+    time("normal-equation pass", 5, || {
+        v[0] += 1e-9; // defeat the cache
+        p.normal_eq(&v)
+    });
+    let m = p.model_at(&u).expect("model");
+    let mm: &dyn brdfkit_core::Model = m.as_ref();
+    time("loss report (4 losses)", 3, || {
+        evaluate_losses([mm, mm, mm], &data, Weighting::SolidAngle)
+    });
+}
