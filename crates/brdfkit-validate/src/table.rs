@@ -206,8 +206,17 @@ impl Brdf for TableBrdf<'_> {
     }
 }
 
+/// The table read as a BRDF (missing lookups 0), for the pole choice.
+pub(crate) fn as_brdf(t: &MerlTable, mode: Lookup) -> impl Brdf + '_ {
+    TableBrdf {
+        t,
+        mode,
+        indicator: false,
+    }
+}
+
 /// Albedo of the table at θo with the given rule: (filled albedo, missing weight).
-fn table_albedo(
+pub(crate) fn table_albedo(
     t: &MerlTable,
     mode: Lookup,
     wo: &Vec3,

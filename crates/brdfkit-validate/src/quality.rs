@@ -1,0 +1,590 @@
+//! Fit quality: how well a fitted model reproduces a measured table, and where it fails.
+//!
+//! Over the table's valid cells (the cells a fit sees, [`FitData::from_table`]):
+//! - **losses**: every loss of the fitter (`l2`, `cosine`, `cbrt`, `log`), the weighted
+//!   RMS of the transformed difference per channel and overall, computed by
+//!   [`brdfkit_fit::evaluate_losses`] (the fitter's own code; definitions in
+//!   [`brdfkit_fit::loss`] and `docs/validation.md`);
+//! - **bands**: the same losses restricted to bands of θh (the specular peak is θh ≈ 0)
+//!   and of θd (retro-reflection is θd ≈ 0, grazing θd → 90°);
+//! - **relative-error percentiles**: |f − f̂| / f̂ per cell and channel (cells measured
+//!   as exactly 0 are counted and left out), the 50th, 90th and 99th percentiles per
+//!   channel and pooled, by the nearest-rank definition (the ⌈p·n/100⌉-th smallest);
+//! - **albedo**: the directional albedo of the fit and of the table at several θo,
+//!   by the same quadrature as the physical checks;
+//! - **held-out validation** (optional, [`held_out`]): the model family is fitted again
+//!   by [`brdfkit_fit::fit`] on a stratified subset of the cells and scored on the
+//!   others; the ratio of held-out to training loss measures over-fitting.
+
+use crate::physical::{albedo_rules, auto_pole};
+use crate::report::{deg, num, rgb};
+use crate::table::table_albedo;
+use brdfkit_core::direction::spherical;
+use brdfkit_core::quadrature::directional_albedo;
+use brdfkit_core::{Model, ModelError, Rgb};
+use brdfkit_fit::data::STRATA;
+use brdfkit_fit::{
+    FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting, evaluate_losses, fit,
+};
+use brdfkit_merl::{Lookup, MerlTable};
+use brdfkit_models::testing::SplitMix64;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::f64::consts::FRAC_PI_2;
+use std::fmt;
+use thiserror::Error;
+
+/// Errors of the fit-quality computation.
+#[derive(Debug, Error)]
+pub enum QualityError {
+    /// The fitter rejected the data or the configuration, or failed.
+    #[error(transparent)]
+    Fit(#[from] FitError),
+    /// A model description that does not build.
+    #[error("model: {0}")]
+    Model(#[from] ModelError),
+    /// An option out of range.
+    #[error("fit-quality option `{option}`: {reason}")]
+    Option {
+        option: &'static str,
+        reason: String,
+    },
+}
+
+/// A fitted model as JSON: a model description, or `{"per_channel": [r, g, b]}` as
+/// [`Fitted::to_json`] writes it.
+pub fn fitted_from_json(v: &Value) -> Result<Fitted, ModelError> {
+    if let Some(pc) = v.get("per_channel") {
+        let arr = pc.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
+            ModelError::Invalid("`per_channel` must be an array of three model descriptions".into())
+        })?;
+        let m = |c: usize| brdfkit_models::from_json(&arr[c]);
+        return Ok(Fitted::PerChannel([m(0)?, m(1)?, m(2)?]));
+    }
+    Ok(Fitted::Shared(brdfkit_models::from_json(v)?))
+}
+
+/// Held-out validation settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOutOptions {
+    /// The model family and start, in the JSON contract (what was fitted).
+    pub family: Value,
+    /// The fit's configuration (loss, weighting, solver, starts …).
+    pub config: FitConfig,
+    /// Fraction of the cells, per stratum, the model is fitted on (the rest is scored).
+    pub train_fraction: f64,
+    /// Seed of the split.
+    pub seed: u64,
+}
+
+/// What [`fit_quality_with`] computes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct QualityOptions {
+    /// Cell weights of every loss.
+    pub weighting: Weighting,
+    /// Band edges in θh (degrees, increasing, from 0 to 90).
+    pub theta_h_bands_deg: Vec<f64>,
+    /// Band edges in θd (degrees).
+    pub theta_d_bands_deg: Vec<f64>,
+    /// Outgoing angles (degrees) of the albedo comparison.
+    pub albedo_thetas_deg: Vec<f64>,
+    /// Held-out validation, when wanted (it runs a fit).
+    pub held_out: Option<HeldOutOptions>,
+}
+
+impl Default for QualityOptions {
+    /// Solid-angle weights; θh bands 0, 0.5, 1, 2, 5, 10, 20, 40, 90° (the first three
+    /// cover the specular peak of shiny materials); θd bands 0, 5, 10, 20, 40, 60, 70,
+    /// 80, 85, 90° (retro-reflection first, grazing last); albedo at 0, 15, …, 75, 85°;
+    /// no held-out fit.
+    fn default() -> Self {
+        QualityOptions {
+            weighting: Weighting::SolidAngle,
+            theta_h_bands_deg: vec![0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 40.0, 90.0],
+            theta_d_bands_deg: vec![0.0, 5.0, 10.0, 20.0, 40.0, 60.0, 70.0, 80.0, 85.0, 90.0],
+            albedo_thetas_deg: vec![0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0],
+            held_out: None,
+        }
+    }
+}
+
+/// The losses over the cells of one angular band.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Band {
+    /// Lower edge (degrees, inclusive).
+    pub lo_deg: f64,
+    /// Upper edge (degrees; exclusive, inclusive for the last band).
+    pub hi_deg: f64,
+    pub cells: usize,
+    /// `None` when the band holds no cell.
+    pub losses: Option<LossReport>,
+}
+
+/// The 50th, 90th and 99th percentiles of a sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Percentiles {
+    pub p50: f64,
+    pub p90: f64,
+    pub p99: f64,
+}
+
+/// Relative-error percentiles.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RelativeErrors {
+    /// Per channel (R, G, B).
+    pub channels: [Option<Percentiles>; 3],
+    /// All channels pooled.
+    pub overall: Option<Percentiles>,
+    /// Cell channels counted.
+    pub samples: usize,
+    /// Cell channels measured as exactly 0, left out (their relative error is
+    /// undefined).
+    pub zero_measured: usize,
+}
+
+/// The albedo of the fit and of the table at one θo.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AlbedoComparison {
+    /// θo (radians), φo = 0.
+    pub theta_o: f64,
+    /// The table's albedo (missing lookups filled with the mean, as in
+    /// [`crate::table`]); `None` when no lookup found a sample.
+    pub table: Option<Rgb>,
+    /// Fraction of the cosine-weighted hemisphere whose lookups were missing.
+    pub table_missing_weight: f64,
+    /// The fitted model's albedo (channel c from the channel-c model).
+    pub fit: Rgb,
+    /// fit − table.
+    pub difference: Option<Rgb>,
+}
+
+/// Fit on part of the cells, scored on the rest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeldOutReport {
+    pub train_fraction: f64,
+    pub seed: u64,
+    pub train_cells: usize,
+    pub test_cells: usize,
+    /// The loss the fit minimised.
+    pub loss: Loss,
+    /// The model fitted on the training cells.
+    pub fitted: Value,
+    /// Losses on the training cells.
+    pub train: LossReport,
+    /// Losses on the held-out cells.
+    pub test: LossReport,
+    /// Held-out over training value of the fitted loss (overall): ≈ 1 when the model
+    /// generalises, ≫ 1 when it over-fits.
+    pub ratio: f64,
+}
+
+/// Everything [`fit_quality_with`] measures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct QualityReport {
+    /// The fitted model(s) in the JSON contract.
+    pub model: Value,
+    pub weighting: Weighting,
+    /// Valid cells of the table.
+    pub cells: usize,
+    /// Every loss over all valid cells.
+    pub losses: LossReport,
+    pub theta_h_bands: Vec<Band>,
+    pub theta_d_bands: Vec<Band>,
+    pub relative_error: RelativeErrors,
+    pub albedo: Vec<AlbedoComparison>,
+    pub held_out: Option<HeldOutReport>,
+}
+
+/// Fit quality of `fitted` against `table` with the default options (no held-out
+/// fit).
+pub fn fit_quality(table: &MerlTable, fitted: &Fitted) -> Result<QualityReport, QualityError> {
+    fit_quality_with(table, fitted, &QualityOptions::default())
+}
+
+fn models_of(fitted: &Fitted) -> [&dyn Model; 3] {
+    [
+        fitted.channel_model(0),
+        fitted.channel_model(1),
+        fitted.channel_model(2),
+    ]
+}
+
+fn check_edges(option: &'static str, e: &[f64]) -> Result<(), QualityError> {
+    let ok = e.len() >= 2
+        && e.iter().all(|x| x.is_finite() && (0.0..=90.0).contains(x))
+        && e.windows(2).all(|w| w[0] < w[1]);
+    if ok {
+        Ok(())
+    } else {
+        Err(QualityError::Option {
+            option,
+            reason: format!("band edges must increase within [0, 90] degrees, got {e:?}"),
+        })
+    }
+}
+
+/// The losses of the cells whose `angle` (radians) lies in each band.
+fn bands(
+    models: [&dyn Model; 3],
+    data: &FitData,
+    angle: &[f64],
+    edges_deg: &[f64],
+    w: Weighting,
+) -> Vec<Band> {
+    let last = edges_deg.len() - 2;
+    edges_deg
+        .windows(2)
+        .enumerate()
+        .map(|(b, e)| {
+            let (lo, hi) = (e[0].to_radians(), e[1].to_radians());
+            // The last band is closed, and takes the round-off above 90° (θ computed by
+            // acos of a dot product) too.
+            let sub = data.filter(|m| angle[m] >= lo && (angle[m] < hi || b == last));
+            Band {
+                lo_deg: e[0],
+                hi_deg: e[1],
+                cells: sub.len(),
+                losses: (!sub.is_empty()).then(|| evaluate_losses(models, &sub, w)),
+            }
+        })
+        .collect()
+}
+
+/// Nearest-rank percentiles of `v` (sorted in place); `None` when empty.
+fn percentiles(v: &mut [f64]) -> Option<Percentiles> {
+    if v.is_empty() {
+        return None;
+    }
+    v.par_sort_unstable_by(f64::total_cmp);
+    let n = v.len();
+    let at = |p: f64| v[((p / 100.0 * n as f64).ceil() as usize).clamp(1, n) - 1];
+    Some(Percentiles {
+        p50: at(50.0),
+        p90: at(90.0),
+        p99: at(99.0),
+    })
+}
+
+/// The fitted models' values at every cell: plane c from model c.
+fn model_values(models: [&dyn Model; 3], data: &FitData) -> [Vec<f64>; 3] {
+    const CHUNK: usize = 4096;
+    let n = data.len();
+    let g = data.geometry();
+    let mut planes = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    for (c, plane) in planes.iter_mut().enumerate() {
+        plane
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(k, out)| {
+                let s = k * CHUNK;
+                let mut buf = vec![Rgb::ZERO; out.len()];
+                models[c].eval_batch(&g.slice(s..s + out.len()), &mut buf);
+                for (o, v) in out.iter_mut().zip(&buf) {
+                    *o = v[c];
+                }
+            });
+    }
+    planes
+}
+
+fn relative_errors(models: [&dyn Model; 3], data: &FitData) -> RelativeErrors {
+    let f = model_values(models, data);
+    let mut zero = 0;
+    let mut per: [Vec<f64>; 3] = Default::default();
+    for c in 0..3 {
+        let meas = &data.values()[c];
+        per[c] = f[c]
+            .iter()
+            .zip(meas)
+            .filter(|&(_, &m)| m > 0.0)
+            .map(|(&a, &m)| (a - m).abs() / m)
+            .collect();
+        zero += meas.iter().filter(|m| **m == 0.0).count();
+    }
+    let mut pooled: Vec<f64> = per.iter().flatten().copied().collect();
+    let samples = pooled.len();
+    let overall = percentiles(&mut pooled);
+    let [a, b, c] = &mut per;
+    RelativeErrors {
+        channels: [percentiles(a), percentiles(b), percentiles(c)],
+        overall,
+        samples,
+        zero_measured: zero,
+    }
+}
+
+fn albedo_comparison(
+    models: [&dyn Model; 3],
+    table: &MerlTable,
+    thetas_deg: &[f64],
+) -> Vec<AlbedoComparison> {
+    thetas_deg
+        .par_iter()
+        .map(|&d| {
+            let theta_o = d.to_radians();
+            let wo = spherical(theta_o, 0.0);
+            let mut fit = Rgb::ZERO;
+            for (c, m) in models.iter().enumerate() {
+                // Per-channel fits are three models; a shared one is integrated once
+                // per channel too (cheap next to the table's lookups).
+                let (_, qf) = albedo_rules(auto_pole(*m, &wo), &wo);
+                fit[c] = directional_albedo(*m, &wo, &qf)[c];
+            }
+            let (_, qf) = albedo_rules(
+                auto_pole(&crate::table::as_brdf(table, Lookup::Interpolated), &wo),
+                &wo,
+            );
+            let (t, missing) = table_albedo(table, Lookup::Interpolated, &wo, &qf);
+            AlbedoComparison {
+                theta_o,
+                table: t,
+                table_missing_weight: missing,
+                fit,
+                difference: t.map(|t| fit - t),
+            }
+        })
+        .collect()
+}
+
+/// A stratified split of the cells: per stratum of the [`STRATA`] × [`STRATA`] grid
+/// over (√(θh/(π/2)), θd/(π/2)) (the fitter's own strata), round(fraction · n) cells
+/// (at least one, and one fewer than n when n > 1) go to training, chosen by a seeded
+/// Fisher-Yates shuffle.
+pub fn stratified_split(data: &FitData, fraction: f64, seed: u64) -> (FitData, FitData) {
+    let (th, td) = (data.theta_h(), data.theta_d());
+    let mut bins: Vec<Vec<usize>> = vec![Vec::new(); STRATA * STRATA];
+    for m in 0..data.len() {
+        let a = ((th[m].max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
+        let b = ((td[m].max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
+        bins[a.min(STRATA - 1) * STRATA + b.min(STRATA - 1)].push(m);
+    }
+    let mut train = vec![false; data.len()];
+    for (b, cells) in bins.iter_mut().enumerate() {
+        let n = cells.len();
+        if n == 0 {
+            continue;
+        }
+        let take = if n == 1 {
+            1
+        } else {
+            ((fraction * n as f64).round() as usize).clamp(1, n - 1)
+        };
+        let mut r = SplitMix64(seed ^ (b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        for k in (1..n).rev() {
+            let j = (r.next_u64() % (k as u64 + 1)) as usize;
+            cells.swap(k, j);
+        }
+        for &m in &cells[..take] {
+            train[m] = true;
+        }
+    }
+    (data.filter(|m| train[m]), data.filter(|m| !train[m]))
+}
+
+/// Held-out validation: fits `family` (structure and start) with `config` on a
+/// stratified `train_fraction` of `data` and scores the fit on the other cells. A θd
+/// cutoff in `config` applies to both parts.
+pub fn held_out(
+    family: &dyn Model,
+    data: &FitData,
+    config: &FitConfig,
+    train_fraction: f64,
+    seed: u64,
+) -> Result<HeldOutReport, QualityError> {
+    if !(train_fraction > 0.0 && train_fraction < 1.0) {
+        return Err(QualityError::Option {
+            option: "train_fraction",
+            reason: format!("must lie in (0, 1), got {train_fraction}"),
+        });
+    }
+    let cut;
+    let data = match config.get_theta_d_max() {
+        Some(t) => {
+            cut = data.with_theta_d_max(t);
+            &cut
+        }
+        None => data,
+    };
+    let (train, test) = stratified_split(data, train_fraction, seed);
+    if test.is_empty() {
+        return Err(QualityError::Option {
+            option: "train_fraction",
+            reason: "no cell left to score".into(),
+        });
+    }
+    let res = fit(family, &train, config, None)?;
+    let models = models_of(&res.fitted);
+    let w = config.get_weighting();
+    let train_l = evaluate_losses(models, &train, w);
+    let test_l = evaluate_losses(models, &test, w);
+    let loss = config.get_loss();
+    let (a, b) = (test_l.get(loss).overall, train_l.get(loss).overall);
+    Ok(HeldOutReport {
+        train_fraction,
+        seed,
+        train_cells: train.len(),
+        test_cells: test.len(),
+        loss,
+        fitted: res.fitted.to_json(),
+        train: train_l,
+        test: test_l,
+        ratio: if b > 0.0 { a / b } else { f64::INFINITY },
+    })
+}
+
+/// Fit quality of `fitted` against `table`.
+pub fn fit_quality_with(
+    table: &MerlTable,
+    fitted: &Fitted,
+    o: &QualityOptions,
+) -> Result<QualityReport, QualityError> {
+    check_edges("theta_h_bands_deg", &o.theta_h_bands_deg)?;
+    check_edges("theta_d_bands_deg", &o.theta_d_bands_deg)?;
+    let data = FitData::from_table(table)?;
+    let models = models_of(fitted);
+    let losses = evaluate_losses(models, &data, o.weighting);
+    let theta_h_bands = bands(
+        models,
+        &data,
+        data.theta_h(),
+        &o.theta_h_bands_deg,
+        o.weighting,
+    );
+    let theta_d_bands = bands(
+        models,
+        &data,
+        data.theta_d(),
+        &o.theta_d_bands_deg,
+        o.weighting,
+    );
+    let relative_error = relative_errors(models, &data);
+    let albedo = albedo_comparison(models, table, &o.albedo_thetas_deg);
+    let held_out = match &o.held_out {
+        Some(h) => {
+            let family = brdfkit_models::from_json(&h.family)?;
+            Some(held_out(
+                family.as_ref(),
+                &data,
+                &h.config,
+                h.train_fraction,
+                h.seed,
+            )?)
+        }
+        None => None,
+    };
+    Ok(QualityReport {
+        model: fitted.to_json(),
+        weighting: o.weighting,
+        cells: data.len(),
+        losses,
+        theta_h_bands,
+        theta_d_bands,
+        relative_error,
+        albedo,
+        held_out,
+    })
+}
+
+fn loss_row(l: &LossReport, loss: Loss) -> String {
+    let c = l.get(loss);
+    format!(
+        "{:<8} {:<10} [{}, {}, {}]",
+        loss.name(),
+        num(c.overall),
+        num(c.channels[0]),
+        num(c.channels[1]),
+        num(c.channels[2])
+    )
+}
+
+fn band_rows(s: &mut String, what: &str, bands: &[Band]) {
+    *s += &format!("  by {what} band (overall cbrt / log / l2 loss, cells):\n");
+    for b in bands {
+        let range = format!("{}–{}", deg(b.lo_deg), deg(b.hi_deg));
+        match &b.losses {
+            Some(l) => {
+                *s += &format!(
+                    "    {:<12} cbrt {:<10} log {:<10} l2 {:<10} {} cells\n",
+                    range,
+                    num(l.cbrt.overall),
+                    num(l.log.overall),
+                    num(l.l2.overall),
+                    b.cells
+                )
+            }
+            None => *s += &format!("    {range:<12} no cells\n"),
+        }
+    }
+}
+
+impl QualityReport {
+    /// The report as indented text.
+    pub fn to_text(&self) -> String {
+        let mut s = format!(
+            "fit quality of {} over {} valid cells ({} weights)\n",
+            self.model,
+            self.cells,
+            self.weighting.name()
+        );
+        s += "  losses (weighted RMS; overall [R, G, B]):\n";
+        for l in Loss::ALL {
+            s += &format!("    {}\n", loss_row(&self.losses, l));
+        }
+        band_rows(&mut s, "θh", &self.theta_h_bands);
+        band_rows(&mut s, "θd", &self.theta_d_bands);
+        let r = &self.relative_error;
+        s += &format!(
+            "  relative error |f − f̂|/f̂ percentiles (50 / 90 / 99) over {} cell channels ({} measured as 0 left out):\n",
+            r.samples, r.zero_measured
+        );
+        let p = |x: &Option<Percentiles>| match x {
+            Some(p) => format!("{} / {} / {}", num(p.p50), num(p.p90), num(p.p99)),
+            None => "none".into(),
+        };
+        s += &format!("    overall {}\n", p(&r.overall));
+        for (c, name) in ["R", "G", "B"].iter().enumerate() {
+            s += &format!("    {name}       {}\n", p(&r.channels[c]));
+        }
+        s += "  albedo a(θo) = ∫f cosθi dωi, fit vs table:\n";
+        for a in &self.albedo {
+            s += &format!(
+                "    θo {:>5}  fit {:<31} table {:<31} fit − table {}\n",
+                deg(a.theta_o.to_degrees()),
+                rgb(&a.fit),
+                a.table.as_ref().map(rgb).unwrap_or_else(|| "none".into()),
+                a.difference
+                    .as_ref()
+                    .map(rgb)
+                    .unwrap_or_else(|| "none".into())
+            );
+        }
+        if let Some(h) = &self.held_out {
+            s += &format!(
+                "  held-out: fitted on {} cells ({} per stratum, seed {}), scored on {}: {} loss train {} held-out {} (ratio {:.3})\n",
+                h.train_cells,
+                num(h.train_fraction),
+                h.seed,
+                h.test_cells,
+                h.loss.name(),
+                num(h.train.get(h.loss).overall),
+                num(h.test.get(h.loss).overall),
+                h.ratio
+            );
+            for l in Loss::ALL {
+                s += &format!(
+                    "    held-out {}   train {}\n",
+                    loss_row(&h.test, l),
+                    num(h.train.get(l).overall)
+                );
+            }
+        }
+        s
+    }
+}
+
+impl fmt::Display for QualityReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.to_text())
+    }
+}
