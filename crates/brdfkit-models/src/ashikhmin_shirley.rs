@@ -142,7 +142,7 @@ impl AshikhminShirley {
     }
 
     /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
-    #[inline]
+    #[inline(always)]
     fn kernel(
         &self,
         wi: [f64; 3],

@@ -58,7 +58,9 @@
 
 use crate::json;
 use brdfkit_core::model::{Domain, check_param};
-use brdfkit_core::scattering::fresnel::{conductor_grad, dielectric_grad, schlick_weight};
+use brdfkit_core::scattering::fresnel::{
+    conductor, conductor_grad, dielectric_grad, schlick_weight,
+};
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking, Smith};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Map, Value, json};
@@ -572,7 +574,7 @@ impl CookTorrance {
     /// `h` is the unit half vector and `cos_d` = wi·h, exactly as
     /// [`GeometryBatch`](brdfkit_core::GeometryBatch) stores them, so the slow and the
     /// fast paths share every operation.
-    #[inline]
+    #[inline(always)]
     fn kernel(
         &self,
         wi: [f64; 3],
@@ -610,11 +612,18 @@ impl CookTorrance {
                 }
             }
             Fresnel::Conductor { eta, k } => {
-                for c in 0..3 {
-                    let fc = conductor_grad(cos_d, eta[c], k[c]);
-                    f[c] = fc.f;
-                    df[0][c] = fc.d_eta;
-                    df[1][c] = fc.d_k;
+                if grad.is_some() {
+                    for c in 0..3 {
+                        let fc = conductor_grad(cos_d, eta[c], k[c]);
+                        f[c] = fc.f;
+                        df[0][c] = fc.d_eta;
+                        df[1][c] = fc.d_k;
+                    }
+                } else {
+                    // The same bits as conductor_grad(..).f, without the derivatives.
+                    for c in 0..3 {
+                        f[c] = conductor(cos_d, eta[c], k[c]);
+                    }
                 }
             }
             Fresnel::Dielectric { eta } => {
@@ -692,7 +701,7 @@ pub(crate) fn pair_geometry(wi: &Vec3, wo: &Vec3) -> ([f64; 3], [f64; 3], [f64; 
 }
 
 /// Pair `k` of a batch as arrays.
-#[inline]
+#[inline(always)]
 pub(crate) fn batch_pair(g: &GeomSlice<'_>, k: usize) -> ([f64; 3], [f64; 3], [f64; 3], f64) {
     (
         [g.wi_x[k], g.wi_y[k], g.wi_z[k]],

@@ -196,7 +196,7 @@ impl Ward {
     }
 
     /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
-    #[inline]
+    #[inline(always)]
     fn kernel(
         &self,
         wi: [f64; 3],

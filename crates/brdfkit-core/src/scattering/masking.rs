@@ -74,7 +74,7 @@ impl Smith {
     }
 
     /// Λ(q) and ∂Λ/∂q for q = α(φ)² tan²θ ≥ 0 (∞ allowed: Λ = ∞).
-    #[inline]
+    #[inline(always)]
     pub fn lambda_q(self, q: f64) -> (f64, f64) {
         if q == 0.0 {
             // Normal direction: nothing is masked. (∂Λ/∂q is finite there, but
@@ -105,7 +105,7 @@ impl Smith {
     }
 
     /// G1 = 1/(1 + Λ(q)) and ∂G1/∂q (for the rational form, its own G1).
-    #[inline]
+    #[inline(always)]
     pub fn g1_q(self, q: f64) -> (f64, f64) {
         if q == f64::INFINITY {
             return (0.0, 0.0);
@@ -137,7 +137,7 @@ impl Smith {
 
 /// q = (αx² vx² + αy² vy²)/vz² = α(φ)² tan²θv and its partials ∂q/∂αx, ∂q/∂αy.
 /// The caller guarantees vz ≠ 0.
-#[inline]
+#[inline(always)]
 pub fn projected_q(v: [f64; 3], ax: f64, ay: f64) -> (f64, f64, f64) {
     // Divide once at the end: for vz below ~1e-154, vz² underflows to 0 and q must come
     // out as +∞ (G1 → 0), not 0/0 = NaN from a zero tangential component.
@@ -163,14 +163,14 @@ pub struct AlphaGrad {
 
 impl AlphaGrad {
     /// ∂/∂α when αx = αy = α.
-    #[inline]
+    #[inline(always)]
     pub fn d_alpha(&self) -> f64 {
         self.d_ax + self.d_ay
     }
 }
 
 /// Smith Λ(v) with its α derivatives (0 for v on the normal). Requires vz > 0.
-#[inline]
+#[inline(always)]
 pub fn smith_lambda(smith: Smith, v: [f64; 3], ax: f64, ay: f64) -> AlphaGrad {
     let (q, qx, qy) = projected_q(v, ax, ay);
     let (l, dl) = smith.lambda_q(q);
@@ -193,7 +193,7 @@ pub fn smith_lambda(smith: Smith, v: [f64; 3], ax: f64, ay: f64) -> AlphaGrad {
 /// `v_dot_m` is v·m. Returns 0 when v is on the back of the microfacet or at/below the
 /// horizon (vz ≤ 0, where q is undefined). When q overflows (vz below ~1e-154) G1 is
 /// its limit 0, with zero derivatives.
-#[inline]
+#[inline(always)]
 pub fn smith_g1(smith: Smith, v: [f64; 3], v_dot_m: f64, ax: f64, ay: f64) -> AlphaGrad {
     if v[2] <= 0.0 || v_dot_m <= 0.0 {
         return AlphaGrad::default();
@@ -234,7 +234,7 @@ impl Masking {
     /// G(wi, wo, m) with its α derivatives. `wi_m`, `wo_m` are wi·m, wo·m; `m` is the
     /// unit microfacet normal (the half vector). Zero unless wi, wo and m are above the
     /// horizon and wi, wo on the front of m.
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn g(
         self,
@@ -286,7 +286,7 @@ impl Masking {
 
 /// The V-cavity masking of one direction, min(1, 2 (n·m)(n·v)/(v·m)) (Cook & Torrance
 /// 1982; Heitz 2014 eq. 94). Requires v·m > 0.
-#[inline]
+#[inline(always)]
 pub fn v_cavity_g1(v: [f64; 3], m: [f64; 3], v_m: f64) -> f64 {
     (2.0 * m[2] * v[2] / v_m).min(1.0)
 }

@@ -42,7 +42,7 @@ pub struct DGrad {
 
 impl DGrad {
     /// ∂D/∂α of the isotropic distribution (αx = αy = α): the sum of the partials.
-    #[inline]
+    #[inline(always)]
     pub fn d_alpha(&self) -> f64 {
         self.d_ax + self.d_ay
     }
@@ -55,7 +55,7 @@ impl DGrad {
 /// When exp(−e) underflows to 0 the value and derivatives are exactly 0: the prefactor
 /// 1/hz⁴ alone could overflow for a half vector within 1e-77 of the horizon, and 0 ×
 /// ∞ would be NaN; the true value there is below 1e-300.
-#[inline]
+#[inline(always)]
 pub fn beckmann_grad(hx: f64, hy: f64, hz: f64, ax: f64, ay: f64) -> DGrad {
     if hz <= 0.0 {
         return DGrad::default();
@@ -78,7 +78,7 @@ pub fn beckmann_grad(hx: f64, hy: f64, hz: f64, ax: f64, ay: f64) -> DGrad {
 ///
 /// With s = hx²/αx² + hy²/αy² + hz²: ∂D/∂αx = D (4hx²/(αx² s) − 1)/αx, likewise y.
 /// Every term stays finite for αx, αy ≥ 1e-6 (D ≤ 1/(π αx αy) at the peak).
-#[inline]
+#[inline(always)]
 pub fn ggx_grad(hx: f64, hy: f64, hz: f64, ax: f64, ay: f64) -> DGrad {
     if hz <= 0.0 {
         return DGrad::default();
@@ -95,13 +95,13 @@ pub fn ggx_grad(hx: f64, hy: f64, hz: f64, ax: f64, ay: f64) -> DGrad {
 
 impl Distribution {
     /// D(h).
-    #[inline]
+    #[inline(always)]
     pub fn d(self, hx: f64, hy: f64, hz: f64, ax: f64, ay: f64) -> f64 {
         self.d_grad(hx, hy, hz, ax, ay).d
     }
 
     /// D(h) with its derivatives with respect to αx and αy.
-    #[inline]
+    #[inline(always)]
     pub fn d_grad(self, hx: f64, hy: f64, hz: f64, ax: f64, ay: f64) -> DGrad {
         match self {
             Distribution::Beckmann => beckmann_grad(hx, hy, hz, ax, ay),
