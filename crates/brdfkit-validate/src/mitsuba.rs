@@ -733,7 +733,7 @@ mod tests {
         big[17] *= 1.0 + 2e-5;
         let c = compare(&cfg, &v, &big).unwrap();
         assert!(!c.passed && c.beyond_tolerance == 3, "{c}");
-        assert!(c.to_text().contains("FAIL") && c.to_text().contains("worst at"));
+        assert!(c.to_text().contains("FAIL") && c.to_text().contains("largest difference at"));
         // The cosine left in (Mitsuba's raw eval) is caught.
         let with_cos: Vec<Rgb> = exact.iter().zip(&v).map(|(x, (a, _))| *x * a.z).collect();
         assert!(!compare(&cfg, &v, &with_cos).unwrap().passed);
