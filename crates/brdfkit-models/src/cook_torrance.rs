@@ -28,9 +28,9 @@
 //! | Beckmann G1 | `beckmann_g1` | structural | `exact`, `rational` | `exact` |
 //! | Fresnel | `fresnel` | structural | see below | `{"schlick": {"f0": 0.04}}` |
 //! | f0 | `fresnel.schlick.f0` | yes | [0, 1] | 0.04 (fitted) |
-//! | η | `fresnel.conductor.eta` | yes | (0, ∞) | 0.2 (fixed) |
-//! | k | `fresnel.conductor.k` | yes | [0, ∞) | 3.0 (fixed) |
-//! | η | `fresnel.dielectric.eta` | no | (0, ∞) | 1.5 (fixed) |
+//! | η | `fresnel.conductor.eta` | yes | (0, 1000] | 0.2 (fixed) |
+//! | k | `fresnel.conductor.k` | yes | [0, 1000] | 3.0 (fixed) |
+//! | η | `fresnel.dielectric.eta` | no | (0, 1000] | 1.5 (fixed) |
 //!
 //! `fresnel` is `"none"`, `{"schlick": {"f0": ...}}`, `{"conductor": {"eta": ...,
 //! "k": ...}}` or `{"dielectric": {"eta": ...}}` (a bare `"schlick"`, `"conductor"` or
@@ -72,10 +72,17 @@ pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
 pub const ALPHA_DOMAIN: Domain = Domain::closed(1e-6, 100.0);
 /// The domain of Schlick's f0.
 pub const F0_DOMAIN: Domain = Domain::closed(0.0, 1.0);
-/// The domain of a real index of refraction (conductor η, dielectric η).
-pub const ETA_DOMAIN: Domain = Domain::above(0.0);
-/// The domain of a conductor's extinction coefficient k.
-pub const K_DOMAIN: Domain = Domain::at_least(0.0);
+/// The domain of a real index of refraction (conductor η, dielectric η): (0, 1000].
+/// Bounded above so η², k² and their products cannot overflow in the conductor formula
+/// (measured metals have η, k below ~50 in the visible).
+pub const ETA_DOMAIN: Domain = Domain {
+    lo: 0.0,
+    hi: 1e3,
+    lo_open: true,
+    hi_open: false,
+};
+/// The domain of a conductor's extinction coefficient k: [0, 1000].
+pub const K_DOMAIN: Domain = Domain::closed(0.0, 1e3);
 
 /// The channel suffixes of per-channel parameter names.
 pub(crate) const CH: [&str; 3] = ["r", "g", "b"];

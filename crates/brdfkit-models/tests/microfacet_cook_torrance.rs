@@ -468,6 +468,37 @@ fn hard_cases_stay_finite() {
             }
         }
     }
+    // Fresnel parameters at the ends of their domains.
+    for f in [
+        Fresnel::Conductor {
+            eta: Rgb::new(1e-9, 1e3, 1.0),
+            k: Rgb::new(0.0, 1e3, 1e-9),
+        },
+        Fresnel::Conductor {
+            eta: Rgb::new(1e3, 1e-9, 0.5),
+            k: Rgb::new(1e3, 0.0, 0.0),
+        },
+        Fresnel::Dielectric { eta: 1e-9 },
+        Fresnel::Dielectric { eta: 1e3 },
+        Fresnel::Schlick {
+            f0: Rgb::new(0.0, 1.0, 0.5),
+        },
+    ] {
+        for &a in &[1e-6, 0.5, 100.0] {
+            let m = CookTorrance::new()
+                .with_alpha(a)
+                .unwrap()
+                .with_fresnel(f)
+                .unwrap();
+            assert_finite_everywhere(&m, &hard);
+            assert_nonnegative(&m, &hard);
+        }
+    }
+    assert!(
+        CookTorrance::new()
+            .with_fresnel(Fresnel::Dielectric { eta: 1001.0 })
+            .is_err()
+    );
     // The value at the exact mirror direction with α = 1e-6 is huge but finite.
     let m = CookTorrance::new().with_alpha(1e-6).unwrap();
     let w = spherical(0.5, 0.0);
