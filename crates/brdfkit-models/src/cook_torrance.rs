@@ -54,7 +54,8 @@
 //! ≤ 1 (figures in `docs/models.md`).
 //!
 //! The roughness domain [1e-6, 100] keeps every value and gradient finite in double
-//! precision (D ≤ 1/(π αx αy) ≈ 3e11 at the peak for α = 1e-6); both ends are tested.
+//! precision (at α = 1e-6, D at the mirror direction is 1/(π α²) ≈ 3e11); both ends
+//! are tested over the hard-case grid.
 
 use crate::json;
 use brdfkit_core::model::{Domain, check_param};
