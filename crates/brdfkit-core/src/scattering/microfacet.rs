@@ -77,7 +77,8 @@ pub fn beckmann_grad(hx: f64, hy: f64, hz: f64, ax: f64, ay: f64) -> DGrad {
 /// GGX D(h) with ∂D/∂αx, ∂D/∂αy.
 ///
 /// With s = hx²/αx² + hy²/αy² + hz²: ∂D/∂αx = D (4hx²/(αx² s) − 1)/αx, likewise y.
-/// Every term stays finite for αx, αy ≥ 1e-6 (D ≤ 1/(π αx αy) at the peak).
+/// D is bounded, since s ≥ min(1, 1/max(αx, αy)²) on the unit hemisphere: every term
+/// stays finite for α in [1e-6, 100] (the models' domain).
 #[inline(always)]
 pub fn ggx_grad(hx: f64, hy: f64, hz: f64, ax: f64, ay: f64) -> DGrad {
     if hz <= 0.0 {
