@@ -102,8 +102,8 @@ impl Model for Lambert {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        for c in 0..3 {
-            grad[c][c] = FRAC_1_PI;
+        for (c, g) in grad[..3].iter_mut().enumerate() {
+            g[c] = FRAC_1_PI;
         }
         self.rho_d * FRAC_1_PI
     }
