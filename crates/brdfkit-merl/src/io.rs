@@ -15,7 +15,7 @@
 
 use crate::error::{Channel, MerlError};
 use crate::grid::{Dims, HEADER_BYTES};
-use crate::table::{MerlTable, raw_valid};
+use crate::table::{MerlTable, alloc_raw, raw_valid};
 use byteorder::{ByteOrder, LittleEndian};
 use rayon::prelude::*;
 use std::fs::File;
@@ -49,40 +49,6 @@ impl Source for File {
         Ok(buf)
     }
 }
-
-/// Asks Linux to back a fresh, still untouched buffer with transparent huge pages.
-///
-/// Reading a table is dominated by first-touch page faults of its new buffer (35 MB is
-/// 8,500 faults of 4 KiB pages; measured at about half of the read time), not by the
-/// copy. With `transparent_hugepage` in `madvise` mode (a common default) the advice
-/// cuts them 512-fold; in `always` mode it changes nothing, in `never` mode it is
-/// ignored. Purely advisory: failure is harmless and ignored.
-#[cfg(target_os = "linux")]
-fn advise_huge_pages(buf: &mut [f64]) {
-    const HUGE: usize = 2 << 20;
-    let bytes = std::mem::size_of_val(buf);
-    if bytes < 2 * HUGE || std::env::var_os("BRDFKIT_NO_THP").is_some() {
-        return;
-    }
-    // SAFETY: sysconf has no preconditions.
-    let page = unsafe { libc::sysconf(libc::_SC_PAGESIZE) };
-    let page = if page > 0 { page as usize } else { 4096 };
-    let start = buf.as_mut_ptr() as usize;
-    // madvise needs a page-aligned start: round into the buffer, never outside it.
-    let first = start.next_multiple_of(page);
-    let end = (start + bytes) / page * page;
-    if end > first {
-        // SAFETY: the range lies inside this live allocation, and MADV_HUGEPAGE only
-        // changes how the kernel backs it: the contents and their validity are
-        // unaffected, so no Rust invariant depends on the call.
-        unsafe {
-            libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE);
-        }
-    }
-}
-
-#[cfg(not(target_os = "linux"))]
-fn advise_huge_pages(_buf: &mut [f64]) {}
 
 /// The dims of a header (positive, within int32, size representable).
 fn header_dims(header: &[u8; 12], path: &Path) -> Result<Dims, MerlError> {
@@ -170,8 +136,7 @@ fn read_body(
     src: &(impl Source + ?Sized),
 ) -> Result<MerlTable, MerlError> {
     let n = dims.cells();
-    let mut raw = vec![0.0f64; 3 * n];
-    advise_huge_pages(&mut raw);
+    let mut raw = alloc_raw(n);
     let mut valid = vec![false; n];
     let (r, gb) = raw.split_at_mut(n);
     let (g, b) = gb.split_at_mut(n);

@@ -1,7 +1,7 @@
 //! Lookups: the reference nearest-bin lookup and multilinear interpolation.
 
 use crate::grid::Dims;
-use crate::table::{MerlTable, SCALES};
+use crate::table::{MerlTable, SCALES, raw_valid};
 use brdfkit_core::{HalfDiff, Rgb, Vec3, to_half_diff};
 use rayon::prelude::*;
 
@@ -127,12 +127,14 @@ impl MerlTable {
                 for (k, ww) in [(k0, 1.0 - tw), (k1, tw)] {
                     let w = wu * wv * ww;
                     let idx = row + k;
-                    if w == 0.0 || !self.valid[idx] {
+                    // Validity from the raw signs, as in `get_flat` (no mask load).
+                    let (r, g, b) = (self.raw[idx], self.raw[n + idx], self.raw[2 * n + idx]);
+                    if w == 0.0 || !raw_valid(r, g, b) {
                         continue;
                     }
-                    acc[0] += w * self.raw[idx];
-                    acc[1] += w * self.raw[n + idx];
-                    acc[2] += w * self.raw[2 * n + idx];
+                    acc[0] += w * r;
+                    acc[1] += w * g;
+                    acc[2] += w * b;
                     wsum += w;
                 }
             }

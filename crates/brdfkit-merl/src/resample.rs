@@ -134,7 +134,7 @@ impl MerlTable {
             .collect();
         let n = dims.cells();
         let slab = dims.theta_d() * dims.phi_d();
-        let mut raw = vec![0.0; 3 * n];
+        let mut raw = crate::table::alloc_raw(n);
         let mut valid = vec![false; n];
         let (r, gb) = raw.split_at_mut(n);
         let (g, b) = gb.split_at_mut(n);
