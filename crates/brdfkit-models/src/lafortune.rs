@@ -24,6 +24,9 @@
 //! Lambertian surface. Flat parameter names: `rho_d.r`, …, `lobes[0].cxy`,
 //! `lobes[0].cz`, `lobes[0].n`, `lobes[0].rho.r`, ….
 //!
+//! A lobe whose peak ρ · max(|cxy|, |cz|)ⁿ exceeds [`MAX_PEAK`] = 1e250 is rejected (with
+//! |c| > 1 a large n overflows f64).
+//!
 //! Redundancy: scaling (cxy, cz) by t > 0 and ρ by t^(−n) leaves f unchanged, so a lobe
 //! has one degree of freedom fewer than its parameters; cz is therefore marked not
 //! fitted by default (`fit_by_default = false`), which keeps the family for cz > 0.
@@ -48,6 +51,10 @@ use std::f64::consts::{FRAC_1_PI, PI};
 pub const C_DOMAIN: Domain = Domain::real();
 /// The domain of a lobe's ρ (not an albedo: the lobe integral depends on c and n).
 pub const LOBE_RHO_DOMAIN: Domain = Domain::at_least(0.0);
+
+/// The largest allowed lobe peak ρ · max(|cxy|, |cz|)ⁿ, leaving 1e58 of headroom for
+/// the factors n, ln b and 1/b of the gradient.
+pub const MAX_PEAK: f64 = 1e250;
 
 /// Parameters per lobe in the flat vector: cxy, cz, n, ρ (3).
 const PER_LOBE: usize = 6;
@@ -107,13 +114,32 @@ impl LafortuneLobe {
     }
 
     /// Validates with parameter names prefixed by `prefix` (e.g. `lobes[1].`).
+    ///
+    /// Beyond the domain of each parameter, the lobe's peak value ρ Mⁿ
+    /// (M = max(|cxy|, |cz|) bounds the base) must not exceed [`MAX_PEAK`]: with M > 1
+    /// and a large n it overflows to ∞ (1.1⁷⁵⁰⁰ already does), which no evaluation
+    /// could represent.
     fn checked(cxy: f64, cz: f64, n: f64, rho: Rgb, prefix: &str) -> Result<Self, ModelError> {
-        Ok(LafortuneLobe {
+        let l = LafortuneLobe {
             cxy: check_param(&format!("{prefix}cxy"), cxy, C_DOMAIN)?,
             cz: check_param(&format!("{prefix}cz"), cz, C_DOMAIN)?,
             n: check_param(&format!("{prefix}n"), n, N_DOMAIN)?,
             rho: check_rgb(&format!("{prefix}rho"), rho, LOBE_RHO_DOMAIN)?,
-        })
+        };
+        let peak = l.rho.max_channel() * cxy.abs().max(cz.abs()).powf(n);
+        // `!(peak <= MAX_PEAK)` also rejects NaN (0 · ∞ when ρ = 0 and Mⁿ overflows).
+        if !(peak <= MAX_PEAK) {
+            let who = if prefix.is_empty() {
+                "a lafortune lobe".to_string()
+            } else {
+                format!("`{}`", prefix.trim_end_matches('.'))
+            };
+            return Err(ModelError::Invalid(format!(
+                "{who}: peak value ρ · max(|cxy|, |cz|)^n = {peak:e} exceeds {MAX_PEAK:e} \
+                 (cxy = {cxy}, cz = {cz}, n = {n}): the lobe overflows"
+            )));
+        }
+        Ok(l)
     }
 
     /// The coefficient of wi.x wo.x + wi.y wo.y.
@@ -519,6 +545,17 @@ mod tests {
         assert!(e.to_string().contains("`n`"), "{e}");
         assert!(LafortuneLobe::new(f64::NAN, 1.0, 2.0, Rgb::splat(1.0)).is_err());
         assert!(LafortuneLobe::new(-1.0, 1.0, 2.0, Rgb::new(1.0, -1.0, 1.0)).is_err());
+        // A lobe that overflows is rejected, naming the lobe; |c| ≤ 1 never overflows.
+        let e = LafortuneLobe::new(-1.1, 1.0, 1e4, Rgb::splat(1.0)).unwrap_err();
+        assert!(e.to_string().contains("overflows"), "{e}");
+        assert!(
+            LafortuneLobe::new(-1.1, 1.0, 1e4, Rgb::ZERO).is_err(),
+            "0 · ∞"
+        );
+        assert!(LafortuneLobe::new(-1.0, 1.0, 1e300, Rgb::splat(1e250)).is_ok());
+        let v: Value = serde_json::from_str(r#"{"lobes":[{}, {"cz": 2, "n": 1000}]}"#).unwrap();
+        let e = Lafortune::from_params_json(&v).unwrap_err();
+        assert!(e.to_string().contains("`lobes[1]`"), "{e}");
         let mut m = model();
         let mut p = m.params();
         assert_eq!(p.len(), 15);
