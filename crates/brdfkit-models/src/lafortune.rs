@@ -202,13 +202,14 @@ impl Lafortune {
         Ok(self)
     }
 
-    /// Replaces the lobes (each already validated by [`LafortuneLobe::new`]).
+    /// Replaces the lobes. Each lobe was validated when built ([`LafortuneLobe::new`]),
+    /// so this cannot fail; it returns `Result` like every other builder step.
     pub fn with_lobes(mut self, lobes: Vec<LafortuneLobe>) -> Result<Self, ModelError> {
         self.lobes = lobes;
         Ok(self)
     }
 
-    /// Appends a lobe.
+    /// Appends a lobe (cannot fail, see [`Lafortune::with_lobes`]).
     pub fn with_lobe(mut self, lobe: LafortuneLobe) -> Result<Self, ModelError> {
         self.lobes.push(lobe);
         Ok(self)
