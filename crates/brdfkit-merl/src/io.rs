@@ -31,7 +31,8 @@ pub const CHUNK: usize = 8 * 1024;
 /// Where the body's bytes come from: a file read positionally (parallel tasks share it)
 /// or a byte slice.
 trait Source: Sync {
-    /// The `len` bytes at byte offset `off` of the body, read into `buf` if needed.
+    /// The `buf.len()` bytes at byte offset `off` of the body (read into `buf` if they
+    /// are not already in memory).
     fn bytes<'a>(&'a self, off: usize, buf: &'a mut [u8]) -> io::Result<&'a [u8]>;
 }
 

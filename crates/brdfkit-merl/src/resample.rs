@@ -172,7 +172,9 @@ impl MerlTable {
     /// clamped to the grid, φd wrapped (coordinate nφd is node 0).
     fn nearest_node(&self, c: [f64; 3]) -> usize {
         let d = self.dims;
-        // Coordinates from the angle maps are ≥ 0 and finite; `as` saturates anyway.
+        // Target coordinates are i · nS / nT < nS, so the clamps only catch a round-off
+        // up to exactly nS (and `as` saturates); φd wraps instead: coordinate nφd is
+        // φd = π, the same place as 0 by reciprocity.
         let i = (c[0] as usize).min(d.theta_h() - 1);
         let j = (c[1] as usize).min(d.theta_d() - 1);
         let k = (c[2] as usize) % d.phi_d();

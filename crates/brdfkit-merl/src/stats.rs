@@ -122,6 +122,8 @@ impl MerlTable {
         let (acc, w_valid, w_total) = gl
             .par_iter()
             .map(|&(mu, wmu)| {
+                // μ ∈ (0, 1) so 1 − μ² > 0; the clamp only guards the sqrt against
+                // a rounding below zero.
                 let sin = (1.0 - mu * mu).max(0.0).sqrt();
                 let mut acc = Rgb::ZERO;
                 let (mut wv, mut wt) = (0.0, 0.0);
