@@ -62,7 +62,7 @@ pub enum SceneError {
         key: String,
         file: Option<PathBuf>,
         #[source]
-        source: ModelError,
+        source: Box<ModelError>,
     },
 
     /// A MERL table that cannot be read (its message names the table file).
@@ -71,7 +71,7 @@ pub enum SceneError {
         scene: PathBuf,
         key: String,
         #[source]
-        source: MerlError,
+        source: Box<MerlError>,
     },
 
     /// An environment image that cannot be decoded or holds unusable values.

@@ -17,8 +17,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Modules: [`scene`] (format, validation, loading), [`render`] (estimators, cost
-//! accounting), [`env`] (environment lookup and sampling), [`sampling`] (BRDF lobe
+//! Modules: [`scene`] (format, validation, loading), [`mod@render`] (estimators, cost
+//! accounting), [`mod@env`] (environment lookup and sampling), [`sampling`] (BRDF lobe
 //! sampling), [`geometry`] (camera, sphere, plane), [`material`] (models and tables),
 //! [`output`] (image files, tone mapping), [`rng`] (per-pixel random streams).
 

@@ -230,11 +230,11 @@ struct Shading {
 
 impl Shading {
     #[inline]
-    fn to_local(&self, v: &Vec3) -> Vec3 {
+    fn local(&self, v: &Vec3) -> Vec3 {
         Vec3::new(v.dot(&self.t), v.dot(&self.b), v.dot(&self.n))
     }
     #[inline]
-    fn to_world(&self, v: &Vec3) -> Vec3 {
+    fn world(&self, v: &Vec3) -> Vec3 {
         v.x * self.t + v.y * self.b + v.z * self.n
     }
 }
@@ -526,7 +526,7 @@ fn render_chunk(
                         irradiance,
                     } => (-direction, f64::INFINITY, *irradiance),
                 };
-                let wi = sh.to_local(&dir);
+                let wi = sh.local(&dir);
                 if wi.z <= 0.0 {
                     continue;
                 }
@@ -584,7 +584,7 @@ fn render_chunk(
                 if let Some(ls) = dist.sample(env, s.strat_a[k]) {
                     e.samples += 1;
                     e.lookups += 1;
-                    let wi = sh.to_local(&ls.dir);
+                    let wi = sh.local(&ls.dir);
                     if wi.z > 0.0 {
                         e.brdf_evals += 1;
                         let (f, miss) = mat.eval(&wi, &sh.wo);
@@ -606,7 +606,7 @@ fn render_chunk(
                 let bs = lobe.sample(&sh.wo, rng.uniform(), s.strat_b[k]);
                 e.samples += 1;
                 if bs.wi.z > 0.0 && bs.pdf > 0.0 {
-                    let dir = sh.to_world(&bs.wi);
+                    let dir = sh.world(&bs.wi);
                     e.lookups += 1;
                     let le = env.radiance(&dir);
                     if le.max_channel() > 0.0 {

@@ -70,9 +70,9 @@ pub fn sample_uniform_sphere(u1: f64, u2: f64) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
-/// Inverts a normalised CDF (cdf[0] = 0, last = 1): the bin i with
-/// cdf[i] ≤ u < cdf[i+1] (never an empty one), and the position of u inside it,
-/// (u − cdf[i]) / (cdf[i+1] − cdf[i]) ∈ [0, 1), so one uniform number yields both the
+/// Inverts a normalised CDF (`cdf[0] = 0`, last = 1): the bin i with
+/// `cdf[i] ≤ u < cdf[i+1]` (never an empty one), and the position of u inside it,
+/// `(u − cdf[i]) / (cdf[i+1] − cdf[i])` ∈ [0, 1), so one uniform number yields both the
 /// bin and a uniform offset within it and stratification of u carries through.
 #[inline]
 pub fn pick(cdf: &[f64], u: f64) -> (usize, f64) {
@@ -181,7 +181,9 @@ impl LobeSampler {
         let nt = theta_edges.len() - 1;
         let np = Self::N_PHI;
         let dphi = 2.0 * PI / np as f64;
-        let per_node: Vec<(Vec<f64>, Vec<f64>, Vec<f64>, bool, u64)> = (0..Self::NODES)
+        // Per node: (marginal CDF, conditional CDFs, densities, usable, evaluations).
+        type NodeTable = (Vec<f64>, Vec<f64>, Vec<f64>, bool, u64);
+        let per_node: Vec<NodeTable> = (0..Self::NODES)
             .into_par_iter()
             .map(|k| {
                 let theta_o = (k as f64 + 0.5) / Self::NODES as f64 * FRAC_PI_2;

@@ -421,7 +421,7 @@ impl Scene {
             ));
         }
         let view = look_at - position;
-        if !(view.norm() > 0.0) {
+        if view.norm() == 0.0 {
             return Err(cx.invalid("camera.look_at", "equals camera.position"));
         }
         if view.normalize().cross(&up).norm() < 1e-6 {
@@ -662,7 +662,7 @@ fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<Material, Scene
                 scene: cx.path.to_path_buf(),
                 key: mkey.clone(),
                 file: file.clone(),
-                source,
+                source: Box::new(source),
             })?;
             Ok(Material::Model {
                 model: Arc::from(model),
@@ -677,7 +677,7 @@ fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<Material, Scene
             let table = MerlTable::read(&file).map_err(|source| SceneError::Table {
                 scene: cx.path.to_path_buf(),
                 key: format!("{key}.table"),
-                source,
+                source: Box::new(source),
             })?;
             let lookup = match m.lookup.unwrap_or(RawLookup::Nearest) {
                 RawLookup::Nearest => Lookup::Nearest,

@@ -1,0 +1,214 @@
+//! Only what is asked for is computed; costs are reported per effect; the image does
+//! not depend on the thread count; images are written atomically and read back.
+
+use brdfkit_core::Rgb;
+use brdfkit_render::{Effect, OutputError, Scene, SceneError, render};
+
+const BASE: &str = r#"
+[film]
+width = 40
+height = 30
+spp = 16
+[camera]
+position = [0, 2, 5]
+look_at = [0, -0.3, 0]
+fov = 45
+[sphere]
+center = [0, 0, 0]
+radius = 1
+[plane]
+point = [0, -1, 0]
+normal = [0, 1, 0]
+[material]
+model = { model = "cook-torrance", params = { rho_d = 0.3, rho_s = 0.5, alpha = 0.2 } }
+"#;
+
+const POINT: &str = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2]\nintensity = 10\n";
+const ENV: &str = "[environment]\nconstant = [0.5, 0.6, 0.7]\n";
+
+fn scene(effects: &str, extra: &str) -> Result<Scene, SceneError> {
+    Scene::from_toml_str(
+        &format!("effects = {effects}\n{BASE}{extra}"),
+        "effects.toml",
+    )
+}
+
+#[test]
+fn direct_only_spends_nothing_on_environment_or_shadows() {
+    let out = render(&scene(r#"["direct"]"#, POINT).unwrap()).unwrap();
+    let st = &out.stats;
+    assert!(st.camera.rays > 0 && st.direct.samples > 0 && st.direct.brdf_evals > 0);
+    assert!(!st.direct.time.is_zero());
+    for e in [Effect::Environment, Effect::Shadows] {
+        let c = st.effect(e);
+        assert!(!c.requested);
+        assert!(c.is_zero(), "{e}: {c:?}");
+    }
+    // Centre filter, no environment: one sample per pixel whatever spp says.
+    assert_eq!(out.spp, 1);
+    assert_eq!(st.camera.rays, 40 * 30);
+}
+
+#[test]
+fn environment_only_spends_nothing_on_direct_light_or_shadows() {
+    let out = render(&scene(r#"["environment"]"#, ENV).unwrap()).unwrap();
+    let st = &out.stats;
+    assert!(st.environment.samples > 0 && st.environment.lookups > 0);
+    assert!(st.environment.setup_evals > 0 && !st.environment.setup.is_zero());
+    assert!(st.direct.is_zero() && st.shadows.is_zero());
+}
+
+#[test]
+fn every_effect_requested_costs_something() {
+    let out = render(
+        &scene(
+            r#"["direct", "environment", "shadows"]"#,
+            &format!("{POINT}{ENV}"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let st = &out.stats;
+    for e in Effect::ALL {
+        let c = st.effect(e);
+        assert!(
+            c.requested && !c.time.is_zero() && c.samples > 0,
+            "{e}: {c:?}"
+        );
+    }
+    // Sphere over plane: some shadow rays are blocked.
+    assert!(
+        st.shadows.rays > 0 && st.shadows.occluded > 0 && st.shadows.occluded < st.shadows.rays
+    );
+    let text = st.to_string();
+    assert!(text.contains("environment") && text.contains("occluded"));
+}
+
+#[test]
+fn shadows_change_only_what_is_occluded() {
+    let a = render(&scene(r#"["direct"]"#, POINT).unwrap()).unwrap();
+    let b = render(&scene(r#"["direct", "shadows"]"#, POINT).unwrap()).unwrap();
+    let (mut darker, mut same) = (0, 0);
+    for (x, y) in a.radiance.iter().zip(&b.radiance) {
+        if x == y {
+            same += 1;
+        } else {
+            // Visibility only removes light.
+            assert!(y[0] < x[0] && *y == Rgb::ZERO, "{x:?} -> {y:?}");
+            darker += 1;
+        }
+    }
+    assert!(darker > 10 && same > 500, "darker {darker}, same {same}");
+}
+
+#[test]
+fn declared_but_unrequested_light_is_an_error() {
+    let e = scene(r#"["direct"]"#, &format!("{POINT}{ENV}")).unwrap_err();
+    assert!(
+        matches!(&e, SceneError::Invalid { key, .. } if key == "environment"),
+        "{e}"
+    );
+    assert!(
+        e.to_string().contains("`environment` is not in `effects`"),
+        "{e}"
+    );
+    let e = scene(r#"["environment"]"#, &format!("{POINT}{ENV}")).unwrap_err();
+    assert!(
+        matches!(&e, SceneError::Invalid { key, .. } if key == "light"),
+        "{e}"
+    );
+    let e = scene(r#"["environment"]"#, "").unwrap_err();
+    assert!(e.to_string().contains("no [environment]"), "{e}");
+    let e = scene(r#"["direct"]"#, "").unwrap_err();
+    assert!(e.to_string().contains("no [[light]]"), "{e}");
+    let e = scene(r#"["shadows"]"#, POINT).unwrap_err();
+    assert!(e.to_string().contains("asks for no light"), "{e}");
+}
+
+#[test]
+fn image_is_independent_of_the_thread_count_and_follows_the_seed() {
+    let s = scene(
+        r#"["direct", "environment", "shadows"]"#,
+        &format!("{POINT}{ENV}"),
+    )
+    .unwrap();
+    let with = |n: usize, s: &Scene| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+            .install(|| render(s).unwrap())
+    };
+    let one = with(1, &s);
+    let two = with(2, &s);
+    let three = with(3, &s);
+    assert_eq!(one.stats.threads, 1);
+    assert_eq!(three.stats.threads, 3);
+    assert!(one.radiance == two.radiance && two.radiance == three.radiance);
+    assert!(one.std_error == three.std_error);
+    let mut reseeded = s.clone();
+    reseeded.film.seed = 99;
+    assert!(with(2, &reseeded).radiance != one.radiance);
+}
+
+#[test]
+fn exr_and_png_are_written_atomically_and_read_back() {
+    let out = render(&scene(r#"["direct"]"#, POINT).unwrap()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("a.exr");
+    let png = dir.path().join("a.png");
+    out.write_exr(&exr).unwrap();
+    out.write_png(&png).unwrap();
+    let back = image::open(&exr).unwrap().to_rgb32f();
+    assert_eq!((back.width(), back.height()), (40, 30));
+    for (p, c) in back.pixels().zip(&out.radiance) {
+        for k in 0..3 {
+            assert_eq!(p[k], c[k] as f32);
+        }
+    }
+    let back = image::open(&png).unwrap().to_rgb8();
+    assert_eq!(back, out.to_srgb8(out.exposure));
+    // Only the two images: no temporary files left behind.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+    // An unwritable destination is a typed error naming the file.
+    let bad = dir.path().join("missing-dir/a.exr");
+    let e = out.write_exr(&bad).unwrap_err();
+    assert!(matches!(e, OutputError::Io { .. }));
+    assert!(e.to_string().contains("missing-dir/a.exr"), "{e}");
+}
+
+#[test]
+fn a_256_square_point_light_render_is_fast() {
+    let s = Scene::from_toml_str(
+        r#"effects = ["direct"]
+[film]
+width = 256
+height = 256
+[camera]
+position = [0, 0, 4]
+look_at = [0, 0, 0]
+fov = 40
+[sphere]
+center = [0, 0, 0]
+radius = 1
+[material]
+model = { model = "cook-torrance", params = { rho_d = 0.3, rho_s = 0.5, alpha = 0.2, fresnel = { conductor = { eta = 0.2, k = 3.0 } } } }
+[[light]]
+type = "point"
+position = [2, 3, 2]
+intensity = 10
+"#,
+        "perf.toml",
+    )
+    .unwrap();
+    let out = render(&s).unwrap();
+    println!("256x256 point light: {:?}\n{}", out.stats.wall, out.stats);
+    // Release: well under a second (measured ~10 ms). Debug builds of this workspace are
+    // opt-level 1: a loose bound that still catches an accidental quadratic.
+    let limit = if cfg!(debug_assertions) { 5.0 } else { 0.5 };
+    assert!(out.stats.wall.as_secs_f64() < limit, "{:?}", out.stats.wall);
+}

@@ -1,0 +1,427 @@
+//! Bad scene files: each gives a typed error that names the scene file, the key and the
+//! problem (and the referenced file when one is at fault). Never a panic.
+
+use brdfkit_render::{Scene, SceneError};
+use std::path::Path;
+
+const GOOD: &str = r#"effects = ["direct"]
+[film]
+width = 8
+height = 6
+[camera]
+position = [0, 0, 4]
+look_at = [0, 0, 0]
+fov = 40
+[sphere]
+center = [0, 0, 0]
+radius = 1
+[material]
+model = { model = "lambert", params = { rho_d = 0.5 } }
+[[light]]
+type = "point"
+position = [2, 2, 2]
+intensity = 10
+"#;
+
+/// Writes `text` as bad.toml in a temp dir (with `files` beside it) and reads it.
+fn read(text: &str, files: &[(&str, &[u8])]) -> (SceneError, String) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, text).unwrap();
+    let e = Scene::read(&path).expect_err("the scene must be rejected");
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with(&path.display().to_string()),
+        "no scene path in: {msg}"
+    );
+    assert_eq!(e.scene_path(), path.as_path());
+    (e, msg)
+}
+
+fn edit(from: &str, to: &str) -> String {
+    assert!(GOOD.contains(from), "{from}");
+    GOOD.replacen(from, to, 1)
+}
+
+fn assert_invalid(text: &str, key: &str, words: &str) {
+    let (e, msg) = read(text, &[]);
+    assert!(
+        matches!(&e, SceneError::Invalid { key: k, .. } if k == key),
+        "expected Invalid at `{key}`, got: {msg}"
+    );
+    assert!(msg.contains(words), "`{words}` not in: {msg}");
+}
+
+fn assert_syntax(text: &str, words: &[&str]) {
+    let (e, msg) = read(text, &[]);
+    assert!(
+        matches!(e, SceneError::Syntax { .. }),
+        "expected Syntax, got: {msg}"
+    );
+    for w in words {
+        assert!(msg.contains(w), "`{w}` not in: {msg}");
+    }
+}
+
+#[test]
+fn the_good_scene_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("good.toml");
+    std::fs::write(&p, GOOD).unwrap();
+    Scene::read(&p).unwrap();
+}
+
+#[test]
+fn a_missing_scene_file_is_a_read_error() {
+    let e = Scene::read("/nonexistent/dir/scene.toml").unwrap_err();
+    assert!(matches!(e, SceneError::Read { .. }));
+    assert!(
+        e.to_string()
+            .starts_with("/nonexistent/dir/scene.toml: cannot read")
+    );
+}
+
+#[test]
+fn unknown_keys_are_rejected_with_their_name() {
+    assert_syntax(
+        &format!("samples = 3\n{GOOD}"),
+        &["unknown field `samples`"],
+    );
+    // The same key after [[light]] belongs to the light.
+    assert_invalid(
+        &format!("{GOOD}samples = 3\n"),
+        "light[0]",
+        "unknown field `samples`",
+    );
+    assert_syntax(
+        &edit("fov = 40", "fov = 40\nfovv = 3"),
+        &["unknown field `fovv`", "fov"],
+    );
+    assert_syntax(
+        &edit("radius = 1", "radius = 1\ncolour = 3"),
+        &["unknown field `colour`"],
+    );
+    assert_syntax(
+        &edit("rho_d = 0.5 } }", "rho_d = 0.5 } }\nlookups = \"nearest\""),
+        &["unknown field `lookups`"],
+    );
+    assert_syntax(
+        &edit("effects = [\"direct\"]", "effects = [\"direct\", \"gi\"]"),
+        &["unknown variant `gi`"],
+    );
+    assert_invalid(
+        &edit("intensity = 10", "intensity = 10\nradius = 2"),
+        "light[0]",
+        "unknown field `radius`",
+    );
+    assert_invalid(
+        &edit("type = \"point\"", "type = \"spot\""),
+        "light[0].type",
+        "unknown light type `spot`",
+    );
+    assert_invalid(
+        &edit("type = \"point\"\n", ""),
+        "light[0].type",
+        "missing field `type`",
+    );
+}
+
+#[test]
+fn wrong_types_are_rejected() {
+    assert_syntax(
+        &edit("width = 8", "width = \"big\""),
+        &["width", "invalid type"],
+    );
+    assert_syntax(&edit("fov = 40", "fov = [40]"), &["fov", "invalid type"]);
+    assert_syntax(&edit("center = [0, 0, 0]", "center = [0, 0]"), &["center"]);
+    assert_syntax(
+        &edit("effects = [\"direct\"]", "effects = \"direct\""),
+        &["effects"],
+    );
+    assert_invalid(
+        &edit("intensity = 10", "intensity = [1, 2]"),
+        "light[0]",
+        "3 numbers",
+    );
+    assert_invalid(
+        &edit("intensity = 10", "intensity = \"bright\""),
+        "light[0]",
+        "a number or an [r, g, b]",
+    );
+    assert_invalid(
+        &edit("type = \"point\"", "type = 3"),
+        "light[0].type",
+        "must be a string",
+    );
+    assert_invalid(
+        &edit(
+            "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
+            "model = 3",
+        ),
+        "material.model",
+        "must be a path to a model JSON file or an inline table",
+    );
+}
+
+#[test]
+fn missing_fields_are_rejected() {
+    assert_syntax(&edit("fov = 40\n", ""), &["missing field `fov`"]);
+    assert_syntax(&edit("width = 8\n", ""), &["missing field `width`"]);
+    assert_syntax(&edit("radius = 1\n", ""), &["missing field `radius`"]);
+    assert_invalid(
+        &edit("intensity = 10\n", ""),
+        "light[0]",
+        "missing field `intensity`",
+    );
+    let no_material = edit(
+        "[material]\nmodel = { model = \"lambert\", params = { rho_d = 0.5 } }\n",
+        "",
+    );
+    assert_invalid(&no_material, "sphere.material", "no material");
+    let no_object = edit("[sphere]\ncenter = [0, 0, 0]\nradius = 1\n", "");
+    assert_invalid(&no_object, "sphere", "no object");
+}
+
+#[test]
+fn out_of_domain_values_are_rejected_with_the_value() {
+    assert_invalid(&edit("fov = 40", "fov = 200"), "camera.fov", "got 200");
+    assert_invalid(&edit("fov = 40", "fov = 0"), "camera.fov", "(0, 180)");
+    assert_invalid(&edit("width = 8", "width = 0"), "film.width", "got 0");
+    assert_invalid(
+        &edit("height = 6", "height = 100000"),
+        "film.height",
+        "got 100000",
+    );
+    assert_invalid(
+        &edit("width = 8", "width = 8\nspp = 0"),
+        "film.spp",
+        "got 0",
+    );
+    assert_invalid(
+        &edit("width = 8", "width = 8\nexposure = inf"),
+        "film.exposure",
+        "finite",
+    );
+    assert_invalid(
+        &edit("radius = 1", "radius = -1"),
+        "sphere.radius",
+        "got -1",
+    );
+    assert_invalid(
+        &edit("intensity = 10", "intensity = -1"),
+        "light[0].intensity",
+        "non-negative",
+    );
+    assert_invalid(
+        &edit("intensity = 10", "intensity = [1, nan, 1]"),
+        "light[0].intensity",
+        "finite",
+    );
+    assert_invalid(
+        &edit("position = [0, 0, 4]", "position = [0, 0, 0.5]"),
+        "camera.position",
+        "inside the sphere",
+    );
+    assert_invalid(
+        &edit("position = [2, 2, 2]", "position = [0, 0.5, 0]"),
+        "light[0].position",
+        "inside the sphere",
+    );
+    assert_invalid(
+        &edit("look_at = [0, 0, 0]", "look_at = [0, 0, 4]"),
+        "camera.look_at",
+        "equals",
+    );
+    assert_invalid(
+        &edit("fov = 40", "fov = 40\nup = [0, 0, 1]"),
+        "camera.up",
+        "parallel",
+    );
+    assert_invalid(
+        &edit("fov = 40", "fov = 40\nup = [0, 0, 0]"),
+        "camera.up",
+        "non-zero",
+    );
+    assert_invalid(
+        &edit(
+            "effects = [\"direct\"]",
+            "effects = [\"direct\", \"direct\"]",
+        ),
+        "effects",
+        "listed twice",
+    );
+    let env = edit(
+        "effects = [\"direct\"]",
+        "effects = [\"direct\", \"environment\"]",
+    );
+    assert_invalid(
+        &format!("{env}[environment]\nconstant = -1\n"),
+        "environment.constant",
+        "non-negative",
+    );
+    assert_invalid(
+        &format!("{env}[environment]\nconstant = 1\nscale = -2\n"),
+        "environment.scale",
+        "got -2",
+    );
+    assert_invalid(
+        &format!("{env}[environment]\n"),
+        "environment",
+        "needs `constant`",
+    );
+    assert_invalid(
+        &format!("{env}[environment]\nconstant = 1\nfile = \"a.exr\"\n"),
+        "environment",
+        "not both",
+    );
+    // A model parameter outside its domain: the model crate's error, with the key.
+    let (e, msg) = read(&edit("rho_d = 0.5", "rho_d = 2"), &[]);
+    assert!(
+        matches!(&e, SceneError::Model { key, .. } if key == "material.model"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("rho_d") && msg.contains("outside its domain"),
+        "{msg}"
+    );
+    let (e, msg) = read(&edit("model = \"lambert\"", "model = \"lambertian\""), &[]);
+    assert!(
+        matches!(e, SceneError::Model { .. }) && msg.contains("unknown model `lambertian`"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn contradictory_material_keys_are_rejected() {
+    let both = edit("rho_d = 0.5 } }", "rho_d = 0.5 } }\ntable = \"x.binary\"");
+    assert_invalid(&both, "material", "not both");
+    let lookup = edit("rho_d = 0.5 } }", "rho_d = 0.5 } }\nlookup = \"nearest\"");
+    assert_invalid(&lookup, "material.lookup", "applies to a `table` only");
+    assert_syntax(
+        &edit(
+            "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
+            "table = \"x.binary\"\nlookup = \"cubic\"",
+        ),
+        &["unknown variant `cubic`"],
+    );
+}
+
+#[test]
+fn missing_and_broken_referenced_files_name_the_file() {
+    let by_path = |p: &str| {
+        edit(
+            "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
+            &format!("model = \"{p}\""),
+        )
+    };
+    let (e, msg) = read(&by_path("nope.json"), &[]);
+    assert!(
+        matches!(&e, SceneError::File { key, .. } if key == "material.model"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("nope.json") && msg.contains("cannot read"),
+        "{msg}"
+    );
+
+    let (e, msg) = read(&by_path("m.json"), &[("m.json", b"{\"model\": ")]);
+    assert!(matches!(e, SceneError::ModelJson { .. }), "{msg}");
+    assert!(
+        msg.contains("m.json") && msg.contains("not valid JSON"),
+        "{msg}"
+    );
+
+    let (e, msg) = read(
+        &by_path("m.json"),
+        &[("m.json", br#"{"model":"lambert","params":{"rho":0.5}}"#)],
+    );
+    assert!(
+        matches!(&e, SceneError::Model { file: Some(f), .. } if f.ends_with("m.json")),
+        "{msg}"
+    );
+    assert!(msg.contains("m.json") && msg.contains("rho"), "{msg}");
+
+    let table = edit(
+        "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
+        "table = \"nope.binary\"",
+    );
+    let (e, msg) = read(&table, &[]);
+    assert!(matches!(e, SceneError::Table { .. }), "{msg}");
+    assert!(msg.contains("nope.binary"), "{msg}");
+    let (e, msg) = read(
+        &table.replace("nope.binary", "short.binary"),
+        &[("short.binary", b"12345")],
+    );
+    assert!(matches!(e, SceneError::Table { .. }), "{msg}");
+    assert!(
+        msg.contains("short.binary") && msg.contains("shorter than the 12-byte header"),
+        "{msg}"
+    );
+
+    let env = edit(
+        "effects = [\"direct\"]",
+        "effects = [\"direct\", \"environment\"]",
+    );
+    let (e, msg) = read(&format!("{env}[environment]\nfile = \"sky.exr\"\n"), &[]);
+    assert!(
+        matches!(&e, SceneError::File { key, .. } if key == "environment.file"),
+        "{msg}"
+    );
+    assert!(msg.contains("sky.exr"), "{msg}");
+    let (e, msg) = read(
+        &format!("{env}[environment]\nfile = \"sky.png\"\n"),
+        &[("sky.png", b"not an image")],
+    );
+    assert!(matches!(e, SceneError::Image { .. }), "{msg}");
+    assert!(msg.contains("sky.png"), "{msg}");
+}
+
+#[test]
+fn an_environment_with_negative_texels_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = image::Rgb32FImage::from_fn(4, 2, |x, y| {
+        if (x, y) == (3, 1) {
+            image::Rgb([0.5, -1.0, 0.5])
+        } else {
+            image::Rgb([1.0; 3])
+        }
+    });
+    img.save(dir.path().join("neg.exr")).unwrap();
+    let bytes = std::fs::read(dir.path().join("neg.exr")).unwrap();
+    let env = edit(
+        "effects = [\"direct\"]",
+        "effects = [\"direct\", \"environment\"]",
+    );
+    let (e, msg) = read(
+        &format!("{env}[environment]\nfile = \"neg.exr\"\n"),
+        &[("neg.exr", &bytes)],
+    );
+    assert!(matches!(e, SceneError::Image { .. }), "{msg}");
+    assert!(
+        msg.contains("texel (3, 1)") && msg.contains("non-negative"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn relative_paths_are_relative_to_the_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    std::fs::write(
+        dir.path().join("sub/m.json"),
+        br#"{"model":"lambert","params":{"rho_d":0.25}}"#,
+    )
+    .unwrap();
+    let text = edit(
+        "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
+        "model = \"m.json\"",
+    );
+    let p = dir.path().join("sub/scene.toml");
+    std::fs::write(&p, text).unwrap();
+    // Read from elsewhere: the JSON is found beside the scene, not in the cwd.
+    assert!(!Path::new("m.json").exists());
+    Scene::read(&p).unwrap();
+}
