@@ -114,9 +114,18 @@ impl SceneError {
     }
 }
 
-/// A render that produced something unusable.
+/// A render that cannot run or produced something unusable.
 #[derive(Debug, Error)]
 pub enum RenderError {
+    /// Film settings changed after reading into something unusable (the fields of
+    /// [`crate::Film`] are public; [`crate::Scene::read`] never produces these).
+    #[error("{}: `{key}`: {message}", scene.display())]
+    InvalidFilm {
+        scene: PathBuf,
+        key: &'static str,
+        message: String,
+    },
+
     /// A pixel came out NaN or infinite: a material returned a non-finite value.
     #[error(
         "{}: pixel ({x}, {y}) is not finite ({value:?}): the material returned a non-finite value",

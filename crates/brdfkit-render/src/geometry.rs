@@ -61,6 +61,17 @@ impl Camera {
         }
     }
 
+    /// The same camera for a film of `width` × `height` pixels: the horizontal field of
+    /// view is kept, the vertical one follows the aspect ratio.
+    pub fn resized(&self, width: usize, height: usize) -> Self {
+        Camera {
+            tan_half_y: self.tan_half_x * height as f64 / width as f64,
+            width: width as f64,
+            height: height as f64,
+            ..self.clone()
+        }
+    }
+
     /// The ray through raster position (px, py).
     #[inline]
     pub fn ray(&self, px: f64, py: f64) -> Ray {

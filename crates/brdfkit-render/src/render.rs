@@ -360,6 +360,27 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
     let start = Instant::now();
     let film = &scene.film;
     let (w, h, spp) = (film.width, film.height, film.spp);
+    let bad = |key: &'static str, message: String| RenderError::InvalidFilm {
+        scene: scene.path.clone(),
+        key,
+        message,
+    };
+    let max_side = crate::scene::MAX_SIDE as usize;
+    if !(1..=max_side).contains(&w) || !(1..=max_side).contains(&h) {
+        return Err(bad(
+            "film",
+            format!("{w} x {h}: each side must be in 1..={max_side}"),
+        ));
+    }
+    if !(1..=crate::scene::MAX_SPP as usize).contains(&spp) {
+        return Err(bad(
+            "film.spp",
+            format!("must be in 1..={}, got {spp}", crate::scene::MAX_SPP),
+        ));
+    }
+    if !film.exposure.is_finite() {
+        return Err(bad("film.exposure", "must be finite".into()));
+    }
     let fx = scene.effects;
 
     // Environment setup: only when asked for.

@@ -345,6 +345,24 @@ fn syntax(path: &Path, e: toml::de::Error) -> SceneError {
 }
 
 impl Scene {
+    /// Changes the film size (a preview at another resolution), keeping the horizontal
+    /// field of view. Each side must be in 1..=[`MAX_SIDE`].
+    pub fn set_resolution(&mut self, width: usize, height: usize) -> Result<(), SceneError> {
+        for (k, v) in [("film.width", width), ("film.height", height)] {
+            if !(1..=MAX_SIDE as usize).contains(&v) {
+                return Err(SceneError::Invalid {
+                    path: self.path.clone(),
+                    key: k.into(),
+                    message: format!("must be in 1..={MAX_SIDE}, got {v}"),
+                });
+            }
+        }
+        self.film.width = width;
+        self.film.height = height;
+        self.camera = self.camera.resized(width, height);
+        Ok(())
+    }
+
     /// Reads and validates a scene file, loading the files it refers to.
     pub fn read(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();

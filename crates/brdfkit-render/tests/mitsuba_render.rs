@@ -128,8 +128,19 @@ fn compare(ours: &brdfkit_render::RenderOutput, theirs: &[f32]) -> Comparison {
 }
 
 fn check(name: &str, scene_text: &str, mitsuba_spp: Option<usize>, tol: f64) {
+    check_with(name, scene_text, mitsuba_spp, tol, |_| {});
+}
+
+fn check_with(
+    name: &str,
+    scene_text: &str,
+    mitsuba_spp: Option<usize>,
+    tol: f64,
+    prepare: impl FnOnce(&Path),
+) {
     let Some(py) = mitsuba_python() else { return };
     let dir = tempfile::tempdir().unwrap();
+    prepare(dir.path());
     let path = dir.path().join(format!("{name}.toml"));
     std::fs::write(&path, scene_text).unwrap();
     let scene = Scene::read(&path).unwrap();
@@ -285,4 +296,29 @@ fn constant_environment_lambert_matches_mitsuba() {
         Some(256),
         0.03,
     );
+}
+
+/// A lat-long EXR with a smooth, lopsided sky (a broad lobe towards +x, +y, +z over a
+/// dim base): any flip of u or v, or an offset of the azimuth, moves the lobe and fails.
+/// Mitsuba's `envmap` interpolates bilinearly, brdfkit reads texels as constant; on a
+/// smooth 128 x 64 image the difference integrates away on a Lambertian sphere.
+#[test]
+fn lat_long_environment_matches_mitsuba() {
+    let text = constant_env_scene(LAMBERT, 256).replace(
+        "constant = [0.9, 1.0, 1.2]",
+        "file = \"sky.exr\"\nscale = 1.5",
+    );
+    check_with("env-latlong-lambert", &text, Some(256), 0.03, |dir| {
+        let (w, h) = (128u32, 64u32);
+        let s = brdfkit_core::Vec3::new(0.6, 0.5, 0.6).normalize();
+        let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
+            let d = brdfkit_render::env::uv_to_direction(
+                (x as f64 + 0.5) / w as f64,
+                (y as f64 + 0.5) / h as f64,
+            );
+            let lobe = d.dot(&s).max(0.0).powi(3) as f32;
+            image::Rgb([0.1 + 2.0 * lobe, 0.15 + 1.5 * lobe, 0.2 + lobe])
+        });
+        img.save(dir.join("sky.exr")).unwrap();
+    });
 }
