@@ -4,8 +4,9 @@
 //! write in Python (numpy + scipy.optimize.least_squares, `benches/peers/fit_scipy.py`)
 //! on the same cells, weights, loss, start and bounds.
 //!
-//! Run: `cargo bench --bench fit` (add `-- --no-python` to skip the peer; `-- --runs N`
-//! for N timed Rust fits, default 5). The peer runs in `/work/main/.venv`-style
+//! Run: `cargo bench --bench fit` (add `-- --no-python` to skip the peer, `-- --quick`
+//! for the noise-free table only, `-- --runs N` for N timed Rust fits, default 5). Two
+//! tables: noise-free, and with 5 % log-normal noise (seeded). The peer runs in `/work/main/.venv`-style
 //! `<workspace>/.venv`, created with `python3 -m venv .venv && .venv/bin/pip install
 //! -r benches/peers/requirements.txt` when missing.
 //!
@@ -92,6 +93,7 @@ fn python() -> Option<PathBuf> {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let no_python = args.iter().any(|a| a == "--no-python");
+    let quick = args.iter().any(|a| a == "--quick");
     let runs: usize = args
         .iter()
         .position(|a| a == "--runs")
@@ -116,12 +118,32 @@ fn main() {
     );
     println!("threads: {}", rayon::current_num_threads());
 
+    let variants: Vec<(&str, f64)> = if quick {
+        vec![("noise-free", 0.0)]
+    } else {
+        vec![("noise-free", 0.0), ("5 % log-normal noise", 0.05)]
+    };
+    let py = if no_python { None } else { python() };
+    if !no_python && py.is_none() {
+        println!("python peer skipped: no python3 venv with numpy + scipy could be set up");
+    }
+    for (label, sigma) in variants {
+        let mut data = data.clone();
+        if sigma > 0.0 {
+            brdfkit::fit::synth::add_lognormal_noise(&mut data, sigma, 2026);
+        }
+        println!("--- {label} ---");
+        run_variant(&data, start.as_ref(), runs, py.as_deref());
+    }
+}
+
+fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>) {
     let cfg = FitConfig::default();
     let mut times = Vec::new();
     let mut last = None;
     for _ in 0..runs.max(1) {
         let t = Instant::now();
-        let res = fit(start.as_ref(), &data, &cfg, None).expect("fit");
+        let res = fit(start, data, &cfg, None).expect("fit");
         times.push(t.elapsed().as_secs_f64());
         last = Some(res);
     }
@@ -129,36 +151,50 @@ fn main() {
     let r = &res.record;
     let t_rust = median(&mut times.clone());
     let best = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let w = r.starts[0].warm_up.as_ref();
     println!(
-        "rust  (brdfkit-fit, LM, cbrt, 1 start): median {:.3} s, min {:.3} s over {} runs; \
-         {} iterations, {} cost + {} Jacobian evaluations; {}",
+        "rust  (brdfkit-fit, LM, cbrt, 1 start, default config): median {:.3} s, min {:.3} s over {} runs",
         t_rust,
         best,
-        times.len(),
-        r.iterations,
-        r.cost_evals,
-        r.jacobian_evals,
-        r.termination
+        times.len()
+    );
+    if let Some(w) = w {
+        println!(
+            "      warm-up on {} cells: {} iterations, {} cost + {} Jacobian passes",
+            w.cells, w.iterations, w.cost_evals, w.jacobian_evals
+        );
+    }
+    println!(
+        "      full table ({} cells): {} iterations, {} cost + {} Jacobian passes; {}",
+        r.cells_fit, r.iterations, r.cost_evals, r.jacobian_evals, r.termination
     );
     println!(
-        "rust  final cbrt loss {:.6e} (per channel {:?}); alpha {:.6}",
+        "      final cbrt loss {:.6e} (per channel {:.3e} {:.3e} {:.3e}); alpha {:.6}",
         r.losses_full.cbrt.overall,
-        r.losses_full.cbrt.channels,
+        r.losses_full.cbrt.channels[0],
+        r.losses_full.cbrt.channels[1],
+        r.losses_full.cbrt.channels[2],
         res.fitted.channel_model(0).params()[6]
     );
+    let cfg_cold = FitConfig::default().warm_up(None).expect("valid");
+    let t = Instant::now();
+    let cold = fit(start, data, &cfg_cold, None).expect("fit");
+    println!(
+        "rust  without warm-up: {:.3} s, {} iterations, {} cost + {} Jacobian passes, cbrt loss {:.6e}",
+        t.elapsed().as_secs_f64(),
+        cold.record.iterations,
+        cold.record.cost_evals,
+        cold.record.jacobian_evals,
+        cold.record.losses_full.cbrt.overall
+    );
     let weighting = cfg.get_weighting();
-
-    if no_python {
-        return;
-    }
-    let Some(py) = python() else {
-        println!("python peer skipped: no python3 venv with numpy + scipy could be set up");
+    let Some(py) = py else {
         return;
     };
     let dir = tempfile::tempdir().expect("temp dir");
     let cells = dir.path().join("cells.bin");
-    write_cells(&data, &cells).expect("write cells");
-    let out = Command::new(&py)
+    write_cells(data, &cells).expect("write cells");
+    let out = Command::new(py)
         .arg(workspace().join("benches/peers/fit_scipy.py"))
         .arg(&cells)
         .output()
@@ -180,11 +216,11 @@ fn main() {
         .collect();
     // The peer's loss recomputed by the Rust loss code (a check that both sides
     // minimise the same thing).
-    let mut m = start.clone();
+    let mut m = start.clone_box();
     let py_loss_rust = match m.set_params(&p) {
         Ok(()) => {
             let mm: &dyn Model = m.as_ref();
-            evaluate_losses([mm, mm, mm], &data, weighting).cbrt.overall
+            evaluate_losses([mm, mm, mm], data, weighting).cbrt.overall
         }
         Err(e) => {
             println!("peer parameters rejected by the model: {e}");

@@ -83,4 +83,22 @@ fn main() {
     time("loss report (4 losses)", 3, || {
         evaluate_losses([mm, mm, mm], &data, Weighting::SolidAngle)
     });
+    time("stratified subsample 65k", 3, || {
+        data.stratified_subsample(65_536.0 / data.len() as f64, 1)
+    });
+    let free = resolve_free(start.as_ref(), &FitConfig::default()).expect("free");
+    time("problem set-up (targets)", 3, || {
+        FitProblem::new(
+            &data,
+            start.as_ref(),
+            free.clone(),
+            vec![0, 1, 2],
+            Loss::Cbrt,
+            Weighting::SolidAngle,
+        )
+        .expect("p")
+    });
+    time("whole fit, default config", 3, || {
+        brdfkit_fit::fit(start.as_ref(), &data, &FitConfig::default(), None).expect("fit")
+    });
 }

@@ -143,6 +143,7 @@ pub struct FitConfig {
     pub(crate) tau: f64,
     pub(crate) free: Vec<String>,
     pub(crate) fixed: Vec<String>,
+    pub(crate) warm_up: Option<usize>,
 }
 
 impl Default for FitConfig {
@@ -164,9 +165,13 @@ impl Default for FitConfig {
             tau: 1e-3,
             free: Vec::new(),
             fixed: Vec::new(),
+            warm_up: Some(DEFAULT_WARM_UP_CELLS),
         }
     }
 }
+
+/// Default size of the warm-up subsample.
+pub const DEFAULT_WARM_UP_CELLS: usize = 65_536;
 
 fn bad(option: &'static str, value: impl fmt::Display, reason: &str) -> FitError {
     FitError::InvalidOption {
@@ -291,6 +296,26 @@ impl FitConfig {
         self
     }
 
+    /// Warm-up: with `Some(n)`, each start first converges on a stratified, seeded
+    /// subsample of about n cells and then continues on all fitted cells from there,
+    /// whenever the fitted cells number more than 4n (coarse to fine: the far-from-the-
+    /// answer iterations run on the cheap set; the last, quadratically convergent ones
+    /// on the full set). `None` disables it. Default: Some(65 536); n ≥ 1000.
+    pub fn warm_up(mut self, cells: Option<usize>) -> Result<Self, FitError> {
+        if let Some(n) = cells
+            && n < 1000
+        {
+            return Err(bad("warm_up", n, "must be at least 1000 cells (or none)"));
+        }
+        self.warm_up = cells;
+        Ok(self)
+    }
+
+    /// The warm-up subsample size for a fit over `cells` cells, if one is used.
+    pub fn warm_up_cells_for(&self, cells: usize) -> Option<usize> {
+        self.warm_up.filter(|&n| cells > 4 * n)
+    }
+
     /// The loss.
     pub fn get_loss(&self) -> Loss {
         self.loss
@@ -352,6 +377,17 @@ mod tests {
         assert!(c.clone().max_iters(0).is_err());
         assert!(c.clone().tolerances(1.0, 0.0, 0.0).is_err());
         assert!(c.clone().lm_tau(-1.0).is_err());
+        assert!(c.clone().warm_up(Some(10)).is_err());
+        assert_eq!(
+            c.clone().warm_up(None).unwrap().warm_up_cells_for(1 << 30),
+            None
+        );
+        assert_eq!(
+            c.warm_up_cells_for(100_000),
+            None,
+            "small sets need no warm-up"
+        );
+        assert_eq!(c.warm_up_cells_for(1_000_000), Some(DEFAULT_WARM_UP_CELLS));
         let e = c.clone().subsample(2.0, 0).unwrap_err().to_string();
         assert!(e.contains("subsample") && e.contains('2'), "{e}");
         let ok = c.subsample(1.0, 3).unwrap();

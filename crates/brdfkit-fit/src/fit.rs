@@ -6,7 +6,7 @@ use crate::error::FitError;
 use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
 use crate::observer::{Bridge, FitObserver, FitPlan, StartDone};
 use crate::problem::{FitProblem, NormalEquations, evaluate_losses};
-use crate::record::{FitRecord, ParamRecord, StartRecord};
+use crate::record::{FitRecord, ParamRecord, StartRecord, WarmUpRecord};
 use crate::starts::start_points;
 use argmin::core::observers::ObserverMode;
 use argmin::core::{Executor, IterState, State, TerminationReason};
@@ -79,7 +79,11 @@ struct Outcome {
     jac_evals: u64,
     termination: String,
     converged: bool,
+    warm: Option<WarmUpRecord>,
 }
+
+/// Seed offset of the warm-up subsample (distinct from a user subsample's draw).
+const WARM_UP_SEED: u64 = 0x5741_524D;
 
 /// Which parameters a config frees: the model's `fit_by_default` ones, plus
 /// `config.free`, minus `config.fixed`. A name matches a parameter exactly or as its
@@ -149,6 +153,7 @@ fn run_start(
     observer: Option<&Arc<dyn FitObserver>>,
     start: usize,
     channel: Option<usize>,
+    warm_up: bool,
 ) -> Result<Outcome, FitError> {
     let mi = config.get_max_iters();
     let tol = config.get_tolerances();
@@ -163,6 +168,7 @@ fn run_start(
             obs: o.clone(),
             start,
             channel,
+            warm_up,
         })
     };
     macro_rules! run {
@@ -313,6 +319,7 @@ fn run_start(
         jac_evals: je,
         termination: term.0,
         converged: term.1,
+        warm: None,
     })
 }
 
@@ -337,10 +344,25 @@ fn run_pass(
         data,
         model,
         free.clone(),
-        channels,
+        channels.clone(),
         config.loss,
         config.weighting,
     )?;
+    // Warm-up set: a stratified subsample each start converges on first.
+    let warm_data = config.warm_up_cells_for(data.len()).map(|n| {
+        data.stratified_subsample(n as f64 / data.len() as f64, config.seed ^ WARM_UP_SEED)
+    });
+    let warm_problem = match &warm_data {
+        Some(d) => Some(FitProblem::new(
+            d,
+            model,
+            free.clone(),
+            channels,
+            config.loss,
+            config.weighting,
+        )?),
+        None => None,
+    };
     let specs = model.param_specs();
     let x0 = model.params();
     let points = start_points(&specs, &x0, &free, config.starts, config.seed);
@@ -350,7 +372,25 @@ fn run_pass(
         .map(|(k, x)| {
             let p = problem.clone();
             let u0 = p.to_u(x);
-            let o = run_start(p, u0, config, observer, k, channel);
+            let (u1, warm) = match &warm_problem {
+                Some(wp) => {
+                    let w = run_start(wp.clone(), u0, config, observer, k, channel, true)?;
+                    let rec = WarmUpRecord {
+                        cells: wp.num_residuals() / wp.channels().len(),
+                        iterations: w.iterations,
+                        cost_evals: w.cost_evals,
+                        jacobian_evals: w.jac_evals,
+                        final_loss: (2.0 * w.cost).sqrt(),
+                        termination: w.termination.clone(),
+                    };
+                    (w.u, Some(rec))
+                }
+                None => (u0, None),
+            };
+            let o = run_start(p, u1, config, observer, k, channel, false).map(|mut o| {
+                o.warm = warm;
+                o
+            });
             if let (Some(obs), Ok(o)) = (observer, &o) {
                 obs.on_start_done(&StartDone {
                     start: k,
@@ -392,6 +432,7 @@ fn run_pass(
                     termination: o.termination.clone(),
                     converged: o.converged,
                     kept: false,
+                    warm_up: o.warm.clone(),
                 });
             }
             Err(e) => {
@@ -409,6 +450,7 @@ fn run_pass(
                     termination: format!("error: {e}"),
                     converged: false,
                     kept: false,
+                    warm_up: None,
                 });
             }
         }
@@ -582,6 +624,7 @@ pub fn fit(
         params,
         cells_fit: fitset.len(),
         cells_full: full.len(),
+        warm_up_cells: config.warm_up_cells_for(fitset.len()),
         losses_fit,
         losses_full,
         iterations: results.iter().map(|r| r.best.iterations).sum(),

@@ -54,4 +54,4 @@ pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
 pub use loss::{ChannelLoss, Loss, LossReport, Weighting};
 pub use observer::{FitObserver, FitPlan, IterEvent, StartDone};
 pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses};
-pub use record::{FitRecord, ParamRecord, StartRecord};
+pub use record::{FitRecord, ParamRecord, StartRecord, WarmUpRecord};

@@ -112,7 +112,8 @@ fn damped_step(
 /// rejected trials it took); it stops when
 /// - the cost is at the round-off floor of a perfect fit ([`NormalEquations::cost_floor`]),
 /// - the gradient is orthogonal to the residuals to `gtol` (cosine test),
-/// - an accepted step reduced the cost by less than `ftol` relative,
+/// - an accepted step reduced the cost by less than `ftol` relative, or the
+///   lightly damped (μ ≤ max diag JᵀJ) model predicts less than that for the next,
 /// - the step is below `xtol` relative to ‖u‖,
 /// - or (a failure) μ grows past 1e30 · max diag without a descent step.
 #[derive(Debug, Clone)]
@@ -209,6 +210,21 @@ where
             };
             let h = clip_step(h);
             let small = h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol);
+            // Predicted decrease of the quadratic model, −hᵀg − ½ hᵀ(JᵀJ)h: valid for
+            // the clipped step too (the closed form ½ hᵀ(μDh − g) is not).
+            let pred = -h.dot(&ne.jtr) - 0.5 * h.dot(&(&ne.jtj * &h));
+            if pred >= 0.0 && pred <= self.tol.ftol * ne.cost && self.mu <= maxd {
+                // The Gauss-Newton model (lightly damped: μ ≤ max diag) promises less
+                // than ftol: converged, without paying for a trial pass (MINPACK's
+                // ftol test uses the predicted reduction the same way).
+                self.criterion = Some("predicted cost decrease below ftol");
+                let cost = ne.cost;
+                self.ne = Some(ne);
+                return Ok((
+                    state.param(u).cost(cost),
+                    Some(argmin::kv!("rejected" => rejected;)),
+                ));
+            }
             let un = &u + &h;
             // After an accepted step the next trial is usually accepted too: evaluate
             // the normal equations there at once (one pass instead of a cost pass and
@@ -223,9 +239,6 @@ where
                 Some(t) => t.cost,
                 None => problem.cost(&un)?,
             };
-            // Predicted decrease of the quadratic model, −hᵀg − ½ hᵀ(JᵀJ)h: valid for
-            // the clipped step too (the closed form ½ hᵀ(μDh − g) is not).
-            let pred = -h.dot(&ne.jtr) - 0.5 * h.dot(&(&ne.jtj * &h));
             let actual = ne.cost - fnew;
             let rho = if pred > 0.0 { actual / pred } else { -1.0 };
             if fnew.is_finite() && rho > 0.0 {

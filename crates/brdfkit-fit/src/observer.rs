@@ -32,6 +32,8 @@ pub struct IterEvent {
     pub cost: f64,
     /// Best cost so far in this start.
     pub best_cost: f64,
+    /// True during the warm-up on the subsample, false on the fitted cells.
+    pub warm_up: bool,
 }
 
 /// A start that finished.
@@ -65,6 +67,7 @@ pub(crate) struct Bridge {
     pub obs: Arc<dyn FitObserver + 'static>,
     pub start: usize,
     pub channel: Option<usize>,
+    pub warm_up: bool,
 }
 
 impl<I: State<Float = f64>> Observe<I> for Bridge {
@@ -75,6 +78,7 @@ impl<I: State<Float = f64>> Observe<I> for Bridge {
             iter: state.get_iter(),
             cost: state.get_cost(),
             best_cost: state.get_best_cost(),
+            warm_up: self.warm_up,
         });
         Ok(())
     }

@@ -620,10 +620,11 @@ pub fn evaluate_losses(
             || {
                 (
                     [vec![Rgb::ZERO; CHUNK], vec![Rgb::ZERO; CHUNK]],
+                    (vec![0.0; CHUNK], vec![0.0; CHUNK]),
                     [[0.0f64; 3]; 4],
                 )
             },
-            |(mut out, mut acc), ci| {
+            |(mut out, (mut xm, mut xt), mut acc), ci| {
                 let s = ci * CHUNK;
                 let e = (s + CHUNK).min(n);
                 let len = e - s;
@@ -636,19 +637,35 @@ pub fn evaluate_losses(
                         models[c].eval_batch(&gs, &mut out[1][..len]);
                         &out[1][..len]
                     };
+                    // One loop per loss over plain slices (so each vectorises), on
+                    // x = f cos θi of model (xm) and measurement (xt).
+                    let fm = &data.values()[c][s..e];
+                    let ws = &w[s..e];
+                    let ci = &g.wi_z[s..e];
                     for k in 0..len {
-                        let (f, fm, ci_, wk) =
-                            (vals[k][c], data.values()[c][s + k], g.wi_z[s + k], w[s + k]);
-                        for (l, loss) in Loss::ALL.iter().enumerate() {
-                            let r = loss.transform(f, ci_) - loss.transform(fm, ci_);
-                            acc[l][c] += wk * r * r;
-                        }
+                        xm[k] = vals[k][c];
+                        let d = xm[k] - fm[k];
+                        acc[0][c] += ws[k] * d * d;
+                        xm[k] *= ci[k];
+                        xt[k] = fm[k] * ci[k];
+                        let d = xm[k] - xt[k];
+                        acc[1][c] += ws[k] * d * d;
+                    }
+                    for k in 0..len {
+                        let d = crate::loss::cbrt(xm[k]) - crate::loss::cbrt(xt[k]);
+                        acc[2][c] += ws[k] * d * d;
+                    }
+                    for k in 0..len {
+                        // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm
+                        // instead of two, and accurate when the two are close.
+                        let d = ((xm[k] - xt[k]) / (1.0 + xt[k])).ln_1p();
+                        acc[3][c] += ws[k] * d * d;
                     }
                 }
-                (out, acc)
+                (out, (xm, xt), acc)
             },
         )
-        .map(|(_, a)| a)
+        .map(|(_, _, a)| a)
         .reduce(
             || [[0.0; 3]; 4],
             |mut a, b| {

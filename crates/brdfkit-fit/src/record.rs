@@ -23,6 +23,23 @@ pub struct ParamRecord {
     pub transform: Option<String>,
 }
 
+/// The warm-up stage of a start: its fit on the warm-up subsample.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WarmUpRecord {
+    /// Cells of the warm-up subsample.
+    pub cells: usize,
+    /// Iterations on it.
+    pub iterations: u64,
+    /// Cost passes over it.
+    pub cost_evals: u64,
+    /// Jacobian passes over it.
+    pub jacobian_evals: u64,
+    /// The optimised loss over the warm-up cells at its end.
+    pub final_loss: f64,
+    /// Why it stopped.
+    pub termination: String,
+}
+
 /// One start of one pass.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StartRecord {
@@ -49,6 +66,9 @@ pub struct StartRecord {
     pub converged: bool,
     /// True for the start kept (the lowest final loss of its pass).
     pub kept: bool,
+    /// The warm-up stage, when there was one (the counts above are then those of the
+    /// stage on the fitted cells, which started where the warm-up ended).
+    pub warm_up: Option<WarmUpRecord>,
 }
 
 /// The whole record of a fit.
@@ -83,15 +103,19 @@ pub struct FitRecord {
     pub cells_fit: usize,
     /// Valid cells after the cutoff (the "full table").
     pub cells_full: usize,
+    /// Size of the warm-up subsample each start converged on first, if any.
+    pub warm_up_cells: Option<usize>,
     /// Every loss over the fitted cells.
     pub losses_fit: LossReport,
     /// Every loss over all valid cells (after the cutoff), the figure to compare.
     pub losses_full: LossReport,
-    /// Iterations of the kept start(s) (summed over channel passes).
+    /// Iterations of the kept start(s) on the fitted cells, after any warm-up (summed
+    /// over channel passes).
     pub iterations: u64,
-    /// Cost evaluations of every start and pass.
+    /// Cost evaluations over the fitted cells, of every start and pass (warm-up passes
+    /// are in each start's `warm_up`).
     pub cost_evals: u64,
-    /// Jacobian evaluations of every start and pass.
+    /// Jacobian evaluations over the fitted cells, of every start and pass.
     pub jacobian_evals: u64,
     /// Wall time of the whole fit, seconds.
     pub wall_time_s: f64,

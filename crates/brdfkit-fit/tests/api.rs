@@ -346,3 +346,29 @@ fn starts_are_deterministic_and_spread_over_the_shape_parameter() {
         .fold((f64::MAX, 0.0f64), |(l, h), &a| (l.min(a), h.max(a)));
     assert!(lo < 0.02 && hi > 0.9, "{alphas:?}");
 }
+
+/// The warm-up changes the path, not the answer: on a noisy table big enough to use it,
+/// the fit with and without warm-up ends at the same parameters.
+#[test]
+fn warm_up_does_not_change_the_optimum() {
+    let mut data = ct_data((90, 45, 90));
+    brdfkit_fit::synth::add_lognormal_noise(&mut data, 0.05, 4);
+    let cfg = FitConfig::default();
+    assert!(
+        cfg.warm_up_cells_for(data.len()).is_some(),
+        "{} cells",
+        data.len()
+    );
+    let warm = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+    let cold_cfg = FitConfig::default().warm_up(None).unwrap();
+    let cold = fit(model(CT_START).as_ref(), &data, &cold_cfg, None).unwrap();
+    assert!(warm.record.starts[0].warm_up.is_some());
+    assert!(cold.record.starts[0].warm_up.is_none());
+    let a = warm.fitted.channel_model(0).params();
+    let b = cold.fitted.channel_model(0).params();
+    for (x, y) in a.iter().zip(&b) {
+        assert!(rel(*x, *y) < 1e-6, "{a:?} vs {b:?}");
+    }
+    // And the full-table stage after a warm-up needs only a few iterations.
+    assert!(warm.record.iterations <= 5, "{}", show(&warm));
+}

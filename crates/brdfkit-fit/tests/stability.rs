@@ -115,7 +115,7 @@ fn far_starts() {
     let truth = model(
         r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.15}}"#,
     );
-    let data = synth(truth.as_ref(), dims(30, 30, 60), Coverage::AboveHorizon);
+    let data = synth(truth.as_ref(), dims(20, 20, 40), Coverage::AboveHorizon);
     for start in [
         r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":0.999}},"rho_d":0.999,"rho_s":0.0001,"alpha":50}}"#,
         r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":0.0}},"rho_d":0.0,"rho_s":1.0,"alpha":0.0001}}"#,
@@ -126,7 +126,7 @@ fn far_starts() {
         }
     }
     let pp = model(r#"{"model":"plausible-phong","params":{"rho_d":0.3,"rho_s":0.3,"n":60}}"#);
-    let data = synth(pp.as_ref(), dims(30, 30, 60), Coverage::AboveHorizon);
+    let data = synth(pp.as_ref(), dims(20, 20, 40), Coverage::AboveHorizon);
     sane(
         r#"{"model":"plausible-phong","params":{"n":10000,"rho_s":0.99,"rho_d":0.0}}"#,
         &data,
