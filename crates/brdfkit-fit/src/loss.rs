@@ -52,7 +52,7 @@ const CBRT_FLOOR_CBRT: f64 = 1e-4;
 #[inline]
 pub fn cbrt(x: f64) -> f64 {
     let a = x.abs();
-    if !(a >= f64::MIN_POSITIVE) || a == f64::INFINITY {
+    if a.is_nan() || a < f64::MIN_POSITIVE || a == f64::INFINITY {
         // 0, subnormals, NaN, ∞.
         return x.cbrt();
     }
