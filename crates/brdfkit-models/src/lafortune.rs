@@ -127,8 +127,8 @@ impl LafortuneLobe {
             rho: check_rgb(&format!("{prefix}rho"), rho, LOBE_RHO_DOMAIN)?,
         };
         let peak = l.rho.max_channel() * cxy.abs().max(cz.abs()).powf(n);
-        // `!(peak <= MAX_PEAK)` also rejects NaN (0 · ∞ when ρ = 0 and Mⁿ overflows).
-        if !(peak <= MAX_PEAK) {
+        // NaN (0 · ∞ when ρ = 0 and Mⁿ overflows) is rejected too.
+        if peak.is_nan() || peak > MAX_PEAK {
             let who = if prefix.is_empty() {
                 "a lafortune lobe".to_string()
             } else {
@@ -290,26 +290,25 @@ impl Lafortune {
         f
     }
 
-    /// f and the gradient into `grad[p * stride]` for parameter p; the single kernel of
-    /// `eval_grad` (stride 1) and `eval_grad_batch` (stride = batch length).
+    /// f and the gradient of one pair into `grad[..num_params]`; `eval_grad`'s kernel
+    /// (`eval_grad_batch` does the same per column).
     ///
     /// With p = bⁿ: ∂f/∂ρd = 1/π, ∂f/∂cxy = ρ n bⁿ⁻¹ (wi.x wo.x + wi.y wo.y),
     /// ∂f/∂cz = ρ n bⁿ⁻¹ wi.z wo.z, ∂f/∂n = ρ bⁿ ln b, ∂f/∂ρ = bⁿ (per channel).
     #[inline(always)]
-    fn kernel_grad(&self, xy: f64, zz: f64, grad: &mut [Rgb], stride: usize) -> Rgb {
+    fn kernel_grad(&self, xy: f64, zz: f64, grad: &mut [Rgb]) -> Rgb {
         let mut f = self.rho_d * FRAC_1_PI;
-        for c in 0..3 {
-            grad[c * stride] = channel(c, FRAC_1_PI);
+        for (c, gc) in grad[..3].iter_mut().enumerate() {
+            *gc = channel(c, FRAC_1_PI);
         }
-        for (j, l) in self.lobes.iter().enumerate() {
+        for (l, gl) in self.lobes.iter().zip(grad[3..].chunks_exact_mut(PER_LOBE)) {
             let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
             f += l.rho * p;
-            let base = (3 + PER_LOBE * j) * stride;
-            grad[base] = l.rho * (dp_db * xy);
-            grad[base + stride] = l.rho * (dp_db * zz);
-            grad[base + 2 * stride] = l.rho * dp_dn;
+            gl[0] = l.rho * (dp_db * xy);
+            gl[1] = l.rho * (dp_db * zz);
+            gl[2] = l.rho * dp_dn;
             for c in 0..3 {
-                grad[base + (3 + c) * stride] = channel(c, p);
+                gl[3 + c] = channel(c, p);
             }
         }
         f
@@ -388,7 +387,7 @@ impl Model for Lafortune {
             grad[..np].fill(Rgb::ZERO);
             return Rgb::ZERO;
         }
-        self.kernel_grad(wi.x * wo.x + wi.y * wo.y, wi.z * wo.z, grad, 1)
+        self.kernel_grad(wi.x * wo.x + wi.y * wo.y, wi.z * wo.z, grad)
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
@@ -405,21 +404,57 @@ impl Model for Lafortune {
         }
     }
 
+    /// Column by column: the ρd columns first, then each lobe's six columns, so every
+    /// write has unit stride. Per pair the value is accumulated in the order of `eval`
+    /// (ρd/π, then lobe 0, 1, …), so the numbers are identical.
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
         let n = g.len();
-        let np = self.num_params();
         let out = &mut out[..n];
-        let grad = &mut grad[..np * n];
         let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
         let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
+        let (g_rho_d, mut g_lobes) = grad[..self.num_params() * n].split_at_mut(3 * n);
+        let (g0, rest) = g_rho_d.split_at_mut(n);
+        let (g1, g2) = rest.split_at_mut(n);
+        let fd = self.rho_d * FRAC_1_PI;
         for k in 0..n {
-            if iz[k] > 0.0 && oz[k] > 0.0 {
-                let xy = ix[k] * ox[k] + iy[k] * oy[k];
-                out[k] = self.kernel_grad(xy, iz[k] * oz[k], &mut grad[k..], n);
-            } else {
-                out[k] = Rgb::ZERO;
-                for p in 0..np {
-                    grad[p * n + k] = Rgb::ZERO;
+            let above = iz[k] > 0.0 && oz[k] > 0.0;
+            out[k] = if above { fd } else { Rgb::ZERO };
+            let d = if above { FRAC_1_PI } else { 0.0 };
+            g0[k] = channel(0, d);
+            g1[k] = channel(1, d);
+            g2[k] = channel(2, d);
+        }
+        for l in &self.lobes {
+            let (cols, rest) = std::mem::take(&mut g_lobes).split_at_mut(PER_LOBE * n);
+            g_lobes = rest;
+            let (g_cxy, cols) = cols.split_at_mut(n);
+            let (g_cz, cols) = cols.split_at_mut(n);
+            let (g_n, cols) = cols.split_at_mut(n);
+            let (g_r, cols) = cols.split_at_mut(n);
+            let (g_g, g_b) = cols.split_at_mut(n);
+            for k in 0..n {
+                if iz[k] > 0.0 && oz[k] > 0.0 {
+                    let xy = ix[k] * ox[k] + iy[k] * oy[k];
+                    let zz = iz[k] * oz[k];
+                    let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
+                    out[k] += l.rho * p;
+                    g_cxy[k] = l.rho * (dp_db * xy);
+                    g_cz[k] = l.rho * (dp_db * zz);
+                    g_n[k] = l.rho * dp_dn;
+                    g_r[k] = channel(0, p);
+                    g_g[k] = channel(1, p);
+                    g_b[k] = channel(2, p);
+                } else {
+                    for col in [
+                        &mut g_cxy[k],
+                        &mut g_cz[k],
+                        &mut g_n[k],
+                        &mut g_r[k],
+                        &mut g_g[k],
+                        &mut g_b[k],
+                    ] {
+                        *col = Rgb::ZERO;
+                    }
                 }
             }
         }
