@@ -8,7 +8,7 @@
 //!
 //! with σ the standard deviation of the facet slope angle in radians. M. Oren and
 //! S. K. Nayar, "Generalization of Lambert's Reflectance Model", SIGGRAPH 1994 (the
-//! qualitative model, eq. 30, without the interreflection term).
+//! qualitative model, without the interreflection term).
 //!
 //! | parameter | JSON    | per channel | domain   | default |
 //! |-----------|---------|-------------|----------|---------|
