@@ -17,10 +17,9 @@
 //! - [`Model::conserves_energy`]: true iff every term does. The albedo of a sum is the
 //!   sum of the terms' albedos and each conserving term's albedo is bounded by its own
 //!   albedo parameters (ρd + ρs, or ρd for `lambert`, as each model documents), so the
-//!   sum's directional albedo is
-//!   ≤ 1 whenever, per channel, the albedo parameters of **all terms together** add up to
-//!   at most 1 — not merely each term's. With one non-conserving term the sum promises
-//!   nothing.
+//!   sum's directional albedo is ≤ 1 whenever, per channel, the albedo parameters of
+//!   **all terms together** add up to at most 1 — not merely each term's. With one
+//!   non-conserving term the sum promises nothing.
 //!
 //! Identifiability: diffuse parts of several terms add up (`lambert` ρd and a
 //! `plausible-phong` ρd are indistinguishable); a fit should keep all but one fixed.
