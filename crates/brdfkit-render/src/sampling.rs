@@ -137,7 +137,8 @@ pub struct LobeSampler {
 #[inline]
 fn mirror_frame(wo: &Vec3) -> (Vec3, Vec3, Vec3) {
     let m = Vec3::new(-wo.x, -wo.y, wo.z);
-    let rho = wo.x.hypot(wo.y);
+    // Unit vectors: no overflow for hypot to guard against, and sqrt is far cheaper.
+    let rho = (wo.x * wo.x + wo.y * wo.y).sqrt();
     let (c, s) = if rho > 0.0 {
         (wo.x / rho, wo.y / rho)
     } else {
@@ -262,7 +263,8 @@ impl LobeSampler {
 
     #[inline]
     fn node(wo: &Vec3) -> usize {
-        let theta_o = wo.x.hypot(wo.y).atan2(wo.z);
+        // acos is coarse near the pole, but a node spans 3.75°.
+        let theta_o = wo.z.clamp(-1.0, 1.0).acos();
         ((theta_o / FRAC_PI_2 * Self::NODES as f64) as usize).min(Self::NODES - 1)
     }
 
@@ -308,15 +310,16 @@ impl LobeSampler {
         }
         let (e1, e2, m) = mirror_frame(wo);
         let (x1, x2, x3) = (wi.dot(&e1), wi.dot(&e2), wi.dot(&m));
-        let theta = x1.hypot(x2).atan2(x3);
         let mut phi = x2.atan2(x1);
         if phi < 0.0 {
             phi += 2.0 * PI;
         }
         let nt = self.nt();
         let np = Self::N_PHI;
-        let i = self.theta_edges[1..]
-            .partition_point(|&e| e <= theta)
+        // θ' bin i has cos θ'_i ≥ cos θ' > cos θ'_{i+1}: compare cosines (descending),
+        // no inverse trigonometry. cos(10⁻³) = 1 − 5·10⁻⁷ is well resolved in f64.
+        let i = self.cos_edges[1..]
+            .partition_point(|&c| c >= x3)
             .min(nt - 1);
         let j = ((phi / (2.0 * PI) * np as f64) as usize).min(np - 1);
         let tab = self.density[(k * nt + i) * np + j];
