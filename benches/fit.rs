@@ -25,6 +25,20 @@ const TRUTH: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","
     "fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.08}}"#;
 const START: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","masking":"smith-separable","fresnel":"schlick"}}"#;
 
+/// CPU time (user + system, all threads) of this process in seconds, from
+/// `/proc/self/stat` (clock ticks of 1/100 s). On a machine shared with other jobs the
+/// wall time stretches while the CPU time stays near what the fit needs; CPU time / 2
+/// is then the wall time the fit would take alone on the 2 cores.
+fn cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14, 15.
+    let rest = &s[s.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ut: f64 = f.get(11)?.parse().ok()?;
+    let st: f64 = f.get(12)?.parse().ok()?;
+    Some((ut + st) / 100.0)
+}
+
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     v[v.len() / 2]
@@ -140,11 +154,16 @@ fn main() {
 fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>) {
     let cfg = FitConfig::default();
     let mut times = Vec::new();
+    let mut cpus = Vec::new();
     let mut last = None;
     for _ in 0..runs.max(1) {
+        let c0 = cpu_seconds();
         let t = Instant::now();
         let res = fit(start, data, &cfg, None).expect("fit");
         times.push(t.elapsed().as_secs_f64());
+        if let (Some(a), Some(b)) = (c0, cpu_seconds()) {
+            cpus.push(b - a);
+        }
         last = Some(res);
     }
     let res = last.expect("at least one run");
@@ -152,6 +171,19 @@ fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>
     let t_rust = median(&mut times.clone());
     let best = times.iter().copied().fold(f64::INFINITY, f64::min);
     let w = r.starts[0].warm_up.as_ref();
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    if !cpus.is_empty() {
+        println!(
+            "      CPU time (all threads) median {:.3} s: alone on the 2 cores the wall time is between {:.3} s (perfectly parallel) and {:.3} s (serial); load average {}",
+            median(&mut cpus.clone()),
+            median(&mut cpus.clone()) / 2.0,
+            median(&mut cpus.clone()),
+            load.split_whitespace()
+                .take(3)
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+    }
     println!(
         "rust  (brdfkit-fit, LM, cbrt, 1 start, default config): median {:.3} s, min {:.3} s over {} runs",
         t_rust,
@@ -191,6 +223,11 @@ fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>
     let Some(py) = py else {
         return;
     };
+    let rust_cpu = if cpus.is_empty() {
+        f64::NAN
+    } else {
+        median(&mut cpus.clone())
+    };
     let dir = tempfile::tempdir().expect("temp dir");
     let cells = dir.path().join("cells.bin");
     write_cells(data, &cells).expect("write cells");
@@ -228,8 +265,9 @@ fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>
         }
     };
     println!(
-        "python (scipy {} least_squares trf, 2-point Jacobian): {:.3} s; nfev {}, njev {}; status {} ({})",
+        "python (numpy {}, scipy {} least_squares trf, 2-point Jacobian): {:.3} s; nfev {}, njev {}; status {} ({})",
         v["numpy"].as_str().unwrap_or("?"),
+        v["scipy"].as_str().unwrap_or("?"),
         t_py,
         v["nfev"],
         v["njev"],
@@ -242,8 +280,14 @@ fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>
         py_loss_rust,
         p.get(6).copied().unwrap_or(f64::NAN)
     );
+    let py_cpu = v["cpu_s"].as_f64().unwrap_or(f64::NAN);
     println!(
-        "ratio python / rust (median): {:.1}x; losses rust {:.3e} vs python {:.3e} ({})",
+        "python CPU time {:.3} s; CPU-time ratio python / rust: {:.1}x",
+        py_cpu,
+        py_cpu / rust_cpu
+    );
+    println!(
+        "ratio python / rust (median wall): {:.1}x; losses rust {:.3e} vs python {:.3e} ({})",
         t_py / t_rust,
         r.losses_full.cbrt.overall,
         py_loss_rust,

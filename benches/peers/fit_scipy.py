@@ -18,6 +18,7 @@ import sys
 import time
 
 import numpy as np
+import scipy
 from scipy.optimize import least_squares
 
 
@@ -69,10 +70,13 @@ def main():
     lo = np.array([0.0] * 6 + [1e-6] + [0.0] * 3)
     hi = np.array([1.0] * 6 + [100.0] + [1.0] * 3)
     t0 = time.perf_counter()
+    c0 = time.process_time()
     res = least_squares(residuals, x0, bounds=(lo, hi))
     t = time.perf_counter() - t0
+    cpu = time.process_time() - c0
     print(json.dumps({
         "time_s": t,
+        "cpu_s": cpu,
         "loss_cbrt": float(np.sqrt(2.0 * res.cost)),
         "params": res.x.tolist(),
         "nfev": int(res.nfev),
@@ -81,6 +85,7 @@ def main():
         "message": res.message,
         "cells": int(a.shape[1]),
         "numpy": np.__version__,
+        "scipy": scipy.__version__,
     }))
 
 

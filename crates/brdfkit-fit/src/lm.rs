@@ -33,7 +33,7 @@ pub struct Tolerances {
 impl Default for Tolerances {
     fn default() -> Self {
         Tolerances {
-            ftol: 1e-12,
+            ftol: 1e-10,
             xtol: 1e-10,
             gtol: 1e-10,
         }

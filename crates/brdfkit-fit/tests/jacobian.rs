@@ -123,3 +123,15 @@ fn cbrt_guard_keeps_the_jacobian_finite_at_zero_model_values() {
     let ne = p.normal_eq(&u);
     assert!(ne.cost.is_finite() && ne.jtr.iter().all(|v| v.is_finite()));
 }
+
+#[test]
+fn ward_and_ashikhmin_shirley() {
+    check(
+        r#"{"model":"ward","params":{"rho_d":[0.2,0.1,0.3],"rho_s":[0.3,0.4,0.2],"alpha":0.12}}"#,
+        r#"{"model":"ward","params":{"rho_d":[0.3,0.2,0.2],"rho_s":[0.2,0.3,0.3],"alpha":0.3}}"#,
+    );
+    check(
+        r#"{"model":"ashikhmin-shirley","params":{"rho_d":[0.4,0.3,0.2],"rho_s":[0.1,0.2,0.3],"n":300}}"#,
+        r#"{"model":"ashikhmin-shirley","params":{"rho_d":[0.3,0.3,0.3],"rho_s":[0.2,0.2,0.2],"n":80}}"#,
+    );
+}

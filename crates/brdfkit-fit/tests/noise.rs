@@ -83,3 +83,15 @@ fn lafortune_and_oren_nayar_noisy() {
         r#"{"model":"oren-nayar"}"#,
     );
 }
+
+#[test]
+fn ward_and_ashikhmin_shirley_noisy() {
+    noisy(
+        r#"{"model":"ward","params":{"rho_d":[0.2,0.1,0.3],"rho_s":[0.3,0.4,0.2],"alpha":0.12}}"#,
+        r#"{"model":"ward"}"#,
+    );
+    noisy(
+        r#"{"model":"ashikhmin-shirley","params":{"rho_d":[0.4,0.3,0.2],"rho_s":[0.1,0.2,0.3],"n":300}}"#,
+        r#"{"model":"ashikhmin-shirley"}"#,
+    );
+}
