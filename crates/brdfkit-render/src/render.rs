@@ -120,6 +120,8 @@ pub struct RenderStats {
     pub table_misses: u64,
     /// Wall time of the whole render, setup included.
     pub wall: Duration,
+    /// Wall time of the pixel loop alone (setup excluded).
+    pub loop_wall: Duration,
     /// Worker threads.
     pub threads: usize,
 }
@@ -133,17 +135,33 @@ impl RenderStats {
             Effect::Shadows => &self.shadows,
         }
     }
+
+    /// The wall time attributed to `c` (one of this report's costs): its setup plus the
+    /// pixel loop's wall time split in proportion to the thread time of each phase.
+    /// An attribution, not a separate measurement (the phases run interleaved on every
+    /// thread); exactly zero for an effect that did not run.
+    pub fn wall_share(&self, c: &EffectCost) -> Duration {
+        let total = self.camera.time + self.direct.time + self.environment.time + self.shadows.time;
+        if total.is_zero() {
+            return c.setup;
+        }
+        c.setup
+            + self
+                .loop_wall
+                .mul_f64(c.time.as_secs_f64() / total.as_secs_f64())
+    }
 }
 
 impl fmt::Display for RenderStats {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{:<12} {:>9} {:>10} {:>11} {:>12} {:>12} {:>12} {:>11}",
+            "{:<12} {:>9} {:>10} {:>11} {:>13} {:>12} {:>12} {:>12} {:>11}",
             "effect",
             "requested",
             "setup ms",
             "thread ms",
+            "wall ms (est)",
             "samples",
             "brdf evals",
             "rays",
@@ -158,11 +176,12 @@ impl fmt::Display for RenderStats {
         for (name, c) in rows {
             writeln!(
                 f,
-                "{:<12} {:>9} {:>10.3} {:>11.3} {:>12} {:>12} {:>12} {:>11}",
+                "{:<12} {:>9} {:>10.3} {:>11.3} {:>13.3} {:>12} {:>12} {:>12} {:>11}",
                 name,
                 if c.requested { "yes" } else { "no" },
                 c.setup.as_secs_f64() * 1e3,
                 c.time.as_secs_f64() * 1e3,
+                self.wall_share(c).as_secs_f64() * 1e3,
                 c.samples,
                 c.brdf_evals + c.setup_evals,
                 c.rays,
@@ -418,6 +437,7 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
 
     let mut radiance = vec![Rgb::ZERO; w * h];
     let mut std_error = vec![Rgb::ZERO; w * h];
+    let loop_start = Instant::now();
     let counters = radiance
         .par_chunks_mut(w)
         .zip(std_error.par_chunks_mut(w))
@@ -435,6 +455,7 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
             c
         })
         .reduce(Counters::default, Counters::merge);
+    let loop_wall = loop_start.elapsed();
 
     for (i, v) in radiance.iter().enumerate() {
         if !v.is_finite() {
@@ -454,6 +475,7 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
         shadows: counters.shadows,
         table_misses: counters.table_misses,
         wall: Duration::ZERO,
+        loop_wall,
         threads: rayon::current_num_threads(),
     };
     stats.camera.requested = true;

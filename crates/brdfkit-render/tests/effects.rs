@@ -43,7 +43,10 @@ fn direct_only_spends_nothing_on_environment_or_shadows() {
         let c = st.effect(e);
         assert!(!c.requested);
         assert!(c.is_zero(), "{e}: {c:?}");
+        assert!(st.wall_share(c).is_zero());
     }
+    assert!(!st.wall_share(&st.direct).is_zero());
+    assert!(st.wall_share(&st.direct) + st.wall_share(&st.camera) <= st.wall);
     // Centre filter, no environment: one sample per pixel whatever spp says.
     assert_eq!(out.spp, 1);
     assert_eq!(st.camera.rays, 40 * 30);
