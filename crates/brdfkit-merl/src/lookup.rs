@@ -49,7 +49,14 @@ fn clamped_axis(x: f64, n: usize) -> (usize, usize, f64) {
 /// reciprocity), so the last cell interpolates towards the first.
 #[inline]
 fn wrapped_axis(x: f64, n: usize) -> (usize, usize, f64) {
-    let x = x.rem_euclid(n as f64);
+    let nf = n as f64;
+    // Coordinates from `phi_d_coord` are already in [0, n]; `rem_euclid` (an fmod
+    // call) is only needed for angles given from outside [−π, π].
+    let x = if (0.0..=nf).contains(&x) {
+        x
+    } else {
+        x.rem_euclid(nf)
+    };
     if x.is_nan() {
         return (0, 0, 0.0);
     }
