@@ -656,3 +656,49 @@ fn a_merl_table_of_a_glossy_model_renders_close_to_the_model() {
         "mean relative difference {mean} over {n} pixels"
     );
 }
+
+#[test]
+fn missing_table_cells_render_black_and_are_counted() {
+    // A Lambert table (ρ = 0.5) whose cells with θh ≥ 22.5° (bins 4.. of 8) are
+    // missing: every pixel away from the highlight looks up a missing cell, renders 0
+    // and counts as one miss (one light, one lookup per pixel); the others equal the
+    // model.
+    let dir = tempfile::tempdir().unwrap();
+    let dims = Dims::new(8, 8, 16).unwrap();
+    MerlTable::from_fn(dims, |i, _, _| (i < 4).then_some(Rgb::splat(0.5 / PI)))
+        .unwrap()
+        .write(dir.path().join("coarse.binary"))
+        .unwrap();
+    let light = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2.5]\nintensity = 10";
+    let model = render(&scene_in(
+        dir.path(),
+        &sphere_scene(
+            r#"["direct"]"#,
+            r#"model = { model = "lambert", params = { rho_d = 0.5 } }"#,
+            light,
+            "",
+        ),
+    ))
+    .unwrap();
+    let tab = render(&scene_in(
+        dir.path(),
+        &sphere_scene(r#"["direct"]"#, "table = \"coarse.binary\"", light, ""),
+    ))
+    .unwrap();
+    let mut black = 0u64;
+    for (a, b) in tab.radiance.iter().zip(&model.radiance) {
+        if *a == Rgb::ZERO && b.max_channel() > 0.0 {
+            black += 1;
+        } else {
+            assert!((a[0] - b[0]).abs() <= 1e-12 * b[0].max(1e-3));
+        }
+    }
+    let lit = model
+        .radiance
+        .iter()
+        .filter(|c| c.max_channel() > 0.0)
+        .count() as u64;
+    println!("table with missing cells: {black} of {lit} lit pixels in missing cells");
+    assert!(black > 100 && black + 50 < lit, "{black} of {lit}");
+    assert_eq!(black, tab.stats.table_misses);
+}
