@@ -117,10 +117,10 @@ impl SceneError {
 /// A render that cannot run or produced something unusable.
 #[derive(Debug, Error)]
 pub enum RenderError {
-    /// Film settings changed after reading into something unusable (the fields of
-    /// [`crate::Film`] are public; [`crate::Scene::read`] never produces these).
+    /// A scene changed after reading into something unusable (the fields of
+    /// [`crate::Scene`] are public; [`crate::Scene::read`] never produces these).
     #[error("{}: `{key}`: {message}", scene.display())]
-    InvalidFilm {
+    Invalid {
         scene: PathBuf,
         key: &'static str,
         message: String,

@@ -379,7 +379,7 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
     let start = Instant::now();
     let film = &scene.film;
     let (w, h, spp) = (film.width, film.height, film.spp);
-    let bad = |key: &'static str, message: String| RenderError::InvalidFilm {
+    let bad = |key: &'static str, message: String| RenderError::Invalid {
         scene: scene.path.clone(),
         key,
         message,
@@ -400,6 +400,24 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
     if !film.exposure.is_finite() {
         return Err(bad("film.exposure", "must be finite".into()));
     }
+    if scene.sphere.is_none() && scene.plane.is_none() {
+        return Err(bad("sphere", "the scene has no object".into()));
+    }
+    let n_mat = scene.materials.len();
+    if scene.sphere.as_ref().is_some_and(|o| o.material >= n_mat)
+        || scene.plane.as_ref().is_some_and(|o| o.material >= n_mat)
+    {
+        return Err(bad(
+            "material",
+            format!("an object refers to material {n_mat} or beyond; there are {n_mat}"),
+        ));
+    }
+    if scene.effects.environment && scene.environment.is_none() {
+        return Err(bad(
+            "environment",
+            "the environment effect is on but there is no environment".into(),
+        ));
+    }
     let fx = scene.effects;
 
     // Environment setup: only when asked for.
@@ -411,11 +429,9 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
     };
     if fx.environment {
         let t0 = Instant::now();
-        let env = scene
-            .environment
-            .as_ref()
-            .expect("a validated scene with the environment effect has an environment");
-        ctx.env = Some((env, EnvDistribution::build(env)));
+        if let Some(env) = scene.environment.as_ref() {
+            ctx.env = Some((env, EnvDistribution::build(env)));
+        }
         ctx.lobes = scene.materials.par_iter().map(LobeSampler::build).collect();
         env_setup.setup = t0.elapsed();
         env_setup.setup_evals = ctx.lobes.iter().map(|l| l.build_evaluations).sum();

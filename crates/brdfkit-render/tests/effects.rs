@@ -215,3 +215,82 @@ intensity = 10
     let limit = if cfg!(debug_assertions) { 5.0 } else { 0.5 };
     assert!(out.stats.wall.as_secs_f64() < limit, "{:?}", out.stats.wall);
 }
+
+#[test]
+fn a_scene_edited_into_nonsense_is_a_render_error_not_a_panic() {
+    let base = scene(r#"["environment"]"#, ENV).unwrap();
+    let mut s = base.clone();
+    s.film.spp = 0;
+    assert!(render(&s).unwrap_err().to_string().contains("film.spp"));
+    let mut s = base.clone();
+    s.environment = None;
+    assert!(
+        render(&s)
+            .unwrap_err()
+            .to_string()
+            .contains("no environment")
+    );
+    let mut s = base.clone();
+    s.sphere.as_mut().unwrap().material = 7;
+    assert!(render(&s).unwrap_err().to_string().contains("material"));
+    let mut s = base;
+    s.film.width = 0;
+    assert!(render(&s).unwrap_err().to_string().contains("film"));
+}
+
+/// A material that returns NaN: the render must say so, naming a pixel.
+#[derive(Debug, Clone)]
+struct Broken;
+
+impl brdfkit_core::Brdf for Broken {
+    fn eval(&self, wi: &brdfkit_core::Vec3, wo: &brdfkit_core::Vec3) -> Rgb {
+        if wi.z > 0.0 && wo.z > 0.0 {
+            Rgb::splat(f64::NAN)
+        } else {
+            Rgb::ZERO
+        }
+    }
+}
+
+impl brdfkit_core::Model for Broken {
+    fn name(&self) -> &'static str {
+        "broken"
+    }
+    fn param_specs(&self) -> Vec<brdfkit_core::ParamSpec> {
+        Vec::new()
+    }
+    fn params(&self) -> Vec<f64> {
+        Vec::new()
+    }
+    fn set_params(&mut self, _: &[f64]) -> Result<(), brdfkit_core::ModelError> {
+        Ok(())
+    }
+    fn eval_grad(&self, wi: &brdfkit_core::Vec3, wo: &brdfkit_core::Vec3, _: &mut [Rgb]) -> Rgb {
+        brdfkit_core::Brdf::eval(self, wi, wo)
+    }
+    fn eval_batch(&self, _: &brdfkit_core::GeomSlice<'_>, _: &mut [Rgb]) {}
+    fn eval_grad_batch(&self, _: &brdfkit_core::GeomSlice<'_>, _: &mut [Rgb], _: &mut [Rgb]) {}
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::Value::Null
+    }
+    fn clone_box(&self) -> Box<dyn brdfkit_core::Model> {
+        Box::new(self.clone())
+    }
+}
+
+#[test]
+fn a_material_returning_nan_is_a_render_error() {
+    for (effects, extra) in [(r#"["direct"]"#, POINT), (r#"["environment"]"#, ENV)] {
+        let mut s = scene(effects, extra).unwrap();
+        s.materials[0] = brdfkit_render::Material::Model {
+            model: std::sync::Arc::new(Broken),
+            source: brdfkit_render::material::MaterialSource::Inline,
+        };
+        let e = render(&s).unwrap_err();
+        assert!(
+            matches!(e, brdfkit_render::RenderError::NonFinite { .. }),
+            "{e}"
+        );
+        assert!(e.to_string().contains("not finite"), "{e}");
+    }
+}
