@@ -45,12 +45,20 @@ fn mitsuba_python() -> Option<PathBuf> {
             py.display()
         );
     }
-    eprintln!(
-        "!!!!! MITSUBA CROSS-CHECK DID NOT RUN: no Mitsuba 3 at {} -- enable it with \
-         `python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt` \
-         (or set BRDFKIT_PYTHON) !!!!!",
-        py.display()
-    );
+    // Written to the process's stderr directly: the test harness captures `eprintln!`
+    // of passing tests, and this line must be seen.
+    // Once per test binary, not once per test.
+    static LOUD: std::sync::Once = std::sync::Once::new();
+    LOUD.call_once(|| {
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "!!!!! MITSUBA CROSS-CHECK DID NOT RUN: no Mitsuba 3 at {} -- enable it with \
+             `python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt` \
+             (or set BRDFKIT_PYTHON) !!!!!",
+            py.display()
+        );
+    });
     None
 }
 
