@@ -10,7 +10,8 @@ prints one JSON line: {"width", "height", "spp", "seconds", "variant", "mitsuba"
 
 Supported (anything else is an error, exit code 2):
 - camera: perspective, fov across the film width (fov_axis "x"), look_at/up;
-- one [sphere] (no [plane]: Mitsuba has no infinite plane);
+- one [sphere], and optionally the [plane] as a 2000 x 2000 `rectangle` (needs the
+  shadows effect: Mitsuba always traces shadow rays);
 - materials: `lambert` -> `diffuse`; `cook-torrance` with rho_d = 0, rho_s = 1,
   distribution ggx (or beckmann with beckmann_g1 = "rational"), masking
   smith-separable, conductor Fresnel -> `roughconductor`;
@@ -102,6 +103,7 @@ def main():
     a = ap.parse_args()
 
     import mitsuba as mi
+    import numpy as np
 
     mi.set_variant(a.variant)
     from mitsuba import ScalarTransform4f as T
@@ -114,8 +116,8 @@ def main():
     w, h = int(film["width"]), int(film["height"])
     filt = film.get("filter", "center")
     has_env = "environment" in s
-    if "plane" in s:
-        fail("[plane] is not supported by the Mitsuba cross-check")
+    if "plane" in s and "shadows" not in effects:
+        fail("Mitsuba always traces shadow rays: a scene with a [plane] needs the shadows effect")
     if filt == "center":
         if has_env:
             fail("an environment needs film.filter = \"box\" (Mitsuba has no centre-only multi-sample mode)")
@@ -156,6 +158,28 @@ def main():
         "radius": float(sp["radius"]),
         "bsdf": load_model(mat, base),
     }
+    if "plane" in s:
+        # brdfkit's plane is infinite; a 2000 x 2000 rectangle is the same to within the
+        # pixels at the horizon (masked: far away, so both are dark) and a 0.1 % sliver of
+        # sky near the horizon for environment occlusion.
+        pl = s["plane"]
+        n = np.asarray(pl["normal"], dtype=float)
+        n /= np.linalg.norm(n)
+        # Orthonormal frame (Duff et al. 2017) with the rectangle's +z on the normal.
+        sign = 1.0 if n[2] >= 0 else -1.0
+        ia = -1.0 / (sign + n[2])
+        ib = n[0] * n[1] * ia
+        t = np.array([1.0 + sign * n[0] * n[0] * ia, sign * ib, -sign * n[0]])
+        bb = np.array([ib, sign + n[1] * n[1] * ia, -n[1]])
+        half = 1000.0
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = half * t, half * bb, n, pl["point"]
+        pmat = pl.get("material") or s.get("material")
+        scene["plane"] = {
+            "type": "rectangle",
+            "to_world": T(m.tolist()),
+            "bsdf": load_model(pmat, base),
+        }
     if "direct" in effects:
         for i, l in enumerate(s.get("light", [])):
             if l["type"] == "point":
@@ -189,8 +213,6 @@ def main():
     sc = mi.load_dict(scene)
     img = mi.render(sc, spp=spp, seed=int(film.get("seed", 0)))
     seconds = time.perf_counter() - t0
-
-    import numpy as np
 
     arr = np.asarray(img, dtype=np.float32).reshape(h, w, 3)
     arr.astype("<f4").tofile(a.out)

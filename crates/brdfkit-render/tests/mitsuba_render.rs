@@ -9,7 +9,9 @@
 //! Error measure: per pixel and channel, |ours − mitsuba| / mitsuba, averaged over the
 //! pixels where **both** images exceed 1 % of the Mitsuba image's maximum in that
 //! channel (this masks the background, which is black, and the terminator, where
-//! float32 round-off and the cosine's zero make relative errors meaningless).
+//! float32 round-off and the cosine's zero make relative errors meaningless). So that
+//! the mask cannot hide a misplaced shadow or silhouette, the values above the threshold
+//! in one image only must stay below 1.5 % of the pixel count.
 //! Requirements: ≤ 1 % for point/directional lights (one ray through each pixel centre,
 //! no noise), ≤ 3 % for a constant environment at 256 spp (box filter, both renderers
 //! jittering inside the pixel).
@@ -67,6 +69,9 @@ struct Comparison {
     max_rel: f64,
     compared: usize,
     total: usize,
+    /// Pixel channels above the threshold in one image only: a shadow, a silhouette or
+    /// a terminator in a different place, which the both-above mask would hide.
+    one_sided: usize,
 }
 
 fn run_mitsuba(
@@ -111,6 +116,7 @@ fn compare(ours: &brdfkit_render::RenderOutput, theirs: &[f32]) -> Comparison {
         }
     }
     let (mut sum, mut count, mut max_rel) = (0.0, 0usize, 0.0f64);
+    let mut one_sided = 0;
     let mut pixels = 0;
     for p in 0..n {
         let mut any = false;
@@ -123,6 +129,8 @@ fn compare(ours: &brdfkit_render::RenderOutput, theirs: &[f32]) -> Comparison {
                 count += 1;
                 max_rel = max_rel.max(r);
                 any = true;
+            } else if (a > thr) != (b > thr) {
+                one_sided += 1;
             }
         }
         pixels += any as usize;
@@ -132,6 +140,7 @@ fn compare(ours: &brdfkit_render::RenderOutput, theirs: &[f32]) -> Comparison {
         max_rel,
         compared: pixels,
         total: n,
+        one_sided,
     }
 }
 
@@ -157,12 +166,13 @@ fn check_with(
     assert_eq!((w, h), (ours.width, ours.height));
     let c = compare(&ours, &theirs);
     println!(
-        "{name}: mean relative error {:.4} % (max {:.3} %) over {} of {} pixels; \
-         brdfkit {:.1} ms, mitsuba {:.0} ms",
+        "{name}: mean relative error {:.4} % (max {:.3} %) over {} of {} pixels, \
+         {} channel values above the mask in one image only; brdfkit {:.1} ms, mitsuba {:.0} ms",
         100.0 * c.mean_rel,
         100.0 * c.max_rel,
         c.compared,
         c.total,
+        c.one_sided,
         ours.stats.wall.as_secs_f64() * 1e3,
         secs * 1e3
     );
@@ -173,6 +183,13 @@ fn check_with(
         "{name}: only {} of {} pixels compared",
         c.compared,
         c.total
+    );
+    // Both images must be dark in the same places (shadows, background, terminator):
+    // at most a few knife-edge pixel channels may straddle the threshold.
+    assert!(
+        c.one_sided * 200 <= 3 * c.total,
+        "{name}: {} channel values are above the mask in one image only",
+        c.one_sided
     );
     assert!(
         c.mean_rel <= tol,
@@ -329,4 +346,50 @@ fn lat_long_environment_matches_mitsuba() {
         });
         img.save(dir.join("sky.exr")).unwrap();
     });
+}
+
+/// Sphere over a floor: the floor (a 2000 x 2000 `rectangle` in Mitsuba, the infinite
+/// plane here) with the sphere's shadow.
+fn floor_scene(effects: &str, film: &str, lights: &str) -> String {
+    format!(
+        r#"effects = {effects}
+[film]
+width = 96
+height = 72
+{film}
+[camera]
+position = [0.5, 2.2, 5.0]
+look_at = [0.0, -0.4, 0.0]
+fov = 45
+[sphere]
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = {{ {GGX_CONDUCTOR} }}
+[plane]
+point = [0.0, -1.2, 0.0]
+normal = [0.0, 1.0, 0.0]
+material = {{ {LAMBERT} }}
+{lights}
+"#
+    )
+}
+
+#[test]
+fn point_light_shadow_on_a_floor_matches_mitsuba() {
+    let text = floor_scene(
+        r#"["direct", "shadows"]"#,
+        "filter = \"center\"",
+        "[[light]]\ntype = \"point\"\nposition = [-1.5, 3.0, 1.0]\nintensity = [20.0, 18.0, 15.0]",
+    );
+    check("floor-point-shadow", &text, None, 0.01);
+}
+
+#[test]
+fn environment_occlusion_on_a_floor_matches_mitsuba() {
+    let text = floor_scene(
+        r#"["environment", "shadows"]"#,
+        "filter = \"box\"\nspp = 256\nseed = 3\nshow_environment = false",
+        "[environment]\nconstant = [0.9, 1.0, 1.2]",
+    );
+    check("floor-env-shadow", &text, Some(256), 0.03);
 }
