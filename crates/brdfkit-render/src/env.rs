@@ -237,6 +237,7 @@ impl EnvDistribution {
                 width, height, pmf, ..
             } => {
                 let (w, h) = (*width, *height);
+                // |d.y| can exceed 1 by an ulp after normalisation.
                 let sin_theta = (1.0 - d.y * d.y).max(0.0).sqrt();
                 if sin_theta < 1e-12 {
                     // At the poles the density in (u, v) maps to an infinite solid-angle
@@ -244,6 +245,7 @@ impl EnvDistribution {
                     return 0.0;
                 }
                 let (u, v) = direction_to_uv(d);
+                // As in `texel_of`: v = 1 (straight down) belongs to the last row.
                 let x = ((u * w as f64) as usize).min(w - 1);
                 let y = ((v * h as f64) as usize).min(h - 1);
                 pmf[y * w + x] * (w * h) as f64 / (2.0 * PI * PI * sin_theta)

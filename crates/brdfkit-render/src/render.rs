@@ -448,7 +448,8 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
         PixelFilter::Center => 1,
         PixelFilter::Box => spp,
     };
-    // Pixels per chunk: enough work per phase that timing it costs nothing.
+    // Pixels per chunk: enough work per phase (≥ 4096 samples, or one pixel when spp
+    // alone exceeds that) that timing it costs nothing, and never more than a row.
     let chunk_px = (4096 / spp).clamp(1, w);
 
     let mut radiance = vec![Rgb::ZERO; w * h];

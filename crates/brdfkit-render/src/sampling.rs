@@ -199,6 +199,7 @@ impl LobeSampler {
                         let mut sum = 0.0;
                         for a in 0..Self::SUB {
                             let ct = ca + (a as f64 + 0.5) / Self::SUB as f64 * (cb - ca);
+                            // |ct| ≤ 1; the max only guards the root against round-off.
                             let st = (1.0 - ct * ct).max(0.0).sqrt();
                             for b in 0..Self::SUB {
                                 let phi = (j as f64 + (b as f64 + 0.5) / Self::SUB as f64) * dphi;
@@ -263,7 +264,9 @@ impl LobeSampler {
 
     #[inline]
     fn node(wo: &Vec3) -> usize {
-        // acos is coarse near the pole, but a node spans 3.75°.
+        // acos is coarse near the pole, but a node spans 3.75°; the clamp keeps a unit
+        // vector's z that rounds past 1 out of NaN, the min puts θo = π/2 (or a direction
+        // below the horizon, never asked for) in the last node.
         let theta_o = wo.z.clamp(-1.0, 1.0).acos();
         ((theta_o / FRAC_PI_2 * Self::NODES as f64) as usize).min(Self::NODES - 1)
     }
@@ -289,6 +292,7 @@ impl LobeSampler {
             let (j, r2) = pick(&self.conditional[base..base + np + 1], u[1]);
             let (ca, cb) = (self.cos_edges[i], self.cos_edges[i + 1]);
             let ct = ca + r1 * (cb - ca);
+            // |ct| ≤ 1; the max only guards the root against round-off.
             let st = (1.0 - ct * ct).max(0.0).sqrt();
             let phi = (j as f64 + r2) * (2.0 * PI / np as f64);
             let (e1, e2, m) = mirror_frame(wo);
@@ -318,6 +322,8 @@ impl LobeSampler {
         let np = Self::N_PHI;
         // θ' bin i has cos θ'_i ≥ cos θ' > cos θ'_{i+1}: compare cosines (descending),
         // no inverse trigonometry. cos(10⁻³) = 1 − 5·10⁻⁷ is well resolved in f64.
+        // cos θ' = −1 exactly (wi opposite m) would count past the last edge; φ' = 2π
+        // (atan2 of −0) would index one bin past the end: both belong to the last bin.
         let i = self.cos_edges[1..]
             .partition_point(|&c| c >= x3)
             .min(nt - 1);
