@@ -286,13 +286,18 @@ fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>
         py_cpu,
         py_cpu / rust_cpu
     );
+    let lr = r.losses_full.cbrt.overall;
+    let rel = (lr - py_loss_rust) / py_loss_rust;
     println!(
-        "ratio python / rust (median wall): {:.1}x; losses rust {:.3e} vs python {:.3e} ({})",
+        "ratio python / rust (median wall): {:.1}x; losses rust {:.9e} vs python {:.9e}: relative difference {:+.2e} ({})",
         t_py / t_rust,
-        r.losses_full.cbrt.overall,
+        lr,
         py_loss_rust,
-        if r.losses_full.cbrt.overall <= py_loss_rust {
-            "rust equal or lower"
+        rel,
+        if lr <= py_loss_rust {
+            "rust lower or equal"
+        } else if rel <= 1e-9 {
+            "equal to 1e-9"
         } else {
             "rust higher"
         }
