@@ -19,8 +19,17 @@ fn every_model_name_is_registered_and_round_trips_through_json() {
         assert_eq!(specs.len(), m.num_params(), "{name}");
         assert_eq!(specs.len(), m.params().len(), "{name}");
         for (s, v) in specs.iter().zip(m.params()) {
-            assert!(s.domain.contains(v), "{name}: {} = {v} outside {}", s.name, s.domain);
-            assert!(s.domain.contains(s.default), "{name}: default of {}", s.name);
+            assert!(
+                s.domain.contains(v),
+                "{name}: {} = {v} outside {}",
+                s.name,
+                s.domain
+            );
+            assert!(
+                s.domain.contains(s.default),
+                "{name}: default of {}",
+                s.name
+            );
         }
     }
 }

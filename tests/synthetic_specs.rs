@@ -25,8 +25,16 @@ fn at_least_the_promised_materials_are_shipped() {
         .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
         .collect();
     assert!(names.len() >= 10, "{names:?}");
-    for must in ["demo-plastic", "near-mirror-silver", "lafortune-two-lobes", "ward-duer"] {
-        assert!(names.iter().any(|n| n == must), "{must} missing from {names:?}");
+    for must in [
+        "demo-plastic",
+        "near-mirror-silver",
+        "lafortune-two-lobes",
+        "ward-duer",
+    ] {
+        assert!(
+            names.iter().any(|n| n == must),
+            "{must} missing from {names:?}"
+        );
     }
 }
 
@@ -48,7 +56,11 @@ fn every_spec_synthesises_its_model() {
                 continue;
             };
             valid += 1;
-            assert!(wi.z > 0.0 && wo.z > 0.0, "{}: cell {idx} valid below the horizon", path.display());
+            assert!(
+                wi.z > 0.0 && wo.z > 0.0,
+                "{}: cell {idx} valid below the horizon",
+                path.display()
+            );
             let truth = spec.truth(&wi, &wo);
             for c in 0..3 {
                 if sigma == 0.0 {
@@ -62,10 +74,18 @@ fn every_spec_synthesises_its_model() {
                     );
                 } else {
                     let r = (v[c] / truth[c]).ln().abs();
-                    assert!(truth[c] == 0.0 || r <= 6.0 * sigma, "{}: noise {r}", path.display());
+                    assert!(
+                        truth[c] == 0.0 || r <= 6.0 * sigma,
+                        "{}: noise {r}",
+                        path.display()
+                    );
                 }
             }
         }
-        assert!(valid > d.cells() / 3, "{}: only {valid} valid cells", path.display());
+        assert!(
+            valid > d.cells() / 3,
+            "{}: only {valid} valid cells",
+            path.display()
+        );
     }
 }

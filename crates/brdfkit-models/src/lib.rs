@@ -9,16 +9,16 @@ pub mod json;
 pub mod testing;
 
 // Models (one file each).
+pub mod ashikhmin_shirley;
+pub mod blinn_phong;
+pub mod cook_torrance;
+pub mod lafortune;
 pub mod lambert;
 pub mod oren_nayar;
 pub mod phong;
 pub mod plausible_phong;
-pub mod blinn_phong;
-pub mod lafortune;
 pub mod sum;
 pub mod ward;
-pub mod cook_torrance;
-pub mod ashikhmin_shirley;
 
 use brdfkit_core::{Model, ModelError};
 use serde_json::Value;
@@ -78,7 +78,9 @@ pub fn from_name_and_params(name: &str, params: &Value) -> Result<Box<dyn Model>
         "sum" => boxed(sum::Sum::from_params_json(params)),
         "ward" => boxed(ward::Ward::from_params_json(params)),
         "cook-torrance" => boxed(cook_torrance::CookTorrance::from_params_json(params)),
-        "ashikhmin-shirley" => boxed(ashikhmin_shirley::AshikhminShirley::from_params_json(params)),
+        "ashikhmin-shirley" => boxed(ashikhmin_shirley::AshikhminShirley::from_params_json(
+            params,
+        )),
         other => Err(ModelError::Invalid(format!(
             "unknown model `{other}` (known: {})",
             MODEL_NAMES.join(", ")

@@ -27,7 +27,9 @@ fn doc_examples_build() {
         if !CLASSIC.contains(&section) {
             continue;
         }
-        let json = rest.strip_suffix('`').expect("an example ends with a backtick");
+        let json = rest
+            .strip_suffix('`')
+            .expect("an example ends with a backtick");
         let m = from_json_str(json).unwrap_or_else(|e| panic!("{section}: {e}\n{json}"));
         assert_eq!(m.name(), section);
         let back = brdfkit_models::from_json(&m.to_json()).unwrap();
