@@ -27,12 +27,15 @@ fn main() {
         r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.08}}"#,
     )
     .expect("model");
-    let data = synth_data(
+    let mut data = synth_data(
         truth.as_ref(),
         brdfkit_merl::Dims::MERL,
         Coverage::AboveHorizon,
     )
     .expect("data");
+    if std::env::args().any(|a| a == "--noisy") {
+        brdfkit_fit::synth::add_lognormal_noise(&mut data, 0.05, 2026);
+    }
     let start = brdfkit_models::from_json_str(
         r#"{"model":"cook-torrance","params":{"fresnel":"schlick"}}"#,
     )
@@ -98,7 +101,7 @@ fn main() {
         )
         .expect("p")
     });
-    time("whole fit, default config", 3, || {
+    time("whole fit, default config", 5, || {
         brdfkit_fit::fit(start.as_ref(), &data, &FitConfig::default(), None).expect("fit")
     });
 }
