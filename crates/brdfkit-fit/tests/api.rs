@@ -372,3 +372,41 @@ fn warm_up_does_not_change_the_optimum() {
     // And the full-table stage after a warm-up needs only a few iterations.
     assert!(warm.record.iterations <= 5, "{}", show(&warm));
 }
+
+/// A run that stops on its iteration cap is reported as such, not as converged, and
+/// keeps the best point it reached.
+#[test]
+fn an_iteration_cap_is_not_convergence() {
+    let data = ct_data((15, 15, 30));
+    let cfg = FitConfig::default().max_iters(1).unwrap();
+    let res = fit(model(CT_START).as_ref(), &data, &cfg, None).unwrap();
+    assert!(!res.record.converged, "{}", show(&res));
+    assert_eq!(res.record.termination, "maximum iterations reached");
+    assert!(!res.record.starts[0].converged);
+    let start_loss = {
+        let m = model(CT_START);
+        let m: &dyn brdfkit_core::Model = m.as_ref();
+        brdfkit_fit::evaluate_losses([m, m, m], &data, Weighting::SolidAngle)
+            .cbrt
+            .overall
+    };
+    assert!(res.record.losses_full.cbrt.overall < start_loss);
+}
+
+/// The table path: a MERL table written to disk, read back and fitted.
+#[test]
+fn fit_a_table_read_from_disk() {
+    let truth = model(CT_TRUTH);
+    let table = brdfkit_merl::MerlTable::from_brdf(truth.as_ref(), dims(30, 30, 60)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ct.binary");
+    table.write(&path).unwrap();
+    let back = brdfkit_merl::MerlTable::read(&path).unwrap();
+    let res = brdfkit_fit::fit_table(model(CT_START).as_ref(), &back, &FitConfig::default(), None)
+        .unwrap();
+    assert_eq!(res.record.cells_full, table.valid_count());
+    // The table stores raw = value / scale, so values come back within an ulp or so:
+    // the parameters within 1e-9.
+    let (err, name) = worst_param(&res, truth.as_ref());
+    assert!(err < 1e-9, "{name} {err:e}");
+}
