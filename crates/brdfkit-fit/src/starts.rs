@@ -40,6 +40,9 @@ pub fn shape_range(t: &Transform, x0: f64) -> (f64, f64) {
             t.inverse(hi - (hi - x0) / 100.0),
         ),
         Transform::Logit { lo, hi } if (x0 - lo) < 0.1 * (hi - lo) => {
+            // Not below the offset `inverse` moves an end value to (a start on the
+            // lower end would otherwise give a zero-width range), and not into the top
+            // tenth, where the logit flattens and a start is a poor guess anyway.
             let a = ((x0 - lo) / 100.0).max(crate::reparam::END_OFFSET * (hi - lo));
             let b = ((x0 - lo) * 100.0).min(0.9 * (hi - lo));
             (t.inverse(lo + a), t.inverse(lo + b))
