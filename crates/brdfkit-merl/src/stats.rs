@@ -67,35 +67,12 @@ pub struct TableStats {
 /// The outgoing angles (degrees) of [`TableStats::albedo`].
 pub const ALBEDO_ANGLES_DEG: [f64; 7] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0];
 
-/// Gauss–Legendre nodes and weights on (0, 1), by Newton's method on Pₙ from the
-/// Chebyshev-like start cos(π (m − ¼)/(n + ½)) (Abramowitz & Stegun 25.4.29; the
-/// recurrence (k+1) P_{k+1} = (2k+1) x P_k − k P_{k−1}, weight 2 / ((1 − x²) P′ₙ(x)²),
-/// halved for the map from (−1, 1) to (0, 1)). Exact for polynomials of degree < 2n.
+/// Gauss–Legendre nodes and weights on (0, 1): core's rule on (−1, 1)
+/// ([`brdfkit_core::quadrature::gauss_legendre`]) mapped by x → (x + 1)/2, weights
+/// halved. Exact for polynomials of degree < 2n.
 pub fn gauss_legendre_01(n: usize) -> Vec<(f64, f64)> {
-    let mut out = Vec::with_capacity(n);
-    for m in 1..=n {
-        let mut x = (PI * (m as f64 - 0.25) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, x);
-            for k in 1..n {
-                let p2 = ((2 * k + 1) as f64 * x * p1 - k as f64 * p0) / (k + 1) as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            // P′ₙ(x) = n (x Pₙ − Pₙ₋₁) / (x² − 1)
-            let (pn, pn1) = (p1, p0);
-            dp = n as f64 * (x * pn - pn1) / (x * x - 1.0);
-            let dx = pn / dp;
-            x -= dx;
-            if dx.abs() < 1e-16 {
-                break;
-            }
-        }
-        let w = 2.0 / ((1.0 - x * x) * dp * dp);
-        out.push((0.5 * (x + 1.0), 0.5 * w));
-    }
-    out
+    let (x, w) = brdfkit_core::quadrature::gauss_legendre(n);
+    x.iter().zip(&w).map(|(x, w)| (0.5 * (x + 1.0), 0.5 * w)).collect()
 }
 
 impl MerlTable {
