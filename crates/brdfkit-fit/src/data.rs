@@ -75,12 +75,12 @@ impl FitData {
         // acos arguments clamped: normalisation can land a ulp beyond 1.
         let theta_h = geometry
             .h_z
-            .iter()
+            .par_iter()
             .map(|z| z.clamp(-1.0, 1.0).acos())
             .collect();
         let theta_d = geometry
             .cos_d
-            .iter()
+            .par_iter()
             .map(|z| z.clamp(-1.0, 1.0).acos())
             .collect();
         Ok(FitData {
