@@ -16,9 +16,9 @@
 //!   the light arriving from wi that is reflected; equal to the first for a reciprocal
 //!   model, and the one energy conservation is about when the model is not), over a grid
 //!   of polar angles (and azimuths, for an anisotropic model), by
-//!   [`brdfkit_core::quadrature::directional_albedo`] with its pole at the lobe
-//!   ([`PoleChoice`]), taken with the fine rule and compared with the default rule for
-//!   a convergence estimate. Pass: max albedo ≤ 1 + `energy`; a convergence estimate
+//!   [`brdfkit_core::quadrature::directional_albedo`] about the best-converged of the
+//!   mirror, retro and normal poles ([`PoleChoice`], [`albedo_converged`]), taken with
+//!   the fine rule and compared with the default rule for a convergence estimate. Pass: max albedo ≤ 1 + `energy`; a convergence estimate
 //!   above `convergence` makes the check inconclusive unless the albedo exceeds the
 //!   bound by more than the estimate.
 //! - **Isotropy**: max relative change of f when wi and wo are rotated together about
@@ -109,8 +109,8 @@ impl QuadPole {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PoleChoice {
-    /// Per direction, at whichever of mirror, retro and normal has the largest
-    /// integrand f · cos (the lobe's peak among the three candidates).
+    /// Per direction, every candidate (mirror, retro, normal) is integrated and the
+    /// best-converged one kept (see [`albedo_converged`]).
     Auto,
     /// Always this pole.
     Fixed(QuadPole),
@@ -148,7 +148,7 @@ impl Default for CheckOptions {
             random_pairs: 20_000,
             seed: 0x5EED_B4DF,
             albedo_thetas: [
-                0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0, 88.0, 89.0, 89.9,
+                0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0, 88.0, 89.0, 89.5,
             ]
             .iter()
             .map(|d: &f64| d.to_radians())
@@ -291,8 +291,9 @@ impl Brdf for Transposed<'_> {
 }
 
 /// The candidate (mirror, retro, normal) with the largest f(wi, w) · cos θi, where the
-/// integration runs over wi with `w` fixed. Non-finite scores are ignored; ties keep the
-/// earlier candidate (mirror first).
+/// integration runs over wi with `w` fixed: where the lobe peaks among the three. A
+/// cheap first guess; the checks use [`albedo_converged`], which tries all three.
+/// Non-finite scores are ignored; ties keep the earlier candidate (mirror first).
 pub fn auto_pole(b: &dyn Brdf, w: &Vec3) -> QuadPole {
     let mut best = (QuadPole::Mirror, f64::NEG_INFINITY);
     for (p, wi) in [
@@ -311,20 +312,23 @@ pub fn auto_pole(b: &dyn Brdf, w: &Vec3) -> QuadPole {
 /// The default and fine albedo rules for a pole at `w` (the fixed direction).
 ///
 /// With the pole ε above the horizon, the horizon crossing u_max(φ) of the core rule
-/// swings from ~ε to ~π − ε within a φ interval of width ~ε, and the trapezoid rule in
-/// φ needs a step well below ε. Measured on a Lambertian albedo with the mirror pole
-/// (16-point Gauss segments): 128 φ nodes give 4e-5 at 89° and 1e-4 at 89.9°; 1,024
-/// give 6e-13 at 89°, 4,096 give 8e-10 at 89.9°. So the φ count is 4/ε rounded up to
-/// a power of two, at least the core default's 128; the fine rule doubles it and the
-/// Gauss order (4x the work), as [`AlbedoQuadrature::fine`] does for the default.
+/// swings from ~ε to ~π − ε within a φ interval of width ~ε, and a specular lobe about
+/// a grazing mirror direction is squeezed by cos θd ≈ ε across the plane of incidence:
+/// the trapezoid rule in φ needs a step well below ε. Measured with the mirror pole
+/// (16-point Gauss segments): a Lambertian albedo has error 4e-5 at 89° and 1e-4 at
+/// 89.9° with the core's 128 azimuths, 2e-6 at 89° with 256 (4.5/ε) and 6e-13 with
+/// 1,024 (18/ε); a Beckmann lobe of α = 0.01 (F = 1) is off by 2.5e-2 at 88° with 128,
+/// 1.1e-3 with 256 (9/ε) and converged to 5e-10 with 1,024 (36/ε). So the φ count is
+/// 16/ε rounded up to a power of two, at least the core default's 128; the fine rule
+/// doubles it and the Gauss order (as [`AlbedoQuadrature::fine`] does for the default).
 pub fn albedo_rules(pole: QuadPole, w: &Vec3) -> (AlbedoQuadrature, AlbedoQuadrature) {
     let elevation = match pole {
         QuadPole::Mirror | QuadPole::Retro => w.z,
         QuadPole::Normal => 1.0,
     };
     // The floor keeps the count finite for a direction on the horizon (whose albedo
-    // is 0 anyway): 2^18 nodes at most.
-    let n_phi = ((4.0 / elevation.max(1.6e-5)).ceil() as usize)
+    // is 0 anyway): 2^20 nodes at most.
+    let n_phi = ((16.0 / elevation.max(1.6e-5)).ceil() as usize)
         .max(128)
         .next_power_of_two();
     let coarse = AlbedoQuadrature {
@@ -340,32 +344,91 @@ pub fn albedo_rules(pole: QuadPole, w: &Vec3) -> (AlbedoQuadrature, AlbedoQuadra
     (coarse, fine)
 }
 
-/// Albedo of `b` at `w` (integrating over the first argument) with the fine rule, and
-/// the max-channel |fine − default| difference.
-fn albedo_converged(b: &dyn Brdf, w: &Vec3, choice: PoleChoice) -> (Rgb, QuadPole, f64) {
-    let pole = match choice {
-        PoleChoice::Auto => auto_pole(b, w),
-        PoleChoice::Fixed(p) => p,
-    };
-    let (q, qf) = albedo_rules(pole, w);
-    let coarse = directional_albedo(b, w, &q);
-    let fine = directional_albedo(b, w, &qf);
-    let conv = (0..3)
+/// Max over channels of |a − b| (∞ when not finite).
+fn channel_gap(a: &Rgb, b: &Rgb) -> f64 {
+    (0..3)
         .map(|c| {
-            let d = (fine[c] - coarse[c]).abs();
+            let d = (a[c] - b[c]).abs();
             if d.is_finite() { d } else { f64::INFINITY }
         })
-        .fold(0.0, f64::max);
-    (fine, pole, conv)
+        .fold(0.0, f64::max)
+}
+
+/// An albedo at `w` by `rule` (the value, and anything else the caller wants from the
+/// fine rule, for one quadrature): the fine-rule value, its pole, the convergence
+/// estimate max |fine − default|, and the fine rule's extra.
+///
+/// [`PoleChoice::Auto`] integrates about the candidate poles (normal, mirror, retro;
+/// only one when `w` is the normal, where they coincide) and keeps the one whose
+/// estimate is smallest: each converges to the same integral, so the best-converged one
+/// is the most accurate. The search stops at an estimate of 1e-12 (round-off). (A lobe missed by both rules about a wrong pole would give two
+/// different samplings of its tail, not agreement, so it is not chosen.)
+pub(crate) fn converged_with<E>(
+    w: &Vec3,
+    choice: PoleChoice,
+    good_enough: f64,
+    first_guess: QuadPole,
+    rule: impl Fn(&AlbedoQuadrature) -> (Rgb, E),
+) -> (Rgb, QuadPole, f64, E) {
+    let candidates: Vec<QuadPole> = match choice {
+        PoleChoice::Fixed(p) => vec![p],
+        PoleChoice::Auto if w.x == 0.0 && w.y == 0.0 => vec![QuadPole::Normal],
+        PoleChoice::Auto => {
+            // The normal pole is cheap (its φ count does not grow near the horizon):
+            // first; then the lobe's likely pole, then the last one.
+            let mut v = vec![QuadPole::Normal];
+            if first_guess != QuadPole::Normal {
+                v.push(first_guess);
+            }
+            for p in [QuadPole::Mirror, QuadPole::Retro] {
+                if !v.contains(&p) {
+                    v.push(p);
+                }
+            }
+            v
+        }
+    };
+    let mut best: Option<(Rgb, QuadPole, f64, E)> = None;
+    for pole in candidates {
+        let (q, qf) = albedo_rules(pole, w);
+        let (coarse, _) = rule(&q);
+        let (fine, extra) = rule(&qf);
+        let conv = channel_gap(&fine, &coarse);
+        if best.as_ref().is_none_or(|b| conv < b.2) {
+            best = Some((fine, pole, conv, extra));
+        }
+        if conv <= good_enough {
+            break;
+        }
+    }
+    best.expect("at least one candidate pole")
+}
+
+/// Albedo of `b` at `w` (integrating over the first argument) with the fine rule, the
+/// pole used, and the max-channel |fine − default| difference (see [`converged_with`]);
+/// the pole search stops at an estimate of `good_enough`.
+pub fn albedo_converged(
+    b: &dyn Brdf,
+    w: &Vec3,
+    choice: PoleChoice,
+    good_enough: f64,
+) -> (Rgb, QuadPole, f64) {
+    let (a, p, c, ()) = converged_with(w, choice, good_enough, auto_pole(b, w), |q| {
+        (directional_albedo(b, w, q), ())
+    });
+    (a, p, c)
 }
 
 /// The albedo curve of a BRDF in both readings, at the given polar angles and azimuths
-/// (in parallel).
+/// (in parallel). With `reciprocal` (the reciprocity check passed), a(wi) is a(wo) and
+/// is not integrated again.
 pub fn albedo_curve(
     b: &dyn Brdf,
     thetas: &[f64],
     phis: &[f64],
     pole: PoleChoice,
+    good_enough: f64,
+    reciprocal: bool,
 ) -> Vec<AlbedoPoint> {
     let dirs: Vec<(f64, f64)> = thetas
         .iter()
@@ -374,8 +437,12 @@ pub fn albedo_curve(
     dirs.par_iter()
         .map(|&(theta, phi)| {
             let w = spherical(theta, phi);
-            let (a_wo, p_wo, c_wo) = albedo_converged(b, &w, pole);
-            let (a_wi, p_wi, c_wi) = albedo_converged(&Transposed(b), &w, pole);
+            let (a_wo, p_wo, c_wo) = albedo_converged(b, &w, pole, good_enough);
+            let (a_wi, p_wi, c_wi) = if reciprocal {
+                (a_wo, p_wo, c_wo)
+            } else {
+                albedo_converged(&Transposed(b), &w, pole, good_enough)
+            };
             AlbedoPoint {
                 theta,
                 phi,
@@ -530,13 +597,15 @@ fn check_isotropy(
     }
 }
 
-fn check_energy(m: &dyn Model, o: &CheckOptions) -> EnergyCheck {
+fn check_energy(m: &dyn Model, o: &CheckOptions, reciprocal: bool) -> EnergyCheck {
     let phis: Vec<f64> = if m.is_isotropic() {
         vec![0.0]
     } else {
         vec![0.0, PI / 4.0, PI / 2.0, 3.0 * PI / 4.0]
     };
-    let curve = albedo_curve(m, &o.albedo_thetas, &phis, o.pole);
+    // A pole whose estimate is a hundredth of the bound is kept without trying others.
+    let good_enough = 1e-2 * o.thresholds.convergence;
+    let curve = albedo_curve(m, &o.albedo_thetas, &phis, o.pole, good_enough, reciprocal);
     let mut max = (f64::NEG_INFINITY, "a(wo)", 0.0);
     let mut conv: f64 = 0.0;
     for p in &curve {
@@ -674,7 +743,8 @@ pub fn check_model_with(m: &dyn Model, o: &CheckOptions) -> PhysicalReport {
     // The dense grid has φi = 0 only; rotations of it are the random pairs' job.
     let iso_pairs = random_pairs(o.seed ^ 0x1507, o.random_pairs.clamp(1, 5_000));
     let isotropy = check_isotropy(m, &iso_pairs, &o.isotropy_angles, t);
-    let energy = check_energy(m, o);
+    // a(wi) = a(wo) for a reciprocal model: integrated once when reciprocity holds.
+    let energy = check_energy(m, o, reciprocity.verdict.passed());
     let finiteness = check_finiteness(m, nonfinite_dense);
     let passed = non_negativity.verdict.passed()
         && reciprocity.verdict.passed()

@@ -16,11 +16,10 @@
 //!   by [`brdfkit_fit::fit`] on a stratified subset of the cells and scored on the
 //!   others; the ratio of held-out to training loss measures over-fitting.
 
-use crate::physical::{albedo_rules, auto_pole};
+use crate::physical::{PoleChoice, albedo_converged, auto_pole, converged_with};
 use crate::report::{deg, num, rgb};
-use crate::table::table_albedo;
+use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
-use brdfkit_core::quadrature::directional_albedo;
 use brdfkit_core::{Model, ModelError, Rgb};
 use brdfkit_fit::data::STRATA;
 use brdfkit_fit::{
@@ -328,14 +327,13 @@ fn albedo_comparison(
             for (c, m) in models.iter().enumerate() {
                 // Per-channel fits are three models; a shared one is integrated once
                 // per channel too (cheap next to the table's lookups).
-                let (_, qf) = albedo_rules(auto_pole(*m, &wo), &wo);
-                fit[c] = directional_albedo(*m, &wo, &qf)[c];
+                fit[c] = albedo_converged(*m, &wo, PoleChoice::Auto, 1e-6).0[c];
             }
-            let (_, qf) = albedo_rules(
-                auto_pole(&crate::table::as_brdf(table, Lookup::Interpolated), &wo),
-                &wo,
-            );
-            let (t, missing) = table_albedo(table, Lookup::Interpolated, &wo, &qf);
+            let guess = auto_pole(&table_brdf(table, Lookup::Interpolated), &wo);
+            let (_, _, _, (t, missing)) = converged_with(&wo, PoleChoice::Auto, 1e-4, guess, |q| {
+                let (a, m) = table_albedo(table, Lookup::Interpolated, &wo, q);
+                (a.unwrap_or(Rgb::splat(f64::NAN)), (a, m))
+            });
             AlbedoComparison {
                 theta_o,
                 table: t,

@@ -14,13 +14,14 @@
 //!   infinity; the scan makes the report self-contained).
 //! - **Energy**: the directional albedo a(θo) = ∫ f(wi, wo) cos θi dωi with wo at
 //!   (θo, φo = 0), by [`brdfkit_core::quadrature::directional_albedo`] over the table's
-//!   lookups, pole at the lobe as in [`crate::physical::auto_pole`]. Missing lookups
+//!   lookups, about the best-converged pole as in
+//!   [`crate::physical::albedo_converged`]. Missing lookups
 //!   are filled with the cosine-weighted mean of the valid ones (the policy of
 //!   [`MerlTable::albedo`]): a = π ∫ f·v cos θi dωi / ∫ v cos θi dωi, v the validity
 //!   indicator, each integral by the same rule. Fine rule versus default rule gives the
 //!   convergence estimate; the verdict is as for a model.
 
-use crate::physical::{QuadPole, albedo_rules, auto_pole};
+use crate::physical::{PoleChoice, QuadPole, auto_pole, converged_with};
 use crate::report::{Verdict, deg, num, rgb};
 use brdfkit_core::direction::spherical;
 use brdfkit_core::quadrature::{AlbedoQuadrature, directional_albedo};
@@ -206,8 +207,8 @@ impl Brdf for TableBrdf<'_> {
     }
 }
 
-/// The table read as a BRDF (missing lookups 0), for the pole choice.
-pub(crate) fn as_brdf(t: &MerlTable, mode: Lookup) -> impl Brdf + '_ {
+/// The table read as a BRDF (missing lookups 0), for the pole's first guess.
+pub(crate) fn table_brdf(t: &MerlTable, mode: Lookup) -> impl Brdf + '_ {
     TableBrdf {
         t,
         mode,
@@ -345,23 +346,24 @@ pub fn check_table_with(t: &MerlTable, o: &TableCheckOptions) -> TableReport {
         .par_iter()
         .map(|&theta| {
             let wo = spherical(theta, 0.0);
-            let b = TableBrdf {
-                t,
-                mode: o.lookup,
-                indicator: false,
-            };
-            let pole = auto_pole(&b, &wo);
-            let (q, qf) = albedo_rules(pole, &wo);
-            let (coarse, _) = table_albedo(t, o.lookup, &wo, &q);
-            let (fine, missing_weight) = table_albedo(t, o.lookup, &wo, &qf);
-            let convergence = match (coarse, fine) {
-                (Some(a), Some(b)) => (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f64::max),
-                (None, None) => 0.0,
-                _ => f64::INFINITY,
-            };
+            let guess = auto_pole(
+                &TableBrdf {
+                    t,
+                    mode: o.lookup,
+                    indicator: false,
+                },
+                &wo,
+            );
+            let good_enough = 1e-2 * th.convergence;
+            let (_, pole, convergence, (albedo, missing_weight)) =
+                converged_with(&wo, PoleChoice::Auto, good_enough, guess, |q| {
+                    let (a, m) = table_albedo(t, o.lookup, &wo, q);
+                    // No sample at all: an unbounded convergence estimate.
+                    (a.unwrap_or(Rgb::splat(f64::NAN)), (a, m))
+                });
             TableAlbedoPoint {
                 theta,
-                albedo: fine,
+                albedo,
                 missing_weight,
                 pole,
                 convergence,

@@ -178,7 +178,7 @@ fn lambert_passes_every_check_with_albedo_rho() {
         r.energy
             .curve
             .iter()
-            .any(|p| p.theta > 89.8f64.to_radians())
+            .any(|p| p.theta >= 89.5f64.to_radians())
     );
     let text = r.to_string();
     for w in [
@@ -196,7 +196,7 @@ fn lambert_passes_every_check_with_albedo_rho() {
 
 #[test]
 fn lambert_albedo_is_exact_with_every_fixed_pole() {
-    // The Lambertian albedo is exact to 1e-6 even about the wrong pole, up to 89.9°:
+    // The Lambertian albedo is exact to 1e-6 even about the wrong pole, up to 89.5°:
     // the fine rule's error with the pole 0.1° from the horizon is what this bounds.
     let m = from_json_str(r#"{"model": "lambert", "params": {"rho_d": 0.7}}"#).unwrap();
     for pole in [QuadPole::Mirror, QuadPole::Retro, QuadPole::Normal] {
@@ -244,19 +244,14 @@ fn phong_is_reported_non_reciprocal_and_over_unit_albedo() {
         );
     }
     let last = r.energy.curve.last().unwrap();
-    assert!(last.a_wi.r() > 10.0, "a(wi) at 89.9° = {}", last.a_wi.r());
+    assert!(last.a_wi.r() > 4.0, "a(wi) at 89.5° = {}", last.a_wi.r());
     // The other checks hold for Phong.
     assert_eq!(r.non_negativity.verdict, Verdict::Pass);
     assert_eq!(r.isotropy.verdict, Verdict::Pass);
     assert_eq!(r.finiteness.verdict, Verdict::Pass, "{r}");
-    // Phong's lobe is specular: the mirror pole.
-    assert!(
-        r.energy
-            .curve
-            .iter()
-            .skip(1)
-            .all(|p| p.poles[0] == QuadPole::Mirror)
-    );
+    // Every point of the curve converged (the search keeps the first pole whose
+    // estimate is within a hundredth of the 1e-4 bound).
+    assert!(r.energy.convergence <= 1e-6, "{}", r.energy.convergence);
     let text = r.to_string();
     assert!(text.contains("reciprocity     FAIL"), "{text}");
     assert!(text.contains("energy          FAIL"), "{text}");
@@ -427,4 +422,37 @@ fn report_round_trips_through_json() {
     assert_eq!(v["thresholds"]["reciprocity"], 1e-9);
     assert_eq!(v["model"]["model"], "phong");
     assert_eq!(v["passed"], false);
+}
+
+#[test]
+fn sharp_and_anisotropic_lobes_converge() {
+    // A Beckmann lobe of α = 0.01 with F = 1 near grazing needs ~36/ε azimuths about
+    // the mirror pole (ε its elevation): with the core's 128 the estimate was 2.5e-2.
+    let sharp = from_json_str(
+        r#"{"model":"cook-torrance","params":{"rho_d":0,"rho_s":1,"alpha":0.01,"distribution":"beckmann","beckmann_g1":"exact","fresnel":"none"}}"#,
+    )
+    .unwrap();
+    let r = check_model_with(sharp.as_ref(), &quick());
+    assert!(r.passed, "{r}");
+    assert!(r.energy.convergence <= 1e-6, "{r}");
+    // The exact Smith G1 keeps the albedo of a perfect reflector at or below 1.
+    assert!((r.energy.max_albedo - 1.0).abs() < 1e-6, "{r}");
+    // An anisotropic lobe: not isotropic (reported, not required), energy converged.
+    let aniso = from_json_str(
+        r#"{"model":"cook-torrance","params":{"rho_d":0.5,"rho_s":0.5,"alpha_x":0.05,"alpha_y":0.4,"fresnel":"none"}}"#,
+    )
+    .unwrap();
+    let r = check_model_with(aniso.as_ref(), &quick());
+    assert!(
+        !r.isotropy.required && r.isotropy.verdict == Verdict::Fail,
+        "{r}"
+    );
+    assert!(r.isotropy.max_rel_change > 0.1);
+    assert_eq!(r.energy.verdict, Verdict::Pass, "{r}");
+    assert!(
+        r.energy.curve.iter().any(|p| p.phi > 0.0),
+        "azimuths for an anisotropic model"
+    );
+    assert!(r.passed, "{r}");
+    assert!(r.to_string().contains("not required"));
 }
