@@ -354,15 +354,9 @@ fn channel_gap(a: &Rgb, b: &Rgb) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// An albedo at `w` by `rule` (the value, and anything else the caller wants from the
-/// fine rule, for one quadrature): the fine-rule value, its pole, the convergence
-/// estimate max |fine − default|, and the fine rule's extra.
-///
-/// [`PoleChoice::Auto`] integrates about the candidate poles (normal, mirror, retro;
-/// only one when `w` is the normal, where they coincide) and keeps the one whose
-/// estimate is smallest: each converges to the same integral, so the best-converged one
-/// is the most accurate. The search stops at an estimate of 1e-12 (round-off). (A lobe missed by both rules about a wrong pole would give two
-/// different samplings of its tail, not agreement, so it is not chosen.)
+/// The pole search of [`albedo_converged`], generic over the integral (`rule` gives
+/// the value for one quadrature, and anything else the caller wants from the fine
+/// rule): the fine-rule value, its pole, the convergence estimate, the fine rule's extra.
 pub(crate) fn converged_with<E>(
     w: &Vec3,
     choice: PoleChoice,
@@ -404,9 +398,17 @@ pub(crate) fn converged_with<E>(
     best.expect("at least one candidate pole")
 }
 
-/// Albedo of `b` at `w` (integrating over the first argument) with the fine rule, the
-/// pole used, and the max-channel |fine − default| difference (see [`converged_with`]);
-/// the pole search stops at an estimate of `good_enough`.
+/// Albedo of `b` at `w` (integrating over the first argument) with the fine rule of
+/// [`albedo_rules`], the pole used, and the convergence estimate max over channels of
+/// |fine − default|.
+///
+/// [`PoleChoice::Auto`] integrates about the candidate poles (normal, then the lobe's
+/// likely pole by [`auto_pole`], then the last; only the normal when `w` is the normal,
+/// where they coincide) and keeps the one whose estimate is smallest: each converges to
+/// the same integral, so the best-converged one is the most accurate. (A lobe missed by
+/// both rules about a wrong pole gives two different samplings of its tail, not
+/// agreement, so it is not chosen.) The search stops at the first estimate ≤
+/// `good_enough`.
 pub fn albedo_converged(
     b: &dyn Brdf,
     w: &Vec3,
