@@ -19,6 +19,29 @@
 //! ([`std::fmt::Display`] / `to_text()`), with a verdict per check and the thresholds
 //! used. The thresholds, the cases and the measured figures are documented in
 //! `docs/validation.md`.
+//!
+//! ```
+//! use brdfkit_validate::{Verdict, check_model};
+//! let phong = brdfkit_models::from_json_str(
+//!     r#"{"model": "phong", "params": {"k_d": 0.2, "k_s": 0.5, "n": 10}}"#,
+//! )?;
+//! let report = check_model(phong.as_ref());
+//! assert!(!report.passed);
+//! assert_eq!(report.reciprocity.verdict, Verdict::Fail);
+//! println!("{report}"); // text; serde_json::to_string(&report) for JSON
+//! # Ok::<(), brdfkit_core::ModelError>(())
+//! ```
+//!
+//! ```no_run
+//! use brdfkit_validate::{check_table, fit_quality, fitted_from_json};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let table = brdfkit_merl::MerlTable::read("gold-metallic-paint.binary")?;
+//! println!("{}", check_table(&table));
+//! let fit: serde_json::Value = serde_json::from_str(&std::fs::read_to_string("fit.json")?)?;
+//! let report = fit_quality(&table, &fitted_from_json(&fit)?)?;
+//! println!("{}", serde_json::to_string_pretty(&report)?);
+//! # Ok(()) }
+//! ```
 
 pub mod mitsuba;
 pub mod physical;
