@@ -82,12 +82,12 @@ pub struct HeldOutOptions {
 pub struct QualityOptions {
     /// Cell weights of every loss.
     pub weighting: Weighting,
-    /// Band edges in θh (degrees, increasing, from 0 to 90).
-    pub theta_h_bands_deg: Vec<f64>,
-    /// Band edges in θd (degrees).
-    pub theta_d_bands_deg: Vec<f64>,
-    /// Outgoing angles (degrees) of the albedo comparison.
-    pub albedo_thetas_deg: Vec<f64>,
+    /// Band edges in θh (radians, increasing, from 0 to π/2).
+    pub theta_h_bands: Vec<f64>,
+    /// Band edges in θd (radians).
+    pub theta_d_bands: Vec<f64>,
+    /// Outgoing angles (radians) of the albedo comparison.
+    pub albedo_thetas: Vec<f64>,
     /// Held-out validation, when wanted (it runs a fit).
     pub held_out: Option<HeldOutOptions>,
 }
@@ -100,9 +100,9 @@ impl Default for QualityOptions {
     fn default() -> Self {
         QualityOptions {
             weighting: Weighting::SolidAngle,
-            theta_h_bands_deg: vec![0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 40.0, 90.0],
-            theta_d_bands_deg: vec![0.0, 5.0, 10.0, 20.0, 40.0, 60.0, 70.0, 80.0, 85.0, 90.0],
-            albedo_thetas_deg: vec![0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0],
+            theta_h_bands: radians(&[0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 40.0, 90.0]),
+            theta_d_bands: radians(&[0.0, 5.0, 10.0, 20.0, 40.0, 60.0, 70.0, 80.0, 85.0, 90.0]),
+            albedo_thetas: radians(&[0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0]),
             held_out: None,
         }
     }
@@ -111,10 +111,10 @@ impl Default for QualityOptions {
 /// The losses over the cells of one angular band.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Band {
-    /// Lower edge (degrees, inclusive).
-    pub lo_deg: f64,
-    /// Upper edge (degrees; exclusive, inclusive for the last band).
-    pub hi_deg: f64,
+    /// Lower edge (radians, inclusive).
+    pub lo: f64,
+    /// Upper edge (radians; exclusive, inclusive for the last band).
+    pub hi: f64,
     pub cells: usize,
     /// `None` when the band holds no cell.
     pub losses: Option<LossReport>,
@@ -209,16 +209,23 @@ fn models_of(fitted: &Fitted) -> [&dyn Model; 3] {
     ]
 }
 
+/// Degrees to radians, for the defaults.
+fn radians(d: &[f64]) -> Vec<f64> {
+    d.iter().map(|x| x.to_radians()).collect()
+}
+
 fn check_edges(option: &'static str, e: &[f64]) -> Result<(), QualityError> {
+    // π/2 computed as 90°.to_radians() may differ from FRAC_PI_2 by an ulp.
     let ok = e.len() >= 2
-        && e.iter().all(|x| x.is_finite() && (0.0..=90.0).contains(x))
+        && e.iter()
+            .all(|x| x.is_finite() && (0.0..=FRAC_PI_2 + 1e-12).contains(x))
         && e.windows(2).all(|w| w[0] < w[1]);
     if ok {
         Ok(())
     } else {
         Err(QualityError::Option {
             option,
-            reason: format!("band edges must increase within [0, 90] degrees, got {e:?}"),
+            reason: format!("band edges must increase within [0, π/2] radians, got {e:?}"),
         })
     }
 }
@@ -228,21 +235,21 @@ fn bands(
     models: [&dyn Model; 3],
     data: &FitData,
     angle: &[f64],
-    edges_deg: &[f64],
+    edges: &[f64],
     w: Weighting,
 ) -> Vec<Band> {
-    let last = edges_deg.len() - 2;
-    edges_deg
+    let last = edges.len() - 2;
+    edges
         .windows(2)
         .enumerate()
         .map(|(b, e)| {
-            let (lo, hi) = (e[0].to_radians(), e[1].to_radians());
+            let (lo, hi) = (e[0], e[1]);
             // The last band is closed, and takes the round-off above 90° (θ computed by
             // acos of a dot product) too.
             let sub = data.filter(|m| angle[m] >= lo && (angle[m] < hi || b == last));
             Band {
-                lo_deg: e[0],
-                hi_deg: e[1],
+                lo,
+                hi,
                 cells: sub.len(),
                 losses: (!sub.is_empty()).then(|| evaluate_losses(models, &sub, w)),
             }
@@ -316,12 +323,11 @@ fn relative_errors(models: [&dyn Model; 3], data: &FitData) -> RelativeErrors {
 fn albedo_comparison(
     models: [&dyn Model; 3],
     table: &MerlTable,
-    thetas_deg: &[f64],
+    thetas: &[f64],
 ) -> Vec<AlbedoComparison> {
-    thetas_deg
+    thetas
         .par_iter()
-        .map(|&d| {
-            let theta_o = d.to_radians();
+        .map(|&theta_o| {
             let wo = spherical(theta_o, 0.0);
             let mut fit = Rgb::ZERO;
             for (c, m) in models.iter().enumerate() {
@@ -437,27 +443,15 @@ pub fn fit_quality_with(
     fitted: &Fitted,
     o: &QualityOptions,
 ) -> Result<QualityReport, QualityError> {
-    check_edges("theta_h_bands_deg", &o.theta_h_bands_deg)?;
-    check_edges("theta_d_bands_deg", &o.theta_d_bands_deg)?;
+    check_edges("theta_h_bands", &o.theta_h_bands)?;
+    check_edges("theta_d_bands", &o.theta_d_bands)?;
     let data = FitData::from_table(table)?;
     let models = models_of(fitted);
     let losses = evaluate_losses(models, &data, o.weighting);
-    let theta_h_bands = bands(
-        models,
-        &data,
-        data.theta_h(),
-        &o.theta_h_bands_deg,
-        o.weighting,
-    );
-    let theta_d_bands = bands(
-        models,
-        &data,
-        data.theta_d(),
-        &o.theta_d_bands_deg,
-        o.weighting,
-    );
+    let theta_h_bands = bands(models, &data, data.theta_h(), &o.theta_h_bands, o.weighting);
+    let theta_d_bands = bands(models, &data, data.theta_d(), &o.theta_d_bands, o.weighting);
     let relative_error = relative_errors(models, &data);
-    let albedo = albedo_comparison(models, table, &o.albedo_thetas_deg);
+    let albedo = albedo_comparison(models, table, &o.albedo_thetas);
     let held_out = match &o.held_out {
         Some(h) => {
             let family = brdfkit_models::from_json(&h.family)?;
@@ -499,7 +493,7 @@ fn loss_row(l: &LossReport, loss: Loss) -> String {
 fn band_rows(s: &mut String, what: &str, bands: &[Band]) {
     *s += &format!("  by {what} band (overall cbrt / log / l2 loss, cells):\n");
     for b in bands {
-        let range = format!("{}–{}", deg(b.lo_deg), deg(b.hi_deg));
+        let range = format!("{}–{}", deg(b.lo.to_degrees()), deg(b.hi.to_degrees()));
         match &b.losses {
             Some(l) => {
                 *s += &format!(

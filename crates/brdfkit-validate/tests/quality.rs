@@ -229,9 +229,9 @@ fn held_out_runs_from_the_options_and_the_report_round_trips() {
     assert_eq!(back, r);
     assert!(r.to_string().contains("held-out"));
     let bad = QualityOptions {
-        theta_h_bands_deg: vec![0.0, 10.0, 5.0],
+        theta_h_bands: vec![0.0, 0.2, 0.1],
         ..QualityOptions::default()
     };
     let e = fit_quality_with(&t, &shared(json), &bad).unwrap_err();
-    assert!(e.to_string().contains("theta_h_bands_deg"), "{e}");
+    assert!(e.to_string().contains("theta_h_bands"), "{e}");
 }
