@@ -44,6 +44,15 @@ pub enum Command {
         after_help = "Example:\n  fit-brdf synth data-synthetic/red-plastic.toml --out red-plastic.binary"
     )]
     Synth(SynthArgs),
+    /// Physical checks of a model (JSON) or a measured table: non-negativity,
+    /// reciprocity, energy, isotropy, finiteness (models); coverage, negative and
+    /// non-finite cells, the albedo curve (tables). Exit 1 when a check fails.
+    #[command(
+        after_help = "Examples:\n  fit-brdf check params.json\n  fit-brdf check gold.binary --json\n\n\
+                            The input is read as a model when it is JSON (its first non-blank \
+                            character is '{'), as a MERL table otherwise."
+    )]
+    Check(CheckArgs),
     /// Run the whole job on the embedded demo material (no downloads).
     #[command(after_help = "Example:\n  fit-brdf demo --out demo-out")]
     Demo(DemoArgs),
@@ -115,6 +124,15 @@ pub struct SynthArgs {
     /// Output table.
     #[arg(long, value_name = "TABLE")]
     pub out: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// A model description (JSON) or a MERL binary table.
+    pub input: PathBuf,
+    /// Print machine-readable JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args, Debug)]

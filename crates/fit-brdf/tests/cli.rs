@@ -293,3 +293,45 @@ fn demo_runs_on_its_embedded_material() {
     assert!(s.contains("identical to what was written"), "{s}");
     assert!(out.join("demo-plastic.binary").exists());
 }
+
+#[test]
+fn check_passes_lambert_fails_phong_and_checks_tables() {
+    let d = tempfile::tempdir().unwrap();
+    let lambert = d.path().join("lambert.json");
+    std::fs::write(
+        &lambert,
+        r#"{"model": "lambert", "params": {"rho_d": 0.7}}"#,
+    )
+    .unwrap();
+    let o = bin().arg("check").arg(&lambert).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = bin()
+        .arg("check")
+        .arg(&lambert)
+        .arg("--json")
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["passed"], true);
+    let phong = d.path().join("phong.json");
+    std::fs::write(
+        &phong,
+        r#"{"model": "phong", "params": {"k_d": 0.1, "k_s": 0.5, "n": 10}}"#,
+    )
+    .unwrap();
+    let o = bin().arg("check").arg(&phong).output().unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "the original Phong fails its physical checks"
+    );
+    let s = String::from_utf8_lossy(&o.stdout);
+    assert!(s.contains("reciprocity") && s.contains("FAIL"), "{s}");
+    let t = small_table(d.path());
+    let o = bin().arg("check").arg(&t).arg("--json").output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["passed"], true);
+    let o = bin().arg("check").arg(d.path()).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -1,5 +1,6 @@
 //! One module per subcommand; `run` dispatches.
 
+mod check;
 mod demo;
 mod eval;
 mod info;
@@ -19,6 +20,7 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Eval(a) => eval::run(a),
         Command::Resample(a) => resample::run(a),
         Command::Synth(a) => synth::run(a),
+        Command::Check(a) => check::run(a),
         Command::Demo(a) => demo::run(a),
     }
 }

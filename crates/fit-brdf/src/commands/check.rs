@@ -1,0 +1,61 @@
+//! `fit-brdf check PARAMS.json|TABLE`: the physical checks of brdfkit-validate.
+
+use super::{read_model, read_table};
+use crate::cli::CheckArgs;
+use crate::error::{CliResult, bad_input, runtime};
+use crate::output::write_text;
+use anyhow::{Context, anyhow};
+use std::io::Read;
+
+/// True when the file's first non-blank byte is `{`: a model description.
+fn looks_like_json(path: &std::path::Path) -> CliResult<bool> {
+    let mut f = std::fs::File::open(path)
+        .with_context(|| format!("{}: cannot open", path.display()))
+        .map_err(bad_input)?;
+    let mut head = [0u8; 256];
+    let n = f
+        .read(&mut head)
+        .with_context(|| format!("{}: cannot read", path.display()))
+        .map_err(bad_input)?;
+    Ok(head[..n]
+        .iter()
+        .find(|b| !b.is_ascii_whitespace())
+        .is_some_and(|&b| b == b'{'))
+}
+
+pub fn run(a: CheckArgs) -> CliResult<()> {
+    if a.input.is_dir() {
+        return Err(bad_input(anyhow!(
+            "{}: is a directory, expected a model JSON or a table",
+            a.input.display()
+        )));
+    }
+    let (text, passed) = if looks_like_json(&a.input)? {
+        let model = read_model(&a.input)?;
+        let r = brdfkit_validate::check_model(&*model);
+        let text = if a.json {
+            serde_json::to_string_pretty(&r).map_err(runtime)? + "\n"
+        } else {
+            format!("{}: {}\n{}", a.input.display(), model.name(), r.to_text())
+        };
+        (text, r.passed)
+    } else {
+        let table = read_table(&a.input)?;
+        let r = brdfkit_validate::check_table(&table);
+        let text = if a.json {
+            serde_json::to_string_pretty(&r).map_err(runtime)? + "\n"
+        } else {
+            format!("{}\n{}", a.input.display(), r.to_text())
+        };
+        (text, r.passed)
+    };
+    write_text(None, &text)?;
+    if passed {
+        Ok(())
+    } else {
+        Err(runtime(anyhow!(
+            "{}: a physical check failed (see above)",
+            a.input.display()
+        )))
+    }
+}
