@@ -53,6 +53,15 @@ pub enum Command {
                             character is '{'), as a MERL table otherwise."
     )]
     Check(CheckArgs),
+    /// Render a scene (TOML): only the light transport it declares (direct light,
+    /// environment, shadows); the cost of each effect is reported.
+    #[command(
+        after_help = "Examples:\n  fit-brdf render examples/scenes/sphere-point.toml --out sphere.png\n  \
+                            fit-brdf render examples/scenes/studio.toml --out studio.png --exr studio.exr --spp 64\n\n\
+                            The format follows the extension of --out: .png (tone-mapped sRGB) or .exr (linear radiance). \
+                            The scene format is in docs/rendering.md."
+    )]
+    Render(RenderArgs),
     /// Run the whole job on the embedded demo material (no downloads).
     #[command(after_help = "Example:\n  fit-brdf demo --out demo-out")]
     Demo(DemoArgs),
@@ -133,6 +142,27 @@ pub struct CheckArgs {
     /// Print machine-readable JSON instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The scene (TOML).
+    pub scene: PathBuf,
+    /// Output image: .png (tone-mapped sRGB) or .exr (linear radiance).
+    #[arg(long, value_name = "IMAGE")]
+    pub out: PathBuf,
+    /// Also write the linear radiance as EXR.
+    #[arg(long, value_name = "IMAGE.exr")]
+    pub exr: Option<PathBuf>,
+    /// Override the scene's samples per pixel.
+    #[arg(long)]
+    pub spp: Option<usize>,
+    /// Override the scene's resolution, as WIDTHxHEIGHT.
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]

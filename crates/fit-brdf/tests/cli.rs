@@ -335,3 +335,51 @@ fn check_passes_lambert_fails_phong_and_checks_tables() {
     let o = bin().arg("check").arg(d.path()).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn render_writes_png_and_exr_and_rejects_bad_scenes() {
+    let d = tempfile::tempdir().unwrap();
+    let scene =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/sphere-point.toml");
+    let png = d.path().join("s.png");
+    let exr = d.path().join("s.exr");
+    let o = bin()
+        .arg("render")
+        .arg(&scene)
+        .arg("--out")
+        .arg(&png)
+        .arg("--exr")
+        .arg(&exr)
+        .args(["--size", "32x24"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = stderr(&o);
+    assert!(
+        s.contains("direct") && s.contains("environment"),
+        "per-effect cost: {s}"
+    );
+    let png_bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&png_bytes[..8], b"\x89PNG\r\n\x1a\n");
+    let exr_bytes = std::fs::read(&exr).unwrap();
+    assert_eq!(&exr_bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "EXR magic");
+    let o = bin()
+        .arg("render")
+        .arg(&scene)
+        .arg("--out")
+        .arg(d.path().join("s.jpg"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let bad = d.path().join("bad.toml");
+    std::fs::write(&bad, "effects = [\"direct\"]\nwibble = 1\n").unwrap();
+    let o = bin()
+        .arg("render")
+        .arg(&bad)
+        .arg("--out")
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("bad.toml"), "{}", stderr(&o));
+}

@@ -4,6 +4,7 @@ mod check;
 mod demo;
 mod eval;
 mod info;
+mod render;
 mod resample;
 mod synth;
 
@@ -21,6 +22,7 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Resample(a) => resample::run(a),
         Command::Synth(a) => synth::run(a),
         Command::Check(a) => check::run(a),
+        Command::Render(a) => render::run(a),
         Command::Demo(a) => demo::run(a),
     }
 }
