@@ -72,7 +72,10 @@ pub const ALBEDO_ANGLES_DEG: [f64; 7] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0
 /// halved. Exact for polynomials of degree < 2n.
 pub fn gauss_legendre_01(n: usize) -> Vec<(f64, f64)> {
     let (x, w) = brdfkit_core::quadrature::gauss_legendre(n);
-    x.iter().zip(&w).map(|(x, w)| (0.5 * (x + 1.0), 0.5 * w)).collect()
+    x.iter()
+        .zip(&w)
+        .map(|(x, w)| (0.5 * (x + 1.0), 0.5 * w))
+        .collect()
 }
 
 impl MerlTable {
