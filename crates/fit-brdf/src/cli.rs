@@ -83,7 +83,7 @@ pub struct Source {
     /// A MERL binary table.
     #[arg(long, value_name = "TABLE")]
     pub table: Option<PathBuf>,
-    /// A model as JSON: {"model": "<name>", "params": {...}}.
+    /// A model as JSON: `{"model": "<name>", "params": {...}}`.
     #[arg(long, value_name = "PARAMS.json")]
     pub model: Option<PathBuf>,
 }
