@@ -5,7 +5,7 @@
 //! on the same cells, weights, loss, start and bounds.
 //!
 //! Run: `cargo bench --bench fit` (add `-- --no-python` to skip the peer, `-- --quick`
-//! for the noise-free table only, `-- --runs N` for N timed Rust fits, default 5). Two
+//! for the noise-free table only, `-- --noisy` for the noisy one only, `-- --runs N` for N timed Rust fits, default 5). Two
 //! tables: noise-free, and with 5 % log-normal noise (seeded). The peer runs in `/work/main/.venv`-style
 //! `<workspace>/.venv`, created with `python3 -m venv .venv && .venv/bin/pip install
 //! -r benches/peers/requirements.txt` when missing.
@@ -134,6 +134,8 @@ fn main() {
 
     let variants: Vec<(&str, f64)> = if quick {
         vec![("noise-free", 0.0)]
+    } else if args.iter().any(|a| a == "--noisy") {
+        vec![("5 % log-normal noise", 0.05)]
     } else {
         vec![("noise-free", 0.0), ("5 % log-normal noise", 0.05)]
     };
@@ -141,17 +143,35 @@ fn main() {
     if !no_python && py.is_none() {
         println!("python peer skipped: no python3 venv with numpy + scipy could be set up");
     }
+    // Every Rust timing first, then the peers: on this VM a multi-GB Python run slows
+    // the next few seconds of anything else (measured: the noisy fit took 0.68 s right
+    // after the peer, 0.32 s otherwise, at the same CPU time).
+    let mut done = Vec::new();
     for (label, sigma) in variants {
         let mut data = data.clone();
         if sigma > 0.0 {
             brdfkit::fit::synth::add_lognormal_noise(&mut data, sigma, 2026);
         }
-        println!("--- {label} ---");
-        run_variant(&data, start.as_ref(), runs, py.as_deref());
+        println!("--- {label}: rust ---");
+        let r = run_variant(&data, start.as_ref(), runs);
+        done.push((label, data, r));
+    }
+    if let Some(py) = py {
+        for (label, data, r) in &done {
+            println!("--- {label}: python peer ---");
+            peer(data, start.as_ref(), r, &py);
+        }
     }
 }
 
-fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>) {
+/// What the peer comparison needs from the Rust runs.
+struct RustRun {
+    wall: f64,
+    cpu: f64,
+    loss: f64,
+}
+
+fn run_variant(data: &FitData, start: &dyn Model, runs: usize) -> RustRun {
     let cfg = FitConfig::default();
     let mut times = Vec::new();
     let mut cpus = Vec::new();
@@ -219,15 +239,20 @@ fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>
         cold.record.jacobian_evals,
         cold.record.losses_full.cbrt.overall
     );
-    let weighting = cfg.get_weighting();
-    let Some(py) = py else {
-        return;
-    };
-    let rust_cpu = if cpus.is_empty() {
-        f64::NAN
-    } else {
-        median(&mut cpus.clone())
-    };
+    RustRun {
+        wall: t_rust,
+        cpu: if cpus.is_empty() {
+            f64::NAN
+        } else {
+            median(&mut cpus.clone())
+        },
+        loss: r.losses_full.cbrt.overall,
+    }
+}
+
+fn peer(data: &FitData, start: &dyn Model, rust: &RustRun, py: &Path) {
+    let weighting = FitConfig::default().get_weighting();
+    let (t_rust, rust_cpu) = (rust.wall, rust.cpu);
     let dir = tempfile::tempdir().expect("temp dir");
     let cells = dir.path().join("cells.bin");
     write_cells(data, &cells).expect("write cells");
@@ -286,7 +311,7 @@ fn run_variant(data: &FitData, start: &dyn Model, runs: usize, py: Option<&Path>
         py_cpu,
         py_cpu / rust_cpu
     );
-    let lr = r.losses_full.cbrt.overall;
+    let lr = rust.loss;
     let rel = (lr - py_loss_rust) / py_loss_rust;
     println!(
         "ratio python / rust (median wall): {:.1}x; losses rust {:.9e} vs python {:.9e}: relative difference {:+.2e} ({})",
