@@ -126,7 +126,12 @@ impl FromStr for Sharing {
 /// assert_eq!(cfg.get_starts(), 8);
 /// # Ok::<(), brdfkit_fit::FitError>(())
 /// ```
+///
+/// The config (de)serialises with serde; absent fields take their defaults, and
+/// [`fit`](crate::fit) re-checks every value ([`FitConfig::validate`]), so a config read
+/// from a file gets the same errors as one built with the builders.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct FitConfig {
     pub(crate) loss: Loss,
     pub(crate) weighting: Weighting,
@@ -316,6 +321,25 @@ impl FitConfig {
         self.warm_up.filter(|&n| cells > 4 * n)
     }
 
+    /// Checks every value as the builders do (for configs made by deserialisation).
+    pub fn validate(&self) -> Result<(), FitError> {
+        let c = FitConfig::default();
+        c.clone().starts(self.starts)?;
+        if let Some(f) = self.subsample {
+            c.clone().subsample(f, self.seed)?;
+        }
+        if let Some(t) = self.theta_d_max {
+            c.clone().theta_d_max_deg(t.to_degrees())?;
+        }
+        if let Some(n) = self.max_iters {
+            c.clone().max_iters(n)?;
+        }
+        c.clone().tolerances(self.ftol, self.xtol, self.gtol)?;
+        c.clone().lm_tau(self.tau)?;
+        c.warm_up(self.warm_up)?;
+        Ok(())
+    }
+
     /// The loss.
     pub fn get_loss(&self) -> Loss {
         self.loss
@@ -395,5 +419,13 @@ mod tests {
         for s in SolverKind::ALL {
             assert_eq!(s.name().parse::<SolverKind>().unwrap(), s);
         }
+        // Deserialised configs: defaults fill the gaps, validation catches bad values.
+        let d: FitConfig = serde_json::from_str(r#"{"loss": "log", "starts": 4}"#).unwrap();
+        assert_eq!(d.get_loss(), Loss::Log);
+        assert_eq!(d.get_starts(), 4);
+        assert!(d.validate().is_ok());
+        let bad_cfg: FitConfig = serde_json::from_str(r#"{"starts": 0}"#).unwrap();
+        assert!(bad_cfg.validate().is_err());
+        assert!(serde_json::from_str::<FitConfig>(r#"{"stars": 3}"#).is_err());
     }
 }

@@ -491,6 +491,7 @@ pub fn fit(
     observer: Option<Arc<dyn FitObserver>>,
 ) -> Result<FitResult, FitError> {
     let t0 = Instant::now();
+    config.validate()?;
     let full_owned;
     let full: &FitData = match config.theta_d_max {
         Some(t) => {
