@@ -52,6 +52,6 @@ pub use error::FitError;
 pub use fit::{FitResult, Fitted, fit, fit_table, resolve_free};
 pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
 pub use loss::{ChannelLoss, Loss, LossReport, Weighting};
-pub use observer::{FitObserver, FitPlan, IterEvent, StartDone};
+pub use observer::{FitObserver, FitPlan, IterEvent, OnIter, StartDone};
 pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses};
 pub use record::{FitRecord, ParamRecord, StartRecord, WarmUpRecord};

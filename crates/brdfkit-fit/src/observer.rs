@@ -83,3 +83,13 @@ impl<I: State<Float = f64>> Observe<I> for Bridge {
         Ok(())
     }
 }
+
+/// A [`FitObserver`] from a closure called after every iteration:
+/// `Arc::new(OnIter(|ev: &IterEvent| bar.set_message(format!("{:.3e}", ev.cost))))`.
+pub struct OnIter<F>(pub F);
+
+impl<F: Fn(&IterEvent) + Send + Sync> FitObserver for OnIter<F> {
+    fn on_iter(&self, ev: &IterEvent) {
+        (self.0)(ev)
+    }
+}

@@ -410,3 +410,24 @@ fn fit_a_table_read_from_disk() {
     let (err, name) = worst_param(&res, truth.as_ref());
     assert!(err < 1e-9, "{name} {err:e}");
 }
+
+#[test]
+fn a_closure_can_observe() {
+    let data = ct_data((10, 10, 20));
+    let n = Arc::new(AtomicUsize::new(0));
+    let n2 = n.clone();
+    let obs = Arc::new(brdfkit_fit::OnIter(move |_: &IterEvent| {
+        n2.fetch_add(1, Ordering::Relaxed);
+    }));
+    let res = fit(
+        model(CT_START).as_ref(),
+        &data,
+        &FitConfig::default(),
+        Some(obs),
+    )
+    .unwrap();
+    assert_eq!(
+        n.load(Ordering::Relaxed) as u64,
+        res.record.starts[0].iterations
+    );
+}
