@@ -182,7 +182,25 @@ fn run_start(
             ex.run().map_err(err)?
         }};
     }
-    // (best u, best cost, iterations, reason, criterion, evals)
+    // (best u, best cost, iterations, (termination, converged), (cost, Jacobian) passes)
+    macro_rules! summary {
+        ($r:expr) => {{
+            let r = $r;
+            let term = describe(r.state.get_termination_reason(), r.solver.criterion);
+            let evals = r
+                .problem
+                .problem
+                .as_ref()
+                .map(|p| (p.cost_evals(), p.jacobian_evals()));
+            (
+                r.state.get_best_param().cloned(),
+                r.state.get_best_cost(),
+                r.state.get_iter(),
+                term,
+                evals,
+            )
+        }};
+    }
     let (u, cost, iters, term, evals) = match config.solver {
         SolverKind::Lm => {
             let r = run!(
@@ -190,36 +208,12 @@ fn run_start(
                 LsState,
                 |s: LsState| s.param(u0.clone())
             );
-            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
-            let p = r
-                .problem
-                .problem
-                .as_ref()
-                .map(|p| (p.cost_evals(), p.jacobian_evals()));
-            (
-                r.state.get_best_param().cloned(),
-                r.state.get_best_cost(),
-                r.state.get_iter(),
-                (t, c),
-                p,
-            )
+            summary!(r)
         }
         SolverKind::GaussNewton => {
             let r = run!(GaussNewtonLs::new(tol), LsState, |s: LsState| s
                 .param(u0.clone()));
-            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
-            let p = r
-                .problem
-                .problem
-                .as_ref()
-                .map(|p| (p.cost_evals(), p.jacobian_evals()));
-            (
-                r.state.get_best_param().cloned(),
-                r.state.get_best_cost(),
-                r.state.get_iter(),
-                (t, c),
-                p,
-            )
+            summary!(r)
         }
         SolverKind::TrustRegion => {
             type S = IterState<DVector<f64>, DVector<f64>, (), DMatrix<f64>, (), f64>;
@@ -229,19 +223,7 @@ fn run_start(
                 .map_err(err)?;
             let r = run!(Stall::new(tr, tol.ftol, 5, floor), S, |s: S| s
                 .param(u0.clone()));
-            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
-            let p = r
-                .problem
-                .problem
-                .as_ref()
-                .map(|p| (p.cost_evals(), p.jacobian_evals()));
-            (
-                r.state.get_best_param().cloned(),
-                r.state.get_best_cost(),
-                r.state.get_iter(),
-                (t, c),
-                p,
-            )
+            summary!(r)
         }
         SolverKind::Lbfgs => {
             let c0 = problem.cost_at(&u0);
@@ -254,19 +236,7 @@ fn run_start(
                 LsState,
                 |s: LsState| s.param(u0.clone())
             );
-            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
-            let p = r
-                .problem
-                .problem
-                .as_ref()
-                .map(|p| (p.cost_evals(), p.jacobian_evals()));
-            (
-                r.state.get_best_param().cloned(),
-                r.state.get_best_cost(),
-                r.state.get_iter(),
-                (t, c),
-                p,
-            )
+            summary!(r)
         }
         SolverKind::NelderMead => {
             type S = IterState<DVector<f64>, (), (), (), (), f64>;
@@ -286,19 +256,7 @@ fn run_start(
                 S,
                 |s: S| s
             );
-            let (t, c) = describe(r.state.get_termination_reason(), r.solver.criterion);
-            let p = r
-                .problem
-                .problem
-                .as_ref()
-                .map(|p| (p.cost_evals(), p.jacobian_evals()));
-            (
-                r.state.get_best_param().cloned(),
-                r.state.get_best_cost(),
-                r.state.get_iter(),
-                (t, c),
-                p,
-            )
+            summary!(r)
         }
     };
     // argmin's `run()` is Ok even when a solver gave up; the best point can also be
