@@ -383,3 +383,136 @@ fn render_writes_png_and_exr_and_rejects_bad_scenes() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("bad.toml"), "{}", stderr(&o));
 }
+
+const SMALL_PLASTIC: &str = r#"
+name = "small-plastic"
+dims = [24, 24, 48]
+[material]
+model = "cook-torrance"
+[material.params]
+rho_d = [0.4, 0.2, 0.1]
+rho_s = 1.0
+alpha = 0.15
+fresnel = { schlick = { f0 = 0.04 } }
+"#;
+
+fn small_plastic(dir: &Path) -> PathBuf {
+    let spec = dir.join("plastic.toml");
+    std::fs::write(&spec, SMALL_PLASTIC).unwrap();
+    let out = dir.join("plastic.binary");
+    bin()
+        .arg("synth")
+        .arg(&spec)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    out
+}
+
+#[test]
+fn fit_recovers_a_synthetic_plastic_and_writes_params_and_record() {
+    let d = tempfile::tempdir().unwrap();
+    let t = small_plastic(d.path());
+    let params = d.path().join("params.json");
+    let record = d.path().join("fit.json");
+    let o = bin()
+        .arg("fit")
+        .arg(&t)
+        .args([
+            "--model",
+            "cook-torrance",
+            "--distribution",
+            "ggx",
+            "--fresnel",
+            "schlick",
+            "--starts",
+            "2",
+            "--out",
+        ])
+        .arg(&params)
+        .arg("--record")
+        .arg(&record)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p: serde_json::Value = serde_json::from_slice(&std::fs::read(&params).unwrap()).unwrap();
+    let alpha = p["params"]["alpha"].as_f64().unwrap();
+    assert!((alpha - 0.15).abs() < 1e-6, "alpha {alpha}");
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&record).unwrap()).unwrap();
+    assert!(r["losses_full"]["cbrt"]["overall"].as_f64().unwrap() < 1e-10);
+    assert!(r["starts"].as_array().unwrap().len() >= 2);
+    // The fitted parameters are a model the other commands read.
+    let dirs = d.path().join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    bin()
+        .args(["eval", "--model"])
+        .arg(&params)
+        .arg("--dirs")
+        .arg(&dirs)
+        .assert()
+        .success();
+}
+
+#[test]
+fn fit_compares_several_models() {
+    let d = tempfile::tempdir().unwrap();
+    let t = small_plastic(d.path());
+    let out = d.path().join("fits");
+    let o = bin()
+        .arg("fit")
+        .arg(&t)
+        .args([
+            "--model",
+            "lambert,plausible-phong,cook-torrance",
+            "--starts",
+            "2",
+            "--json",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let losses: Vec<f64> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| {
+            x["record"]["losses_full"]["cbrt"]["overall"]
+                .as_f64()
+                .unwrap()
+        })
+        .collect();
+    assert_eq!(losses.len(), 3);
+    assert!(
+        losses[2] < losses[1] && losses[1] < losses[0],
+        "microfacet < phong < lambert: {losses:?}"
+    );
+    for m in ["lambert", "plausible-phong", "cook-torrance"] {
+        assert!(
+            out.join(format!("{m}.json")).exists() && out.join(format!("{m}.fit.json")).exists()
+        );
+    }
+}
+
+#[test]
+fn fit_rejects_bad_options_with_exit_2() {
+    let d = tempfile::tempdir().unwrap();
+    let t = small_table(d.path());
+    for args in [
+        vec!["--model", "nope"],
+        vec!["--model", "lambert", "--loss", "l3"],
+        vec!["--model", "lambert", "--solver", "magic"],
+        vec!["--model", "lambert", "--starts", "0"],
+        vec!["--model", "lambert", "--sample-fraction", "0"],
+        vec!["--model", "lambert", "--distribution", "ggx"],
+        vec!["--model", "cook-torrance", "--fresnel", "gold"],
+        vec!["--model", "lambert,ward", "--record", "x.json"],
+    ] {
+        let o = bin().arg("fit").arg(&t).args(&args).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+}

@@ -3,6 +3,7 @@
 mod check;
 mod demo;
 mod eval;
+mod fit;
 mod info;
 mod render;
 mod resample;
@@ -21,6 +22,7 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Eval(a) => eval::run(a),
         Command::Resample(a) => resample::run(a),
         Command::Synth(a) => synth::run(a),
+        Command::Fit(a) => fit::run(a),
         Command::Check(a) => check::run(a),
         Command::Render(a) => render::run(a),
         Command::Demo(a) => demo::run(a),
