@@ -9,8 +9,8 @@
 //! - [`fit`]: fitting models to tables (losses, LM, multi-start, the fit record).
 //! - [`synth`]: synthetic materials with known parameters (the `data-synthetic/` specs).
 pub use brdfkit_core as core;
+pub use brdfkit_fit as fit;
 pub use brdfkit_merl as merl;
 pub use brdfkit_models as models;
-pub use brdfkit_fit as fit;
 
 pub mod synth;
