@@ -90,6 +90,21 @@ pub enum MerlError {
         value: f64,
     },
 
+    /// A value beyond ±[`crate::MAX_ABS_RAW`] (the first one in file order).
+    #[error(
+        "{}: value {value:e} in the {channel} channel at cell (θh {i}, θd {j}, φd {k}) (flat index {index}) exceeds 1e30 in magnitude: corrupt data, not a measurement",
+        path.display()
+    )]
+    TooLarge {
+        path: PathBuf,
+        channel: Channel,
+        i: usize,
+        j: usize,
+        k: usize,
+        index: usize,
+        value: f64,
+    },
+
     /// The path names a directory, not a table.
     #[error("{}: is a directory, not a table file", path.display())]
     IsDirectory { path: PathBuf },
@@ -113,6 +128,7 @@ impl MerlError {
             | MerlError::Truncated { path, .. }
             | MerlError::TrailingBytes { path, .. }
             | MerlError::NonFinite { path, .. }
+            | MerlError::TooLarge { path, .. }
             | MerlError::IsDirectory { path }
             | MerlError::Io { path, .. } => path,
         }
@@ -140,6 +156,17 @@ pub enum TableError {
     /// A NaN or infinite value.
     #[error("non-finite value {value} in the {channel} channel at cell ({i}, {j}, {k})")]
     NonFinite {
+        channel: Channel,
+        i: usize,
+        j: usize,
+        k: usize,
+        value: f64,
+    },
+    /// A value whose raw form would exceed ±[`crate::MAX_ABS_RAW`].
+    #[error(
+        "value {value:e} in the {channel} channel at cell ({i}, {j}, {k}) exceeds 1e30 in magnitude"
+    )]
+    TooLarge {
         channel: Channel,
         i: usize,
         j: usize,

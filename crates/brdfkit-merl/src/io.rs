@@ -15,7 +15,7 @@
 
 use crate::error::{Channel, MerlError};
 use crate::grid::{Dims, HEADER_BYTES};
-use crate::table::{MerlTable, alloc_raw, raw_valid};
+use crate::table::{MAX_ABS_RAW, MerlTable, alloc_raw, raw_valid};
 use byteorder::{ByteOrder, LittleEndian};
 use rayon::prelude::*;
 use std::fs::File;
@@ -158,7 +158,8 @@ fn read_body(
                     for ((d, s), ok) in dst.iter_mut().zip(bytes.chunks_exact(8)).zip(v.iter_mut())
                     {
                         let x = f64::from_le_bytes(s.try_into().expect("8 bytes"));
-                        finite &= x.is_finite();
+                        // One comparison rejects NaN, ±inf and corrupt magnitudes alike.
+                        finite &= x.abs() <= MAX_ABS_RAW;
                         *d = x;
                         // A cell is valid when no channel is negative (−0.0 is not).
                         *ok = (c == 0 || *ok) & (x >= 0.0);
@@ -172,18 +173,31 @@ fn read_body(
     if !finite {
         let at = raw
             .iter()
-            .position(|x| !x.is_finite())
+            .position(|x| !(x.abs() <= MAX_ABS_RAW))
             .expect("a task saw one");
         let (c, index) = (at / n, at % n);
         let (i, j, k) = dims.unflatten(index);
-        return Err(MerlError::NonFinite {
-            path: path.to_path_buf(),
-            channel: Channel::ALL[c],
-            i,
-            j,
-            k,
-            index,
-            value: raw[at],
+        let (path, channel, value) = (path.to_path_buf(), Channel::ALL[c], raw[at]);
+        return Err(if value.is_finite() {
+            MerlError::TooLarge {
+                path,
+                channel,
+                i,
+                j,
+                k,
+                index,
+                value,
+            }
+        } else {
+            MerlError::NonFinite {
+                path,
+                channel,
+                i,
+                j,
+                k,
+                index,
+                value,
+            }
         });
     }
     debug_assert!(

@@ -36,4 +36,4 @@ pub use io::{CHUNK, atomic_write};
 pub use lookup::{BATCH_RUN, Lookup};
 pub use resample::{Cell, CellBatch, cell_directions};
 pub use stats::{AlbedoSample, ChannelStats, Quadrature, TableStats, gauss_legendre_01};
-pub use table::{MISSING_RAW, MerlTable, SCALES};
+pub use table::{MAX_ABS_RAW, MISSING_RAW, MerlTable, SCALES};

@@ -14,6 +14,11 @@ pub const SCALES: [f64; 3] = [1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0];
 /// The raw value written for a missing cell of a table built in memory.
 pub const MISSING_RAW: f64 = -1.0;
 
+/// The largest magnitude a raw value may have. MERL's brightest raw values are of order
+/// 1e4; a value beyond ±1e30 is corruption, not a measurement, and reading or building
+/// a table with one is an error rather than a silent clamp.
+pub const MAX_ABS_RAW: f64 = 1e30;
+
 /// A measured isotropic BRDF on the (θh, θd, φd) grid.
 ///
 /// # Storage
@@ -66,7 +71,7 @@ impl MerlTable {
     }
 
     /// A table from raw values (3 planes, file order). Fails on a wrong length or a
-    /// non-finite value; negative values become missing cells.
+    /// non-finite value or one beyond ±[`MAX_ABS_RAW`]; negative values become missing cells.
     pub fn from_raw(dims: Dims, raw: Vec<f64>) -> Result<Self, TableError> {
         let n = dims.cells();
         if raw.len() != 3 * n {
@@ -76,14 +81,30 @@ impl MerlTable {
                 actual: raw.len(),
             });
         }
-        if let Some((idx, value)) = raw.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        if let Some((idx, value)) = raw
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !(v.abs() <= MAX_ABS_RAW))
+        {
             let (i, j, k) = dims.unflatten(idx % n);
-            return Err(TableError::NonFinite {
-                channel: Channel::ALL[idx / n],
-                i,
-                j,
-                k,
-                value: *value,
+            let channel = Channel::ALL[idx / n];
+            let value = *value;
+            return Err(if value.is_finite() {
+                TableError::TooLarge {
+                    channel,
+                    i,
+                    j,
+                    k,
+                    value,
+                }
+            } else {
+                TableError::NonFinite {
+                    channel,
+                    i,
+                    j,
+                    k,
+                    value,
+                }
             });
         }
         let (valid, n_valid) = mask_of(&raw, n);
@@ -296,6 +317,15 @@ fn to_raw(value: Option<Rgb>, i: usize, j: usize, k: usize) -> Result<[f64; 3], 
         let x = v[c.index()];
         if !x.is_finite() {
             return Err(TableError::NonFinite {
+                channel: c,
+                i,
+                j,
+                k,
+                value: x,
+            });
+        }
+        if (x / SCALES[c.index()]).abs() > MAX_ABS_RAW {
+            return Err(TableError::TooLarge {
                 channel: c,
                 i,
                 j,

@@ -27,7 +27,7 @@ fn random_raw(rng: &mut ChaCha8Rng, n: usize) -> Vec<f64> {
             2 => -0.0,
             3 => 0.0,
             4 => f64::from_bits(rng.random_range(1..(1u64 << 52))), // subnormal
-            5 => f64::MAX * rng.random::<f64>(),
+            5 => brdfkit_merl::MAX_ABS_RAW * rng.random::<f64>(),   // up to the largest accepted
             _ => 10f64.powf(rng.random_range(-6.0..5.0)),
         })
         .collect()
@@ -282,6 +282,43 @@ fn nan_and_infinite_values_name_channel_and_cell() {
         assert!(e.to_string().contains(&channel.to_string()), "{e}");
         assert_names(&e, "nan.binary");
     }
+}
+
+#[test]
+fn values_beyond_1e30_are_corrupt_data_not_measurements() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = Dims::new(3, 4, 5).unwrap();
+    let n = d.cells();
+    for bad in [1.0000001e30, -1e31, 1e300, f64::MAX] {
+        let mut raw = vec![1.0; 3 * n];
+        let cell = d.index(1, 2, 3);
+        raw[2 * n + cell] = bad;
+        let p = write_file(dir.path(), "huge.binary", &image([3, 4, 5], &raw));
+        let e = MerlTable::read(&p).unwrap_err();
+        match &e {
+            MerlError::TooLarge {
+                channel,
+                index,
+                value,
+                ..
+            } => {
+                assert_eq!((*channel, *index, *value), (Channel::Blue, cell, bad));
+            }
+            other => panic!("{bad}: {other}"),
+        }
+        assert_names(&e, "huge.binary");
+        assert!(e.to_string().contains("1e30"), "{e}");
+        // The in-memory constructor refuses it too.
+        assert!(matches!(
+            MerlTable::from_raw(d, raw.clone()),
+            Err(brdfkit_merl::TableError::TooLarge { .. })
+        ));
+    }
+    // 1e30 itself, and a missing marker, are fine.
+    let mut raw = vec![1.0; 3 * n];
+    raw[0] = 1e30;
+    raw[1] = -1.0;
+    assert!(MerlTable::from_bytes(&image([3, 4, 5], &raw), "edge").is_ok());
 }
 
 #[test]
