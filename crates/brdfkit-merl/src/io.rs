@@ -15,7 +15,7 @@
 
 use crate::error::{Channel, MerlError};
 use crate::grid::{Dims, HEADER_BYTES};
-use crate::table::{MAX_ABS_RAW, MerlTable, alloc_raw, raw_valid};
+use crate::table::{MerlTable, acceptable_raw, alloc_raw, raw_valid};
 use byteorder::{ByteOrder, LittleEndian};
 use rayon::prelude::*;
 use std::fs::File;
@@ -159,7 +159,7 @@ fn read_body(
                     {
                         let x = f64::from_le_bytes(s.try_into().expect("8 bytes"));
                         // One comparison rejects NaN, ±inf and corrupt magnitudes alike.
-                        finite &= x.abs() <= MAX_ABS_RAW;
+                        finite &= acceptable_raw(x);
                         *d = x;
                         // A cell is valid when no channel is negative (−0.0 is not).
                         *ok = (c == 0 || *ok) & (x >= 0.0);
@@ -173,7 +173,7 @@ fn read_body(
     if !finite {
         let at = raw
             .iter()
-            .position(|x| !(x.abs() <= MAX_ABS_RAW))
+            .position(|&x| !acceptable_raw(x))
             .expect("a task saw one");
         let (c, index) = (at / n, at % n);
         let (i, j, k) = dims.unflatten(index);

@@ -19,6 +19,12 @@ pub const MISSING_RAW: f64 = -1.0;
 /// a table with one is an error rather than a silent clamp.
 pub const MAX_ABS_RAW: f64 = 1e30;
 
+/// A raw value the format accepts: finite and within ±[`MAX_ABS_RAW`] (NaN is not).
+#[inline]
+pub(crate) fn acceptable_raw(x: f64) -> bool {
+    x.abs() <= MAX_ABS_RAW
+}
+
 /// A measured isotropic BRDF on the (θh, θd, φd) grid.
 ///
 /// # Storage
@@ -84,7 +90,7 @@ impl MerlTable {
         if let Some((idx, value)) = raw
             .iter()
             .enumerate()
-            .find(|(_, v)| !(v.abs() <= MAX_ABS_RAW))
+            .find(|(_, v)| !acceptable_raw(**v))
         {
             let (i, j, k) = dims.unflatten(idx % n);
             let channel = Channel::ALL[idx / n];
