@@ -5,8 +5,9 @@ use crate::data::FitData;
 use crate::error::FitError;
 use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
 use crate::observer::{Bridge, FitObserver, FitPlan, StartDone};
+use crate::loss::{Robust, RobustKind};
 use crate::problem::{FitProblem, NormalEquations, evaluate_losses};
-use crate::record::{FitRecord, ParamRecord, StartRecord, WarmUpRecord};
+use crate::record::{FitRecord, ParamRecord, RobustRecord, StartRecord, WarmUpRecord};
 use crate::starts::start_points;
 use argmin::core::observers::ObserverMode;
 use argmin::core::{Executor, IterState, State, TerminationReason};
@@ -287,7 +288,15 @@ struct PassResult {
     starts: Vec<StartRecord>,
     best: Outcome,
     transforms: Vec<crate::reparam::Transform>,
+    /// The robust scale of the pass and, with an automatic scale, the plain stage's
+    /// best loss.
+    robust: Option<(f64, Option<f64>)>,
 }
+
+/// Floor of the automatic robust scale, relative to the targets' RMS: a plain fit that
+/// is exact (median |e| = 0) would otherwise give c = 0. Any c gives the same optimum
+/// there (no residual is an outlier).
+const ROBUST_SCALE_FLOOR: f64 = 1e-9;
 
 fn run_pass(
     data: &FitData,
@@ -324,11 +333,38 @@ fn run_pass(
     let specs = model.param_specs();
     let x0 = model.params();
     let points = start_points(&specs, &x0, &free, config.starts, config.seed);
-    let outcomes: Vec<Result<Outcome, FitError>> = points
+    // A given robust scale applies from the start (warm-up included); an automatic one
+    // needs a plain fit first (see `FitConfig::robust`).
+    let given = match (config.robust, config.robust_scale) {
+        (RobustKind::None, _) => None,
+        (kind, Some(scale)) => Some(Robust { kind, scale }),
+        (_, None) => None,
+    };
+    let auto = config.robust != RobustKind::None && config.robust_scale.is_none();
+    let stage1 = match given {
+        Some(r) => problem.with_robust(r),
+        None => problem.clone(),
+    };
+    let warm_problem = warm_problem.map(|w| match given {
+        Some(r) => w.with_robust(r),
+        None => w,
+    });
+    let done = |k: usize, o: &Result<Outcome, FitError>| {
+        if let (Some(obs), Ok(o)) = (observer, o) {
+            obs.on_start_done(&StartDone {
+                start: k,
+                channel,
+                loss: (2.0 * o.cost).sqrt(),
+                iterations: o.iterations,
+                termination: o.termination.clone(),
+            });
+        }
+    };
+    let mut outcomes: Vec<Result<Outcome, FitError>> = points
         .par_iter()
         .enumerate()
         .map(|(k, x)| {
-            let p = problem.clone();
+            let p = stage1.clone();
             let u0 = p.to_u(x);
             let (u1, warm) = match &warm_problem {
                 Some(wp) => {
@@ -349,18 +385,50 @@ fn run_pass(
                 o.warm = warm;
                 o
             });
-            if let (Some(obs), Ok(o)) = (observer, &o) {
-                obs.on_start_done(&StartDone {
-                    start: k,
-                    channel,
-                    loss: (2.0 * o.cost).sqrt(),
-                    iterations: o.iterations,
-                    termination: o.termination.clone(),
-                });
+            if !auto {
+                done(k, &o);
             }
             o
         })
         .collect();
+    let mut robust_info = given.map(|r| (r.scale, None));
+    if auto {
+        // The scale from the best plain start, common to every start so their robust
+        // costs compare.
+        let plain_best = outcomes
+            .iter()
+            .filter_map(|o| o.as_ref().ok())
+            .filter(|o| o.cost.is_finite())
+            .min_by(|a, b| a.cost.total_cmp(&b.cost));
+        if let Some(pb) = plain_best {
+            let floor = ROBUST_SCALE_FLOOR * problem.target_rms();
+            let med = problem.median_abs_residual(&pb.u).unwrap_or(0.0);
+            let scale = (config.robust.tuning() * 1.4826 * med).max(floor);
+            let plain_loss = (2.0 * pb.cost).sqrt();
+            let rp = problem.with_robust(Robust {
+                kind: config.robust,
+                scale,
+            });
+            outcomes = outcomes
+                .into_par_iter()
+                .enumerate()
+                .map(|(k, o1)| {
+                    let o1 = o1?;
+                    let o = run_start(rp.clone(), o1.u.clone(), config, observer, k, channel, false)
+                        .map(|mut o| {
+                            o.iterations += o1.iterations;
+                            o.cost_evals += o1.cost_evals;
+                            o.jac_evals += o1.jac_evals;
+                            o.warm = o1.warm.clone();
+                            o
+                        });
+                    done(k, &o);
+                    o
+                })
+                .collect();
+            robust_info = Some((scale, Some(plain_loss)));
+        }
+    }
     let mut best: Option<usize> = None;
     let mut records = Vec::with_capacity(points.len());
     let mut first_err = None;
@@ -432,6 +500,7 @@ fn run_pass(
         free,
         starts: records,
         best,
+        robust: robust_info,
     })
 }
 
@@ -593,6 +662,26 @@ pub fn fit(
         termination,
         converged,
         starts,
+        robust: (config.robust != RobustKind::None).then(|| RobustRecord {
+            kind: config.robust,
+            scale: results
+                .iter()
+                .map(|r| r.robust.map_or(f64::NAN, |x| x.0))
+                .collect(),
+            scale_source: if config.robust_scale.is_some() {
+                "given".into()
+            } else {
+                "auto".into()
+            },
+            plain_stage_loss: results
+                .iter()
+                .filter_map(|r| r.robust.and_then(|x| x.1))
+                .collect(),
+            objective: results
+                .iter()
+                .map(|r| (2.0 * r.best.cost).sqrt())
+                .collect(),
+        }),
     };
     Ok(FitResult { fitted, record })
 }

@@ -146,6 +146,114 @@ impl FromStr for Loss {
     }
 }
 
+/// The robust function of a fit: how a residual's square enters the cost.
+///
+/// With the per-cell residual e = t(f, c) − t(f̂, c) (in the units of the loss's
+/// transform t) and the cell's weight factor s² = w / (n_ch Σ w), a fit minimises
+///
+/// ```text
+/// F = ½ Σ s² ρ(e²)
+/// ```
+///
+/// with ρ(z) = z for [`RobustKind::None`] (ordinary least squares) and, for a scale c > 0,
+///
+/// | kind | ρ(z) | ρ'(z) (the IRLS weight) | source |
+/// |------|------|--------------------------|--------|
+/// | `huber` | z for z ≤ c², 2c√z − c² above | 1, then c/√z | P. J. Huber, "Robust Estimation of a Location Parameter", Ann. Math. Statist. 35(1), 1964 |
+/// | `cauchy` | c² ln(1 + z/c²) | 1/(1 + z/c²) | Triggs, McLauchlan, Hartley & Fitzgibbon, "Bundle Adjustment — A Modern Synthesis", 2000, §4.3 |
+///
+/// Both equal z to first order for |e| ≪ c; Huber grows linearly in |e| beyond c (a
+/// bounded influence ψ = ρ' e = c sign e), Cauchy logarithmically (ψ → 0: a gross
+/// outlier's pull vanishes). How they enter the solvers is in [`crate::problem`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum RobustKind {
+    /// ρ(z) = z: ordinary (weighted) least squares. The default.
+    #[default]
+    None,
+    /// Huber's ρ: quadratic within c, linear beyond.
+    Huber,
+    /// The Cauchy (Lorentzian) ρ: c² ln(1 + z/c²).
+    Cauchy,
+}
+
+impl RobustKind {
+    /// Every kind.
+    pub const ALL: [RobustKind; 3] = [RobustKind::None, RobustKind::Huber, RobustKind::Cauchy];
+
+    /// The name on the command line and in records.
+    pub fn name(&self) -> &'static str {
+        match self {
+            RobustKind::None => "none",
+            RobustKind::Huber => "huber",
+            RobustKind::Cauchy => "cauchy",
+        }
+    }
+
+    /// The tuning constant k of the automatic scale c = k · σ̂ (σ̂ a robust estimate of
+    /// the residuals' standard deviation): the constants that give 95 % asymptotic
+    /// efficiency under Gaussian residuals (Huber: 1.345; Cauchy: 2.385; P. W. Holland
+    /// & R. E. Welsch, "Robust regression using iteratively reweighted least-squares",
+    /// Commun. Statist. A6(9), 1977). 0 for `None`.
+    pub fn tuning(&self) -> f64 {
+        match self {
+            RobustKind::None => 0.0,
+            RobustKind::Huber => 1.345,
+            RobustKind::Cauchy => 2.385,
+        }
+    }
+}
+
+impl fmt::Display for RobustKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for RobustKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        RobustKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown robust loss `{s}` (known: none, huber, cauchy)"))
+    }
+}
+
+/// A robust function with its scale c (in the units of the residual e; see
+/// [`RobustKind`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Robust {
+    /// Which ρ.
+    pub kind: RobustKind,
+    /// c > 0.
+    pub scale: f64,
+}
+
+impl Robust {
+    /// (ρ(z), ρ'(z)) at z = e² ≥ 0 (see [`RobustKind`] for the formulas).
+    #[inline]
+    pub fn rho(&self, z: f64) -> (f64, f64) {
+        let c = self.scale;
+        let c2 = c * c;
+        match self.kind {
+            RobustKind::None => (z, 1.0),
+            RobustKind::Huber => {
+                if z <= c2 {
+                    (z, 1.0)
+                } else {
+                    let a = z.sqrt();
+                    (2.0 * c * a - c2, c / a)
+                }
+            }
+            RobustKind::Cauchy => {
+                let q = z / c2;
+                (c2 * q.ln_1p(), 1.0 / (1.0 + q))
+            }
+        }
+    }
+}
+
 /// The weight of a cell in the loss.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -279,6 +387,37 @@ mod tests {
         assert!(d.is_finite() && d > 0.0);
         let (_, d) = Loss::Cbrt.transform_deriv(0.0, 0.0);
         assert_eq!(d, 0.0);
+    }
+
+    #[test]
+    fn robust_rho_matches_its_formulas_and_derivative() {
+        for kind in RobustKind::ALL {
+            let r = Robust { kind, scale: 0.3 };
+            for &e in &[0.0, 1e-3, 0.1, 0.29, 0.31, 1.0, 30.0] {
+                let z = e * e;
+                let (v, d) = r.rho(z);
+                // Near 0 every ρ is z to first order.
+                if e <= 0.1 {
+                    assert!((v - z).abs() <= 0.06 * z + 1e-300, "{kind} {e}: {v}");
+                }
+                // ρ is concave with ρ(0) = 0, so ρ(z) ≥ z ρ'(z), and ρ' ∈ (0, 1].
+                assert!(d > 0.0 && d <= 1.0 && v >= z * d * (1.0 - 1e-15), "{kind} {e}");
+                if z > 0.0 {
+                    let h = 1e-6 * z;
+                    let fd = (r.rho(z + h).0 - r.rho(z - h).0) / (2.0 * h);
+                    assert!((fd - d).abs() <= 1e-7, "{kind} at {e}: {fd} vs {d}");
+                }
+            }
+        }
+        // Closed forms at a point beyond the scale.
+        let (h, hd) = Robust { kind: RobustKind::Huber, scale: 0.5 }.rho(4.0);
+        assert_eq!((h, hd), (2.0 * 0.5 * 2.0 - 0.25, 0.25));
+        let (c, cd) = Robust { kind: RobustKind::Cauchy, scale: 0.5 }.rho(4.0);
+        assert!((c - 0.25 * 17f64.ln()).abs() < 1e-15 && (cd - 1.0 / 17.0).abs() < 1e-15);
+        for k in RobustKind::ALL {
+            assert_eq!(k.name().parse::<RobustKind>().unwrap(), k);
+        }
+        assert!("Huber".parse::<RobustKind>().is_err());
     }
 
     #[test]

@@ -26,10 +26,25 @@
 //! [`brdfkit_core::ParamRole`]) are formed as contiguous arrays, and JᵀJ and Jᵀr are
 //! accumulated as dot products of those columns. The full Jacobian (4.4 M rows for a
 //! MERL table) is never stored.
+//!
+//! # Robust losses (iteratively reweighted least squares)
+//! With a robust function ρ of scale c ([`crate::loss::Robust`],
+//! [`FitProblem::with_robust`]) the cost is F = ½ Σ s² ρ(e²), e = r / s the unscaled
+//! residual. Its gradient is Σ ρ'(e²) r ∇r, and its Hessian
+//! Σ (ρ' ∇rᵀ∇r + 2ρ'' e² ∇rᵀ∇r + ρ' r ∇²r) is replaced by the Gauss-Newton
+//! approximation Σ ρ'(e²) ∇rᵀ∇r: per residual a weight ρ' ∈ (0, 1] on its row of J
+//! and its residual (Triggs et al., "Bundle Adjustment — A Modern Synthesis", 2000,
+//! §4.3, the "IRLS-like" approximation; dropping the 2ρ''e² term, which is ≤ 0 for
+//! Huber and Cauchy, keeps the matrix positive semi-definite). In the pass this is
+//! √ρ' multiplied into the residual and the Jacobian column entries of each cell, so
+//! JᵀJ and Jᵀr become Σ ρ' JᵢᵀJᵢ and Σ ρ' Jᵢᵀrᵢ with no other change; the solvers
+//! then see a quadratic model of the robust cost and measure their gain ratio on F
+//! itself, so LM's acceptance test is exact. Without a robust function the pass is
+//! the plain one, unchanged.
 
 use crate::data::FitData;
 use crate::error::FitError;
-use crate::loss::{Loss, Weighting};
+use crate::loss::{Loss, Robust, RobustKind, Weighting};
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
 use brdfkit_core::model::Domain;
@@ -85,6 +100,8 @@ struct Inner<'a> {
     /// Per channel: positions q (into the free vector) of the parameters acting on it.
     cols: [Vec<usize>; 3],
     floor: f64,
+    /// Σ s² t(f̂)² over the active channels: the weighted mean square of the targets.
+    target_ms: f64,
 }
 
 /// The least-squares problem of one model family against a cell set.
@@ -93,6 +110,7 @@ struct Inner<'a> {
 /// evaluation counters.
 pub struct FitProblem<'a> {
     inner: Arc<Inner<'a>>,
+    robust: Option<Robust>,
     cost_evals: AtomicU64,
     jac_evals: AtomicU64,
     cache: Mutex<Option<(DVector<f64>, NormalEq)>>,
@@ -102,6 +120,7 @@ impl Clone for FitProblem<'_> {
     fn clone(&self) -> Self {
         FitProblem {
             inner: self.inner.clone(),
+            robust: self.robust,
             cost_evals: AtomicU64::new(0),
             jac_evals: AtomicU64::new(0),
             cache: Mutex::new(None),
@@ -116,6 +135,7 @@ impl std::fmt::Debug for FitProblem<'_> {
             .field("free", &self.inner.names)
             .field("channels", &self.inner.channels)
             .field("loss", &self.inner.loss)
+            .field("robust", &self.robust)
             .field("cells", &self.inner.data.len())
             .finish()
     }
@@ -248,11 +268,78 @@ impl<'a> FitProblem<'a> {
                 scale,
                 cols,
                 floor,
+                target_ms: ms,
             }),
+            robust: None,
             cost_evals: AtomicU64::new(0),
             jac_evals: AtomicU64::new(0),
             cache: Mutex::new(None),
         })
+    }
+
+    /// The same problem with the robust function `robust` (a `None` kind or a scale
+    /// that is not a positive finite number gives the plain problem). Cheap: the
+    /// precomputed arrays are shared.
+    pub fn with_robust(&self, robust: Robust) -> Self {
+        let mut p = self.clone();
+        p.robust = (robust.kind != RobustKind::None
+            && robust.scale.is_finite()
+            && robust.scale > 0.0)
+            .then_some(robust);
+        p
+    }
+
+    /// The robust function in force, if any.
+    pub fn robust(&self) -> Option<Robust> {
+        self.robust
+    }
+
+    /// The root-mean-square of the targets t(f̂) with the cells' weights (the scale of
+    /// the residuals of a fit that explains nothing).
+    pub fn target_rms(&self) -> f64 {
+        self.inner.target_ms.sqrt()
+    }
+
+    /// Median of |e| = |t(f) − t(f̂)| over every cell and active channel at u (unweighted;
+    /// `None` where the model is not finite there). 1.4826 times it estimates the
+    /// standard deviation of Gaussian residuals and ignores up to half of the cells
+    /// being outliers (the MAD about 0 of the residuals of a fit).
+    pub fn median_abs_residual(&self, u: &DVector<f64>) -> Option<f64> {
+        let (m, _) = self.model_or_nan(u)?;
+        let inn = &*self.inner;
+        let n = inn.data.len();
+        let g = inn.data.geometry();
+        let nchunks = n.div_ceil(CHUNK);
+        let mut e: Vec<f64> = (0..nchunks)
+            .into_par_iter()
+            .with_min_len(min_len(nchunks))
+            .fold(
+                || (vec![Rgb::ZERO; CHUNK], Vec::new()),
+                |(mut out, mut acc): (Vec<Rgb>, Vec<f64>), ci| {
+                    let s = ci * CHUNK;
+                    let e = (s + CHUNK).min(n);
+                    m.eval_batch(&g.slice(s..e), &mut out[..e - s]);
+                    for &c in &inn.channels {
+                        let tg = &inn.target[c][s..e];
+                        for k in 0..e - s {
+                            let t = inn.loss.transform(out[k][c], g.wi_z[s + k]);
+                            acc.push((t - tg[k]).abs());
+                        }
+                    }
+                    (out, acc)
+                },
+            )
+            .map(|(_, a)| a)
+            .reduce(Vec::new, |mut a, mut b| {
+                a.append(&mut b);
+                a
+            });
+        if e.is_empty() || e.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let mid = e.len() / 2;
+        let (_, med, _) = e.select_nth_unstable_by(mid, f64::total_cmp);
+        Some(*med)
     }
 
     /// Number of free parameters m.
@@ -350,13 +437,15 @@ impl<'a> FitProblem<'a> {
         Some((m, dx))
     }
 
-    /// ½‖r(u)‖² (+∞ where the model is not finite or rejects the parameters).
+    /// The cost at u: ½‖r(u)‖², or ½ Σ s² ρ(e²) with a robust function (+∞ where the
+    /// model is not finite or rejects the parameters).
     pub fn cost_at(&self, u: &DVector<f64>) -> f64 {
         self.cost_evals.fetch_add(1, Ordering::Relaxed);
         let Some((m, _)) = self.model_or_nan(u) else {
             return f64::INFINITY;
         };
         let inn = &*self.inner;
+        let robust = self.robust;
         let n = inn.data.len();
         let g = inn.data.geometry();
         let nchunks = n.div_ceil(CHUNK);
@@ -375,9 +464,20 @@ impl<'a> FitProblem<'a> {
                     for &c in &inn.channels {
                         let tg = &inn.target[c][s..e];
                         let mut part = 0.0;
-                        for k in 0..len {
-                            let r = sc[k] * (inn.loss.transform(out[k][c], cos_i[k]) - tg[k]);
-                            part += r * r;
+                        match robust {
+                            None => {
+                                for k in 0..len {
+                                    let r =
+                                        sc[k] * (inn.loss.transform(out[k][c], cos_i[k]) - tg[k]);
+                                    part += r * r;
+                                }
+                            }
+                            Some(rb) => {
+                                for k in 0..len {
+                                    let e = inn.loss.transform(out[k][c], cos_i[k]) - tg[k];
+                                    part += sc[k] * sc[k] * rb.rho(e * e).0;
+                                }
+                            }
                         }
                         acc += part;
                     }
@@ -408,6 +508,7 @@ impl<'a> FitProblem<'a> {
             return bad();
         };
         let inn = &*self.inner;
+        let robust = self.robust;
         let n = inn.data.len();
         let np = inn.proto.num_params();
         let g = inn.data.geometry();
@@ -440,10 +541,31 @@ impl<'a> FitProblem<'a> {
                     let scale = &inn.scale[s..e];
                     for &c in &inn.channels {
                         let tg = &inn.target[c][s..e];
-                        for k in 0..len {
-                            let (t, dt) = inn.loss.transform_deriv(sc.out[k][c], cos_i[k]);
-                            sc.r[k] = scale[k] * (t - tg[k]);
-                            sc.d[k] = scale[k] * dt;
+                        match robust {
+                            None => {
+                                for k in 0..len {
+                                    let (t, dt) =
+                                        inn.loss.transform_deriv(sc.out[k][c], cos_i[k]);
+                                    sc.r[k] = scale[k] * (t - tg[k]);
+                                    sc.d[k] = scale[k] * dt;
+                                }
+                            }
+                            Some(rb) => {
+                                // IRLS (module doc): √ρ'(e²) on the residual and its
+                                // Jacobian row; the cost takes ρ itself.
+                                let mut part = 0.0;
+                                for k in 0..len {
+                                    let (t, dt) =
+                                        inn.loss.transform_deriv(sc.out[k][c], cos_i[k]);
+                                    let e = t - tg[k];
+                                    let (rho, w) = rb.rho(e * e);
+                                    let sw = scale[k] * w.sqrt();
+                                    sc.r[k] = sw * e;
+                                    sc.d[k] = sw * dt;
+                                    part += scale[k] * scale[k] * rho;
+                                }
+                                sc.cost += 0.5 * part;
+                            }
                         }
                         let cols = &inn.cols[c];
                         for (a, &q) in cols.iter().enumerate() {
@@ -463,7 +585,9 @@ impl<'a> FitProblem<'a> {
                                 sc.jtj[qa * mdim + qb] += dot(ca, cb);
                             }
                         }
-                        sc.cost += 0.5 * dot(&sc.r[..len], &sc.r[..len]);
+                        if robust.is_none() {
+                            sc.cost += 0.5 * dot(&sc.r[..len], &sc.r[..len]);
+                        }
                     }
                     sc
                 },
@@ -513,7 +637,8 @@ impl<'a> FitProblem<'a> {
     }
 
     /// The residual vector r(u), channel-major (all cells of the first active channel,
-    /// then the next). Dense; for tests and small cell sets.
+    /// then the next). Dense; for tests and small cell sets. These are the plain
+    /// residuals, whatever the robust function (whose cost is not ½‖r‖²).
     pub fn residuals(&self, u: &DVector<f64>) -> Result<DVector<f64>, FitError> {
         let m = self.model_at(u)?;
         let inn = &*self.inner;

@@ -2,7 +2,7 @@
 //! `docs/fitting.md` for the field list).
 
 use crate::config::{Sharing, SolverKind};
-use crate::loss::{Loss, LossReport, Weighting};
+use crate::loss::{Loss, LossReport, RobustKind, Weighting};
 use serde::{Deserialize, Serialize};
 
 /// One parameter of the fitted model.
@@ -51,8 +51,8 @@ pub struct StartRecord {
     /// [`FitRecord::free_params`] (of the pass).
     pub start: Vec<f64>,
     /// Final value of the optimised loss (weighted RMS over the fitted cells; for a
-    /// per-channel pass, that channel's); `None` when the start failed (see
-    /// `termination`).
+    /// per-channel pass, that channel's; with a robust loss sqrt(2F) of the robust
+    /// cost F); `None` when the start failed (see `termination`).
     pub final_loss: Option<f64>,
     /// Iterations.
     pub iterations: u64,
@@ -69,6 +69,24 @@ pub struct StartRecord {
     /// The warm-up stage, when there was one (the counts above are then those of the
     /// stage on the fitted cells, which started where the warm-up ended).
     pub warm_up: Option<WarmUpRecord>,
+}
+
+/// The robust stage of a fit (see [`crate::FitConfig::robust`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RobustRecord {
+    /// Which ρ.
+    pub kind: RobustKind,
+    /// The scale c of each pass (one for a shared fit, r, g, b for per-channel fits),
+    /// in the units of the loss's transform.
+    pub scale: Vec<f64>,
+    /// `"given"`, or `"auto"` (k · 1.4826 · median |e| at the best plain start).
+    pub scale_source: String,
+    /// Per pass: the plain loss of the best start of the plain stage (auto scale only;
+    /// empty otherwise), to compare with the robust fit's `losses_fit`.
+    pub plain_stage_loss: Vec<f64>,
+    /// Per pass: sqrt(2F) of the kept start, F = ½ Σ s² ρ(e²) the robust cost it
+    /// minimised (the records' `final_loss` of a start is this same quantity).
+    pub objective: Vec<f64>,
 }
 
 /// The whole record of a fit.
@@ -125,4 +143,8 @@ pub struct FitRecord {
     pub converged: bool,
     /// Every start tried.
     pub starts: Vec<StartRecord>,
+    /// The robust stage, when a robust loss was asked for (absent in records of
+    /// plain fits; `losses_fit` and `losses_full` are always the plain losses).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robust: Option<RobustRecord>,
 }
