@@ -43,6 +43,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod html;
 pub mod mitsuba;
 pub mod physical;
 pub mod quality;

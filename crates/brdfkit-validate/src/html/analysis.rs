@@ -1,0 +1,294 @@
+//! The figures behind the report's charts: θh slices, residual maps and albedo curves,
+//! computed over the table's own cells (the cells a fit sees).
+
+use crate::physical::{PoleChoice, albedo_converged, auto_pole, converged_with};
+use crate::table::{table_albedo, table_brdf};
+use brdfkit_core::direction::spherical;
+use brdfkit_core::rusinkiewicz::from_half_diff;
+use brdfkit_core::{Model, Rgb};
+use brdfkit_fit::Fitted;
+use brdfkit_merl::{Lookup, MerlTable};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// The fitted model's value at cell (i, j, k): channel c from the channel-c model,
+/// evaluated at the cell's angles (the lower edges of its bin, where the fitter
+/// evaluates it too).
+pub(crate) fn model_at_cell(fitted: &Fitted, table: &MerlTable, i: usize, j: usize, k: usize) -> Rgb {
+    let (wi, wo) = from_half_diff(&table.dims().cell_angles(i, j, k));
+    match fitted {
+        Fitted::Shared(m) => m.eval(&wi, &wo),
+        Fitted::PerChannel(ms) => Rgb([
+            ms[0].eval(&wi, &wo)[0],
+            ms[1].eval(&wi, &wo)[1],
+            ms[2].eval(&wi, &wo)[2],
+        ]),
+    }
+}
+
+/// One θh slice of the table at fixed (θd, φd): the table's cells and each model at
+/// them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Slice {
+    /// θd of the slice's cells (radians): the lower edge of the bin nearest the
+    /// requested angle.
+    pub theta_d: f64,
+    /// φd of the slice's cells (radians).
+    pub phi_d: f64,
+    /// θh bin indices i of the valid cells (θh = (i/n)² π/2).
+    pub theta_h_index: Vec<usize>,
+    /// θh (radians) of those cells.
+    pub theta_h: Vec<f64>,
+    /// The table's values there.
+    pub measured: Vec<Rgb>,
+    /// Each model's values there (outer: model, inner: cell).
+    pub models: Vec<Vec<Rgb>>,
+}
+
+/// The θh slices at the requested θd (radians) and φd (radians), at the nearest cells.
+pub(crate) fn slices(
+    table: &MerlTable,
+    fits: &[&Fitted],
+    theta_ds: &[f64],
+    phi_d: f64,
+) -> Vec<Slice> {
+    let d = table.dims();
+    let (nh, nd, np) = (d.theta_h(), d.theta_d(), d.phi_d());
+    // Nearest bin edge, clamped into the grid (an angle of 90° has no bin of its own).
+    let k = ((phi_d / std::f64::consts::PI * np as f64).round() as usize).min(np - 1);
+    theta_ds
+        .iter()
+        .map(|&td| {
+            let j = ((td / std::f64::consts::FRAC_PI_2 * nd as f64).round() as usize).min(nd - 1);
+            let a = d.cell_angles(0, j, k);
+            let mut s = Slice {
+                theta_d: a.theta_d,
+                phi_d: a.phi_d,
+                theta_h_index: Vec::new(),
+                theta_h: Vec::new(),
+                measured: Vec::new(),
+                models: vec![Vec::new(); fits.len()],
+            };
+            for i in 0..nh {
+                if let Some(v) = table.get(i, j, k) {
+                    s.theta_h_index.push(i);
+                    s.theta_h.push(d.cell_angles(i, j, k).theta_h);
+                    s.measured.push(v);
+                    for (m, f) in fits.iter().enumerate() {
+                        s.models[m].push(model_at_cell(f, table, i, j, k));
+                    }
+                }
+            }
+            s
+        })
+        .collect()
+}
+
+/// A model's signed log ratio over (θh, θd), averaged over φd and the channels, on
+/// blocks of the table's grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResidualMap {
+    /// Blocks along θh and θd.
+    pub cols: usize,
+    pub rows: usize,
+    /// θh bins per block and θd bins per block.
+    pub block: [usize; 2],
+    /// The table's θh and θd bin counts.
+    pub bins: [usize; 2],
+    /// Row-major (θd row, θh column): the mean of log10(f_model / f_measured) over the
+    /// block's cell channels with a positive measurement; `None` where there is none.
+    pub values: Vec<Option<f64>>,
+    /// Cell channels where the model is exactly 0 and the table is not (their log ratio
+    /// is −∞; they enter the mean at [`LOG_RATIO_FLOOR`]).
+    pub model_zero: usize,
+}
+
+/// Floor of a cell channel's log10 ratio: a model value of exactly 0 against a positive
+/// measurement has an infinite log ratio, which would make its block's mean −∞ and hide
+/// every other cell in it; −6 (a factor of a million) is far beyond any colour scale.
+pub const LOG_RATIO_FLOOR: f64 = -6.0;
+
+/// The residual map of `fitted` against `table`, on blocks of at most `max_bins` × `max_bins`.
+pub(crate) fn residual_map(table: &MerlTable, fitted: &Fitted, max_bins: usize) -> ResidualMap {
+    let d = table.dims();
+    let (nh, nd, np) = (d.theta_h(), d.theta_d(), d.phi_d());
+    let max_bins = max_bins.max(1);
+    let bh = nh.div_ceil(max_bins);
+    let bd = nd.div_ceil(max_bins);
+    let (cols, rows) = (nh.div_ceil(bh), nd.div_ceil(bd));
+    // Per (i, j): (sum of log ratios, count, model zeros), in parallel over θh.
+    let per_ij: Vec<Vec<(f64, usize, usize)>> = (0..nh)
+        .into_par_iter()
+        .map(|i| {
+            (0..nd)
+                .map(|j| {
+                    let mut acc = (0.0, 0, 0);
+                    for k in 0..np {
+                        let Some(meas) = table.get(i, j, k) else {
+                            continue;
+                        };
+                        let f = model_at_cell(fitted, table, i, j, k);
+                        for c in 0..3 {
+                            if meas[c] > 0.0 {
+                                let r = if f[c] > 0.0 {
+                                    (f[c] / meas[c]).log10().max(LOG_RATIO_FLOOR)
+                                } else {
+                                    acc.2 += 1;
+                                    LOG_RATIO_FLOOR
+                                };
+                                acc.0 += r;
+                                acc.1 += 1;
+                            }
+                        }
+                    }
+                    acc
+                })
+                .collect()
+        })
+        .collect();
+    let mut values = vec![None; cols * rows];
+    let mut model_zero = 0;
+    for r in 0..rows {
+        for c in 0..cols {
+            let (mut s, mut n) = (0.0, 0usize);
+            for row in per_ij.iter().take(((c + 1) * bh).min(nh)).skip(c * bh) {
+                for cell in row.iter().take(((r + 1) * bd).min(nd)).skip(r * bd) {
+                    s += cell.0;
+                    n += cell.1;
+                    model_zero += cell.2;
+                }
+            }
+            values[r * cols + c] = (n > 0).then(|| s / n as f64);
+        }
+    }
+    ResidualMap {
+        cols,
+        rows,
+        block: [bh, bd],
+        bins: [nh, nd],
+        values,
+        model_zero,
+    }
+}
+
+/// The directional albedo a(θo) = ∫ f(wi, wo) cos θi dωi (φo = 0) of the table and
+/// the models, by the quadratures of the physical and table checks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AlbedoCurves {
+    /// θo (radians).
+    pub theta_o: Vec<f64>,
+    /// The table's albedo (interpolated lookups, missing ones filled with the mean);
+    /// `None` where no lookup found a sample.
+    pub table: Vec<Option<Rgb>>,
+    /// Fraction of the cosine-weighted hemisphere whose table lookups were missing.
+    pub table_missing_weight: Vec<f64>,
+    /// Each model's albedo (outer: model).
+    pub models: Vec<Vec<Rgb>>,
+}
+
+fn model_albedo(m: &dyn Model, theta_o: f64) -> Rgb {
+    albedo_converged(m, &spherical(theta_o, 0.0), PoleChoice::Auto, 1e-6).0
+}
+
+/// The albedo curves at `thetas` (radians); the table's is computed once for all models.
+pub(crate) fn albedo_curves(table: &MerlTable, fits: &[&Fitted], thetas: &[f64]) -> AlbedoCurves {
+    let tab: Vec<(Option<Rgb>, f64)> = thetas
+        .par_iter()
+        .map(|&t| {
+            let wo = spherical(t, 0.0);
+            let guess = auto_pole(&table_brdf(table, Lookup::Interpolated), &wo);
+            let (_, _, _, res) = converged_with(&wo, PoleChoice::Auto, 1e-4, guess, |q| {
+                let (a, m) = table_albedo(table, Lookup::Interpolated, &wo, q);
+                (a.unwrap_or(Rgb::splat(f64::NAN)), (a, m))
+            });
+            res
+        })
+        .collect();
+    let models = fits
+        .iter()
+        .map(|f| {
+            thetas
+                .par_iter()
+                .map(|&t| match f {
+                    Fitted::Shared(m) => model_albedo(m.as_ref(), t),
+                    Fitted::PerChannel(ms) => Rgb([
+                        model_albedo(ms[0].as_ref(), t)[0],
+                        model_albedo(ms[1].as_ref(), t)[1],
+                        model_albedo(ms[2].as_ref(), t)[2],
+                    ]),
+                })
+                .collect()
+        })
+        .collect();
+    AlbedoCurves {
+        theta_o: thetas.to_vec(),
+        table: tab.iter().map(|x| x.0).collect(),
+        table_missing_weight: tab.iter().map(|x| x.1).collect(),
+        models,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdfkit_merl::Dims;
+
+    fn lambert(rho: f64) -> Fitted {
+        Fitted::Shared(
+            brdfkit_models::from_json_str(&format!(
+                r#"{{"model": "lambert", "params": {{"rho_d": {rho}}}}}"#
+            ))
+            .unwrap(),
+        )
+    }
+
+    fn lambert_table(rho: f64) -> MerlTable {
+        let dims = Dims::new(8, 8, 16).unwrap();
+        // Cells whose directions are below the horizon are missing, as in MERL files.
+        MerlTable::from_fn(dims, |i, j, k| {
+            let (wi, wo) = from_half_diff(&dims.cell_angles(i, j, k));
+            (wi.z > 0.0 && wo.z > 0.0).then(|| Rgb::splat(rho / std::f64::consts::PI))
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn residual_map_is_the_log_ratio_of_a_known_scale() {
+        let t = lambert_table(0.5);
+        // A model twice as bright everywhere: log10(2) in every block.
+        let m = residual_map(&t, &lambert(1.0), 4);
+        assert_eq!((m.cols, m.rows, m.block), (4, 4, [2, 2]));
+        for v in &m.values {
+            assert!((v.unwrap() - 2f64.log10()).abs() < 1e-12, "{v:?}");
+        }
+        assert_eq!(m.model_zero, 0);
+        // The exact model: 0 everywhere.
+        let m = residual_map(&t, &lambert(0.5), 100);
+        assert_eq!((m.cols, m.rows), (8, 8));
+        assert!(m.values.iter().all(|v| v.unwrap().abs() < 1e-12));
+    }
+
+    #[test]
+    fn slices_pick_the_nearest_cells_and_the_model_values() {
+        let t = lambert_table(0.5);
+        let s = slices(&t, &[&lambert(0.25)], &[0.7], std::f64::consts::FRAC_PI_2);
+        assert_eq!(s.len(), 1);
+        // 0.7 rad = 40.1° → bin 3.57 → edge 4 of 8: 45°.
+        assert!((s[0].theta_d - std::f64::consts::FRAC_PI_4).abs() < 1e-12);
+        assert!((s[0].phi_d - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!(!s[0].measured.is_empty());
+        for (m, f) in s[0].measured.iter().zip(&s[0].models[0]) {
+            assert!((m[0] / f[0] - 2.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn albedo_of_a_lambertian_table_and_model_is_rho() {
+        let t = lambert_table(0.5);
+        let c = albedo_curves(&t, &[&lambert(0.3)], &[0.0, 1.0]);
+        for k in 0..2 {
+            assert!((c.table[k].unwrap()[1] - 0.5).abs() < 1e-3, "{:?}", c.table[k]);
+            assert!((c.models[0][k][1] - 0.3).abs() < 1e-6);
+        }
+    }
+}

@@ -1,0 +1,404 @@
+//! The fit-quality report: one self-contained HTML page (charts as inline SVG, renders
+//! as embedded PNGs, no script or style from outside) and its JSON, for a measured
+//! table and the models fitted to it.
+//!
+//! [`build_report`] computes, for every fitted model:
+//! - every loss of the fitter over all valid cells ([`fit_quality_with`]: overall, per
+//!   channel, by θh and θd band, relative-error percentiles);
+//! - θh slices of the table and the model at several θd (φd = 90° by default), per
+//!   channel, on a log axis ([`analysis::slices`]);
+//! - a residual map over (θh, θd): the mean over φd and channels of
+//!   log10(f_model / f_measured) on blocks of the grid ([`analysis::ResidualMap`]);
+//! - spheres rendered with the table and with the model under a point light and a
+//!   studio environment, same seed, and their difference ([`renders`]);
+//! - the albedo a(θo) of the model and of the table ([`analysis::AlbedoCurves`]);
+//! - the physical checks of the model ([`check_model_with`], with bounded options:
+//!   [`ReportOptions::checks`]).
+//!
+//! The caller fits (the CLI's `fit-brdf report` and `demo` use `brdfkit_fit::fit`) and
+//! writes the files; this module only computes and formats. What each section shows
+//! and how to read it: `docs/report.md`.
+
+pub mod analysis;
+pub mod charts;
+mod page;
+pub mod renders;
+
+use crate::physical::{CheckOptions, PhysicalReport, check_model_with};
+use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_with};
+use analysis::{AlbedoCurves, ResidualMap, Slice};
+use brdfkit_fit::{FitConfig, FitRecord, Fitted, LossReport, Weighting};
+use brdfkit_merl::MerlTable;
+use rayon::prelude::*;
+use renders::{Lighting, RenderOptions, RenderSet};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::sync::Arc;
+use std::time::Instant;
+use thiserror::Error;
+
+/// Errors of the report.
+#[derive(Debug, Error)]
+pub enum ReportError {
+    /// No model to report on.
+    #[error("the report needs at least one fitted model")]
+    NoModels,
+    /// The fit-quality computation failed.
+    #[error(transparent)]
+    Quality(#[from] QualityError),
+    /// A chart could not be drawn.
+    #[error("chart: {0}")]
+    Chart(String),
+    /// A sphere could not be rendered.
+    #[error("render: {0}")]
+    Render(String),
+    /// An option out of range.
+    #[error("report option `{option}`: {reason}")]
+    Option {
+        option: &'static str,
+        reason: String,
+    },
+}
+
+/// One fitted model.
+pub struct ModelFit {
+    /// Its name in the report (`cook-torrance`).
+    pub label: String,
+    /// The fitted model(s).
+    pub fitted: Fitted,
+    /// The fitter's record (fit time, iterations, starts), when it was fitted here.
+    pub record: Option<FitRecord>,
+}
+
+/// What the report computes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReportOptions {
+    /// The page's title.
+    pub title: String,
+    /// Cell weights of the losses.
+    pub weighting: Weighting,
+    /// θd of the slices (radians; the nearest bin edge is used).
+    pub slice_theta_d: Vec<f64>,
+    /// φd of the slices (radians).
+    pub slice_phi_d: f64,
+    /// θo of the albedo curves (radians).
+    pub albedo_theta_o: Vec<f64>,
+    /// At most this many blocks along θh and along θd in the residual maps.
+    pub residual_max_bins: usize,
+    /// The sphere renders; `None`: none.
+    pub render: Option<RenderOptions>,
+    /// The physical checks of each fitted model; `None`: not run.
+    pub checks: Option<CheckOptions>,
+}
+
+/// The physical checks the report runs: the thresholds of [`CheckOptions::default`]
+/// on a coarser set (dense grid in 6° steps × 12 azimuths, 5,000 random pairs, the
+/// albedo at 0, 15, 30, 45, 60, 75, 85 and 89°), a quarter to a third of the full
+/// check's cost; `fit-brdf check` runs the full set.
+pub fn bounded_checks() -> CheckOptions {
+    CheckOptions {
+        dense_theta: 16,
+        dense_phi: 12,
+        random_pairs: 5_000,
+        albedo_thetas: [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0, 89.0]
+            .iter()
+            .map(|d: &f64| d.to_radians())
+            .collect(),
+        ..CheckOptions::default()
+    }
+}
+
+impl Default for ReportOptions {
+    /// Slices at θd = 1, 20, 45 and 70°, φd = 90°; albedo at θo = 0, 10, …, 80, 85°;
+    /// residual maps on at most 45 × 45 blocks; default renders; [`bounded_checks`].
+    fn default() -> Self {
+        ReportOptions {
+            title: "Fit-quality report".into(),
+            weighting: Weighting::SolidAngle,
+            slice_theta_d: [1.0f64, 20.0, 45.0, 70.0].map(f64::to_radians).to_vec(),
+            slice_phi_d: 90f64.to_radians(),
+            albedo_theta_o: [0.0f64, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0]
+                .map(f64::to_radians)
+                .to_vec(),
+            residual_max_bins: 45,
+            render: Some(RenderOptions::default()),
+            checks: Some(bounded_checks()),
+        }
+    }
+}
+
+/// The table reported on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TableInfo {
+    /// Its name (a file name).
+    pub name: String,
+    /// θh, θd, φd bins.
+    pub dims: [usize; 3],
+    pub cells: usize,
+    pub valid_cells: usize,
+}
+
+/// One model's line of the summary.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelSummary {
+    pub label: String,
+    /// The fitted parameters in the JSON contract.
+    pub params: Value,
+    /// Every loss over all valid cells (overall and per channel).
+    pub losses: LossReport,
+    /// Fit wall time (s), when fitted here.
+    pub fit_time_s: Option<f64>,
+    pub iterations: Option<u64>,
+    pub converged: Option<bool>,
+    /// The physical checks' verdict (all channel models); `None` when not run.
+    pub physical_passed: Option<bool>,
+}
+
+/// The summary: what `fit-brdf report --json` prints.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReportSummary {
+    pub table: TableInfo,
+    /// The loss the fits minimised, when known.
+    pub loss_optimised: Option<String>,
+    pub weighting: Weighting,
+    pub models: Vec<ModelSummary>,
+}
+
+/// Everything measured about one model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelDetail {
+    pub label: String,
+    pub quality: QualityReport,
+    /// One report for a shared model, three (R, G, B) for a per-channel fit; empty when
+    /// the checks did not run.
+    pub physical: Vec<PhysicalReport>,
+    /// Wall time of the physical checks (s).
+    pub physical_time_s: f64,
+    pub residual_map: ResidualMap,
+    pub record: Option<FitRecord>,
+}
+
+/// Wall times of the report's parts (s).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Timings {
+    pub quality_s: f64,
+    pub slices_and_maps_s: f64,
+    pub albedo_s: f64,
+    pub checks_s: f64,
+    pub renders_s: f64,
+    pub page_s: f64,
+    pub total_s: f64,
+}
+
+/// The JSON of the report (`report.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReportData {
+    pub summary: ReportSummary,
+    /// The fit configuration, when given.
+    pub fit_config: Option<FitConfig>,
+    pub options: ReportOptions,
+    pub models: Vec<ModelDetail>,
+    pub slices: Vec<Slice>,
+    pub albedo: AlbedoCurves,
+    pub renders: Vec<RenderSet>,
+    pub timings: Timings,
+}
+
+/// The report: its data and its page.
+pub struct FitReport {
+    pub data: ReportData,
+    /// The self-contained HTML page.
+    pub html: String,
+}
+
+fn check_options(o: &ReportOptions) -> Result<(), ReportError> {
+    let bad = |option, reason: &str| {
+        Err(ReportError::Option {
+            option,
+            reason: reason.into(),
+        })
+    };
+    let in_quarter = |v: &[f64]| {
+        v.iter()
+            .all(|x| x.is_finite() && (0.0..=std::f64::consts::FRAC_PI_2).contains(x))
+    };
+    if !in_quarter(&o.slice_theta_d) {
+        return bad("slice_theta_d", "angles must lie in [0, π/2] radians");
+    }
+    if !(o.slice_phi_d.is_finite() && (0.0..=std::f64::consts::PI).contains(&o.slice_phi_d)) {
+        return bad("slice_phi_d", "must lie in [0, π] radians");
+    }
+    if !in_quarter(&o.albedo_theta_o) || o.albedo_theta_o.iter().any(|t| *t >= std::f64::consts::FRAC_PI_2) {
+        return bad("albedo_theta_o", "angles must lie in [0, π/2) radians");
+    }
+    if o.residual_max_bins == 0 {
+        return bad("residual_max_bins", "must be at least 1");
+    }
+    if let Some(r) = &o.render {
+        if !(8..=1024).contains(&r.size) {
+            return bad("render.size", "must be in 8..=1024 pixels");
+        }
+        if !(1..=4096).contains(&r.env_spp) {
+            return bad("render.env_spp", "must be in 1..=4096");
+        }
+        if !(r.diff_scale > 0.0 && r.diff_scale <= 1.0) {
+            return bad("render.diff_scale", "must lie in (0, 1]");
+        }
+    }
+    Ok(())
+}
+
+/// The physical checks of a fitted model: one per channel model.
+fn physical(f: &Fitted, o: &CheckOptions) -> Vec<PhysicalReport> {
+    match f {
+        Fitted::Shared(m) => vec![check_model_with(m.as_ref(), o)],
+        Fitted::PerChannel(ms) => ms.iter().map(|m| check_model_with(m.as_ref(), o)).collect(),
+    }
+}
+
+/// Builds the report of `fits` against `table`. `progress` receives a short line per
+/// step (for a command line's stderr). `config` is the fit configuration, recorded and
+/// shown when given.
+pub fn build_report(
+    table: &MerlTable,
+    table_name: &str,
+    fits: &[ModelFit],
+    config: Option<&FitConfig>,
+    o: &ReportOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<FitReport, ReportError> {
+    if fits.is_empty() {
+        return Err(ReportError::NoModels);
+    }
+    check_options(o)?;
+    let t_all = Instant::now();
+    let mut timings = Timings::default();
+    let fitted: Vec<&Fitted> = fits.iter().map(|f| &f.fitted).collect();
+
+    progress("fit quality: losses, bands, percentiles");
+    let t = Instant::now();
+    // The albedo comparison of `fit_quality` would integrate the table once per model:
+    // the report integrates it once ([`analysis::albedo_curves`]).
+    let qopt = QualityOptions {
+        weighting: o.weighting,
+        albedo_thetas: Vec::new(),
+        ..QualityOptions::default()
+    };
+    let quality: Vec<QualityReport> = fitted
+        .iter()
+        .map(|f| fit_quality_with(table, f, &qopt))
+        .collect::<Result<_, _>>()?;
+    timings.quality_s = t.elapsed().as_secs_f64();
+
+    progress("θh slices and residual maps");
+    let t = Instant::now();
+    let slices = analysis::slices(table, &fitted, &o.slice_theta_d, o.slice_phi_d);
+    let maps: Vec<ResidualMap> = fitted
+        .iter()
+        .map(|f| analysis::residual_map(table, f, o.residual_max_bins))
+        .collect();
+    timings.slices_and_maps_s = t.elapsed().as_secs_f64();
+
+    progress("albedo curves");
+    let t = Instant::now();
+    let albedo = analysis::albedo_curves(table, &fitted, &o.albedo_theta_o);
+    timings.albedo_s = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let mut physical_reports: Vec<(Vec<PhysicalReport>, f64)> = Vec::new();
+    if let Some(co) = &o.checks {
+        progress("physical checks of the fitted models");
+        physical_reports = fitted
+            .par_iter()
+            .map(|f| {
+                let t = Instant::now();
+                let r = physical(f, co);
+                (r, t.elapsed().as_secs_f64())
+            })
+            .collect();
+    }
+    timings.checks_s = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let mut render_sets = Vec::new();
+    if let Some(ro) = &o.render {
+        let shared = Arc::new(table.clone());
+        for l in Lighting::ALL {
+            progress(&format!("rendering spheres under the {}", l.title()));
+            render_sets.push(renders::render_set(l, ro, &shared, &fitted)?);
+        }
+    }
+    timings.renders_s = t.elapsed().as_secs_f64();
+
+    let d = table.dims();
+    let summary = ReportSummary {
+        table: TableInfo {
+            name: table_name.to_string(),
+            dims: [d.theta_h(), d.theta_d(), d.phi_d()],
+            cells: table.cells(),
+            valid_cells: table.valid_count(),
+        },
+        loss_optimised: config.map(|c| c.get_loss().name().to_string()),
+        weighting: o.weighting,
+        models: fits
+            .iter()
+            .enumerate()
+            .map(|(m, f)| ModelSummary {
+                label: f.label.clone(),
+                params: f.fitted.to_json(),
+                losses: quality[m].losses.clone(),
+                fit_time_s: f.record.as_ref().map(|r| r.wall_time_s),
+                iterations: f.record.as_ref().map(|r| r.iterations),
+                converged: f.record.as_ref().map(|r| r.converged),
+                physical_passed: physical_reports
+                    .get(m)
+                    .map(|(r, _)| r.iter().all(|p| p.passed)),
+            })
+            .collect(),
+    };
+    let models = fits
+        .iter()
+        .zip(quality)
+        .zip(maps)
+        .enumerate()
+        .map(|(m, ((f, q), map))| {
+            let (physical, physical_time_s) = physical_reports.get(m).cloned().unwrap_or_default();
+            ModelDetail {
+                label: f.label.clone(),
+                quality: q,
+                physical,
+                physical_time_s,
+                residual_map: map,
+                record: f.record.clone(),
+            }
+        })
+        .collect();
+    let mut data = ReportData {
+        summary,
+        fit_config: config.cloned(),
+        options: o.clone(),
+        models,
+        slices,
+        albedo,
+        renders: render_sets,
+        timings,
+    };
+    progress("charts and page");
+    let t = Instant::now();
+    let html = page::page(&data, table.dims().theta_h())?;
+    data.timings.page_s = t.elapsed().as_secs_f64();
+    data.timings.total_s = t_all.elapsed().as_secs_f64();
+    Ok(FitReport { data, html })
+}
+
+impl FitReport {
+    /// `report.json`: every figure of the report (not the images).
+    pub fn to_json_pretty(&self) -> String {
+        serde_json::to_string_pretty(&self.data).expect("the report serialises") + "\n"
+    }
+
+    /// The summary alone, as pretty JSON.
+    pub fn summary_json_pretty(&self) -> String {
+        serde_json::to_string_pretty(&self.data.summary).expect("the summary serialises") + "\n"
+    }
+}
