@@ -26,12 +26,25 @@ impl CliError {
         }
     }
 
-    /// Prints `error: <what>` and every cause on stderr.
+    /// Prints `error: <what>` and every cause on stderr. A cause whose text the
+    /// message already contains (typed errors often quote their source) is not
+    /// repeated.
     pub fn report(&self) {
-        eprintln!("error: {}", self.error);
+        eprint!("{}", self.render());
+    }
+
+    /// The text [`report`](Self::report) prints.
+    pub fn render(&self) -> String {
+        let mut shown = self.error.to_string();
+        let mut out = format!("error: {shown}\n");
         for cause in self.error.chain().skip(1) {
-            eprintln!("  caused by: {cause}");
+            let c = cause.to_string();
+            if !shown.contains(&c) {
+                out += &format!("  caused by: {c}\n");
+                shown += &c;
+            }
         }
+        out
     }
 }
 
@@ -57,3 +70,20 @@ pub fn bad_msg(msg: impl Display) -> CliError {
 }
 
 pub type CliResult<T> = Result<T, CliError>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn causes_already_quoted_are_not_repeated() {
+        let io = std::io::Error::other("No such device");
+        let e = runtime(anyhow::Error::new(io).context("t.binary: opening: No such device"));
+        assert_eq!(e.render(), "error: t.binary: opening: No such device\n");
+        let e = bad_input(anyhow::anyhow!("root cause").context("t.binary: cannot read"));
+        assert_eq!(
+            e.render(),
+            "error: t.binary: cannot read\n  caused by: root cause\n"
+        );
+    }
+}

@@ -1,0 +1,342 @@
+//! The malformed-input matrix of the reliability issue, through the library and through
+//! the CLI: every bad table, spec, scene and model file gives a typed error whose
+//! message names the file and the problem, exit code 2, and no panic; a header's claim
+//! never makes the reader allocate beyond the file's size.
+
+use assert_cmd::Command;
+use brdfkit::merl::{MerlError, MerlTable};
+use std::os::unix::ffi::OsStrExt;
+use std::path::{Path, PathBuf};
+
+fn bin() -> Command {
+    Command::cargo_bin("fit-brdf").unwrap()
+}
+
+fn header(a: i32, b: i32, c: i32) -> Vec<u8> {
+    [a.to_le_bytes(), b.to_le_bytes(), c.to_le_bytes()].concat()
+}
+
+fn table_bytes(dims: [i32; 3], fill: f64) -> Vec<u8> {
+    let n = (dims[0] * dims[1] * dims[2]) as usize;
+    let mut v = header(dims[0], dims[1], dims[2]);
+    for _ in 0..3 * n {
+        v.extend_from_slice(&fill.to_le_bytes());
+    }
+    v
+}
+
+fn with_value(dims: [i32; 3], at: usize, x: f64) -> Vec<u8> {
+    let mut v = table_bytes(dims, 0.5);
+    v[12 + 8 * at..20 + 8 * at].copy_from_slice(&x.to_le_bytes());
+    v
+}
+
+/// Runs `fit-brdf info` on a file and checks the contract: exit 2, `error: ` first, the
+/// file named, `what` in the message, no panic.
+fn cli_rejects(path: &Path, what: &str) {
+    let o = bin().arg("info").arg(path).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{}: {err}", path.display());
+    assert!(err.starts_with("error: "), "{err}");
+    let name = path.file_name().unwrap().to_string_lossy();
+    assert!(err.contains(name.as_ref()), "{err} does not name {name}");
+    assert!(err.contains(what), "{err} does not say `{what}`");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn malformed_tables_are_typed_errors_in_the_library_and_exit_2_in_the_cli() {
+    let d = tempfile::tempdir().unwrap();
+    let d2 = [2, 3, 4];
+    let full = table_bytes(d2, 0.5);
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("empty.binary", vec![], "header"),
+        ("eleven.binary", vec![0u8; 11], "header"),
+        ("negative-dims.binary", header(-90, 90, 180), "dims"),
+        ("zero-dims.binary", header(90, 0, 180), "dims"),
+        // 65536 · 65536 · 2 overflows i32 but not usize: caught by the length check.
+        ("i32-overflow.binary", header(65536, 65536, 2), "bytes"),
+        // i32::MAX³ · 24 bytes overflows u64/usize.
+        (
+            "usize-overflow.binary",
+            header(i32::MAX, i32::MAX, i32::MAX),
+            "dims",
+        ),
+        (
+            "byte-short.binary",
+            full[..full.len() - 1].to_vec(),
+            "bytes",
+        ),
+        (
+            "double-short.binary",
+            full[..full.len() - 8].to_vec(),
+            "bytes",
+        ),
+        (
+            "trailing.binary",
+            [full.clone(), vec![0u8; 3]].concat(),
+            "trailing",
+        ),
+        ("nan.binary", with_value(d2, 5, f64::NAN), "non-finite"),
+        (
+            "inf.binary",
+            with_value(d2, 30, f64::INFINITY),
+            "non-finite",
+        ),
+        ("huge.binary", with_value(d2, 7, 1e31), "1e30"),
+    ];
+    for (name, bytes, what) in &cases {
+        let p = d.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let e = MerlTable::read(&p).expect_err(name);
+        assert_eq!(e.path(), p.as_path(), "{name}: the error carries the path");
+        assert!(e.to_string().contains(what), "{name}: {e}");
+        match (*name, &e) {
+            ("nan.binary" | "inf.binary", MerlError::NonFinite { .. }) => {}
+            ("huge.binary", MerlError::TooLarge { .. }) => {}
+            ("trailing.binary", MerlError::TrailingBytes { .. }) => {}
+            ("empty.binary" | "eleven.binary", MerlError::TooShort { .. }) => {}
+            (
+                "negative-dims.binary" | "zero-dims.binary" | "usize-overflow.binary",
+                MerlError::Dims { .. },
+            ) => {}
+            (
+                "i32-overflow.binary" | "byte-short.binary" | "double-short.binary",
+                MerlError::Truncated { .. },
+            ) => {}
+            (n, other) => panic!("{n}: unexpected error variant {other:?}"),
+        }
+        cli_rejects(&p, what);
+    }
+    // A directory, a path that does not exist.
+    let o = bin().arg("info").arg(d.path()).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("directory"));
+    cli_rejects(&d.path().join("absent.binary"), "absent.binary");
+}
+
+#[test]
+fn an_unreadable_file_is_bad_input_not_a_panic() {
+    // Root opens any file whatever its mode; open(2) of a Unix socket fails for
+    // everyone (ENXIO), which is the "cannot open" case.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("socket.binary");
+    let _listener = std::os::unix::net::UnixListener::bind(&p).unwrap();
+    let e = MerlTable::read(&p).unwrap_err();
+    assert!(matches!(e, MerlError::Io { .. }), "{e:?}");
+    let o = bin().arg("info").arg(&p).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("socket.binary") && !err.contains("panicked"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_header_claiming_gigabytes_does_not_allocate_them() {
+    // 1000³ cells claim 24 GB; the file is 36 bytes. Under a 1 GB address-space limit a
+    // reader that allocated on the header's word would abort (exit 134), not exit 2.
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("liar.binary");
+    let mut bytes = header(1000, 1000, 1000);
+    bytes.extend_from_slice(&[0u8; 24]);
+    std::fs::write(&p, bytes).unwrap();
+    let exe = assert_cmd::cargo::cargo_bin("fit-brdf");
+    let o = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 1000000 && exec \"$0\" info \"$1\"")
+        .arg(&exe)
+        .arg(&p)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("liar.binary") && err.contains("bytes"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_non_utf8_path_is_handled() {
+    let d = tempfile::tempdir().unwrap();
+    let name = std::ffi::OsStr::from_bytes(b"caf\xe9-\xff.binary");
+    let p: PathBuf = d.path().join(name);
+    std::fs::write(&p, vec![0u8; 5]).unwrap();
+    let o = bin().arg("info").arg(&p).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("caf") && err.contains(".binary") && !err.contains("panicked"),
+        "{err}"
+    );
+    // A good table under such a name reads fine.
+    let good = d
+        .path()
+        .join(std::ffi::OsStr::from_bytes(b"ok-\xff.binary"));
+    std::fs::write(&good, table_bytes([2, 2, 2], 0.25)).unwrap();
+    bin().arg("info").arg(&good).assert().success();
+}
+
+/// `fit-brdf <cmd> FILE ...` on a bad file: exit 2, the file named, `what` said.
+fn rejects(args: &[&std::ffi::OsStr], file: &Path, what: &str) {
+    let o = bin().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    let name = file.file_name().unwrap().to_string_lossy();
+    assert!(
+        err.contains(name.as_ref()) && err.contains(what),
+        "{args:?}: `{what}` not in {err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn bad_specs_are_rejected() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("t.binary");
+    let cases = [
+        (
+            "types.toml",
+            "name = 5\n[material]\nmodel = \"lambert\"\n",
+            "invalid type",
+        ),
+        (
+            "unknown.toml",
+            "name = \"x\"\nsize = 3\n[material]\nmodel = \"lambert\"\n",
+            "unknown field `size`",
+        ),
+        ("missing.toml", "name = \"x\"\n", "missing field `material`"),
+        (
+            "rough.toml",
+            "name = \"x\"\n[material]\nmodel = \"cook-torrance\"\nparams = { alpha = -0.1 }\n",
+            "alpha",
+        ),
+        (
+            "rho.toml",
+            "name = \"x\"\n[material]\nmodel = \"plausible-phong\"\nparams = { rho_d = 1.5 }\n",
+            "rho_d",
+        ),
+        ("syntax.toml", "name = \"x\n", "TOML"),
+    ];
+    for (file, text, what) in cases {
+        let p = d.path().join(file);
+        std::fs::write(&p, text).unwrap();
+        rejects(
+            &[
+                "synth".as_ref(),
+                p.as_os_str(),
+                "--out".as_ref(),
+                out.as_os_str(),
+            ],
+            &p,
+            what,
+        );
+        assert!(!out.exists(), "{file}: no output on a bad spec");
+    }
+}
+
+#[test]
+fn bad_model_descriptions_are_rejected() {
+    let d = tempfile::tempdir().unwrap();
+    let dirs = d.path().join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let cases = [
+        (
+            "types.json",
+            r#"{"model": "lambert", "params": {"rho_d": "grey"}}"#,
+            "rho_d",
+        ),
+        (
+            "unknown.json",
+            r#"{"model": "lambert", "params": {"albedo": 0.5}}"#,
+            "albedo",
+        ),
+        (
+            "missing.json",
+            r#"{"params": {"rho_d": 0.5}}"#,
+            "missing field `model`",
+        ),
+        (
+            "rough.json",
+            r#"{"model": "cook-torrance", "params": {"alpha": -1}}"#,
+            "alpha",
+        ),
+        (
+            "rho.json",
+            r#"{"model": "lambert", "params": {"rho_d": [0.2, 1.2, 0.2]}}"#,
+            "rho_d",
+        ),
+        (
+            "lobes.json",
+            r#"{"model": "lafortune", "params": {"lobes": [{"cxy": -1, "n": -3}]}}"#,
+            "n",
+        ),
+        (
+            "fresnel.json",
+            r#"{"model": "cook-torrance", "params": {"fresnel": {"glass": {}}}}"#,
+            "glass",
+        ),
+        ("syntax.json", r#"{"model": "lambert""#, "JSON"),
+    ];
+    for (file, text, what) in cases {
+        let p = d.path().join(file);
+        std::fs::write(&p, text).unwrap();
+        rejects(
+            &[
+                "eval".as_ref(),
+                "--model".as_ref(),
+                p.as_os_str(),
+                "--dirs".as_ref(),
+                dirs.as_os_str(),
+            ],
+            &p,
+            what,
+        );
+        rejects(&["check".as_ref(), p.as_os_str()], &p, what);
+    }
+}
+
+#[test]
+fn bad_scenes_are_rejected() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("img.png");
+    let good = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/sphere-point.toml"),
+    )
+    .unwrap();
+    let cases = [
+        (
+            "unknown.toml",
+            format!("{good}\nsparkle = true\n"),
+            "sparkle",
+        ),
+        (
+            "types.toml",
+            good.replacen("effects = [", "effects = 3\nxeffects = [", 1),
+            "effects",
+        ),
+        (
+            "missing.toml",
+            "effects = [\"direct\"]\n".to_string(),
+            "missing",
+        ),
+        ("syntax.toml", "effects = [\n".to_string(), "TOML"),
+    ];
+    for (file, text, what) in cases {
+        let p = d.path().join(file);
+        std::fs::write(&p, text).unwrap();
+        rejects(
+            &[
+                "render".as_ref(),
+                p.as_os_str(),
+                "--out".as_ref(),
+                out.as_os_str(),
+            ],
+            &p,
+            what,
+        );
+        assert!(!out.exists(), "{file}: no image on a bad scene");
+    }
+}
