@@ -75,6 +75,40 @@ pub enum Command {
     /// Run the whole job on the embedded demo material (no downloads).
     #[command(after_help = "Example:\n  fit-brdf demo --out demo-out")]
     Demo(DemoArgs),
+    /// Fit every table of a directory or glob, one JSON per table plus a summary CSV;
+    /// resumable, shardable over a job array, and interruptible without partial files.
+    #[command(
+        after_help = "Examples:\n  fit-brdf batch merl/ --models lambert,cook-torrance --fresnel conductor --out fits/\n  \
+                            fit-brdf batch 'merl/*-paint.binary' --out fits/ --starts 4 --json\n  \
+                            fit-brdf batch merl/ --out fits/ --shard 3/16     # one task of a 16-task job array\n\n\
+                            Inputs: a directory (its *.binary files), a glob pattern (quoted), or table files. \
+                            Every option of `fit` applies. A table whose OUTDIR/<stem>.json exists and was made \
+                            with the same options from the same table is skipped (resume); --force refits. \
+                            --shard I/N takes the tables whose file name hashes to shard I (1-based). \
+                            Ctrl-C stops after the current table (twice: now); no partial file is left. \
+                            Exit 1 when a table failed (the others are finished). Slurm and GNU parallel \
+                            recipes: docs/batch.md."
+    )]
+    Batch(BatchArgs),
+    /// Export a model as a renderer material: Mitsuba 3 (XML or dict) or pbrt-v4.
+    #[command(
+        after_help = "Examples:\n  fit-brdf export params.json --to mitsuba                  # <bsdf> XML on stdout\n  \
+                            fit-brdf export params.json --to mitsuba --format dict --out bsdf.json\n  \
+                            fit-brdf export params.json --to pbrt --out material.pbrt\n\n\
+                            Supported: lambert -> diffuse; cook-torrance with conductor Fresnel and rho_d = 0 -> \
+                            Mitsuba roughconductor (smith-separable; GGX, or Beckmann with beckmann_g1 = rational; \
+                            rho_s -> specular_reflectance) or pbrt-v4 conductor (smith-correlated, GGX, rho_s = 1, \
+                            alpha >= 1e-3). Anything else is an error (exit 2) saying what the renderer lacks. \
+                            Details: docs/export.md."
+    )]
+    Export(ExportArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    #[command(
+        after_help = "Examples:\n  fit-brdf completions bash > ~/.local/share/bash-completion/completions/fit-brdf\n  \
+                            fit-brdf completions zsh > ~/.zfunc/_fit-brdf\n  \
+                            fit-brdf completions fish > ~/.config/fish/completions/fit-brdf.fish"
+    )]
+    Completions(CompletionsArgs),
 }
 
 #[derive(Args, Debug)]
@@ -149,8 +183,33 @@ pub struct SynthArgs {
 pub struct FitArgs {
     /// The MERL binary table to fit.
     pub table: PathBuf,
+    #[command(flatten)]
+    pub opts: FitOptions,
+    /// Fitted parameters (one model) or an output directory (several).
+    #[arg(long, value_name = "PATH")]
+    pub out: Option<PathBuf>,
+    /// The fit record (one model only).
+    #[arg(long, value_name = "FIT.json")]
+    pub record: Option<PathBuf>,
+    /// Print the results as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bar, no summary on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The fit options shared by `fit` and `batch`: the models, their structural choices
+/// and the solver settings.
+#[derive(Args, Debug, Clone)]
+pub struct FitOptions {
     /// Comma-separated model names, or model JSON files (fitted from their parameters).
-    #[arg(long, value_name = "MODELS", default_value = "cook-torrance")]
+    #[arg(
+        long,
+        visible_alias = "models",
+        value_name = "MODELS",
+        default_value = "cook-torrance"
+    )]
     pub model: String,
     /// Microfacet distribution of cook-torrance: ggx or beckmann.
     #[arg(long)]
@@ -188,18 +247,6 @@ pub struct FitArgs {
     /// Seed of the starts and the subsample.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Fitted parameters (one model) or an output directory (several).
-    #[arg(long, value_name = "PATH")]
-    pub out: Option<PathBuf>,
-    /// The fit record (one model only).
-    #[arg(long, value_name = "FIT.json")]
-    pub record: Option<PathBuf>,
-    /// Print the results as JSON.
-    #[arg(long)]
-    pub json: bool,
-    /// No progress bar, no summary on stderr.
-    #[arg(long, short)]
-    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -230,6 +277,73 @@ pub struct RenderArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct BatchArgs {
+    /// Tables: directories (their *.binary files), glob patterns (quoted) or files.
+    #[arg(required = true, value_name = "DIR_OR_GLOB")]
+    pub inputs: Vec<String>,
+    #[command(flatten)]
+    pub opts: FitOptions,
+    /// Output directory: <stem>.json per table and the summary CSV.
+    #[arg(long, value_name = "OUTDIR")]
+    pub out: PathBuf,
+    /// Fit only shard I of N (1-based): the tables whose file name hashes to I.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Refit tables that are already done.
+    #[arg(long)]
+    pub force: bool,
+    /// Print the batch summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bar and no per-table lines on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// A renderer `export` writes for.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Renderer {
+    /// Mitsuba 3 (`diffuse`, `roughconductor`).
+    Mitsuba,
+    /// pbrt-v4 (`diffuse`, `conductor`).
+    Pbrt,
+}
+
+/// The form of a Mitsuba export.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExportFormat {
+    /// A `<bsdf>` element (mitsuba.load_string, or paste into a scene file).
+    Xml,
+    /// A dictionary as JSON (json.load it, then mitsuba.load_dict).
+    Dict,
+}
+
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// The model (JSON), e.g. the PARAMS.json written by `fit`.
+    pub params: PathBuf,
+    /// The renderer.
+    #[arg(long, value_enum)]
+    pub to: Renderer,
+    /// Mitsuba only: xml (default) or dict.
+    #[arg(long, value_enum)]
+    pub format: Option<ExportFormat>,
+    /// Output file (default: standard output).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// No notes on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct CompletionsArgs {
+    /// The shell.
+    #[arg(value_enum)]
+    pub shell: clap_complete::Shell,
 }
 
 #[derive(Args, Debug)]

@@ -1,7 +1,7 @@
 //! `fit-brdf fit TABLE --model ...`: nonlinear least-squares fits of analytic models.
 
 use super::read_table;
-use crate::cli::FitArgs;
+use crate::cli::{FitArgs, FitOptions};
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
 use crate::output::{write_atomic, write_text};
 use anyhow::Context;
@@ -112,8 +112,18 @@ pub fn families(list: &str, s: &Structure) -> CliResult<Vec<Family>> {
     Ok(out)
 }
 
+/// The structural choices of the command line.
+pub fn structure(o: &FitOptions) -> Structure<'_> {
+    Structure {
+        distribution: o.distribution.as_deref(),
+        masking: o.masking.as_deref(),
+        fresnel: o.fresnel.as_deref(),
+        normalization: o.normalization.as_deref(),
+    }
+}
+
 /// The fit options of the command line, validated.
-pub fn config(a: &FitArgs) -> CliResult<FitConfig> {
+pub fn config(a: &FitOptions) -> CliResult<FitConfig> {
     let loss: Loss = a
         .loss
         .parse()
@@ -211,7 +221,7 @@ impl FitObserver for Progress {
     fn on_iter(&self, ev: &IterEvent) {
         let n = self.iters.fetch_add(1, Ordering::Relaxed) + 1;
         self.maybe_show();
-        if n % 8 == 0 {
+        if n.is_multiple_of(8) {
             self.bar.set_message(format!(
                 "fitting {}: {} iterations, best loss {:.4e}",
                 self.label,
@@ -296,14 +306,8 @@ fn pretty(v: &impl serde::Serialize) -> CliResult<String> {
 }
 
 pub fn run(a: FitArgs) -> CliResult<()> {
-    let structure = Structure {
-        distribution: a.distribution.as_deref(),
-        masking: a.masking.as_deref(),
-        fresnel: a.fresnel.as_deref(),
-        normalization: a.normalization.as_deref(),
-    };
-    let fams = families(&a.model, &structure)?;
-    let cfg = config(&a)?;
+    let fams = families(&a.opts.model, &structure(&a.opts))?;
+    let cfg = config(&a.opts)?;
     if fams.len() > 1 && a.record.is_some() {
         return Err(bad_msg(
             "--record takes one model; with several, --out DIR receives every record",

@@ -1,8 +1,11 @@
 //! One module per subcommand; `run` dispatches.
 
+mod batch;
 mod check;
+mod completions;
 mod demo;
 mod eval;
+mod export;
 mod fit;
 mod info;
 mod render;
@@ -26,6 +29,9 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Check(a) => check::run(a),
         Command::Render(a) => render::run(a),
         Command::Demo(a) => demo::run(a),
+        Command::Batch(a) => batch::run(a),
+        Command::Export(a) => export::run(a),
+        Command::Completions(a) => completions::run(a),
     }
 }
 

@@ -1,0 +1,493 @@
+//! `fit-brdf export`: the Mitsuba 3 export loaded in Mitsuba itself and compared with
+//! brdfkit's model; the pbrt-v4 export compared with an independent transcription of
+//! pbrt-v4's `ConductorBxDF::f`; unsupported configurations refused with exit 2.
+//!
+//! The Mitsuba check runs `python/export_check.py` under `$BRDFKIT_PYTHON` or
+//! `<workspace>/.venv/bin/python` (the discovery of brdfkit-validate's cross-check). With
+//! `CI` set (to anything but "", "0" or "false") a missing Mitsuba fails the test;
+//! without it the test prints one loud line and passes.
+
+use assert_cmd::Command;
+use brdfkit::core::{Rgb, Vec3};
+use brdfkit_validate::mitsuba::{
+    CrossConfig, Tolerance, cases, compare, find_python, workspace_root,
+};
+use serde_json::{Value, json};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+fn bin() -> Command {
+    Command::cargo_bin("fit-brdf").unwrap()
+}
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Uncaptured output: the harness captures `eprintln!`, not direct writes.
+fn say(s: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{s}");
+}
+
+fn under_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.as_str(), "" | "0" | "false"))
+}
+
+fn unavailable(why: &str) {
+    if under_ci() {
+        panic!(
+            "the Mitsuba export check could not run under CI: {why}. Install it: python3 -m venv .venv \
+             && .venv/bin/pip install -r python/requirements.txt"
+        );
+    }
+    say(&format!(
+        "!!! MITSUBA EXPORT CHECK DID NOT RUN: {why}. Enable it: python3 -m venv .venv && \
+         .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)"
+    ));
+}
+
+const GOLD_ETA: [f64; 3] = [0.143, 0.374, 1.442];
+const GOLD_K: [f64; 3] = [3.983, 2.385, 1.603];
+const COPPER_ETA: [f64; 3] = [0.200, 0.924, 1.102];
+const COPPER_K: [f64; 3] = [3.912, 2.452, 2.142];
+
+fn conductor(eta: [f64; 3], k: [f64; 3]) -> Value {
+    json!({"conductor": {"eta": eta, "k": k}})
+}
+
+/// Runs `fit-brdf export` on `model`; returns stdout.
+fn export(dir: &Path, model: &Value, args: &[&str]) -> String {
+    let p = dir.join("model.json");
+    std::fs::write(&p, model.to_string()).unwrap();
+    let o = bin().arg("export").arg(&p).args(args).output().unwrap();
+    assert!(o.status.success(), "{model}: {}", stderr(&o));
+    String::from_utf8(o.stdout).unwrap()
+}
+
+struct Case {
+    name: &'static str,
+    model: Value,
+    tolerance: Tolerance,
+    /// Distribution and α for Mitsuba's D floor (isotropic Beckmann); GGX never reaches
+    /// it at these roughnesses.
+    microfacet: Option<(brdfkit::core::scattering::Distribution, f64)>,
+}
+
+fn mitsuba_cases() -> Vec<Case> {
+    use brdfkit::core::scattering::Distribution;
+    let rel = Tolerance::Relative { rel: 1e-5 };
+    vec![
+        Case {
+            name: "lambert",
+            model: json!({"model": "lambert", "params": {"rho_d": [0.2, 0.5, 0.9]}}),
+            tolerance: rel,
+            microfacet: None,
+        },
+        Case {
+            name: "ggx-gold-rho_s",
+            model: json!({"model": "cook-torrance", "params": {"rho_d": 0, "rho_s": [0.9, 0.6, 0.3],
+                "alpha": 0.3, "distribution": "ggx", "fresnel": conductor(GOLD_ETA, GOLD_K)}}),
+            tolerance: rel,
+            microfacet: None,
+        },
+        Case {
+            name: "ggx-copper-anisotropic",
+            model: json!({"model": "cook-torrance", "params": {"rho_d": 0, "rho_s": 1,
+                "alpha_x": 0.12, "alpha_y": 0.45, "distribution": "ggx",
+                "fresnel": conductor(COPPER_ETA, COPPER_K)}}),
+            tolerance: rel,
+            microfacet: None,
+        },
+        Case {
+            name: "beckmann-rational-gold",
+            model: json!({"model": "cook-torrance", "params": {"rho_d": 0, "rho_s": 0.8,
+                "alpha": 0.25, "distribution": "beckmann", "beckmann_g1": "rational",
+                "fresnel": conductor(GOLD_ETA, GOLD_K)}}),
+            tolerance: Tolerance::Beckmann {
+                base: 2e-6,
+                slope: 1e-6,
+                alpha: 0.25,
+            },
+            microfacet: Some((Distribution::Beckmann, 0.25)),
+        },
+    ]
+}
+
+fn cross(c: &Case, mitsuba: Value, model: Value) -> CrossConfig {
+    CrossConfig {
+        name: c.name.into(),
+        mitsuba,
+        model,
+        tolerance: c.tolerance,
+        microfacet: c.microfacet,
+        reference: None,
+    }
+}
+
+#[test]
+fn mitsuba_export_loads_in_mitsuba_and_matches_the_model() {
+    let root = workspace_root();
+    let Some(python) = find_python(&root) else {
+        unavailable(&format!(
+            "no Python (BRDFKIT_PYTHON unset and {} missing)",
+            root.join(".venv/bin/python").display()
+        ));
+        return;
+    };
+    let d = tempfile::tempdir().unwrap();
+    // Every 8th case of the cross-check: 700 pairs with grazing, mirror and near-normal
+    // configurations, float32-exact so both sides see the same bits.
+    let pairs: Vec<(Vec3, Vec3)> = cases(0x4558_504f).into_iter().step_by(8).collect();
+    assert!(pairs.len() >= 500);
+    let configs = mitsuba_cases();
+    let mut exports = Vec::new();
+    for c in &configs {
+        let xml = export(d.path(), &c.model, &["--to", "mitsuba", "--quiet"]);
+        let dict = export(
+            d.path(),
+            &c.model,
+            &["--to", "mitsuba", "--format", "dict", "--quiet"],
+        );
+        let dict: Value = serde_json::from_str(&dict).expect("--format dict is JSON");
+        exports.push(json!({"name": c.name, "xml": xml, "dict": dict}));
+    }
+    let input = d.path().join("in.json");
+    let output = d.path().join("out.json");
+    let flat: Vec<[f64; 6]> = pairs
+        .iter()
+        .map(|(a, b)| [a.x, a.y, a.z, b.x, b.y, b.z])
+        .collect();
+    std::fs::write(
+        &input,
+        json!({"variant": "scalar_rgb", "cases": flat, "exports": exports}).to_string(),
+    )
+    .unwrap();
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/export_check.py");
+    let o = std::process::Command::new(&python)
+        .arg(&script)
+        .arg(&input)
+        .arg(&output)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
+    if o.status.code() == Some(3) {
+        unavailable(&format!("{} ({})", stderr(&o).trim(), python.display()));
+        return;
+    }
+    assert!(o.status.success(), "export_check.py failed: {}", stderr(&o));
+    let out: Value = serde_json::from_slice(&std::fs::read(&output).unwrap()).unwrap();
+    let values = |v: &Value| -> Vec<Rgb> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| {
+                Rgb::new(
+                    x[0].as_f64().unwrap(),
+                    x[1].as_f64().unwrap(),
+                    x[2].as_f64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    for (c, r) in configs.iter().zip(out["exports"].as_array().unwrap()) {
+        assert_eq!(r["name"], c.name);
+        let (xml, dict) = (values(&r["xml"]), values(&r["dict"]));
+        assert_eq!(xml.len(), pairs.len());
+        assert_eq!(
+            xml, dict,
+            "{}: the XML and the dict are the same BSDF",
+            c.name
+        );
+        let cfg = cross(c, Value::Null, c.model.clone());
+        let cmp = compare(&cfg, &pairs, &xml).unwrap();
+        say(&format!(
+            "export {} (Mitsuba {} {}): {}",
+            c.name,
+            out["mitsuba"],
+            r["xml_type"],
+            cmp.to_text()
+        ));
+        assert!(cmp.passed, "{cmp}");
+        assert!(cmp.max_rel_diff > 0.0, "{}: float32 leaves a trace", c.name);
+    }
+    // The comparison can fail: the anisotropic export against the model with its axes
+    // swapped, and the scaled gold against the model without ρs.
+    let swapped = {
+        let mut m = configs[2].model.clone();
+        m["params"]["alpha_x"] = json!(0.45);
+        m["params"]["alpha_y"] = json!(0.12);
+        m
+    };
+    let unscaled = {
+        let mut m = configs[1].model.clone();
+        m["params"]["rho_s"] = json!(1.0);
+        m
+    };
+    for (k, wrong) in [(2usize, swapped), (1, unscaled)] {
+        let r = &out["exports"][k];
+        let cmp = compare(
+            &cross(&configs[k], Value::Null, wrong),
+            &pairs,
+            &values(&r["xml"]),
+        )
+        .unwrap();
+        assert!(!cmp.passed, "a wrong model must not match: {cmp}");
+    }
+}
+
+/// pbrt-v4's `ConductorBxDF::f` (src/pbrt/bxdfs.h) with `TrowbridgeReitzDistribution`
+/// and `FrConductor` (src/pbrt/util/scattering.h), transcribed in f64 from the formulas:
+/// f = D(h) G(wo, wi) F(|wi·h|) / (4 cos θi cos θo), G = 1/(1 + Λ(wo) + Λ(wi)),
+/// D = 1/(π αx αy cos⁴θ (1 + tan²θ (cos²φ/αx² + sin²φ/αy²))²),
+/// Λ = (√(1 + α(φ)² tan²θ) − 1)/2 with α(φ)² = (cos φ αx)² + (sin φ αy)².
+fn pbrt_conductor(wi: Vec3, wo: Vec3, ax: f64, ay: f64, eta: [f64; 3], k: [f64; 3]) -> [f64; 3] {
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return [0.0; 3];
+    }
+    let trig = |w: Vec3| {
+        let l = (w.x * w.x + w.y * w.y + w.z * w.z).sqrt();
+        let (x, y, z) = (w.x / l, w.y / l, w.z / l);
+        let sin = (x * x + y * y).sqrt();
+        let (cphi, sphi) = if sin == 0.0 {
+            (1.0, 0.0)
+        } else {
+            (x / sin, y / sin)
+        };
+        (z, sin * sin / (z * z), cphi, sphi)
+    };
+    let lambda = |w: Vec3| {
+        let (_, tan2, c, s) = trig(w);
+        let a2 = (c * ax).powi(2) + (s * ay).powi(2);
+        ((1.0 + a2 * tan2).sqrt() - 1.0) / 2.0
+    };
+    let h = {
+        let s = Vec3::new(wi.x + wo.x, wi.y + wo.y, wi.z + wo.z);
+        let l = (s.x * s.x + s.y * s.y + s.z * s.z).sqrt();
+        Vec3::new(s.x / l, s.y / l, s.z / l)
+    };
+    let (cos_h, tan2, c, s) = trig(h);
+    let e = tan2 * (c * c / (ax * ax) + s * s / (ay * ay));
+    let d = 1.0 / (std::f64::consts::PI * ax * ay * cos_h.powi(4) * (1.0 + e).powi(2));
+    let g = 1.0 / (1.0 + lambda(wo) + lambda(wi));
+    let cos_i = (wi.x * h.x + wi.y * h.y + wi.z * h.z).abs().min(1.0);
+    let mut f = [0.0; 3];
+    for ch in 0..3 {
+        // FrConductor (Lagarde's memo, as pbrt-v4).
+        let (c2, s2) = (cos_i * cos_i, 1.0 - cos_i * cos_i);
+        let (e2, k2) = (eta[ch] * eta[ch], k[ch] * k[ch]);
+        let t0 = e2 - k2 - s2;
+        let a2b2 = (t0 * t0 + 4.0 * e2 * k2).sqrt();
+        let t1 = a2b2 + c2;
+        let a = (0.5 * (a2b2 + t0)).max(0.0).sqrt();
+        let t2 = 2.0 * cos_i * a;
+        let rs = (t1 - t2) / (t1 + t2);
+        let t3 = c2 * a2b2 + s2 * s2;
+        let t4 = t2 * s2;
+        let rp = rs * (t3 - t4) / (t3 + t4);
+        f[ch] = d * g * 0.5 * (rp + rs) / (4.0 * wi.z * wo.z);
+    }
+    f
+}
+
+/// The numbers after `"<kind> <name>" [` in a pbrt directive.
+fn pbrt_param(text: &str, decl: &str) -> Option<Vec<f64>> {
+    let at = text.find(&format!("\"{decl}\""))?;
+    let rest = &text[at..];
+    let open = rest.find('[')?;
+    let close = rest.find(']')?;
+    Some(
+        rest[open + 1..close]
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect(),
+    )
+}
+
+#[test]
+fn pbrt_export_matches_pbrts_conductor_formula() {
+    let d = tempfile::tempdir().unwrap();
+    let pairs: Vec<(Vec3, Vec3)> = cases(7).into_iter().step_by(4).collect();
+    for (alpha, model_alpha) in [
+        ((0.2, 0.2), json!({"alpha": 0.2})),
+        ((0.08, 0.5), json!({"alpha_x": 0.08, "alpha_y": 0.5})),
+    ] {
+        let mut params = json!({"rho_d": 0, "rho_s": 1, "distribution": "ggx",
+            "masking": "smith-correlated", "fresnel": conductor(COPPER_ETA, COPPER_K)});
+        for (k, v) in model_alpha.as_object().unwrap() {
+            params[k] = v.clone();
+        }
+        let model = json!({"model": "cook-torrance", "params": params});
+        let text = export(d.path(), &model, &["--to", "pbrt", "--quiet"]);
+        assert!(text.contains("Material \"conductor\""), "{text}");
+        assert!(text.contains("\"bool remaproughness\" false"), "{text}");
+        let (ax, ay) = match pbrt_param(&text, "float roughness") {
+            Some(r) => (r[0], r[0]),
+            None => (
+                pbrt_param(&text, "float uroughness").unwrap()[0],
+                pbrt_param(&text, "float vroughness").unwrap()[0],
+            ),
+        };
+        assert_eq!((ax, ay), alpha, "{text}");
+        let eta: [f64; 3] = pbrt_param(&text, "rgb eta").unwrap().try_into().unwrap();
+        let k: [f64; 3] = pbrt_param(&text, "rgb k").unwrap().try_into().unwrap();
+        assert_eq!((eta, k), (COPPER_ETA, COPPER_K));
+        let m = brdfkit::models::from_json(&model).unwrap();
+        let mut worst = 0.0f64;
+        for (wi, wo) in &pairs {
+            let a = m.eval(wi, wo);
+            let b = pbrt_conductor(*wi, *wo, ax, ay, eta, k);
+            for ch in 0..3 {
+                let scale = a[ch].abs().max(b[ch].abs());
+                if scale > 0.0 {
+                    worst = worst.max((a[ch] - b[ch]).abs() / scale);
+                }
+            }
+        }
+        assert!(
+            worst < 1e-9,
+            "alpha {alpha:?}: worst relative difference {worst}"
+        );
+        // The transcription can tell: the separable masking differs at grazing pairs.
+        let mut sep = model.clone();
+        sep["params"]["masking"] = json!("smith-separable");
+        let ms = brdfkit::models::from_json(&sep).unwrap();
+        let off = pairs.iter().any(|(wi, wo)| {
+            let (a, b) = (ms.eval(wi, wo), pbrt_conductor(*wi, *wo, ax, ay, eta, k));
+            (a[0] - b[0]).abs() > 1e-3 * b[0].abs()
+        });
+        assert!(off, "separable masking must differ from pbrt's");
+    }
+    // Lambert: the diffuse material with its reflectance.
+    let text = export(
+        d.path(),
+        &json!({"model": "lambert", "params": {"rho_d": [0.25, 0.5, 0.75]}}),
+        &["--to", "pbrt", "--quiet"],
+    );
+    assert!(text.contains("Material \"diffuse\""), "{text}");
+    assert_eq!(
+        pbrt_param(&text, "rgb reflectance").unwrap(),
+        vec![0.25, 0.5, 0.75]
+    );
+}
+
+#[test]
+fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
+    let d = tempfile::tempdir().unwrap();
+    let gold = conductor(GOLD_ETA, GOLD_K);
+    let cases: Vec<(Value, &str, &str)> = vec![
+        (
+            json!({"model": "ward", "params": {}}),
+            "mitsuba",
+            "model `ward`",
+        ),
+        (
+            json!({"model": "cook-torrance", "params": {"rho_d": 0.2, "fresnel": gold}}),
+            "mitsuba",
+            "rho_d",
+        ),
+        (
+            json!({"model": "cook-torrance", "params": {"rho_d": 0}}),
+            "mitsuba",
+            "Schlick",
+        ),
+        (
+            json!({"model": "cook-torrance", "params": {"rho_d": 0, "masking": "v-cavity", "fresnel": gold}}),
+            "mitsuba",
+            "v-cavity",
+        ),
+        (
+            json!({"model": "cook-torrance", "params": {"rho_d": 0, "distribution": "beckmann", "fresnel": gold}}),
+            "mitsuba",
+            "rational",
+        ),
+        (
+            json!({"model": "cook-torrance", "params": {"rho_d": 0, "rho_s": 0.5,
+                "masking": "smith-correlated", "fresnel": gold}}),
+            "pbrt",
+            "rho_s",
+        ),
+        (
+            json!({"model": "cook-torrance", "params": {"rho_d": 0, "rho_s": 1, "fresnel": gold}}),
+            "pbrt",
+            "height-correlated",
+        ),
+    ];
+    let p = d.path().join("m.json");
+    for (model, to, what) in cases {
+        std::fs::write(&p, model.to_string()).unwrap();
+        let out = d.path().join("never.xml");
+        let o = bin()
+            .arg("export")
+            .arg(&p)
+            .args(["--to", to, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "{model}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("m.json") && e.contains(what), "{model}: {e}");
+        assert!(!out.exists(), "nothing written on refusal");
+    }
+    // A model that is not valid at all, a missing file, and usage errors.
+    std::fs::write(&p, r#"{"model": "lambert", "params": {"rho_d": 2}}"#).unwrap();
+    let o = bin()
+        .arg("export")
+        .arg(&p)
+        .args(["--to", "mitsuba"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("rho_d"), "{}", stderr(&o));
+    let o = bin()
+        .arg("export")
+        .arg(d.path().join("nope.json"))
+        .args(["--to", "mitsuba"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    std::fs::write(&p, r#"{"model": "lambert"}"#).unwrap();
+    for args in [
+        vec!["--to", "blender"],
+        vec!["--to", "pbrt", "--format", "dict"],
+        vec![],
+    ] {
+        let o = bin().arg("export").arg(&p).args(&args).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+}
+
+#[test]
+fn export_writes_the_file_atomically_and_notes_on_stderr() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("m.json");
+    std::fs::write(&p, r#"{"model": "lambert", "params": {"rho_d": 0.4}}"#).unwrap();
+    let out = d.path().join("bsdf.xml");
+    let o = bin()
+        .arg("export")
+        .arg(&p)
+        .args(["--to", "mitsuba", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stdout.is_empty());
+    assert!(stderr(&o).contains("note:"), "{}", stderr(&o));
+    let x = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        x.contains("<bsdf type=\"diffuse\" version=\"3.0.0\">"),
+        "{x}"
+    );
+    assert!(x.contains("value=\"0.4, 0.4, 0.4\""), "{x}");
+    let o = bin()
+        .arg("export")
+        .arg(&p)
+        .args(["--to", "mitsuba", "--quiet", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success() && o.stderr.is_empty(), "{}", stderr(&o));
+    let names: Vec<_> = std::fs::read_dir(d.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+}
