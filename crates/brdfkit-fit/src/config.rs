@@ -446,10 +446,17 @@ mod tests {
         assert!(c.clone().lm_tau(-1.0).is_err());
         assert!(c.clone().warm_up(Some(10)).is_err());
         assert!(c.clone().robust(RobustKind::Huber, Some(0.0)).is_err());
-        assert!(c.clone().robust(RobustKind::Cauchy, Some(f64::NAN)).is_err());
+        assert!(
+            c.clone()
+                .robust(RobustKind::Cauchy, Some(f64::NAN))
+                .is_err()
+        );
         assert!(c.clone().robust(RobustKind::None, Some(0.1)).is_err());
         let r = c.clone().robust(RobustKind::Huber, None).unwrap();
-        assert_eq!((r.get_robust(), r.get_robust_scale()), (RobustKind::Huber, None));
+        assert_eq!(
+            (r.get_robust(), r.get_robust_scale()),
+            (RobustKind::Huber, None)
+        );
         let d: FitConfig =
             serde_json::from_str(r#"{"robust": "cauchy", "robust_scale": 0.02}"#).unwrap();
         assert_eq!(d.get_robust(), RobustKind::Cauchy);

@@ -4,8 +4,8 @@ use crate::config::{FitConfig, Sharing, SolverKind};
 use crate::data::FitData;
 use crate::error::FitError;
 use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
-use crate::observer::{Bridge, FitObserver, FitPlan, StartDone};
 use crate::loss::{Robust, RobustKind};
+use crate::observer::{Bridge, FitObserver, FitPlan, StartDone};
 use crate::problem::{FitProblem, NormalEquations, evaluate_losses};
 use crate::record::{FitRecord, ParamRecord, RobustRecord, StartRecord, WarmUpRecord};
 use crate::starts::start_points;
@@ -414,14 +414,22 @@ fn run_pass(
                 .enumerate()
                 .map(|(k, o1)| {
                     let o1 = o1?;
-                    let o = run_start(rp.clone(), o1.u.clone(), config, observer, k, channel, false)
-                        .map(|mut o| {
-                            o.iterations += o1.iterations;
-                            o.cost_evals += o1.cost_evals;
-                            o.jac_evals += o1.jac_evals;
-                            o.warm = o1.warm.clone();
-                            o
-                        });
+                    let o = run_start(
+                        rp.clone(),
+                        o1.u.clone(),
+                        config,
+                        observer,
+                        k,
+                        channel,
+                        false,
+                    )
+                    .map(|mut o| {
+                        o.iterations += o1.iterations;
+                        o.cost_evals += o1.cost_evals;
+                        o.jac_evals += o1.jac_evals;
+                        o.warm = o1.warm.clone();
+                        o
+                    });
                     done(k, &o);
                     o
                 })
@@ -677,10 +685,7 @@ pub fn fit(
                 .iter()
                 .filter_map(|r| r.robust.and_then(|x| x.1))
                 .collect(),
-            objective: results
-                .iter()
-                .map(|r| (2.0 * r.best.cost).sqrt())
-                .collect(),
+            objective: results.iter().map(|r| (2.0 * r.best.cost).sqrt()).collect(),
         }),
     };
     Ok(FitResult { fitted, record })

@@ -208,12 +208,18 @@ where
                 rejected += 1;
                 continue;
             };
+            let full = h.amax();
             let h = clip_step(h);
+            // A clipped step is a cut-down step: a small predicted or actual decrease
+            // along it says the step was cut, not that the cost is flat there (a
+            // Lafortune start with f ~ 1e99 "converged" at a loss of 5e33 on this
+            // before the guard), so the ftol rules only judge unclipped steps.
+            let clipped = full > MAX_STEP;
             let small = h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol);
             // Predicted decrease of the quadratic model, −hᵀg − ½ hᵀ(JᵀJ)h: valid for
             // the clipped step too (the closed form ½ hᵀ(μDh − g) is not).
             let pred = -h.dot(&ne.jtr) - 0.5 * h.dot(&(&ne.jtj * &h));
-            if pred >= 0.0 && pred <= self.tol.ftol * ne.cost && self.mu <= maxd {
+            if !clipped && pred >= 0.0 && pred <= self.tol.ftol * ne.cost && self.mu <= maxd {
                 // The Gauss-Newton model (lightly damped: μ ≤ max diag) promises less
                 // than ftol: converged, without paying for a trial pass (MINPACK's
                 // ftol test uses the predicted reduction the same way).
@@ -253,7 +259,7 @@ where
                 if small {
                     // MINPACK's xtol: tested on a step that was taken.
                     self.criterion = Some("step below xtol");
-                } else if actual <= self.tol.ftol * ne.cost {
+                } else if !clipped && actual <= self.tol.ftol * ne.cost {
                     self.criterion = Some("relative cost decrease below ftol");
                 }
                 let g = ne2.jtr.clone();

@@ -401,7 +401,10 @@ mod tests {
                     assert!((v - z).abs() <= 0.06 * z + 1e-300, "{kind} {e}: {v}");
                 }
                 // ρ is concave with ρ(0) = 0, so ρ(z) ≥ z ρ'(z), and ρ' ∈ (0, 1].
-                assert!(d > 0.0 && d <= 1.0 && v >= z * d * (1.0 - 1e-15), "{kind} {e}");
+                assert!(
+                    d > 0.0 && d <= 1.0 && v >= z * d * (1.0 - 1e-15),
+                    "{kind} {e}"
+                );
                 if z > 0.0 {
                     let h = 1e-6 * z;
                     let fd = (r.rho(z + h).0 - r.rho(z - h).0) / (2.0 * h);
@@ -410,9 +413,17 @@ mod tests {
             }
         }
         // Closed forms at a point beyond the scale.
-        let (h, hd) = Robust { kind: RobustKind::Huber, scale: 0.5 }.rho(4.0);
+        let (h, hd) = Robust {
+            kind: RobustKind::Huber,
+            scale: 0.5,
+        }
+        .rho(4.0);
         assert_eq!((h, hd), (2.0 * 0.5 * 2.0 - 0.25, 0.25));
-        let (c, cd) = Robust { kind: RobustKind::Cauchy, scale: 0.5 }.rho(4.0);
+        let (c, cd) = Robust {
+            kind: RobustKind::Cauchy,
+            scale: 0.5,
+        }
+        .rho(4.0);
         assert!((c - 0.25 * 17f64.ln()).abs() < 1e-15 && (cd - 1.0 / 17.0).abs() < 1e-15);
         for k in RobustKind::ALL {
             assert_eq!(k.name().parse::<RobustKind>().unwrap(), k);

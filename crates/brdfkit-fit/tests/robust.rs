@@ -76,9 +76,19 @@ fn irls_normal_equations_match_a_dense_computation_and_finite_differences() {
             }
             let h = j.transpose() * &wj;
             let g = j.transpose() * &wr;
-            assert!(rel(ne.cost, cost) < 1e-12, "{loss} {kind}: cost {} vs {cost}", ne.cost);
-            assert!((&ne.jtr - &g).amax() <= 1e-11 * g.amax(), "{loss} {kind}: gradient");
-            assert!((&ne.jtj - &h).amax() <= 1e-11 * h.amax(), "{loss} {kind}: IRLS matrix");
+            assert!(
+                rel(ne.cost, cost) < 1e-12,
+                "{loss} {kind}: cost {} vs {cost}",
+                ne.cost
+            );
+            assert!(
+                (&ne.jtr - &g).amax() <= 1e-11 * g.amax(),
+                "{loss} {kind}: gradient"
+            );
+            assert!(
+                (&ne.jtj - &h).amax() <= 1e-11 * h.amax(),
+                "{loss} {kind}: IRLS matrix"
+            );
             assert!(rel(p.cost_at(&u), cost) < 1e-12, "{loss} {kind}: cost pass");
             // The gradient is that of the robust cost itself (central differences).
             for q in 0..p.dim() {
@@ -110,13 +120,19 @@ fn irls_normal_equations_match_a_dense_computation_and_finite_differences() {
         // No robust kind, or a meaningless scale: the plain problem.
         assert!(
             plain
-                .with_robust(Robust { kind: RobustKind::None, scale: 1.0 })
+                .with_robust(Robust {
+                    kind: RobustKind::None,
+                    scale: 1.0
+                })
                 .robust()
                 .is_none()
         );
         assert!(
             plain
-                .with_robust(Robust { kind: RobustKind::Huber, scale: 0.0 })
+                .with_robust(Robust {
+                    kind: RobustKind::Huber,
+                    scale: 0.0
+                })
                 .robust()
                 .is_none()
         );
@@ -157,7 +173,10 @@ fn robust_fits_recover_what_outliers_pull_off() {
         let back: FitRecord = serde_json::from_str(&text).unwrap();
         assert_eq!(back, res.record);
     }
-    assert!(pe > 0.05, "the outliers should pull the plain fit off: {pn} {pe:e}");
+    assert!(
+        pe > 0.05,
+        "the outliers should pull the plain fit off: {pn} {pe:e}"
+    );
     // A plain record has no robust entry, and reads back.
     assert!(plain.record.robust.is_none());
     let v = serde_json::to_value(&plain.record).unwrap();
@@ -173,7 +192,10 @@ fn a_given_scale_is_used_from_the_start() {
         .unwrap();
     let res = fit(start.as_ref(), &data, &cfg, None).unwrap();
     let rr = res.record.robust.as_ref().unwrap();
-    assert_eq!((rr.scale.as_slice(), rr.scale_source.as_str()), (&[0.01][..], "given"));
+    assert_eq!(
+        (rr.scale.as_slice(), rr.scale_source.as_str()),
+        (&[0.01][..], "given")
+    );
     assert!(rr.plain_stage_loss.is_empty());
     let (re, rn) = worst_param(&res, truth.as_ref());
     assert!(re < 0.01, "{rn} {re:e}");
