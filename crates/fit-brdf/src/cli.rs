@@ -247,6 +247,11 @@ pub struct FitOptions {
     /// Seed of the starts and the subsample.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Hold these parameters at their start values: comma-separated names or groups
+    /// (`rho_d`, `alpha`, `rho_s.r`); the start is the model JSON given to --model, e.g.
+    /// one with "rho_d": 0 to fit a pure conductor.
+    #[arg(long, value_name = "NAMES")]
+    pub fix: Option<String>,
 }
 
 #[derive(Args, Debug)]
@@ -286,7 +291,7 @@ pub struct BatchArgs {
     pub inputs: Vec<String>,
     #[command(flatten)]
     pub opts: FitOptions,
-    /// Output directory: <stem>.json per table and the summary CSV.
+    /// Output directory: `<stem>.json` per table and the summary CSV.
     #[arg(long, value_name = "OUTDIR")]
     pub out: PathBuf,
     /// Fit only shard I of N (1-based): the tables whose file name hashes to I.

@@ -491,3 +491,75 @@ fn export_writes_the_file_atomically_and_notes_on_stderr() {
         .collect();
     assert_eq!(names.len(), 2, "{names:?}");
 }
+
+#[test]
+fn a_conductor_fitted_with_rho_d_fixed_at_0_exports() {
+    let d = tempfile::tempdir().unwrap();
+    let spec = d.path().join("gold.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            "name = \"gold\"\ndims = [16, 16, 32]\n[material]\nmodel = \"cook-torrance\"\n\
+             [material.params]\nrho_d = 0.0\nrho_s = 0.7\nalpha = 0.15\n\
+             fresnel = {{ conductor = {{ eta = {GOLD_ETA:?}, k = {GOLD_K:?} }} }}\n"
+        ),
+    )
+    .unwrap();
+    let table = d.path().join("gold.binary");
+    bin()
+        .arg("synth")
+        .arg(&spec)
+        .arg("--out")
+        .arg(&table)
+        .assert()
+        .success();
+    let start = d.path().join("start.json");
+    std::fs::write(
+        &start,
+        json!({"model": "cook-torrance", "params": {"rho_d": 0, "fresnel": conductor(GOLD_ETA, GOLD_K)}})
+            .to_string(),
+    )
+    .unwrap();
+    let params = d.path().join("params.json");
+    let o = bin()
+        .arg("fit")
+        .arg(&table)
+        .arg("--model")
+        .arg(&start)
+        .args(["--fix", "rho_d", "--starts", "1", "--quiet", "--out"])
+        .arg(&params)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p: Value = serde_json::from_slice(&std::fs::read(&params).unwrap()).unwrap();
+    assert_eq!(p["params"]["rho_d"], json!([0.0, 0.0, 0.0]), "{p}");
+    assert!(
+        (p["params"]["alpha"].as_f64().unwrap() - 0.15).abs() < 1e-6,
+        "{p}"
+    );
+    let xml = bin()
+        .arg("export")
+        .arg(&params)
+        .args(["--to", "mitsuba", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(xml.status.success(), "{}", stderr(&xml));
+    assert!(String::from_utf8_lossy(&xml.stdout).contains("roughconductor"));
+    // Unknown names, an empty list, or nothing left free: bad input.
+    for (args, code) in [
+        (vec!["--fix", "nope"], 2),
+        (vec!["--fix", ""], 2),
+        (vec!["--fix", "rho_d,rho_s,alpha"], 2),
+    ] {
+        let o = bin()
+            .arg("fit")
+            .arg(&table)
+            .arg("--model")
+            .arg(&start)
+            .args(&args)
+            .args(["--starts", "1", "--quiet"])
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {}", stderr(&o));
+    }
+}

@@ -34,7 +34,7 @@
 //! handler waits for the write lock). Either way every output present is complete and
 //! no temporary file is left.
 
-use super::fit::{Family, Outcome, config, families, fit_all, structure};
+use super::fit::{Family, Outcome, check_free, config, families, fit_all, structure};
 use crate::cli::BatchArgs;
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
 use crate::output::write_text;
@@ -601,6 +601,7 @@ pub fn run(a: BatchArgs) -> CliResult<()> {
     let cfg = config(&a.opts)?;
     cfg.validate()
         .map_err(|e| bad_msg(format!("fit options: {e}")))?;
+    check_free(&fams, &cfg)?;
     let shard = a.shard.as_deref().map(Shard::parse).transpose()?;
     let all = tables(&a.inputs, &a.out)?;
     let total = all.len();

@@ -159,12 +159,39 @@ pub fn config(a: &FitOptions) -> CliResult<FitConfig> {
             .subsample(a.sample_fraction, a.seed)
             .map_err(|e| bad_msg(format!("--sample-fraction: {e}")))?;
     }
+    if let Some(names) = &a.fix {
+        let names: Vec<&str> = names
+            .split(',')
+            .map(str::trim)
+            .filter(|x| !x.is_empty())
+            .collect();
+        if names.is_empty() {
+            return Err(bad_msg("--fix: no parameter name given"));
+        }
+        c = c.fix_params(names);
+    }
     if let Some(deg) = a.theta_d_max {
         c = c
             .theta_d_max_deg(deg)
             .map_err(|e| bad_msg(format!("--theta-d-max: {e}")))?;
     }
     Ok(c)
+}
+
+/// Checks the free and fixed parameter names against every family before any fitting
+/// (an unknown name in `--fix` is bad input, not a failure of each fit).
+pub fn check_free(fams: &[Family], cfg: &FitConfig) -> CliResult<()> {
+    for f in fams {
+        let free = brdfkit_fit::resolve_free(&*f.model, cfg)
+            .map_err(|e| bad_msg(format!("--fix: {}: {e}", f.label)))?;
+        if free.is_empty() {
+            return Err(bad_msg(format!(
+                "--fix: {}: every parameter is fixed, nothing is left to fit",
+                f.label
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// A progress bar that appears only once a fit has run for a second (and only on a
@@ -308,6 +335,7 @@ fn pretty(v: &impl serde::Serialize) -> CliResult<String> {
 pub fn run(a: FitArgs) -> CliResult<()> {
     let fams = families(&a.opts.model, &structure(&a.opts))?;
     let cfg = config(&a.opts)?;
+    check_free(&fams, &cfg)?;
     if fams.len() > 1 && a.record.is_some() {
         return Err(bad_msg(
             "--record takes one model; with several, --out DIR receives every record",
