@@ -72,9 +72,23 @@ pub enum Command {
                             The scene format is in docs/rendering.md."
     )]
     Render(RenderArgs),
-    /// Run the whole job on the embedded demo material (no downloads).
-    #[command(after_help = "Example:\n  fit-brdf demo --out demo-out")]
+    /// Run the whole job on the embedded demo material (no downloads): synthesise its
+    /// table, check it round-trips, fit five model families and write the fit-quality report.
+    #[command(
+        after_help = "Example:\n  fit-brdf demo --out demo-out      # then open demo-out/report/index.html"
+    )]
     Demo(DemoArgs),
+    /// Fit models to a table and write the fit-quality report: DIR/index.html (one
+    /// self-contained page: summary, θh slices, residual maps, rendered spheres, albedo,
+    /// physical checks) and DIR/report.json.
+    #[command(
+        after_help = "Examples:\n  fit-brdf report gold.binary --out gold-report\n  \
+                            fit-brdf report gold.binary --models lambert,cook-torrance --fresnel conductor --starts 4 --out r\n  \
+                            fit-brdf report t.binary --json --quiet > summary.json\n\n\
+                            Every option of `fit` applies. The page opens from disk (no server). \
+                            What each section shows and how to read it: docs/report.md."
+    )]
+    Report(ReportArgs),
     /// Fit every table of a directory or glob, one JSON per table plus a summary CSV;
     /// resumable, shardable over a job array, and interruptible without partial files.
     #[command(
@@ -356,4 +370,35 @@ pub struct DemoArgs {
     /// Directory for the demo's outputs.
     #[arg(long, default_value = "brdfkit-demo")]
     pub out: PathBuf,
+}
+
+#[derive(Args, Debug)]
+#[command(mut_arg("model", |a| a.default_value("lambert,plausible-phong,ward,lafortune,cook-torrance")))]
+pub struct ReportArgs {
+    /// The MERL binary table to fit and report on.
+    pub table: PathBuf,
+    #[command(flatten)]
+    pub opts: FitOptions,
+    /// Output directory (created if needed); index.html and report.json are replaced
+    /// atomically.
+    #[arg(long, value_name = "DIR", default_value = "fit-report")]
+    pub out: PathBuf,
+    /// Side of each rendered sphere image (pixels, 8 to 1024).
+    #[arg(long, value_name = "PX", default_value_t = 128)]
+    pub render_size: usize,
+    /// Samples per pixel of the environment renders.
+    #[arg(long, value_name = "N", default_value_t = 16)]
+    pub env_spp: usize,
+    /// Skip the sphere renders.
+    #[arg(long)]
+    pub no_renders: bool,
+    /// Skip the physical checks of the fitted models.
+    #[arg(long)]
+    pub no_checks: bool,
+    /// Print the report's summary (report.json's `summary`) as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
 }

@@ -14,7 +14,13 @@ use serde::{Deserialize, Serialize};
 /// The fitted model's value at cell (i, j, k): channel c from the channel-c model,
 /// evaluated at the cell's angles (the lower edges of its bin, where the fitter
 /// evaluates it too).
-pub(crate) fn model_at_cell(fitted: &Fitted, table: &MerlTable, i: usize, j: usize, k: usize) -> Rgb {
+pub(crate) fn model_at_cell(
+    fitted: &Fitted,
+    table: &MerlTable,
+    i: usize,
+    j: usize,
+    k: usize,
+) -> Rgb {
     let (wi, wo) = from_half_diff(&table.dims().cell_angles(i, j, k));
     match fitted {
         Fitted::Shared(m) => m.eval(&wi, &wo),
@@ -287,7 +293,11 @@ mod tests {
         let t = lambert_table(0.5);
         let c = albedo_curves(&t, &[&lambert(0.3)], &[0.0, 1.0]);
         for k in 0..2 {
-            assert!((c.table[k].unwrap()[1] - 0.5).abs() < 1e-3, "{:?}", c.table[k]);
+            assert!(
+                (c.table[k].unwrap()[1] - 0.5).abs() < 1e-3,
+                "{:?}",
+                c.table[k]
+            );
             assert!((c.models[0][k][1] - 0.3).abs() < 1e-6);
         }
     }

@@ -40,7 +40,10 @@ impl Ranged for SqrtThetaH {
         if hint.weight().allow_light_points() {
             Vec::new()
         } else {
-            self.ticks.iter().map(|d| self.n * (d / 90.0).sqrt()).collect()
+            self.ticks
+                .iter()
+                .map(|d| self.n * (d / 90.0).sqrt())
+                .collect()
         }
     }
 
@@ -87,11 +90,29 @@ fn err<E: std::fmt::Debug>(e: E) -> ReportError {
     ReportError::Chart(format!("{e:?}"))
 }
 
+/// The font whose metrics lay out the charts' text (the SVG names `sans-serif`; the
+/// browser draws it): DejaVu Sans, bundled (`assets/README.md`).
+static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+
+/// Registers [`FONT`] as plotters' `sans-serif`, once.
+fn register_font() -> Result<(), ReportError> {
+    static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ok = *ONCE.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(ReportError::Chart("the bundled font does not load".into()))
+    }
+}
+
 /// Draws into an SVG string of `size` pixels.
 fn svg(
     size: (u32, u32),
     draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<(), ReportError>,
 ) -> Result<String, ReportError> {
+    register_font()?;
     let mut s = String::new();
     {
         let root = SVGBackend::with_string(&mut s, size).into_drawing_area();
@@ -154,7 +175,15 @@ pub fn slice_chart(
             .axis_desc_style(("sans-serif", 13))
             .x_desc("θh (degrees, √ axis)")
             .y_desc("f_r (1/sr)")
-            .y_label_formatter(&|v| format!("{v:.0e}"))
+            // Label the decades only: the log axis puts a key point at every digit.
+            .y_label_formatter(&|v| {
+                let e = v.log10();
+                if (e - e.round()).abs() < 1e-6 {
+                    format!("1e{}", e.round() as i32)
+                } else {
+                    String::new()
+                }
+            })
             .light_line_style(WHITE.mix(0.0))
             .draw()
             .map_err(err)?;
@@ -171,7 +200,9 @@ pub fn slice_chart(
                 .draw_series(LineSeries::new(pts, col.stroke_width(2)))
                 .map_err(err)?
                 .label(labels[m].clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], col.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 14, y)], col.stroke_width(2))
+                });
         }
         let pts: Vec<(f64, f64)> = s
             .theta_h_index
@@ -294,7 +325,10 @@ pub fn colour_bar(scale: f64) -> Result<String, ReportError> {
             .draw_series((0..steps).map(|k| {
                 let a = -scale + 2.0 * scale * k as f64 / steps as f64;
                 let b = -scale + 2.0 * scale * (k + 1) as f64 / steps as f64;
-                Rectangle::new([(0.0, a), (1.0, b)], diverging((a + b) / (2.0 * scale)).filled())
+                Rectangle::new(
+                    [(0.0, a), (1.0, b)],
+                    diverging((a + b) / (2.0 * scale)).filled(),
+                )
             }))
             .map_err(err)?;
         Ok(())
@@ -332,6 +366,7 @@ pub fn albedo_chart(
             .axis_desc_style(("sans-serif", 13))
             .x_desc("θo (degrees)")
             .y_desc("a(θo) = ∫ f cos θi dωi")
+            .x_label_formatter(&|x| format!("{x:.0}"))
             .light_line_style(WHITE.mix(0.0))
             .draw()
             .map_err(err)?;
@@ -342,7 +377,9 @@ pub fn albedo_chart(
                 .draw_series(LineSeries::new(pts, col.stroke_width(2)))
                 .map_err(err)?
                 .label(labels[m].clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], col.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 14, y)], col.stroke_width(2))
+                });
         }
         let pts: Vec<(f64, f64)> = deg
             .iter()
@@ -382,11 +419,17 @@ mod tests {
         let s = colour_bar(0.5).unwrap();
         assert!(s.starts_with("<svg"), "{}", &s[..40]);
         assert!(s.contains("log10(model / measured)"), "{s}");
-        assert!(s.contains(">\n+0.20\n<") && s.contains(">\n-0.20\n<") && s.contains(">\n0\n<"), "{s}");
+        assert!(
+            s.contains(">\n+0.20\n<") && s.contains(">\n-0.20\n<") && s.contains(">\n0\n<"),
+            "{s}"
+        );
         // 64 colour steps, from blue to red.
         for t in [-63.0 / 64.0, 63.0 / 64.0] {
             let c = diverging(t);
-            assert!(s.contains(&format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)), "{s}");
+            assert!(
+                s.contains(&format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)),
+                "{s}"
+            );
         }
     }
 }

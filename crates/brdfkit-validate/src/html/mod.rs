@@ -6,7 +6,7 @@
 //! - every loss of the fitter over all valid cells ([`fit_quality_with`]: overall, per
 //!   channel, by θh and θd band, relative-error percentiles);
 //! - θh slices of the table and the model at several θd (φd = 90° by default), per
-//!   channel, on a log axis ([`analysis::slices`]);
+//!   channel, on a log axis ([`analysis::Slice`]);
 //! - a residual map over (θh, θd): the mean over φd and channels of
 //!   log10(f_model / f_measured) on blocks of the grid ([`analysis::ResidualMap`]);
 //! - spheres rendered with the table and with the model under a point light and a
@@ -228,7 +228,11 @@ fn check_options(o: &ReportOptions) -> Result<(), ReportError> {
     if !(o.slice_phi_d.is_finite() && (0.0..=std::f64::consts::PI).contains(&o.slice_phi_d)) {
         return bad("slice_phi_d", "must lie in [0, π] radians");
     }
-    if !in_quarter(&o.albedo_theta_o) || o.albedo_theta_o.iter().any(|t| *t >= std::f64::consts::FRAC_PI_2) {
+    if !in_quarter(&o.albedo_theta_o)
+        || o.albedo_theta_o
+            .iter()
+            .any(|t| *t >= std::f64::consts::FRAC_PI_2)
+    {
         return bad("albedo_theta_o", "angles must lie in [0, π/2) radians");
     }
     if o.residual_max_bins == 0 {
@@ -346,7 +350,7 @@ pub fn build_report(
             .map(|(m, f)| ModelSummary {
                 label: f.label.clone(),
                 params: f.fitted.to_json(),
-                losses: quality[m].losses.clone(),
+                losses: quality[m].losses,
                 fit_time_s: f.record.as_ref().map(|r| r.wall_time_s),
                 iterations: f.record.as_ref().map(|r| r.iterations),
                 converged: f.record.as_ref().map(|r| r.converged),

@@ -95,7 +95,10 @@ fn params_text(v: &Value) -> String {
                     walk(&format!("{prefix}[{k}]"), x, out);
                 }
             }
-            Value::Number(n) => out.push(format!("{prefix} = {}", num(n.as_f64().unwrap_or(f64::NAN)))),
+            Value::Number(n) => out.push(format!(
+                "{prefix} = {}",
+                num(n.as_f64().unwrap_or(f64::NAN))
+            )),
             other => out.push(format!("{prefix} = {other}")),
         }
     }
@@ -142,21 +145,35 @@ pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, Report
         }
         slice_svgs.push(row);
     }
-    let mut all_abs: Vec<f64> = d
+    // One scale for every map: the median over the models of each map's 95th
+    // percentile of |log ratio|, so neither the worst nor the best model sets it alone.
+    let mut p95: Vec<f64> = d
         .models
         .iter()
-        .flat_map(|m| m.residual_map.values.iter().flatten().map(|v| v.abs()))
+        .map(|m| {
+            let mut a: Vec<f64> = m
+                .residual_map
+                .values
+                .iter()
+                .flatten()
+                .map(|v| v.abs())
+                .collect();
+            a.sort_unstable_by(f64::total_cmp);
+            a.get(((a.len() as f64 * 0.95) as usize).min(a.len().saturating_sub(1)))
+                .copied()
+                .unwrap_or(0.0)
+        })
         .collect();
-    all_abs.sort_unstable_by(f64::total_cmp);
-    let scale = nice_scale(
-        all_abs
-            .get(((all_abs.len() as f64 * 0.95) as usize).min(all_abs.len().saturating_sub(1)))
-            .copied()
-            .unwrap_or(0.05),
-    );
+    p95.sort_unstable_by(f64::total_cmp);
+    let scale = nice_scale(p95.get(p95.len() / 2).copied().unwrap_or(0.05));
     let mut map_svgs = Vec::new();
     for m in &d.models {
-        map_svgs.push(charts::residual_chart(&m.residual_map, &m.label, theta_h_bins, scale)?);
+        map_svgs.push(charts::residual_chart(
+            &m.residual_map,
+            &m.label,
+            theta_h_bins,
+            scale,
+        )?);
     }
     let bar = charts::colour_bar(scale)?;
     let mut albedo_svgs = Vec::new();
@@ -186,7 +203,7 @@ pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, Report
                         @if let Some(td) = c.get_theta_d_max() { ", θd ≤ " (deg(td.to_degrees())) }
                         ". "
                     }
-                    "Report computed in " (format!("{:.1}", d.timings.total_s - d.timings.page_s)) " s. Every loss below is over all valid cells ("
+                    "Report computed in " (format!("{:.1}", d.timings.quality_s + d.timings.slices_and_maps_s + d.timings.albedo_s + d.timings.checks_s + d.timings.renders_s)) " s. Every loss below is over all valid cells ("
                     (d.summary.weighting.name()) " weights); how to read each section: docs/report.md."
                 }
                 nav {

@@ -4,13 +4,13 @@
 
 use super::ReportError;
 use brdfkit_core::Rgb;
+use brdfkit_core::Vec3;
 use brdfkit_fit::Fitted;
 use brdfkit_merl::{Lookup, MerlTable};
 use brdfkit_render::env::{Environment, LatLong, uv_to_direction};
 use brdfkit_render::material::MaterialSource;
 use brdfkit_render::output::tonemap_channel;
 use brdfkit_render::{Material, RenderOutput, Scene, TableBrdf, render};
-use brdfkit_core::Vec3;
 use image::{ImageFormat, RgbImage};
 use serde::{Deserialize, Serialize};
 use std::io::Cursor;
@@ -379,9 +379,17 @@ mod tests {
             assert!(s.table_png.starts_with(b"\x89PNG"));
             // A constant table is the Lambertian exactly: the same image up to the
             // interpolation's round-off.
-            assert!(s.models[0].diff.rel_rms_radiance < 1e-9, "{l:?} {:?}", s.models[0].diff);
+            assert!(
+                s.models[0].diff.rel_rms_radiance < 1e-9,
+                "{l:?} {:?}",
+                s.models[0].diff
+            );
             // Twice the albedo: twice the radiance everywhere (rel. RMS 1).
-            assert!((s.models[1].diff.rel_rms_radiance - 1.0).abs() < 1e-9, "{:?}", s.models[1].diff);
+            assert!(
+                (s.models[1].diff.rel_rms_radiance - 1.0).abs() < 1e-9,
+                "{:?}",
+                s.models[1].diff
+            );
             assert!(s.models[1].diff.mean_abs_display > 0.01);
         }
     }

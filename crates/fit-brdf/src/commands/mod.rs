@@ -9,6 +9,7 @@ mod export;
 mod fit;
 mod info;
 mod render;
+mod report;
 mod resample;
 mod synth;
 
@@ -29,6 +30,7 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Check(a) => check::run(a),
         Command::Render(a) => render::run(a),
         Command::Demo(a) => demo::run(a),
+        Command::Report(a) => report::run(a),
         Command::Batch(a) => batch::run(a),
         Command::Export(a) => export::run(a),
         Command::Completions(a) => completions::run(a),
