@@ -432,6 +432,7 @@ fn inputs_globs_and_bad_usage() {
     assert!(!d.path().join("never").exists(), "bad input writes nothing");
 }
 
+#[cfg(unix)]
 /// Spawns a batch over `db`, waits for its first finished table and 50 ms more (the
 /// second table is then being fitted: each takes a few hundred ms), sends `signals`
 /// SIGINTs 30 ms apart, and returns its output.
@@ -468,6 +469,7 @@ fn interrupt(db: &Path, out: &Path, signals: usize) -> std::process::Output {
     child.wait_with_output().unwrap()
 }
 
+#[cfg(unix)]
 #[test]
 fn sigint_stops_between_tables_and_a_rerun_resumes() {
     let d = tempfile::tempdir().unwrap();
@@ -510,6 +512,7 @@ fn sigint_stops_between_tables_and_a_rerun_resumes() {
     assert_eq!(assert_outputs_complete(&out), n);
 }
 
+#[cfg(unix)]
 #[test]
 fn a_second_sigint_stops_at_once_and_leaves_no_partial_file() {
     let d = tempfile::tempdir().unwrap();
