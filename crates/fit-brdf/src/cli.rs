@@ -123,6 +123,16 @@ pub enum Command {
                             fit-brdf completions fish > ~/.config/fish/completions/fit-brdf.fish"
     )]
     Completions(CompletionsArgs),
+    /// The accuracy-vs-time study: fit grids, evaluation choices and scaling on the
+    /// synthetic materials; writes tables, CSV/JSON and PNG plots, and the report.
+    #[command(
+        after_help = "Examples:\n  fit-brdf study --out docs/accuracy-vs-time            # the full grid (long)\n  \
+                            fit-brdf study --quick --out /tmp/study                # a CI-sized grid\n  \
+                            fit-brdf study --parts grid --models cook-torrance --solvers lm,lbfgs --fractions 0.02,1 --starts 1,4\n\n\
+                            Writes OUT/*.csv, OUT/*.json, OUT/*.png and OUT.md (only the generated sections between \
+                            <!-- study:NAME --> markers are replaced; the rest of OUT.md is kept). Details: docs/accuracy-vs-time.md."
+    )]
+    Study(StudyArgs),
 }
 
 #[derive(Args, Debug)]
@@ -399,6 +409,62 @@ pub struct ReportArgs {
     #[arg(long)]
     pub json: bool,
     /// No progress on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct StudyArgs {
+    /// Output directory of the data and plots; the report is OUT.md.
+    #[arg(long, default_value = "docs/accuracy-vs-time")]
+    pub out: PathBuf,
+    /// Directory of the material specs.
+    #[arg(long, default_value = "data-synthetic")]
+    pub specs: PathBuf,
+    /// The CI-sized grid (2 materials, Cook-Torrance, LM / L-BFGS / Nelder-Mead, 2 % and 100 %, 1 and 4 starts).
+    #[arg(long)]
+    pub quick: bool,
+    /// Parts to run: any of grid, choices, scale (comma-separated).
+    #[arg(long, value_name = "PARTS", default_value = "grid,choices,scale")]
+    pub parts: String,
+    /// Materials (spec file stems), comma-separated; default: the grid's.
+    #[arg(long)]
+    pub materials: Option<String>,
+    /// Models: cook-torrance, ward, plausible-phong, lambert, blinn-phong, lafortune.
+    #[arg(long)]
+    pub models: Option<String>,
+    /// Solvers: lm, gauss-newton, trust-region, lbfgs, nelder-mead.
+    #[arg(long)]
+    pub solvers: Option<String>,
+    /// Sample fractions in (0, 1], e.g. 0.005,0.02,0.1,0.5,1.
+    #[arg(long)]
+    pub fractions: Option<String>,
+    /// Numbers of starts, e.g. 1,4,16.
+    #[arg(long)]
+    pub starts: Option<String>,
+    /// Largest fraction Nelder-Mead runs on.
+    #[arg(long)]
+    pub nelder_mead_max_fraction: Option<f64>,
+    /// Iteration cap per start and stage of lm, gauss-newton, trust-region, lbfgs (the full grid: 25; 0 = each solver's own).
+    #[arg(long)]
+    pub max_iters: Option<u64>,
+    /// Iteration cap per start of nelder-mead (the full grid: 1000; 0 = its own, 5000).
+    #[arg(long)]
+    pub nelder_mead_max_iters: Option<u64>,
+    /// More than 4 starts only at sample fractions up to this (1 = everywhere).
+    #[arg(long)]
+    pub many_starts_max_fraction: Option<f64>,
+    /// Timed repetitions of each evaluation figure.
+    #[arg(long)]
+    pub reps: Option<usize>,
+    /// Tables in the batch-throughput figure.
+    #[arg(long)]
+    pub batch_tables: Option<usize>,
+    /// Redraw the plots and rewrite OUT.md from OUT/results.json and OUT/run.json,
+    /// measuring nothing.
+    #[arg(long)]
+    pub rewrite: bool,
+    /// No progress lines on stderr.
     #[arg(long, short)]
     pub quiet: bool,
 }

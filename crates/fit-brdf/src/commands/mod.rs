@@ -11,6 +11,7 @@ mod info;
 mod render;
 mod report;
 mod resample;
+mod study;
 mod synth;
 
 use crate::cli::{Cli, Command, Interp};
@@ -34,6 +35,7 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Batch(a) => batch::run(a),
         Command::Export(a) => export::run(a),
         Command::Completions(a) => completions::run(a),
+        Command::Study(a) => study::run(a),
     }
 }
 

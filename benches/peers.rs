@@ -1,0 +1,276 @@
+//! brdfkit's side of the peer comparison run by `benches/peers/run` (docs/performance.md).
+//!
+//! Writes the inputs the peers read into `--dir DIR` and prints one JSON object of our
+//! timings and checksums on stdout (`--json FILE` also writes it):
+//!
+//! - `eval`: Cook-Torrance GGX, separable Smith, exact conductor Fresnel (gold, α = 0.2,
+//!   ρd = 0, ρs = 1: Mitsuba 3's `roughconductor`), RGB, over all 1,458,000 (wi, wo)
+//!   pairs of the MERL grid cells (`DIR/grid_pairs.f64`, 6 planes wi_x … wo_z). Timed:
+//!   the model's `eval_batch` on precomputed geometry, `Brdf::eval` from the direction
+//!   pairs (h and cos θd computed per pair, as Mitsuba does), and the f32 and f64 SoA
+//!   kernels of `brdfkit_study::kernel`; all on the global rayon pool, chunks of 8192.
+//! - `read`: `MerlTable::read` of `DIR/table.binary` (the gold table) and `cat FILE >
+//!   /dev/null`, interleaved.
+//! - `nearest`: `lookup_batch(Nearest)` of 1,458,000 seeded random pairs
+//!   (`DIR/random_pairs.f64`).
+//! - `fit`: the default full-table fit of the `fit` bench's noise-free table (Cook-Torrance
+//!   GGX + Schlick, ρd = (0.1, 0.2, 0.3), ρs = (0.5, 0.4, 0.3), α = 0.08, f0 = (0.9, 0.6,
+//!   0.3)), cells in `DIR/fit_cells.bin` for `fit_scipy.py`.
+//!
+//! Timings are the median of `--reps N` runs (default 7) after one warm-up run.
+
+use brdfkit::core::{Brdf, GeometryBatch, HalfDiff, Model, Rgb, Vec3, from_half_diff};
+use brdfkit::fit::{FitConfig, FitData, Loss, fit};
+use brdfkit::merl::{Dims, Lookup, MerlTable};
+use brdfkit_study::kernel::{self, GgxConductor, Planes};
+use rayon::prelude::*;
+use serde_json::json;
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::hint::black_box;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+const GOLD: GgxConductor = GgxConductor {
+    rho_d: [0.0; 3],
+    rho_s: [1.0; 3],
+    alpha: 0.2,
+    eta: [0.143, 0.374, 1.442],
+    k: [3.983, 2.385, 1.603],
+};
+
+const FIT_TRUTH: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","masking":"smith-separable",
+    "fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.08}}"#;
+const FIT_START: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","masking":"smith-separable","fresnel":"schlick"}}"#;
+
+fn median_time(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
+    f(); // warm-up
+    let mut v: Vec<f64> = (0..reps.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .collect();
+    v.sort_by(|a, b| a.total_cmp(b));
+    (v[v.len() / 2], v[0])
+}
+
+fn grid_pairs() -> Vec<(Vec3, Vec3)> {
+    let mut v = Vec::with_capacity(1_458_000);
+    for i in 0..90 {
+        let th = (i as f64 / 90.0).powi(2) * FRAC_PI_2;
+        for j in 0..90 {
+            let td = j as f64 / 90.0 * FRAC_PI_2;
+            for k in 0..180 {
+                let pd = k as f64 / 180.0 * PI;
+                v.push(from_half_diff(&HalfDiff::new(th, 0.0, td, pd)));
+            }
+        }
+    }
+    v
+}
+
+/// Six little-endian f64 planes: wi_x wi_y wi_z wo_x wo_y wo_z.
+fn write_pairs(path: &Path, pairs: &[(Vec3, Vec3)]) -> std::io::Result<()> {
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    for c in 0..6 {
+        for (wi, wo) in pairs {
+            let x = if c < 3 { wi[c] } else { wo[c - 3] };
+            f.write_all(&x.to_le_bytes())?;
+        }
+    }
+    f.flush()
+}
+
+/// The cells format of `fit_scipy.py`.
+fn write_cells(data: &FitData, path: &Path) -> std::io::Result<()> {
+    let g = data.geometry();
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    f.write_all(b"BRDFCELL")?;
+    f.write_all(&(data.len() as u64).to_le_bytes())?;
+    let v = data.values();
+    for col in [
+        &g.wi_x, &g.wi_y, &g.wi_z, &g.wo_x, &g.wo_y, &g.wo_z, &g.h_x, &g.h_y, &g.h_z, &g.cos_d,
+        &v[0], &v[1], &v[2],
+    ] {
+        for x in col.iter() {
+            f.write_all(&x.to_le_bytes())?;
+        }
+    }
+    for x in data.measure() {
+        f.write_all(&x.to_le_bytes())?;
+    }
+    f.flush()
+}
+
+fn sums(v: &[Rgb]) -> [f64; 3] {
+    let mut s = [0.0; 3];
+    for x in v {
+        for c in 0..3 {
+            s[c] += x[c];
+        }
+    }
+    s
+}
+
+fn cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = &s[s.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ut: f64 = f.get(11)?.parse().ok()?;
+    let st: f64 = f.get(12)?.parse().ok()?;
+    Some((ut + st) / 100.0)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let opt = |name: &str| {
+        args.iter()
+            .position(|a| a == name)
+            .and_then(|i| args.get(i + 1))
+            .cloned()
+    };
+    let reps: usize = opt("--reps").and_then(|s| s.parse().ok()).unwrap_or(7);
+    let dir = PathBuf::from(opt("--dir").unwrap_or_else(|| "target/peers".into()));
+    std::fs::create_dir_all(&dir).expect("the exchange directory");
+    let threads = rayon::current_num_threads();
+    let mut out = json!({"threads": threads, "reps": reps});
+
+    // --- model evaluation over the MERL grid ---
+    let pairs = grid_pairs();
+    let n = pairs.len();
+    write_pairs(&dir.join("grid_pairs.f64"), &pairs).expect("write grid pairs");
+    let batch = GeometryBatch::from_pairs(&pairs);
+    let model = brdfkit::models::from_json(&GOLD.to_json()).expect("the gold model");
+    let m: &dyn Model = model.as_ref();
+    let s = batch.as_slice();
+    let mut o = vec![Rgb::ZERO; n];
+    let (t_batch, t_batch_min) = median_time(reps, || {
+        o.par_chunks_mut(kernel::CHUNK)
+            .enumerate()
+            .for_each(|(c, o)| {
+                let a = c * kernel::CHUNK;
+                m.eval_batch(&s.sub(a..a + o.len()), o);
+            });
+        black_box(&o);
+    });
+    let sum_batch = sums(&o);
+    let (t_pairs, t_pairs_min) = median_time(reps, || {
+        o.par_chunks_mut(kernel::CHUNK)
+            .zip(pairs.par_chunks(kernel::CHUNK))
+            .for_each(|(o, p)| {
+                for (o, (wi, wo)) in o.iter_mut().zip(p) {
+                    *o = Brdf::eval(m, wi, wo);
+                }
+            });
+        black_box(&o);
+    });
+    let g64 = kernel::geom_f64(&s);
+    let mut p64 = Planes::zeros(n);
+    let (t_k64, t_k64_min) = median_time(reps, || {
+        kernel::eval_par_f64(&GOLD, &g64, &mut p64);
+        black_box(&p64);
+    });
+    let g32 = kernel::geom_f32(&s);
+    let mut p32 = Planes::<f32>::zeros(n);
+    let (t_k32, t_k32_min) = median_time(reps, || {
+        kernel::eval_par_f32(&GOLD, &g32, &mut p32);
+        black_box(&p32);
+    });
+    let sum32: [f64; 3] = [
+        p32.r.iter().map(|&x| x as f64).sum(),
+        p32.g.iter().map(|&x| x as f64).sum(),
+        p32.b.iter().map(|&x| x as f64).sum(),
+    ];
+    out["eval"] = json!({
+        "cells": n,
+        "params": GOLD.to_json(),
+        "eval_batch_s": t_batch, "eval_batch_min_s": t_batch_min,
+        "eval_pairs_s": t_pairs, "eval_pairs_min_s": t_pairs_min,
+        "kernel_f64_s": t_k64, "kernel_f64_min_s": t_k64_min,
+        "kernel_f32_s": t_k32, "kernel_f32_min_s": t_k32_min,
+        "sum_f64": sum_batch, "sum_f32": sum32,
+    });
+    eprintln!("eval: eval_batch {:.1} ms, eval(pairs) {:.1} ms, f64 kernel {:.1} ms, f32 kernel {:.1} ms",
+        t_batch * 1e3, t_pairs * 1e3, t_k64 * 1e3, t_k32 * 1e3);
+
+    // --- reading a table vs cat ---
+    let table = MerlTable::from_brdf(m, Dims::MERL).expect("the gold table");
+    let tpath = dir.join("table.binary");
+    table.write(&tpath).expect("write the table");
+    let cat = || {
+        let st = Command::new("cat")
+            .arg(&tpath)
+            .stdout(Stdio::null())
+            .status()
+            .expect("spawn cat");
+        assert!(st.success());
+    };
+    let (mut rs, mut cs) = (Vec::new(), Vec::new());
+    black_box(MerlTable::read(&tpath).unwrap());
+    cat();
+    for _ in 0..(4 * reps).max(10) {
+        let t = Instant::now();
+        black_box(MerlTable::read(&tpath).unwrap());
+        rs.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        cat();
+        cs.push(t.elapsed().as_secs_f64());
+    }
+    rs.sort_by(|a, b| a.total_cmp(b));
+    cs.sort_by(|a, b| a.total_cmp(b));
+    let raw_sum: f64 = table.raw().iter().filter(|x| **x >= 0.0).sum();
+    out["read"] = json!({
+        "bytes": std::fs::metadata(&tpath).map(|m| m.len()).unwrap_or(0),
+        "read_s": rs[rs.len() / 2], "read_min_s": rs[0],
+        "cat_s": cs[cs.len() / 2], "cat_min_s": cs[0],
+        "runs": rs.len(), "valid_raw_sum": raw_sum,
+    });
+    eprintln!("read: {:.1} ms, cat {:.1} ms", rs[rs.len() / 2] * 1e3, cs[cs.len() / 2] * 1e3);
+
+    // --- nearest lookup of random pairs ---
+    let rp = brdfkit_study::choices::random_pairs(n, 0x4d45524c);
+    write_pairs(&dir.join("random_pairs.f64"), &rp).expect("write random pairs");
+    let mut got = Vec::new();
+    let (t_near, t_near_min) = median_time(reps, || {
+        got = table.lookup_batch(Lookup::Nearest, black_box(&rp));
+    });
+    let found = got.iter().filter(|g| g.is_some()).count();
+    let sum_near = sums(&got.iter().flatten().copied().collect::<Vec<_>>());
+    out["nearest"] = json!({
+        "pairs": n, "time_s": t_near, "min_s": t_near_min,
+        "found": found, "sum": sum_near,
+    });
+    eprintln!("nearest: {:.1} ms, {found} found", t_near * 1e3);
+
+    // --- a full-table fit ---
+    if !args.iter().any(|a| a == "--no-fit") {
+        let truth = brdfkit::models::from_json_str(FIT_TRUTH).expect("truth");
+        let ftable = MerlTable::from_brdf(truth.as_ref(), Dims::MERL).expect("fit table");
+        let data = FitData::from_table(&ftable).expect("cells");
+        write_cells(&data, &dir.join("fit_cells.bin")).expect("write cells");
+        let start = brdfkit::models::from_json_str(FIT_START).expect("start");
+        let cfg = FitConfig::default();
+        let mut last = None;
+        let c0 = cpu_seconds();
+        let (t_fit, t_fit_min) = median_time(reps.min(5), || {
+            last = Some(fit(start.as_ref(), &data, &cfg, None).expect("fit"));
+        });
+        let cpu = c0.zip(cpu_seconds()).map(|(a, b)| (b - a) / (reps.min(5) + 1) as f64);
+        let rec = &last.expect("a fit ran").record;
+        out["fit"] = json!({
+            "cells": data.len(), "time_s": t_fit, "min_s": t_fit_min, "cpu_s_per_fit": cpu,
+            "loss_cbrt": rec.losses_full.get(Loss::Cbrt).overall,
+            "iterations": rec.iterations, "model": rec.model,
+        });
+        eprintln!("fit: {:.3} s, loss {:.3e}", t_fit, rec.losses_full.get(Loss::Cbrt).overall);
+    }
+
+    let s = serde_json::to_string_pretty(&out).expect("json");
+    if let Some(p) = opt("--json") {
+        std::fs::write(&p, &s).expect("write the JSON");
+    }
+    println!("{s}");
+}

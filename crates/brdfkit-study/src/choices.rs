@@ -1,0 +1,439 @@
+//! Evaluation choices: the error each cheaper choice introduces and the time it saves.
+//!
+//! - table lookup: nearest bin vs multilinear interpolation, against the analytic truth
+//!   of the synthetic material at random direction pairs;
+//! - Cook-Torrance variants against a reference on the valid cells of the MERL grid:
+//!   Schlick vs exact conductor Fresnel, rational vs exact-erf Beckmann G1, separable vs
+//!   height-correlated Smith, and the `f32` kernel of [`crate::kernel`] vs the `f64`
+//!   model.
+//!
+//! Errors: relative error |f̂ − f|/f over the (pair, channel)s where the reference is
+//! positive (median, 90th and 99th percentile, maximum), and the `cbrt` error — the
+//! solid-angle-weighted RMS of ∛(f̂ cos θi) − ∛(f cos θi), the fitter's default loss
+//! (docs/fitting.md), so it reads on the same scale as the fit grid's losses. Times: one
+//! thread, minimum over `reps` runs, per evaluated cell or pair.
+
+use crate::kernel::{self, GgxConductor, Planes};
+use crate::{Material, StudyConfig, StudyError};
+use brdfkit::synth::SynthSpec;
+use brdfkit_core::direction::spherical;
+use brdfkit_core::{GeometryBatch, Model, Rgb, Vec3};
+use brdfkit_fit::{FitConfig, FitData, fit};
+use brdfkit_merl::Lookup;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+use std::hint::black_box;
+use std::time::Instant;
+
+/// Error statistics of an approximation against a reference.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq)]
+pub struct ErrorStats {
+    /// (pair, channel)s compared (reference > 0, approximation present).
+    pub n: usize,
+    pub rel_median: f64,
+    pub rel_p90: f64,
+    pub rel_p99: f64,
+    pub rel_max: f64,
+    /// Weighted RMS of the cube-root difference (the `cbrt` loss).
+    pub cbrt_rms: f64,
+}
+
+/// Accumulates errors of (reference, approximation, cos θi, weight) samples.
+#[derive(Default)]
+struct ErrAcc {
+    rel: Vec<f64>,
+    sq: [f64; 3],
+    w: f64,
+}
+
+impl ErrAcc {
+    fn add(&mut self, reference: Rgb, approx: Rgb, cos_i: f64, w: f64) {
+        for c in 0..3 {
+            let (f, g) = (reference[c], approx[c]);
+            if f > 0.0 {
+                self.rel.push((g - f).abs() / f);
+            }
+            let d = brdfkit_fit::loss::cbrt(g * cos_i) - brdfkit_fit::loss::cbrt(f * cos_i);
+            self.sq[c] += w * d * d;
+        }
+        self.w += w;
+    }
+
+    fn finish(mut self) -> ErrorStats {
+        self.rel.sort_by(|a, b| a.total_cmp(b));
+        let q = |p: f64| {
+            if self.rel.is_empty() {
+                f64::NAN
+            } else {
+                self.rel[((self.rel.len() - 1) as f64 * p).round() as usize]
+            }
+        };
+        let per_ch: Vec<f64> = self.sq.iter().map(|s| s / self.w).collect();
+        ErrorStats {
+            n: self.rel.len(),
+            rel_median: q(0.5),
+            rel_p90: q(0.9),
+            rel_p99: q(0.99),
+            rel_max: q(1.0),
+            cbrt_rms: (per_ch.iter().sum::<f64>() / 3.0).sqrt(),
+        }
+    }
+}
+
+/// Minimum wall time of `reps` runs of `f`, seconds.
+pub fn time_min(reps: usize, mut f: impl FnMut()) -> f64 {
+    (0..reps.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// A rayon pool of `n` threads.
+pub fn pool(n: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .expect("a rayon pool")
+}
+
+/// One lookup mode on one material.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct LookupRow {
+    pub material: String,
+    pub mode: String,
+    pub pairs: usize,
+    /// Fraction of the pairs that got a value (the rest land in missing cells).
+    pub found: f64,
+    #[serde(flatten)]
+    pub err: ErrorStats,
+    /// Time per lookup through `lookup_batch`, one thread and all threads, ns.
+    pub ns_1_thread: f64,
+    pub ns_all_threads: f64,
+}
+
+/// `n` seeded random pairs, both directions uniform over the upper hemisphere.
+pub fn random_pairs(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut dir = move || {
+        // z uniform in (0, 1] is uniform in solid angle, strictly above the horizon.
+        let z: f64 = 1.0 - rng.random::<f64>();
+        spherical(z.acos(), rng.random_range(-PI..PI))
+    };
+    (0..n).map(|_| (dir(), dir())).collect()
+}
+
+/// Nearest vs interpolated lookups against the truth, per material (the noise-free
+/// ones: a noisy table's error is mostly its noise).
+pub fn lookups(
+    cfg: &StudyConfig,
+    materials: &[Material],
+    progress: &dyn Fn(&str),
+) -> Result<Vec<LookupRow>, StudyError> {
+    let pairs = random_pairs(cfg.lookup_pairs, 0x4c4f4f4b);
+    let one = pool(1);
+    let mut rows = Vec::new();
+    for m in materials.iter().filter(|m| m.spec.noise.is_none()) {
+        let truth: Vec<Rgb> = pairs
+            .par_iter()
+            .map(|(wi, wo)| m.spec.truth(wi, wo))
+            .collect();
+        for (name, mode) in [
+            ("nearest", Lookup::Nearest),
+            ("interpolated", Lookup::Interpolated),
+        ] {
+            let got = m.table.lookup_batch(mode, &pairs);
+            let mut acc = ErrAcc::default();
+            let mut found = 0usize;
+            for ((g, t), (wi, _)) in got.iter().zip(&truth).zip(&pairs) {
+                if let Some(g) = g {
+                    found += 1;
+                    acc.add(*t, *g, wi.z, 1.0);
+                }
+            }
+            let t1 = one.install(|| {
+                time_min(cfg.reps, || {
+                    black_box(m.table.lookup_batch(mode, black_box(&pairs)));
+                })
+            });
+            let ta = time_min(cfg.reps, || {
+                black_box(m.table.lookup_batch(mode, black_box(&pairs)));
+            });
+            let row = LookupRow {
+                material: m.spec.name.clone(),
+                mode: name.into(),
+                pairs: pairs.len(),
+                found: found as f64 / pairs.len() as f64,
+                err: acc.finish(),
+                ns_1_thread: t1 / pairs.len() as f64 * 1e9,
+                ns_all_threads: ta / pairs.len() as f64 * 1e9,
+            };
+            progress(&format!(
+                "lookup {} {}: median rel {:.2e}, cbrt {:.2e}, {:.0} ns",
+                row.material, row.mode, row.err.rel_median, row.err.cbrt_rms, row.ns_1_thread
+            ));
+            rows.push(row);
+        }
+    }
+    Ok(rows)
+}
+
+/// One evaluation choice: a variant against its reference.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct VariantRow {
+    /// What is chosen (`fresnel`, `beckmann-g1`, `smith`, `precision`).
+    pub choice: String,
+    pub material: String,
+    pub reference: String,
+    pub variant: String,
+    #[serde(flatten)]
+    pub err: ErrorStats,
+    /// One thread, per valid MERL cell, ns.
+    pub ns_reference: f64,
+    pub ns_variant: f64,
+}
+
+/// Times `eval_batch` of a model over all cells of `g`, one thread, chunks of 8192.
+fn time_model(reps: usize, m: &dyn Model, g: &GeometryBatch) -> f64 {
+    let s = g.as_slice();
+    let mut out = vec![Rgb::ZERO; g.len()];
+    let t = pool(1).install(|| {
+        time_min(reps, || {
+            out.par_chunks_mut(kernel::CHUNK)
+                .enumerate()
+                .for_each(|(c, o)| {
+                    let a = c * kernel::CHUNK;
+                    m.eval_batch(&s.sub(a..a + o.len()), o);
+                });
+            black_box(&out);
+        })
+    });
+    t / g.len() as f64 * 1e9
+}
+
+fn eval_model(m: &dyn Model, g: &GeometryBatch) -> Vec<Rgb> {
+    let mut out = vec![Rgb::ZERO; g.len()];
+    m.eval_batch(&g.as_slice(), &mut out);
+    out
+}
+
+fn compare(data: &FitData, reference: &[Rgb], variant: &[Rgb]) -> ErrorStats {
+    let mut acc = ErrAcc::default();
+    let g = data.geometry();
+    for (k, (r, v)) in reference.iter().zip(variant).enumerate() {
+        acc.add(*r, *v, g.wi_z[k], data.measure()[k]);
+    }
+    acc.finish()
+}
+
+fn model(v: serde_json::Value, what: &str) -> Result<Box<dyn Model>, StudyError> {
+    brdfkit_models::from_json(&v).map_err(|e| StudyError::Model {
+        what: what.into(),
+        msg: e.to_string(),
+    })
+}
+
+/// Every Cook-Torrance variant against its reference.
+pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<VariantRow>, StudyError> {
+    let spec = |n: &str| SynthSpec::read(cfg.specs_dir.join(format!("{n}.toml")));
+    let gold = spec("gold-ggx")?;
+    let copper = spec("copper-beckmann")?;
+    let cells = |s: &SynthSpec| -> Result<FitData, StudyError> {
+        let t = s.synthesize()?;
+        FitData::from_table(&t).map_err(|source| StudyError::Fit {
+            what: s.name.clone(),
+            source,
+        })
+    };
+    let gold_cells = cells(&gold)?;
+    let copper_cells = cells(&copper)?;
+    let gj = gold.material.to_json();
+    let cj = copper.material.to_json();
+    let with = |base: &serde_json::Value, key: &str, val: serde_json::Value| {
+        let mut v = base.clone();
+        v["params"][key] = val;
+        v
+    };
+    let mut rows = Vec::new();
+    let mut push = |choice: &str,
+                    material: &str,
+                    data: &FitData,
+                    (rn, r): (&str, &dyn Model),
+                    (vn, v): (&str, &dyn Model)| {
+        let g = data.geometry();
+        let err = compare(data, &eval_model(r, g), &eval_model(v, g));
+        let row = VariantRow {
+            choice: choice.into(),
+            material: material.into(),
+            reference: rn.into(),
+            variant: vn.into(),
+            err,
+            ns_reference: time_model(cfg.reps, r, g),
+            ns_variant: time_model(cfg.reps, v, g),
+        };
+        progress(&format!(
+            "variant {choice} {vn} vs {rn}: max rel {:.2e}, cbrt {:.2e}, {:.1} vs {:.1} ns",
+            row.err.rel_max, row.err.cbrt_rms, row.ns_variant, row.ns_reference
+        ));
+        rows.push(row);
+    };
+
+    // Fresnel: Schlick with f0 = the conductor's normal-incidence reflectance, and with
+    // f0 fitted (cbrt loss, everything else held) to the conductor's values.
+    let reference = model(gj.clone(), "gold-ggx")?;
+    let eta: Vec<f64> = serde_json::from_value(gj["params"]["fresnel"]["conductor"]["eta"].clone())
+        .unwrap_or_default();
+    let kk: Vec<f64> = serde_json::from_value(gj["params"]["fresnel"]["conductor"]["k"].clone())
+        .unwrap_or_default();
+    if eta.len() != 3 || kk.len() != 3 {
+        return Err(StudyError::Model {
+            what: "gold-ggx".into(),
+            msg: "expected per-channel conductor eta and k".into(),
+        });
+    }
+    let f0: Vec<f64> = (0..3)
+        .map(|c| brdfkit_core::scattering::fresnel::conductor(1.0, eta[c], kk[c]))
+        .collect();
+    let schlick = model(
+        with(&gj, "fresnel", serde_json::json!({"schlick": {"f0": f0}})),
+        "schlick",
+    )?;
+    push(
+        "fresnel",
+        "gold-ggx",
+        &gold_cells,
+        ("conductor (exact)", reference.as_ref()),
+        ("Schlick, f0 = F(0°)", schlick.as_ref()),
+    );
+    let fc = FitConfig::default()
+        .fix_params(["rho_d", "rho_s", "alpha"])
+        .warm_up(None)
+        .map_err(|source| StudyError::Fit {
+            what: "schlick f0 fit".into(),
+            source,
+        })?;
+    let fitted = fit(schlick.as_ref(), &gold_cells, &fc, None).map_err(|source| StudyError::Fit {
+        what: "schlick f0 fit".into(),
+        source,
+    })?;
+    let fitted = fitted
+        .fitted
+        .shared()
+        .map(|m| m.clone_box())
+        .ok_or_else(|| StudyError::Model {
+            what: "schlick f0 fit".into(),
+            msg: "expected a shared fit".into(),
+        })?;
+    push(
+        "fresnel",
+        "gold-ggx",
+        &gold_cells,
+        ("conductor (exact)", reference.as_ref()),
+        ("Schlick, f0 fitted (cbrt)", fitted.as_ref()),
+    );
+
+    // Beckmann G1: Walter's rational form vs the exact erf form.
+    let cexact = model(with(&cj, "beckmann_g1", "exact".into()), "copper exact")?;
+    let crational = model(with(&cj, "beckmann_g1", "rational".into()), "copper rational")?;
+    push(
+        "beckmann-g1",
+        "copper-beckmann",
+        &copper_cells,
+        ("exact (erf)", cexact.as_ref()),
+        ("rational (Walter 2007)", crational.as_ref()),
+    );
+    // Smith: separable vs height-correlated (the reference), GGX and Beckmann.
+    let gcor = model(with(&gj, "masking", "smith-correlated".into()), "gold correlated")?;
+    let gsep = model(with(&gj, "masking", "smith-separable".into()), "gold separable")?;
+    push(
+        "smith",
+        "gold-ggx",
+        &gold_cells,
+        ("height-correlated", gcor.as_ref()),
+        ("separable", gsep.as_ref()),
+    );
+    let csep = model(with(&cj, "masking", "smith-separable".into()), "copper separable")?;
+    push(
+        "smith",
+        "copper-beckmann",
+        &copper_cells,
+        ("height-correlated", cexact.as_ref()),
+        ("separable", csep.as_ref()),
+    );
+
+    // Precision: the f32 and f64 kernels against the f64 model, on gold and on the
+    // near-mirror silver (the steepest D).
+    for name in ["gold-ggx", "near-mirror-silver"] {
+        let s = spec(name)?;
+        let data = cells(&s)?;
+        let j = s.material.to_json();
+        let p = &j["params"];
+        let rgb = |v: &serde_json::Value| -> [f64; 3] {
+            match v {
+                serde_json::Value::Array(a) => {
+                    std::array::from_fn(|c| a.get(c).and_then(|x| x.as_f64()).unwrap_or(f64::NAN))
+                }
+                x => [x.as_f64().unwrap_or(f64::NAN); 3],
+            }
+        };
+        let kp = GgxConductor {
+            rho_d: rgb(&p["rho_d"]),
+            rho_s: rgb(&p["rho_s"]),
+            alpha: p["alpha"].as_f64().unwrap_or(f64::NAN),
+            eta: rgb(&p["fresnel"]["conductor"]["eta"]),
+            k: rgb(&p["fresnel"]["conductor"]["k"]),
+        };
+        let m = model(kp.to_json(), name)?;
+        let g = data.geometry();
+        let reference = eval_model(m.as_ref(), g);
+        let ns_ref = time_model(cfg.reps, m.as_ref(), g);
+        let one = pool(1);
+        let g64 = kernel::geom_f64(&g.as_slice());
+        let mut o64 = Planes::zeros(g.len());
+        let t64 = one.install(|| {
+            time_min(cfg.reps, || {
+                kernel::eval_par_f64(&kp, &g64, &mut o64);
+                black_box(&o64);
+            })
+        });
+        let g32 = kernel::geom_f32(&g.as_slice());
+        let mut o32 = Planes::<f32>::zeros(g.len());
+        let t32 = one.install(|| {
+            time_min(cfg.reps, || {
+                kernel::eval_par_f32(&kp, &g32, &mut o32);
+                black_box(&o32);
+            })
+        });
+        let v64: Vec<Rgb> = (0..g.len())
+            .map(|i| Rgb::new(o64.r[i], o64.g[i], o64.b[i]))
+            .collect();
+        let v32: Vec<Rgb> = (0..g.len())
+            .map(|i| Rgb::new(o32.r[i] as f64, o32.g[i] as f64, o32.b[i] as f64))
+            .collect();
+        for (vn, v, t) in [
+            ("f64 SoA kernel", &v64, t64),
+            ("f32 SoA kernel", &v32, t32),
+        ] {
+            let row = VariantRow {
+                choice: "precision".into(),
+                material: name.into(),
+                reference: "f64 model (eval_batch)".into(),
+                variant: vn.into(),
+                err: compare(&data, &reference, v),
+                ns_reference: ns_ref,
+                ns_variant: t / g.len() as f64 * 1e9,
+            };
+            progress(&format!(
+                "variant precision {name} {vn}: max rel {:.2e}, {:.1} vs {:.1} ns",
+                row.err.rel_max, row.ns_variant, row.ns_reference
+            ));
+            rows.push(row);
+        }
+    }
+    Ok(rows)
+}

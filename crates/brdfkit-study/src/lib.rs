@@ -1,0 +1,404 @@
+//! The accuracy-vs-time study of brdfkit: what each accuracy costs in time.
+//!
+//! Three parts, each measured on the synthetic materials of `data-synthetic/` (tables
+//! generated in memory from the specs, so the truth is known):
+//!
+//! - [`grid`]: every model × solver × sample fraction × number of starts is fitted;
+//!   wall time and every loss on the full table are recorded, and the Pareto front of
+//!   loss against time is drawn per model;
+//! - [`choices`]: evaluation choices — nearest vs interpolated table lookup (error
+//!   against the analytic truth at random directions vs time per lookup), Schlick vs
+//!   exact conductor Fresnel, exact-erf vs rational Beckmann G1, separable vs
+//!   height-correlated Smith, and float32 vs float64 evaluation of Cook-Torrance GGX
+//!   ([`kernel`]): error introduced against time saved;
+//! - [`scale`]: fit time against the number of cells, the number of parameters (sums of
+//!   a Lambertian and 1–3 Cook-Torrance lobes) and threads, the throughput of 20 fits,
+//!   and the peak resident memory of a full-table fit (a child process).
+//!
+//! [`run`] performs the parts a [`StudyConfig`] asks for and writes, below `out`, the
+//! raw measurements (CSV and JSON) and PNG plots ([`plot`]), and `out` + `.md` — the
+//! report, whose generated sections sit between `<!-- study:NAME -->` markers so the
+//! hand-written reading around them survives a re-run ([`report`]).
+
+pub mod choices;
+pub mod grid;
+pub mod kernel;
+pub mod plot;
+pub mod report;
+pub mod scale;
+
+use brdfkit::synth::SynthSpec;
+use brdfkit_fit::SolverKind;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use thiserror::Error;
+
+/// Errors of the study.
+#[derive(Debug, Error)]
+pub enum StudyError {
+    /// A material spec could not be read or synthesised.
+    #[error(transparent)]
+    Spec(#[from] brdfkit::synth::SpecError),
+    /// A fit failed in a way the study does not record as a data point.
+    #[error("{what}: {source}")]
+    Fit {
+        what: String,
+        #[source]
+        source: brdfkit_fit::FitError,
+    },
+    /// A model description was rejected.
+    #[error("{what}: {msg}")]
+    Model { what: String, msg: String },
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A plot could not be drawn.
+    #[error("{path}: cannot draw the plot: {msg}")]
+    Plot { path: PathBuf, msg: String },
+    /// The configuration is unusable.
+    #[error("study option {option}: {msg}")]
+    Config { option: &'static str, msg: String },
+}
+
+impl StudyError {
+    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+        StudyError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+/// A model family of the fit grid: a name and its start (JSON contract).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ModelChoice {
+    /// Label in tables and plots.
+    pub label: String,
+    /// The start model (family, structural choices, start values).
+    pub start: serde_json::Value,
+}
+
+impl ModelChoice {
+    /// The families of the study: Cook-Torrance (GGX, separable Smith, Schlick),
+    /// Ward (Dür), plausible Phong and Lambert, each from its default start.
+    pub fn by_label(label: &str) -> Option<ModelChoice> {
+        let start = match label {
+            "cook-torrance" => serde_json::json!({"model": "cook-torrance",
+                "params": {"distribution": "ggx", "masking": "smith-separable", "fresnel": "schlick"}}),
+            "ward" => serde_json::json!({"model": "ward", "params": {"normalization": "duer"}}),
+            "plausible-phong" => serde_json::json!({"model": "plausible-phong", "params": {}}),
+            "lambert" => serde_json::json!({"model": "lambert", "params": {}}),
+            "blinn-phong" => serde_json::json!({"model": "blinn-phong", "params": {}}),
+            "lafortune" => serde_json::json!({"model": "lafortune", "params": {}}),
+            _ => return None,
+        };
+        Some(ModelChoice {
+            label: label.to_string(),
+            start,
+        })
+    }
+}
+
+/// Which parts to run and on what.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct StudyConfig {
+    /// Directory of the raw data and PNGs; the report is `out` + `.md`.
+    pub out: PathBuf,
+    /// Directory of the material specs (`data-synthetic/`).
+    pub specs_dir: PathBuf,
+    /// Spec names (file stems) of the materials.
+    pub materials: Vec<String>,
+    /// Model families fitted.
+    pub models: Vec<ModelChoice>,
+    /// Solvers.
+    pub solvers: Vec<SolverKind>,
+    /// Sample fractions of the valid cells (1.0 = the full table, no subsample).
+    pub fractions: Vec<f64>,
+    /// Numbers of starts.
+    pub starts: Vec<usize>,
+    /// Nelder-Mead runs only at fractions up to this (one pass per simplex vertex
+    /// update: impractical on full tables).
+    pub nelder_mead_max_fraction: f64,
+    /// Iteration cap per start and stage of the derivative solvers (None: each solver's
+    /// default cap).
+    pub max_iters: Option<u64>,
+    /// Iteration cap per start of Nelder-Mead (None: its default, 5000).
+    pub nelder_mead_max_iters: Option<u64>,
+    /// More than 4 starts only at fractions up to this (None: everywhere). n starts
+    /// cost about n single fits; the scaling part measures that.
+    pub many_starts_max_fraction: Option<f64>,
+    /// Run the fit grid.
+    pub grid: bool,
+    /// Run the evaluation-choice measurements.
+    pub choices: bool,
+    /// Run the scaling measurements.
+    pub scale: bool,
+    /// Random direction pairs for the lookup comparison.
+    pub lookup_pairs: usize,
+    /// Timed repetitions per evaluation figure (the minimum is reported).
+    pub reps: usize,
+    /// Tables of the batch-throughput figure.
+    pub batch_tables: usize,
+    /// The `fit-brdf` executable, for the peak-memory child process (None: skipped).
+    pub fit_exe: Option<PathBuf>,
+    /// Label of the grid in the report (`full`, `quick`, `custom`).
+    pub grid_name: String,
+}
+
+/// The six materials of the study, one per shape: diffuse, plastic, metal, near-mirror,
+/// Ward-like satin, multi-lobe.
+pub const DEFAULT_MATERIALS: [&str; 6] = [
+    "lambert-white",
+    "demo-plastic",
+    "gold-ggx",
+    "near-mirror-silver",
+    "ward-duer",
+    "lafortune-two-lobes",
+];
+
+impl StudyConfig {
+    /// The full grid of the report: 6 materials × {cook-torrance, ward, plausible-phong}
+    /// × 5 solvers × {0.5, 2, 10, 50, 100} % × {1, 4, 16} starts, with the limits that
+    /// keep it to about half an hour on 2 cores: Nelder-Mead only up to 2 % and 1000
+    /// iterations, the derivative solvers at most 25 iterations per start and stage, 16
+    /// starts only up to 10 %.
+    pub fn full(out: impl Into<PathBuf>, specs_dir: impl Into<PathBuf>) -> Self {
+        StudyConfig {
+            out: out.into(),
+            specs_dir: specs_dir.into(),
+            materials: DEFAULT_MATERIALS.iter().map(|s| s.to_string()).collect(),
+            models: ["cook-torrance", "ward", "plausible-phong"]
+                .iter()
+                .map(|m| ModelChoice::by_label(m).expect("a known label"))
+                .collect(),
+            solvers: SolverKind::ALL.to_vec(),
+            fractions: vec![0.005, 0.02, 0.1, 0.5, 1.0],
+            starts: vec![1, 4, 16],
+            nelder_mead_max_fraction: 0.02,
+            max_iters: Some(25),
+            nelder_mead_max_iters: Some(1000),
+            many_starts_max_fraction: Some(0.1),
+            grid: true,
+            choices: true,
+            scale: true,
+            lookup_pairs: 1_000_000,
+            reps: 5,
+            batch_tables: 20,
+            fit_exe: None,
+            grid_name: "full".into(),
+        }
+    }
+
+    /// A CI-sized run: 2 materials, Cook-Torrance only, LM and L-BFGS, 2 % and 100 %,
+    /// 1 and 4 starts; small lookup and batch figures.
+    pub fn quick(out: impl Into<PathBuf>, specs_dir: impl Into<PathBuf>) -> Self {
+        StudyConfig {
+            materials: vec!["demo-plastic".into(), "gold-ggx".into()],
+            models: vec![ModelChoice::by_label("cook-torrance").expect("known")],
+            solvers: vec![SolverKind::Lm, SolverKind::Lbfgs, SolverKind::NelderMead],
+            fractions: vec![0.02, 1.0],
+            starts: vec![1, 4],
+            lookup_pairs: 100_000,
+            reps: 2,
+            batch_tables: 3,
+            grid_name: "quick".into(),
+            ..StudyConfig::full(out, specs_dir)
+        }
+    }
+
+    /// Checks the options before any work.
+    pub fn validate(&self) -> Result<(), StudyError> {
+        let bad = |option, msg: &str| {
+            Err(StudyError::Config {
+                option,
+                msg: msg.to_string(),
+            })
+        };
+        if self.grid && (self.materials.is_empty() || self.models.is_empty()) {
+            return bad("materials/models", "the fit grid needs at least one of each");
+        }
+        if self.fractions.iter().any(|f| !(*f > 0.0 && *f <= 1.0)) {
+            return bad("fractions", "every sample fraction must be in (0, 1]");
+        }
+        if self.starts.contains(&0) {
+            return bad("starts", "the number of starts must be at least 1");
+        }
+        if self.reps == 0 {
+            return bad("reps", "at least one timed repetition");
+        }
+        if self.choices && self.lookup_pairs == 0 {
+            return bad("lookup-pairs", "at least one pair");
+        }
+        Ok(())
+    }
+
+    /// Path of the report.
+    pub fn report_path(&self) -> PathBuf {
+        let mut p = self.out.clone().into_os_string();
+        p.push(".md");
+        PathBuf::from(p)
+    }
+}
+
+/// A material of the study: its spec and its table.
+pub struct Material {
+    /// The spec (truth, noise, missing pattern).
+    pub spec: SynthSpec,
+    /// The synthesised table.
+    pub table: brdfkit_merl::MerlTable,
+}
+
+/// Reads and synthesises the named materials.
+pub fn load_materials(cfg: &StudyConfig) -> Result<Vec<Material>, StudyError> {
+    cfg.materials
+        .iter()
+        .map(|name| {
+            let path = cfg.specs_dir.join(format!("{name}.toml"));
+            let spec = SynthSpec::read(&path)?;
+            let table = spec.synthesize()?;
+            Ok(Material { spec, table })
+        })
+        .collect()
+}
+
+/// Facts about the run, kept with the measurements.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunInfo {
+    /// UTC start time (seconds since the epoch).
+    pub started_unix: u64,
+    /// Load average (1 min) at the start and at the end.
+    pub load_start: Option<f64>,
+    pub load_end: Option<f64>,
+    /// Rayon threads.
+    pub threads: usize,
+    /// Wall time of each part, seconds.
+    pub grid_s: Option<f64>,
+    pub choices_s: Option<f64>,
+    pub scale_s: Option<f64>,
+    /// The configuration.
+    pub config: StudyConfig,
+}
+
+/// CPU time (user + system, all threads) this process has used, seconds
+/// (`getrusage(RUSAGE_SELF)`, microsecond resolution). On a machine shared with other
+/// jobs the wall time of a fit stretches while its CPU time stays near what it needs.
+pub fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage fills the plain-data struct it is given.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut ru) } != 0 {
+        return f64::NAN;
+    }
+    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    tv(ru.ru_utime) + tv(ru.ru_stime)
+}
+
+/// The 1-minute load average (`/proc/loadavg`).
+pub fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
+    serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
+}
+
+/// The figures of the last run below `out` (`results.json`), if any.
+pub fn read_results(out: &Path) -> Option<StudyResults> {
+    read_json(&out.join("results.json"))
+}
+
+/// Rewrites the plots and the report from the figures of the last run (`results.json`,
+/// `run.json`) without measuring anything.
+pub fn rewrite(out: &Path, progress: &dyn Fn(&str)) -> Result<(), StudyError> {
+    let missing = |f: &str| StudyError::Config {
+        option: "rewrite",
+        msg: format!("{}: missing or unreadable", out.join(f).display()),
+    };
+    let res = read_results(out).ok_or_else(|| missing("results.json"))?;
+    let info: RunInfo = read_json(&out.join("run.json")).ok_or_else(|| missing("run.json"))?;
+    let mut cfg = info.config.clone();
+    cfg.out = out.to_path_buf();
+    report::write_all(&cfg, &info, &res, progress)
+}
+
+/// Everything a run measured.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct StudyResults {
+    pub grid: Vec<grid::GridRow>,
+    pub lookups: Vec<choices::LookupRow>,
+    pub variants: Vec<choices::VariantRow>,
+    pub scale: Option<scale::ScaleResults>,
+}
+
+/// Runs the study and writes the data, the plots and the report. `progress` receives
+/// one line per step.
+pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, StudyError> {
+    cfg.validate()?;
+    std::fs::create_dir_all(&cfg.out).map_err(|e| StudyError::io(&cfg.out, e))?;
+    let mut info = RunInfo {
+        started_unix: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0),
+        load_start: load_average(),
+        load_end: None,
+        threads: rayon::current_num_threads(),
+        grid_s: None,
+        choices_s: None,
+        scale_s: None,
+        config: cfg.clone(),
+    };
+    progress(&format!(
+        "study: {} threads, load {:.2}",
+        info.threads,
+        info.load_start.unwrap_or(f64::NAN)
+    ));
+    let materials = load_materials(cfg)?;
+    // Parts not run keep the figures of the last run (results.json), so one part can be
+    // re-measured alone and the report still has all of them.
+    let mut res = read_results(&cfg.out).unwrap_or_default();
+    if let Some(old) = read_json::<RunInfo>(&cfg.out.join("run.json")) {
+        if !cfg.grid {
+            info.grid_s = old.grid_s;
+        }
+        if !cfg.choices {
+            info.choices_s = old.choices_s;
+        }
+        if !cfg.scale {
+            info.scale_s = old.scale_s;
+        }
+    }
+    if cfg.grid {
+        let t = Instant::now();
+        res.grid = grid::run_grid(cfg, &materials, progress)?;
+        info.grid_s = Some(t.elapsed().as_secs_f64());
+        report::write_csv(&cfg.out.join("grid.csv"), &res.grid)?;
+    }
+    if cfg.choices {
+        let t = Instant::now();
+        res.lookups = choices::lookups(cfg, &materials, progress)?;
+        res.variants = choices::variants(cfg, progress)?;
+        info.choices_s = Some(t.elapsed().as_secs_f64());
+        report::write_csv(&cfg.out.join("lookups.csv"), &res.lookups)?;
+        report::write_csv(&cfg.out.join("variants.csv"), &res.variants)?;
+    }
+    if cfg.scale {
+        let t = Instant::now();
+        res.scale = Some(scale::run_scale(cfg, &materials, progress)?);
+        info.scale_s = Some(t.elapsed().as_secs_f64());
+    }
+    info.load_end = load_average();
+    report::write_json(&cfg.out.join("run.json"), &info)?;
+    report::write_json(&cfg.out.join("results.json"), &res)?;
+    report::write_all(cfg, &info, &res, progress)?;
+    Ok(res)
+}

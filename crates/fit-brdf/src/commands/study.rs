@@ -1,0 +1,107 @@
+//! `fit-brdf study`: the accuracy-vs-time study (`brdfkit-study`), with its grid taken
+//! from the options.
+
+use crate::cli::StudyArgs;
+use crate::error::{CliResult, bad_msg, runtime};
+use brdfkit_fit::SolverKind;
+use brdfkit_study::{ModelChoice, StudyConfig, StudyError};
+use std::str::FromStr;
+
+fn list<T>(opt: &str, s: &str, parse: impl Fn(&str) -> Option<T>) -> CliResult<Vec<T>> {
+    s.split(',')
+        .map(str::trim)
+        .filter(|x| !x.is_empty())
+        .map(|x| parse(x).ok_or_else(|| bad_msg(format!("--{opt}: `{x}` is not valid"))))
+        .collect()
+}
+
+/// The configuration the options ask for.
+pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
+    let mut c = if a.quick {
+        StudyConfig::quick(&a.out, &a.specs)
+    } else {
+        StudyConfig::full(&a.out, &a.specs)
+    };
+    let mut custom = false;
+    if let Some(m) = &a.materials {
+        c.materials = list("materials", m, |x| Some(x.to_string()))?;
+        custom = true;
+    }
+    if let Some(m) = &a.models {
+        c.models = list("models", m, ModelChoice::by_label)?;
+        custom = true;
+    }
+    if let Some(s) = &a.solvers {
+        c.solvers = list("solvers", s, |x| SolverKind::from_str(x).ok())?;
+        custom = true;
+    }
+    if let Some(f) = &a.fractions {
+        c.fractions = list("fractions", f, |x| x.parse().ok())?;
+        custom = true;
+    }
+    if let Some(s) = &a.starts {
+        c.starts = list("starts", s, |x| x.parse().ok())?;
+        custom = true;
+    }
+    if let Some(f) = a.nelder_mead_max_fraction {
+        c.nelder_mead_max_fraction = f;
+    }
+    // 0 lifts a cap (the solver's own default applies).
+    let cap = |v: Option<u64>, d: Option<u64>| match v {
+        Some(0) => None,
+        Some(n) => Some(n),
+        None => d,
+    };
+    c.max_iters = cap(a.max_iters, c.max_iters);
+    c.nelder_mead_max_iters = cap(a.nelder_mead_max_iters, c.nelder_mead_max_iters);
+    if let Some(f) = a.many_starts_max_fraction {
+        c.many_starts_max_fraction = (f < 1.0).then_some(f);
+    }
+    if let Some(r) = a.reps {
+        c.reps = r;
+    }
+    if let Some(b) = a.batch_tables {
+        c.batch_tables = b;
+    }
+    let parts = list("parts", &a.parts, |x| {
+        ["grid", "choices", "scale"]
+            .contains(&x)
+            .then(|| x.to_string())
+    })?;
+    c.grid = parts.iter().any(|p| p == "grid");
+    c.choices = parts.iter().any(|p| p == "choices");
+    c.scale = parts.iter().any(|p| p == "scale");
+    if custom {
+        c.grid_name = format!("custom ({})", c.grid_name);
+    }
+    c.fit_exe = std::env::current_exe().ok();
+    c.validate().map_err(|e| bad_msg(e.to_string()))?;
+    Ok(c)
+}
+
+pub fn run(a: StudyArgs) -> CliResult<()> {
+    let quiet = a.quiet;
+    let progress = move |s: &str| {
+        if !quiet {
+            eprintln!("{s}");
+        }
+    };
+    if a.rewrite {
+        return brdfkit_study::rewrite(&a.out, &progress).map_err(|e| bad_msg(e.to_string()));
+    }
+    let cfg = config(&a)?;
+    brdfkit_study::run(&cfg, &progress).map_err(|e| match e {
+        StudyError::Spec(_) | StudyError::Config { .. } | StudyError::Model { .. } => {
+            bad_msg(e.to_string())
+        }
+        e => runtime(e),
+    })?;
+    if !quiet {
+        eprintln!(
+            "study: wrote {} and {}",
+            cfg.out.display(),
+            cfg.report_path().display()
+        );
+    }
+    Ok(())
+}
