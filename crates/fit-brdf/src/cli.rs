@@ -276,6 +276,13 @@ pub struct FitOptions {
     /// one with "rho_d": 0 to fit a pure conductor.
     #[arg(long, value_name = "NAMES")]
     pub fix: Option<String>,
+    /// Robust loss against outliers: none, huber or cauchy (see docs/fitting.md).
+    #[arg(long, default_value = "none")]
+    pub robust: String,
+    /// Scale c of the robust loss, in the loss's units (default: automatic, from the
+    /// residuals of a plain fit: 1.4826 · median |e| times 1.345 (huber) or 2.385 (cauchy)).
+    #[arg(long, value_name = "C")]
+    pub robust_scale: Option<f64>,
 }
 
 #[derive(Args, Debug)]

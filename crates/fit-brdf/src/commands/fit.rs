@@ -175,6 +175,13 @@ pub fn config(a: &FitOptions) -> CliResult<FitConfig> {
             .theta_d_max_deg(deg)
             .map_err(|e| bad_msg(format!("--theta-d-max: {e}")))?;
     }
+    let robust: brdfkit_fit::RobustKind = a
+        .robust
+        .parse()
+        .map_err(|e: String| bad_msg(format!("--robust: {e}")))?;
+    c = c
+        .robust(robust, a.robust_scale)
+        .map_err(|e| bad_msg(format!("--robust-scale: {e}")))?;
     Ok(c)
 }
 
