@@ -87,11 +87,7 @@ impl MerlTable {
                 actual: raw.len(),
             });
         }
-        if let Some((idx, value)) = raw
-            .iter()
-            .enumerate()
-            .find(|(_, v)| !acceptable_raw(**v))
-        {
+        if let Some((idx, value)) = raw.iter().enumerate().find(|(_, v)| !acceptable_raw(**v)) {
             let (i, j, k) = dims.unflatten(idx % n);
             let channel = Channel::ALL[idx / n];
             let value = *value;
