@@ -473,7 +473,7 @@ fn interrupt(db: &Path, out: &Path, signals: usize) -> std::process::Output {
 #[test]
 fn sigint_stops_between_tables_and_a_rerun_resumes() {
     let d = tempfile::tempdir().unwrap();
-    let n = 10;
+    let n = 6;
     let db = database(d.path(), n, true);
     let out = d.path().join("out");
     let o = interrupt(&db, &out, 1);
@@ -516,7 +516,7 @@ fn sigint_stops_between_tables_and_a_rerun_resumes() {
 #[test]
 fn a_second_sigint_stops_at_once_and_leaves_no_partial_file() {
     let d = tempfile::tempdir().unwrap();
-    let n = 10;
+    let n = 6;
     let db = database(d.path(), n, true);
     let out = d.path().join("out");
     let t0 = Instant::now();
