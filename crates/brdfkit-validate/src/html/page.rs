@@ -393,7 +393,7 @@ pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, Report
                                         tr { td.l { "cells fitted / all" } td.l { (r.cells_fit) " / " (r.cells_full) } }
                                         tr { td.l { "starts" } td.l { (r.starts.len()) } }
                                         tr { td.l { "termination" } td.l { (r.termination) } }
-                                        tr { td.l { "iterations · evaluations" } td.l { (r.iterations) " · " (r.cost_evals) } }
+                                        tr { td.l { "iterations · cost passes · Jacobian passes" } td.l { (r.iterations) " · " (r.cost_evals) " · " (r.jacobian_evals) } }
                                         tr { td.l { "free parameters" } td.l { (r.free_params.join(", ")) } }
                                     }
                                 }
