@@ -25,7 +25,7 @@ Output:
 
     {"mitsuba": "3.9.1", "drjit": "1.5.0", "variant": "scalar_rgb",
      "exports": [{"name": "...", "xml": [[r, g, b], ...], "dict": [[r, g, b], ...],
-                  "xml_type": "RoughConductor", ...}, ...]}
+                  "xml_type": "RoughConductor", "dict_type": "RoughConductor"}, ...]}
 
 Exit codes: 0 success; 2 bad input or an export Mitsuba rejects; 3 Mitsuba or Dr.Jit
 cannot be imported or the variant is missing (the caller treats 3 as "Mitsuba is
@@ -102,7 +102,8 @@ def main(argv):
                 bsdf = mi.load_string(e["xml"]) if form == "xml" else mi.load_dict(e["dict"])
             except Exception as ex:
                 fail(2, f"export `{name}`: mitsuba rejected the {form}: {ex}")
-            r[form + "_type"] = type(bsdf).__name__
+            # The plugin class as Mitsuba prints it: "RoughConductor[...]" -> RoughConductor.
+            r[form + "_type"] = str(bsdf).split("[")[0].strip()
             r[form] = evaluate(mi, bsdf, cases)
         result["exports"].append(r)
     tmp = argv[2] + ".tmp"
