@@ -554,13 +554,12 @@ fn fit_one(
     Ok(Ok((rows, text)))
 }
 
-/// The progress bar of a batch: hidden until the batch has run for a second, then on
-/// stderr (indicatif draws nothing when stderr is not a terminal).
+/// The progress bar of a batch: hidden, and shown on stderr by a timer once the batch
+/// has run for a second (so a first table that takes minutes gets its bar too);
+/// indicatif draws nothing when stderr is not a terminal.
 struct BatchBar {
     bar: ProgressBar,
-    t0: Instant,
     quiet: bool,
-    shown: bool,
 }
 
 impl BatchBar {
@@ -573,20 +572,17 @@ impl BatchBar {
             .expect("static template")
             .progress_chars("=> "),
         );
-        BatchBar {
-            bar,
-            t0: Instant::now(),
-            quiet,
-            shown: false,
+        if !quiet {
+            let b = bar.clone();
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_secs(1));
+                if !b.is_finished() {
+                    b.set_draw_target(ProgressDrawTarget::stderr());
+                    b.enable_steady_tick(Duration::from_millis(200));
+                }
+            });
         }
-    }
-
-    fn tick(&mut self) {
-        if !self.quiet && !self.shown && self.t0.elapsed() > Duration::from_secs(1) {
-            self.shown = true;
-            self.bar.set_draw_target(ProgressDrawTarget::stderr());
-            self.bar.enable_steady_tick(Duration::from_millis(200));
-        }
+        BatchBar { bar, quiet }
     }
 
     fn line(&self, s: &str) {
@@ -646,7 +642,7 @@ pub fn run(a: BatchArgs) -> CliResult<()> {
     };
     write_locked(&[(&summary_path, summary(&rows).as_bytes())])?;
 
-    let mut bar = BatchBar::new(todo.len(), a.quiet);
+    let bar = BatchBar::new(todo.len(), a.quiet);
     for n in &notes {
         bar.line(n);
     }
@@ -664,7 +660,6 @@ pub fn run(a: BatchArgs) -> CliResult<()> {
         }
         let t = &list[k];
         bar.bar.set_message(t.name.clone());
-        bar.tick();
         let ts = Instant::now();
         let outcome = fit_one(t, &fams, &cfg, &options, &options_hash)?;
         let dt = ts.elapsed().as_secs_f64();
@@ -702,7 +697,6 @@ pub fn run(a: BatchArgs) -> CliResult<()> {
             None => write_locked(&[(&summary_path, csv.as_bytes())])?,
         }
         bar.bar.inc(1);
-        bar.tick();
     }
     bar.bar.finish_and_clear();
     let pending = list.len() - resumed - fitted - failures.len();
