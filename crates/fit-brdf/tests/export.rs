@@ -435,6 +435,21 @@ fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
         assert!(e.contains("m.json") && e.contains(what), "{model}: {e}");
         assert!(!out.exists(), "nothing written on refusal");
     }
+    // A per-channel fit: three models, no single material.
+    std::fs::write(
+        &p,
+        json!({"per_channel": [{"model": "lambert"}, {"model": "lambert"}, {"model": "lambert"}]})
+            .to_string(),
+    )
+    .unwrap();
+    let o = bin()
+        .arg("export")
+        .arg(&p)
+        .args(["--to", "mitsuba"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("per-channel fit"), "{}", stderr(&o));
     // A model that is not valid at all, a missing file, and usage errors.
     std::fs::write(&p, r#"{"model": "lambert", "params": {"rho_d": 2}}"#).unwrap();
     let o = bin()

@@ -365,7 +365,19 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
             "--format applies to --to mitsuba (pbrt-v4 has one scene format)",
         ));
     }
-    // Validates the description first: unknown keys, domains, per-channel fits.
+    // A per-channel fit is three models: say so before the generic JSON errors.
+    if let Ok(text) = std::fs::read_to_string(&a.params)
+        && let Ok(v) = serde_json::from_str::<Value>(&text)
+        && v.get("per_channel").is_some()
+    {
+        return Err(bad_msg(format!(
+            "{}: a per-channel fit (one model per colour channel, each with its own \
+             roughness) has no single renderer material; export one channel's model \
+             (e.g. `jq '.per_channel[0]'`) or refit without --per-channel",
+            a.params.display()
+        )));
+    }
+    // Validates the description: unknown keys, domains.
     let model = read_model(&a.params)?;
     let text = std::fs::read_to_string(&a.params).map_err(runtime)?;
     let v: Value = serde_json::from_str(&text).map_err(runtime)?;
