@@ -259,6 +259,15 @@ fn a_batch_of_fits_runs_in_constant_memory() {
         "50 sequential fits ({:.1} s): RSS after fit 5 {r5:.1} MB, after fit 50 {r50:.1} MB, max over 5..50 {max:.1} MB",
         t0.elapsed().as_secs_f64()
     );
-    // Within 4 MB (a leak of one table's cells per fit would add ≥ 45 · 1.5 MB).
-    assert!(r50 <= r5 + 4.0, "RSS grew from {r5:.1} MB to {r50:.1} MB");
+    // Within 6 MB (measured growth 0.4 … 3.2 MB: allocator arenas settling; a leak of
+    // one table's cells per fit would add ≥ 45 · 2.9 MB), and no rise from the first
+    // half of the batch to the second (a plateau, not a slope).
+    assert!(r50 <= r5 + 6.0, "RSS grew from {r5:.1} MB to {r50:.1} MB");
+    let first = *rss[4..25].iter().max().unwrap() as f64 / 1024.0;
+    let second = *rss[25..].iter().max().unwrap() as f64 / 1024.0;
+    println!("max RSS over fits 5..25 {first:.1} MB, over 26..50 {second:.1} MB");
+    assert!(
+        second <= first + 2.0,
+        "RSS still rising: {first:.1} → {second:.1} MB"
+    );
 }
