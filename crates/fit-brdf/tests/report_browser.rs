@@ -23,8 +23,11 @@ fresnel = { schlick = { f0 = 0.04 } }
 "#;
 
 fn find_chromium() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("CHROMIUM") {
-        return Some(PathBuf::from(p));
+    // An explicit browser (CHROMIUM=/path) first, when it exists.
+    if let Some(p) = std::env::var_os("CHROMIUM").map(PathBuf::from)
+        && p.is_file()
+    {
+        return Some(p);
     }
     let path = std::env::var_os("PATH").unwrap_or_default();
     for name in ["chromium", "chromium-browser"] {
