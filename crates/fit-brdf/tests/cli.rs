@@ -284,17 +284,6 @@ fn unknown_subcommand_is_a_usage_error() {
 }
 
 #[test]
-fn demo_runs_on_its_embedded_material() {
-    let d = tempfile::tempdir().unwrap();
-    let out = d.path().join("demo");
-    let o = bin().arg("demo").arg("--out").arg(&out).output().unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
-    let s = String::from_utf8(o.stdout).unwrap();
-    assert!(s.contains("identical to what was written"), "{s}");
-    assert!(out.join("demo-plastic.binary").exists());
-}
-
-#[test]
 fn check_passes_lambert_fails_phong_and_checks_tables() {
     let d = tempfile::tempdir().unwrap();
     let lambert = d.path().join("lambert.json");
