@@ -110,6 +110,19 @@ fn assert_outputs_complete(out: &Path) -> usize {
         "temporary files left: {all:?}"
     );
     let jsons: Vec<&String> = all.iter().filter(|n| n.ends_with(".json")).collect();
+    #[cfg(unix)]
+    {
+        // Readable like a plainly created file (shared file systems), not owner-only.
+        use std::os::unix::fs::PermissionsExt;
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o444;
+        let probe = out.with_extension("probe");
+        std::fs::write(&probe, "x").unwrap();
+        let want = mode(&probe);
+        std::fs::remove_file(&probe).unwrap();
+        for n in jsons.iter().map(|s| s.as_str()).chain(["summary.csv"]) {
+            assert_eq!(mode(&out.join(n)), want, "{n}");
+        }
+    }
     for n in &jsons {
         let v: Value = serde_json::from_slice(&std::fs::read(out.join(n)).unwrap())
             .unwrap_or_else(|e| panic!("{n} does not parse: {e}"));

@@ -495,6 +495,16 @@ fn export_writes_the_file_atomically_and_notes_on_stderr() {
     assert!(o.stdout.is_empty());
     assert!(stderr(&o).contains("note:"), "{}", stderr(&o));
     let x = std::fs::read_to_string(&out).unwrap();
+    #[cfg(unix)]
+    {
+        // Readable like a plainly created file (not tempfile's owner-only 0o600).
+        use std::os::unix::fs::PermissionsExt;
+        let plain = d.path().join("plain");
+        std::fs::write(&plain, "x").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o444;
+        assert_eq!(mode(&out), mode(&plain));
+        std::fs::remove_file(&plain).unwrap();
+    }
     assert!(
         x.contains("<bsdf type=\"diffuse\" version=\"3.0.0\">"),
         "{x}"
