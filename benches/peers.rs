@@ -193,8 +193,13 @@ fn main() {
         "kernel_f32_s": t_k32, "kernel_f32_min_s": t_k32_min,
         "sum_f64": sum_batch, "sum_f32": sum32,
     });
-    eprintln!("eval: eval_batch {:.1} ms, eval(pairs) {:.1} ms, f64 kernel {:.1} ms, f32 kernel {:.1} ms",
-        t_batch * 1e3, t_pairs * 1e3, t_k64 * 1e3, t_k32 * 1e3);
+    eprintln!(
+        "eval: eval_batch {:.1} ms, eval(pairs) {:.1} ms, f64 kernel {:.1} ms, f32 kernel {:.1} ms",
+        t_batch * 1e3,
+        t_pairs * 1e3,
+        t_k64 * 1e3,
+        t_k32 * 1e3
+    );
 
     // --- reading a table vs cat ---
     let table = MerlTable::from_brdf(m, Dims::MERL).expect("the gold table");
@@ -228,7 +233,11 @@ fn main() {
         "cat_s": cs[cs.len() / 2], "cat_min_s": cs[0],
         "runs": rs.len(), "valid_raw_sum": raw_sum,
     });
-    eprintln!("read: {:.1} ms, cat {:.1} ms", rs[rs.len() / 2] * 1e3, cs[cs.len() / 2] * 1e3);
+    eprintln!(
+        "read: {:.1} ms, cat {:.1} ms",
+        rs[rs.len() / 2] * 1e3,
+        cs[cs.len() / 2] * 1e3
+    );
 
     // --- nearest lookup of random pairs ---
     let rp = brdfkit_study::choices::random_pairs(n, 0x4d45524c);
@@ -258,14 +267,20 @@ fn main() {
         let (t_fit, t_fit_min) = median_time(reps.min(5), || {
             last = Some(fit(start.as_ref(), &data, &cfg, None).expect("fit"));
         });
-        let cpu = c0.zip(cpu_seconds()).map(|(a, b)| (b - a) / (reps.min(5) + 1) as f64);
+        let cpu = c0
+            .zip(cpu_seconds())
+            .map(|(a, b)| (b - a) / (reps.min(5) + 1) as f64);
         let rec = &last.expect("a fit ran").record;
         out["fit"] = json!({
             "cells": data.len(), "time_s": t_fit, "min_s": t_fit_min, "cpu_s_per_fit": cpu,
             "loss_cbrt": rec.losses_full.get(Loss::Cbrt).overall,
             "iterations": rec.iterations, "model": rec.model,
         });
-        eprintln!("fit: {:.3} s, loss {:.3e}", t_fit, rec.losses_full.get(Loss::Cbrt).overall);
+        eprintln!(
+            "fit: {:.3} s, loss {:.3e}",
+            t_fit,
+            rec.losses_full.get(Loss::Cbrt).overall
+        );
     }
 
     let s = serde_json::to_string_pretty(&out).expect("json");

@@ -317,10 +317,11 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
             what: "schlick f0 fit".into(),
             source,
         })?;
-    let fitted = fit(schlick.as_ref(), &gold_cells, &fc, None).map_err(|source| StudyError::Fit {
-        what: "schlick f0 fit".into(),
-        source,
-    })?;
+    let fitted =
+        fit(schlick.as_ref(), &gold_cells, &fc, None).map_err(|source| StudyError::Fit {
+            what: "schlick f0 fit".into(),
+            source,
+        })?;
     let fitted = fitted
         .fitted
         .shared()
@@ -339,7 +340,10 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
 
     // Beckmann G1: Walter's rational form vs the exact erf form.
     let cexact = model(with(&cj, "beckmann_g1", "exact".into()), "copper exact")?;
-    let crational = model(with(&cj, "beckmann_g1", "rational".into()), "copper rational")?;
+    let crational = model(
+        with(&cj, "beckmann_g1", "rational".into()),
+        "copper rational",
+    )?;
     push(
         "beckmann-g1",
         "copper-beckmann",
@@ -348,8 +352,14 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
         ("rational (Walter 2007)", crational.as_ref()),
     );
     // Smith: separable vs height-correlated (the reference), GGX and Beckmann.
-    let gcor = model(with(&gj, "masking", "smith-correlated".into()), "gold correlated")?;
-    let gsep = model(with(&gj, "masking", "smith-separable".into()), "gold separable")?;
+    let gcor = model(
+        with(&gj, "masking", "smith-correlated".into()),
+        "gold correlated",
+    )?;
+    let gsep = model(
+        with(&gj, "masking", "smith-separable".into()),
+        "gold separable",
+    )?;
     push(
         "smith",
         "gold-ggx",
@@ -357,7 +367,10 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
         ("height-correlated", gcor.as_ref()),
         ("separable", gsep.as_ref()),
     );
-    let csep = model(with(&cj, "masking", "smith-separable".into()), "copper separable")?;
+    let csep = model(
+        with(&cj, "masking", "smith-separable".into()),
+        "copper separable",
+    )?;
     push(
         "smith",
         "copper-beckmann",
@@ -415,10 +428,7 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
         let v32: Vec<Rgb> = (0..g.len())
             .map(|i| Rgb::new(o32.r[i] as f64, o32.g[i] as f64, o32.b[i] as f64))
             .collect();
-        for (vn, v, t) in [
-            ("f64 SoA kernel", &v64, t64),
-            ("f32 SoA kernel", &v32, t32),
-        ] {
+        for (vn, v, t) in [("f64 SoA kernel", &v64, t64), ("f32 SoA kernel", &v32, t32)] {
             let row = VariantRow {
                 choice: "precision".into(),
                 material: name.into(),

@@ -48,7 +48,15 @@ pub fn configurations(cfg: &StudyConfig) -> Vec<(SolverKind, f64, usize)> {
                 continue;
             }
             for &n in &cfg.starts {
-                if n > 4 && cfg.many_starts_max_fraction.is_some_and(|m| f > m) {
+                let budget = cfg.starts_budget.map(|b| {
+                    if s == SolverKind::NelderMead {
+                        b / 4.0
+                    } else {
+                        b
+                    }
+                });
+                // A small tolerance: 4 × 10 % is 0.4 in decimal but not in binary.
+                if n > 1 && budget.is_some_and(|b| n as f64 * f > b * (1.0 + 1e-9)) {
                     continue;
                 }
                 v.push((s, f, n));
@@ -140,20 +148,36 @@ pub fn run_grid(
 ) -> Result<Vec<GridRow>, StudyError> {
     let confs = configurations(cfg);
     let total = confs.len() * cfg.models.len() * materials.len();
-    let mut rows = Vec::with_capacity(total);
+    let partial = cfg.out.join("grid-partial.json");
+    let mut rows: Vec<GridRow> = if cfg.resume {
+        std::fs::read_to_string(&partial)
+            .ok()
+            .and_then(|s| serde_json::from_str(&s).ok())
+            .unwrap_or_default()
+    } else {
+        Vec::new()
+    };
+    let key = |m: &str, l: &str, s: &str, f: f64, n: usize| format!("{m}|{l}|{s}|{f}|{n}");
+    let done: std::collections::HashSet<String> = rows
+        .iter()
+        .map(|r| key(&r.material, &r.model, &r.solver, r.fraction, r.starts))
+        .collect();
     let t0 = Instant::now();
-    for m in materials {
-        let data = FitData::from_table(&m.table).map_err(|source| StudyError::Fit {
-            what: m.spec.name.clone(),
-            source,
-        })?;
-        for mc in &cfg.models {
-            let start =
-                brdfkit_models::from_json(&mc.start).map_err(|e| StudyError::Model {
-                    what: mc.label.clone(),
-                    msg: e.to_string(),
-                })?;
+    // Model-major: a stopped run has every material of the first models.
+    for mc in &cfg.models {
+        for m in materials {
+            let data = FitData::from_table(&m.table).map_err(|source| StudyError::Fit {
+                what: m.spec.name.clone(),
+                source,
+            })?;
+            let start = brdfkit_models::from_json(&mc.start).map_err(|e| StudyError::Model {
+                what: mc.label.clone(),
+                msg: e.to_string(),
+            })?;
             for &c in &confs {
+                if done.contains(&key(&m.spec.name, &mc.label, c.0.name(), c.1, c.2)) {
+                    continue;
+                }
                 let row = fit_one(cfg, &m.spec.name, &mc.label, start.as_ref(), &data, c)?;
                 rows.push(row);
                 let r = rows.last().expect("just pushed");
@@ -172,6 +196,8 @@ pub fn run_grid(
                     r.cbrt
                 ));
             }
+            // Saved after every model and material, so a stopped run can resume.
+            crate::report::write_json(&partial, &rows)?;
         }
     }
     Ok(rows)
@@ -181,7 +207,9 @@ pub fn run_grid(
 /// row is at least as fast and strictly better, or faster and at least as good. Rows
 /// with a NaN loss are never on the front. Returned in increasing time.
 pub fn pareto(rows: &[&GridRow]) -> Vec<usize> {
-    let mut idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].cbrt.is_finite()).collect();
+    let mut idx: Vec<usize> = (0..rows.len())
+        .filter(|&i| rows[i].cbrt.is_finite())
+        .collect();
     idx.sort_by(|&a, &b| {
         rows[a]
             .wall_s
@@ -245,7 +273,7 @@ mod tests {
         c.solvers = vec![SolverKind::NelderMead, SolverKind::Lm];
         c.fractions = vec![0.005, 0.02, 0.5];
         c.starts = vec![1];
-        c.many_starts_max_fraction = None;
+        c.starts_budget = None;
         let confs = configurations(&c);
         assert_eq!(confs.len(), 2 + 3);
         assert!(

@@ -135,7 +135,8 @@ macro_rules! kernel {
             let diff: [$t; 3] = std::array::from_fn(|c| (p.rho_d[c] * FRAC_1_PI) as $t);
             let spec: [$t; 3] = std::array::from_fn(|c| p.rho_s[c] as $t);
             // Conductor constants: η² − k² and 4η²k².
-            let e2k2: [$t; 3] = std::array::from_fn(|c| (p.eta[c] * p.eta[c] - p.k[c] * p.k[c]) as $t);
+            let e2k2: [$t; 3] =
+                std::array::from_fn(|c| (p.eta[c] * p.eta[c] - p.k[c] * p.k[c]) as $t);
             let four_e2k2: [$t; 3] =
                 std::array::from_fn(|c| (4.0 * p.eta[c] * p.eta[c] * p.k[c] * p.k[c]) as $t);
             let (wi_z, wo_z) = (&g.wi_z[start..start + n], &g.wo_z[start..start + n]);
@@ -193,8 +194,24 @@ macro_rules! kernel {
     };
 }
 
-kernel!(f32, geom_f32, eval_f32, eval_par_f32, body_f32, avx2_f32, avx512_f32);
-kernel!(f64, geom_f64, eval_f64, eval_par_f64, body_f64, avx2_f64, avx512_f64);
+kernel!(
+    f32,
+    geom_f32,
+    eval_f32,
+    eval_par_f32,
+    body_f32,
+    avx2_f32,
+    avx512_f32
+);
+kernel!(
+    f64,
+    geom_f64,
+    eval_f64,
+    eval_par_f64,
+    body_f64,
+    avx2_f64,
+    avx512_f64
+);
 
 #[cfg(test)]
 mod tests {

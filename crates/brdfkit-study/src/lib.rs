@@ -129,9 +129,14 @@ pub struct StudyConfig {
     pub max_iters: Option<u64>,
     /// Iteration cap per start of Nelder-Mead (None: its default, 5000).
     pub nelder_mead_max_iters: Option<u64>,
-    /// More than 4 starts only at fractions up to this (None: everywhere). n starts
-    /// cost about n single fits; the scaling part measures that.
-    pub many_starts_max_fraction: Option<f64>,
+    /// Budget of starts × fraction: n > 1 starts at fraction f run only when n·f ≤ this
+    /// (Nelder-Mead: a quarter of it); None: everywhere. n starts cost about n fits or
+    /// more (each start far from the answer iterates on all its cells); the scaling
+    /// part measures 1 and 4 starts on a full table.
+    pub starts_budget: Option<f64>,
+    /// Keep the rows of an earlier run below `out` (`grid-partial.json`) and measure only
+    /// the missing configurations.
+    pub resume: bool,
     /// Run the fit grid.
     pub grid: bool,
     /// Run the evaluation-choice measurements.
@@ -164,9 +169,10 @@ pub const DEFAULT_MATERIALS: [&str; 6] = [
 impl StudyConfig {
     /// The full grid of the report: 6 materials × {cook-torrance, ward, plausible-phong}
     /// × 5 solvers × {0.5, 2, 10, 50, 100} % × {1, 4, 16} starts, with the limits that
-    /// keep it to about half an hour on 2 cores: Nelder-Mead only up to 2 % and 1000
-    /// iterations, the derivative solvers at most 25 iterations per start and stage, 16
-    /// starts only up to 10 %.
+    /// keep it to about 20 minutes on 2 cores: Nelder-Mead only up to 2 % and 1000
+    /// iterations, the derivative solvers at most 25 iterations per start and stage,
+    /// starts × fraction ≤ 0.4 (16 starts up to 2 %, 4 up to 10 %, 1 on 50 % and 100 %;
+    /// Nelder-Mead ≤ 0.1).
     pub fn full(out: impl Into<PathBuf>, specs_dir: impl Into<PathBuf>) -> Self {
         StudyConfig {
             out: out.into(),
@@ -182,7 +188,8 @@ impl StudyConfig {
             nelder_mead_max_fraction: 0.02,
             max_iters: Some(25),
             nelder_mead_max_iters: Some(1000),
-            many_starts_max_fraction: Some(0.1),
+            starts_budget: Some(0.4),
+            resume: false,
             grid: true,
             choices: true,
             scale: true,
@@ -220,7 +227,10 @@ impl StudyConfig {
             })
         };
         if self.grid && (self.materials.is_empty() || self.models.is_empty()) {
-            return bad("materials/models", "the fit grid needs at least one of each");
+            return bad(
+                "materials/models",
+                "the fit grid needs at least one of each",
+            );
         }
         if self.fractions.iter().any(|f| !(*f > 0.0 && *f <= 1.0)) {
             return bad("fractions", "every sample fraction must be in (0, 1]");
@@ -323,8 +333,25 @@ pub fn rewrite(out: &Path, progress: &dyn Fn(&str)) -> Result<(), StudyError> {
         option: "rewrite",
         msg: format!("{}: missing or unreadable", out.join(f).display()),
     };
-    let res = read_results(out).ok_or_else(|| missing("results.json"))?;
-    let info: RunInfo = read_json(&out.join("run.json")).ok_or_else(|| missing("run.json"))?;
+    // An interrupted grid has only grid-partial.json: use it (and the full grid's
+    // configuration when run.json is missing too).
+    let mut res = read_results(out).unwrap_or_default();
+    if res.grid.is_empty() {
+        res.grid = read_json(&out.join("grid-partial.json")).unwrap_or_default();
+    }
+    if res.grid.is_empty() && res.lookups.is_empty() && res.scale.is_none() {
+        return Err(missing("results.json"));
+    }
+    let info: RunInfo = read_json(&out.join("run.json")).unwrap_or_else(|| RunInfo {
+        started_unix: 0,
+        load_start: None,
+        load_end: None,
+        threads: rayon::current_num_threads(),
+        grid_s: None,
+        choices_s: None,
+        scale_s: None,
+        config: StudyConfig::full(out, "data-synthetic"),
+    });
     let mut cfg = info.config.clone();
     cfg.out = out.to_path_buf();
     report::write_all(&cfg, &info, &res, progress)
@@ -366,6 +393,9 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
     // Parts not run keep the figures of the last run (results.json), so one part can be
     // re-measured alone and the report still has all of them.
     let mut res = read_results(&cfg.out).unwrap_or_default();
+    if res.grid.is_empty() {
+        res.grid = read_json(&cfg.out.join("grid-partial.json")).unwrap_or_default();
+    }
     if let Some(old) = read_json::<RunInfo>(&cfg.out.join("run.json")) {
         if !cfg.grid {
             info.grid_s = old.grid_s;

@@ -138,7 +138,9 @@ fn draw_panel<DB: DrawingBackend>(
                         .draw_series(LineSeries::new(p, c.stroke_width(2)))
                         .map_err(|e| e.to_string())?
                         .label(s.name.as_str())
-                        .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], c.stroke_width(2)));
+                        .legend(move |(x, y)| {
+                            PathElement::new([(x, y), (x + 16, y)], c.stroke_width(2))
+                        });
                 } else if s.tag {
                     let style = ("sans-serif", 12).into_font().color(&c);
                     chart

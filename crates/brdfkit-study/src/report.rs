@@ -63,7 +63,13 @@ pub fn write_csv<T: Serialize>(path: &Path, rows: &[T]) -> Result<(), StudyError
         .collect();
     if let Some(first) = vals.first() {
         let keys: Vec<&String> = first.keys().collect();
-        out.push_str(&keys.iter().map(|k| k.as_str()).collect::<Vec<_>>().join(","));
+        out.push_str(
+            &keys
+                .iter()
+                .map(|k| k.as_str())
+                .collect::<Vec<_>>()
+                .join(","),
+        );
         out.push('\n');
         for m in &vals {
             let line: Vec<String> = keys
@@ -148,10 +154,11 @@ fn grid_sections(cfg: &StudyConfig, rows: &[GridRow]) -> (String, String, String
     type Tally = (usize, usize, Vec<f64>, Vec<f64>);
     let mut good_count: BTreeMap<(String, String), Tally> = BTreeMap::new();
     for ((model, material), rs) in &by {
-        let best = rs
-            .iter()
-            .filter(|r| r.cbrt.is_finite())
-            .min_by(|a, b| a.cbrt.total_cmp(&b.cbrt).then(a.wall_s.total_cmp(&b.wall_s)));
+        let best = rs.iter().filter(|r| r.cbrt.is_finite()).min_by(|a, b| {
+            a.cbrt
+                .total_cmp(&b.cbrt)
+                .then(a.wall_s.total_cmp(&b.wall_s))
+        });
         let Some(best) = best else { continue };
         let bound = good_enough(best.cbrt);
         let cheapest = rs
@@ -162,10 +169,7 @@ fn grid_sections(cfg: &StudyConfig, rows: &[GridRow]) -> (String, String, String
         let default = rs
             .iter()
             .find(|r| r.solver == "lm" && r.fraction == 1.0 && r.starts == 1);
-        let slowest = rs
-            .iter()
-            .map(|r| r.wall_s)
-            .fold(0.0f64, f64::max);
+        let slowest = rs.iter().map(|r| r.wall_s).fold(0.0f64, f64::max);
         let _ = writeln!(
             summary,
             "| {model} | {material} | {} | {} ({}) | {} ({}, {}) | {} | {} |",
@@ -203,7 +207,10 @@ fn grid_sections(cfg: &StudyConfig, rows: &[GridRow]) -> (String, String, String
         }
         for r in rs {
             let e = good_count
-                .entry((r.solver.clone(), format!("{:08.4}|{}", r.fraction, r.starts)))
+                .entry((
+                    r.solver.clone(),
+                    format!("{:08.4}|{}", r.fraction, r.starts),
+                ))
                 .or_insert((0, 0, Vec::new(), Vec::new()));
             e.1 += 1;
             if r.cbrt <= bound {
@@ -272,20 +279,27 @@ fn run_section(cfg: &StudyConfig, info: &RunInfo, res: &StudyResults) -> String 
             .map(|s| s.name())
             .collect::<Vec<_>>()
             .join(", "),
-        cfg.fractions.iter().map(|f| pct(*f)).collect::<Vec<_>>().join(", "),
+        cfg.fractions
+            .iter()
+            .map(|f| pct(*f))
+            .collect::<Vec<_>>()
+            .join(", "),
         cfg.starts,
         pct(cfg.nelder_mead_max_fraction)
     );
-    let cap = |c: Option<u64>| c.map(|n| n.to_string()).unwrap_or_else(|| "solver default".into());
+    let cap = |c: Option<u64>| {
+        c.map(|n| n.to_string())
+            .unwrap_or_else(|| "solver default".into())
+    };
     let _ = writeln!(
         s,
         "Iteration caps per start and stage: {} (lm, gauss-newton, trust-region, lbfgs), {} \
-         (nelder-mead); more than 4 starts only up to {}.\n",
+         (nelder-mead); several starts only where {}.\n",
         cap(cfg.max_iters),
         cap(cfg.nelder_mead_max_iters),
-        cfg.many_starts_max_fraction
-            .map(pct)
-            .unwrap_or_else(|| "100 %".into())
+        cfg.starts_budget
+            .map(|b| format!("starts × fraction ≤ {b} (Nelder-Mead {})", b / 4.0))
+            .unwrap_or_else(|| "everywhere".into())
     );
     let _ = writeln!(
         s,
@@ -384,7 +398,9 @@ fn scale_section(res: &StudyResults) -> String {
             b.note
         );
     }
-    s.push_str("\n| child process (`fit-brdf …`) | peak RSS | wall | exit |\n|---|---:|---:|---:|\n");
+    s.push_str(
+        "\n| child process (`fit-brdf …`) | peak RSS | wall | exit |\n|---|---:|---:|---:|\n",
+    );
     for m in &sc.memory {
         let _ = writeln!(
             s,
@@ -529,12 +545,7 @@ fn plots(cfg: &StudyConfig, res: &StudyResults) -> Result<Vec<String>, StudyErro
             sc.points
                 .iter()
                 .filter(|p| p.axis == axis)
-                .map(|p| {
-                    (
-                        if axis == "cells" { p.cells as f64 } else { p.x },
-                        p.wall_s,
-                    )
-                })
+                .map(|p| (if axis == "cells" { p.cells as f64 } else { p.x }, p.wall_s))
                 .collect()
         };
         let threads = |starts: usize| -> Vec<(f64, f64)> {
@@ -626,7 +637,11 @@ pub fn write_all(
     if !res.lookups.is_empty() || !res.variants.is_empty() {
         doc = replace_section(&doc, "lookups", &lookup_section(res));
         doc = replace_section(&doc, "variants", &variant_section(res));
-        doc = replace_section(&doc, "choices-plot", &format!("![choices](./{dir}/choices.png)"));
+        doc = replace_section(
+            &doc,
+            "choices-plot",
+            &format!("![choices](./{dir}/choices.png)"),
+        );
     }
     if res.scale.is_some() {
         doc = replace_section(&doc, "scale", &scale_section(res));
@@ -643,7 +658,10 @@ mod tests {
     fn sections_are_replaced_in_place_and_appended_when_absent() {
         let doc = "# T\n\nintro\n<!-- study:a -->\nold\n<!-- /study:a -->\n\nreading\n";
         let d = replace_section(doc, "a", "new");
-        assert_eq!(d, "# T\n\nintro\n<!-- study:a -->\nnew\n<!-- /study:a -->\n\nreading\n");
+        assert_eq!(
+            d,
+            "# T\n\nintro\n<!-- study:a -->\nnew\n<!-- /study:a -->\n\nreading\n"
+        );
         let d = replace_section(&d, "b", "bb");
         assert!(d.ends_with("reading\n<!-- study:b -->\nbb\n<!-- /study:b -->\n"));
         // Idempotent.

@@ -243,9 +243,13 @@ pub fn run_scale(
             msg: e.to_string(),
         })?;
         let fc = FitConfig::default().fix_params(lobes_fixed(lobes));
-        let np = resolve_free(m.as_ref(), &fc).map_err(fit_err("lobes"))?.len();
+        let np = resolve_free(m.as_ref(), &fc)
+            .map_err(fit_err("lobes"))?
+            .len();
         let (wall_s, cbrt) = timed_fit(reps, m.as_ref(), &mdata, &fc, "scale params")?;
-        progress(&format!("scale params {np}: {wall_s:.3} s, cbrt {cbrt:.3e}"));
+        progress(&format!(
+            "scale params {np}: {wall_s:.3} s, cbrt {cbrt:.3e}"
+        ));
         res.points.push(ScalePoint {
             axis: "params".into(),
             x: np as f64,
@@ -268,9 +272,8 @@ pub fn run_scale(
             let fc = FitConfig::default()
                 .starts(starts)
                 .map_err(fit_err("threads"))?;
-            let (wall_s, cbrt) = pool(t).install(|| {
-                timed_fit(reps, ct.as_ref(), &full, &fc, "scale threads")
-            })?;
+            let (wall_s, cbrt) =
+                pool(t).install(|| timed_fit(reps, ct.as_ref(), &full, &fc, "scale threads"))?;
             progress(&format!("scale threads {t} starts {starts}: {wall_s:.3} s"));
             res.points.push(ScalePoint {
                 axis: "threads".into(),
@@ -305,7 +308,9 @@ pub fn run_scale(
         fit(ct.as_ref(), &data, &FitConfig::default(), None).map_err(fit_err("batch"))?;
     }
     let wall = t.elapsed().as_secs_f64();
-    progress(&format!("scale batch: {n} tables in {wall:.2} s (sequential)"));
+    progress(&format!(
+        "scale batch: {n} tables in {wall:.2} s (sequential)"
+    ));
     res.batch.push(BatchPoint {
         how: "sequential in-process (read + cook-torrance fit, 1 start)".into(),
         tables: n,
@@ -374,7 +379,10 @@ pub fn run_scale(
             ],
         ] {
             let mut m = child_peak_rss(exe, &args)?;
-            m.command = m.command.replace(&table, "TABLE").replace(&params, "P.json");
+            m.command = m
+                .command
+                .replace(&table, "TABLE")
+                .replace(&params, "P.json");
             progress(&format!(
                 "memory: {} -> {:.0} MB, {:.2} s",
                 m.command, m.peak_rss_mb, m.wall_s

@@ -458,9 +458,13 @@ pub struct StudyArgs {
     /// Iteration cap per start of nelder-mead (the full grid: 1000; 0 = its own, 5000).
     #[arg(long)]
     pub nelder_mead_max_iters: Option<u64>,
-    /// More than 4 starts only at sample fractions up to this (1 = everywhere).
+    /// Several starts only where starts × fraction ≤ this (Nelder-Mead: a quarter);
+    /// the full grid: 0.4; 0 = no limit.
     #[arg(long)]
-    pub many_starts_max_fraction: Option<f64>,
+    pub starts_budget: Option<f64>,
+    /// Keep the fits of an interrupted run (OUT/grid-partial.json) and run only the rest.
+    #[arg(long)]
+    pub resume: bool,
     /// Timed repetitions of each evaluation figure.
     #[arg(long)]
     pub reps: Option<usize>,

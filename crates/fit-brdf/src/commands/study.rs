@@ -54,9 +54,10 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
     };
     c.max_iters = cap(a.max_iters, c.max_iters);
     c.nelder_mead_max_iters = cap(a.nelder_mead_max_iters, c.nelder_mead_max_iters);
-    if let Some(f) = a.many_starts_max_fraction {
-        c.many_starts_max_fraction = (f < 1.0).then_some(f);
+    if let Some(b) = a.starts_budget {
+        c.starts_budget = (b > 0.0).then_some(b);
     }
+    c.resume = a.resume;
     if let Some(r) = a.reps {
         c.reps = r;
     }
