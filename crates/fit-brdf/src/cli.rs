@@ -192,6 +192,9 @@ pub struct ResampleArgs {
     /// Output table.
     #[arg(long, value_name = "NEW")]
     pub out: PathBuf,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -201,6 +204,9 @@ pub struct SynthArgs {
     /// Output table.
     #[arg(long, value_name = "TABLE")]
     pub out: PathBuf,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -292,6 +298,9 @@ pub struct CheckArgs {
     /// Print machine-readable JSON instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Print nothing; the exit code tells (0 all checks passed, 1 a check failed).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -313,6 +322,9 @@ pub struct RenderArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Print the per-effect cost as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args, Debug)]

@@ -505,3 +505,58 @@ fn fit_rejects_bad_options_with_exit_2() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn quiet_and_json_options_where_results_are_printed() {
+    let d = tempfile::tempdir().unwrap();
+    let spec = d.path().join("small.toml");
+    std::fs::write(&spec, SMALL_LAMBERT).unwrap();
+    let t = d.path().join("t.binary");
+    let o = bin()
+        .arg("synth")
+        .arg(&spec)
+        .arg("--out")
+        .arg(&t)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(o.status.success() && o.stdout.is_empty() && o.stderr.is_empty());
+    let r = d.path().join("r.binary");
+    let o = bin()
+        .args(["resample", "--table"])
+        .arg(&t)
+        .args(["--dims", "8,8,16", "-q", "--out"])
+        .arg(&r)
+        .output()
+        .unwrap();
+    assert!(o.status.success() && o.stderr.is_empty());
+    let phong = d.path().join("phong.json");
+    std::fs::write(
+        &phong,
+        r#"{"model": "phong", "params": {"k_d": 0.1, "k_s": 0.5, "n": 10}}"#,
+    )
+    .unwrap();
+    let o = bin()
+        .arg("check")
+        .arg(&phong)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(o.stdout.is_empty());
+    let scene =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/sphere-point.toml");
+    let o = bin()
+        .arg("render")
+        .arg(&scene)
+        .arg("--out")
+        .arg(d.path().join("s.png"))
+        .args(["--size", "16x16", "--json", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(o.status.success() && o.stderr.is_empty(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["effects"]["direct"]["requested"], true);
+    assert_eq!(v["effects"]["environment"]["requested"], false);
+    assert_eq!(v["effects"]["environment"]["brdf_evals"], 0);
+}

@@ -49,7 +49,9 @@ pub fn run(a: CheckArgs) -> CliResult<()> {
         };
         (text, r.passed)
     };
-    write_text(None, &text)?;
+    if !a.quiet {
+        write_text(None, &text)?;
+    }
     if passed {
         Ok(())
     } else {

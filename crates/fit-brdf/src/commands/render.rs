@@ -57,6 +57,9 @@ pub fn run(a: RenderArgs) -> CliResult<()> {
     if let Some(e) = &a.exr {
         out.write_exr(e).map_err(runtime)?;
     }
+    if a.json {
+        crate::output::write_text(None, &(stats_json(&out) + "\n"))?;
+    }
     if !a.quiet {
         eprintln!(
             "rendered {} ({} x {}, {} spp) -> {}",
@@ -69,4 +72,37 @@ pub fn run(a: RenderArgs) -> CliResult<()> {
         eprintln!("{}", out.stats);
     }
     Ok(())
+}
+
+/// The per-effect cost as JSON (times in seconds).
+fn stats_json(out: &brdfkit_render::RenderOutput) -> String {
+    let s = &out.stats;
+    let effect = |c: &brdfkit_render::EffectCost| {
+        serde_json::json!({
+            "requested": c.requested,
+            "setup_s": c.setup.as_secs_f64(),
+            "setup_evals": c.setup_evals,
+            "thread_time_s": c.time.as_secs_f64(),
+            "wall_share_s": s.wall_share(c).as_secs_f64(),
+            "samples": c.samples,
+            "brdf_evals": c.brdf_evals,
+            "rays": c.rays,
+            "lookups": c.lookups,
+        })
+    };
+    serde_json::to_string_pretty(&serde_json::json!({
+        "width": out.width,
+        "height": out.height,
+        "spp": out.spp,
+        "threads": s.threads,
+        "wall_s": s.wall.as_secs_f64(),
+        "table_misses": s.table_misses,
+        "effects": {
+            "camera": effect(&s.camera),
+            "direct": effect(&s.direct),
+            "environment": effect(&s.environment),
+            "shadows": effect(&s.shadows),
+        },
+    }))
+    .expect("JSON of numbers")
 }

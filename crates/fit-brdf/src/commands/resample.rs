@@ -19,6 +19,9 @@ pub fn run(a: ResampleArgs) -> CliResult<()> {
         MerlTable::from_brdf(&*model, dims).map_err(runtime)?
     };
     write_table(&out, &a.out)?;
+    if a.quiet {
+        return Ok(());
+    }
     eprintln!(
         "wrote {} ({} x {} x {}, {:.2} % valid)",
         a.out.display(),

@@ -9,6 +9,9 @@ pub fn run(a: SynthArgs) -> CliResult<()> {
     let spec = SynthSpec::read(&a.spec).map_err(bad_input)?;
     let table = spec.synthesize().map_err(runtime)?;
     write_table(&table, &a.out)?;
+    if a.quiet {
+        return Ok(());
+    }
     eprintln!(
         "wrote {} ({}: {} x {} x {}, {:.2} % valid)",
         a.out.display(),
