@@ -209,7 +209,7 @@ fn grid_sections(cfg: &StudyConfig, rows: &[GridRow]) -> (String, String, String
             let e = good_count
                 .entry((
                     r.solver.clone(),
-                    format!("{:08.4}|{}", r.fraction, r.starts),
+                    format!("{:08.4}|{:04}", r.fraction, r.starts),
                 ))
                 .or_insert((0, 0, Vec::new(), Vec::new()));
             e.1 += 1;
@@ -228,6 +228,7 @@ fn grid_sections(cfg: &StudyConfig, rows: &[GridRow]) -> (String, String, String
         c.sort_by(|a, b| a.total_cmp(b));
         let (f, s) = key.split_once('|').unwrap_or(("", ""));
         let f: f64 = f.parse().unwrap_or(f64::NAN);
+        let s = s.trim_start_matches('0');
         t.sort_by(|a, b| a.total_cmp(b));
         let _ = writeln!(
             solvers,
@@ -430,7 +431,7 @@ fn plots(cfg: &StudyConfig, res: &StudyResults) -> Result<Vec<String>, StudyErro
             let rs: Vec<&GridRow> = res
                 .grid
                 .iter()
-                .filter(|r| &r.model == &mc.label && &r.material == mat)
+                .filter(|r| r.model == mc.label && &r.material == mat)
                 .collect();
             if rs.is_empty() {
                 continue;
