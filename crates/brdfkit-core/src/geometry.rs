@@ -130,6 +130,24 @@ impl GeometryBatch {
     pub fn heap_bytes(&self) -> usize {
         10 * self.wi_x.capacity() * std::mem::size_of::<f64>()
     }
+
+    /// Removes every pair, keeping the columns' capacity.
+    pub fn clear(&mut self) {
+        for c in [
+            &mut self.wi_x,
+            &mut self.wi_y,
+            &mut self.wi_z,
+            &mut self.wo_x,
+            &mut self.wo_y,
+            &mut self.wo_z,
+            &mut self.h_x,
+            &mut self.h_y,
+            &mut self.h_z,
+            &mut self.cos_d,
+        ] {
+            c.clear();
+        }
+    }
 }
 
 impl<'a> GeomSlice<'a> {
@@ -175,6 +193,139 @@ impl<'a> GeomSlice<'a> {
     }
 }
 
+/// The columns of a [`GeometryBatch`] rounded to `f32`, for the models' single-precision
+/// fast path ([`Model::eval_batch_f32`](crate::Model::eval_batch_f32)): half the bytes
+/// per pair and twice the vector lanes. Built from a double-precision batch (every value
+/// rounded once, to nearest), so both precisions describe the same pairs.
+#[derive(Clone, Debug, Default)]
+pub struct GeometryBatchF32 {
+    pub wi_x: Vec<f32>,
+    pub wi_y: Vec<f32>,
+    pub wi_z: Vec<f32>,
+    pub wo_x: Vec<f32>,
+    pub wo_y: Vec<f32>,
+    pub wo_z: Vec<f32>,
+    pub h_x: Vec<f32>,
+    pub h_y: Vec<f32>,
+    pub h_z: Vec<f32>,
+    pub cos_d: Vec<f32>,
+}
+
+/// A borrowed run of a [`GeometryBatchF32`].
+#[derive(Clone, Copy, Debug)]
+pub struct GeomSliceF32<'a> {
+    pub wi_x: &'a [f32],
+    pub wi_y: &'a [f32],
+    pub wi_z: &'a [f32],
+    pub wo_x: &'a [f32],
+    pub wo_y: &'a [f32],
+    pub wo_z: &'a [f32],
+    pub h_x: &'a [f32],
+    pub h_y: &'a [f32],
+    pub h_z: &'a [f32],
+    pub cos_d: &'a [f32],
+}
+
+impl GeometryBatchF32 {
+    /// Rounds every column of `g` to `f32`.
+    pub fn from_slice(g: &GeomSlice<'_>) -> Self {
+        let c = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+        GeometryBatchF32 {
+            wi_x: c(g.wi_x),
+            wi_y: c(g.wi_y),
+            wi_z: c(g.wi_z),
+            wo_x: c(g.wo_x),
+            wo_y: c(g.wo_y),
+            wo_z: c(g.wo_z),
+            h_x: c(g.h_x),
+            h_y: c(g.h_y),
+            h_z: c(g.h_z),
+            cos_d: c(g.cos_d),
+        }
+    }
+
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        self.wi_x.len()
+    }
+
+    /// True when there are no pairs.
+    pub fn is_empty(&self) -> bool {
+        self.wi_x.is_empty()
+    }
+
+    /// The whole batch as a slice.
+    pub fn as_slice(&self) -> GeomSliceF32<'_> {
+        GeomSliceF32 {
+            wi_x: &self.wi_x,
+            wi_y: &self.wi_y,
+            wi_z: &self.wi_z,
+            wo_x: &self.wo_x,
+            wo_y: &self.wo_y,
+            wo_z: &self.wo_z,
+            h_x: &self.h_x,
+            h_y: &self.h_y,
+            h_z: &self.h_z,
+            cos_d: &self.cos_d,
+        }
+    }
+
+    /// Pairs `range` of the batch.
+    pub fn slice(&self, range: std::ops::Range<usize>) -> GeomSliceF32<'_> {
+        self.as_slice().sub(range)
+    }
+
+    /// Bytes held by the columns (for memory reports).
+    pub fn heap_bytes(&self) -> usize {
+        10 * self.wi_x.capacity() * std::mem::size_of::<f32>()
+    }
+}
+
+impl<'a> GeomSliceF32<'a> {
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        self.wi_x.len()
+    }
+
+    /// True when there are no pairs.
+    pub fn is_empty(&self) -> bool {
+        self.wi_x.is_empty()
+    }
+
+    /// A sub-run of this slice.
+    pub fn sub(&self, r: std::ops::Range<usize>) -> GeomSliceF32<'a> {
+        GeomSliceF32 {
+            wi_x: &self.wi_x[r.clone()],
+            wi_y: &self.wi_y[r.clone()],
+            wi_z: &self.wi_z[r.clone()],
+            wo_x: &self.wo_x[r.clone()],
+            wo_y: &self.wo_y[r.clone()],
+            wo_z: &self.wo_z[r.clone()],
+            h_x: &self.h_x[r.clone()],
+            h_y: &self.h_y[r.clone()],
+            h_z: &self.h_z[r.clone()],
+            cos_d: &self.cos_d[r],
+        }
+    }
+
+    /// Widens pairs `r` back to `f64` columns, appending them to `out` (the default
+    /// single-precision path of a model evaluates these in double precision).
+    pub fn widen_into(&self, r: std::ops::Range<usize>, out: &mut GeometryBatch) {
+        let w =
+            |dst: &mut Vec<f64>, src: &[f32]| dst.extend(src[r.clone()].iter().map(|&x| x as f64));
+        w(&mut out.wi_x, self.wi_x);
+        w(&mut out.wi_y, self.wi_y);
+        w(&mut out.wi_z, self.wi_z);
+        w(&mut out.wo_x, self.wo_x);
+        w(&mut out.wo_y, self.wo_y);
+        w(&mut out.wo_z, self.wo_z);
+        w(&mut out.h_x, self.h_x);
+        w(&mut out.h_y, self.h_y);
+        w(&mut out.h_z, self.h_z);
+        w(&mut out.cos_d, self.cos_d);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -205,6 +356,33 @@ mod tests {
         let lens: Vec<usize> = b.as_slice().chunks(4).map(|c| c.len()).collect();
         assert_eq!(lens, vec![4, 4, 2]);
         assert_eq!(b.slice(3..5).wi_z[0], b.wi_z[3]);
+    }
+
+    #[test]
+    fn float32_batch_rounds_each_column_once_and_widens_back() {
+        let pairs: Vec<_> = (0..7)
+            .map(|k| {
+                (
+                    spherical(0.2 * k as f64, 0.3),
+                    spherical(0.1, 1.0 + k as f64),
+                )
+            })
+            .collect();
+        let b = GeometryBatch::from_pairs(&pairs);
+        let f = GeometryBatchF32::from_slice(&b.as_slice());
+        assert_eq!(f.len(), 7);
+        assert_eq!(f.heap_bytes(), 10 * 7 * 4);
+        assert_eq!(f.wo_y[3], b.wo_y[3] as f32);
+        assert_eq!(f.cos_d[6], b.cos_d[6] as f32);
+        let mut w = GeometryBatch::with_capacity(4);
+        w.push(&pairs[0].0, &pairs[0].1);
+        w.clear();
+        assert!(w.is_empty());
+        f.as_slice().widen_into(2..5, &mut w);
+        assert_eq!(w.len(), 3);
+        assert_eq!(w.h_x[0], f.h_x[2] as f64);
+        assert_eq!(f.slice(2..5).wi_z[1], f.wi_z[3]);
+        assert!((w.wi_z[2] - b.wi_z[4]).abs() <= 1e-7 * b.wi_z[4].abs());
     }
 
     #[test]

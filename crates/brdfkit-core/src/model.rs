@@ -8,7 +8,7 @@
 //! Gradients are with respect to the physical parameters of that vector; the fitter
 //! applies its own reparameterisation (log / logit) on top.
 
-use crate::{Brdf, GeomSlice, Rgb, Vec3};
+use crate::{Brdf, GeomSlice, GeomSliceF32, GeometryBatch, Rgb, Vec3};
 use std::fmt;
 use thiserror::Error;
 
@@ -233,6 +233,19 @@ pub trait Model: Brdf + fmt::Debug {
     /// `grad[p * g.len() + k]` is ∂f/∂param_p at pair k.
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]);
 
+    /// f_r in single precision for every pair of a float32 batch, into one plane per
+    /// channel: `out[c][k]` is channel c at pair k (each plane at least `g.len()` long).
+    ///
+    /// For bulk evaluation where float32 is enough (previews, model → table at the
+    /// precision of measured data): twice the vector lanes and half the memory traffic
+    /// of [`Model::eval_batch`]. The default widens runs of pairs to `f64`, calls
+    /// [`Model::eval_batch`] and rounds the result, so every model has the path and its
+    /// only error is the rounding of the geometry and of f_r; a model with a native
+    /// float32 kernel overrides it (`cook-torrance` with GGX) and documents its error.
+    fn eval_batch_f32(&self, g: &GeomSliceF32<'_>, out: [&mut [f32]; 3]) {
+        eval_batch_f32_widened(self, g, out)
+    }
+
     /// The model in the JSON contract: `{"model": name, "params": {...}}`.
     fn to_json(&self) -> serde_json::Value;
 
@@ -248,6 +261,35 @@ pub trait Model: Brdf + fmt::Debug {
     /// (documented per model). The original Phong model makes no such promise.
     fn conserves_energy(&self) -> bool {
         true
+    }
+}
+
+/// The default [`Model::eval_batch_f32`]: widens runs of 1024 pairs to `f64`, calls
+/// [`Model::eval_batch`] and rounds f_r to `f32`. Public so that a model whose native
+/// kernel covers only some configurations can fall back to it for the others.
+pub fn eval_batch_f32_widened<M: Model + ?Sized>(
+    m: &M,
+    g: &GeomSliceF32<'_>,
+    out: [&mut [f32]; 3],
+) {
+    const RUN: usize = 1024;
+    let n = g.len();
+    let mut wide = GeometryBatch::with_capacity(RUN.min(n));
+    let mut vals = vec![Rgb::ZERO; RUN.min(n)];
+    let [r, gg, b] = out;
+    let mut start = 0;
+    while start < n {
+        let end = (start + RUN).min(n);
+        wide.clear();
+        g.widen_into(start..end, &mut wide);
+        let v = &mut vals[..end - start];
+        m.eval_batch(&wide.as_slice(), v);
+        for (k, x) in v.iter().enumerate() {
+            r[start + k] = x[0] as f32;
+            gg[start + k] = x[1] as f32;
+            b[start + k] = x[2] as f32;
+        }
+        start = end;
     }
 }
 

@@ -60,14 +60,17 @@
 //! are tested over the hard-case grid.
 
 use crate::json;
-use brdfkit_core::model::{Domain, check_param};
+use brdfkit_core::model::{Domain, check_param, eval_batch_f32_widened};
 use brdfkit_core::scattering::fresnel::{
     conductor, conductor_grad, dielectric_grad, schlick_weight,
 };
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking, Smith};
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use brdfkit_core::{Brdf, GeomSlice, GeomSliceF32, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Map, Value, json};
 use std::f64::consts::FRAC_1_PI;
+
+#[path = "cook_torrance_ggx.rs"]
+mod ggx;
 
 /// The domain of ρd and ρs.
 pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
@@ -721,10 +724,75 @@ pub(crate) fn batch_pair(g: &GeomSlice<'_>, k: usize) -> ([f64; 3], [f64; 3], [f
     )
 }
 
+impl CookTorrance {
+    /// f_r of one pair from its batch geometry: the GGX kernel where it applies (the
+    /// value of every path of those configurations), else the per-pair code.
+    fn value(&self, wi: [f64; 3], wo: [f64; 3], h: [f64; 3], cd: f64) -> Rgb {
+        match self.ggx_config() {
+            Some(cfg) => {
+                let k = self.ggx_consts::<f64>();
+                let mut out = Rgb::ZERO;
+                ggx::with_config(
+                    cfg,
+                    ggx::Pair {
+                        k: &k,
+                        wi,
+                        wo,
+                        h,
+                        cd,
+                        out: &mut out,
+                    },
+                );
+                out
+            }
+            None => self.kernel(wi, wo, h, cd, None),
+        }
+    }
+
+    /// [`Model::eval_batch`] through the baseline (non-dispatched) copy of the GGX loop,
+    /// for the test that the dispatched copies compute the same bits.
+    #[doc(hidden)]
+    pub fn eval_batch_baseline(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) -> bool {
+        let Some(cfg) = self.ggx_config() else {
+            return false;
+        };
+        let k = self.ggx_consts::<f64>();
+        ggx::with_config(
+            cfg,
+            ggx::Batch64 {
+                k: &k,
+                g,
+                out,
+                baseline: true,
+            },
+        );
+        true
+    }
+
+    /// [`Model::eval_batch_f32`] through the baseline copy (as above).
+    #[doc(hidden)]
+    pub fn eval_batch_f32_baseline(&self, g: &GeomSliceF32<'_>, out: [&mut [f32]; 3]) -> bool {
+        let Some(cfg) = self.ggx_config() else {
+            return false;
+        };
+        let k = self.ggx_consts::<f32>();
+        ggx::with_config(
+            cfg,
+            ggx::Batch32 {
+                k: &k,
+                g,
+                out,
+                baseline: true,
+            },
+        );
+        true
+    }
+}
+
 impl Brdf for CookTorrance {
     fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
         let (a, b, h, c) = pair_geometry(wi, wo);
-        self.kernel(a, b, h, c, None)
+        self.value(a, b, h, c)
     }
 
     fn is_isotropic(&self) -> bool {
@@ -787,13 +855,52 @@ impl Model for CookTorrance {
         let f = self.kernel(a, b, h, c, Some(&mut g));
         let n = self.num_params();
         grad[..n].copy_from_slice(&g[..n]);
-        f
+        if self.ggx_config().is_some() {
+            // The value of the GGX kernel, as every other path returns it.
+            self.value(a, b, h, c)
+        } else {
+            f
+        }
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
+        if let Some(cfg) = self.ggx_config() {
+            let k = self.ggx_consts::<f64>();
+            ggx::with_config(
+                cfg,
+                ggx::Batch64 {
+                    k: &k,
+                    g,
+                    out,
+                    baseline: false,
+                },
+            );
+            return;
+        }
         for (k, o) in out.iter_mut().enumerate().take(g.len()) {
             let (a, b, h, c) = batch_pair(g, k);
             *o = self.kernel(a, b, h, c, None);
+        }
+    }
+
+    /// The GGX configurations run the kernel of `cook_torrance_ggx.rs` in `f32` (error
+    /// against the `f64` model: a few float32 ulp per operation, amplified where D is
+    /// steep; measured in docs/models.md); the others widen to `f64`.
+    fn eval_batch_f32(&self, g: &GeomSliceF32<'_>, out: [&mut [f32]; 3]) {
+        match self.ggx_config() {
+            Some(cfg) => {
+                let k = self.ggx_consts::<f32>();
+                ggx::with_config(
+                    cfg,
+                    ggx::Batch32 {
+                        k: &k,
+                        g,
+                        out,
+                        baseline: false,
+                    },
+                );
+            }
+            None => eval_batch_f32_widened(self, g, out),
         }
     }
 
@@ -807,6 +914,10 @@ impl Model for CookTorrance {
             for (p, v) in gk.iter().enumerate().take(np) {
                 grad[p * n + k] = *v;
             }
+        }
+        if self.ggx_config().is_some() {
+            // The values of the GGX kernel, as every other path returns them.
+            self.eval_batch(g, &mut out[..n]);
         }
     }
 

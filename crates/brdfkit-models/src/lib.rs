@@ -6,6 +6,8 @@
 //! `{"model": "<name>", "params": {...}}` read by [`from_json`]. See `docs/models.md`.
 
 pub mod json;
+mod lanes;
+pub mod par;
 pub mod testing;
 
 // Models (one file each).

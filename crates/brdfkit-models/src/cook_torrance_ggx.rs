@@ -1,0 +1,328 @@
+//! The branch-free value kernel of `cook-torrance` with GGX and Smith masking, in `f64`
+//! (the value of every evaluation path of those configurations) and `f32`
+//! ([`Model::eval_batch_f32`](brdfkit_core::Model::eval_batch_f32)).
+//!
+//! With s = hx²/αx² + hy²/αy² + hz² and, per direction v, S(v) = √(vz² + αx² vx² + αy² vy²)
+//! (= vz √(1 + α² tan²θv); isotropic: √(vz² + α²(1 − vz²))):
+//!
+//! - GGX (Walter et al. 2007, eq. 33; anisotropic: Heitz 2014, eq. 85):
+//!   D = 1/(π αx αy s²);
+//! - GGX's Smith Λ(v) = (S(v)/vz − 1)/2 (Heitz 2014, eq. 86), so the whole
+//!   V = G/(4 cos θi cos θo) is, without any division by a cosine,
+//!   separable G1(wi)G1(wo):        V = 1/((zi + Si)(zo + So)),
+//!   height-correlated 1/(1 + Λi + Λo): V = 1/(2 (zo Si + zi So));
+//! - F at c = cos θd: Schlick f0 + (1 − f0)(1 − c)⁵; the conductor (Möller 1988, as
+//!   [`conductor`](brdfkit_core::scattering::fresnel::conductor)) folded into one
+//!   division, F = (Rs + Rp)/2 = Rs t3/(t3 + t4) = (t1 − t2) t3/((t1 + t2)(t3 + t4));
+//!   the dielectric (Born & Wolf) as F = (r∥² + r⊥²)/2 over one common denominator;
+//! - f_r = ρd/π + ρs D V F, and exactly 0 unless cos θi > 0 and cos θo > 0.
+//!
+//! Four divisions and eight square roots per pair for the conductor (the per-pair model
+//! code has nine divisions). The same function serves one pair (`eval`) and the loops
+//! over a batch, so all paths give the same bits.
+
+use super::{CookTorrance, Fresnel, Shape};
+use crate::lanes::{Real, Run, clamp01, dispatch, max, select};
+use brdfkit_core::scattering::{Distribution, Masking};
+use brdfkit_core::{GeomSlice, GeomSliceF32, Rgb};
+use std::f64::consts::FRAC_1_PI;
+
+const F_NONE: u8 = 0;
+const F_SCHLICK: u8 = 1;
+const F_CONDUCTOR: u8 = 2;
+const F_DIELECTRIC: u8 = 3;
+
+/// Per-call constants of the kernel, computed in `f64` and rounded once.
+#[derive(Clone, Copy)]
+pub(super) struct Consts<T> {
+    inv_ax2: T,
+    inv_ay2: T,
+    ax2: T,
+    ay2: T,
+    d_norm: T,
+    diff: [T; 3],
+    spec: [T; 3],
+    /// Schlick: f0. Conductor: η² − k². Dielectric: η in `[0]`.
+    fa: [T; 3],
+    /// Conductor: 4η²k². Dielectric: 1/η² in `[0]`.
+    fb: [T; 3],
+}
+
+/// The structural choices the kernel is compiled for.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) struct Config {
+    aniso: bool,
+    correlated: bool,
+    fresnel: u8,
+}
+
+impl CookTorrance {
+    /// The kernel's configuration, or `None` when the model has no branch-free kernel
+    /// (Beckmann needs `exp` and `erf`, which do not vectorise; the V-cavity a `min` of
+    /// quotients): those use the per-pair code.
+    pub(super) fn ggx_config(&self) -> Option<Config> {
+        if self.distribution != Distribution::Ggx {
+            return None;
+        }
+        let correlated = match self.masking {
+            Masking::SmithSeparable => false,
+            Masking::SmithCorrelated => true,
+            Masking::VCavity => return None,
+        };
+        let fresnel = match self.fresnel {
+            Fresnel::None => F_NONE,
+            Fresnel::Schlick { .. } => F_SCHLICK,
+            Fresnel::Conductor { .. } => F_CONDUCTOR,
+            Fresnel::Dielectric { .. } => F_DIELECTRIC,
+        };
+        Some(Config {
+            aniso: matches!(self.alpha, Shape::Anisotropic(..)),
+            correlated,
+            fresnel,
+        })
+    }
+
+    pub(super) fn ggx_consts<T: Real>(&self) -> Consts<T> {
+        let (ax, ay) = self.alpha.xy();
+        let (mut fa, mut fb) = ([0.0; 3], [0.0; 3]);
+        match self.fresnel {
+            Fresnel::None => {}
+            Fresnel::Schlick { f0 } => fa = f0.0,
+            Fresnel::Conductor { eta, k } => {
+                for c in 0..3 {
+                    fa[c] = eta[c] * eta[c] - k[c] * k[c];
+                    fb[c] = 4.0 * eta[c] * eta[c] * k[c] * k[c];
+                }
+            }
+            Fresnel::Dielectric { eta } => {
+                fa[0] = eta;
+                fb[0] = 1.0 / (eta * eta);
+            }
+        }
+        let r = |v: [f64; 3]| v.map(T::of);
+        Consts {
+            inv_ax2: T::of(1.0 / (ax * ax)),
+            inv_ay2: T::of(1.0 / (ay * ay)),
+            ax2: T::of(ax * ax),
+            ay2: T::of(ay * ay),
+            d_norm: T::of(FRAC_1_PI / (ax * ay)),
+            diff: r(self.rho_d.0.map(|v| v * FRAC_1_PI)),
+            spec: r(self.rho_s.0),
+            fa: r(fa),
+            fb: r(fb),
+        }
+    }
+}
+
+/// F at cos θd = `cd` per channel (module doc).
+#[inline(always)]
+fn fresnel<T: Real, const F: u8>(k: &Consts<T>, cd: T) -> [T; 3] {
+    let c = clamp01(cd);
+    match F {
+        F_SCHLICK => {
+            let m = T::ONE - c;
+            let m2 = m * m;
+            let w = m2 * m2 * m;
+            k.fa.map(|f0| f0 + (T::ONE - f0) * w)
+        }
+        F_CONDUCTOR => {
+            let c2 = c * c;
+            let s2 = T::ONE - c2;
+            let s4 = s2 * s2;
+            std::array::from_fn(|ch| {
+                let t = k.fa[ch] - s2;
+                let p = (t * t + k.fb[ch]).sqrt();
+                // (p + t)/2 = a² ≥ 0 exactly; round-off can make it a hair negative.
+                let a = max(T::HALF * (p + t), T::ZERO).sqrt();
+                let t1 = p + c2;
+                let t2 = T::TWO * c * a;
+                let t3 = p * c2 + s4;
+                let t4 = t2 * s2;
+                // (t1 + t2)(t3 + t4) = 0 only at c = 0 with p = 0 (k = 0, η = 1: no
+                // interface), where the numerator is 0 as well and F = 0 is the limit.
+                (t1 - t2) * t3 / max((t1 + t2) * (t3 + t4), T::TINY)
+            })
+        }
+        F_DIELECTRIC => {
+            let eta = k.fa[0];
+            let sin2_t = (T::ONE - c * c) * k.fb[0];
+            let ct = max(T::ONE - sin2_t, T::ZERO).sqrt();
+            let (a, b) = (eta * c - ct, eta * c + ct);
+            let (p, q) = (c - eta * ct, c + eta * ct);
+            let (b2, q2) = (b * b, q * q);
+            // b = q = 0 only at c = 0 with η = 1, where total internal reflection
+            // (sin²θt = 1) selects F = 1 below.
+            let f = T::HALF * (a * a * q2 + p * p * b2) / max(b2 * q2, T::TINY);
+            [select(sin2_t >= T::ONE, T::ONE, f); 3]
+        }
+        _ => [T::ONE; 3],
+    }
+}
+
+/// f_r of one pair (module doc).
+#[inline(always)]
+pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8>(
+    k: &Consts<T>,
+    wi: [T; 3],
+    wo: [T; 3],
+    h: [T; 3],
+    cd: T,
+) -> [T; 3] {
+    let (zi, zo) = (wi[2], wo[2]);
+    let (hx2, hy2, hz2) = (h[0] * h[0], h[1] * h[1], h[2] * h[2]);
+    let (s, si, so) = if A {
+        (
+            hx2 * k.inv_ax2 + hy2 * k.inv_ay2 + hz2,
+            (zi * zi + k.ax2 * wi[0] * wi[0] + k.ay2 * wi[1] * wi[1]).sqrt(),
+            (zo * zo + k.ax2 * wo[0] * wo[0] + k.ay2 * wo[1] * wo[1]).sqrt(),
+        )
+    } else {
+        (
+            (hx2 + hy2) * k.inv_ax2 + hz2,
+            (zi * zi + k.ax2 * (T::ONE - zi * zi)).sqrt(),
+            (zo * zo + k.ax2 * (T::ONE - zo * zo)).sqrt(),
+        )
+    };
+    let vden = if C {
+        T::TWO * (zo * si + zi * so)
+    } else {
+        (zi + si) * (zo + so)
+    };
+    // D·V in one division; s² ≤ 1e24 and vden ≤ 4e4 over the roughness domain, so the
+    // product stays finite even in f32.
+    let dv = k.d_norm / (s * s * vden);
+    let f = fresnel::<T, F>(k, cd);
+    // Below the horizon exactly 0 (a select, so the loop has no branch).
+    let up = zi > T::ZERO && zo > T::ZERO;
+    std::array::from_fn(|c| select(up, k.diff[c] + k.spec[c] * dv * f[c], T::ZERO))
+}
+
+/// Work that needs the configuration as compile-time constants.
+pub(super) trait Job {
+    fn go<const A: bool, const C: bool, const F: u8>(self);
+}
+
+/// Calls `job.go` with `cfg` as constants.
+pub(super) fn with_config<J: Job>(cfg: Config, job: J) {
+    macro_rules! arms {
+        ($($a:literal, $c:literal, $f:ident;)*) => {
+            match (cfg.aniso, cfg.correlated, cfg.fresnel) {
+                $(($a, $c, $f) => job.go::<$a, $c, $f>(),)*
+                _ => unreachable!("ggx_config only builds known Fresnel kinds"),
+            }
+        };
+    }
+    arms!(
+        false, false, F_NONE; false, false, F_SCHLICK; false, false, F_CONDUCTOR; false, false, F_DIELECTRIC;
+        false, true, F_NONE; false, true, F_SCHLICK; false, true, F_CONDUCTOR; false, true, F_DIELECTRIC;
+        true, false, F_NONE; true, false, F_SCHLICK; true, false, F_CONDUCTOR; true, false, F_DIELECTRIC;
+        true, true, F_NONE; true, true, F_SCHLICK; true, true, F_CONDUCTOR; true, true, F_DIELECTRIC;
+    );
+}
+
+/// One pair in `f64`.
+pub(super) struct Pair<'a> {
+    pub k: &'a Consts<f64>,
+    pub wi: [f64; 3],
+    pub wo: [f64; 3],
+    pub h: [f64; 3],
+    pub cd: f64,
+    pub out: &'a mut Rgb,
+}
+
+impl Job for Pair<'_> {
+    fn go<const A: bool, const C: bool, const F: u8>(self) {
+        *self.out = Rgb(value::<f64, A, C, F>(
+            self.k, self.wi, self.wo, self.h, self.cd,
+        ));
+    }
+}
+
+/// A batch in `f64` into [`Rgb`]s.
+pub(super) struct Batch64<'a, 'g> {
+    pub k: &'a Consts<f64>,
+    pub g: &'a GeomSlice<'g>,
+    pub out: &'a mut [Rgb],
+    /// Run the baseline copy instead of the dispatched one (tests).
+    pub baseline: bool,
+}
+
+struct Loop64<'a, 'g, const A: bool, const C: bool, const F: u8>(Batch64<'a, 'g>);
+
+impl<const A: bool, const C: bool, const F: u8> Run for Loop64<'_, '_, A, C, F> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let b = &mut self.0;
+        let n = b.g.len().min(b.out.len());
+        let g = b.g.sub(0..n);
+        let out = &mut b.out[..n];
+        for (i, o) in out.iter_mut().enumerate() {
+            let v = value::<f64, A, C, F>(
+                b.k,
+                [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
+                [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
+                [g.h_x[i], g.h_y[i], g.h_z[i]],
+                g.cos_d[i],
+            );
+            *o = Rgb(v);
+        }
+    }
+}
+
+impl Job for Batch64<'_, '_> {
+    fn go<const A: bool, const C: bool, const F: u8>(self) {
+        let baseline = self.baseline;
+        let mut l = Loop64::<A, C, F>(self);
+        if baseline {
+            l.run();
+        } else {
+            dispatch(&mut l);
+        }
+    }
+}
+
+/// A batch in `f32` into three planes.
+pub(super) struct Batch32<'a, 'g> {
+    pub k: &'a Consts<f32>,
+    pub g: &'a GeomSliceF32<'g>,
+    pub out: [&'a mut [f32]; 3],
+    /// Run the baseline copy instead of the dispatched one (tests).
+    pub baseline: bool,
+}
+
+struct Loop32<'a, 'g, const A: bool, const C: bool, const F: u8>(Batch32<'a, 'g>);
+
+impl<const A: bool, const C: bool, const F: u8> Run for Loop32<'_, '_, A, C, F> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let b = &mut self.0;
+        let [r, gg, bb] = &mut b.out;
+        let n = b.g.len().min(r.len()).min(gg.len()).min(bb.len());
+        let g = b.g.sub(0..n);
+        let (r, gg, bb) = (&mut r[..n], &mut gg[..n], &mut bb[..n]);
+        for i in 0..n {
+            let v = value::<f32, A, C, F>(
+                b.k,
+                [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
+                [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
+                [g.h_x[i], g.h_y[i], g.h_z[i]],
+                g.cos_d[i],
+            );
+            r[i] = v[0];
+            gg[i] = v[1];
+            bb[i] = v[2];
+        }
+    }
+}
+
+impl Job for Batch32<'_, '_> {
+    fn go<const A: bool, const C: bool, const F: u8>(self) {
+        let baseline = self.baseline;
+        let mut l = Loop32::<A, C, F>(self);
+        if baseline {
+            l.run();
+        } else {
+            dispatch(&mut l);
+        }
+    }
+}

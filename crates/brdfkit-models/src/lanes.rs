@@ -1,0 +1,146 @@
+//! Branch-free loops over structure-of-arrays geometry, written once for `f32` and `f64`
+//! and compiled for the widest vector instructions the processor has.
+//!
+//! A model's fast kernel is a `#[inline(always)]` function of one pair written against
+//! [`Real`] (no branches: a condition becomes a [`select`], so the loop that calls it
+//! vectorises), and a loop over slices implementing [`Run`]. [`dispatch`] runs that loop
+//! in a copy compiled for AVX-512 or AVX2 + FMA when the processor has them, chosen at
+//! run time (`is_x86_feature_detected!`): the crate itself is compiled for baseline
+//! x86-64 (SSE2: 2 `f64` or 4 `f32` lanes). Rust never contracts `a * b + c` into a fused
+//! multiply-add, so every copy computes the same bits as the baseline loop and as the
+//! scalar call of the same kernel (tested), which is what keeps a model's `eval` and its
+//! batch paths identical.
+
+use std::ops::{Add, Div, Mul, Sub};
+
+/// The arithmetic a lane kernel may use: IEEE operations that vectorise (no `exp`, no
+/// `erf`, no library calls).
+pub(crate) trait Real:
+    Copy
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Send
+    + Sync
+    + 'static
+{
+    const ZERO: Self;
+    const ONE: Self;
+    const HALF: Self;
+    const TWO: Self;
+    /// The smallest positive normal number: a floor for denominators that are exactly 0
+    /// only where their numerator is 0 too.
+    const TINY: Self;
+    /// `x` rounded to this precision.
+    fn of(x: f64) -> Self;
+    /// Correctly rounded square root.
+    fn sqrt(self) -> Self;
+}
+
+impl Real for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    const HALF: Self = 0.5;
+    const TWO: Self = 2.0;
+    const TINY: Self = f64::MIN_POSITIVE;
+    #[inline(always)]
+    fn of(x: f64) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+}
+
+impl Real for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    const HALF: Self = 0.5;
+    const TWO: Self = 2.0;
+    const TINY: Self = f32::MIN_POSITIVE;
+    #[inline(always)]
+    fn of(x: f64) -> Self {
+        x as f32
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+}
+
+/// `c ? a : b`, written so that LLVM emits a blend rather than a branch.
+#[inline(always)]
+pub(crate) fn select<T: Real>(c: bool, a: T, b: T) -> T {
+    if c { a } else { b }
+}
+
+/// The larger of `a` and `b` (`b` when either is NaN: callers pass a finite floor as `b`).
+#[inline(always)]
+pub(crate) fn max<T: Real>(a: T, b: T) -> T {
+    if a > b { a } else { b }
+}
+
+/// `x` clamped into [0, 1] (NaN gives 0).
+#[inline(always)]
+pub(crate) fn clamp01<T: Real>(x: T) -> T {
+    let lo = max(x, T::ZERO);
+    if lo < T::ONE { lo } else { T::ONE }
+}
+
+/// A loop over slices, run by [`dispatch`].
+pub(crate) trait Run {
+    /// The loop. Implementations mark it `#[inline(always)]`, so each copy made by
+    /// [`dispatch`] is compiled with that copy's instruction set.
+    fn run(&mut self);
+}
+
+/// Runs `r` with AVX-512 (F + VL), else AVX2 + FMA, else the baseline instructions.
+#[inline]
+pub(crate) fn dispatch<R: Run>(r: &mut R) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+        {
+            // SAFETY: the instruction sets the copy is compiled for are present.
+            return unsafe { run_avx512(r) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: as above.
+            return unsafe { run_avx2(r) };
+        }
+    }
+    r.run()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+fn run_avx512<R: Run>(r: &mut R) {
+    r.run()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn run_avx2<R: Run>(r: &mut R) {
+    r.run()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn helpers() {
+        assert_eq!(clamp01(1.5f64), 1.0);
+        assert_eq!(clamp01(-0.0f64), 0.0);
+        assert_eq!(clamp01(f64::NAN), 0.0);
+        assert_eq!(clamp01(0.25f32), 0.25);
+        assert_eq!(max(f32::NAN, 1.0), 1.0);
+        assert_eq!(select(true, 1.0f64, 2.0), 1.0);
+        assert_eq!(<f32 as Real>::of(0.1), 0.1f32);
+    }
+}
