@@ -6,9 +6,10 @@
 //! - `eval`: Cook-Torrance GGX, separable Smith, exact conductor Fresnel (gold, α = 0.2,
 //!   ρd = 0, ρs = 1: Mitsuba 3's `roughconductor`), RGB, over all 1,458,000 (wi, wo)
 //!   pairs of the MERL grid cells (`DIR/grid_pairs.f64`, 6 planes wi_x … wo_z). Timed:
-//!   the model's `eval_batch` on precomputed geometry, `Brdf::eval` from the direction
-//!   pairs (h and cos θd computed per pair, as Mitsuba does), and the f32 and f64 SoA
-//!   kernels of `brdfkit_study::kernel`; all on the global rayon pool, chunks of 8192.
+//!   the model's `eval_batch_f32` (float32, as Mitsuba's `llvm_ad_rgb`) and `eval_batch`
+//!   (f64) on precomputed geometry through `brdfkit::models::par` (runs of 8192 pairs
+//!   over every thread of the global rayon pool), and `Brdf::eval` from the direction
+//!   pairs (h and cos θd computed per pair, as Mitsuba does).
 //! - `read`: `MerlTable::read` of `DIR/table.binary` (the gold table) and `cat FILE >
 //!   /dev/null`, interleaved.
 //! - `nearest`: `lookup_batch(Nearest)` of 1,458,000 seeded random pairs
@@ -19,10 +20,12 @@
 //!
 //! Timings are the median of `--reps N` runs (default 7) after one warm-up run.
 
-use brdfkit::core::{Brdf, GeometryBatch, HalfDiff, Model, Rgb, Vec3, from_half_diff};
+use brdfkit::core::{
+    Brdf, GeometryBatch, GeometryBatchF32, HalfDiff, Model, Rgb, Vec3, from_half_diff,
+};
 use brdfkit::fit::{FitConfig, FitData, Loss, fit};
 use brdfkit::merl::{Dims, Lookup, MerlTable};
-use brdfkit_study::kernel::{self, GgxConductor, Planes};
+use brdfkit::models::par::{RUN, eval_batch_f32_par, eval_batch_par};
 use rayon::prelude::*;
 use serde_json::json;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -32,13 +35,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
-const GOLD: GgxConductor = GgxConductor {
-    rho_d: [0.0; 3],
-    rho_s: [1.0; 3],
-    alpha: 0.2,
-    eta: [0.143, 0.374, 1.442],
-    k: [3.983, 2.385, 1.603],
-};
+/// Gold as Mitsuba 3's `roughconductor` (ρd = 0, ρs = 1, GGX, separable Smith).
+const GOLD: &str = r#"{"model":"cook-torrance","params":{"rho_d":0.0,"rho_s":1.0,"alpha":0.2,
+    "distribution":"ggx","masking":"smith-separable",
+    "fresnel":{"conductor":{"eta":[0.143,0.374,1.442],"k":[3.983,2.385,1.603]}}}}"#;
 
 const FIT_TRUTH: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","masking":"smith-separable",
     "fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.08}}"#;
@@ -143,23 +143,28 @@ fn main() {
     let n = pairs.len();
     write_pairs(&dir.join("grid_pairs.f64"), &pairs).expect("write grid pairs");
     let batch = GeometryBatch::from_pairs(&pairs);
-    let model = brdfkit::models::from_json(&GOLD.to_json()).expect("the gold model");
+    let gold: serde_json::Value = serde_json::from_str(GOLD).expect("the gold JSON");
+    let model = brdfkit::models::from_json(&gold).expect("the gold model");
     let m: &dyn Model = model.as_ref();
     let s = batch.as_slice();
     let mut o = vec![Rgb::ZERO; n];
     let (t_batch, t_batch_min) = median_time(reps, || {
-        o.par_chunks_mut(kernel::CHUNK)
-            .enumerate()
-            .for_each(|(c, o)| {
-                let a = c * kernel::CHUNK;
-                m.eval_batch(&s.sub(a..a + o.len()), o);
-            });
+        eval_batch_par(m, &s, &mut o);
         black_box(&o);
     });
     let sum_batch = sums(&o);
+    let b32 = GeometryBatchF32::from_slice(&s);
+    let s32 = b32.as_slice();
+    let mut p32 = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
+    let (t_f32, t_f32_min) = median_time(reps, || {
+        let [r, g, b] = &mut p32;
+        eval_batch_f32_par(m, &s32, [r, g, b]);
+        black_box(&p32);
+    });
+    let sum32: [f64; 3] = std::array::from_fn(|c| p32[c].iter().map(|&x| x as f64).sum());
     let (t_pairs, t_pairs_min) = median_time(reps, || {
-        o.par_chunks_mut(kernel::CHUNK)
-            .zip(pairs.par_chunks(kernel::CHUNK))
+        o.par_chunks_mut(RUN)
+            .zip(pairs.par_chunks(RUN))
             .for_each(|(o, p)| {
                 for (o, (wi, wo)) in o.iter_mut().zip(p) {
                     *o = Brdf::eval(m, wi, wo);
@@ -167,38 +172,19 @@ fn main() {
             });
         black_box(&o);
     });
-    let g64 = kernel::geom_f64(&s);
-    let mut p64 = Planes::zeros(n);
-    let (t_k64, t_k64_min) = median_time(reps, || {
-        kernel::eval_par_f64(&GOLD, &g64, &mut p64);
-        black_box(&p64);
-    });
-    let g32 = kernel::geom_f32(&s);
-    let mut p32 = Planes::<f32>::zeros(n);
-    let (t_k32, t_k32_min) = median_time(reps, || {
-        kernel::eval_par_f32(&GOLD, &g32, &mut p32);
-        black_box(&p32);
-    });
-    let sum32: [f64; 3] = [
-        p32.r.iter().map(|&x| x as f64).sum(),
-        p32.g.iter().map(|&x| x as f64).sum(),
-        p32.b.iter().map(|&x| x as f64).sum(),
-    ];
     out["eval"] = json!({
         "cells": n,
-        "params": GOLD.to_json(),
+        "params": gold,
         "eval_batch_s": t_batch, "eval_batch_min_s": t_batch_min,
+        "eval_f32_s": t_f32, "eval_f32_min_s": t_f32_min,
         "eval_pairs_s": t_pairs, "eval_pairs_min_s": t_pairs_min,
-        "kernel_f64_s": t_k64, "kernel_f64_min_s": t_k64_min,
-        "kernel_f32_s": t_k32, "kernel_f32_min_s": t_k32_min,
         "sum_f64": sum_batch, "sum_f32": sum32,
     });
     eprintln!(
-        "eval: eval_batch {:.1} ms, eval(pairs) {:.1} ms, f64 kernel {:.1} ms, f32 kernel {:.1} ms",
+        "eval: eval_batch_f32 {:.2} ms, eval_batch {:.2} ms, eval(pairs) {:.1} ms",
+        t_f32 * 1e3,
         t_batch * 1e3,
         t_pairs * 1e3,
-        t_k64 * 1e3,
-        t_k32 * 1e3
     );
 
     // --- reading a table vs cat ---

@@ -4,8 +4,8 @@
 //!   of the synthetic material at random direction pairs;
 //! - Cook-Torrance variants against a reference on the valid cells of the MERL grid:
 //!   Schlick vs exact conductor Fresnel, rational vs exact-erf Beckmann G1, separable vs
-//!   height-correlated Smith, and the `f32` kernel of [`crate::kernel`] vs the `f64`
-//!   model.
+//!   height-correlated Smith, and the model's float32 path (`Model::eval_batch_f32`) vs
+//!   its `f64` path.
 //!
 //! Errors: relative error |f̂ − f|/f over the (pair, channel)s where the reference is
 //! positive (median, 90th and 99th percentile, maximum), and the `cbrt` error — the
@@ -13,13 +13,13 @@
 //! (docs/fitting.md), so it reads on the same scale as the fit grid's losses. Times: one
 //! thread, minimum over `reps` runs, per evaluated cell or pair.
 
-use crate::kernel::{self, GgxConductor, Planes};
 use crate::{Material, StudyConfig, StudyError};
 use brdfkit::synth::SynthSpec;
 use brdfkit_core::direction::spherical;
-use brdfkit_core::{GeometryBatch, Model, Rgb, Vec3};
+use brdfkit_core::{GeometryBatch, GeometryBatchF32, Model, Rgb, Vec3};
 use brdfkit_fit::{FitConfig, FitData, fit};
 use brdfkit_merl::Lookup;
+use brdfkit_models::par::{eval_batch_f32_par, eval_batch_par};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -204,12 +204,7 @@ fn time_model(reps: usize, m: &dyn Model, g: &GeometryBatch) -> f64 {
     let mut out = vec![Rgb::ZERO; g.len()];
     let t = pool(1).install(|| {
         time_min(reps, || {
-            out.par_chunks_mut(kernel::CHUNK)
-                .enumerate()
-                .for_each(|(c, o)| {
-                    let a = c * kernel::CHUNK;
-                    m.eval_batch(&s.sub(a..a + o.len()), o);
-                });
+            eval_batch_par(m, &s, &mut out);
             black_box(&out);
         })
     });
@@ -379,71 +374,43 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
         ("separable", csep.as_ref()),
     );
 
-    // Precision: the f32 and f64 kernels against the f64 model, on gold and on the
+    // Precision: the model's float32 path against its f64 path, on gold and on the
     // near-mirror silver (the steepest D).
     for name in ["gold-ggx", "near-mirror-silver"] {
         let s = spec(name)?;
         let data = cells(&s)?;
-        let j = s.material.to_json();
-        let p = &j["params"];
-        let rgb = |v: &serde_json::Value| -> [f64; 3] {
-            match v {
-                serde_json::Value::Array(a) => {
-                    std::array::from_fn(|c| a.get(c).and_then(|x| x.as_f64()).unwrap_or(f64::NAN))
-                }
-                x => [x.as_f64().unwrap_or(f64::NAN); 3],
-            }
-        };
-        let kp = GgxConductor {
-            rho_d: rgb(&p["rho_d"]),
-            rho_s: rgb(&p["rho_s"]),
-            alpha: p["alpha"].as_f64().unwrap_or(f64::NAN),
-            eta: rgb(&p["fresnel"]["conductor"]["eta"]),
-            k: rgb(&p["fresnel"]["conductor"]["k"]),
-        };
-        let m = model(kp.to_json(), name)?;
+        let m = model(s.material.to_json(), name)?;
         let g = data.geometry();
         let reference = eval_model(m.as_ref(), g);
         let ns_ref = time_model(cfg.reps, m.as_ref(), g);
-        let one = pool(1);
-        let g64 = kernel::geom_f64(&g.as_slice());
-        let mut o64 = Planes::zeros(g.len());
-        let t64 = one.install(|| {
+        let g32 = GeometryBatchF32::from_slice(&g.as_slice());
+        let s32 = g32.as_slice();
+        let n = g.len();
+        let mut o32 = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
+        let t32 = pool(1).install(|| {
             time_min(cfg.reps, || {
-                kernel::eval_par_f64(&kp, &g64, &mut o64);
-                black_box(&o64);
-            })
-        });
-        let g32 = kernel::geom_f32(&g.as_slice());
-        let mut o32 = Planes::<f32>::zeros(g.len());
-        let t32 = one.install(|| {
-            time_min(cfg.reps, || {
-                kernel::eval_par_f32(&kp, &g32, &mut o32);
+                let [r, gg, b] = &mut o32;
+                eval_batch_f32_par(m.as_ref(), &s32, [r, gg, b]);
                 black_box(&o32);
             })
         });
-        let v64: Vec<Rgb> = (0..g.len())
-            .map(|i| Rgb::new(o64.r[i], o64.g[i], o64.b[i]))
+        let v32: Vec<Rgb> = (0..n)
+            .map(|i| Rgb::new(o32[0][i] as f64, o32[1][i] as f64, o32[2][i] as f64))
             .collect();
-        let v32: Vec<Rgb> = (0..g.len())
-            .map(|i| Rgb::new(o32.r[i] as f64, o32.g[i] as f64, o32.b[i] as f64))
-            .collect();
-        for (vn, v, t) in [("f64 SoA kernel", &v64, t64), ("f32 SoA kernel", &v32, t32)] {
-            let row = VariantRow {
-                choice: "precision".into(),
-                material: name.into(),
-                reference: "f64 model (eval_batch)".into(),
-                variant: vn.into(),
-                err: compare(&data, &reference, v),
-                ns_reference: ns_ref,
-                ns_variant: t / g.len() as f64 * 1e9,
-            };
-            progress(&format!(
-                "variant precision {name} {vn}: max rel {:.2e}, {:.1} vs {:.1} ns",
-                row.err.rel_max, row.ns_variant, row.ns_reference
-            ));
-            rows.push(row);
-        }
+        let row = VariantRow {
+            choice: "precision".into(),
+            material: name.into(),
+            reference: "f64 (eval_batch)".into(),
+            variant: "f32 (eval_batch_f32)".into(),
+            err: compare(&data, &reference, &v32),
+            ns_reference: ns_ref,
+            ns_variant: t32 / n as f64 * 1e9,
+        };
+        progress(&format!(
+            "variant precision {name} f32: max rel {:.2e}, {:.1} vs {:.1} ns",
+            row.err.rel_max, row.ns_variant, row.ns_reference
+        ));
+        rows.push(row);
     }
     Ok(rows)
 }

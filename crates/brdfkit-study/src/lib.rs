@@ -10,7 +10,8 @@
 //!   against the analytic truth at random directions vs time per lookup), Schlick vs
 //!   exact conductor Fresnel, exact-erf vs rational Beckmann G1, separable vs
 //!   height-correlated Smith, and float32 vs float64 evaluation of Cook-Torrance GGX
-//!   ([`kernel`]): error introduced against time saved;
+//!   (`Model::eval_batch_f32` against `Model::eval_batch`): error introduced against
+//!   time saved;
 //! - [`scale`]: fit time against the number of cells, the number of parameters (sums of
 //!   a Lambertian and 1–3 Cook-Torrance lobes) and threads, the throughput of 20 fits,
 //!   and the peak resident memory of a full-table fit (a child process).
@@ -22,7 +23,6 @@
 
 pub mod choices;
 pub mod grid;
-pub mod kernel;
 pub mod plot;
 pub mod report;
 pub mod scale;
