@@ -370,6 +370,8 @@ pub struct StudyResults {
 /// one line per step.
 pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, StudyError> {
     cfg.validate()?;
+    // Specs first: a bad one must not leave an empty output directory behind.
+    let materials = load_materials(cfg)?;
     std::fs::create_dir_all(&cfg.out).map_err(|e| StudyError::io(&cfg.out, e))?;
     let mut info = RunInfo {
         started_unix: std::time::SystemTime::now()
@@ -389,7 +391,6 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
         info.threads,
         info.load_start.unwrap_or(f64::NAN)
     ));
-    let materials = load_materials(cfg)?;
     // Parts not run keep the figures of the last run (results.json), so one part can be
     // re-measured alone and the report still has all of them.
     let mut res = read_results(&cfg.out).unwrap_or_default();

@@ -1,0 +1,202 @@
+//! `fit-brdf study` end to end on a tiny configuration: the data-synthetic specs the
+//! study needs, shrunk to 16 × 16 × 32 cells, one grid point and the evaluation choices.
+//! Checks every output (CSV, JSON, PNG, the report's generated sections), that
+//! `--rewrite` reproduces the report from the stored figures, and that bad input is a
+//! clear error (exit 2) that leaves no output behind.
+
+use assert_cmd::Command;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn bin() -> Command {
+    Command::cargo_bin("fit-brdf").unwrap()
+}
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The specs the grid (lambert-white) and the choices (gold, copper, silver) read, on a
+/// 16 × 16 × 32 grid instead of the MERL one.
+fn small_specs(dir: &Path) -> PathBuf {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data-synthetic");
+    let out = dir.join("specs");
+    std::fs::create_dir_all(&out).unwrap();
+    for name in [
+        "lambert-white",
+        "gold-ggx",
+        "copper-beckmann",
+        "near-mirror-silver",
+    ] {
+        let text = std::fs::read_to_string(src.join(format!("{name}.toml"))).unwrap();
+        assert!(!text.contains("\ndims"), "{name} sets its own dims");
+        // `dims` is a top-level key: it goes before the first table header.
+        let at = text.find("\n[").expect("a [material] table");
+        let shrunk = format!("{}\ndims = [16, 16, 32]{}", &text[..at], &text[at..]);
+        std::fs::write(out.join(format!("{name}.toml")), shrunk).unwrap();
+    }
+    out
+}
+
+fn tiny_args(specs: &Path, out: &Path) -> Vec<String> {
+    [
+        "study",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+        "--specs",
+        specs.to_str().unwrap(),
+        "--parts",
+        "grid,choices",
+        "--materials",
+        "lambert-white",
+        "--models",
+        "lambert,cook-torrance",
+        "--solvers",
+        "lm",
+        "--fractions",
+        "0.1,1",
+        "--starts",
+        "1",
+        "--reps",
+        "2",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
+}
+
+fn csv_rows(p: &Path) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(p).unwrap();
+    text.lines()
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect()
+}
+
+#[test]
+fn tiny_study_writes_every_output_and_rewrites_identically() {
+    let dir = tempfile::tempdir().unwrap();
+    let specs = small_specs(dir.path());
+    let out = dir.path().join("avt");
+    let o = bin().args(tiny_args(&specs, &out)).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // The grid: 1 material × 2 models × 1 solver × 2 fractions × 1 start.
+    let grid = csv_rows(&out.join("grid.csv"));
+    assert_eq!(grid.len(), 1 + 4, "{grid:?}");
+    let res: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let rows = res["grid"].as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    for r in rows {
+        assert_eq!(r["material"], "lambert-white");
+        assert!(
+            r["wall_s"].as_f64().unwrap() > 0.0,
+            "a positive wall time: {r}"
+        );
+        // Both models contain the Lambertian truth: the full-table loss is near 0.
+        let loss = r["cbrt"].as_f64().unwrap();
+        assert!(loss < 1e-8, "a near-exact fit: {r}");
+    }
+
+    // The choices: lookups at random directions, and every Cook-Torrance variant.
+    let variants = res["variants"].as_array().unwrap();
+    let choices: Vec<&str> = variants
+        .iter()
+        .map(|v| v["choice"].as_str().unwrap())
+        .collect();
+    for c in ["fresnel", "beckmann-g1", "smith", "precision"] {
+        assert!(choices.contains(&c), "{c} missing from {choices:?}");
+    }
+    for v in variants.iter().filter(|v| v["choice"] == "precision") {
+        let e = v["rel_max"].as_f64().unwrap();
+        // float32 evaluation really rounds, and only by float32 round-off.
+        assert!(e > 1e-9 && e < 1e-3, "precision error {e}: {v}");
+        assert!(v["ns_variant"].as_f64().unwrap() > 0.0);
+    }
+    assert!(!res["lookups"].as_array().unwrap().is_empty());
+    assert!(csv_rows(&out.join("variants.csv")).len() > 4);
+
+    // PNGs that decode to a real picture.
+    let mut pngs = 0;
+    for e in std::fs::read_dir(&out).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "png") {
+            let img = image::open(&p).unwrap();
+            assert!(img.width() >= 400 && img.height() >= 300, "{p:?}");
+            pngs += 1;
+        }
+    }
+    assert!(pngs >= 3, "the Pareto plots and the choices plot: {pngs}");
+
+    // The report: every generated section present, with this run's numbers.
+    let md_path = dir.path().join("avt.md");
+    let md = std::fs::read_to_string(&md_path).unwrap();
+    for marker in ["<!-- study:run -->", "<!-- study:choices-plot -->"] {
+        assert!(md.contains(marker), "{marker} missing");
+    }
+    assert!(md.contains("lambert-white"));
+    assert!(
+        md.contains("eval_batch_f32"),
+        "the precision row names the path"
+    );
+
+    // Hand-written text outside the markers survives; --rewrite measures nothing and
+    // regenerates the same report from results.json.
+    let edited = format!("{md}\nA reader's note.\n");
+    std::fs::write(&md_path, &edited).unwrap();
+    let o = bin()
+        .args(["study", "--quiet", "--rewrite", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&md_path).unwrap(), edited);
+}
+
+#[test]
+fn bad_study_input_is_a_clear_error_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let specs = small_specs(dir.path());
+    let out = dir.path().join("avt");
+
+    let mut args = tiny_args(&specs, &out);
+    let m = args.iter().position(|a| a == "lambert-white").unwrap();
+    args[m] = "no-such-material".into();
+    let o = bin().args(&args).output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no-such-material.toml"),
+        "names the spec: {}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "no output directory for a failed run");
+
+    for (flag, bad, what) in [
+        ("--fractions", "0", "fraction"),
+        ("--fractions", "1.5", "fraction"),
+        ("--solvers", "newton", "newton"),
+        ("--parts", "grid,everything", "everything"),
+    ] {
+        let mut args = tiny_args(&specs, &out);
+        let i = args.iter().position(|a| a == flag).unwrap();
+        args[i + 1] = bad.into();
+        let o = bin().args(&args).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{flag} {bad}: {}", stderr(&o));
+        assert!(
+            stderr(&o).to_lowercase().contains(what),
+            "{flag} {bad}: {}",
+            stderr(&o)
+        );
+        assert!(!out.exists(), "{flag} {bad} left output behind");
+    }
+
+    // --rewrite without a previous run names what is missing.
+    let o = bin()
+        .args(["study", "--rewrite", "--out"])
+        .arg(dir.path().join("never-run"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("results.json"), "{}", stderr(&o));
+}
