@@ -3,17 +3,21 @@
 //!
 //! - `eval`: the direction path, `Brdf::eval` over (wi, wo) pairs;
 //! - `eval_batch`: the fast path over precomputed `GeometryBatch` geometry;
+//! - `eval_batch_f32`: the single-precision path over a `GeometryBatchF32` (a native
+//!   float32 kernel for `cook-torrance` with GGX, the widening default elsewhere);
 //! - `eval_grad_batch`: value and gradient, as a fit needs them.
 //!
 //! Run with `cargo bench --bench models`. Each measurement is one pass over all cells
 //! (`Throughput::Elements(1_458_000)`). The batch is cut into runs of `CHUNK` cells
-//! (`GeomSlice::sub`) that rayon spreads over a pool of 1 thread or of all threads;
+//! (`GeomSlice::sub`) spread over a pool of 1 thread or of all threads (the batch paths
+//! through `brdfkit_models::par`, which wakes every worker);
 //! the gradient is written into a per-thread buffer of `CHUNK × num_params` (the full
 //! gradient of a 17-parameter model over the grid would be 0.6 GB).
 //! A model name of `brdfkit_models::MODEL_NAMES` that is not registered yet is reported
 //! and skipped.
 
-use brdfkit_core::{GeometryBatch, HalfDiff, Model, Rgb, Vec3, from_half_diff};
+use brdfkit_core::{GeometryBatch, GeometryBatchF32, HalfDiff, Model, Rgb, Vec3, from_half_diff};
+use brdfkit_models::par::{eval_batch_f32_par, eval_batch_par};
 use brdfkit_models::{MODEL_NAMES, default_model};
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use rayon::ThreadPool;
@@ -65,13 +69,12 @@ fn eval_pairs(pool: &ThreadPool, m: &dyn Model, pairs: &[(Vec3, Vec3)], out: &mu
 }
 
 fn eval_batch(pool: &ThreadPool, m: &dyn Model, g: &GeometryBatch, out: &mut [Rgb]) {
-    let s = g.as_slice();
-    pool.install(|| {
-        out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, o)| {
-            let start = c * CHUNK;
-            m.eval_batch(&s.sub(start..start + o.len()), o);
-        })
-    });
+    pool.install(|| eval_batch_par(m, &g.as_slice(), out));
+}
+
+fn eval_batch_f32(pool: &ThreadPool, m: &dyn Model, g: &GeometryBatchF32, out: &mut [Vec<f32>; 3]) {
+    let [r, gg, b] = out;
+    pool.install(|| eval_batch_f32_par(m, &g.as_slice(), [r, gg, b]));
 }
 
 /// One gradient buffer per pool thread (locked once per chunk, never contended).
@@ -107,6 +110,8 @@ fn bench_models(c: &mut Criterion) {
     );
     let mut out = vec![Rgb::ZERO; n];
     let mut out2 = vec![Rgb::ZERO; n];
+    let batch32 = GeometryBatchF32::from_slice(&batch.as_slice());
+    let mut out32 = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
     for &name in MODEL_NAMES {
         let m = match default_model(name) {
             Ok(m) => m,
@@ -139,6 +144,9 @@ fn bench_models(c: &mut Criterion) {
             });
             group.bench_function(format!("eval_batch/{label}"), |b| {
                 b.iter(|| eval_batch(p, m, &batch, &mut out))
+            });
+            group.bench_function(format!("eval_batch_f32/{label}"), |b| {
+                b.iter(|| eval_batch_f32(p, m, &batch32, &mut out32))
             });
             let bufs: Vec<Mutex<Vec<Rgb>>> = (0..p.current_num_threads())
                 .map(|_| Mutex::new(vec![Rgb::ZERO; np * CHUNK]))
