@@ -1,8 +1,10 @@
 //! MERL table benchmarks: reading a full 90 x 90 x 180 table against `cat FILE >
 //! /dev/null` in the same run, and batch lookups of 1,458,000 random direction pairs.
 //!
-//! Run: `cargo bench --bench merl`. After criterion's figures it prints an interleaved
-//! median comparison of the read and `cat`, and their ratio.
+//! Run: `cargo bench --bench merl` (add `-- merl_read` to run only criterion's read and
+//! `cat` benchmarks). After criterion's figures it prints an interleaved comparison of
+//! the read and `cat` (medians, spread, ratio of medians, distribution of the ratio of
+//! each pair) and the load average, then timings of the lookup batches.
 
 use brdfkit::core::direction::spherical;
 use brdfkit::core::{Rgb, Vec3};
@@ -56,6 +58,21 @@ fn median(mut v: Vec<Duration>) -> Duration {
     v[v.len() / 2]
 }
 
+/// The `p`-quantile (nearest rank) of sorted values.
+fn quantile(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "unknown".into())
+}
+
+/// Interleaved read/`cat` pairs. The order within a pair alternates, so that neither
+/// side always runs right after the other's cache and page traffic.
+const PAIRS_READ_CAT: usize = 100;
+
 fn main() {
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("bench.binary");
@@ -92,21 +109,57 @@ fn main() {
     c.final_summary();
 
     // The read/cat ratio, measured interleaved so both see the same machine state.
-    let (mut reads, mut cats) = (Vec::new(), Vec::new());
-    for _ in 0..40 {
+    let load0 = load_average();
+    let (mut reads, mut cats, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let time_read = || {
         let s = Instant::now();
         black_box(MerlTable::read(&path).unwrap());
-        reads.push(s.elapsed());
+        s.elapsed().as_secs_f64()
+    };
+    let time_cat = || {
         let s = Instant::now();
         cat(&path);
-        cats.push(s.elapsed());
+        s.elapsed().as_secs_f64()
+    };
+    for p in 0..PAIRS_READ_CAT {
+        let (r, k) = if p % 2 == 0 {
+            let r = time_read();
+            (r, time_cat())
+        } else {
+            let k = time_cat();
+            (time_read(), k)
+        };
+        reads.push(r);
+        cats.push(k);
+        ratios.push(r / k);
     }
-    let (r, k) = (median(reads), median(cats));
+    for v in [&mut reads, &mut cats, &mut ratios] {
+        v.sort_by(f64::total_cmp);
+    }
+    let ms = |v: &[f64], p: f64| quantile(v, p) * 1e3;
+    let (r, k) = (ms(&reads, 0.5), ms(&cats, 0.5));
     println!(
-        "merl read vs cat (median of 40 interleaved runs, {bytes} bytes): read {:.2} ms, cat {:.2} ms, ratio {:.2}",
-        r.as_secs_f64() * 1e3,
-        k.as_secs_f64() * 1e3,
-        r.as_secs_f64() / k.as_secs_f64()
+        "merl read vs cat ({PAIRS_READ_CAT} interleaved pairs, {bytes} bytes, load average {load0} -> {}):",
+        load_average()
+    );
+    println!(
+        "  read: median {r:.2} ms (p10 {:.2}, p90 {:.2}, min {:.2}); cat: median {k:.2} ms (p10 {:.2}, p90 {:.2}, min {:.2})",
+        ms(&reads, 0.1),
+        ms(&reads, 0.9),
+        ms(&reads, 0.0),
+        ms(&cats, 0.1),
+        ms(&cats, 0.9),
+        ms(&cats, 0.0),
+    );
+    println!(
+        "  ratio of medians {:.2}; per-pair ratio p10 {:.2}, p25 {:.2}, median {:.2}, p75 {:.2}, p90 {:.2}; pairs within 1.5: {} of {PAIRS_READ_CAT}",
+        r / k,
+        quantile(&ratios, 0.1),
+        quantile(&ratios, 0.25),
+        quantile(&ratios, 0.5),
+        quantile(&ratios, 0.75),
+        quantile(&ratios, 0.9),
+        ratios.iter().filter(|&&x| x <= 1.5).count(),
     );
     for (name, mode) in [
         ("nearest", Lookup::Nearest),

@@ -547,9 +547,16 @@ mod tests {
         let bytes = image(dims, &raw);
         let reference = MerlTable::from_bytes(&bytes, "mem").unwrap();
         for (x, v) in reference.valid.iter().enumerate() {
-            assert_eq!(*v, raw_valid(raw[x], raw[n + x], raw[2 * n + x]), "cell {x}");
+            assert_eq!(
+                *v,
+                raw_valid(raw[x], raw[n + x], raw[2 * n + x]),
+                "cell {x}"
+            );
         }
-        assert_eq!(reference.n_valid, reference.valid.iter().filter(|v| **v).count());
+        assert_eq!(
+            reference.n_valid,
+            reference.valid.iter().filter(|v| **v).count()
+        );
         assert!(reference.n_valid > 0 && reference.n_valid < n);
         for (x, (p, q)) in reference.raw.iter().zip(&raw).enumerate() {
             assert_eq!(p.to_bits(), q.to_bits(), "value {x}");
