@@ -1,13 +1,27 @@
 //! [`FitData`]: the cells a fit sees, precomputed once as a structure of arrays.
 
 use crate::error::FitError;
+use brdfkit_core::geometry::half_vector;
 use brdfkit_core::{GeometryBatch, Model, Rgb};
-use brdfkit_merl::{CellBatch, MerlTable};
+use brdfkit_merl::{CellBatch, Dims, MerlTable, cell_directions, cell_weight};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
+use std::sync::OnceLock;
+
+/// Valid cells of each θh slab of a table (an error when there is none).
+fn valid_per_slab(t: &MerlTable) -> Result<Vec<usize>, FitError> {
+    if t.valid_count() == 0 {
+        return Err(FitError::NoCells("the table has no valid cell".into()));
+    }
+    let d = t.dims();
+    Ok(t.valid_mask()
+        .par_chunks(d.theta_d() * d.phi_d())
+        .map(|s| s.iter().filter(|&&v| v).count())
+        .collect())
+}
 
 /// Number of bins along each of √(θh/(π/2)) and θd/(π/2) used to stratify a subsample.
 /// The square root follows MERL's θh spacing, so each bin holds a similar cell count.
@@ -20,17 +34,92 @@ pub const STRATA: usize = 16;
 /// Cell m has geometry pair m of [`geometry`](Self::geometry), value
 /// `values()[c][m]` in channel c (1/sr), measure `measure()[m]` (sr²) and angles
 /// `theta_h()[m]`, `theta_d()[m]` (radians).
+///
+/// # Memory
+/// Only what every pass of a fit reads is stored: the ten geometry columns, the three
+/// value planes and the measures (14 f64 per cell: 156 MB for a MERL table with all
+/// 1,458,000 cells valid). Multiplicities are stored only for a subsample (a full set's
+/// are all 1), and the angles, which only subsampling, the θd cutoff and reports need,
+/// are recomputed from the geometry (θh = acos h.z, θd = acos cos_d) where used;
+/// [`theta_h`](Self::theta_h), [`theta_d`](Self::theta_d) and
+/// [`multiplicity`](Self::multiplicity) build their arrays on first call and keep them.
 #[derive(Debug, Clone)]
 pub struct FitData {
     geometry: GeometryBatch,
     values: [Vec<f64>; 3],
     measure: Vec<f64>,
-    mult: Vec<f64>,
-    theta_h: Vec<f64>,
-    theta_d: Vec<f64>,
+    /// `None`: every cell stands for itself (multiplicity 1).
+    mult: Option<Vec<f64>>,
+    /// Lazily built views (see the type's doc).
+    ones: OnceLock<Vec<f64>>,
+    theta_h: OnceLock<Vec<f64>>,
+    theta_d: OnceLock<Vec<f64>>,
+}
+
+/// acos with its argument clamped to [−1, 1]: normalisation can land a ulp beyond 1.
+#[inline]
+fn acos_clamped(z: f64) -> f64 {
+    z.clamp(-1.0, 1.0).acos()
+}
+
+/// Splits each of N equally long columns into consecutive runs of lengths `lens`, and
+/// returns, per run, its N sub-slices (so runs can be filled in parallel in place).
+fn split_runs<'a, const N: usize>(
+    cols: [&'a mut [f64]; N],
+    lens: &[usize],
+) -> Vec<[&'a mut [f64]; N]> {
+    let mut rest = cols;
+    lens.iter()
+        .map(|&len| {
+            std::array::from_fn(|c| {
+                let (a, b) = std::mem::take(&mut rest[c]).split_at_mut(len);
+                rest[c] = b;
+                a
+            })
+        })
+        .collect()
 }
 
 impl FitData {
+    /// A set of `n` cells with every column allocated (zeroed) and multiplicity 1.
+    fn zeroed(n: usize, geometry: bool) -> FitData {
+        let z = || vec![0.0; n];
+        let g = if geometry {
+            GeometryBatch {
+                wi_x: z(),
+                wi_y: z(),
+                wi_z: z(),
+                wo_x: z(),
+                wo_y: z(),
+                wo_z: z(),
+                h_x: z(),
+                h_y: z(),
+                h_z: z(),
+                cos_d: z(),
+            }
+        } else {
+            GeometryBatch::default()
+        };
+        FitData::assemble(g, [z(), z(), z()], z(), None)
+    }
+
+    fn assemble(
+        geometry: GeometryBatch,
+        values: [Vec<f64>; 3],
+        measure: Vec<f64>,
+        mult: Option<Vec<f64>>,
+    ) -> FitData {
+        FitData {
+            geometry,
+            values,
+            measure,
+            mult,
+            ones: OnceLock::new(),
+            theta_h: OnceLock::new(),
+            theta_d: OnceLock::new(),
+        }
+    }
+
     /// Cells from their parts: geometry, values per channel (finite, ≥ 0) and the
     /// measure of each cell (finite, > 0; pass ones when only uniform weighting will be
     /// used). Angles are recomputed from the geometry: θh = acos(h.z), θd = acos(wi·h).
@@ -72,25 +161,7 @@ impl FitData {
                 "measure {x} at cell {k} is not a finite positive number"
             )));
         }
-        // acos arguments clamped: normalisation can land a ulp beyond 1.
-        let theta_h = geometry
-            .h_z
-            .par_iter()
-            .map(|z| z.clamp(-1.0, 1.0).acos())
-            .collect();
-        let theta_d = geometry
-            .cos_d
-            .par_iter()
-            .map(|z| z.clamp(-1.0, 1.0).acos())
-            .collect();
-        Ok(FitData {
-            geometry,
-            values,
-            measure,
-            mult: vec![1.0; n],
-            theta_h,
-            theta_d,
-        })
+        Ok(FitData::assemble(geometry, values, measure, None))
     }
 
     /// The valid cells of a table batch ([`MerlTable::cell_batch`]).
@@ -98,12 +169,106 @@ impl FitData {
         FitData::from_parts(b.geometry, b.values, b.weights)
     }
 
-    /// The valid cells of a table (only they take part in a fit).
+    /// The valid cells of a table (only they take part in a fit), in file order: the
+    /// same cells, values, measures and geometry as [`MerlTable::cell_batch`], built in
+    /// place (the peak is the table plus the cells; no cell list or index array).
     pub fn from_table(t: &MerlTable) -> Result<Self, FitError> {
-        if t.valid_count() == 0 {
-            return Err(FitError::NoCells("the table has no valid cell".into()));
-        }
-        FitData::from_cell_batch(t.cell_batch())
+        let counts = valid_per_slab(t)?;
+        let mut data = FitData::zeroed(counts.iter().sum(), true);
+        data.fill_values(t, &counts);
+        data.fill_geometry(t.dims(), t.valid_mask(), &counts);
+        Ok(data)
+    }
+
+    /// [`from_table`](Self::from_table) for a table the caller no longer needs: the
+    /// values and measures are taken first, the table is freed, and only then is the
+    /// geometry built, so the table and the geometry are never in memory together
+    /// (peak: the cells plus a one-byte-per-cell validity mask; for a MERL table with
+    /// every cell valid 158 MB instead of 191 MB). Identical result.
+    pub fn from_owned_table(t: MerlTable) -> Result<Self, FitError> {
+        let counts = valid_per_slab(&t)?;
+        let mut data = FitData::zeroed(counts.iter().sum(), false);
+        data.fill_values(&t, &counts);
+        let dims = t.dims();
+        let mask = t.valid_mask().to_vec();
+        drop(t);
+        let n = data.measure.len();
+        let z = || vec![0.0; n];
+        data.geometry = GeometryBatch {
+            wi_x: z(),
+            wi_y: z(),
+            wi_z: z(),
+            wo_x: z(),
+            wo_y: z(),
+            wo_z: z(),
+            h_x: z(),
+            h_y: z(),
+            h_z: z(),
+            cos_d: z(),
+        };
+        data.fill_geometry(dims, &mask, &counts);
+        Ok(data)
+    }
+
+    /// Values and measures of the valid cells, one θh slab (`counts[i]` valid cells)
+    /// per parallel task.
+    fn fill_values(&mut self, t: &MerlTable, counts: &[usize]) {
+        let dims = t.dims();
+        let slab = dims.theta_d() * dims.phi_d();
+        let [r, g, b] = &mut self.values;
+        let runs = split_runs([r, g, b, &mut self.measure], counts);
+        runs.into_par_iter()
+            .enumerate()
+            .for_each(|(i, [r, g, b, w])| {
+                let mut m = 0;
+                for x in i * slab..(i + 1) * slab {
+                    // `get_flat` is `Some` exactly for valid cells.
+                    if let Some(v) = t.get_flat(x) {
+                        let (_, j, _) = dims.unflatten(x);
+                        (r[m], g[m], b[m]) = (v[0], v[1], v[2]);
+                        w[m] = cell_weight(dims, i, j);
+                        m += 1;
+                    }
+                }
+                debug_assert_eq!(m, r.len());
+            });
+    }
+
+    /// Geometry of the valid cells (`mask`), as [`GeometryBatch::push`] computes it
+    /// for the directions of [`cell_directions`], one θh slab per parallel task.
+    fn fill_geometry(&mut self, dims: Dims, mask: &[bool], counts: &[usize]) {
+        let slab = dims.theta_d() * dims.phi_d();
+        let g = &mut self.geometry;
+        let runs = split_runs(
+            [
+                &mut g.wi_x,
+                &mut g.wi_y,
+                &mut g.wi_z,
+                &mut g.wo_x,
+                &mut g.wo_y,
+                &mut g.wo_z,
+                &mut g.h_x,
+                &mut g.h_y,
+                &mut g.h_z,
+                &mut g.cos_d,
+            ],
+            counts,
+        );
+        runs.into_par_iter().enumerate().for_each(|(i, c)| {
+            let [wix, wiy, wiz, wox, woy, woz, hx, hy, hz, cd] = c;
+            let mut m = 0;
+            for x in (i * slab..(i + 1) * slab).filter(|&x| mask[x]) {
+                let (_, j, k) = dims.unflatten(x);
+                let (_, wi, wo, _) = cell_directions(dims, i, j, k);
+                let h = half_vector(&wi, &wo);
+                (wix[m], wiy[m], wiz[m]) = (wi.x, wi.y, wi.z);
+                (wox[m], woy[m], woz[m]) = (wo.x, wo.y, wo.z);
+                (hx[m], hy[m], hz[m]) = (h.x, h.y, h.z);
+                cd[m] = wi.dot(&h);
+                m += 1;
+            }
+            debug_assert_eq!(m, wix.len());
+        });
     }
 
     /// A table's cells with values replaced by a model's at the cells' directions (a
@@ -161,30 +326,84 @@ impl FitData {
 
     /// How many cells of the full set each cell stands for (1 unless subsampled).
     pub fn multiplicity(&self) -> &[f64] {
-        &self.mult
+        match &self.mult {
+            Some(m) => m,
+            None => self.ones.get_or_init(|| vec![1.0; self.len()]),
+        }
     }
 
-    /// θh of each cell.
+    /// The stored multiplicities: `None` when every cell's is 1 (a set that was not
+    /// subsampled), so loops can skip the multiply.
+    pub(crate) fn multiplicity_if_any(&self) -> Option<&[f64]> {
+        self.mult.as_deref()
+    }
+
+    /// θh of each cell (built on first call; see the type's doc).
     pub fn theta_h(&self) -> &[f64] {
-        &self.theta_h
+        self.theta_h.get_or_init(|| {
+            self.geometry
+                .h_z
+                .par_iter()
+                .map(|&z| acos_clamped(z))
+                .collect()
+        })
     }
 
-    /// θd of each cell.
+    /// θd of each cell (built on first call; see the type's doc).
     pub fn theta_d(&self) -> &[f64] {
-        &self.theta_d
+        self.theta_d.get_or_init(|| {
+            self.geometry
+                .cos_d
+                .par_iter()
+                .map(|&z| acos_clamped(z))
+                .collect()
+        })
+    }
+
+    /// θh of cell m (the value [`theta_h`](Self::theta_h) holds, without the array).
+    #[inline]
+    fn theta_h_at(&self, m: usize) -> f64 {
+        acos_clamped(self.geometry.h_z[m])
+    }
+
+    /// θd of cell m.
+    #[inline]
+    fn theta_d_at(&self, m: usize) -> f64 {
+        acos_clamped(self.geometry.cos_d[m])
+    }
+
+    /// Weight of cell m under a weighting: multiplicity × (measure or 1).
+    #[inline]
+    pub(crate) fn weight_at(&self, w: crate::Weighting, m: usize) -> f64 {
+        let a = self.mult.as_ref().map_or(1.0, |v| v[m]);
+        match w {
+            crate::Weighting::SolidAngle => a * self.measure[m],
+            crate::Weighting::Uniform => a,
+        }
+    }
+
+    /// Σ of the cells' weights, summed in cell order.
+    pub(crate) fn weight_sum(&self, w: crate::Weighting) -> f64 {
+        (0..self.len()).map(|m| self.weight_at(w, m)).sum()
     }
 
     /// The cells' weights under a weighting: multiplicity × (measure or 1).
     pub fn weights(&self, w: crate::Weighting) -> Vec<f64> {
-        match w {
-            crate::Weighting::SolidAngle => self
-                .mult
-                .iter()
-                .zip(&self.measure)
-                .map(|(a, b)| a * b)
-                .collect(),
-            crate::Weighting::Uniform => self.mult.clone(),
-        }
+        (0..self.len()).map(|m| self.weight_at(w, m)).collect()
+    }
+
+    /// Bytes held by the per-cell arrays (including any built angle or multiplicity
+    /// views).
+    pub fn heap_bytes(&self) -> usize {
+        let f = std::mem::size_of::<f64>();
+        let opt = |v: Option<&Vec<f64>>| v.map_or(0, |v| v.capacity() * f);
+        self.geometry.heap_bytes()
+            + self.values.iter().map(|v| v.capacity() * f).sum::<usize>()
+            + self.measure.capacity() * f
+            + opt(self.mult.as_ref())
+            + opt(self.ones.get())
+            + opt(self.theta_h.get())
+            + opt(self.theta_d.get())
     }
 
     /// The cells with `keep[m]` true.
@@ -209,30 +428,32 @@ impl FitData {
             h_z: pick(&g.h_z),
             cos_d: pick(&g.cos_d),
         };
-        let mut m = pick(&self.mult);
-        if let Some(f) = mult {
-            for (a, b) in m.iter_mut().zip(f) {
-                *a *= b;
-            }
-        }
-        FitData {
+        let m = match (&self.mult, mult) {
+            (None, None) => None,
+            (Some(a), None) => Some(pick(a)),
+            (a, Some(f)) => Some(
+                idx.iter()
+                    .zip(f)
+                    .map(|(&m, b)| a.as_ref().map_or(1.0, |a| a[m]) * b)
+                    .collect(),
+            ),
+        };
+        FitData::assemble(
             geometry,
-            values: [
+            [
                 pick(&self.values[0]),
                 pick(&self.values[1]),
                 pick(&self.values[2]),
             ],
-            measure: pick(&self.measure),
-            mult: m,
-            theta_h: pick(&self.theta_h),
-            theta_d: pick(&self.theta_d),
-        }
+            pick(&self.measure),
+            m,
+        )
     }
 
     /// The cells with θd ≤ `max_theta_d` (radians): the grazing cells, the least
     /// reliable measurements, are left out.
     pub fn with_theta_d_max(&self, max_theta_d: f64) -> FitData {
-        self.filter(|m| self.theta_d[m] <= max_theta_d)
+        self.filter(|m| self.theta_d_at(m) <= max_theta_d)
     }
 
     /// A stratified, seeded subsample of about `fraction` of the cells.
@@ -248,17 +469,39 @@ impl FitData {
         }
         let bin = |m: usize| {
             // θ > π/2 (below-horizon geometry) and round-off clamp into the last bin.
-            let a = ((self.theta_h[m].max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
-            let b = ((self.theta_d[m].max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
+            let a = ((self.theta_h_at(m).max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
+            let b = ((self.theta_d_at(m).max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
             a.min(STRATA - 1) * STRATA + b.min(STRATA - 1)
         };
-        let mut bins: Vec<Vec<usize>> = vec![Vec::new(); STRATA * STRATA];
-        for m in 0..self.len() {
-            bins[bin(m)].push(m);
+        // The bins' members as one counting-sorted array of u32 (4 bytes a cell, plus
+        // a one-byte bin id: STRATA² = 256 bins), not a Vec<usize> per bin (≥ 8 bytes
+        // a cell plus growth slack, 17 MB for a MERL table). Members stay in cell order
+        // within a bin, and a shuffle's swaps depend only on the length, so the draw is
+        // the same as with any other element type. u32: a set of 2³² cells would need
+        // over 450 GB of columns.
+        const _: () = assert!(STRATA * STRATA <= 256);
+        let ids: Vec<u8> = (0..self.len())
+            .into_par_iter()
+            .map(|m| bin(m) as u8)
+            .collect();
+        let mut start = vec![0usize; STRATA * STRATA + 1];
+        for &b in &ids {
+            start[b as usize + 1] += 1;
         }
+        for b in 0..STRATA * STRATA {
+            start[b + 1] += start[b];
+        }
+        let mut members = vec![0u32; self.len()];
+        let mut next = start.clone();
+        for (m, &b) in ids.iter().enumerate() {
+            members[next[b as usize]] = m as u32;
+            next[b as usize] += 1;
+        }
+        drop(ids);
         let mut idx = Vec::new();
         let mut mult = Vec::new();
-        for (b, cells) in bins.iter_mut().enumerate() {
+        for b in 0..STRATA * STRATA {
+            let cells = &mut members[start[b]..start[b + 1]];
             if cells.is_empty() {
                 continue;
             }
@@ -271,7 +514,7 @@ impl FitData {
             chosen.sort_unstable();
             let w = n as f64 / take as f64;
             for &m in chosen.iter() {
-                idx.push(m);
+                idx.push(m as usize);
                 mult.push(w);
             }
         }

@@ -93,8 +93,11 @@ struct Inner<'a> {
     domains: Vec<Domain>,
     channels: Vec<usize>,
     loss: Loss,
-    /// t(f̂) per channel (empty for inactive channels).
-    target: [Vec<f64>; 3],
+    /// The targets t(f̂) are not stored: each pass forms them per chunk from the
+    /// cells' values (`fill_target`), the same function on the same numbers, so the
+    /// residuals are bit-identical. Storing them cost 8 bytes per cell and channel
+    /// (35 MB for a MERL table with every cell valid) for one transform per cell and
+    /// channel per pass (≈ 6 ns for `cbrt`, see [`crate::loss::cbrt`]).
     /// The weighting; s_k = sqrt(w_k · inv_wsum) is formed per chunk from the cells'
     /// multiplicity and measure rather than stored: one array fewer (8.9 MB on a MERL
     /// table) for a multiply and a square root per cell, which vectorise.
@@ -176,27 +179,49 @@ fn min_len(nchunks: usize) -> usize {
     (nchunks / (4 * rayon::current_num_threads())).max(1)
 }
 
-/// s_k = sqrt(w_k / (n_ch Σ w)) of the cells `start .. start + out.len()`.
+/// s_k = sqrt(w_k / (n_ch Σ w)) of the cells `start .. start + out.len()`. A set
+/// without stored multiplicities (all 1) skips the multiply by 1, which is exact, so
+/// the scales are the same bits either way.
 #[inline]
 fn fill_scale(data: &FitData, weighting: Weighting, inv_wsum: f64, start: usize, out: &mut [f64]) {
-    let mult = &data.multiplicity()[start..start + out.len()];
-    match weighting {
-        Weighting::SolidAngle => {
-            let meas = &data.measure()[start..start + out.len()];
+    let range = start..start + out.len();
+    let meas = &data.measure()[range.clone()];
+    match (data.multiplicity_if_any(), weighting) {
+        (Some(m), Weighting::SolidAngle) => {
+            let mult = &m[range];
             for k in 0..out.len() {
                 out[k] = (mult[k] * meas[k] * inv_wsum).sqrt();
             }
         }
-        Weighting::Uniform => {
+        (Some(m), Weighting::Uniform) => {
+            let mult = &m[range];
             for k in 0..out.len() {
                 out[k] = (mult[k] * inv_wsum).sqrt();
             }
         }
+        (None, Weighting::SolidAngle) => {
+            for k in 0..out.len() {
+                out[k] = (meas[k] * inv_wsum).sqrt();
+            }
+        }
+        (None, Weighting::Uniform) => out.fill(inv_wsum.sqrt()),
+    }
+}
+
+/// The targets t(f̂, cos θi) of channel c for the cells `start .. start + out.len()`.
+#[inline]
+fn fill_target(data: &FitData, loss: Loss, c: usize, start: usize, out: &mut [f64]) {
+    let range = start..start + out.len();
+    let f = &data.values()[c][range.clone()];
+    let ci = &data.geometry().wi_z[range];
+    for k in 0..out.len() {
+        out[k] = loss.transform(f[k], ci[k]);
     }
 }
 
 struct Scratch {
     s: Vec<f64>,
+    t: Vec<f64>,
     out: Vec<Rgb>,
     grad: Vec<Rgb>,
     jcol: Vec<f64>,
@@ -245,33 +270,36 @@ impl<'a> FitProblem<'a> {
         let names = free.iter().map(|&p| specs[p].name.clone()).collect();
         let domains: Vec<Domain> = free.iter().map(|&p| specs[p].domain).collect();
         let transforms = domains.iter().map(Transform::for_domain).collect();
-        let mult = data.multiplicity();
-        let wsum: f64 = match weighting {
-            Weighting::SolidAngle => mult.iter().zip(data.measure()).map(|(a, b)| a * b).sum(),
-            Weighting::Uniform => mult.iter().sum(),
-        };
+        let wsum = data.weight_sum(weighting);
         let nch = channels.len() as f64;
         let inv_wsum = 1.0 / (nch * wsum);
-        let cos_i = &data.geometry().wi_z;
-        let mut target: [Vec<f64>; 3] = Default::default();
         let mut cols: [Vec<usize>; 3] = Default::default();
+        let n = data.len();
+        let nchunks = n.div_ceil(CHUNK);
         let mut ms = 0.0;
         for &c in &channels {
-            target[c] = data.values()[c]
-                .par_iter()
-                .zip(cos_i.par_iter())
-                .map(|(&f, &ci)| loss.transform(f, ci))
+            // Σ s² t², chunk by chunk (no full-length array of s or t); per-chunk sums
+            // in parallel, added in chunk order (deterministic).
+            let parts: Vec<f64> = (0..nchunks)
+                .into_par_iter()
+                .with_min_len(min_len(nchunks))
+                .map_init(
+                    || (vec![0.0; CHUNK], vec![0.0; CHUNK]),
+                    |(sbuf, tbuf), ci| {
+                        let s = ci * CHUNK;
+                        let len = (s + CHUNK).min(n) - s;
+                        let (sb, tb) = (&mut sbuf[..len], &mut tbuf[..len]);
+                        fill_scale(data, weighting, inv_wsum, s, sb);
+                        fill_target(data, loss, c, s, tb);
+                        tb.iter()
+                            .zip(sb.iter())
+                            .map(|(t, s)| (t * s) * (t * s))
+                            .sum::<f64>()
+                    },
+                )
                 .collect();
-            // Σ s² t², chunk by chunk (no full-length array of s).
-            let mut sbuf = vec![0.0; CHUNK];
-            for (ci, tc) in target[c].chunks(CHUNK).enumerate() {
-                let sb = &mut sbuf[..tc.len()];
-                fill_scale(data, weighting, inv_wsum, ci * CHUNK, sb);
-                ms += tc
-                    .iter()
-                    .zip(sb.iter())
-                    .map(|(t, s)| (t * s) * (t * s))
-                    .sum::<f64>();
+            for p in parts {
+                ms += p;
             }
             cols[c] = free
                 .iter()
@@ -297,7 +325,6 @@ impl<'a> FitProblem<'a> {
                 domains,
                 channels,
                 loss,
-                target,
                 weighting,
                 inv_wsum,
                 cols,
@@ -347,22 +374,23 @@ impl<'a> FitProblem<'a> {
             .into_par_iter()
             .with_min_len(min_len(nchunks))
             .fold(
-                || (vec![Rgb::ZERO; CHUNK], Vec::new()),
-                |(mut out, mut acc): (Vec<Rgb>, Vec<f64>), ci| {
+                || (vec![Rgb::ZERO; CHUNK], vec![0.0; CHUNK], Vec::new()),
+                |(mut out, mut tbuf, mut acc): (Vec<Rgb>, Vec<f64>, Vec<f64>), ci| {
                     let s = ci * CHUNK;
                     let e = (s + CHUNK).min(n);
                     m.eval_batch(&g.slice(s..e), &mut out[..e - s]);
                     for &c in &inn.channels {
-                        let tg = &inn.target[c][s..e];
+                        let tg = &mut tbuf[..e - s];
+                        fill_target(inn.data, inn.loss, c, s, tg);
                         for k in 0..e - s {
                             let t = inn.loss.transform(out[k][c], g.wi_z[s + k]);
                             acc.push((t - tg[k]).abs());
                         }
                     }
-                    (out, acc)
+                    (out, tbuf, acc)
                 },
             )
-            .map(|(_, a)| a)
+            .map(|(_, _, a)| a)
             .reduce(Vec::new, |mut a, mut b| {
                 a.append(&mut b);
                 a
@@ -486,8 +514,15 @@ impl<'a> FitProblem<'a> {
             .into_par_iter()
             .with_min_len(min_len(nchunks))
             .fold(
-                || (vec![Rgb::ZERO; CHUNK], vec![0.0; CHUNK], 0.0f64),
-                |(mut out, mut sbuf, mut acc), ci| {
+                || {
+                    (
+                        vec![Rgb::ZERO; CHUNK],
+                        vec![0.0; CHUNK],
+                        vec![0.0; CHUNK],
+                        0.0f64,
+                    )
+                },
+                |(mut out, mut sbuf, mut tbuf, mut acc), ci| {
                     let s = ci * CHUNK;
                     let e = (s + CHUNK).min(n);
                     let len = e - s;
@@ -496,7 +531,8 @@ impl<'a> FitProblem<'a> {
                     fill_scale(inn.data, inn.weighting, inn.inv_wsum, s, &mut sbuf[..len]);
                     let sc = &sbuf[..len];
                     for &c in &inn.channels {
-                        let tg = &inn.target[c][s..e];
+                        let tg = &mut tbuf[..len];
+                        fill_target(inn.data, inn.loss, c, s, tg);
                         let mut part = 0.0;
                         match robust {
                             None => {
@@ -515,10 +551,10 @@ impl<'a> FitProblem<'a> {
                         }
                         acc += part;
                     }
-                    (out, sbuf, acc)
+                    (out, sbuf, tbuf, acc)
                 },
             )
-            .map(|(_, _, a)| a)
+            .map(|(_, _, _, a)| a)
             .sum::<f64>();
         let c = 0.5 * c;
         if c.is_finite() { c } else { f64::INFINITY }
@@ -554,6 +590,7 @@ impl<'a> FitProblem<'a> {
             .fold(
                 || Scratch {
                     s: vec![0.0; CHUNK],
+                    t: vec![0.0; CHUNK],
                     out: vec![Rgb::ZERO; CHUNK],
                     grad: vec![Rgb::ZERO; np * CHUNK],
                     jcol: vec![0.0; maxcols * CHUNK],
@@ -576,7 +613,8 @@ impl<'a> FitProblem<'a> {
                     fill_scale(inn.data, inn.weighting, inn.inv_wsum, s, &mut sc.s[..len]);
                     let scale = &sc.s[..len];
                     for &c in &inn.channels {
-                        let tg = &inn.target[c][s..e];
+                        fill_target(inn.data, inn.loss, c, s, &mut sc.t[..len]);
+                        let tg = &sc.t[..len];
                         match robust {
                             None => {
                                 for k in 0..len {
@@ -683,10 +721,11 @@ impl<'a> FitProblem<'a> {
         let mut scale = vec![0.0; n];
         fill_scale(inn.data, inn.weighting, inn.inv_wsum, 0, &mut scale);
         let mut r = DVector::zeros(n * inn.channels.len());
+        let mut tg = vec![0.0; n];
         for (ci, &c) in inn.channels.iter().enumerate() {
+            fill_target(inn.data, inn.loss, c, 0, &mut tg);
             for k in 0..n {
-                r[ci * n + k] =
-                    scale[k] * (inn.loss.transform(out[k][c], g.wi_z[k]) - inn.target[c][k]);
+                r[ci * n + k] = scale[k] * (inn.loss.transform(out[k][c], g.wi_z[k]) - tg[k]);
             }
         }
         Ok(r)
@@ -781,8 +820,9 @@ pub fn evaluate_losses(
 ) -> crate::loss::LossReport {
     let n = data.len();
     let g = data.geometry();
-    let w = data.weights(weighting);
-    let wsum: f64 = w.iter().sum();
+    // Weights per chunk, not a full-length array (8 bytes a cell); the sum in cell
+    // order as before.
+    let wsum = data.weight_sum(weighting);
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
     let nchunks = n.div_ceil(CHUNK);
     let sums = (0..nchunks)
@@ -792,15 +832,18 @@ pub fn evaluate_losses(
             || {
                 (
                     [vec![Rgb::ZERO; CHUNK], vec![Rgb::ZERO; CHUNK]],
-                    (vec![0.0; CHUNK], vec![0.0; CHUNK]),
+                    (vec![0.0; CHUNK], vec![0.0; CHUNK], vec![0.0; CHUNK]),
                     [[0.0f64; 3]; 4],
                 )
             },
-            |(mut out, (mut xm, mut xt), mut acc), ci| {
+            |(mut out, (mut xm, mut xt, mut wb), mut acc), ci| {
                 let s = ci * CHUNK;
                 let e = (s + CHUNK).min(n);
                 let len = e - s;
                 let gs = g.slice(s..e);
+                for (k, x) in wb[..len].iter_mut().enumerate() {
+                    *x = data.weight_at(weighting, s + k);
+                }
                 models[0].eval_batch(&gs, &mut out[0][..len]);
                 for c in 0..3 {
                     let vals: &[Rgb] = if same || c == 0 {
@@ -812,7 +855,7 @@ pub fn evaluate_losses(
                     // One loop per loss over plain slices (so each vectorises), on
                     // x = f cos θi of model (xm) and measurement (xt).
                     let fm = &data.values()[c][s..e];
-                    let ws = &w[s..e];
+                    let ws = &wb[..len];
                     let ci = &g.wi_z[s..e];
                     for k in 0..len {
                         xm[k] = vals[k][c];
@@ -834,7 +877,7 @@ pub fn evaluate_losses(
                         acc[3][c] += ws[k] * d * d;
                     }
                 }
-                (out, (xm, xt), acc)
+                (out, (xm, xt, wb), acc)
             },
         )
         .map(|(_, _, a)| a)

@@ -216,56 +216,76 @@ impl MerlTable {
     /// below the horizon, if a table has any (MERL files do not).
     pub fn cell_batch(&self) -> CellBatch {
         let indices: Vec<usize> = (0..self.cells()).filter(|&x| self.valid[x]).collect();
-        // Runs of cells build their columns in parallel, then are appended in order:
-        // the peak is about twice the result, never a Vec of whole `Cell`s.
-        let parts: Vec<CellBatch> = indices
-            .par_chunks(8192)
-            .map(|run| {
-                let mut part = CellBatch {
-                    indices: run.to_vec(),
-                    geometry: GeometryBatch::with_capacity(run.len()),
-                    values: std::array::from_fn(|_| Vec::with_capacity(run.len())),
-                    weights: Vec::with_capacity(run.len()),
-                };
-                for &x in run {
-                    let c = self.cell(x).expect("index is valid");
-                    part.geometry.push(&c.wi, &c.wo);
-                    for ch in Channel::ALL {
-                        part.values[ch.index()].push(c.value[ch.index()]);
-                    }
-                    part.weights.push(c.weight);
-                }
-                part
-            })
-            .collect();
         let m = indices.len();
+        let z = || vec![0.0; m];
         let mut out = CellBatch {
-            indices,
-            geometry: GeometryBatch::with_capacity(m),
-            values: std::array::from_fn(|_| Vec::with_capacity(m)),
-            weights: Vec::with_capacity(m),
+            geometry: GeometryBatch {
+                wi_x: z(),
+                wi_y: z(),
+                wi_z: z(),
+                wo_x: z(),
+                wo_y: z(),
+                wo_z: z(),
+                h_x: z(),
+                h_y: z(),
+                h_z: z(),
+                cos_d: z(),
+            },
+            values: [z(), z(), z()],
+            weights: z(),
+            indices: Vec::new(),
         };
-        for p in parts {
-            let (g, pg) = (&mut out.geometry, &p.geometry);
-            for (dst, src) in [
-                (&mut g.wi_x, &pg.wi_x),
-                (&mut g.wi_y, &pg.wi_y),
-                (&mut g.wi_z, &pg.wi_z),
-                (&mut g.wo_x, &pg.wo_x),
-                (&mut g.wo_y, &pg.wo_y),
-                (&mut g.wo_z, &pg.wo_z),
-                (&mut g.h_x, &pg.h_x),
-                (&mut g.h_y, &pg.h_y),
-                (&mut g.h_z, &pg.h_z),
-                (&mut g.cos_d, &pg.cos_d),
-            ] {
-                dst.extend_from_slice(src);
-            }
-            for ch in 0..3 {
-                out.values[ch].extend_from_slice(&p.values[ch]);
-            }
-            out.weights.extend_from_slice(&p.weights);
+        // Runs of cells fill their stretch of the final columns in parallel: the peak
+        // is the result itself (no per-run copies to append, no Vec of whole `Cell`s).
+        const RUN: usize = 8192;
+        let g = &mut out.geometry;
+        let [vr, vg, vb] = &mut out.values;
+        let mut cols: [&mut [f64]; 14] = [
+            &mut g.wi_x,
+            &mut g.wi_y,
+            &mut g.wi_z,
+            &mut g.wo_x,
+            &mut g.wo_y,
+            &mut g.wo_z,
+            &mut g.h_x,
+            &mut g.h_y,
+            &mut g.h_z,
+            &mut g.cos_d,
+            vr,
+            vg,
+            vb,
+            &mut out.weights,
+        ];
+        let mut runs: Vec<[&mut [f64]; 14]> = Vec::with_capacity(m.div_ceil(RUN));
+        for start in (0..m).step_by(RUN) {
+            let len = RUN.min(m - start);
+            runs.push(std::array::from_fn(|c| {
+                let (a, b) = std::mem::take(&mut cols[c]).split_at_mut(len);
+                cols[c] = b;
+                a
+            }));
         }
+        runs.into_par_iter()
+            .zip(indices.par_chunks(RUN))
+            .for_each(|(run, idx)| {
+                let [wix, wiy, wiz, wox, woy, woz, hx, hy, hz, cd, r, gr, b, w] = run;
+                for (p, &x) in idx.iter().enumerate() {
+                    let c = self.cell(x).expect("index is valid");
+                    let h = brdfkit_core::geometry::half_vector(&c.wi, &c.wo);
+                    // The columns of `GeometryBatch::push`.
+                    (wix[p], wiy[p], wiz[p]) = (c.wi.x, c.wi.y, c.wi.z);
+                    (wox[p], woy[p], woz[p]) = (c.wo.x, c.wo.y, c.wo.z);
+                    (hx[p], hy[p], hz[p]) = (h.x, h.y, h.z);
+                    cd[p] = c.wi.dot(&h);
+                    (r[p], gr[p], b[p]) = (
+                        c.value[Channel::Red.index()],
+                        c.value[Channel::Green.index()],
+                        c.value[Channel::Blue.index()],
+                    );
+                    w[p] = c.weight;
+                }
+            });
+        out.indices = indices;
         out
     }
 }
