@@ -851,6 +851,24 @@ impl Model for CookTorrance {
 
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
         let (a, b, h, c) = pair_geometry(wi, wo);
+        if let Some(cfg) = self.ggx_grad_config() {
+            let k = self.ggx_consts::<f64>();
+            let mut out = Rgb::ZERO;
+            let np = self.num_params();
+            ggx::with_grad_config(
+                cfg,
+                ggx::PairGrad {
+                    k: &k,
+                    wi: a,
+                    wo: b,
+                    h,
+                    cd: c,
+                    out: &mut out,
+                    grad: &mut grad[..np],
+                },
+            );
+            return out;
+        }
         let mut g = [Rgb::ZERO; MAXP];
         let f = self.kernel(a, b, h, c, Some(&mut g));
         let n = self.num_params();
@@ -907,6 +925,20 @@ impl Model for CookTorrance {
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
         let n = g.len();
         let np = self.num_params();
+        if let Some(cfg) = self.ggx_grad_config() {
+            let k = self.ggx_consts::<f64>();
+            ggx::with_grad_config(
+                cfg,
+                ggx::BatchGrad64 {
+                    k: &k,
+                    g,
+                    out,
+                    grad,
+                    np,
+                },
+            );
+            return;
+        }
         let mut gk = [Rgb::ZERO; MAXP];
         for (k, o) in out.iter_mut().enumerate().take(n) {
             let (a, b, h, c) = batch_pair(g, k);

@@ -39,6 +39,11 @@ pub(super) struct Consts<T> {
     inv_ay2: T,
     ax2: T,
     ay2: T,
+    /// αx, αy and their inverses (gradient only).
+    ax: T,
+    ay: T,
+    inv_ax: T,
+    inv_ay: T,
     d_norm: T,
     diff: [T; 3],
     spec: [T; 3],
@@ -82,6 +87,15 @@ impl CookTorrance {
         })
     }
 
+    /// The configuration of the branch-free gradient kernel: GGX with Fresnel `none` or
+    /// `schlick` (polynomial derivatives; the default model, and the usual fit). The
+    /// conductor and dielectric keep the per-pair gradient code (`conductor_grad`,
+    /// `dielectric_grad`, whose guards branch).
+    pub(super) fn ggx_grad_config(&self) -> Option<Config> {
+        self.ggx_config()
+            .filter(|c| c.fresnel == F_NONE || c.fresnel == F_SCHLICK)
+    }
+
     pub(super) fn ggx_consts<T: Real>(&self) -> Consts<T> {
         let (ax, ay) = self.alpha.xy();
         let (mut fa, mut fb) = ([0.0; 3], [0.0; 3]);
@@ -105,6 +119,10 @@ impl CookTorrance {
             inv_ay2: T::of(1.0 / (ay * ay)),
             ax2: T::of(ax * ax),
             ay2: T::of(ay * ay),
+            ax: T::of(ax),
+            ay: T::of(ay),
+            inv_ax: T::of(1.0 / ax),
+            inv_ay: T::of(1.0 / ay),
             d_norm: T::of(FRAC_1_PI / (ax * ay)),
             diff: r(self.rho_d.0.map(|v| v * FRAC_1_PI)),
             spec: r(self.rho_s.0),
@@ -195,6 +213,196 @@ pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8>(
     // Below the horizon exactly 0 (a select, so the loop has no branch).
     let up = zi > T::ZERO && zo > T::ZERO;
     std::array::from_fn(|c| select(up, k.diff[c] + k.spec[c] * dv * f[c], T::ZERO))
+}
+
+/// Largest parameter count of the gradient kernel: 3 ρd + 3 ρs + 2 α + 3 f0.
+pub(super) const GRAD_P: usize = 11;
+
+/// f_r of one pair and its gradient, F ∈ {none, Schlick}; `g[p][c]` = ∂f_c/∂param_p in
+/// the model's parameter order (ρd, ρs, α or αx αy, f0), the first
+/// `6 + (1 or 2) + (0 or 3)` entries written.
+///
+/// With DV = D·V the specular factor of the module doc, ∂f_c/∂ρs_c = DV F_c, ∂f_c/∂f0_c =
+/// ρs_c DV (1 − (1 − c)⁵), and for the roughness
+/// ∂ln DV/∂αx = (4 ux − s)/(αx s) − ∂ln vden/∂αx, ux = hx²/αx² (isotropic α:
+/// (4 u − 2 s)/(α s) − ∂ln vden/∂α, u = (hx² + hy²)/α²), with ∂S(v)/∂αx = αx vx²/S(v)
+/// (isotropic: α (1 − vz²)/S(v)), so that
+/// separable:  ∂ln vden = ∂Si/(zi + Si) + ∂So/(zo + So),
+/// correlated: ∂ln vden = (zo ∂Si + zi ∂So)/(zo Si + zi So).
+#[inline(always)]
+pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
+    k: &Consts<T>,
+    wi: [T; 3],
+    wo: [T; 3],
+    h: [T; 3],
+    cd: T,
+    g: &mut [[T; 3]; GRAD_P],
+) -> [T; 3] {
+    let (zi, zo) = (wi[2], wo[2]);
+    let (hx2, hy2, hz2) = (h[0] * h[0], h[1] * h[1], h[2] * h[2]);
+    let up = zi > T::ZERO && zo > T::ZERO;
+    let z = T::ZERO;
+    // Per direction: S and ∂S/∂α (x and y for the anisotropic lobe).
+    let (s, si, so) = if A {
+        (
+            hx2 * k.inv_ax2 + hy2 * k.inv_ay2 + hz2,
+            (zi * zi + k.ax2 * wi[0] * wi[0] + k.ay2 * wi[1] * wi[1]).sqrt(),
+            (zo * zo + k.ax2 * wo[0] * wo[0] + k.ay2 * wo[1] * wo[1]).sqrt(),
+        )
+    } else {
+        (
+            (hx2 + hy2) * k.inv_ax2 + hz2,
+            (zi * zi + k.ax2 * (T::ONE - zi * zi)).sqrt(),
+            (zo * zo + k.ax2 * (T::ONE - zo * zo)).sqrt(),
+        )
+    };
+    let vden = if C {
+        T::TWO * (zo * si + zi * so)
+    } else {
+        (zi + si) * (zo + so)
+    };
+    let dv = k.d_norm / (s * s * vden);
+    // ∂ln vden/∂α for a direction-dependent ∂S: `dsi`, `dso` are ∂Si/∂α, ∂So/∂α.
+    let dln_vden = |dsi: T, dso: T| {
+        if C {
+            (zo * dsi + zi * dso) / (zo * si + zi * so)
+        } else {
+            dsi / (zi + si) + dso / (zo + so)
+        }
+    };
+    let (dln_x, dln_y) = if A {
+        let (ux, uy) = (hx2 * k.inv_ax2, hy2 * k.inv_ay2);
+        let four = T::TWO + T::TWO;
+        let dx = (four * ux - s) * k.inv_ax / s
+            - dln_vden(k.ax * wi[0] * wi[0] / si, k.ax * wo[0] * wo[0] / so);
+        let dy = (four * uy - s) * k.inv_ay / s
+            - dln_vden(k.ay * wi[1] * wi[1] / si, k.ay * wo[1] * wo[1] / so);
+        (dx, dy)
+    } else {
+        let u = (hx2 + hy2) * k.inv_ax2;
+        let four = T::TWO + T::TWO;
+        let d = (four * u - T::TWO * s) * k.inv_ax / s
+            - dln_vden(
+                k.ax * (T::ONE - zi * zi) / si,
+                k.ax * (T::ONE - zo * zo) / so,
+            );
+        (d, z)
+    };
+    let f = fresnel::<T, F>(k, cd);
+    let w_comp = if F == F_SCHLICK {
+        let m = T::ONE - clamp01(cd);
+        let m2 = m * m;
+        T::ONE - m2 * m2 * m
+    } else {
+        z
+    };
+    let inv_pi = T::of(FRAC_1_PI);
+    for c in 0..3 {
+        let mut dd = [z; 3];
+        dd[c] = select(up, inv_pi, z);
+        g[c] = dd;
+        let mut ds = [z; 3];
+        ds[c] = select(up, dv * f[c], z);
+        g[3 + c] = ds;
+    }
+    let spec_f: [T; 3] = std::array::from_fn(|c| k.spec[c] * f[c] * dv);
+    g[6] = spec_f.map(|x| select(up, x * dln_x, z));
+    let mut p = 7;
+    if A {
+        g[7] = spec_f.map(|x| select(up, x * dln_y, z));
+        p = 8;
+    }
+    if F == F_SCHLICK {
+        for c in 0..3 {
+            let mut d0 = [z; 3];
+            d0[c] = select(up, k.spec[c] * dv * w_comp, z);
+            g[p + c] = d0;
+        }
+    }
+    std::array::from_fn(|c| select(up, k.diff[c] + k.spec[c] * dv * f[c], z))
+}
+
+/// Calls `job.go` with `cfg` as constants, for the configurations of
+/// [`CookTorrance::ggx_grad_config`].
+pub(super) fn with_grad_config<J: Job>(cfg: Config, job: J) {
+    macro_rules! arms {
+        ($($a:literal, $c:literal, $f:ident;)*) => {
+            match (cfg.aniso, cfg.correlated, cfg.fresnel) {
+                $(($a, $c, $f) => job.go::<$a, $c, $f>(),)*
+                _ => unreachable!("ggx_grad_config only admits none and Schlick"),
+            }
+        };
+    }
+    arms!(
+        false, false, F_NONE; false, false, F_SCHLICK; false, true, F_NONE; false, true, F_SCHLICK;
+        true, false, F_NONE; true, false, F_SCHLICK; true, true, F_NONE; true, true, F_SCHLICK;
+    );
+}
+
+/// One pair's value and gradient in `f64` (`grad.len()` = the model's parameter count).
+pub(super) struct PairGrad<'a> {
+    pub k: &'a Consts<f64>,
+    pub wi: [f64; 3],
+    pub wo: [f64; 3],
+    pub h: [f64; 3],
+    pub cd: f64,
+    pub out: &'a mut Rgb,
+    pub grad: &'a mut [Rgb],
+}
+
+impl Job for PairGrad<'_> {
+    fn go<const A: bool, const C: bool, const F: u8>(self) {
+        let mut g = [[0.0; 3]; GRAD_P];
+        *self.out = Rgb(value_grad::<f64, A, C, F>(
+            self.k, self.wi, self.wo, self.h, self.cd, &mut g,
+        ));
+        for (d, s) in self.grad.iter_mut().zip(g) {
+            *d = Rgb(s);
+        }
+    }
+}
+
+/// A batch's values and parameter-major gradient in `f64`.
+pub(super) struct BatchGrad64<'a, 'g> {
+    pub k: &'a Consts<f64>,
+    pub g: &'a GeomSlice<'g>,
+    pub out: &'a mut [Rgb],
+    pub grad: &'a mut [Rgb],
+    pub np: usize,
+}
+
+struct LoopGrad64<'a, 'g, const A: bool, const C: bool, const F: u8>(BatchGrad64<'a, 'g>);
+
+impl<const A: bool, const C: bool, const F: u8> Run for LoopGrad64<'_, '_, A, C, F> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let b = &mut self.0;
+        let n = b.g.len();
+        let np = b.np.min(GRAD_P);
+        let g = b.g.sub(0..n);
+        let out = &mut b.out[..n];
+        let grad = &mut b.grad[..np * n];
+        let mut gk = [[0.0; 3]; GRAD_P];
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = Rgb(value_grad::<f64, A, C, F>(
+                b.k,
+                [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
+                [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
+                [g.h_x[i], g.h_y[i], g.h_z[i]],
+                g.cos_d[i],
+                &mut gk,
+            ));
+            for (p, v) in gk.iter().enumerate().take(np) {
+                grad[p * n + i] = Rgb(*v);
+            }
+        }
+    }
+}
+
+impl Job for BatchGrad64<'_, '_> {
+    fn go<const A: bool, const C: bool, const F: u8>(self) {
+        dispatch(&mut LoopGrad64::<A, C, F>(self));
+    }
 }
 
 /// Work that needs the configuration as compile-time constants.
