@@ -138,6 +138,7 @@ pub struct FitConfig {
     pub(crate) solver: SolverKind,
     pub(crate) sharing: Sharing,
     pub(crate) starts: usize,
+    pub(crate) finish: usize,
     pub(crate) seed: u64,
     pub(crate) subsample: Option<f64>,
     pub(crate) theta_d_max: Option<f64>,
@@ -162,6 +163,7 @@ impl Default for FitConfig {
             solver: SolverKind::Lm,
             sharing: Sharing::SharedShape,
             starts: 1,
+            finish: DEFAULT_FINISH,
             seed: 0,
             subsample: None,
             theta_d_max: None,
@@ -181,6 +183,10 @@ impl Default for FitConfig {
 
 /// Default size of the warm-up subsample.
 pub const DEFAULT_WARM_UP_CELLS: usize = 65_536;
+
+/// Default number of starts finished on all fitted cells after the warm-up ranking
+/// (see [`FitConfig::finish`]).
+pub const DEFAULT_FINISH: usize = 1;
 
 fn bad(option: &'static str, value: impl fmt::Display, reason: &str) -> FitError {
     FitError::InvalidOption {
@@ -222,6 +228,26 @@ impl FitConfig {
             return Err(bad("starts", n, "must be in 1..=4096"));
         }
         self.starts = n;
+        Ok(self)
+    }
+
+    /// How many starts are finished on all fitted cells (≥ 1; default
+    /// [`DEFAULT_FINISH`] = 1).
+    ///
+    /// When a warm-up applies ([`warm_up`](Self::warm_up)) and there are more starts
+    /// than this, every start first converges on the warm-up subsample, the starts are
+    /// ranked by the optimised loss over all fitted cells at the point their warm-up
+    /// reached (one cost pass each), and only the best `n` continue on all fitted
+    /// cells; the others are recorded as not finished
+    /// ([`StartRecord::finished`](crate::StartRecord::finished)). n starts then cost n
+    /// warm-ups plus n cost passes plus `finish` full-set fits, instead of n full-set
+    /// fits. `finish` ≥ `starts`, or no warm-up, finishes every start (the behaviour
+    /// before this option existed).
+    pub fn finish(mut self, n: usize) -> Result<Self, FitError> {
+        if n == 0 || n > 4096 {
+            return Err(bad("finish", n, "must be in 1..=4096"));
+        }
+        self.finish = n;
         Ok(self)
     }
 
@@ -359,6 +385,7 @@ impl FitConfig {
     pub fn validate(&self) -> Result<(), FitError> {
         let c = FitConfig::default();
         c.clone().starts(self.starts)?;
+        c.clone().finish(self.finish)?;
         if let Some(f) = self.subsample {
             c.clone().subsample(f, self.seed)?;
         }
@@ -394,6 +421,10 @@ impl FitConfig {
     /// Number of starts.
     pub fn get_starts(&self) -> usize {
         self.starts
+    }
+    /// Number of starts finished on all fitted cells (see [`finish`](Self::finish)).
+    pub fn get_finish(&self) -> usize {
+        self.finish
     }
     /// The seed.
     pub fn get_seed(&self) -> u64 {
@@ -437,6 +468,13 @@ mod tests {
     fn builders_validate() {
         let c = FitConfig::default();
         assert!(c.clone().starts(0).is_err());
+        assert!(c.clone().finish(0).is_err());
+        assert!(c.clone().finish(4097).is_err());
+        assert_eq!(c.get_finish(), DEFAULT_FINISH);
+        assert_eq!(c.clone().finish(3).unwrap().get_finish(), 3);
+        let f: FitConfig = serde_json::from_str(r#"{"finish": 0}"#).unwrap();
+        let e = f.validate().unwrap_err().to_string();
+        assert!(e.contains("finish"), "{e}");
         assert!(c.clone().subsample(0.0, 1).is_err());
         assert!(c.clone().subsample(1.5, 1).is_err());
         assert!(c.clone().subsample(f64::NAN, 1).is_err());

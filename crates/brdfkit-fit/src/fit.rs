@@ -83,6 +83,17 @@ struct Outcome {
     warm: Option<WarmUpRecord>,
 }
 
+/// A start after its warm-up: where it got to and, when the starts are ranked, the
+/// optimised cost over all fitted cells there.
+struct Explored {
+    u: DVector<f64>,
+    warm: Option<WarmUpRecord>,
+    rank_cost: Option<f64>,
+}
+
+/// Most solver runs of one warm-up when the starts are ranked (see `run_pass`).
+const WARM_UP_ROUNDS: u64 = 4;
+
 /// Seed offset of the warm-up subsample (distinct from a user subsample's draw).
 const WARM_UP_SEED: u64 = 0x5741_524D;
 
@@ -360,15 +371,50 @@ fn run_pass(
             });
         }
     };
-    let mut outcomes: Vec<Result<Outcome, FitError>> = points
+    let n = points.len();
+    // Ranking pays only when a warm-up makes exploring cheap and some start can be
+    // left unfinished; otherwise every start is finished (as with one start).
+    let ranked = warm_problem.is_some() && config.finish < n;
+    // Stage 1, every start in parallel: its warm-up on the subsample, and when ranking,
+    // the optimised cost over all fitted cells where the warm-up ended (a fresh clone
+    // of the problem, so the pass is counted for this start).
+    let explored: Vec<Result<Explored, FitError>> = points
         .par_iter()
         .enumerate()
         .map(|(k, x)| {
-            let p = stage1.clone();
-            let u0 = p.to_u(x);
-            let (u1, warm) = match &warm_problem {
+            let u0 = stage1.to_u(x);
+            let (u, warm) = match &warm_problem {
                 Some(wp) => {
-                    let w = run_start(wp.clone(), u0, config, observer, k, channel, true)?;
+                    let mut w = run_start(wp.clone(), u0, config, observer, k, channel, true)?;
+                    let mut rounds = 1;
+                    // When ranking, a warm-up that ran out of iterations is run again
+                    // from where it stopped (fresh damping), while it keeps improving:
+                    // on a flat landscape (a start far from the answer) LM's damping
+                    // grows and its steps shrink; a restart takes the large steps the
+                    // full-set continuation would otherwise take, at the subsample's
+                    // cost, so the ranking sees where the start really leads.
+                    while ranked
+                        && rounds < WARM_UP_ROUNDS
+                        && !w.converged
+                        && w.iterations >= config.get_max_iters()
+                    {
+                        let r =
+                            run_start(wp.clone(), w.u.clone(), config, observer, k, channel, true)?;
+                        rounds += 1;
+                        let gain = w.cost - r.cost;
+                        w = Outcome {
+                            iterations: w.iterations + r.iterations,
+                            cost_evals: w.cost_evals + r.cost_evals,
+                            jac_evals: w.jac_evals + r.jac_evals,
+                            ..r
+                        };
+                        // Stop unless it improved by more than ftol (relative); a NaN
+                        // gain stops too.
+                        let improved = gain > config.get_tolerances().ftol * w.cost;
+                        if !improved {
+                            break;
+                        }
+                    }
                     let rec = WarmUpRecord {
                         cells: wp.num_residuals() / wp.channels().len(),
                         iterations: w.iterations,
@@ -376,28 +422,87 @@ fn run_pass(
                         jacobian_evals: w.jac_evals,
                         final_loss: (2.0 * w.cost).sqrt(),
                         termination: w.termination.clone(),
+                        rounds,
                     };
                     (w.u, Some(rec))
                 }
                 None => (u0, None),
             };
-            let o = run_start(p, u1, config, observer, k, channel, false).map(|mut o| {
-                o.warm = warm;
+            let rank_cost = ranked.then(|| stage1.clone().cost_at(&u));
+            Ok(Explored { u, warm, rank_cost })
+        })
+        .collect();
+    // The subsample is not needed past the warm-ups: free it before the full-set fits.
+    drop(warm_problem);
+    drop(warm_data);
+    // Ranking: finite costs first, lowest first; ties and non-finite costs in start
+    // order. Starts whose warm-up failed are never finished (their error is recorded).
+    let rank_key = |k: usize| match &explored[k] {
+        Ok(e) => e
+            .rank_cost
+            .filter(|c| c.is_finite())
+            .unwrap_or(f64::INFINITY),
+        Err(_) => f64::NAN,
+    };
+    let mut order: Vec<usize> = (0..n).filter(|&k| explored[k].is_ok()).collect();
+    if ranked {
+        order.sort_by(|&a, &b| rank_key(a).total_cmp(&rank_key(b)).then(a.cmp(&b)));
+    }
+    let mut rank_of = vec![None; n];
+    for (pos, &k) in order.iter().enumerate() {
+        rank_of[k] = Some(pos);
+    }
+    let finishers: Vec<usize> = if ranked {
+        order.iter().copied().take(config.finish).collect()
+    } else {
+        order
+    };
+    if let Some(obs) = observer {
+        for k in (0..n).filter(|k| !finishers.contains(k)) {
+            if let Ok(e) = &explored[k] {
+                obs.on_start_done(&StartDone {
+                    start: k,
+                    channel,
+                    loss: (2.0 * e.rank_cost.unwrap_or(f64::NAN)).sqrt(),
+                    iterations: 0,
+                    termination: "not finished (ranked out after the warm-up)".into(),
+                });
+            }
+        }
+    }
+    // Stage 2: the finishers continue on all fitted cells, in parallel.
+    let mut finished: Vec<(usize, Result<Outcome, FitError>)> = finishers
+        .par_iter()
+        .map(|&k| {
+            let e = explored[k].as_ref().expect("finishers explored fine");
+            let o = run_start(
+                stage1.clone(),
+                e.u.clone(),
+                config,
+                observer,
+                k,
+                channel,
+                false,
+            )
+            .map(|mut o| {
+                o.warm = e.warm.clone();
+                // The ranking pass was a cost pass over the fitted cells too.
+                o.cost_evals += u64::from(e.rank_cost.is_some());
                 o
             });
             if !auto {
                 done(k, &o);
             }
-            o
+            (k, o)
         })
         .collect();
     let mut robust_info = given.map(|r| (r.scale, None));
     if auto {
-        // The scale from the best plain start, common to every start so their robust
-        // costs compare.
-        let plain_best = outcomes
+        // The scale from the best plain start, common to every finished start so their
+        // robust costs compare.
+        let plain_best = finished
             .iter()
-            .filter_map(|o| o.as_ref().ok())
+            .filter_map(|(_, o)| o.as_ref().ok())
             .filter(|o| o.cost.is_finite())
             .min_by(|a, b| a.cost.total_cmp(&b.cost));
         if let Some(pb) = plain_best {
@@ -409,11 +514,13 @@ fn run_pass(
                 kind: config.robust,
                 scale,
             });
-            outcomes = outcomes
+            finished = finished
                 .into_par_iter()
-                .enumerate()
                 .map(|(k, o1)| {
-                    let o1 = o1?;
+                    let o1 = match o1 {
+                        Ok(o) => o,
+                        Err(e) => return (k, Err(e)),
+                    };
                     let o = run_start(
                         rp.clone(),
                         o1.u.clone(),
@@ -431,31 +538,55 @@ fn run_pass(
                         o
                     });
                     done(k, &o);
-                    o
+                    (k, o)
                 })
                 .collect();
             robust_info = Some((scale, Some(plain_loss)));
         }
     }
-    let mut best: Option<usize> = None;
-    let mut records = Vec::with_capacity(points.len());
+    let mut outcome_of: Vec<Option<Result<Outcome, FitError>>> = (0..n).map(|_| None).collect();
+    for (k, o) in finished {
+        outcome_of[k] = Some(o);
+    }
+    let mut best: Option<(usize, f64)> = None;
+    let mut records = Vec::with_capacity(n);
     let mut first_err = None;
-    for (k, o) in outcomes.iter().enumerate() {
+    for k in 0..n {
         let start: Vec<f64> = free.iter().map(|&p| points[k][p]).collect();
-        match o {
-            Ok(o) => {
-                if o.cost.is_finite()
-                    && best.is_none_or(|b| {
-                        o.cost
-                            < outcomes[b]
-                                .as_ref()
-                                .map(|x| x.cost)
-                                .unwrap_or(f64::INFINITY)
-                    })
-                {
-                    best = Some(k);
+        let rank_loss = explored[k]
+            .as_ref()
+            .ok()
+            .and_then(|e| e.rank_cost)
+            .map(|c| (2.0 * c).sqrt());
+        let failed = |e: &FitError, finished: bool, warm: Option<WarmUpRecord>| StartRecord {
+            index: k,
+            channel,
+            start: start.clone(),
+            final_loss: None,
+            iterations: 0,
+            cost_evals: 0,
+            jacobian_evals: 0,
+            termination: format!("error: {e}"),
+            converged: false,
+            kept: false,
+            warm_up: warm,
+            finished,
+            rank_loss,
+        };
+        let rec = match (&explored[k], &outcome_of[k]) {
+            (Err(e), _) => {
+                first_err.get_or_insert_with(|| e.to_string());
+                failed(e, false, None)
+            }
+            (Ok(x), Some(Err(e))) => {
+                first_err.get_or_insert_with(|| e.to_string());
+                failed(e, true, x.warm.clone())
+            }
+            (Ok(_), Some(Ok(o))) => {
+                if o.cost.is_finite() && best.is_none_or(|(_, c)| o.cost < c) {
+                    best = Some((k, o.cost));
                 }
-                records.push(StartRecord {
+                StartRecord {
                     index: k,
                     channel,
                     start,
@@ -467,29 +598,34 @@ fn run_pass(
                     converged: o.converged,
                     kept: false,
                     warm_up: o.warm.clone(),
-                });
-            }
-            Err(e) => {
-                if first_err.is_none() {
-                    first_err = Some(e.to_string());
+                    finished: true,
+                    rank_loss,
                 }
-                records.push(StartRecord {
-                    index: k,
-                    channel,
-                    start,
-                    final_loss: None,
-                    iterations: 0,
-                    cost_evals: 0,
-                    jacobian_evals: 0,
-                    termination: format!("error: {e}"),
-                    converged: false,
-                    kept: false,
-                    warm_up: None,
-                });
             }
-        }
+            (Ok(x), None) => StartRecord {
+                index: k,
+                channel,
+                start,
+                final_loss: rank_loss.filter(|v| v.is_finite()),
+                iterations: 0,
+                cost_evals: u64::from(x.rank_cost.is_some()),
+                jacobian_evals: 0,
+                termination: format!(
+                    "not finished: ranked {} of {n} by the loss over the fitted cells after \
+                     the warm-up; the best {} continued",
+                    rank_of[k].map_or(n, |r| r + 1),
+                    config.finish
+                ),
+                converged: false,
+                kept: false,
+                warm_up: x.warm.clone(),
+                finished: false,
+                rank_loss,
+            },
+        };
+        records.push(rec);
     }
-    let Some(b) = best else {
+    let Some((b, _)) = best else {
         return Err(FitError::Solver {
             solver: config.solver.name().into(),
             start: 0,
@@ -500,7 +636,10 @@ fn run_pass(
         });
     };
     records[b].kept = true;
-    let best = outcomes[b].as_ref().expect("best is Ok").clone();
+    let best = match outcome_of[b].take() {
+        Some(Ok(o)) => o,
+        _ => unreachable!("the best start has an outcome"),
+    };
     let fitted = problem.model_at(&best.u)?;
     Ok(PassResult {
         model: fitted,
@@ -573,6 +712,7 @@ pub fn fit(
     if let Some(o) = &observer {
         o.on_plan(&FitPlan {
             starts: config.starts,
+            finish: config.finish.min(config.starts),
             passes: passes.len(),
             max_iters: config.get_max_iters(),
             cells: fitset.len(),
@@ -656,6 +796,7 @@ pub fn fit(
         subsample: config.subsample,
         seed: config.seed,
         starts_per_pass: config.starts,
+        finish: Some(config.finish),
         free_params,
         params,
         cells_fit: fitset.len(),

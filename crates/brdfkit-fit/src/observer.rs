@@ -11,6 +11,9 @@ use std::sync::Arc;
 pub struct FitPlan {
     /// Number of starts per pass.
     pub starts: usize,
+    /// Starts finished on all fitted cells per pass (the others stop after their
+    /// warm-up; see [`crate::FitConfig::finish`]).
+    pub finish: usize,
     /// Number of passes (1 for shared shape parameters, 3 for per-channel fits).
     pub passes: usize,
     /// Iteration cap per start.
@@ -36,7 +39,8 @@ pub struct IterEvent {
     pub warm_up: bool,
 }
 
-/// A start that finished.
+/// A start that is done: finished on the fitted cells, or stopped after its warm-up
+/// and ranking (then `iterations` is 0 and `loss` its ranking loss).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StartDone {
     /// Start index.

@@ -36,8 +36,17 @@ pub struct WarmUpRecord {
     pub jacobian_evals: u64,
     /// The optimised loss over the warm-up cells at its end.
     pub final_loss: f64,
-    /// Why it stopped.
+    /// Why it stopped (its last solver run).
     pub termination: String,
+    /// Solver runs: 1, or more when the starts were ranked and a run ended at the
+    /// iteration cap while still improving (each further run starts where the last
+    /// stopped; the counts above are their sums). Absent in older records: 1.
+    #[serde(default = "one")]
+    pub rounds: u64,
+}
+
+fn one() -> u64 {
+    1
 }
 
 /// One start of one pass.
@@ -69,6 +78,23 @@ pub struct StartRecord {
     /// The warm-up stage, when there was one (the counts above are then those of the
     /// stage on the fitted cells, which started where the warm-up ended).
     pub warm_up: Option<WarmUpRecord>,
+    /// True when the start continued on all fitted cells after its warm-up; false for
+    /// a start that stopped after the warm-up because it did not rank among the best
+    /// [`FitRecord::finish`] (its `final_loss` is then its `rank_loss`, its
+    /// `iterations` 0 and its `cost_evals` the one ranking pass; see
+    /// [`crate::FitConfig::finish`]). Records written before ranking existed finished
+    /// every start (absent: true).
+    #[serde(default = "yes")]
+    pub finished: bool,
+    /// The optimised loss over all fitted cells at the end of the start's warm-up, by
+    /// which the starts were ranked; absent when there was no ranking (one start, no
+    /// warm-up, or every start finished).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rank_loss: Option<f64>,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// The robust stage of a fit (see [`crate::FitConfig::robust`]).
@@ -113,6 +139,11 @@ pub struct FitRecord {
     pub seed: u64,
     /// Number of starts per pass.
     pub starts_per_pass: usize,
+    /// How many starts per pass were to be finished on all fitted cells after the
+    /// warm-up ranking ([`crate::FitConfig::finish`]); absent in records written before
+    /// ranking existed, which finished every start.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub finish: Option<usize>,
     /// Free parameters (shared fit) or the union over the channel passes.
     pub free_params: Vec<String>,
     /// Every model parameter: fitted value, start, free or fixed, transform.

@@ -265,6 +265,10 @@ pub struct FitOptions {
     /// Number of starts (spread over the shape parameters, run in parallel).
     #[arg(long, default_value_t = 8)]
     pub starts: usize,
+    /// How many of the starts continue on all cells after every start's warm-up on a
+    /// subsample, the best by their loss there (the others stop; docs/fitting.md).
+    #[arg(long, default_value_t = brdfkit_fit::config::DEFAULT_FINISH, value_name = "N")]
+    pub finish: usize,
     /// Fit on this stratified fraction of the valid cells (losses are also reported on all).
     #[arg(long, default_value_t = 1.0)]
     pub sample_fraction: f64,

@@ -147,7 +147,9 @@ pub fn config(a: &FitOptions) -> CliResult<FitConfig> {
         })
         .seed(a.seed)
         .starts(a.starts)
-        .map_err(|e| bad_msg(format!("--starts: {e}")))?;
+        .map_err(|e| bad_msg(format!("--starts: {e}")))?
+        .finish(a.finish)
+        .map_err(|e| bad_msg(format!("--finish: {e}")))?;
     if !(a.sample_fraction > 0.0 && a.sample_fraction <= 1.0) {
         return Err(bad_msg(format!(
             "--sample-fraction {}: must lie in (0, 1]",
