@@ -4,43 +4,56 @@
 //! parameters. Everything that depends only on the directions (the vectors, the half
 //! vector, cos θd) is computed once here; [`Model::eval_batch`](crate::Model::eval_batch)
 //! then runs tight loops over plain `f64` slices that the compiler can vectorise, and
-//! rayon splits a batch into [`GeomSlice`]s.
+//! rayon splits a batch into [`GeomSlice`]s. The same columns rounded to `f32`
+//! ([`GeometryBatchF32`]) feed the single-precision path
+//! ([`Model::eval_batch_f32`](crate::Model::eval_batch_f32)).
 
 use crate::Vec3;
 
-/// Geometry of many direction pairs, one column per quantity.
+/// Geometry of many direction pairs, one column per quantity, in precision `T`.
 ///
 /// For pair k: `wi = (wi_x[k], wi_y[k], wi_z[k])`, likewise `wo`; `h` is the unit
 /// half vector (the normal when wi = −wo), `cos_d = wi·h` (= wo·h = cos θd).
 /// `wi_z` and `wo_z` are cos θi and cos θo.
 #[derive(Clone, Debug, Default)]
-pub struct GeometryBatch {
-    pub wi_x: Vec<f64>,
-    pub wi_y: Vec<f64>,
-    pub wi_z: Vec<f64>,
-    pub wo_x: Vec<f64>,
-    pub wo_y: Vec<f64>,
-    pub wo_z: Vec<f64>,
-    pub h_x: Vec<f64>,
-    pub h_y: Vec<f64>,
-    pub h_z: Vec<f64>,
-    pub cos_d: Vec<f64>,
+pub struct Geometry<T> {
+    pub wi_x: Vec<T>,
+    pub wi_y: Vec<T>,
+    pub wi_z: Vec<T>,
+    pub wo_x: Vec<T>,
+    pub wo_y: Vec<T>,
+    pub wo_z: Vec<T>,
+    pub h_x: Vec<T>,
+    pub h_y: Vec<T>,
+    pub h_z: Vec<T>,
+    pub cos_d: Vec<T>,
 }
 
-/// A borrowed run of a [`GeometryBatch`]: the unit a model's fast path works on.
+/// A borrowed run of a [`Geometry`]: the unit a model's fast path works on.
 #[derive(Clone, Copy, Debug)]
-pub struct GeomSlice<'a> {
-    pub wi_x: &'a [f64],
-    pub wi_y: &'a [f64],
-    pub wi_z: &'a [f64],
-    pub wo_x: &'a [f64],
-    pub wo_y: &'a [f64],
-    pub wo_z: &'a [f64],
-    pub h_x: &'a [f64],
-    pub h_y: &'a [f64],
-    pub h_z: &'a [f64],
-    pub cos_d: &'a [f64],
+pub struct GeomSliceOf<'a, T> {
+    pub wi_x: &'a [T],
+    pub wi_y: &'a [T],
+    pub wi_z: &'a [T],
+    pub wo_x: &'a [T],
+    pub wo_y: &'a [T],
+    pub wo_z: &'a [T],
+    pub h_x: &'a [T],
+    pub h_y: &'a [T],
+    pub h_z: &'a [T],
+    pub cos_d: &'a [T],
 }
+
+/// The double-precision geometry every model evaluates.
+pub type GeometryBatch = Geometry<f64>;
+/// A run of a [`GeometryBatch`].
+pub type GeomSlice<'a> = GeomSliceOf<'a, f64>;
+/// The columns of a [`GeometryBatch`] rounded to `f32` ([`GeometryBatchF32::from_slice`]),
+/// for the models' single-precision fast path: half the bytes per pair and twice the
+/// vector lanes.
+pub type GeometryBatchF32 = Geometry<f32>;
+/// A run of a [`GeometryBatchF32`].
+pub type GeomSliceF32<'a> = GeomSliceOf<'a, f32>;
 
 /// Unit half vector of a pair; the normal when wi = −wo (no half vector exists).
 pub fn half_vector(wi: &Vec3, wo: &Vec3) -> Vec3 {
@@ -53,11 +66,27 @@ pub fn half_vector(wi: &Vec3, wo: &Vec3) -> Vec3 {
     }
 }
 
-impl GeometryBatch {
+impl<T> Geometry<T> {
+    /// The ten columns, in declaration order.
+    fn columns_mut(&mut self) -> [&mut Vec<T>; 10] {
+        [
+            &mut self.wi_x,
+            &mut self.wi_y,
+            &mut self.wi_z,
+            &mut self.wo_x,
+            &mut self.wo_y,
+            &mut self.wo_z,
+            &mut self.h_x,
+            &mut self.h_y,
+            &mut self.h_z,
+            &mut self.cos_d,
+        ]
+    }
+
     /// Empty batch with room for `n` pairs.
     pub fn with_capacity(n: usize) -> Self {
         let v = || Vec::with_capacity(n);
-        GeometryBatch {
+        Geometry {
             wi_x: v(),
             wi_y: v(),
             wi_z: v(),
@@ -71,6 +100,51 @@ impl GeometryBatch {
         }
     }
 
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        self.wi_x.len()
+    }
+
+    /// True when there are no pairs.
+    pub fn is_empty(&self) -> bool {
+        self.wi_x.is_empty()
+    }
+
+    /// The whole batch as a slice.
+    pub fn as_slice(&self) -> GeomSliceOf<'_, T> {
+        GeomSliceOf {
+            wi_x: &self.wi_x,
+            wi_y: &self.wi_y,
+            wi_z: &self.wi_z,
+            wo_x: &self.wo_x,
+            wo_y: &self.wo_y,
+            wo_z: &self.wo_z,
+            h_x: &self.h_x,
+            h_y: &self.h_y,
+            h_z: &self.h_z,
+            cos_d: &self.cos_d,
+        }
+    }
+
+    /// Pairs `range` of the batch.
+    pub fn slice(&self, range: std::ops::Range<usize>) -> GeomSliceOf<'_, T> {
+        self.as_slice().sub(range)
+    }
+
+    /// Bytes held by the columns (for memory reports).
+    pub fn heap_bytes(&self) -> usize {
+        10 * self.wi_x.capacity() * std::mem::size_of::<T>()
+    }
+
+    /// Removes every pair, keeping the columns' capacity.
+    pub fn clear(&mut self) {
+        for c in self.columns_mut() {
+            c.clear();
+        }
+    }
+}
+
+impl GeometryBatch {
     /// Geometry of the given pairs.
     pub fn from_pairs(pairs: &[(Vec3, Vec3)]) -> Self {
         let mut b = Self::with_capacity(pairs.len());
@@ -94,63 +168,29 @@ impl GeometryBatch {
         self.h_z.push(h.z);
         self.cos_d.push(wi.dot(&h));
     }
+}
 
-    /// Number of pairs.
-    pub fn len(&self) -> usize {
-        self.wi_x.len()
-    }
-
-    /// True when there are no pairs.
-    pub fn is_empty(&self) -> bool {
-        self.wi_x.is_empty()
-    }
-
-    /// The whole batch as a slice.
-    pub fn as_slice(&self) -> GeomSlice<'_> {
-        GeomSlice {
-            wi_x: &self.wi_x,
-            wi_y: &self.wi_y,
-            wi_z: &self.wi_z,
-            wo_x: &self.wo_x,
-            wo_y: &self.wo_y,
-            wo_z: &self.wo_z,
-            h_x: &self.h_x,
-            h_y: &self.h_y,
-            h_z: &self.h_z,
-            cos_d: &self.cos_d,
+impl GeometryBatchF32 {
+    /// Rounds every column of `g` to `f32` (once, to nearest), so both precisions
+    /// describe the same pairs.
+    pub fn from_slice(g: &GeomSlice<'_>) -> Self {
+        let mut out = Geometry::with_capacity(g.len());
+        for (dst, src) in out.columns_mut().into_iter().zip(g.columns()) {
+            dst.extend(src.iter().map(|&x| x as f32));
         }
-    }
-
-    /// Pairs `range` of the batch.
-    pub fn slice(&self, range: std::ops::Range<usize>) -> GeomSlice<'_> {
-        self.as_slice().sub(range)
-    }
-
-    /// Bytes held by the columns (for memory reports).
-    pub fn heap_bytes(&self) -> usize {
-        10 * self.wi_x.capacity() * std::mem::size_of::<f64>()
-    }
-
-    /// Removes every pair, keeping the columns' capacity.
-    pub fn clear(&mut self) {
-        for c in [
-            &mut self.wi_x,
-            &mut self.wi_y,
-            &mut self.wi_z,
-            &mut self.wo_x,
-            &mut self.wo_y,
-            &mut self.wo_z,
-            &mut self.h_x,
-            &mut self.h_y,
-            &mut self.h_z,
-            &mut self.cos_d,
-        ] {
-            c.clear();
-        }
+        out
     }
 }
 
-impl<'a> GeomSlice<'a> {
+impl<'a, T> GeomSliceOf<'a, T> {
+    /// The ten columns, in declaration order.
+    fn columns(&self) -> [&'a [T]; 10] {
+        [
+            self.wi_x, self.wi_y, self.wi_z, self.wo_x, self.wo_y, self.wo_z, self.h_x, self.h_y,
+            self.h_z, self.cos_d,
+        ]
+    }
+
     /// Number of pairs.
     pub fn len(&self) -> usize {
         self.wi_x.len()
@@ -162,21 +202,32 @@ impl<'a> GeomSlice<'a> {
     }
 
     /// A sub-run of this slice.
-    pub fn sub(&self, r: std::ops::Range<usize>) -> GeomSlice<'a> {
-        GeomSlice {
-            wi_x: &self.wi_x[r.clone()],
-            wi_y: &self.wi_y[r.clone()],
-            wi_z: &self.wi_z[r.clone()],
-            wo_x: &self.wo_x[r.clone()],
-            wo_y: &self.wo_y[r.clone()],
-            wo_z: &self.wo_z[r.clone()],
-            h_x: &self.h_x[r.clone()],
-            h_y: &self.h_y[r.clone()],
-            h_z: &self.h_z[r.clone()],
-            cos_d: &self.cos_d[r],
+    pub fn sub(&self, r: std::ops::Range<usize>) -> GeomSliceOf<'a, T> {
+        let [wi_x, wi_y, wi_z, wo_x, wo_y, wo_z, h_x, h_y, h_z, cos_d] =
+            self.columns().map(|c| &c[r.clone()]);
+        GeomSliceOf {
+            wi_x,
+            wi_y,
+            wi_z,
+            wo_x,
+            wo_y,
+            wo_z,
+            h_x,
+            h_y,
+            h_z,
+            cos_d,
         }
     }
 
+    /// Splits into runs of at most `size` pairs (the last may be shorter).
+    pub fn chunks(&self, size: usize) -> impl Iterator<Item = GeomSliceOf<'a, T>> + '_ {
+        let n = self.len();
+        let size = size.max(1);
+        (0..n.div_ceil(size)).map(move |c| self.sub(c * size..((c + 1) * size).min(n)))
+    }
+}
+
+impl GeomSlice<'_> {
     /// Pair `k` as vectors (for slow paths and tests).
     pub fn pair(&self, k: usize) -> (Vec3, Vec3) {
         (
@@ -184,145 +235,15 @@ impl<'a> GeomSlice<'a> {
             Vec3::new(self.wo_x[k], self.wo_y[k], self.wo_z[k]),
         )
     }
-
-    /// Splits into runs of at most `size` pairs (the last may be shorter).
-    pub fn chunks(&self, size: usize) -> impl Iterator<Item = GeomSlice<'a>> + '_ {
-        let n = self.len();
-        let size = size.max(1);
-        (0..n.div_ceil(size)).map(move |c| self.sub(c * size..((c + 1) * size).min(n)))
-    }
 }
 
-/// The columns of a [`GeometryBatch`] rounded to `f32`, for the models' single-precision
-/// fast path ([`Model::eval_batch_f32`](crate::Model::eval_batch_f32)): half the bytes
-/// per pair and twice the vector lanes. Built from a double-precision batch (every value
-/// rounded once, to nearest), so both precisions describe the same pairs.
-#[derive(Clone, Debug, Default)]
-pub struct GeometryBatchF32 {
-    pub wi_x: Vec<f32>,
-    pub wi_y: Vec<f32>,
-    pub wi_z: Vec<f32>,
-    pub wo_x: Vec<f32>,
-    pub wo_y: Vec<f32>,
-    pub wo_z: Vec<f32>,
-    pub h_x: Vec<f32>,
-    pub h_y: Vec<f32>,
-    pub h_z: Vec<f32>,
-    pub cos_d: Vec<f32>,
-}
-
-/// A borrowed run of a [`GeometryBatchF32`].
-#[derive(Clone, Copy, Debug)]
-pub struct GeomSliceF32<'a> {
-    pub wi_x: &'a [f32],
-    pub wi_y: &'a [f32],
-    pub wi_z: &'a [f32],
-    pub wo_x: &'a [f32],
-    pub wo_y: &'a [f32],
-    pub wo_z: &'a [f32],
-    pub h_x: &'a [f32],
-    pub h_y: &'a [f32],
-    pub h_z: &'a [f32],
-    pub cos_d: &'a [f32],
-}
-
-impl GeometryBatchF32 {
-    /// Rounds every column of `g` to `f32`.
-    pub fn from_slice(g: &GeomSlice<'_>) -> Self {
-        let c = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
-        GeometryBatchF32 {
-            wi_x: c(g.wi_x),
-            wi_y: c(g.wi_y),
-            wi_z: c(g.wi_z),
-            wo_x: c(g.wo_x),
-            wo_y: c(g.wo_y),
-            wo_z: c(g.wo_z),
-            h_x: c(g.h_x),
-            h_y: c(g.h_y),
-            h_z: c(g.h_z),
-            cos_d: c(g.cos_d),
-        }
-    }
-
-    /// Number of pairs.
-    pub fn len(&self) -> usize {
-        self.wi_x.len()
-    }
-
-    /// True when there are no pairs.
-    pub fn is_empty(&self) -> bool {
-        self.wi_x.is_empty()
-    }
-
-    /// The whole batch as a slice.
-    pub fn as_slice(&self) -> GeomSliceF32<'_> {
-        GeomSliceF32 {
-            wi_x: &self.wi_x,
-            wi_y: &self.wi_y,
-            wi_z: &self.wi_z,
-            wo_x: &self.wo_x,
-            wo_y: &self.wo_y,
-            wo_z: &self.wo_z,
-            h_x: &self.h_x,
-            h_y: &self.h_y,
-            h_z: &self.h_z,
-            cos_d: &self.cos_d,
-        }
-    }
-
-    /// Pairs `range` of the batch.
-    pub fn slice(&self, range: std::ops::Range<usize>) -> GeomSliceF32<'_> {
-        self.as_slice().sub(range)
-    }
-
-    /// Bytes held by the columns (for memory reports).
-    pub fn heap_bytes(&self) -> usize {
-        10 * self.wi_x.capacity() * std::mem::size_of::<f32>()
-    }
-}
-
-impl<'a> GeomSliceF32<'a> {
-    /// Number of pairs.
-    pub fn len(&self) -> usize {
-        self.wi_x.len()
-    }
-
-    /// True when there are no pairs.
-    pub fn is_empty(&self) -> bool {
-        self.wi_x.is_empty()
-    }
-
-    /// A sub-run of this slice.
-    pub fn sub(&self, r: std::ops::Range<usize>) -> GeomSliceF32<'a> {
-        GeomSliceF32 {
-            wi_x: &self.wi_x[r.clone()],
-            wi_y: &self.wi_y[r.clone()],
-            wi_z: &self.wi_z[r.clone()],
-            wo_x: &self.wo_x[r.clone()],
-            wo_y: &self.wo_y[r.clone()],
-            wo_z: &self.wo_z[r.clone()],
-            h_x: &self.h_x[r.clone()],
-            h_y: &self.h_y[r.clone()],
-            h_z: &self.h_z[r.clone()],
-            cos_d: &self.cos_d[r],
-        }
-    }
-
+impl GeomSliceF32<'_> {
     /// Widens pairs `r` back to `f64` columns, appending them to `out` (the default
     /// single-precision path of a model evaluates these in double precision).
     pub fn widen_into(&self, r: std::ops::Range<usize>, out: &mut GeometryBatch) {
-        let w =
-            |dst: &mut Vec<f64>, src: &[f32]| dst.extend(src[r.clone()].iter().map(|&x| x as f64));
-        w(&mut out.wi_x, self.wi_x);
-        w(&mut out.wi_y, self.wi_y);
-        w(&mut out.wi_z, self.wi_z);
-        w(&mut out.wo_x, self.wo_x);
-        w(&mut out.wo_y, self.wo_y);
-        w(&mut out.wo_z, self.wo_z);
-        w(&mut out.h_x, self.h_x);
-        w(&mut out.h_y, self.h_y);
-        w(&mut out.h_z, self.h_z);
-        w(&mut out.cos_d, self.cos_d);
+        for (dst, src) in out.columns_mut().into_iter().zip(self.columns()) {
+            dst.extend(src[r.clone()].iter().map(|&x| x as f64));
+        }
     }
 }
 

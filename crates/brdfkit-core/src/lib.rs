@@ -30,7 +30,9 @@ pub mod scattering;
 
 pub use brdf::Brdf;
 pub use direction::Vec3;
-pub use geometry::{GeomSlice, GeomSliceF32, GeometryBatch, GeometryBatchF32};
+pub use geometry::{
+    GeomSlice, GeomSliceF32, GeomSliceOf, Geometry, GeometryBatch, GeometryBatchF32,
+};
 pub use model::{Model, ModelError, ParamRole, ParamSpec};
 pub use rgb::Rgb;
 pub use rusinkiewicz::{HalfDiff, from_half_diff, to_half_diff};

@@ -60,12 +60,15 @@
 //! are tested over the hard-case grid.
 
 use crate::json;
+use crate::lanes::Real;
 use brdfkit_core::model::{Domain, check_param, eval_batch_f32_widened};
 use brdfkit_core::scattering::fresnel::{
     conductor, conductor_grad, dielectric_grad, schlick_weight,
 };
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking, Smith};
-use brdfkit_core::{Brdf, GeomSlice, GeomSliceF32, Model, ModelError, ParamSpec, Rgb, Vec3};
+use brdfkit_core::{
+    Brdf, GeomSlice, GeomSliceF32, GeomSliceOf, Model, ModelError, ParamSpec, Rgb, Vec3,
+};
 use serde_json::{Map, Value, json};
 use std::f64::consts::FRAC_1_PI;
 
@@ -749,43 +752,41 @@ impl CookTorrance {
         }
     }
 
-    /// [`Model::eval_batch`] through the baseline (non-dispatched) copy of the GGX loop,
-    /// for the test that the dispatched copies compute the same bits.
-    #[doc(hidden)]
-    pub fn eval_batch_baseline(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) -> bool {
+    /// The GGX value loop over a batch in precision `T` into `out`; false (and nothing
+    /// written) when the configuration has no such kernel.
+    fn ggx_batch<T: Real, O: ggx::Sink<T>>(
+        &self,
+        g: &GeomSliceOf<'_, T>,
+        out: O,
+        baseline: bool,
+    ) -> bool {
         let Some(cfg) = self.ggx_config() else {
             return false;
         };
-        let k = self.ggx_consts::<f64>();
+        let k = self.ggx_consts::<T>();
         ggx::with_config(
             cfg,
-            ggx::Batch64 {
+            ggx::Batch {
                 k: &k,
                 g,
                 out,
-                baseline: true,
+                baseline,
             },
         );
         true
     }
 
+    /// [`Model::eval_batch`] through the baseline (non-dispatched) copy of the GGX loop,
+    /// for the test that the dispatched copies compute the same bits.
+    #[doc(hidden)]
+    pub fn eval_batch_baseline(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) -> bool {
+        self.ggx_batch(g, out, true)
+    }
+
     /// [`Model::eval_batch_f32`] through the baseline copy (as above).
     #[doc(hidden)]
     pub fn eval_batch_f32_baseline(&self, g: &GeomSliceF32<'_>, out: [&mut [f32]; 3]) -> bool {
-        let Some(cfg) = self.ggx_config() else {
-            return false;
-        };
-        let k = self.ggx_consts::<f32>();
-        ggx::with_config(
-            cfg,
-            ggx::Batch32 {
-                k: &k,
-                g,
-                out,
-                baseline: true,
-            },
-        );
-        true
+        self.ggx_batch(g, out, true)
     }
 }
 
@@ -882,17 +883,7 @@ impl Model for CookTorrance {
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        if let Some(cfg) = self.ggx_config() {
-            let k = self.ggx_consts::<f64>();
-            ggx::with_config(
-                cfg,
-                ggx::Batch64 {
-                    k: &k,
-                    g,
-                    out,
-                    baseline: false,
-                },
-            );
+        if self.ggx_batch(g, &mut *out, false) {
             return;
         }
         for (k, o) in out.iter_mut().enumerate().take(g.len()) {
@@ -905,20 +896,10 @@ impl Model for CookTorrance {
     /// against the `f64` model: a few float32 ulp per operation, amplified where D is
     /// steep; measured in docs/models.md); the others widen to `f64`.
     fn eval_batch_f32(&self, g: &GeomSliceF32<'_>, out: [&mut [f32]; 3]) {
-        match self.ggx_config() {
-            Some(cfg) => {
-                let k = self.ggx_consts::<f32>();
-                ggx::with_config(
-                    cfg,
-                    ggx::Batch32 {
-                        k: &k,
-                        g,
-                        out,
-                        baseline: false,
-                    },
-                );
-            }
-            None => eval_batch_f32_widened(self, g, out),
+        if self.ggx_config().is_some() {
+            self.ggx_batch(g, out, false);
+        } else {
+            eval_batch_f32_widened(self, g, out);
         }
     }
 

@@ -24,7 +24,7 @@
 use super::{CookTorrance, Fresnel, Shape};
 use crate::lanes::{Real, Run, clamp01, dispatch, max, select};
 use brdfkit_core::scattering::{Distribution, Masking};
-use brdfkit_core::{GeomSlice, GeomSliceF32, Rgb};
+use brdfkit_core::{GeomSlice, GeomSliceOf, Rgb};
 use std::f64::consts::FRAC_1_PI;
 
 const F_NONE: u8 = 0;
@@ -446,87 +446,74 @@ impl Job for Pair<'_> {
     }
 }
 
-/// A batch in `f64` into [`Rgb`]s.
-pub(super) struct Batch64<'a, 'g> {
-    pub k: &'a Consts<f64>,
-    pub g: &'a GeomSlice<'g>,
-    pub out: &'a mut [Rgb],
+/// Where a batch's values go: [`Rgb`]s (`f64`) or one plane per channel (`f32`).
+pub(super) trait Sink<T> {
+    /// Pairs the sink can take.
+    fn len(&self) -> usize;
+    /// Stores pair `i` (`i < len()`).
+    fn put(&mut self, i: usize, v: [T; 3]);
+}
+
+impl Sink<f64> for &mut [Rgb] {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        <[Rgb]>::len(self)
+    }
+    #[inline(always)]
+    fn put(&mut self, i: usize, v: [f64; 3]) {
+        self[i] = Rgb(v);
+    }
+}
+
+impl Sink<f32> for [&mut [f32]; 3] {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self[0].len().min(self[1].len()).min(self[2].len())
+    }
+    #[inline(always)]
+    fn put(&mut self, i: usize, v: [f32; 3]) {
+        self[0][i] = v[0];
+        self[1][i] = v[1];
+        self[2][i] = v[2];
+    }
+}
+
+/// The values of a batch, in precision `T`, into `out`.
+pub(super) struct Batch<'a, 'g, T, O> {
+    pub k: &'a Consts<T>,
+    pub g: &'a GeomSliceOf<'g, T>,
+    pub out: O,
     /// Run the baseline copy instead of the dispatched one (tests).
     pub baseline: bool,
 }
 
-struct Loop64<'a, 'g, const A: bool, const C: bool, const F: u8>(Batch64<'a, 'g>);
+struct Loop<'a, 'g, T, O, const A: bool, const C: bool, const F: u8>(Batch<'a, 'g, T, O>);
 
-impl<const A: bool, const C: bool, const F: u8> Run for Loop64<'_, '_, A, C, F> {
+impl<T: Real, O: Sink<T>, const A: bool, const C: bool, const F: u8> Run
+    for Loop<'_, '_, T, O, A, C, F>
+{
     #[inline(always)]
     fn run(&mut self) {
         let b = &mut self.0;
         let n = b.g.len().min(b.out.len());
         let g = b.g.sub(0..n);
-        let out = &mut b.out[..n];
-        for (i, o) in out.iter_mut().enumerate() {
-            let v = value::<f64, A, C, F>(
-                b.k,
-                [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
-                [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
-                [g.h_x[i], g.h_y[i], g.h_z[i]],
-                g.cos_d[i],
-            );
-            *o = Rgb(v);
-        }
-    }
-}
-
-impl Job for Batch64<'_, '_> {
-    fn go<const A: bool, const C: bool, const F: u8>(self) {
-        let baseline = self.baseline;
-        let mut l = Loop64::<A, C, F>(self);
-        if baseline {
-            l.run();
-        } else {
-            dispatch(&mut l);
-        }
-    }
-}
-
-/// A batch in `f32` into three planes.
-pub(super) struct Batch32<'a, 'g> {
-    pub k: &'a Consts<f32>,
-    pub g: &'a GeomSliceF32<'g>,
-    pub out: [&'a mut [f32]; 3],
-    /// Run the baseline copy instead of the dispatched one (tests).
-    pub baseline: bool,
-}
-
-struct Loop32<'a, 'g, const A: bool, const C: bool, const F: u8>(Batch32<'a, 'g>);
-
-impl<const A: bool, const C: bool, const F: u8> Run for Loop32<'_, '_, A, C, F> {
-    #[inline(always)]
-    fn run(&mut self) {
-        let b = &mut self.0;
-        let [r, gg, bb] = &mut b.out;
-        let n = b.g.len().min(r.len()).min(gg.len()).min(bb.len());
-        let g = b.g.sub(0..n);
-        let (r, gg, bb) = (&mut r[..n], &mut gg[..n], &mut bb[..n]);
         for i in 0..n {
-            let v = value::<f32, A, C, F>(
+            let v = value::<T, A, C, F>(
                 b.k,
                 [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
                 [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
                 [g.h_x[i], g.h_y[i], g.h_z[i]],
                 g.cos_d[i],
             );
-            r[i] = v[0];
-            gg[i] = v[1];
-            bb[i] = v[2];
+            b.out.put(i, v);
         }
     }
 }
 
-impl Job for Batch32<'_, '_> {
+impl<T: Real, O: Sink<T>> Job for Batch<'_, '_, T, O> {
     fn go<const A: bool, const C: bool, const F: u8>(self) {
         let baseline = self.baseline;
-        let mut l = Loop32::<A, C, F>(self);
+        let mut l = Loop::<T, O, A, C, F>(self);
         if baseline {
             l.run();
         } else {
