@@ -744,6 +744,7 @@ impl CookTorrance {
                         h,
                         cd,
                         out: &mut out,
+                        grad: None,
                     },
                 );
                 out
@@ -858,14 +859,14 @@ impl Model for CookTorrance {
             let np = self.num_params();
             ggx::with_grad_config(
                 cfg,
-                ggx::PairGrad {
+                ggx::Pair {
                     k: &k,
                     wi: a,
                     wo: b,
                     h,
                     cd: c,
                     out: &mut out,
-                    grad: &mut grad[..np],
+                    grad: Some(&mut grad[..np]),
                 },
             );
             return out;

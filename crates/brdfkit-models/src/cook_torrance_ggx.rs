@@ -32,6 +32,16 @@ const F_SCHLICK: u8 = 1;
 const F_CONDUCTOR: u8 = 2;
 const F_DIELECTRIC: u8 = 3;
 
+/// The `match` from a runtime [`Config`] to `job.go::<A, C, F>()` over the listed arms.
+macro_rules! config_arms {
+    ($cfg:expr, $job:expr, $why:literal; $($a:literal, $c:literal, $f:ident;)*) => {
+        match ($cfg.aniso, $cfg.correlated, $cfg.fresnel) {
+            $(($a, $c, $f) => $job.go::<$a, $c, $f>(),)*
+            _ => unreachable!($why),
+        }
+    };
+}
+
 /// Per-call constants of the kernel, computed in `f64` and rounded once.
 #[derive(Clone, Copy)]
 pub(super) struct Consts<T> {
@@ -177,15 +187,25 @@ fn fresnel<T: Real, const F: u8>(k: &Consts<T>, cd: T) -> [T; 3] {
     }
 }
 
-/// f_r of one pair (module doc).
+/// The specular factor DV = D·V of a pair and what its gradient reuses.
+struct Lobe<T> {
+    hx2: T,
+    hy2: T,
+    s: T,
+    si: T,
+    so: T,
+    dv: T,
+}
+
+/// D·V of one pair (module doc), shared by the value and the gradient kernels so both
+/// give the same bits.
 #[inline(always)]
-pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8>(
+fn lobe<T: Real, const A: bool, const C: bool>(
     k: &Consts<T>,
     wi: [T; 3],
     wo: [T; 3],
     h: [T; 3],
-    cd: T,
-) -> [T; 3] {
+) -> Lobe<T> {
     let (zi, zo) = (wi[2], wo[2]);
     let (hx2, hy2, hz2) = (h[0] * h[0], h[1] * h[1], h[2] * h[2]);
     let (s, si, so) = if A {
@@ -209,6 +229,27 @@ pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8>(
     // D·V in one division; s² ≤ 1e24 and vden ≤ 4e4 over the roughness domain, so the
     // product stays finite even in f32.
     let dv = k.d_norm / (s * s * vden);
+    Lobe {
+        hx2,
+        hy2,
+        s,
+        si,
+        so,
+        dv,
+    }
+}
+
+/// f_r of one pair (module doc).
+#[inline(always)]
+pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8>(
+    k: &Consts<T>,
+    wi: [T; 3],
+    wo: [T; 3],
+    h: [T; 3],
+    cd: T,
+) -> [T; 3] {
+    let (zi, zo) = (wi[2], wo[2]);
+    let Lobe { dv, .. } = lobe::<T, A, C>(k, wi, wo, h);
     let f = fresnel::<T, F>(k, cd);
     // Below the horizon exactly 0 (a select, so the loop has no branch).
     let up = zi > T::ZERO && zo > T::ZERO;
@@ -239,29 +280,16 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
     g: &mut [[T; 3]; GRAD_P],
 ) -> [T; 3] {
     let (zi, zo) = (wi[2], wo[2]);
-    let (hx2, hy2, hz2) = (h[0] * h[0], h[1] * h[1], h[2] * h[2]);
     let up = zi > T::ZERO && zo > T::ZERO;
     let z = T::ZERO;
-    // Per direction: S and ∂S/∂α (x and y for the anisotropic lobe).
-    let (s, si, so) = if A {
-        (
-            hx2 * k.inv_ax2 + hy2 * k.inv_ay2 + hz2,
-            (zi * zi + k.ax2 * wi[0] * wi[0] + k.ay2 * wi[1] * wi[1]).sqrt(),
-            (zo * zo + k.ax2 * wo[0] * wo[0] + k.ay2 * wo[1] * wo[1]).sqrt(),
-        )
-    } else {
-        (
-            (hx2 + hy2) * k.inv_ax2 + hz2,
-            (zi * zi + k.ax2 * (T::ONE - zi * zi)).sqrt(),
-            (zo * zo + k.ax2 * (T::ONE - zo * zo)).sqrt(),
-        )
-    };
-    let vden = if C {
-        T::TWO * (zo * si + zi * so)
-    } else {
-        (zi + si) * (zo + so)
-    };
-    let dv = k.d_norm / (s * s * vden);
+    let Lobe {
+        hx2,
+        hy2,
+        s,
+        si,
+        so,
+        dv,
+    } = lobe::<T, A, C>(k, wi, wo, h);
     // ∂ln vden/∂α for a direction-dependent ∂S: `dsi`, `dso` are ∂Si/∂α, ∂So/∂α.
     let dln_vden = |dsi: T, dso: T| {
         if C {
@@ -325,41 +353,10 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
 /// Calls `job.go` with `cfg` as constants, for the configurations of
 /// [`CookTorrance::ggx_grad_config`].
 pub(super) fn with_grad_config<J: Job>(cfg: Config, job: J) {
-    macro_rules! arms {
-        ($($a:literal, $c:literal, $f:ident;)*) => {
-            match (cfg.aniso, cfg.correlated, cfg.fresnel) {
-                $(($a, $c, $f) => job.go::<$a, $c, $f>(),)*
-                _ => unreachable!("ggx_grad_config only admits none and Schlick"),
-            }
-        };
-    }
-    arms!(
+    config_arms!(cfg, job, "ggx_grad_config only admits none and Schlick";
         false, false, F_NONE; false, false, F_SCHLICK; false, true, F_NONE; false, true, F_SCHLICK;
         true, false, F_NONE; true, false, F_SCHLICK; true, true, F_NONE; true, true, F_SCHLICK;
     );
-}
-
-/// One pair's value and gradient in `f64` (`grad.len()` = the model's parameter count).
-pub(super) struct PairGrad<'a> {
-    pub k: &'a Consts<f64>,
-    pub wi: [f64; 3],
-    pub wo: [f64; 3],
-    pub h: [f64; 3],
-    pub cd: f64,
-    pub out: &'a mut Rgb,
-    pub grad: &'a mut [Rgb],
-}
-
-impl Job for PairGrad<'_> {
-    fn go<const A: bool, const C: bool, const F: u8>(self) {
-        let mut g = [[0.0; 3]; GRAD_P];
-        *self.out = Rgb(value_grad::<f64, A, C, F>(
-            self.k, self.wi, self.wo, self.h, self.cd, &mut g,
-        ));
-        for (d, s) in self.grad.iter_mut().zip(g) {
-            *d = Rgb(s);
-        }
-    }
 }
 
 /// A batch's values and parameter-major gradient in `f64`.
@@ -412,15 +409,7 @@ pub(super) trait Job {
 
 /// Calls `job.go` with `cfg` as constants.
 pub(super) fn with_config<J: Job>(cfg: Config, job: J) {
-    macro_rules! arms {
-        ($($a:literal, $c:literal, $f:ident;)*) => {
-            match (cfg.aniso, cfg.correlated, cfg.fresnel) {
-                $(($a, $c, $f) => job.go::<$a, $c, $f>(),)*
-                _ => unreachable!("ggx_config only builds known Fresnel kinds"),
-            }
-        };
-    }
-    arms!(
+    config_arms!(cfg, job, "ggx_config only builds known Fresnel kinds";
         false, false, F_NONE; false, false, F_SCHLICK; false, false, F_CONDUCTOR; false, false, F_DIELECTRIC;
         false, true, F_NONE; false, true, F_SCHLICK; false, true, F_CONDUCTOR; false, true, F_DIELECTRIC;
         true, false, F_NONE; true, false, F_SCHLICK; true, false, F_CONDUCTOR; true, false, F_DIELECTRIC;
@@ -428,7 +417,8 @@ pub(super) fn with_config<J: Job>(cfg: Config, job: J) {
     );
 }
 
-/// One pair in `f64`.
+/// One pair in `f64`: the value, and with `grad` (only under
+/// [`with_grad_config`]) the gradient (`grad.len()` = the model's parameter count).
 pub(super) struct Pair<'a> {
     pub k: &'a Consts<f64>,
     pub wi: [f64; 3],
@@ -436,13 +426,31 @@ pub(super) struct Pair<'a> {
     pub h: [f64; 3],
     pub cd: f64,
     pub out: &'a mut Rgb,
+    pub grad: Option<&'a mut [Rgb]>,
 }
 
 impl Job for Pair<'_> {
     fn go<const A: bool, const C: bool, const F: u8>(self) {
-        *self.out = Rgb(value::<f64, A, C, F>(
-            self.k, self.wi, self.wo, self.h, self.cd,
-        ));
+        let Pair {
+            k,
+            wi,
+            wo,
+            h,
+            cd,
+            out,
+            grad,
+        } = self;
+        *out = Rgb(match grad {
+            None => value::<f64, A, C, F>(k, wi, wo, h, cd),
+            Some(grad) => {
+                let mut g = [[0.0; 3]; GRAD_P];
+                let v = value_grad::<f64, A, C, F>(k, wi, wo, h, cd, &mut g);
+                for (d, s) in grad.iter_mut().zip(g) {
+                    *d = Rgb(s);
+                }
+                v
+            }
+        });
     }
 }
 

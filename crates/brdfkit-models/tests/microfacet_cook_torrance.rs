@@ -629,6 +629,13 @@ fn kernel_pairs() -> Vec<(Vec3, Vec3)> {
     p
 }
 
+/// [`kernel_pairs`] as f64 and f32 batches.
+fn kernel_batches() -> (brdfkit_core::GeometryBatch, brdfkit_core::GeometryBatchF32) {
+    let b = brdfkit_core::GeometryBatch::from_pairs(&kernel_pairs());
+    let b32 = brdfkit_core::GeometryBatchF32::from_slice(&b.as_slice());
+    (b, b32)
+}
+
 /// The value of the GGX kernel against an independent evaluation from the scattering
 /// functions of `brdfkit-core` (D, the Smith G of `Masking::g`, the Fresnel functions)
 /// in the textbook form ρd/π + ρs D G F/(4 cos θi cos θo): the kernel folds G/(4 cos
@@ -708,13 +715,9 @@ fn ggx_kernel_matches_the_textbook_form() {
 /// as the baseline loop, in f64 and f32.
 #[test]
 fn ggx_dispatched_loops_equal_the_baseline() {
-    use brdfkit_core::{GeometryBatch, GeometryBatchF32};
-    let pairs = kernel_pairs();
-    let b = GeometryBatch::from_pairs(&pairs);
-    let s = b.as_slice();
-    let b32 = GeometryBatchF32::from_slice(&s);
-    let s32 = b32.as_slice();
-    let n = pairs.len();
+    let (b, b32) = kernel_batches();
+    let (s, s32) = (b.as_slice(), b32.as_slice());
+    let n = b.len();
     for m in ggx_configs(Shape::Anisotropic(0.1, 0.3))
         .into_iter()
         .chain(ggx_configs(Shape::Isotropic(0.2)))
@@ -739,13 +742,9 @@ fn ggx_dispatched_loops_equal_the_baseline() {
 /// without a float32 kernel is the f64 value rounded.
 #[test]
 fn float32_path_is_the_model_in_float32() {
-    use brdfkit_core::{GeometryBatch, GeometryBatchF32};
-    let pairs = kernel_pairs();
-    let b = GeometryBatch::from_pairs(&pairs);
-    let s = b.as_slice();
-    let b32 = GeometryBatchF32::from_slice(&s);
-    let s32 = b32.as_slice();
-    let n = pairs.len();
+    let (b, b32) = kernel_batches();
+    let (s, s32) = (b.as_slice(), b32.as_slice());
+    let n = b.len();
     for (alpha, tol) in [
         (Shape::Isotropic(0.02), 1e-3),
         (Shape::Isotropic(0.3), 1e-5),
