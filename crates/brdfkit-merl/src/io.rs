@@ -6,8 +6,10 @@
 //! Reading checks the header against the file's length (from its metadata) **before**
 //! allocating, so a corrupt header cannot make the reader allocate more than the file
 //! holds. The body is then read in parallel (rayon) by positional reads of [`CHUNK`]
-//! cells per channel into small buffers that stay in cache, and converted, validated
-//! (finite values, the missing mask) and stored from there: one pass over the data.
+//! cells per channel into per-thread staging buffers that stay in cache (placed where
+//! the copy is fast: see `ALIAS_PERIOD`), and converted, validated (finite values, the
+//! missing mask) and stored from there: one pass over the data, into a table allocated
+//! once on huge pages. `docs/merl-format.md` (Performance) has the measurements.
 //!
 //! Writing goes to a temporary file in the destination directory, synced, then renamed
 //! over the destination: a reader sees the old file or the new one, never a partial
@@ -25,8 +27,9 @@ use std::path::{Path, PathBuf};
 
 /// Cells per parallel task: each task reads this many values of each channel (3 × 64
 /// KiB) into a per-thread buffer that stays in L2, then converts, validates and stores
-/// them and their mask entries in one pass. Larger runs mean fewer `pread` calls (three
-/// per run) but a buffer falling out of L2; 8192 and 16384 measured the same.
+/// them and their mask entries in one pass. Longer runs mean fewer `pread` calls (three
+/// per run): 16384 and 32768 cells saved 3–5 % of the CPU of a MERL read, at two and
+/// four times the buffer (beyond L2 on smaller caches) and fewer tasks to balance.
 pub const CHUNK: usize = 8 * 1024;
 
 /// Where the body's bytes come from: a file read positionally (parallel tasks share it)
