@@ -235,14 +235,19 @@ impl FitConfig {
     /// [`DEFAULT_FINISH`] = 1).
     ///
     /// When a warm-up applies ([`warm_up`](Self::warm_up)) and there are more starts
-    /// than this, every start first converges on the warm-up subsample, the starts are
-    /// ranked by the optimised loss over all fitted cells at the point their warm-up
-    /// reached (one cost pass each), and only the best `n` continue on all fitted
-    /// cells; the others are recorded as not finished
-    /// ([`StartRecord::finished`](crate::StartRecord::finished)). n starts then cost n
-    /// warm-ups plus n cost passes plus `finish` full-set fits, instead of n full-set
-    /// fits. `finish` ≥ `starts`, or no warm-up, finishes every start (the behaviour
-    /// before this option existed).
+    /// than this, every start first converges on an exploration subsample (stratified,
+    /// an eighth of the warm-up's size, or the warm-up set itself when that eighth
+    /// would be under 4096 cells; a run that hits the iteration cap is restarted from
+    /// where it stopped, up to 4 runs, while it improves), the starts are ranked by the
+    /// optimised loss over all fitted cells where they ended (one cost pass each), and
+    /// only the best `n` go on, through the warm-up set, to all fitted cells; the
+    /// others are recorded as not finished
+    /// ([`StartRecord::finished`](crate::StartRecord::finished)). s starts then cost s
+    /// explorations on the small set plus s cost passes plus `n` warm-ups and full-set
+    /// fits, instead of s of each. `n` ≥ `starts`, or no warm-up, finishes every start
+    /// (the behaviour before this option existed). The ranking is a heuristic: a start
+    /// whose exploration ends in a worse basin is not finished, though a continuation
+    /// on all cells might have left it (`docs/fitting.md` measures how often).
     pub fn finish(mut self, n: usize) -> Result<Self, FitError> {
         if n == 0 || n > 4096 {
             return Err(bad("finish", n, "must be in 1..=4096"));

@@ -81,15 +81,29 @@ struct Outcome {
     termination: String,
     converged: bool,
     warm: Option<WarmUpRecord>,
+    explore: Option<WarmUpRecord>,
 }
 
-/// A start after its warm-up: where it got to and, when the starts are ranked, the
-/// optimised cost over all fitted cells there.
+/// A start after its subsample stages: where it got to, the stages' records and, when
+/// the starts are ranked, the optimised cost over all fitted cells where its
+/// exploration ended.
+#[derive(Clone)]
 struct Explored {
     u: DVector<f64>,
+    explore: Option<WarmUpRecord>,
     warm: Option<WarmUpRecord>,
     rank_cost: Option<f64>,
 }
+
+/// Size of the exploration set of a ranked fit: the warm-up size over this.
+const EXPLORE_DIVISOR: usize = 8;
+
+/// Smallest separate exploration set (a few cells per stratum of the 16 × 16 grid);
+/// below it the warm-up set is explored directly.
+const EXPLORE_MIN_CELLS: usize = 4096;
+
+/// Seed offset of the exploration subsample.
+const EXPLORE_SEED: u64 = 0x4558_504C;
 
 /// Most solver runs of one warm-up when the starts are ranked (see `run_pass`).
 const WARM_UP_ROUNDS: u64 = 4;
@@ -290,7 +304,68 @@ fn run_start(
         termination: term.0,
         converged: term.1,
         warm: None,
+        explore: None,
     })
+}
+
+/// A start's run on a subsample (`problem`) from `u0`: where it ended and the stage's
+/// record.
+///
+/// With `restart`, a run that stopped at the iteration cap is run again from where it
+/// stopped (fresh damping), up to [`WARM_UP_ROUNDS`] runs, while it improves by more
+/// than ftol: far from the answer (a nearly flat lobe) LM's damping grows and its
+/// steps shrink; a fresh run takes the large steps a continuation on all cells would
+/// otherwise take, at the subsample's cost, so a ranking sees where a start leads.
+fn sub_stage(
+    problem: &FitProblem<'_>,
+    u0: DVector<f64>,
+    config: &FitConfig,
+    observer: Option<&Arc<dyn FitObserver>>,
+    k: usize,
+    channel: Option<usize>,
+    restart: bool,
+) -> Result<(DVector<f64>, WarmUpRecord), FitError> {
+    let mut w = run_start(problem.clone(), u0, config, observer, k, channel, true)?;
+    let mut rounds = 1;
+    while restart
+        && rounds < WARM_UP_ROUNDS
+        && !w.converged
+        && w.iterations >= config.get_max_iters() * rounds
+    {
+        let r = run_start(
+            problem.clone(),
+            w.u.clone(),
+            config,
+            observer,
+            k,
+            channel,
+            true,
+        )?;
+        rounds += 1;
+        let gain = w.cost - r.cost;
+        let capped = r.iterations >= config.get_max_iters();
+        w = Outcome {
+            iterations: w.iterations + r.iterations,
+            cost_evals: w.cost_evals + r.cost_evals,
+            jac_evals: w.jac_evals + r.jac_evals,
+            ..r
+        };
+        // Stop unless it improved by more than ftol (relative); a NaN gain stops too.
+        let improved = gain > config.get_tolerances().ftol * w.cost;
+        if !improved || !capped {
+            break;
+        }
+    }
+    let rec = WarmUpRecord {
+        cells: problem.num_residuals() / problem.channels().len(),
+        iterations: w.iterations,
+        cost_evals: w.cost_evals,
+        jacobian_evals: w.jac_evals,
+        final_loss: (2.0 * w.cost).sqrt(),
+        termination: w.termination.clone(),
+        rounds,
+    };
+    Ok((w.u, rec))
 }
 
 struct PassResult {
@@ -327,39 +402,72 @@ fn run_pass(
         config.weighting,
     )?;
     // Warm-up set: a stratified subsample each start converges on first.
-    let warm_data = config.warm_up_cells_for(data.len()).map(|n| {
-        data.stratified_subsample(n as f64 / data.len() as f64, config.seed ^ WARM_UP_SEED)
-    });
-    let warm_problem = match &warm_data {
-        Some(d) => Some(FitProblem::new(
-            d,
-            model,
-            free.clone(),
-            channels,
-            config.loss,
-            config.weighting,
-        )?),
-        None => None,
-    };
     let specs = model.param_specs();
     let x0 = model.params();
     let points = start_points(&specs, &x0, &free, config.starts, config.seed);
-    // A given robust scale applies from the start (warm-up included); an automatic one
-    // needs a plain fit first (see `FitConfig::robust`).
+    let n = points.len();
+    let warm_cells = config.warm_up_cells_for(data.len());
+    // Ranking pays only when a warm-up makes exploring cheap and some start can be
+    // left unfinished; otherwise every start is finished (as with one start).
+    let ranked = warm_cells.is_some() && config.finish < n;
+    // The exploration set of a ranked fit: an eighth of the warm-up's size (each start
+    // converges there; the finishers then pass through the warm-up set to the full
+    // one), unless that would be under EXPLORE_MIN_CELLS, when the warm-up set is the
+    // exploration set.
+    let explore_cells = warm_cells
+        .filter(|_| ranked)
+        .map(|w| w / EXPLORE_DIVISOR)
+        .filter(|&e| e >= EXPLORE_MIN_CELLS);
+    let subsample = |cells: usize, seed: u64| {
+        data.stratified_subsample(cells as f64 / data.len() as f64, config.seed ^ seed)
+    };
+    let warm_data = warm_cells.map(|c| subsample(c, WARM_UP_SEED));
+    let explore_data = explore_cells.map(|c| subsample(c, EXPLORE_SEED));
+    // A given robust scale applies from the start (subsamples included); an automatic
+    // one needs a plain fit first (see `FitConfig::robust`).
     let given = match (config.robust, config.robust_scale) {
         (RobustKind::None, _) => None,
         (kind, Some(scale)) => Some(Robust { kind, scale }),
         (_, None) => None,
     };
+    fn sub_problem<'d>(
+        d: Option<&'d FitData>,
+        model: &dyn Model,
+        free: &[usize],
+        channels: &[usize],
+        config: &FitConfig,
+        given: Option<Robust>,
+    ) -> Result<Option<FitProblem<'d>>, FitError> {
+        d.map(|d| {
+            let p = FitProblem::new(
+                d,
+                model,
+                free.to_vec(),
+                channels.to_vec(),
+                config.loss,
+                config.weighting,
+            )?;
+            Ok(match given {
+                Some(r) => p.with_robust(r),
+                None => p,
+            })
+        })
+        .transpose()
+    }
+    let warm_problem = sub_problem(warm_data.as_ref(), model, &free, &channels, config, given)?;
+    let explore_problem = sub_problem(
+        explore_data.as_ref(),
+        model,
+        &free,
+        &channels,
+        config,
+        given,
+    )?;
     let auto = config.robust != RobustKind::None && config.robust_scale.is_none();
     let stage1 = match given {
         Some(r) => problem.with_robust(r),
         None => problem.clone(),
     };
-    let warm_problem = warm_problem.map(|w| match given {
-        Some(r) => w.with_robust(r),
-        None => w,
-    });
     let done = |k: usize, o: &Result<Outcome, FitError>| {
         if let (Some(obs), Ok(o)) = (observer, o) {
             obs.on_start_done(&StartDone {
@@ -371,70 +479,40 @@ fn run_pass(
             });
         }
     };
-    let n = points.len();
-    // Ranking pays only when a warm-up makes exploring cheap and some start can be
-    // left unfinished; otherwise every start is finished (as with one start).
-    let ranked = warm_problem.is_some() && config.finish < n;
-    // Stage 1, every start in parallel: its warm-up on the subsample, and when ranking,
-    // the optimised cost over all fitted cells where the warm-up ended (a fresh clone
-    // of the problem, so the pass is counted for this start).
+    // Stage 1, every start in parallel. Unranked: its warm-up. Ranked: it converges on
+    // the exploration set (restarted while it hits the iteration cap, see
+    // `sub_stage`), and the optimised cost over all fitted cells where it ended is its
+    // rank (a fresh clone of the problem, so the pass is counted for this start).
     let explored: Vec<Result<Explored, FitError>> = points
         .par_iter()
         .enumerate()
         .map(|(k, x)| {
             let u0 = stage1.to_u(x);
-            let (u, warm) = match &warm_problem {
-                Some(wp) => {
-                    let mut w = run_start(wp.clone(), u0, config, observer, k, channel, true)?;
-                    let mut rounds = 1;
-                    // When ranking, a warm-up that ran out of iterations is run again
-                    // from where it stopped (fresh damping), while it keeps improving:
-                    // on a flat landscape (a start far from the answer) LM's damping
-                    // grows and its steps shrink; a restart takes the large steps the
-                    // full-set continuation would otherwise take, at the subsample's
-                    // cost, so the ranking sees where the start really leads.
-                    while ranked
-                        && rounds < WARM_UP_ROUNDS
-                        && !w.converged
-                        && w.iterations >= config.get_max_iters()
-                    {
-                        let r =
-                            run_start(wp.clone(), w.u.clone(), config, observer, k, channel, true)?;
-                        rounds += 1;
-                        let gain = w.cost - r.cost;
-                        w = Outcome {
-                            iterations: w.iterations + r.iterations,
-                            cost_evals: w.cost_evals + r.cost_evals,
-                            jac_evals: w.jac_evals + r.jac_evals,
-                            ..r
-                        };
-                        // Stop unless it improved by more than ftol (relative); a NaN
-                        // gain stops too.
-                        let improved = gain > config.get_tolerances().ftol * w.cost;
-                        if !improved {
-                            break;
-                        }
-                    }
-                    let rec = WarmUpRecord {
-                        cells: wp.num_residuals() / wp.channels().len(),
-                        iterations: w.iterations,
-                        cost_evals: w.cost_evals,
-                        jacobian_evals: w.jac_evals,
-                        final_loss: (2.0 * w.cost).sqrt(),
-                        termination: w.termination.clone(),
-                        rounds,
-                    };
-                    (w.u, Some(rec))
+            let first = explore_problem.as_ref().or(warm_problem.as_ref());
+            let (u, rec) = match first {
+                Some(p) => {
+                    let (u, rec) = sub_stage(p, u0, config, observer, k, channel, ranked)?;
+                    (u, Some(rec))
                 }
                 None => (u0, None),
             };
             let rank_cost = ranked.then(|| stage1.clone().cost_at(&u));
-            Ok(Explored { u, warm, rank_cost })
+            // With a separate exploration set the start has not warmed up yet.
+            let (explore, warm) = if explore_problem.is_some() {
+                (rec, None)
+            } else {
+                (None, rec)
+            };
+            Ok(Explored {
+                u,
+                explore,
+                warm,
+                rank_cost,
+            })
         })
         .collect();
-    // The subsample is not needed past the warm-ups: free it before the full-set fits.
-    drop(warm_problem);
-    drop(warm_data);
+    drop(explore_problem);
+    drop(explore_data);
     // Ranking: finite costs first, lowest first; ties and non-finite costs in start
     // order. Starts whose warm-up failed are never finished (their error is recorded).
     let rank_key = |k: usize| match &explored[k] {
@@ -465,16 +543,42 @@ fn run_pass(
                     channel,
                     loss: (2.0 * e.rank_cost.unwrap_or(f64::NAN)).sqrt(),
                     iterations: 0,
-                    termination: "not finished (ranked out after the warm-up)".into(),
+                    termination: "not finished (ranked out after its exploration)".into(),
                 });
             }
         }
     }
-    // Stage 2: the finishers continue on all fitted cells, in parallel.
-    let mut finished: Vec<(usize, Result<Outcome, FitError>)> = finishers
+    // Stage 2a: after a separate exploration, the finishers warm up from where they
+    // got to. Then the subsample is freed before the full-set fits.
+    let warmed: Vec<Result<Explored, FitError>> = finishers
         .par_iter()
         .map(|&k| {
             let e = explored[k].as_ref().expect("finishers explored fine");
+            match (&warm_problem, e.warm.is_none() && e.explore.is_some()) {
+                (Some(wp), true) => {
+                    let (u, rec) = sub_stage(wp, e.u.clone(), config, observer, k, channel, false)?;
+                    Ok(Explored {
+                        u,
+                        warm: Some(rec),
+                        explore: e.explore.clone(),
+                        rank_cost: e.rank_cost,
+                    })
+                }
+                _ => Ok(e.clone()),
+            }
+        })
+        .collect();
+    drop(warm_problem);
+    drop(warm_data);
+    // Stage 2b: the finishers continue on all fitted cells, in parallel.
+    let mut finished: Vec<(usize, Result<Outcome, FitError>)> = finishers
+        .par_iter()
+        .zip(warmed)
+        .map(|(&k, e)| {
+            let e = match e {
+                Ok(e) => e,
+                Err(err) => return (k, Err(err)),
+            };
             let o = run_start(
                 stage1.clone(),
                 e.u.clone(),
@@ -486,6 +590,7 @@ fn run_pass(
             )
             .map(|mut o| {
                 o.warm = e.warm.clone();
+                o.explore = e.explore.clone();
                 // The ranking pass was a cost pass over the fitted cells too.
                 o.cost_evals += u64::from(e.rank_cost.is_some());
                 o
@@ -535,6 +640,7 @@ fn run_pass(
                         o.cost_evals += o1.cost_evals;
                         o.jac_evals += o1.jac_evals;
                         o.warm = o1.warm.clone();
+                        o.explore = o1.explore.clone();
                         o
                     });
                     done(k, &o);
@@ -558,6 +664,7 @@ fn run_pass(
             .ok()
             .and_then(|e| e.rank_cost)
             .map(|c| (2.0 * c).sqrt());
+        let explore = explored[k].as_ref().ok().and_then(|e| e.explore.clone());
         let failed = |e: &FitError, finished: bool, warm: Option<WarmUpRecord>| StartRecord {
             index: k,
             channel,
@@ -572,6 +679,7 @@ fn run_pass(
             warm_up: warm,
             finished,
             rank_loss,
+            explore: explore.clone(),
         };
         let rec = match (&explored[k], &outcome_of[k]) {
             (Err(e), _) => {
@@ -600,6 +708,7 @@ fn run_pass(
                     warm_up: o.warm.clone(),
                     finished: true,
                     rank_loss,
+                    explore: o.explore.clone(),
                 }
             }
             (Ok(x), None) => StartRecord {
@@ -612,7 +721,7 @@ fn run_pass(
                 jacobian_evals: 0,
                 termination: format!(
                     "not finished: ranked {} of {n} by the loss over the fitted cells after \
-                     the warm-up; the best {} continued",
+                     its exploration; the best {} continued",
                     rank_of[k].map_or(n, |r| r + 1),
                     config.finish
                 ),
@@ -621,6 +730,7 @@ fn run_pass(
                 warm_up: x.warm.clone(),
                 finished: false,
                 rank_loss,
+                explore: x.explore.clone(),
             },
         };
         records.push(rec);

@@ -23,10 +23,11 @@ pub struct ParamRecord {
     pub transform: Option<String>,
 }
 
-/// The warm-up stage of a start: its fit on the warm-up subsample.
+/// A subsample stage of a start (the warm-up, or the exploration of a ranked fit): its
+/// fit on that subsample.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WarmUpRecord {
-    /// Cells of the warm-up subsample.
+    /// Cells of the subsample.
     pub cells: usize,
     /// Iterations on it.
     pub iterations: u64,
@@ -34,7 +35,7 @@ pub struct WarmUpRecord {
     pub cost_evals: u64,
     /// Jacobian passes over it.
     pub jacobian_evals: u64,
-    /// The optimised loss over the warm-up cells at its end.
+    /// The optimised loss over the subsample's cells at its end.
     pub final_loss: f64,
     /// Why it stopped (its last solver run).
     pub termination: String,
@@ -78,19 +79,27 @@ pub struct StartRecord {
     /// The warm-up stage, when there was one (the counts above are then those of the
     /// stage on the fitted cells, which started where the warm-up ended).
     pub warm_up: Option<WarmUpRecord>,
-    /// True when the start continued on all fitted cells after its warm-up; false for
-    /// a start that stopped after the warm-up because it did not rank among the best
+    /// True when the start continued on all fitted cells; false for a start that
+    /// stopped after its exploration because it did not rank among the best
     /// [`FitRecord::finish`] (its `final_loss` is then its `rank_loss`, its
     /// `iterations` 0 and its `cost_evals` the one ranking pass; see
     /// [`crate::FitConfig::finish`]). Records written before ranking existed finished
     /// every start (absent: true).
     #[serde(default = "yes")]
     pub finished: bool,
-    /// The optimised loss over all fitted cells at the end of the start's warm-up, by
-    /// which the starts were ranked; absent when there was no ranking (one start, no
+    /// The optimised loss over all fitted cells at the end of the start's exploration
+    /// (its own subsample, `explore`, or the warm-up set), by which the starts were
+    /// ranked; absent when there was no ranking (one start, no
     /// warm-up, or every start finished).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rank_loss: Option<f64>,
+    /// The exploration stage of a ranked fit, when it ran on its own subsample (an
+    /// eighth of the warm-up's size, see [`crate::FitConfig::finish`]): the start
+    /// converged there, was ranked, and if finished went on through `warm_up` to the
+    /// fitted cells (`warm_up` is then absent for an unfinished start). Absent when the
+    /// warm-up set was explored directly, or there was no ranking.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub explore: Option<WarmUpRecord>,
 }
 
 fn yes() -> bool {
