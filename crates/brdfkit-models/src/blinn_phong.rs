@@ -21,16 +21,14 @@
 //! Blinn-Phong BRDF normalization factors", 2009; [`exact_normalisation`]), and
 //! (n+8)/(8π) / K(n) = (n+8)(n + 2^(−n/2)) / ((n+2)(n+4)) exceeds 1 for every n ≥ 1,
 //! by up to 7.5 % near n = 9. So ρd + ρs ≤ 1 does **not** keep the directional albedo
-//! ≤ 1, and [`Model::conserves_energy`] is false; ρd + 1.076 ρs ≤ 1 suffices (the
+//! ≤ 1, and [`Model::conserves_energy`](brdfkit_core::Model::conserves_energy) is false; ρd + 1.076 ρs ≤ 1 suffices (the
 //! tests measure the albedo over θo ≤ 89° and n ∈ [1, 10⁴]).
+//!
+//! [`BlinnPhong`] is the Phong family's shared model [`CosineLobeModel`] with the lobe
+//! [`BlinnPhongLobe`].
 
-use crate::json;
-use crate::phong::{N_DOMAIN, channel, check_count, check_rgb, cos_pow, cos_pow_dn};
-use crate::plausible_phong::RHO_DOMAIN;
-use brdfkit_core::geometry::half_vector;
-use brdfkit_core::model::check_param;
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
-use serde_json::{Value, json};
+use crate::cosine_lobe::{AlbedoLobe, Cosine, CosineLobeModel, LobeKind, cos_pow, cos_pow_dn};
+use crate::params::DiffuseSpecular;
 use std::f64::consts::{FRAC_1_PI, PI};
 
 /// The exact normalisation K(n) = (n+2)(n+4) / (8π (2^(−n/2) + n)) of the lobe
@@ -43,220 +41,54 @@ pub fn exact_normalisation(n: f64) -> f64 {
 }
 
 /// A Lambertian term plus a Blinn-Phong lobe with the Real-Time Rendering normalisation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BlinnPhong {
-    rho_d: Rgb,
-    rho_s: Rgb,
-    n: f64,
+///
+/// Built by [`CosineLobeModel::new`] and its `with_*` steps, which also hold the
+/// parameter vector, the JSON contract and the evaluation paths.
+pub type BlinnPhong = CosineLobeModel<BlinnPhongLobe>;
+
+/// The lobe of [`BlinnPhong`]: (n+8)/(8π) cosⁿθh about the half vector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlinnPhongLobe;
+
+/// The normalisation (n+8)/(8π).
+#[inline(always)]
+fn norm(n: f64) -> f64 {
+    (n + 8.0) / (8.0 * PI)
 }
 
-impl Default for BlinnPhong {
-    fn default() -> Self {
-        BlinnPhong {
-            rho_d: Rgb::splat(0.5),
-            rho_s: Rgb::splat(0.3),
-            n: 50.0,
-        }
-    }
-}
-
-/// The number of parameters: ρd (3), ρs (3), n.
-const NP: usize = 7;
-
-impl BlinnPhong {
-    /// ρd, ρs per channel in [0, 1], n in [0, ∞).
-    pub fn new(rho_d: Rgb, rho_s: Rgb, n: f64) -> Result<Self, ModelError> {
-        BlinnPhong::default()
-            .with_rho_d(rho_d)?
-            .with_rho_s(rho_s)?
-            .with_n(n)
-    }
-
-    /// Sets ρd (each channel in [0, 1]).
-    pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
-        Ok(self)
-    }
-
-    /// Sets ρs (each channel in [0, 1]).
-    pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
-        self.rho_s = check_rgb("rho_s", rho_s, RHO_DOMAIN)?;
-        Ok(self)
-    }
-
-    /// Sets the exponent n ∈ [0, ∞).
-    pub fn with_n(mut self, n: f64) -> Result<Self, ModelError> {
-        self.n = check_param("n", n, N_DOMAIN)?;
-        Ok(self)
-    }
-
-    /// The diffuse albedo ρd.
-    pub fn rho_d(&self) -> Rgb {
-        self.rho_d
-    }
-
-    /// The specular coefficient ρs.
-    pub fn rho_s(&self) -> Rgb {
-        self.rho_s
-    }
-
-    /// The exponent n.
-    pub fn n(&self) -> f64 {
-        self.n
-    }
-
-    /// From the `params` object of the JSON contract.
-    pub fn from_params_json(params: &Value) -> Result<Self, ModelError> {
-        const M: &str = "blinn-phong";
-        let o = json::params_object(params, M)?;
-        json::deny_unknown(&o, &["rho_d", "rho_s", "n"], M)?;
-        let d = BlinnPhong::default();
-        BlinnPhong::new(
-            json::rgb_or(&o, "rho_d", d.rho_d.r(), M)?,
-            json::rgb_or(&o, "rho_s", d.rho_s.r(), M)?,
-            json::number_or(&o, "n", d.n, M)?,
-        )
-    }
-
-    /// The normalisation (n+8)/(8π).
-    #[inline(always)]
-    fn norm(&self) -> f64 {
-        (self.n + 8.0) / (8.0 * PI)
-    }
-
-    /// f from cos θi, cos θo and cos θh; the single kernel of `eval` and `eval_batch`.
-    #[inline(always)]
-    fn kernel(&self, iz: f64, oz: f64, hz: f64) -> Rgb {
-        if iz <= 0.0 || oz <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let s = self.norm() * cos_pow(hz, self.n);
-        self.rho_d * FRAC_1_PI + self.rho_s * s
-    }
-
-    /// f, ∂f/∂ρd (any channel), ∂f/∂ρs (any channel), ∂f/∂n.
-    #[inline(always)]
-    fn kernel_grad(&self, iz: f64, oz: f64, hz: f64) -> (Rgb, f64, f64, Rgb) {
-        if iz <= 0.0 || oz <= 0.0 {
-            return (Rgb::ZERO, 0.0, 0.0, Rgb::ZERO);
-        }
-        let (p, dp) = cos_pow_dn(hz, self.n);
-        let s = self.norm() * p;
-        // ∂/∂n [(n+8)/(8π) cⁿ] = cⁿ/(8π) + (n+8)/(8π) cⁿ ln c.
-        let ds_dn = p / (8.0 * PI) + self.norm() * dp;
-        (
-            self.rho_d * FRAC_1_PI + self.rho_s * s,
-            FRAC_1_PI,
-            s,
-            self.rho_s * ds_dn,
-        )
-    }
-}
-
-impl Brdf for BlinnPhong {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        // The same half vector as `GeometryBatch::push`, so both paths agree exactly.
-        self.kernel(wi.z, wo.z, half_vector(wi, wo).z)
-    }
-}
-
-impl Model for BlinnPhong {
-    fn name(&self) -> &'static str {
-        "blinn-phong"
-    }
-
-    fn param_specs(&self) -> Vec<ParamSpec> {
-        let d = BlinnPhong::default();
-        let mut v = ParamSpec::per_channel("rho_d", RHO_DOMAIN, d.rho_d.r()).to_vec();
-        v.extend(ParamSpec::per_channel("rho_s", RHO_DOMAIN, d.rho_s.r()));
-        v.push(ParamSpec::shared("n", N_DOMAIN, d.n));
-        v
-    }
-
-    fn params(&self) -> Vec<f64> {
-        let mut v = self.rho_d.0.to_vec();
-        v.extend(self.rho_s.0);
-        v.push(self.n);
-        v
-    }
-
-    fn num_params(&self) -> usize {
-        NP
-    }
-
-    fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        check_count(NP, p.len())?;
-        *self = BlinnPhong::new(Rgb::new(p[0], p[1], p[2]), Rgb::new(p[3], p[4], p[5]), p[6])?;
-        Ok(())
-    }
-
-    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let hz = if wi.z > 0.0 && wo.z > 0.0 {
-            half_vector(wi, wo).z
-        } else {
-            0.0
-        };
-        let (f, dd, ds, dn) = self.kernel_grad(wi.z, wo.z, hz);
-        for c in 0..3 {
-            grad[c] = channel(c, dd);
-            grad[3 + c] = channel(c, ds);
-        }
-        grad[6] = dn;
-        f
-    }
-
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let (iz, oz, hz) = (&g.wi_z[..n], &g.wo_z[..n], &g.h_z[..n]);
-        for k in 0..n {
-            out[k] = self.kernel(iz[k], oz[k], hz[k]);
-        }
-    }
-
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let (iz, oz, hz) = (&g.wi_z[..n], &g.wo_z[..n], &g.h_z[..n]);
-        let (g_d, rest) = grad[..NP * n].split_at_mut(3 * n);
-        let (g_s, g_n) = rest.split_at_mut(3 * n);
-        for k in 0..n {
-            let (f, dd, ds, dn) = self.kernel_grad(iz[k], oz[k], hz[k]);
-            out[k] = f;
-            for c in 0..3 {
-                g_d[c * n + k] = channel(c, dd);
-                g_s[c * n + k] = channel(c, ds);
-            }
-            g_n[k] = dn;
-        }
-    }
-
-    fn to_json(&self) -> Value {
-        json!({"model": "blinn-phong", "params": {
-            "rho_d": json::rgb_value(self.rho_d),
-            "rho_s": json::rgb_value(self.rho_s),
-            "n": self.n,
-        }})
-    }
-
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
+impl LobeKind for BlinnPhongLobe {
+    const NAME: &'static str = "blinn-phong";
+    const TYPE: &'static str = "BlinnPhong";
+    const PARAMS: DiffuseSpecular = DiffuseSpecular::albedos(0.5, 0.3);
+    const DEFAULT_N: f64 = 50.0;
+    const DIFFUSE_SCALE: f64 = FRAC_1_PI;
+    const COSINE: Cosine = Cosine::Half;
+    /// h is symmetric in wi and wo.
+    const RECIPROCAL: bool = true;
     /// False: with the (n+8)/(8π) factor the albedo reaches ≈ 1.075 ρs (module doc).
-    fn conserves_energy(&self) -> bool {
-        false
+    const CONSERVES_ENERGY: bool = false;
+
+    #[inline(always)]
+    fn lobe(n: f64, c: f64, _cos_i: f64) -> f64 {
+        norm(n) * cos_pow(c, n)
+    }
+
+    #[inline(always)]
+    fn lobe_dn(n: f64, c: f64, _cos_i: f64) -> (f64, f64) {
+        let (p, dp) = cos_pow_dn(c, n);
+        // ∂/∂n [(n+8)/(8π) cⁿ] = cⁿ/(8π) + (n+8)/(8π) cⁿ ln c.
+        (norm(n) * p, p / (8.0 * PI) + norm(n) * dp)
     }
 }
+
+impl AlbedoLobe for BlinnPhongLobe {}
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::testing::*;
     use brdfkit_core::direction::spherical;
+    use brdfkit_core::{Brdf, Model, Rgb};
     use proptest::prelude::*;
 
     fn model() -> BlinnPhong {

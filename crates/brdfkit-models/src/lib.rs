@@ -5,9 +5,11 @@
 //! path over precomputed [`brdfkit_core::GeometryBatch`] geometry, and the JSON contract
 //! `{"model": "<name>", "params": {...}}` read by [`from_json`]. See `docs/models.md`.
 
+pub mod cosine_lobe;
 pub mod json;
 mod lanes;
 pub mod par;
+mod params;
 pub mod testing;
 
 // Models (one file each).

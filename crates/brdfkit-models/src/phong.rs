@@ -19,20 +19,24 @@
 //! ks cosⁿθr (1/cos θi − 1/cos θo) — and it **does not conserve energy**: the light
 //! reflected from an incident direction, ∫ f(wi, wo) cos θo dωo, grows like 1/cos θi
 //! towards grazing incidence for any ks > 0, whatever kd and ks are. Hence
-//! [`Model::is_reciprocal`] and [`Model::conserves_energy`] are both false.
+//! [`Model::is_reciprocal`](brdfkit_core::Model::is_reciprocal) and
+//! [`Model::conserves_energy`](brdfkit_core::Model::conserves_energy) are both false.
 //!
-//! This module also holds the cosine-power lobe shared by the Phong family
-//! ([`cos_pow`], [`cos_pow_dn`]) and the per-channel parameter check.
+//! [`Phong`] is the Phong family's shared model [`CosineLobeModel`] (builder, parameter
+//! vector, JSON, evaluation paths) with the lobe [`PhongLobe`]. This module also
+//! re-exports the family's cosine power ([`cos_pow`], [`cos_pow_dn`]) and the
+//! per-channel parameter check.
 
-use crate::json;
-use brdfkit_core::model::{Domain, check_param};
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
-use serde_json::{Value, json};
+pub use crate::cosine_lobe::{N_DOMAIN, cos_pow, cos_pow_dn};
+pub use crate::params::{channel, check_count, check_rgb};
+
+use crate::cosine_lobe::{Cosine, CosineLobeModel, LobeKind};
+use crate::params::DiffuseSpecular;
+use brdfkit_core::model::Domain;
+use brdfkit_core::{ModelError, Rgb};
 
 /// The domain of kd and ks: non-negative, unbounded (the model promises nothing).
 pub const K_DOMAIN: Domain = Domain::at_least(0.0);
-/// The domain of a cosine-power exponent.
-pub const N_DOMAIN: Domain = Domain::at_least(0.0);
 
 /// Floor of the incident cosine in the 1/cos θi factor.
 ///
@@ -42,259 +46,67 @@ pub const N_DOMAIN: Domain = Domain::at_least(0.0);
 /// factor at 1e12 and changes nothing for θi more than 1e-12 rad from the horizon.
 pub const MIN_COS_I: f64 = 1e-12;
 
-/// cⁿ on the open lobe c > 0, and 0 elsewhere.
-///
-/// The clamp at c ≤ 0 is the lobe's definition (max(0, cos)ⁿ). At c = 0 with n = 0 this
-/// gives 0, not IEEE's pow(0, 0) = 1: 0 is the limit of 0ⁿ as n → 0⁺, so the value stays
-/// continuous in n, and the lobe boundary has measure zero for every integral.
-#[inline(always)]
-pub fn cos_pow(c: f64, n: f64) -> f64 {
-    if c > 0.0 { c.powf(n) } else { 0.0 }
-}
-
-/// (cⁿ, ∂cⁿ/∂n = cⁿ ln c), both 0 for c ≤ 0 (see [`cos_pow`]).
-///
-/// No clamp is needed for finiteness: for c > 0 the smallest double gives
-/// ln c ≥ −745, and cⁿ ≤ 1 for c ≤ 1 (cosines exceed 1 only by round-off). At c = 0 the
-/// derivative is the limit of cⁿ ln c as c → 0⁺, which is 0 for n > 0.
-#[inline(always)]
-pub fn cos_pow_dn(c: f64, n: f64) -> (f64, f64) {
-    if c > 0.0 {
-        let p = c.powf(n);
-        (p, p * c.ln())
-    } else {
-        (0.0, 0.0)
-    }
-}
-
-/// Checks every channel of a per-channel parameter, naming `name.r`, `name.g` or
-/// `name.b` in the error.
-pub fn check_rgb(name: &str, v: Rgb, domain: Domain) -> Result<Rgb, ModelError> {
-    for (c, ch) in ["r", "g", "b"].iter().enumerate() {
-        check_param(&format!("{name}.{ch}"), v[c], domain)?;
-    }
-    Ok(v)
-}
-
-/// An error unless `got` parameters were given where `expected` are needed.
-pub fn check_count(expected: usize, got: usize) -> Result<(), ModelError> {
-    if expected == got {
-        Ok(())
-    } else {
-        Err(ModelError::ParamCount { expected, got })
-    }
-}
-
-/// An [`Rgb`] with `v` in channel `c` and 0 elsewhere: the gradient of f with respect to
-/// a per-channel parameter only touches its own channel.
-#[inline(always)]
-pub fn channel(c: usize, v: f64) -> Rgb {
-    let mut r = Rgb::ZERO;
-    r[c] = v;
-    r
-}
-
 /// The original Phong BRDF kd + ks cosⁿθr / cos θi.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Phong {
-    k_d: Rgb,
-    k_s: Rgb,
-    n: f64,
-}
+///
+/// Built by [`CosineLobeModel::new`] and its `with_*` steps, which also hold the
+/// parameter vector, the JSON contract and the evaluation paths.
+pub type Phong = CosineLobeModel<PhongLobe>;
 
-impl Default for Phong {
-    fn default() -> Self {
-        Phong {
-            k_d: Rgb::splat(0.15),
-            k_s: Rgb::splat(0.3),
-            n: 20.0,
-        }
+/// The lobe of [`Phong`]: cosⁿθr / cos θi about the mirror direction, with kd a BRDF
+/// value (not an albedo, so no 1/π).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PhongLobe;
+
+impl LobeKind for PhongLobe {
+    const NAME: &'static str = "phong";
+    const TYPE: &'static str = "Phong";
+    const PARAMS: DiffuseSpecular = DiffuseSpecular {
+        names: ("k_d", "k_s"),
+        domain: K_DOMAIN,
+        defaults: (0.15, 0.3),
+    };
+    const DEFAULT_N: f64 = 20.0;
+    const DIFFUSE_SCALE: f64 = 1.0;
+    const COSINE: Cosine = Cosine::Mirror;
+    /// f(wi, wo) − f(wo, wi) = ks cosⁿθr (1/cos θi − 1/cos θo) ≠ 0.
+    const RECIPROCAL: bool = false;
+    /// The reflected fraction grows like 1/cos θi at grazing incidence.
+    const CONSERVES_ENERGY: bool = false;
+
+    /// cⁿ / cos θi.
+    #[inline(always)]
+    fn lobe(n: f64, c: f64, cos_i: f64) -> f64 {
+        cos_pow(c, n) / cos_i.max(MIN_COS_I)
+    }
+
+    /// (cⁿ / cos θi, cⁿ ln c / cos θi).
+    #[inline(always)]
+    fn lobe_dn(n: f64, c: f64, cos_i: f64) -> (f64, f64) {
+        let inv = 1.0 / cos_i.max(MIN_COS_I);
+        let (p, dp) = cos_pow_dn(c, n);
+        (p / cos_i.max(MIN_COS_I), dp * inv)
     }
 }
-
-/// The number of parameters: kd (3), ks (3), n.
-const NP: usize = 7;
 
 impl Phong {
-    /// A Phong BRDF; kd and ks per channel in [0, ∞), n in [0, ∞).
-    pub fn new(k_d: Rgb, k_s: Rgb, n: f64) -> Result<Self, ModelError> {
-        Phong::default().with_k_d(k_d)?.with_k_s(k_s)?.with_n(n)
-    }
-
     /// Sets kd (each channel in [0, ∞)).
-    pub fn with_k_d(mut self, k_d: Rgb) -> Result<Self, ModelError> {
-        self.k_d = check_rgb("k_d", k_d, K_DOMAIN)?;
-        Ok(self)
+    pub fn with_k_d(self, k_d: Rgb) -> Result<Self, ModelError> {
+        self.with_diffuse(k_d)
     }
 
     /// Sets ks (each channel in [0, ∞)).
-    pub fn with_k_s(mut self, k_s: Rgb) -> Result<Self, ModelError> {
-        self.k_s = check_rgb("k_s", k_s, K_DOMAIN)?;
-        Ok(self)
-    }
-
-    /// Sets the exponent n ∈ [0, ∞).
-    pub fn with_n(mut self, n: f64) -> Result<Self, ModelError> {
-        self.n = check_param("n", n, N_DOMAIN)?;
-        Ok(self)
+    pub fn with_k_s(self, k_s: Rgb) -> Result<Self, ModelError> {
+        self.with_specular(k_s)
     }
 
     /// The diffuse coefficient kd (a BRDF value, not an albedo).
     pub fn k_d(&self) -> Rgb {
-        self.k_d
+        self.diffuse()
     }
 
     /// The specular coefficient ks.
     pub fn k_s(&self) -> Rgb {
-        self.k_s
-    }
-
-    /// The exponent n.
-    pub fn n(&self) -> f64 {
-        self.n
-    }
-
-    /// From the `params` object of the JSON contract.
-    pub fn from_params_json(params: &Value) -> Result<Self, ModelError> {
-        let o = json::params_object(params, "phong")?;
-        json::deny_unknown(&o, &["k_d", "k_s", "n"], "phong")?;
-        let d = Phong::default();
-        Phong::new(
-            json::rgb_or(&o, "k_d", d.k_d.r(), "phong")?,
-            json::rgb_or(&o, "k_s", d.k_s.r(), "phong")?,
-            json::number_or(&o, "n", d.n, "phong")?,
-        )
-    }
-
-    /// f for one pair given as coordinates; the single kernel of `eval` and `eval_batch`.
-    #[inline(always)]
-    fn kernel(&self, ix: f64, iy: f64, iz: f64, ox: f64, oy: f64, oz: f64) -> Rgb {
-        if iz <= 0.0 || oz <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let c = iz * oz - ix * ox - iy * oy;
-        let s = cos_pow(c, self.n) / iz.max(MIN_COS_I);
-        self.k_d + self.k_s * s
-    }
-
-    /// f and the partials, the single kernel of `eval_grad` and `eval_grad_batch`:
-    /// ∂f/∂kd = 1 and ∂f/∂ks = cⁿ/cos θi (each in its own channel),
-    /// ∂f/∂n = ks cⁿ ln c / cos θi (every channel).
-    #[inline(always)]
-    fn kernel_grad(
-        &self,
-        ix: f64,
-        iy: f64,
-        iz: f64,
-        ox: f64,
-        oy: f64,
-        oz: f64,
-    ) -> (Rgb, f64, f64, Rgb) {
-        if iz <= 0.0 || oz <= 0.0 {
-            return (Rgb::ZERO, 0.0, 0.0, Rgb::ZERO);
-        }
-        let c = iz * oz - ix * ox - iy * oy;
-        let inv = 1.0 / iz.max(MIN_COS_I);
-        let (p, dp) = cos_pow_dn(c, self.n);
-        let s = p / iz.max(MIN_COS_I);
-        (self.k_d + self.k_s * s, 1.0, s, self.k_s * (dp * inv))
-    }
-}
-
-impl Brdf for Phong {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        self.kernel(wi.x, wi.y, wi.z, wo.x, wo.y, wo.z)
-    }
-}
-
-impl Model for Phong {
-    fn name(&self) -> &'static str {
-        "phong"
-    }
-
-    fn param_specs(&self) -> Vec<ParamSpec> {
-        let d = Phong::default();
-        let mut v = ParamSpec::per_channel("k_d", K_DOMAIN, d.k_d.r()).to_vec();
-        v.extend(ParamSpec::per_channel("k_s", K_DOMAIN, d.k_s.r()));
-        v.push(ParamSpec::shared("n", N_DOMAIN, d.n));
-        v
-    }
-
-    fn params(&self) -> Vec<f64> {
-        let mut v = self.k_d.0.to_vec();
-        v.extend(self.k_s.0);
-        v.push(self.n);
-        v
-    }
-
-    fn num_params(&self) -> usize {
-        NP
-    }
-
-    fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        check_count(NP, p.len())?;
-        *self = Phong::new(Rgb::new(p[0], p[1], p[2]), Rgb::new(p[3], p[4], p[5]), p[6])?;
-        Ok(())
-    }
-
-    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let (f, dkd, dks, dn) = self.kernel_grad(wi.x, wi.y, wi.z, wo.x, wo.y, wo.z);
-        for c in 0..3 {
-            grad[c] = channel(c, dkd);
-            grad[3 + c] = channel(c, dks);
-        }
-        grad[6] = dn;
-        f
-    }
-
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
-        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
-        for k in 0..n {
-            out[k] = self.kernel(ix[k], iy[k], iz[k], ox[k], oy[k], oz[k]);
-        }
-    }
-
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
-        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
-        let (g_kd, rest) = grad[..NP * n].split_at_mut(3 * n);
-        let (g_ks, g_n) = rest.split_at_mut(3 * n);
-        for k in 0..n {
-            let (f, dkd, dks, dn) = self.kernel_grad(ix[k], iy[k], iz[k], ox[k], oy[k], oz[k]);
-            out[k] = f;
-            for c in 0..3 {
-                g_kd[c * n + k] = channel(c, dkd);
-                g_ks[c * n + k] = channel(c, dks);
-            }
-            g_n[k] = dn;
-        }
-    }
-
-    fn to_json(&self) -> Value {
-        json!({"model": "phong", "params": {
-            "k_d": json::rgb_value(self.k_d),
-            "k_s": json::rgb_value(self.k_s),
-            "n": self.n,
-        }})
-    }
-
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
-    /// f(wi, wo) − f(wo, wi) = ks cosⁿθr (1/cos θi − 1/cos θo) ≠ 0.
-    fn is_reciprocal(&self) -> bool {
-        false
-    }
-
-    /// The reflected fraction grows like 1/cos θi at grazing incidence.
-    fn conserves_energy(&self) -> bool {
-        false
+        self.specular()
     }
 }
 
@@ -303,6 +115,7 @@ mod tests {
     use super::*;
     use crate::testing::*;
     use brdfkit_core::direction::spherical;
+    use brdfkit_core::{Brdf, Model, Vec3};
     use proptest::prelude::*;
 
     fn model() -> Phong {

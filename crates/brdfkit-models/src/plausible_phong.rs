@@ -20,236 +20,65 @@
 //! where it is exactly ρs, so the albedo is ≤ ρd + ρs ≤ 1 per channel whenever
 //! ρd + ρs ≤ 1 (the tests measure this over θo ≤ 89° and n ∈ [1, 10⁴]). The builder does
 //! not enforce ρd + ρs ≤ 1: a fit may pass through such values.
+//!
+//! [`PlausiblePhong`] is the Phong family's shared model [`CosineLobeModel`] with the lobe
+//! [`PlausiblePhongLobe`].
 
-use crate::json;
-use crate::phong::{N_DOMAIN, channel, check_count, check_rgb, cos_pow, cos_pow_dn};
-use brdfkit_core::model::{Domain, check_param};
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
-use serde_json::{Value, json};
+use crate::cosine_lobe::{AlbedoLobe, Cosine, CosineLobeModel, LobeKind, cos_pow, cos_pow_dn};
+use crate::params::DiffuseSpecular;
 use std::f64::consts::{FRAC_1_PI, PI};
 
 /// The domain of ρd and ρs.
-pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
+pub use crate::params::RHO_DOMAIN;
 
 /// The modified (physically plausible) Phong BRDF.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlausiblePhong {
-    rho_d: Rgb,
-    rho_s: Rgb,
-    n: f64,
+///
+/// Built by [`CosineLobeModel::new`] and its `with_*` steps, which also hold the
+/// parameter vector, the JSON contract and the evaluation paths.
+pub type PlausiblePhong = CosineLobeModel<PlausiblePhongLobe>;
+
+/// The lobe of [`PlausiblePhong`]: (n+2)/(2π) cosⁿθr about the mirror direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlausiblePhongLobe;
+
+/// The lobe normalisation (n+2)/(2π).
+#[inline(always)]
+fn norm(n: f64) -> f64 {
+    (n + 2.0) / (2.0 * PI)
 }
 
-impl Default for PlausiblePhong {
-    fn default() -> Self {
-        PlausiblePhong {
-            rho_d: Rgb::splat(0.5),
-            rho_s: Rgb::splat(0.3),
-            n: 20.0,
-        }
-    }
-}
-
-/// The number of parameters: ρd (3), ρs (3), n.
-const NP: usize = 7;
-
-impl PlausiblePhong {
-    /// ρd, ρs per channel in [0, 1], n in [0, ∞).
-    pub fn new(rho_d: Rgb, rho_s: Rgb, n: f64) -> Result<Self, ModelError> {
-        PlausiblePhong::default()
-            .with_rho_d(rho_d)?
-            .with_rho_s(rho_s)?
-            .with_n(n)
-    }
-
-    /// Sets ρd (each channel in [0, 1]).
-    pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
-        Ok(self)
-    }
-
-    /// Sets ρs (each channel in [0, 1]).
-    pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
-        self.rho_s = check_rgb("rho_s", rho_s, RHO_DOMAIN)?;
-        Ok(self)
-    }
-
-    /// Sets the exponent n ∈ [0, ∞).
-    pub fn with_n(mut self, n: f64) -> Result<Self, ModelError> {
-        self.n = check_param("n", n, N_DOMAIN)?;
-        Ok(self)
-    }
-
-    /// The diffuse albedo ρd.
-    pub fn rho_d(&self) -> Rgb {
-        self.rho_d
-    }
-
-    /// The specular albedo ρs (the lobe's albedo at normal incidence).
-    pub fn rho_s(&self) -> Rgb {
-        self.rho_s
-    }
-
-    /// The exponent n.
-    pub fn n(&self) -> f64 {
-        self.n
-    }
-
-    /// From the `params` object of the JSON contract.
-    pub fn from_params_json(params: &Value) -> Result<Self, ModelError> {
-        const M: &str = "plausible-phong";
-        let o = json::params_object(params, M)?;
-        json::deny_unknown(&o, &["rho_d", "rho_s", "n"], M)?;
-        let d = PlausiblePhong::default();
-        PlausiblePhong::new(
-            json::rgb_or(&o, "rho_d", d.rho_d.r(), M)?,
-            json::rgb_or(&o, "rho_s", d.rho_s.r(), M)?,
-            json::number_or(&o, "n", d.n, M)?,
-        )
-    }
-
-    /// The lobe normalisation (n+2)/(2π).
-    #[inline(always)]
-    fn norm(&self) -> f64 {
-        (self.n + 2.0) / (2.0 * PI)
-    }
-
-    /// f for one pair; the single kernel of `eval` and `eval_batch`.
-    #[inline(always)]
-    fn kernel(&self, ix: f64, iy: f64, iz: f64, ox: f64, oy: f64, oz: f64) -> Rgb {
-        if iz <= 0.0 || oz <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let c = iz * oz - ix * ox - iy * oy;
-        let s = self.norm() * cos_pow(c, self.n);
-        self.rho_d * FRAC_1_PI + self.rho_s * s
-    }
-
-    /// f, ∂f/∂ρd (any channel), ∂f/∂ρs (any channel), ∂f/∂n; the single kernel of
-    /// `eval_grad` and `eval_grad_batch`.
-    #[inline(always)]
-    fn kernel_grad(
-        &self,
-        ix: f64,
-        iy: f64,
-        iz: f64,
-        ox: f64,
-        oy: f64,
-        oz: f64,
-    ) -> (Rgb, f64, f64, Rgb) {
-        if iz <= 0.0 || oz <= 0.0 {
-            return (Rgb::ZERO, 0.0, 0.0, Rgb::ZERO);
-        }
-        let c = iz * oz - ix * ox - iy * oy;
-        let (p, dp) = cos_pow_dn(c, self.n);
-        let s = self.norm() * p;
-        // ∂/∂n [(n+2)/(2π) cⁿ] = cⁿ/(2π) + (n+2)/(2π) cⁿ ln c.
-        let ds_dn = p / (2.0 * PI) + self.norm() * dp;
-        (
-            self.rho_d * FRAC_1_PI + self.rho_s * s,
-            FRAC_1_PI,
-            s,
-            self.rho_s * ds_dn,
-        )
-    }
-}
-
-impl Brdf for PlausiblePhong {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        self.kernel(wi.x, wi.y, wi.z, wo.x, wo.y, wo.z)
-    }
-}
-
-impl Model for PlausiblePhong {
-    fn name(&self) -> &'static str {
-        "plausible-phong"
-    }
-
-    fn param_specs(&self) -> Vec<ParamSpec> {
-        let d = PlausiblePhong::default();
-        let mut v = ParamSpec::per_channel("rho_d", RHO_DOMAIN, d.rho_d.r()).to_vec();
-        v.extend(ParamSpec::per_channel("rho_s", RHO_DOMAIN, d.rho_s.r()));
-        v.push(ParamSpec::shared("n", N_DOMAIN, d.n));
-        v
-    }
-
-    fn params(&self) -> Vec<f64> {
-        let mut v = self.rho_d.0.to_vec();
-        v.extend(self.rho_s.0);
-        v.push(self.n);
-        v
-    }
-
-    fn num_params(&self) -> usize {
-        NP
-    }
-
-    fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        check_count(NP, p.len())?;
-        *self = PlausiblePhong::new(Rgb::new(p[0], p[1], p[2]), Rgb::new(p[3], p[4], p[5]), p[6])?;
-        Ok(())
-    }
-
-    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let (f, dd, ds, dn) = self.kernel_grad(wi.x, wi.y, wi.z, wo.x, wo.y, wo.z);
-        for c in 0..3 {
-            grad[c] = channel(c, dd);
-            grad[3 + c] = channel(c, ds);
-        }
-        grad[6] = dn;
-        f
-    }
-
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
-        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
-        for k in 0..n {
-            out[k] = self.kernel(ix[k], iy[k], iz[k], ox[k], oy[k], oz[k]);
-        }
-    }
-
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
-        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
-        let (g_d, rest) = grad[..NP * n].split_at_mut(3 * n);
-        let (g_s, g_n) = rest.split_at_mut(3 * n);
-        for k in 0..n {
-            let (f, dd, ds, dn) = self.kernel_grad(ix[k], iy[k], iz[k], ox[k], oy[k], oz[k]);
-            out[k] = f;
-            for c in 0..3 {
-                g_d[c * n + k] = channel(c, dd);
-                g_s[c * n + k] = channel(c, ds);
-            }
-            g_n[k] = dn;
-        }
-    }
-
-    fn to_json(&self) -> Value {
-        json!({"model": "plausible-phong", "params": {
-            "rho_d": json::rgb_value(self.rho_d),
-            "rho_s": json::rgb_value(self.rho_s),
-            "n": self.n,
-        }})
-    }
-
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
+impl LobeKind for PlausiblePhongLobe {
+    const NAME: &'static str = "plausible-phong";
+    const TYPE: &'static str = "PlausiblePhong";
+    const PARAMS: DiffuseSpecular = DiffuseSpecular::albedos(0.5, 0.3);
+    const DEFAULT_N: f64 = 20.0;
+    const DIFFUSE_SCALE: f64 = FRAC_1_PI;
+    const COSINE: Cosine = Cosine::Mirror;
+    const RECIPROCAL: bool = true;
     /// Directional albedo ≤ ρd + ρs per channel, so ≤ 1 when ρd + ρs ≤ 1.
-    fn conserves_energy(&self) -> bool {
-        true
+    const CONSERVES_ENERGY: bool = true;
+
+    #[inline(always)]
+    fn lobe(n: f64, c: f64, _cos_i: f64) -> f64 {
+        norm(n) * cos_pow(c, n)
+    }
+
+    #[inline(always)]
+    fn lobe_dn(n: f64, c: f64, _cos_i: f64) -> (f64, f64) {
+        let (p, dp) = cos_pow_dn(c, n);
+        // ∂/∂n [(n+2)/(2π) cⁿ] = cⁿ/(2π) + (n+2)/(2π) cⁿ ln c.
+        (norm(n) * p, p / (2.0 * PI) + norm(n) * dp)
     }
 }
+
+impl AlbedoLobe for PlausiblePhongLobe {}
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::testing::*;
     use brdfkit_core::direction::spherical;
+    use brdfkit_core::{Brdf, Model, Rgb};
     use proptest::prelude::*;
 
     fn model() -> PlausiblePhong {
