@@ -20,6 +20,7 @@ use brdfkit_core::geometry::half_vector;
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Value, json};
+use std::f64::consts::PI;
 use std::fmt;
 use std::marker::PhantomData;
 
@@ -49,6 +50,23 @@ pub fn cos_pow_dn(c: f64, n: f64) -> (f64, f64) {
     } else {
         (0.0, 0.0)
     }
+}
+
+/// (n+a)/(aπ) · cⁿ, the cosine power with the normalisation (n+a)/(aπ): a = 2 is
+/// Lewis's exact one for a lobe about the mirror direction, a = 8 the Real-Time
+/// Rendering approximation for a half-vector lobe.
+#[inline(always)]
+pub fn normalised_cos_pow(a: f64, c: f64, n: f64) -> f64 {
+    (n + a) / (a * PI) * cos_pow(c, n)
+}
+
+/// ((n+a)/(aπ) cⁿ, its n-derivative cⁿ/(aπ) + (n+a)/(aπ) cⁿ ln c); see
+/// [`normalised_cos_pow`], whose value it repeats to the last bit.
+#[inline(always)]
+pub fn normalised_cos_pow_dn(a: f64, c: f64, n: f64) -> (f64, f64) {
+    let (p, dp) = cos_pow_dn(c, n);
+    let norm = (n + a) / (a * PI);
+    (norm * p, p / (a * PI) + norm * dp)
 }
 
 /// The cosine a lobe raises to the power n.
@@ -354,5 +372,226 @@ impl<K: LobeKind> Model for CosineLobeModel<K> {
 
     fn conserves_energy(&self) -> bool {
         K::CONSERVES_ENERGY
+    }
+}
+
+/// The checks every model of the family shares, run for each of the three kinds; the
+/// formula of each lobe is checked against an independent form in its own module.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::blinn_phong::BlinnPhongLobe;
+    use crate::phong::PhongLobe;
+    use crate::plausible_phong::PlausiblePhongLobe;
+    use crate::testing::*;
+    use proptest::prelude::*;
+
+    /// A model inside every kind's domain (ρd + ρs ≤ 1 per channel).
+    fn model<K: LobeKind>() -> CosineLobeModel<K> {
+        CosineLobeModel::new(Rgb::new(0.2, 0.4, 0.6), Rgb::new(0.5, 0.3, 0.1), 35.0).unwrap()
+    }
+
+    /// Runs `check::<K>()` for the three kinds.
+    macro_rules! for_each_kind {
+        ($check:ident) => {
+            $check::<PhongLobe>();
+            $check::<PlausiblePhongLobe>();
+            $check::<BlinnPhongLobe>();
+        };
+    }
+
+    #[test]
+    fn cos_pow_conventions() {
+        assert_eq!(cos_pow(0.0, 0.0), 0.0, "0⁰ is the limit from n > 0");
+        assert_eq!(cos_pow(-0.5, 0.0), 0.0);
+        assert_eq!(cos_pow(0.5, 0.0), 1.0);
+        assert_eq!(cos_pow(0.5, 2.0), 0.25);
+        assert_eq!(cos_pow_dn(0.0, 0.0), (0.0, 0.0));
+        let (p, d) = cos_pow_dn(0.5, 3.0);
+        assert_eq!(p, 0.125);
+        assert!((d - 0.125 * 0.5f64.ln()).abs() < 1e-16);
+        let (p, d) = cos_pow_dn(5e-324, 0.0);
+        assert!(p == 1.0 && d.is_finite() && d < -744.0);
+        // The normalised power and its derivative against the closed forms.
+        for a in [2.0, 8.0] {
+            let (c, n) = (0.9f64, 13.0);
+            let v = (n + a) / (a * PI) * c.powf(n);
+            assert!((normalised_cos_pow(a, c, n) - v).abs() <= 1e-15 * v);
+            let (w, dw) = normalised_cos_pow_dn(a, c, n);
+            assert_eq!(w, normalised_cos_pow(a, c, n));
+            let want = c.powf(n) / (a * PI) + v * c.ln();
+            assert!((dw - want).abs() <= 1e-14 * want.abs(), "{dw} vs {want}");
+            assert_eq!(normalised_cos_pow_dn(a, -0.1, n), (0.0, 0.0));
+        }
+    }
+
+    fn builder_and_set_params_validate<K: LobeKind>() {
+        let (dn, sn) = K::PARAMS.names;
+        let dom = K::PARAMS.domain.to_string();
+        let bad = Rgb::new(0.1, -0.2, 0.1);
+        let e = CosineLobeModel::<K>::new(bad, Rgb::splat(0.1), 5.0).unwrap_err();
+        let e = e.to_string();
+        assert!(e.contains(&format!("`{dn}.g`")) && e.contains(&dom), "{e}");
+        let e = CosineLobeModel::<K>::new(Rgb::splat(0.1), Rgb::new(0.1, 0.1, f64::NAN), 5.0)
+            .unwrap_err();
+        assert!(e.to_string().contains(&format!("`{sn}.b`")), "{e}");
+        for n in [-0.5, f64::NAN, f64::INFINITY] {
+            let e = model::<K>().with_n(n).unwrap_err();
+            assert!(e.to_string().contains("`n`"), "{e}");
+        }
+        assert!(
+            model::<K>()
+                .with_diffuse(Rgb::splat(f64::INFINITY))
+                .is_err()
+        );
+        let mut m = model::<K>();
+        assert!(m.set_params(&[0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -3.0]).is_err());
+        assert!(m.set_params(&[0.1, 0.1, 0.1, 0.1, -0.1, 0.1, 3.0]).is_err());
+        assert!(m.set_params(&[0.1; 6]).is_err());
+        assert!(m.set_params(&[0.1; 8]).is_err());
+        assert_eq!(
+            m,
+            model(),
+            "a rejected set_params leaves the model unchanged"
+        );
+        m.set_params(&[0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 7.0]).unwrap();
+        assert_eq!(m.params(), vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 7.0]);
+        assert_eq!(
+            (m.diffuse(), m.specular(), m.n()),
+            (Rgb::new(0.1, 0.2, 0.3), Rgb::new(0.4, 0.5, 0.6), 7.0)
+        );
+        let names: Vec<_> = m.param_specs().into_iter().map(|s| s.name).collect();
+        let want: Vec<String> = [dn, sn]
+            .iter()
+            .flat_map(|p| ["r", "g", "b"].map(|c| format!("{p}.{c}")))
+            .chain(["n".to_string()])
+            .collect();
+        assert_eq!(names, want);
+        assert_eq!(m.num_params(), m.param_specs().len());
+        assert_eq!(m.is_reciprocal(), K::RECIPROCAL);
+        assert_eq!(m.conserves_energy(), K::CONSERVES_ENERGY);
+        let dbg = format!("{:?}", model::<K>());
+        assert!(dbg.starts_with(&format!("{} {{ {dn}: ", K::TYPE)), "{dbg}");
+    }
+
+    #[test]
+    fn builders_and_set_params_validate() {
+        for_each_kind!(builder_and_set_params_validate);
+    }
+
+    fn json_round_trip_and_errors<K: LobeKind>() {
+        let (dn, sn) = K::PARAMS.names;
+        let m = model::<K>();
+        let back = crate::from_json(&m.to_json()).unwrap();
+        assert_eq!((back.name(), back.params()), (K::NAME, m.params()));
+        let d = crate::default_model(K::NAME).unwrap();
+        assert_eq!(d.params(), CosineLobeModel::<K>::default().params());
+        let (dd, ds) = K::PARAMS.defaults;
+        let p = crate::from_json_str(&format!(
+            r#"{{"model":"{}","params":{{"{dn}":0.2,"n":3}}}}"#,
+            K::NAME
+        ))
+        .unwrap();
+        assert_eq!(p.params(), vec![0.2, 0.2, 0.2, ds, ds, ds, 3.0]);
+        let p = crate::from_json_str(&format!(r#"{{"model":"{}"}}"#, K::NAME)).unwrap();
+        assert_eq!(p.params()[..4], [dd, dd, dd, ds]);
+        let err = |params: &str| {
+            crate::from_json_str(&format!(r#"{{"model":"{}","params":{params}}}"#, K::NAME))
+                .unwrap_err()
+        };
+        let e = err(r#"{"kd":0.2}"#);
+        assert!(e.to_string().contains("`kd`"), "{e}");
+        let e = err(&format!(r#"{{"{sn}":[0.1,0.2]}}"#));
+        assert!(e.to_string().contains(&format!("`{sn}`")), "{e}");
+        let e = err(r#"{"n":"x"}"#);
+        assert!(e.to_string().contains("`n`"), "{e}");
+        let e = err(r#"{"n":-2}"#);
+        assert!(matches!(e, ModelError::OutOfDomain { .. }), "{e}");
+        let e = err("[1]");
+        assert!(e.to_string().contains(K::NAME), "{e}");
+    }
+
+    #[test]
+    fn albedo_names_set_and_get_rho_d_and_rho_s() {
+        fn check<K: AlbedoLobe>() {
+            let (d, s) = (Rgb::new(0.1, 0.2, 0.3), Rgb::new(0.4, 0.5, 0.6));
+            let m = model::<K>().with_rho_d(d).unwrap().with_rho_s(s).unwrap();
+            assert_eq!((m.rho_d(), m.rho_s()), (d, s));
+            let e = m.clone().with_rho_s(Rgb::new(0.1, 1.5, 0.1)).unwrap_err();
+            assert!(e.to_string().contains("`rho_s.g`"), "{e}");
+            let e = m.with_rho_d(Rgb::new(0.1, 0.1, -0.5)).unwrap_err();
+            assert!(e.to_string().contains("`rho_d.b`"), "{e}");
+        }
+        check::<PlausiblePhongLobe>();
+        check::<BlinnPhongLobe>();
+    }
+
+    #[test]
+    fn json_round_trips_and_errors() {
+        for_each_kind!(json_round_trip_and_errors);
+    }
+
+    fn shared_checks<K: LobeKind>() {
+        let m = model::<K>();
+        let pairs = random_pairs(11, 300);
+        assert_paths_agree(&m, &pairs, 0.0);
+        assert_paths_agree(&m, &hard_case_pairs(), 0.0);
+        assert_paths_agree(&m, &dense_grid_pairs(12, 6), 0.0);
+        if K::RECIPROCAL {
+            assert_reciprocal(&m, &pairs, 1e-12);
+            assert_reciprocal(&m, &hard_case_pairs(), 1e-12);
+            assert_reciprocal(&m, &dense_grid_pairs(20, 8), 1e-12);
+        }
+        assert_nonnegative(&m, &dense_grid_pairs(40, 16));
+        assert_zero_below_horizon(&m);
+        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+    }
+
+    #[test]
+    fn shared_checks_of_every_kind() {
+        for_each_kind!(shared_checks);
+    }
+
+    fn hard_cases_stay_finite<K: LobeKind>() {
+        let hi = K::PARAMS.domain.hi.min(1e3);
+        for n in [0.0, 1.0, 1e3, 1e6, 1e300] {
+            for (d, s) in [(0.0, 0.0), (0.3, 0.7), (hi, hi)] {
+                let m = CosineLobeModel::<K>::new(Rgb::splat(d), Rgb::splat(s), n).unwrap();
+                assert_finite_everywhere(&m, &hard_case_pairs());
+                assert_paths_agree(&m, &hard_case_pairs(), 0.0);
+                assert_zero_below_horizon(&m);
+            }
+        }
+    }
+
+    #[test]
+    fn hard_cases_stay_finite_for_every_kind() {
+        for_each_kind!(hard_cases_stay_finite);
+    }
+
+    /// d, s in (0, 1) scaled up to (0, 2) where the domain allows (phong's kd, ks).
+    fn fd_case<K: LobeKind>(d: f64, s: f64, n: f64, seed: u64) {
+        let k = K::PARAMS.domain.hi.min(2.0);
+        let (d, s) = (k * d, k * s);
+        let m = CosineLobeModel::<K>::new(Rgb::new(d, 0.5, 0.3 * d), Rgb::new(0.2, s, 0.9 * s), n)
+            .unwrap();
+        let pairs = random_pairs(seed, 12);
+        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+        assert_paths_agree(&m, &pairs, 0.0);
+        if K::RECIPROCAL {
+            assert_reciprocal(&m, &pairs, 1e-12);
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn gradient_matches_finite_differences(
+            d in 0.01f64..0.99, s in 0.01f64..0.99, n in 0.5f64..1000.0, seed in any::<u64>()
+        ) {
+            fd_case::<PhongLobe>(d, s, n, seed);
+            fd_case::<PlausiblePhongLobe>(d, s, n, seed);
+            fd_case::<BlinnPhongLobe>(d, s, n, seed);
+        }
     }
 }
