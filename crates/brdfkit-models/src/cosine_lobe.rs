@@ -532,19 +532,7 @@ mod tests {
     }
 
     fn shared_checks<K: LobeKind>() {
-        let m = model::<K>();
-        let pairs = random_pairs(11, 300);
-        assert_paths_agree(&m, &pairs, 0.0);
-        assert_paths_agree(&m, &hard_case_pairs(), 0.0);
-        assert_paths_agree(&m, &dense_grid_pairs(12, 6), 0.0);
-        if K::RECIPROCAL {
-            assert_reciprocal(&m, &pairs, 1e-12);
-            assert_reciprocal(&m, &hard_case_pairs(), 1e-12);
-            assert_reciprocal(&m, &dense_grid_pairs(20, 8), 1e-12);
-        }
-        assert_nonnegative(&m, &dense_grid_pairs(40, 16));
-        assert_zero_below_horizon(&m);
-        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+        assert_shared_checks(&model::<K>(), 11);
     }
 
     #[test]
@@ -575,12 +563,7 @@ mod tests {
         let (d, s) = (k * d, k * s);
         let m = CosineLobeModel::<K>::new(Rgb::new(d, 0.5, 0.3 * d), Rgb::new(0.2, s, 0.9 * s), n)
             .unwrap();
-        let pairs = random_pairs(seed, 12);
-        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
-        assert_paths_agree(&m, &pairs, 0.0);
-        if K::RECIPROCAL {
-            assert_reciprocal(&m, &pairs, 1e-12);
-        }
+        assert_gradient_paths_reciprocity(&m, seed);
     }
 
     proptest! {

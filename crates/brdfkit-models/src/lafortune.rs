@@ -507,28 +507,18 @@ mod tests {
     #[test]
     fn value_matches_the_angle_formula() {
         let m = model();
-        let mut r = SplitMix64(15);
-        for _ in 0..500 {
-            let (ti, pi, to, po) = (
-                r.uniform(0.0, 1.5),
-                r.uniform(-3.0, 3.0),
-                r.uniform(0.0, 1.5),
-                r.uniform(-3.0, 3.0),
-            );
+        assert_matches_angle_formula(&m, 15, 500, 1.5, 1e-12, |ti, pi, to, po| {
             let xy = ti.sin() * to.sin() * (pi - po).cos();
             let zz = ti.cos() * to.cos();
-            let f = m.eval(&spherical(ti, pi), &spherical(to, po));
-            for c in 0..3 {
-                let mut want = m.rho_d()[c] / PI;
-                for l in m.lobes() {
-                    let b = l.cxy() * xy + l.cz() * zz;
-                    if b > 0.0 {
-                        want += l.rho()[c] * b.powf(l.n());
-                    }
+            let mut want = m.rho_d() / PI;
+            for l in m.lobes() {
+                let b = l.cxy() * xy + l.cz() * zz;
+                if b > 0.0 {
+                    want += l.rho() * b.powf(l.n());
                 }
-                assert!((f[c] - want).abs() <= 1e-12 * want, "{} vs {want}", f[c]);
             }
-        }
+            want
+        });
     }
 
     #[test]
@@ -658,16 +648,7 @@ mod tests {
 
     #[test]
     fn shared_checks() {
-        let m = model();
-        let pairs = random_pairs(16, 300);
-        assert_paths_agree(&m, &pairs, 0.0);
-        assert_paths_agree(&m, &hard_case_pairs(), 0.0);
-        assert_reciprocal(&m, &pairs, 1e-12);
-        assert_reciprocal(&m, &hard_case_pairs(), 1e-12);
-        assert_reciprocal(&m, &dense_grid_pairs(20, 8), 1e-12);
-        assert_nonnegative(&m, &dense_grid_pairs(40, 16));
-        assert_zero_below_horizon(&m);
-        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+        assert_shared_checks(&model(), 16);
     }
 
     #[test]
@@ -703,10 +684,7 @@ mod tests {
                 vec![lobe(cxy, cz, n, Rgb::new(rho, 0.5 * rho, 0.2)), lobe(rcxy, 0.8, rn, Rgb::splat(0.3))],
             )
             .unwrap();
-            let pairs = random_pairs(seed, 12);
-            assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
-            assert_paths_agree(&m, &pairs, 0.0);
-            assert_reciprocal(&m, &pairs, 1e-12);
+            assert_gradient_paths_reciprocity(&m, seed);
         }
     }
 }

@@ -253,7 +253,6 @@ mod tests {
     use super::*;
     use crate::lambert::Lambert;
     use crate::testing::*;
-    use brdfkit_core::direction::spherical;
     use proptest::prelude::*;
     use std::f64::consts::PI;
 
@@ -266,22 +265,11 @@ mod tests {
         // Independent truth: the paper's formula with angles, α, β and tan β.
         let m = model();
         let (a, b, _, _) = coefficients(0.4);
-        let mut r = SplitMix64(10);
-        for _ in 0..1000 {
-            let (ti, pi, to, po) = (
-                r.uniform(0.0, 1.55),
-                r.uniform(-3.0, 3.0),
-                r.uniform(0.0, 1.55),
-                r.uniform(-3.0, 3.0),
-            );
+        assert_matches_angle_formula(&m, 10, 1000, 1.55, 1e-12, |ti, pi, to, po| {
             let (al, be) = (ti.max(to), ti.min(to));
             let t = (pi - po).cos().max(0.0) * al.sin() * be.tan();
-            let f = m.eval(&spherical(ti, pi), &spherical(to, po));
-            for c in 0..3 {
-                let want = m.rho_d()[c] / PI * (a + b * t);
-                assert!((f[c] - want).abs() <= 1e-12 * want, "{} vs {want}", f[c]);
-            }
-        }
+            m.rho_d() / PI * (a + b * t)
+        });
     }
 
     #[test]
@@ -337,16 +325,7 @@ mod tests {
 
     #[test]
     fn shared_checks() {
-        let m = model();
-        let pairs = random_pairs(14, 300);
-        assert_paths_agree(&m, &pairs, 0.0);
-        assert_paths_agree(&m, &hard_case_pairs(), 0.0);
-        assert_reciprocal(&m, &pairs, 1e-12);
-        assert_reciprocal(&m, &hard_case_pairs(), 1e-12);
-        assert_reciprocal(&m, &dense_grid_pairs(20, 8), 1e-12);
-        assert_nonnegative(&m, &dense_grid_pairs(40, 16));
-        assert_zero_below_horizon(&m);
-        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+        assert_shared_checks(&model(), 14);
     }
 
     #[test]
@@ -374,10 +353,7 @@ mod tests {
             rho in 0.01f64..0.99, sigma in 0.001f64..1.5, seed in any::<u64>()
         ) {
             let m = OrenNayar::new(Rgb::new(rho, 0.5, 0.9 * rho), sigma).unwrap();
-            let pairs = random_pairs(seed, 12);
-            assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
-            assert_paths_agree(&m, &pairs, 0.0);
-            assert_reciprocal(&m, &pairs, 1e-12);
+            assert_gradient_paths_reciprocity(&m, seed);
         }
     }
 }

@@ -313,3 +313,68 @@ pub fn assert_zero_below_horizon(m: &dyn Model) {
         }
     }
 }
+
+/// The checks most models' unit tests run on one parameter set: the four paths agree
+/// exactly on `seed`'s 300 random pairs, the hard cases and a dense grid; f is
+/// reciprocal to 1e-12 on all three when the model says it is
+/// ([`Model::is_reciprocal`]); f ≥ 0 on a finer dense grid; zero below the horizon;
+/// analytic gradients match finite differences on the random pairs.
+pub fn assert_shared_checks(m: &dyn Model, seed: u64) {
+    let pairs = random_pairs(seed, 300);
+    assert_paths_agree(m, &pairs, 0.0);
+    assert_paths_agree(m, &hard_case_pairs(), 0.0);
+    assert_paths_agree(m, &dense_grid_pairs(12, 6), 0.0);
+    if m.is_reciprocal() {
+        assert_reciprocal(m, &pairs, 1e-12);
+        assert_reciprocal(m, &hard_case_pairs(), 1e-12);
+        assert_reciprocal(m, &dense_grid_pairs(20, 8), 1e-12);
+    }
+    assert_nonnegative(m, &dense_grid_pairs(40, 16));
+    assert_zero_below_horizon(m);
+    assert_gradient_matches_fd(m, &pairs, 1e-6, 1e-6);
+}
+
+/// The body of the models' gradient property tests, on `seed`'s 12 random pairs:
+/// analytic gradients match finite differences, the paths agree exactly, and f is
+/// reciprocal to 1e-12 when the model says it is.
+pub fn assert_gradient_paths_reciprocity(m: &dyn Model, seed: u64) {
+    let pairs = random_pairs(seed, 12);
+    assert_gradient_matches_fd(m, &pairs, 1e-6, 1e-6);
+    assert_paths_agree(m, &pairs, 0.0);
+    if m.is_reciprocal() {
+        assert_reciprocal(m, &pairs, 1e-12);
+    }
+}
+
+/// `eval` agrees with an independent closed form `want(θi, φi, θo, φo)` to relative
+/// `tol` per channel, on `count` angle quadruples drawn from `seed` (θ uniform in
+/// [0, `theta_max`), φ in [−3, 3)).
+pub fn assert_matches_angle_formula(
+    m: &dyn Model,
+    seed: u64,
+    count: usize,
+    theta_max: f64,
+    tol: f64,
+    want: impl Fn(f64, f64, f64, f64) -> Rgb,
+) {
+    let mut r = SplitMix64(seed);
+    for _ in 0..count {
+        let (ti, pi, to, po) = (
+            r.uniform(0.0, theta_max),
+            r.uniform(-3.0, 3.0),
+            r.uniform(0.0, theta_max),
+            r.uniform(-3.0, 3.0),
+        );
+        let f = m.eval(&spherical(ti, pi), &spherical(to, po));
+        let w = want(ti, pi, to, po);
+        for c in 0..3 {
+            assert!(
+                (f[c] - w[c]).abs() <= tol * w[c],
+                "{}: {} vs {} at θi {ti}, φi {pi}, θo {to}, φo {po}, channel {c}",
+                m.name(),
+                f[c],
+                w[c]
+            );
+        }
+    }
+}
