@@ -38,18 +38,27 @@
 //! bilinear in (Rd, Rs), so its maximum over [0, 1]² is at a corner, and the tests
 //! measure the corners: see [`Model::conserves_energy`] and `docs/models.md`.
 
-use crate::cook_torrance::{Shape, batch_pair, check_rgb, pair_geometry};
+use crate::cook_torrance::{Shape, batch_pair, pair_geometry};
 use crate::json;
+use crate::params::{DiffuseSpecular, ShapedLayout, grad_batch_via, grad_via, shape_gradient};
 use brdfkit_core::model::Domain;
 use brdfkit_core::scattering::fresnel::schlick_weight;
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 use std::f64::consts::PI;
 
 /// The domain of Rd and Rs.
-pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
+pub use crate::params::RHO_DOMAIN;
 /// The domain of the exponents.
 pub const N_DOMAIN: Domain = Domain::closed(0.0, 1e6);
+
+/// The parameter layout: Rd, Rs (default 0.3), then n or n_u, n_v (default 100).
+const LAYOUT: ShapedLayout = ShapedLayout {
+    rhos: DiffuseSpecular::albedos(0.3, 0.3),
+    keys: ("n", "n_u", "n_v"),
+    domain: N_DOMAIN,
+    default: 100.0,
+};
 
 /// 28/(23π), the diffuse normalisation.
 const DIFFUSE_NORM: f64 = 28.0 / (23.0 * PI);
@@ -91,13 +100,13 @@ impl AshikhminShirley {
 
     /// Sets Rd (each channel in [0, 1]).
     pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
+        self.rho_d = LAYOUT.rhos.check_d(rho_d)?;
         Ok(self)
     }
 
     /// Sets Rs (each channel in [0, 1]).
     pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
-        self.rho_s = check_rgb("rho_s", rho_s, RHO_DOMAIN)?;
+        self.rho_s = LAYOUT.rhos.check_s(rho_s)?;
         Ok(self)
     }
 
@@ -113,7 +122,7 @@ impl AshikhminShirley {
 
     /// Sets the exponents.
     pub fn with_shape(mut self, n: Shape) -> Result<Self, ModelError> {
-        self.n = n.check("n", "n_u", "n_v", N_DOMAIN)?;
+        self.n = LAYOUT.check(n)?;
         Ok(self)
     }
 
@@ -138,7 +147,7 @@ impl AshikhminShirley {
         AshikhminShirley::new()
             .with_rho_d(json::rgb_or(&o, "rho_d", 0.3, M)?)?
             .with_rho_s(json::rgb_or(&o, "rho_s", 0.3, M)?)?
-            .with_shape(Shape::from_json(&o, ("n", "n_u", "n_v"), 100.0, M)?)
+            .with_shape(LAYOUT.read_shape(&o, M)?)
     }
 
     /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
@@ -191,14 +200,7 @@ impl AshikhminShirley {
             // ∂P/∂n_u = P (1/(2(n_u + 1)) + hx² ln(hz)/(hx² + hy²)), likewise n_v.
             let p_u = p * (0.5 / (nu + 1.0) + hx2 * r);
             let p_v = p * (0.5 / (nv + 1.0) + hy2 * r);
-            let fr = Rgb::new(f[0], f[1], f[2]);
-            match self.n {
-                Shape::Isotropic(_) => gr[6] = fr * (p_u + p_v),
-                Shape::Anisotropic(..) => {
-                    gr[6] = fr * p_u;
-                    gr[7] = fr * p_v;
-                }
-            }
+            shape_gradient(&self.n, Rgb::new(f[0], f[1], f[2]), p_u, p_v, gr);
         }
         out
     }
@@ -222,48 +224,26 @@ impl Model for AshikhminShirley {
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {
-        let mut v: Vec<ParamSpec> = ParamSpec::per_channel("rho_d", RHO_DOMAIN, 0.3).to_vec();
-        v.extend(ParamSpec::per_channel("rho_s", RHO_DOMAIN, 0.3));
-        v.extend(self.n.specs("n", "n_u", "n_v", N_DOMAIN, 100.0));
-        v
+        LAYOUT.specs(&self.n)
     }
 
     fn params(&self) -> Vec<f64> {
-        let mut v = Vec::with_capacity(self.num_params());
-        v.extend_from_slice(&self.rho_d.0);
-        v.extend_from_slice(&self.rho_s.0);
-        self.n.push_to(&mut v);
-        v
+        ShapedLayout::values(self.rho_d, self.rho_s, &self.n)
     }
 
     fn num_params(&self) -> usize {
-        6 + self.n.len()
+        ShapedLayout::count(&self.n)
     }
 
     fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        let n = self.num_params();
-        if p.len() != n {
-            return Err(ModelError::ParamCount {
-                expected: n,
-                got: p.len(),
-            });
-        }
-        let m = self
-            .clone()
-            .with_rho_d(Rgb::new(p[0], p[1], p[2]))?
-            .with_rho_s(Rgb::new(p[3], p[4], p[5]))?
-            .with_shape(self.n.with_values(&p[6..]))?;
-        *self = m;
+        let (d, s, n) = ShapedLayout::from_values(p, &self.n)?;
+        *self = self.clone().with_rho_d(d)?.with_rho_s(s)?.with_shape(n)?;
         Ok(())
     }
 
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
         let (a, b, h, _) = pair_geometry(wi, wo);
-        let mut g = [Rgb::ZERO; MAXP];
-        let f = self.kernel(a, b, h, Some(&mut g));
-        let n = self.num_params();
-        grad[..n].copy_from_slice(&g[..n]);
-        f
+        grad_via::<MAXP>(self.num_params(), grad, |g| self.kernel(a, b, h, Some(g)))
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
@@ -274,23 +254,14 @@ impl Model for AshikhminShirley {
     }
 
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let np = self.num_params();
-        let mut gk = [Rgb::ZERO; MAXP];
-        for (k, o) in out.iter_mut().enumerate().take(n) {
+        grad_batch_via::<MAXP>(g.len(), self.num_params(), out, grad, |k, gk| {
             let (a, b, h, _) = batch_pair(g, k);
-            *o = self.kernel(a, b, h, Some(&mut gk));
-            for (p, v) in gk.iter().enumerate().take(np) {
-                grad[p * n + k] = *v;
-            }
-        }
+            self.kernel(a, b, h, Some(gk))
+        });
     }
 
     fn to_json(&self) -> Value {
-        let mut o = Map::new();
-        o.insert("rho_d".into(), json::rgb_value(self.rho_d));
-        o.insert("rho_s".into(), json::rgb_value(self.rho_s));
-        self.n.to_json(&mut o, ("n", "n_u", "n_v"));
+        let o = LAYOUT.write_json(self.rho_d, self.rho_s, self.n);
         json!({"model": "ashikhmin-shirley", "params": o})
     }
 

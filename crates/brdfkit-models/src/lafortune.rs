@@ -39,9 +39,9 @@
 //! Lewis 1994, as the plausible-phong tests measure), and the surface conserves energy
 //! when ρd + Σ ρⱼ Mⱼ^nⱼ 2π/(nⱼ+2) ≤ 1.
 
+use crate::cosine_lobe::N_DOMAIN;
 use crate::json;
-use crate::phong::{N_DOMAIN, channel, check_count, check_rgb};
-use crate::plausible_phong::RHO_DOMAIN;
+use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Map, Value, json};
@@ -65,7 +65,7 @@ const PER_LOBE: usize = 6;
 /// bases of the lobe's definition) count as 0: there n bⁿ⁻¹ = n bⁿ/b overflows for n < 1,
 /// and such a base only arises within ~1e-154 rad of the horizon or of the lobe's
 /// zero set. At b = 0 this also settles 0⁰ as 0, the limit of 0ⁿ as n → 0⁺ (as in
-/// [`crate::phong::cos_pow`]).
+/// [`crate::cosine_lobe::cos_pow`]).
 #[inline(always)]
 fn lobe_pow(b: f64, n: f64) -> f64 {
     if b >= f64::MIN_POSITIVE {

@@ -10,13 +10,13 @@
 //! conserved for ρd ≤ 1. J. H. Lambert, *Photometria*, 1760.
 
 use crate::json;
-use brdfkit_core::model::{Domain, check_param};
+use crate::params::{check_count, check_rgb};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
 
 /// The domain of ρd.
-pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
+pub use crate::params::RHO_DOMAIN;
 
 /// The Lambertian BRDF ρd/π.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,10 +40,7 @@ impl Lambert {
 
     /// Sets ρd; each channel must lie in [0, 1].
     pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        for (c, ch) in ["r", "g", "b"].iter().enumerate() {
-            check_param(&format!("rho_d.{ch}"), rho_d[c], RHO_DOMAIN)?;
-        }
-        self.rho_d = rho_d;
+        self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
         Ok(self)
     }
 
@@ -87,12 +84,7 @@ impl Model for Lambert {
     }
 
     fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        if p.len() != 3 {
-            return Err(ModelError::ParamCount {
-                expected: 3,
-                got: p.len(),
-            });
-        }
+        check_count(3, p.len())?;
         *self = self.clone().with_rho_d(Rgb::new(p[0], p[1], p[2]))?;
         Ok(())
     }

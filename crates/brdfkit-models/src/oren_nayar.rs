@@ -36,8 +36,7 @@
 //! false; ρd ≤ 1/1.0152 = 0.985 suffices.
 
 use crate::json;
-use crate::phong::{channel, check_count, check_rgb};
-use crate::plausible_phong::RHO_DOMAIN;
+use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Value, json};

@@ -1,7 +1,9 @@
 //! Parameter plumbing shared by the models: per-channel validation, the parameter-count
-//! check, one-channel gradient entries, and the ρd, ρs layout that most models begin
-//! their flat parameter vector with.
+//! check, one-channel gradient entries, the ρd, ρs layout that most models begin their
+//! flat parameter vector with (and the lobe shape that may follow it), and the copying
+//! of a fixed-size kernel gradient into the `eval_grad` and `eval_grad_batch` outputs.
 
+use crate::cook_torrance::Shape;
 use crate::json;
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{ModelError, ParamSpec, Rgb};
@@ -109,5 +111,114 @@ impl DiffuseSpecular {
         o.insert(self.names.0.into(), json::rgb_value(d));
         o.insert(self.names.1.into(), json::rgb_value(s));
         o
+    }
+}
+
+/// The layout of the models with a Lambertian base, a specular scale and a lobe shape
+/// that is one value or an x/y pair ([`Shape`]): `rho_d.{r,g,b}`, `rho_s.{r,g,b}`, then
+/// `iso` or `x`, `y` (`ward`'s α, `ashikhmin-shirley`'s n).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShapedLayout {
+    /// The ρd, ρs pair.
+    pub rhos: DiffuseSpecular,
+    /// The JSON names (isotropic, along x, along y) of the shape.
+    pub keys: (&'static str, &'static str, &'static str),
+    /// The domain of each shape value.
+    pub domain: Domain,
+    /// The default start of each shape value.
+    pub default: f64,
+}
+
+impl ShapedLayout {
+    /// Validates a shape, naming `iso`, `x` or `y` in an error.
+    pub fn check(&self, s: Shape) -> Result<Shape, ModelError> {
+        let (iso, x, y) = self.keys;
+        s.check(iso, x, y, self.domain)
+    }
+
+    /// The parameter count for a shape.
+    pub fn count(shape: &Shape) -> usize {
+        6 + shape.len()
+    }
+
+    /// The specs: ρd, ρs, then the shape's one or two.
+    pub fn specs(&self, shape: &Shape) -> Vec<ParamSpec> {
+        let (iso, x, y) = self.keys;
+        let mut v = self.rhos.specs();
+        v.extend(shape.specs(iso, x, y, self.domain, self.default));
+        v
+    }
+
+    /// The flat values.
+    pub fn values(d: Rgb, s: Rgb, shape: &Shape) -> Vec<f64> {
+        let mut v = DiffuseSpecular::values(d, s, shape.len());
+        shape.push_to(&mut v);
+        v
+    }
+
+    /// ρd, ρs and a shape of the same kind as `like` from a flat vector, after checking
+    /// its length (the values are unchecked: the builder validates them).
+    pub fn from_values(p: &[f64], like: &Shape) -> Result<(Rgb, Rgb, Shape), ModelError> {
+        check_count(Self::count(like), p.len())?;
+        let (d, s) = DiffuseSpecular::from_values(p);
+        Ok((d, s, like.with_values(&p[6..])))
+    }
+
+    /// The shape from a params object (see [`Shape`]'s `from_json`).
+    pub fn read_shape(&self, o: &Map<String, Value>, model: &str) -> Result<Shape, ModelError> {
+        Shape::from_json(o, self.keys, self.default, model)
+    }
+
+    /// A params object holding ρd, ρs and the shape.
+    pub fn write_json(&self, d: Rgb, s: Rgb, shape: Shape) -> Map<String, Value> {
+        let mut o = self.rhos.write_json(d, s);
+        shape.to_json(&mut o, self.keys);
+        o
+    }
+}
+
+/// The shape entries of a gradient (from index 6): `scale · (dx + dy)` for an isotropic
+/// shape, whose one value moves both axes, else `scale · dx` and `scale · dy`.
+#[inline(always)]
+pub fn shape_gradient(shape: &Shape, scale: Rgb, dx: f64, dy: f64, grad: &mut [Rgb]) {
+    match shape {
+        Shape::Isotropic(_) => grad[6] = scale * (dx + dy),
+        Shape::Anisotropic(..) => {
+            grad[6] = scale * dx;
+            grad[7] = scale * dy;
+        }
+    }
+}
+
+/// `eval_grad` through a kernel that fills a fixed array of `M` gradient entries: the
+/// first `np` (the model's parameter count) are copied out.
+#[inline(always)]
+pub fn grad_via<const M: usize>(
+    np: usize,
+    grad: &mut [Rgb],
+    kernel: impl FnOnce(&mut [Rgb; M]) -> Rgb,
+) -> Rgb {
+    let mut g = [Rgb::ZERO; M];
+    let f = kernel(&mut g);
+    grad[..np].copy_from_slice(&g[..np]);
+    f
+}
+
+/// `eval_grad_batch` through such a kernel, called for pair k = 0 … n−1: its value
+/// goes to `out[k]`, its gradient to the parameter-major columns `grad[p · n + k]`.
+#[inline(always)]
+pub fn grad_batch_via<const M: usize>(
+    n: usize,
+    np: usize,
+    out: &mut [Rgb],
+    grad: &mut [Rgb],
+    mut kernel: impl FnMut(usize, &mut [Rgb; M]) -> Rgb,
+) {
+    let mut gk = [Rgb::ZERO; M];
+    for (k, o) in out.iter_mut().enumerate().take(n) {
+        *o = kernel(k, &mut gk);
+        for (p, v) in gk.iter().enumerate().take(np) {
+            grad[p * n + k] = *v;
+        }
     }
 }

@@ -39,17 +39,26 @@
 //! When exp(·) underflows to 0 the specular value and its gradient are exactly 0: the
 //! normalisation alone can overflow for a half vector within 1e-77 of the horizon.
 
-use crate::cook_torrance::{Shape, batch_pair, check_rgb, pair_geometry};
+use crate::cook_torrance::{Shape, batch_pair, pair_geometry};
 use crate::json;
+use crate::params::{DiffuseSpecular, ShapedLayout, grad_batch_via, grad_via, shape_gradient};
 use brdfkit_core::model::Domain;
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 use std::f64::consts::{FRAC_1_PI, PI};
 
 /// The domain of ρd and ρs.
-pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
+pub use crate::params::RHO_DOMAIN;
 /// The domain of α (αx, αy).
 pub const ALPHA_DOMAIN: Domain = Domain::closed(1e-6, 100.0);
+
+/// The parameter layout: ρd, ρs (default 0.3), then α or αx, αy (default 0.2).
+const LAYOUT: ShapedLayout = ShapedLayout {
+    rhos: DiffuseSpecular::albedos(0.3, 0.3),
+    keys: ("alpha", "alpha_x", "alpha_y"),
+    domain: ALPHA_DOMAIN,
+    default: 0.2,
+};
 
 /// The normalisation of the Ward lobe.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -116,13 +125,13 @@ impl Ward {
 
     /// Sets ρd (each channel in [0, 1]).
     pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
+        self.rho_d = LAYOUT.rhos.check_d(rho_d)?;
         Ok(self)
     }
 
     /// Sets ρs (each channel in [0, 1]).
     pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
-        self.rho_s = check_rgb("rho_s", rho_s, RHO_DOMAIN)?;
+        self.rho_s = LAYOUT.rhos.check_s(rho_s)?;
         Ok(self)
     }
 
@@ -138,7 +147,7 @@ impl Ward {
 
     /// Sets the roughness shape.
     pub fn with_shape(mut self, alpha: Shape) -> Result<Self, ModelError> {
-        self.alpha = alpha.check("alpha", "alpha_x", "alpha_y", ALPHA_DOMAIN)?;
+        self.alpha = LAYOUT.check(alpha)?;
         Ok(self)
     }
 
@@ -186,12 +195,7 @@ impl Ward {
         Ok(Ward::new()
             .with_rho_d(json::rgb_or(&o, "rho_d", 0.3, M)?)?
             .with_rho_s(json::rgb_or(&o, "rho_s", 0.3, M)?)?
-            .with_shape(Shape::from_json(
-                &o,
-                ("alpha", "alpha_x", "alpha_y"),
-                0.2,
-                M,
-            )?)?
+            .with_shape(LAYOUT.read_shape(&o, M)?)?
             .with_normalization(n))
     }
 
@@ -248,13 +252,7 @@ impl Ward {
             // ∂W/∂αx = W (2 hx²/(αx² hz²) − 1)/αx, likewise y.
             let w_ax = w * (2.0 * ux / hz2 - 1.0) / ax;
             let w_ay = w * (2.0 * uy / hz2 - 1.0) / ay;
-            match self.alpha {
-                Shape::Isotropic(_) => gr[6] = self.rho_s * (w_ax + w_ay),
-                Shape::Anisotropic(..) => {
-                    gr[6] = self.rho_s * w_ax;
-                    gr[7] = self.rho_s * w_ay;
-                }
-            }
+            shape_gradient(&self.alpha, self.rho_s, w_ax, w_ay, gr);
         }
         out
     }
@@ -278,51 +276,32 @@ impl Model for Ward {
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {
-        let mut v: Vec<ParamSpec> = ParamSpec::per_channel("rho_d", RHO_DOMAIN, 0.3).to_vec();
-        v.extend(ParamSpec::per_channel("rho_s", RHO_DOMAIN, 0.3));
-        v.extend(
-            self.alpha
-                .specs("alpha", "alpha_x", "alpha_y", ALPHA_DOMAIN, 0.2),
-        );
-        v
+        LAYOUT.specs(&self.alpha)
     }
 
     fn params(&self) -> Vec<f64> {
-        let mut v = Vec::with_capacity(self.num_params());
-        v.extend_from_slice(&self.rho_d.0);
-        v.extend_from_slice(&self.rho_s.0);
-        self.alpha.push_to(&mut v);
-        v
+        ShapedLayout::values(self.rho_d, self.rho_s, &self.alpha)
     }
 
     fn num_params(&self) -> usize {
-        6 + self.alpha.len()
+        ShapedLayout::count(&self.alpha)
     }
 
     fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        let n = self.num_params();
-        if p.len() != n {
-            return Err(ModelError::ParamCount {
-                expected: n,
-                got: p.len(),
-            });
-        }
-        let m = self
+        let (d, s, alpha) = ShapedLayout::from_values(p, &self.alpha)?;
+        *self = self
             .clone()
-            .with_rho_d(Rgb::new(p[0], p[1], p[2]))?
-            .with_rho_s(Rgb::new(p[3], p[4], p[5]))?
-            .with_shape(self.alpha.with_values(&p[6..]))?;
-        *self = m;
+            .with_rho_d(d)?
+            .with_rho_s(s)?
+            .with_shape(alpha)?;
         Ok(())
     }
 
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
         let (a, b, h, c) = pair_geometry(wi, wo);
-        let mut g = [Rgb::ZERO; MAXP];
-        let f = self.kernel(a, b, h, c, Some(&mut g));
-        let n = self.num_params();
-        grad[..n].copy_from_slice(&g[..n]);
-        f
+        grad_via::<MAXP>(self.num_params(), grad, |g| {
+            self.kernel(a, b, h, c, Some(g))
+        })
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
@@ -333,23 +312,14 @@ impl Model for Ward {
     }
 
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let np = self.num_params();
-        let mut gk = [Rgb::ZERO; MAXP];
-        for (k, o) in out.iter_mut().enumerate().take(n) {
+        grad_batch_via::<MAXP>(g.len(), self.num_params(), out, grad, |k, gk| {
             let (a, b, h, c) = batch_pair(g, k);
-            *o = self.kernel(a, b, h, c, Some(&mut gk));
-            for (p, v) in gk.iter().enumerate().take(np) {
-                grad[p * n + k] = *v;
-            }
-        }
+            self.kernel(a, b, h, c, Some(gk))
+        });
     }
 
     fn to_json(&self) -> Value {
-        let mut o = Map::new();
-        o.insert("rho_d".into(), json::rgb_value(self.rho_d));
-        o.insert("rho_s".into(), json::rgb_value(self.rho_s));
-        self.alpha.to_json(&mut o, ("alpha", "alpha_x", "alpha_y"));
+        let mut o = LAYOUT.write_json(self.rho_d, self.rho_s, self.alpha);
         o.insert("normalization".into(), self.normalization.name().into());
         json!({"model": "ward", "params": o})
     }
