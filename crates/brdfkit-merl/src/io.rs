@@ -578,6 +578,28 @@ mod tests {
         assert_bit_identical(&MerlTable::read(&path).unwrap(), &reference, "read");
     }
 
+    /// Reads running inside parallel tasks (a batch of tables read with rayon) share the
+    /// pool's threads and so their staging buffers: each borrow ends before a thread can
+    /// take up another task, so nested reads neither panic nor mix their data.
+    #[test]
+    fn reads_nested_in_parallel_tasks_are_independent() {
+        let dims = Dims::new(7, 11, 13).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<(PathBuf, Vec<u8>)> = (0..8)
+            .map(|s| {
+                let bytes = image(dims, &assorted_raw(dims.cells(), 100 + s));
+                let path = dir.path().join(format!("t{s}.binary"));
+                std::fs::write(&path, &bytes).unwrap();
+                (path, bytes)
+            })
+            .collect();
+        files.par_iter().for_each(|(path, bytes)| {
+            let file = File::open(path).unwrap();
+            let t = read_body(dims, path, &file, 5).unwrap();
+            assert_bit_identical(&t, &MerlTable::from_bytes(bytes, "mem").unwrap(), "nested");
+        });
+    }
+
     /// Several bad values in different runs and planes: whatever the run length, the
     /// first in file order is the one reported (here a red value beyond the limit at a
     /// later cell than a NaN in green and an infinity in blue).
