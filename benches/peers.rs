@@ -11,7 +11,7 @@
 //!   over every thread of the global rayon pool), and `Brdf::eval` from the direction
 //!   pairs (h and cos θd computed per pair, as Mitsuba does).
 //! - `read`: `MerlTable::read` of `DIR/table.binary` (the gold table) and `cat FILE >
-//!   /dev/null`, interleaved.
+//!   /dev/null`, interleaved in alternating order, at least 100 pairs.
 //! - `nearest`: `lookup_batch(Nearest)` of 1,458,000 seeded random pairs
 //!   (`DIR/random_pairs.f64`).
 //! - `fit`: the default full-table fit of the `fit` bench's noise-free table (Cook-Torrance
@@ -199,30 +199,58 @@ fn main() {
             .expect("spawn cat");
         assert!(st.success());
     };
-    let (mut rs, mut cs) = (Vec::new(), Vec::new());
+    // Interleaved pairs, the order alternating so neither side always runs on a cache or
+    // page state the other left; many pairs, because a fresh 35 MB allocation costs 2–3×
+    // more in some stretches of time than in others on this VM (docs/merl-format.md).
+    let (mut rs, mut cs, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
     black_box(MerlTable::read(&tpath).unwrap());
     cat();
-    for _ in 0..(4 * reps).max(10) {
+    let time_read = || {
         let t = Instant::now();
         black_box(MerlTable::read(&tpath).unwrap());
-        rs.push(t.elapsed().as_secs_f64());
+        t.elapsed().as_secs_f64()
+    };
+    let time_cat = || {
         let t = Instant::now();
         cat();
-        cs.push(t.elapsed().as_secs_f64());
+        t.elapsed().as_secs_f64()
+    };
+    for i in 0..(14 * reps).max(100) {
+        let (r, c) = if i % 2 == 0 {
+            let r = time_read();
+            (r, time_cat())
+        } else {
+            let c = time_cat();
+            (time_read(), c)
+        };
+        rs.push(r);
+        cs.push(c);
+        ratios.push(r / c);
     }
     rs.sort_by(|a, b| a.total_cmp(b));
     cs.sort_by(|a, b| a.total_cmp(b));
+    ratios.sort_by(|a, b| a.total_cmp(b));
+    let within = ratios.iter().filter(|&&x| x <= 1.5).count();
     let raw_sum: f64 = table.raw().iter().filter(|x| **x >= 0.0).sum();
     out["read"] = json!({
         "bytes": std::fs::metadata(&tpath).map(|m| m.len()).unwrap_or(0),
         "read_s": rs[rs.len() / 2], "read_min_s": rs[0],
         "cat_s": cs[cs.len() / 2], "cat_min_s": cs[0],
+        "pair_ratio_median": ratios[ratios.len() / 2],
+        "pair_ratio_p10": ratios[ratios.len() / 10],
+        "pair_ratio_p90": ratios[ratios.len() * 9 / 10],
+        "pairs_within_1_5": within,
         "runs": rs.len(), "valid_raw_sum": raw_sum,
     });
     eprintln!(
-        "read: {:.1} ms, cat {:.1} ms",
+        "read: {:.1} ms, cat {:.1} ms; per-pair read/cat median {:.2} (p10 {:.2}, p90 {:.2}), {} of {} pairs <= 1.5",
         rs[rs.len() / 2] * 1e3,
-        cs[cs.len() / 2] * 1e3
+        cs[cs.len() / 2] * 1e3,
+        ratios[ratios.len() / 2],
+        ratios[ratios.len() / 10],
+        ratios[ratios.len() * 9 / 10],
+        within,
+        ratios.len()
     );
 
     // --- nearest lookup of random pairs ---

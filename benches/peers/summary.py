@@ -34,6 +34,7 @@ def main():
 
     e = r["eval"]
     checks = []
+    notes = []
     if peers["eval_mitsuba"]:
         m = peers["eval_mitsuba"]
         row("eval CT GGX conductor, 1,458,000 cells", "eval_batch_f32 (f32)", e["eval_f32_s"],
@@ -54,6 +55,10 @@ def main():
     rd = r["read"]
     row("read a 34,992,012-byte table", "MerlTable::read", rd["read_s"], "cat FILE > /dev/null",
         rd["cat_s"], "read/cat <= 1.5")
+    if "pair_ratio_median" in rd:
+        notes.append(f"read/cat per interleaved pair: median {rd['pair_ratio_median']:.2f} "
+                     f"(p10 {rd['pair_ratio_p10']:.2f}, p90 {rd['pair_ratio_p90']:.2f}), "
+                     f"{rd['pairs_within_1_5']} of {rd['runs']} pairs <= 1.5")
     if peers["read_numpy"]:
         p = peers["read_numpy"]
         row("", "MerlTable::read", rd["read_s"], "numpy frombuffer(read())", p["frombuffer_s"])
@@ -86,6 +91,8 @@ def main():
         else:
             ratio_s = f"{ratio:.2f}x"
         print(f"{what:<{w}}  {ol:<26} {o * 1e3:9.2f}  {pl:<34} {p * 1e3:9.2f}  {ratio_s:>12}  {t}")
+    for n in notes:
+        print(f"note: {n}")
     for name, ok in checks:
         print(f"check: {name}: {'ok' if ok else 'MISMATCH'}")
     with open(out, "w") as f:
@@ -93,6 +100,7 @@ def main():
                    "brdfkit": r, "peers": peers,
                    "rows": [dict(zip(["what", "brdfkit", "brdfkit_s", "peer", "peer_s", "target"], x))
                             for x in rows],
+                   "notes": notes,
                    "checks": [{"check": n, "ok": ok} for n, ok in checks]}, f, indent=1)
     print(f"raw figures: {out}")
     if not all(ok for _, ok in checks):
