@@ -518,6 +518,8 @@ impl FitData {
                 mult.push(w);
             }
         }
+        // Freed before the columns of the subsample are allocated (peak memory).
+        drop(members);
         // File order keeps the geometry columns' memory access sequential.
         let mut order: Vec<usize> = (0..idx.len()).collect();
         order.sort_unstable_by_key(|&p| idx[p]);

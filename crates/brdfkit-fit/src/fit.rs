@@ -422,7 +422,15 @@ fn run_pass(
         data.stratified_subsample(cells as f64 / data.len() as f64, config.seed ^ seed)
     };
     let warm_data = warm_cells.map(|c| subsample(c, WARM_UP_SEED));
-    let explore_data = explore_cells.map(|c| subsample(c, EXPLORE_SEED));
+    // Drawn from the warm-up set (stratified again; multiplicities multiply, so its
+    // weighted sums still estimate the full set's), not from the full set: no
+    // full-size temporary while the warm-up set is held.
+    let explore_data = match (explore_cells, &warm_data) {
+        (Some(c), Some(w)) => {
+            Some(w.stratified_subsample(c as f64 / w.len() as f64, config.seed ^ EXPLORE_SEED))
+        }
+        _ => None,
+    };
     // A given robust scale applies from the start (subsamples included); an automatic
     // one needs a plain fit first (see `FitConfig::robust`).
     let given = match (config.robust, config.robust_scale) {
@@ -822,7 +830,12 @@ pub fn fit(
     if let Some(o) = &observer {
         o.on_plan(&FitPlan {
             starts: config.starts,
-            finish: config.finish.min(config.starts),
+            // Ranked passes finish `finish` starts, unranked ones every start.
+            finish: if config.warm_up_cells_for(fitset.len()).is_some() {
+                config.finish.min(config.starts)
+            } else {
+                config.starts
+            },
             passes: passes.len(),
             max_iters: config.get_max_iters(),
             cells: fitset.len(),
