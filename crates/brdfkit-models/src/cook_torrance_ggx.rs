@@ -3,7 +3,11 @@
 //! ([`Model::eval_batch_f32`](brdfkit_core::Model::eval_batch_f32)).
 //!
 //! With s = hx²/αx² + hy²/αy² + hz² and, per direction v, S(v) = √(vz² + αx² vx² + αy² vy²)
-//! (= vz √(1 + α² tan²θv); isotropic: √(vz² + α²(1 − vz²))):
+//! (= vz √(1 + α² tan²θv); isotropic: √(vz² + α²(vx² + vy²))). Written with vx² + vy²
+//! rather than 1 − vz², S scales with v, so V below equals G/(4 cos θi cos θo) also for
+//! directions a few ulp off unit length (e.g. read from float32 data), as the textbook
+//! form does. The float32 kernel uses 1 − vz² for the isotropic lobe instead: it reads
+//! four columns fewer, and its inputs' length error (≤ 6e-8) stays below its round-off.
 //!
 //! - GGX (Walter et al. 2007, eq. 33; anisotropic: Heitz 2014, eq. 85):
 //!   D = 1/(π αx αy s²);
@@ -187,6 +191,17 @@ fn fresnel<T: Real, const F: u8>(k: &Consts<T>, cd: T) -> [T; 3] {
     }
 }
 
+/// sin²θ of a direction as the isotropic lobe takes it (module doc): vx² + vy² in f64,
+/// 1 − vz² in f32.
+#[inline(always)]
+fn sin2<T: Real>(v: [T; 3]) -> T {
+    if T::SIN2_FROM_Z {
+        T::ONE - v[2] * v[2]
+    } else {
+        v[0] * v[0] + v[1] * v[1]
+    }
+}
+
 /// The specular factor DV = D·V of a pair and what its gradient reuses.
 struct Lobe<T> {
     hx2: T,
@@ -217,8 +232,8 @@ fn lobe<T: Real, const A: bool, const C: bool>(
     } else {
         (
             (hx2 + hy2) * k.inv_ax2 + hz2,
-            (zi * zi + k.ax2 * (T::ONE - zi * zi)).sqrt(),
-            (zo * zo + k.ax2 * (T::ONE - zo * zo)).sqrt(),
+            (zi * zi + k.ax2 * sin2::<T>(wi)).sqrt(),
+            (zo * zo + k.ax2 * sin2::<T>(wo)).sqrt(),
         )
     };
     let vden = if C {
@@ -267,7 +282,7 @@ pub(super) const GRAD_P: usize = 11;
 /// ρs_c DV (1 − (1 − c)⁵), and for the roughness
 /// ∂ln DV/∂αx = (4 ux − s)/(αx s) − ∂ln vden/∂αx, ux = hx²/αx² (isotropic α:
 /// (4 u − 2 s)/(α s) − ∂ln vden/∂α, u = (hx² + hy²)/α²), with ∂S(v)/∂αx = αx vx²/S(v)
-/// (isotropic: α (1 − vz²)/S(v)), so that
+/// (isotropic: α sin²θv/S(v)), so that
 /// separable:  ∂ln vden = ∂Si/(zi + Si) + ∂So/(zo + So),
 /// correlated: ∂ln vden = (zo ∂Si + zi ∂So)/(zo Si + zi So).
 #[inline(always)]
@@ -310,10 +325,7 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
         let u = (hx2 + hy2) * k.inv_ax2;
         let four = T::TWO + T::TWO;
         let d = (four * u - T::TWO * s) * k.inv_ax / s
-            - dln_vden(
-                k.ax * (T::ONE - zi * zi) / si,
-                k.ax * (T::ONE - zo * zo) / so,
-            );
+            - dln_vden(k.ax * sin2::<T>(wi) / si, k.ax * sin2::<T>(wo) / so);
         (d, z)
     };
     let f = fresnel::<T, F>(k, cd);

@@ -33,6 +33,10 @@ pub(crate) trait Real:
     /// The smallest positive normal number: a floor for denominators that are exactly 0
     /// only where their numerator is 0 too.
     const TINY: Self;
+    /// Whether a kernel may take sin²θ as 1 − cos²θ (reading only z) rather than from
+    /// the x and y components: true where the precision's own round-off exceeds what a
+    /// direction's length error costs (f32).
+    const SIN2_FROM_Z: bool;
     /// `x` rounded to this precision.
     fn of(x: f64) -> Self;
     /// Correctly rounded square root.
@@ -40,8 +44,9 @@ pub(crate) trait Real:
 }
 
 macro_rules! real {
-    ($t:ident) => {
+    ($t:ident, $sin2_from_z:literal) => {
         impl Real for $t {
+            const SIN2_FROM_Z: bool = $sin2_from_z;
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const HALF: Self = 0.5;
@@ -58,8 +63,8 @@ macro_rules! real {
         }
     };
 }
-real!(f64);
-real!(f32);
+real!(f64, false);
+real!(f32, true);
 
 /// `c ? a : b`, written so that LLVM emits a blend rather than a branch.
 #[inline(always)]
