@@ -18,9 +18,12 @@
 //! ```
 //!
 //! # Evaluation
-//! The cells are split into chunks of [`CHUNK`]; rayon folds over the chunks with one
-//! scratch set per fold (model values, the model's parameter-major gradient, the
-//! Jacobian columns of the chunk), so nothing is allocated per cell. Per chunk and
+//! The cells are split into chunks of [`CHUNK`]; rayon maps over the chunks with one
+//! scratch set per job (`map_init`: model values, the model's parameter-major
+//! gradient, the Jacobian columns of the chunk), so nothing is allocated per cell.
+//! Each chunk's partial sums are collected and added in chunk order, so a pass gives
+//! the same bits whatever the number of threads and however the work was split (a
+//! fold's per-split partials are grouped by work stealing). Per chunk and
 //! channel the Jacobian columns of the parameters that act on that channel (the
 //! channel's own albedo-like parameters and the shared ones; see
 //! [`brdfkit_core::ParamRole`]) are formed as contiguous arrays, and JᵀJ and Jᵀr are
@@ -510,19 +513,13 @@ impl<'a> FitProblem<'a> {
         let n = inn.data.len();
         let g = inn.data.geometry();
         let nchunks = n.div_ceil(CHUNK);
-        let c = (0..nchunks)
+        let parts: Vec<f64> = (0..nchunks)
             .into_par_iter()
             .with_min_len(min_len(nchunks))
-            .fold(
-                || {
-                    (
-                        vec![Rgb::ZERO; CHUNK],
-                        vec![0.0; CHUNK],
-                        vec![0.0; CHUNK],
-                        0.0f64,
-                    )
-                },
-                |(mut out, mut sbuf, mut tbuf, mut acc), ci| {
+            .map_init(
+                || (vec![Rgb::ZERO; CHUNK], vec![0.0; CHUNK], vec![0.0; CHUNK]),
+                |(out, sbuf, tbuf), ci| {
+                    let mut acc = 0.0;
                     let s = ci * CHUNK;
                     let e = (s + CHUNK).min(n);
                     let len = e - s;
@@ -551,12 +548,12 @@ impl<'a> FitProblem<'a> {
                         }
                         acc += part;
                     }
-                    (out, sbuf, tbuf, acc)
+                    acc
                 },
             )
-            .map(|(_, _, _, a)| a)
-            .sum::<f64>();
-        let c = 0.5 * c;
+            .collect();
+        // Chunk partials added in chunk order: the same sum whatever the threads.
+        let c = 0.5 * parts.iter().sum::<f64>();
         if c.is_finite() { c } else { f64::INFINITY }
     }
 
@@ -584,10 +581,10 @@ impl<'a> FitProblem<'a> {
         let g = inn.data.geometry();
         let nchunks = n.div_ceil(CHUNK);
         let maxcols = inn.cols.iter().map(Vec::len).max().unwrap_or(0);
-        let acc = (0..nchunks)
+        let parts: Vec<(Vec<f64>, Vec<f64>, f64)> = (0..nchunks)
             .into_par_iter()
             .with_min_len(min_len(nchunks))
-            .fold(
+            .map_init(
                 || Scratch {
                     s: vec![0.0; CHUNK],
                     t: vec![0.0; CHUNK],
@@ -600,7 +597,11 @@ impl<'a> FitProblem<'a> {
                     jtr: vec![0.0; mdim],
                     cost: 0.0,
                 },
-                |mut sc, ci| {
+                |sc, ci| {
+                    // This chunk's own sums (added up in chunk order below).
+                    sc.jtj.fill(0.0);
+                    sc.jtr.fill(0.0);
+                    sc.cost = 0.0;
                     let s = ci * CHUNK;
                     let e = (s + CHUNK).min(n);
                     let len = e - s;
@@ -661,24 +662,24 @@ impl<'a> FitProblem<'a> {
                             sc.cost += 0.5 * dot(&sc.r[..len], &sc.r[..len]);
                         }
                     }
-                    sc
+                    (sc.jtj.clone(), sc.jtr.clone(), sc.cost)
                 },
             )
-            .map(|sc| (sc.jtj, sc.jtr, sc.cost))
-            .reduce(
-                || (vec![0.0; mdim * mdim], vec![0.0; mdim], 0.0),
-                |mut a, b| {
-                    for (x, y) in a.0.iter_mut().zip(&b.0) {
-                        *x += y;
-                    }
-                    for (x, y) in a.1.iter_mut().zip(&b.1) {
-                        *x += y;
-                    }
-                    a.2 += b.2;
-                    a
-                },
-            );
-        let (jtj_l, jtr, cost) = acc;
+            .collect();
+        // Chunk partials added in chunk order: the same sums, to the bit, whatever the
+        // number of threads and however rayon split the work (a fold's per-split
+        // partials are grouped by work stealing, so their round-off varied from run to
+        // run, and a long fit could end elsewhere).
+        let (mut jtj_l, mut jtr, mut cost) = (vec![0.0; mdim * mdim], vec![0.0; mdim], 0.0);
+        for (a, b, c) in &parts {
+            for (x, y) in jtj_l.iter_mut().zip(a) {
+                *x += y;
+            }
+            for (x, y) in jtr.iter_mut().zip(b) {
+                *x += y;
+            }
+            cost += c;
+        }
         // Only the lower triangle was accumulated (column lists increase in q, so
         // qb ≤ qa): mirror it.
         let mut jtj = DMatrix::zeros(mdim, mdim);
@@ -825,18 +826,18 @@ pub fn evaluate_losses(
     let wsum = data.weight_sum(weighting);
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
     let nchunks = n.div_ceil(CHUNK);
-    let sums = (0..nchunks)
+    let parts: Vec<[[f64; 3]; 4]> = (0..nchunks)
         .into_par_iter()
         .with_min_len(min_len(nchunks))
-        .fold(
+        .map_init(
             || {
                 (
                     [vec![Rgb::ZERO; CHUNK], vec![Rgb::ZERO; CHUNK]],
                     (vec![0.0; CHUNK], vec![0.0; CHUNK], vec![0.0; CHUNK]),
-                    [[0.0f64; 3]; 4],
                 )
             },
-            |(mut out, (mut xm, mut xt, mut wb), mut acc), ci| {
+            |(out, (xm, xt, wb)), ci| {
+                let mut acc = [[0.0f64; 3]; 4];
                 let s = ci * CHUNK;
                 let e = (s + CHUNK).min(n);
                 let len = e - s;
@@ -877,20 +878,18 @@ pub fn evaluate_losses(
                         acc[3][c] += ws[k] * d * d;
                     }
                 }
-                (out, (xm, xt, wb), acc)
+                acc
             },
         )
-        .map(|(_, _, a)| a)
-        .reduce(
-            || [[0.0; 3]; 4],
-            |mut a, b| {
-                for l in 0..4 {
-                    for c in 0..3 {
-                        a[l][c] += b[l][c];
-                    }
-                }
-                a
-            },
-        );
+        .collect();
+    // In chunk order: the same report whatever the threads.
+    let mut sums = [[0.0f64; 3]; 4];
+    for p in &parts {
+        for l in 0..4 {
+            for c in 0..3 {
+                sums[l][c] += p[l][c];
+            }
+        }
+    }
     crate::loss::LossReport::from_sums(sums, wsum, n)
 }

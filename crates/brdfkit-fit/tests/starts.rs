@@ -308,3 +308,32 @@ fn ranked_fit_with_an_automatic_robust_scale() {
         show(&res)
     );
 }
+
+/// The passes add their chunks' partial sums in chunk order, so a fit is the same to
+/// the bit on 1 thread and on 3 (starts in parallel, passes split differently): same
+/// parameters, losses, ranking and iteration counts.
+#[test]
+fn a_fit_is_the_same_on_any_number_of_threads() {
+    let mut data = data();
+    brdfkit_fit::synth::add_lognormal_noise(&mut data, 0.05, 3);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let a = fit(model(FAR).as_ref(), &data, &cfg(4, 1), None).unwrap();
+                let b = fit(model(FAR).as_ref(), &data, &cfg(4, 4), None).unwrap();
+                [a.record, b.record]
+            })
+    };
+    let (one, three) = (run(1), run(3));
+    for (x, y) in one.iter().zip(&three) {
+        let strip = |r: &FitRecord| {
+            let mut r = r.clone();
+            r.wall_time_s = 0.0;
+            r
+        };
+        assert_eq!(strip(x), strip(y));
+    }
+}
