@@ -518,7 +518,9 @@ fn fit_one(
             Err(e) => return Ok(Err(e.to_string())),
         };
         drop(bytes);
-        match FitData::from_table(&table) {
+        // The table is not needed after its cells: freeing it before the geometry is
+        // built keeps the table and the cells out of memory together.
+        match FitData::from_owned_table(table) {
             Ok(d) => (d, hash),
             Err(e) => return Ok(Err(format!("{}: {e}", t.path.display()))),
         }
