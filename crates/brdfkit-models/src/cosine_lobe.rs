@@ -245,7 +245,16 @@ impl<K: LobeKind> CosineLobeModel<K> {
         if cos_i <= 0.0 || cos_o <= 0.0 {
             return Rgb::ZERO;
         }
-        self.d * K::DIFFUSE_SCALE + self.s * K::lobe(self.n, c, cos_i)
+        self.d * K::DIFFUSE_SCALE + self.s * Self::lobe_call(self.n, c, cos_i)
+    }
+
+    /// [`LobeKind::lobe`] kept out of line: inlined, LLVM vectorises the batch loop and
+    /// then evaluates the `powf` for every pair of a vector, those below the horizon
+    /// included — measured 2.4× slower than this call per pair (phong on the MERL grid:
+    /// 29 M against 60–70 M pairs/s).
+    #[inline(never)]
+    fn lobe_call(n: f64, c: f64, cos_i: f64) -> f64 {
+        K::lobe(n, c, cos_i)
     }
 
     /// f, ∂f/∂d (any channel), ∂f/∂s (any channel), ∂f/∂n; the single kernel of
