@@ -412,6 +412,10 @@ pub struct CookTorrance {
     masking: Masking,
     beckmann_g1: BeckmannG1,
     fresnel: Fresnel,
+    /// The GGX kernel's configuration and f64 constants, derived from the fields above
+    /// by [`refreshed`](Self::refreshed) at the end of every builder (a per-pair `eval`
+    /// would otherwise recompute five divisions per call).
+    ggx64: Option<(ggx::Config, ggx::Consts<f64>)>,
 }
 
 impl Default for CookTorrance {
@@ -424,7 +428,9 @@ impl Default for CookTorrance {
             masking: Masking::SmithSeparable,
             beckmann_g1: BeckmannG1::Exact,
             fresnel: Fresnel::DEFAULT,
+            ggx64: None,
         }
+        .refreshed()
     }
 }
 
@@ -437,13 +443,13 @@ impl CookTorrance {
     /// Sets ρd (each channel in [0, 1]).
     pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
         self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
-        Ok(self)
+        Ok(self.refreshed())
     }
 
     /// Sets ρs (each channel in [0, 1]).
     pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
         self.rho_s = check_rgb("rho_s", rho_s, RHO_DOMAIN)?;
-        Ok(self)
+        Ok(self.refreshed())
     }
 
     /// An isotropic roughness α in [1e-6, 100].
@@ -459,31 +465,37 @@ impl CookTorrance {
     /// Sets the roughness shape (isotropic or anisotropic).
     pub fn with_shape(mut self, alpha: Shape) -> Result<Self, ModelError> {
         self.alpha = alpha.check("alpha", "alpha_x", "alpha_y", ALPHA_DOMAIN)?;
-        Ok(self)
+        Ok(self.refreshed())
     }
 
     /// The microfacet distribution.
     pub fn with_distribution(mut self, d: Distribution) -> Self {
         self.distribution = d;
-        self
+        self.refreshed()
     }
 
     /// The masking-shadowing function.
     pub fn with_masking(mut self, m: Masking) -> Self {
         self.masking = m;
-        self
+        self.refreshed()
     }
 
     /// How Beckmann's Smith G1 is evaluated (ignored for GGX).
     pub fn with_beckmann_g1(mut self, b: BeckmannG1) -> Self {
         self.beckmann_g1 = b;
-        self
+        self.refreshed()
     }
 
     /// The Fresnel factor; its parameters are checked.
     pub fn with_fresnel(mut self, f: Fresnel) -> Result<Self, ModelError> {
         self.fresnel = f.validate()?;
-        Ok(self)
+        Ok(self.refreshed())
+    }
+
+    /// The model with its derived GGX constants brought up to date.
+    fn refreshed(mut self) -> Self {
+        self.ggx64 = self.ggx_config().map(|c| (c, self.ggx_consts::<f64>()));
+        self
     }
 
     /// ρd.
@@ -731,14 +743,13 @@ impl CookTorrance {
     /// f_r of one pair from its batch geometry: the GGX kernel where it applies (the
     /// value of every path of those configurations), else the per-pair code.
     fn value(&self, wi: [f64; 3], wo: [f64; 3], h: [f64; 3], cd: f64) -> Rgb {
-        match self.ggx_config() {
-            Some(cfg) => {
-                let k = self.ggx_consts::<f64>();
+        match &self.ggx64 {
+            Some((cfg, k)) => {
                 let mut out = Rgb::ZERO;
                 ggx::with_config(
-                    cfg,
+                    *cfg,
                     ggx::Pair {
-                        k: &k,
+                        k,
                         wi,
                         wo,
                         h,
@@ -853,14 +864,13 @@ impl Model for CookTorrance {
 
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
         let (a, b, h, c) = pair_geometry(wi, wo);
-        if let Some(cfg) = self.ggx_grad_config() {
-            let k = self.ggx_consts::<f64>();
+        if let (Some(cfg), Some((_, k))) = (self.ggx_grad_config(), &self.ggx64) {
             let mut out = Rgb::ZERO;
             let np = self.num_params();
             ggx::with_grad_config(
                 cfg,
                 ggx::Pair {
-                    k: &k,
+                    k,
                     wi: a,
                     wo: b,
                     h,
@@ -907,12 +917,11 @@ impl Model for CookTorrance {
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
         let n = g.len();
         let np = self.num_params();
-        if let Some(cfg) = self.ggx_grad_config() {
-            let k = self.ggx_consts::<f64>();
+        if let (Some(cfg), Some((_, k))) = (self.ggx_grad_config(), &self.ggx64) {
             ggx::with_grad_config(
                 cfg,
                 ggx::BatchGrad64 {
-                    k: &k,
+                    k,
                     g,
                     out,
                     grad,

@@ -47,7 +47,7 @@ macro_rules! config_arms {
 }
 
 /// Per-call constants of the kernel, computed in `f64` and rounded once.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Consts<T> {
     inv_ax2: T,
     inv_ay2: T,
