@@ -66,9 +66,47 @@ pub fn half_vector(wi: &Vec3, wo: &Vec3) -> Vec3 {
     }
 }
 
+/// The ten columns of one pair, in declaration order: wi, wo, the unit half vector
+/// ([`half_vector`]) and cos θd = wi·h. What [`GeometryBatch::push`] stores; code that
+/// fills a [`Geometry::zeroed`] batch in place writes the same numbers.
+pub fn pair_columns(wi: &Vec3, wo: &Vec3) -> [f64; 10] {
+    let h = half_vector(wi, wo);
+    [
+        wi.x,
+        wi.y,
+        wi.z,
+        wo.x,
+        wo.y,
+        wo.z,
+        h.x,
+        h.y,
+        h.z,
+        wi.dot(&h),
+    ]
+}
+
+/// Splits `N` equally long columns into consecutive runs of `lens` rows each (one array
+/// of sub-slices per run), so that parallel tasks can fill disjoint stretches of the
+/// final columns without copies. `lens` must not sum past the columns' length.
+pub fn split_runs<'a, T, const N: usize>(
+    cols: [&'a mut [T]; N],
+    lens: &[usize],
+) -> Vec<[&'a mut [T]; N]> {
+    let mut rest = cols;
+    lens.iter()
+        .map(|&len| {
+            std::array::from_fn(|c| {
+                let (a, b) = std::mem::take(&mut rest[c]).split_at_mut(len);
+                rest[c] = b;
+                a
+            })
+        })
+        .collect()
+}
+
 impl<T> Geometry<T> {
-    /// The ten columns, in declaration order.
-    fn columns_mut(&mut self) -> [&mut Vec<T>; 10] {
+    /// The ten columns as vectors, in declaration order.
+    fn column_vecs(&mut self) -> [&mut Vec<T>; 10] {
         [
             &mut self.wi_x,
             &mut self.wi_y,
@@ -98,6 +136,33 @@ impl<T> Geometry<T> {
             h_z: v(),
             cos_d: v(),
         }
+    }
+
+    /// `n` pairs with every column zero, for filling in place (in parallel, by index)
+    /// without a second copy.
+    pub fn zeroed(n: usize) -> Self
+    where
+        T: Clone + Default,
+    {
+        let z = || vec![T::default(); n];
+        Geometry {
+            wi_x: z(),
+            wi_y: z(),
+            wi_z: z(),
+            wo_x: z(),
+            wo_y: z(),
+            wo_z: z(),
+            h_x: z(),
+            h_y: z(),
+            h_z: z(),
+            cos_d: z(),
+        }
+    }
+
+    /// The ten columns as mutable slices, in the order of [`pair_columns`], for filling
+    /// a [`zeroed`](Self::zeroed) batch in place (split them with [`split_runs`]).
+    pub fn columns_mut(&mut self) -> [&mut [T]; 10] {
+        self.column_vecs().map(|c| c.as_mut_slice())
     }
 
     /// Number of pairs.
@@ -138,7 +203,7 @@ impl<T> Geometry<T> {
 
     /// Removes every pair, keeping the columns' capacity.
     pub fn clear(&mut self) {
-        for c in self.columns_mut() {
+        for c in self.column_vecs() {
             c.clear();
         }
     }
@@ -156,17 +221,9 @@ impl GeometryBatch {
 
     /// Appends one pair.
     pub fn push(&mut self, wi: &Vec3, wo: &Vec3) {
-        let h = half_vector(wi, wo);
-        self.wi_x.push(wi.x);
-        self.wi_y.push(wi.y);
-        self.wi_z.push(wi.z);
-        self.wo_x.push(wo.x);
-        self.wo_y.push(wo.y);
-        self.wo_z.push(wo.z);
-        self.h_x.push(h.x);
-        self.h_y.push(h.y);
-        self.h_z.push(h.z);
-        self.cos_d.push(wi.dot(&h));
+        for (c, v) in self.column_vecs().into_iter().zip(pair_columns(wi, wo)) {
+            c.push(v);
+        }
     }
 }
 
@@ -175,7 +232,7 @@ impl GeometryBatchF32 {
     /// describe the same pairs.
     pub fn from_slice(g: &GeomSlice<'_>) -> Self {
         let mut out = Geometry::with_capacity(g.len());
-        for (dst, src) in out.columns_mut().into_iter().zip(g.columns()) {
+        for (dst, src) in out.column_vecs().into_iter().zip(g.columns()) {
             dst.extend(src.iter().map(|&x| x as f32));
         }
         out
@@ -241,7 +298,7 @@ impl GeomSliceF32<'_> {
     /// Widens pairs `r` back to `f64` columns, appending them to `out` (the default
     /// single-precision path of a model evaluates these in double precision).
     pub fn widen_into(&self, r: std::ops::Range<usize>, out: &mut GeometryBatch) {
-        for (dst, src) in out.columns_mut().into_iter().zip(self.columns()) {
+        for (dst, src) in out.column_vecs().into_iter().zip(self.columns()) {
             dst.extend(src[r.clone()].iter().map(|&x| x as f64));
         }
     }

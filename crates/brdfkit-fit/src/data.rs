@@ -1,7 +1,7 @@
 //! [`FitData`]: the cells a fit sees, precomputed once as a structure of arrays.
 
 use crate::error::FitError;
-use brdfkit_core::geometry::half_vector;
+use brdfkit_core::geometry::{pair_columns, split_runs};
 use brdfkit_core::{GeometryBatch, Model, Rgb};
 use brdfkit_merl::{CellBatch, Dims, MerlTable, cell_directions, cell_weight};
 use rand::SeedableRng;
@@ -62,41 +62,12 @@ fn acos_clamped(z: f64) -> f64 {
     z.clamp(-1.0, 1.0).acos()
 }
 
-/// Splits each of N equally long columns into consecutive runs of lengths `lens`, and
-/// returns, per run, its N sub-slices (so runs can be filled in parallel in place).
-fn split_runs<'a, const N: usize>(
-    cols: [&'a mut [f64]; N],
-    lens: &[usize],
-) -> Vec<[&'a mut [f64]; N]> {
-    let mut rest = cols;
-    lens.iter()
-        .map(|&len| {
-            std::array::from_fn(|c| {
-                let (a, b) = std::mem::take(&mut rest[c]).split_at_mut(len);
-                rest[c] = b;
-                a
-            })
-        })
-        .collect()
-}
-
 impl FitData {
     /// A set of `n` cells with every column allocated (zeroed) and multiplicity 1.
     fn zeroed(n: usize, geometry: bool) -> FitData {
         let z = || vec![0.0; n];
         let g = if geometry {
-            GeometryBatch {
-                wi_x: z(),
-                wi_y: z(),
-                wi_z: z(),
-                wo_x: z(),
-                wo_y: z(),
-                wo_z: z(),
-                h_x: z(),
-                h_y: z(),
-                h_z: z(),
-                cos_d: z(),
-            }
+            GeometryBatch::zeroed(n)
         } else {
             GeometryBatch::default()
         };
@@ -193,19 +164,7 @@ impl FitData {
         let mask = t.valid_mask().to_vec();
         drop(t);
         let n = data.measure.len();
-        let z = || vec![0.0; n];
-        data.geometry = GeometryBatch {
-            wi_x: z(),
-            wi_y: z(),
-            wi_z: z(),
-            wo_x: z(),
-            wo_y: z(),
-            wo_z: z(),
-            h_x: z(),
-            h_y: z(),
-            h_z: z(),
-            cos_d: z(),
-        };
+        data.geometry = GeometryBatch::zeroed(n);
         data.fill_geometry(dims, &mask, &counts);
         Ok(data)
     }
@@ -238,36 +197,18 @@ impl FitData {
     /// for the directions of [`cell_directions`], one θh slab per parallel task.
     fn fill_geometry(&mut self, dims: Dims, mask: &[bool], counts: &[usize]) {
         let slab = dims.theta_d() * dims.phi_d();
-        let g = &mut self.geometry;
-        let runs = split_runs(
-            [
-                &mut g.wi_x,
-                &mut g.wi_y,
-                &mut g.wi_z,
-                &mut g.wo_x,
-                &mut g.wo_y,
-                &mut g.wo_z,
-                &mut g.h_x,
-                &mut g.h_y,
-                &mut g.h_z,
-                &mut g.cos_d,
-            ],
-            counts,
-        );
-        runs.into_par_iter().enumerate().for_each(|(i, c)| {
-            let [wix, wiy, wiz, wox, woy, woz, hx, hy, hz, cd] = c;
+        let runs = split_runs(self.geometry.columns_mut(), counts);
+        runs.into_par_iter().enumerate().for_each(|(i, mut c)| {
             let mut m = 0;
             for x in (i * slab..(i + 1) * slab).filter(|&x| mask[x]) {
                 let (_, j, k) = dims.unflatten(x);
                 let (_, wi, wo, _) = cell_directions(dims, i, j, k);
-                let h = half_vector(&wi, &wo);
-                (wix[m], wiy[m], wiz[m]) = (wi.x, wi.y, wi.z);
-                (wox[m], woy[m], woz[m]) = (wo.x, wo.y, wo.z);
-                (hx[m], hy[m], hz[m]) = (h.x, h.y, h.z);
-                cd[m] = wi.dot(&h);
+                for (col, v) in c.iter_mut().zip(pair_columns(&wi, &wo)) {
+                    col[m] = v;
+                }
                 m += 1;
             }
-            debug_assert_eq!(m, wix.len());
+            debug_assert_eq!(m, c[0].len());
         });
     }
 

@@ -219,18 +219,7 @@ impl MerlTable {
         let m = indices.len();
         let z = || vec![0.0; m];
         let mut out = CellBatch {
-            geometry: GeometryBatch {
-                wi_x: z(),
-                wi_y: z(),
-                wi_z: z(),
-                wo_x: z(),
-                wo_y: z(),
-                wo_z: z(),
-                h_x: z(),
-                h_y: z(),
-                h_z: z(),
-                cos_d: z(),
-            },
+            geometry: GeometryBatch::zeroed(m),
             values: [z(), z(), z()],
             weights: z(),
             indices: Vec::new(),
@@ -238,45 +227,39 @@ impl MerlTable {
         // Runs of cells fill their stretch of the final columns in parallel: the peak
         // is the result itself (no per-run copies to append, no Vec of whole `Cell`s).
         const RUN: usize = 8192;
-        let g = &mut out.geometry;
         let [vr, vg, vb] = &mut out.values;
-        let mut cols: [&mut [f64]; 14] = [
-            &mut g.wi_x,
-            &mut g.wi_y,
-            &mut g.wi_z,
-            &mut g.wo_x,
-            &mut g.wo_y,
-            &mut g.wo_z,
-            &mut g.h_x,
-            &mut g.h_y,
-            &mut g.h_z,
-            &mut g.cos_d,
+        let [c0, c1, c2, c3, c4, c5, c6, c7, c8, c9] = out.geometry.columns_mut();
+        let cols: [&mut [f64]; 14] = [
+            c0,
+            c1,
+            c2,
+            c3,
+            c4,
+            c5,
+            c6,
+            c7,
+            c8,
+            c9,
             vr,
             vg,
             vb,
             &mut out.weights,
         ];
-        let mut runs: Vec<[&mut [f64]; 14]> = Vec::with_capacity(m.div_ceil(RUN));
-        for start in (0..m).step_by(RUN) {
-            let len = RUN.min(m - start);
-            runs.push(std::array::from_fn(|c| {
-                let (a, b) = std::mem::take(&mut cols[c]).split_at_mut(len);
-                cols[c] = b;
-                a
-            }));
-        }
+        let lens: Vec<usize> = (0..m).step_by(RUN).map(|s| RUN.min(m - s)).collect();
+        let runs = brdfkit_core::geometry::split_runs(cols, &lens);
         runs.into_par_iter()
             .zip(indices.par_chunks(RUN))
-            .for_each(|(run, idx)| {
-                let [wix, wiy, wiz, wox, woy, woz, hx, hy, hz, cd, r, gr, b, w] = run;
+            .for_each(|(mut run, idx)| {
+                let (geo, rest) = run.split_at_mut(10);
+                let [r, gr, b, w] = rest else {
+                    unreachable!("14 columns: 10 of geometry, 3 values, the weight")
+                };
                 for (p, &x) in idx.iter().enumerate() {
                     let c = self.cell(x).expect("index is valid");
-                    let h = brdfkit_core::geometry::half_vector(&c.wi, &c.wo);
-                    // The columns of `GeometryBatch::push`.
-                    (wix[p], wiy[p], wiz[p]) = (c.wi.x, c.wi.y, c.wi.z);
-                    (wox[p], woy[p], woz[p]) = (c.wo.x, c.wo.y, c.wo.z);
-                    (hx[p], hy[p], hz[p]) = (h.x, h.y, h.z);
-                    cd[p] = c.wi.dot(&h);
+                    let pc = brdfkit_core::geometry::pair_columns(&c.wi, &c.wo);
+                    for (col, v) in geo.iter_mut().zip(pc) {
+                        col[p] = v;
+                    }
                     (r[p], gr[p], b[p]) = (
                         c.value[Channel::Red.index()],
                         c.value[Channel::Green.index()],
