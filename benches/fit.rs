@@ -16,7 +16,6 @@
 use brdfkit::core::Model;
 use brdfkit::fit::{FitConfig, FitData, evaluate_losses, fit};
 use brdfkit::merl::{Dims, MerlTable};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -44,27 +43,9 @@ fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
-/// Writes the cells in the peer's format (see `fit_scipy.py`).
-fn write_cells(data: &FitData, path: &Path) -> std::io::Result<()> {
-    let g = data.geometry();
-    let w = data.measure();
-    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-    f.write_all(b"BRDFCELL")?;
-    f.write_all(&(data.len() as u64).to_le_bytes())?;
-    let v = data.values();
-    for col in [
-        &g.wi_x, &g.wi_y, &g.wi_z, &g.wo_x, &g.wo_y, &g.wo_z, &g.h_x, &g.h_y, &g.h_z, &g.cos_d,
-        &v[0], &v[1], &v[2],
-    ] {
-        for x in col.iter() {
-            f.write_all(&x.to_le_bytes())?;
-        }
-    }
-    for x in w {
-        f.write_all(&x.to_le_bytes())?;
-    }
-    f.flush()
-}
+#[path = "common/cells.rs"]
+mod cells;
+use cells::write_cells;
 
 fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

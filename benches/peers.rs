@@ -84,26 +84,9 @@ fn write_pairs(path: &Path, pairs: &[(Vec3, Vec3)]) -> std::io::Result<()> {
     f.flush()
 }
 
-/// The cells format of `fit_scipy.py`.
-fn write_cells(data: &FitData, path: &Path) -> std::io::Result<()> {
-    let g = data.geometry();
-    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-    f.write_all(b"BRDFCELL")?;
-    f.write_all(&(data.len() as u64).to_le_bytes())?;
-    let v = data.values();
-    for col in [
-        &g.wi_x, &g.wi_y, &g.wi_z, &g.wo_x, &g.wo_y, &g.wo_z, &g.h_x, &g.h_y, &g.h_z, &g.cos_d,
-        &v[0], &v[1], &v[2],
-    ] {
-        for x in col.iter() {
-            f.write_all(&x.to_le_bytes())?;
-        }
-    }
-    for x in data.measure() {
-        f.write_all(&x.to_le_bytes())?;
-    }
-    f.flush()
-}
+#[path = "common/cells.rs"]
+mod cells;
+use cells::write_cells;
 
 fn sums(v: &[Rgb]) -> [f64; 3] {
     let mut s = [0.0; 3];
