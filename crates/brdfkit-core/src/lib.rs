@@ -17,9 +17,13 @@
 //! - [`quadrature`]: Gauss-Legendre rules and the directional albedo of any BRDF;
 //! - [`geometry`]: [`GeometryBatch`], per-pair geometry precomputed once as a structure
 //!   of arrays.
+//! - [`atomic`]: the one way every output file is written (whole, or not at all).
+//! - [`choice`]: structural choices parsed from their names.
 //! - [`scattering`]: Fresnel, microfacet distributions and masking, with derivatives.
 
+pub mod atomic;
 pub mod brdf;
+pub mod choice;
 pub mod direction;
 pub mod geometry;
 pub mod model;
@@ -29,6 +33,7 @@ pub mod rusinkiewicz;
 pub mod scattering;
 
 pub use brdf::Brdf;
+pub use choice::UnknownName;
 pub use direction::Vec3;
 pub use geometry::{
     GeomSlice, GeomSliceF32, GeomSliceOf, Geometry, GeometryBatch, GeometryBatchF32,

@@ -255,7 +255,62 @@ pub enum Fresnel {
     },
 }
 
+/// The kind of a [`Fresnel`] factor, without its parameters: what `--fresnel` chooses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FresnelKind {
+    /// [`Fresnel::None`].
+    None,
+    /// [`Fresnel::Schlick`].
+    Schlick,
+    /// [`Fresnel::Conductor`].
+    Conductor,
+    /// [`Fresnel::Dielectric`].
+    Dielectric,
+}
+
+impl FresnelKind {
+    /// Every kind.
+    pub const ALL: [FresnelKind; 4] = [
+        FresnelKind::None,
+        FresnelKind::Schlick,
+        FresnelKind::Conductor,
+        FresnelKind::Dielectric,
+    ];
+
+    /// The name used in the JSON contract and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            FresnelKind::None => "none",
+            FresnelKind::Schlick => "schlick",
+            FresnelKind::Conductor => "conductor",
+            FresnelKind::Dielectric => "dielectric",
+        }
+    }
+
+    /// This kind with its default parameters.
+    pub fn with_defaults(self) -> Fresnel {
+        match self {
+            FresnelKind::None => Fresnel::None,
+            FresnelKind::Schlick => Fresnel::DEFAULT,
+            FresnelKind::Conductor => Fresnel::DEFAULT_CONDUCTOR,
+            FresnelKind::Dielectric => Fresnel::DEFAULT_DIELECTRIC,
+        }
+    }
+}
+
+brdfkit_core::named_choice!(FresnelKind, "fresnel");
+
 impl Fresnel {
+    /// The kind of this factor.
+    pub fn kind(&self) -> FresnelKind {
+        match self {
+            Fresnel::None => FresnelKind::None,
+            Fresnel::Schlick { .. } => FresnelKind::Schlick,
+            Fresnel::Conductor { .. } => FresnelKind::Conductor,
+            Fresnel::Dielectric { .. } => FresnelKind::Dielectric,
+        }
+    }
+
     /// Schlick with f0 = 0.04 in every channel (the model's default).
     pub const DEFAULT: Fresnel = Fresnel::Schlick {
         f0: Rgb::splat(0.04),

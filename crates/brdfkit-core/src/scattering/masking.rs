@@ -43,6 +43,9 @@ pub enum BeckmannG1 {
 }
 
 impl BeckmannG1 {
+    /// Every evaluation of Beckmann's Λ.
+    pub const ALL: [BeckmannG1; 2] = [BeckmannG1::Exact, BeckmannG1::Rational];
+
     /// The name used in the JSON contract (`"exact"`, `"rational"`).
     pub fn name(self) -> &'static str {
         match self {
@@ -51,6 +54,8 @@ impl BeckmannG1 {
         }
     }
 }
+
+crate::named_choice!(BeckmannG1, "beckmann_g1");
 
 /// The Smith Λ function of a distribution: GGX, or Beckmann exact or rational.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -222,6 +227,13 @@ pub enum Masking {
 }
 
 impl Masking {
+    /// Every masking term.
+    pub const ALL: [Masking; 3] = [
+        Masking::SmithSeparable,
+        Masking::SmithCorrelated,
+        Masking::VCavity,
+    ];
+
     /// The name used in the JSON contract.
     pub fn name(self) -> &'static str {
         match self {
@@ -283,6 +295,8 @@ impl Masking {
         }
     }
 }
+
+crate::named_choice!(Masking, "masking");
 
 /// The V-cavity masking of one direction, min(1, 2 (n·m)(n·v)/(v·m)) (Cook & Torrance
 /// 1982; Heitz 2014 eq. 94). Requires v·m > 0.

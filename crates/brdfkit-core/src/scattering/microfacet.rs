@@ -110,6 +110,9 @@ impl Distribution {
         }
     }
 
+    /// Every distribution.
+    pub const ALL: [Distribution; 2] = [Distribution::Beckmann, Distribution::Ggx];
+
     /// The name used in the JSON contract (`"beckmann"`, `"ggx"`).
     pub fn name(self) -> &'static str {
         match self {
@@ -118,6 +121,8 @@ impl Distribution {
         }
     }
 }
+
+crate::named_choice!(Distribution, "distribution");
 
 #[cfg(test)]
 mod tests {
