@@ -352,7 +352,10 @@ pub fn map_model(description: &Value, to: Renderer) -> Result<Mapped, ExportErro
 }
 
 /// The material of a model description for `to` ([`map_model`] without the words).
-pub fn renderer_material(description: &Value, to: Renderer) -> Result<RendererMaterial, ExportError> {
+pub fn renderer_material(
+    description: &Value,
+    to: Renderer,
+) -> Result<RendererMaterial, ExportError> {
     map_model(description, to).map(|m| m.material)
 }
 
@@ -546,8 +549,7 @@ pub fn export(
     let text = match form {
         ExportForm::MitsubaXml => material.mitsuba_xml(&source, &notes),
         ExportForm::MitsubaDict => {
-            serde_json::to_string_pretty(&material.mitsuba_dict())
-                .expect("JSON of plain values")
+            serde_json::to_string_pretty(&material.mitsuba_dict()).expect("JSON of plain values")
                 + "\n"
         }
         ExportForm::Pbrt => material.pbrt(&source, &notes),
@@ -606,7 +608,10 @@ mod tests {
         assert!(p.contains("\"float vroughness\" [ 0.3 ]"), "{p}");
         assert!(p.contains("\"bool remaproughness\" false"), "{p}");
         assert!(p.contains("\"rgb eta\" [ 0.143 0.374 1.442 ]"), "{p}");
-        assert!(!p.contains("roughness\" [ 0.1 ]\n    \"float roughness"), "{p}");
+        assert!(
+            !p.contains("roughness\" [ 0.1 ]\n    \"float roughness"),
+            "{p}"
+        );
     }
 
     #[test]
@@ -635,16 +640,21 @@ mod tests {
 
     #[test]
     fn anisotropic_beckmann_writes_alpha_u_and_v() {
-        let v = ct(json!({"rho_d": 0, "rho_s": [0.9, 0.6, 0.3], "alpha_x": 0.12,
+        let v = ct(
+            json!({"rho_d": 0, "rho_s": [0.9, 0.6, 0.3], "alpha_x": 0.12,
             "alpha_y": 0.45, "distribution": "beckmann", "beckmann_g1": "rational",
-            "fresnel": gold()}));
+            "fresnel": gold()}),
+        );
         let m = map_model(&v, Renderer::Mitsuba).unwrap();
         assert_eq!(
             m.model,
             "cook-torrance (beckmann (beckmann_g1 rational), smith-separable, conductor Fresnel)"
         );
         let d = m.material.mitsuba_dict();
-        assert_eq!((d["alpha_u"].clone(), d["alpha_v"].clone()), (json!(0.12), json!(0.45)));
+        assert_eq!(
+            (d["alpha_u"].clone(), d["alpha_v"].clone()),
+            (json!(0.12), json!(0.45))
+        );
         assert!(d.get("alpha").is_none(), "{d}");
         assert_eq!(d["distribution"], "beckmann");
         let x = m.material.mitsuba_xml("s", &[]);
@@ -722,8 +732,11 @@ mod tests {
 
     #[test]
     fn refusals_are_typed_and_worded_in_full() {
-        let e = renderer_material(&ct(json!({"rho_d": 0.1, "fresnel": gold()})), Renderer::Pbrt)
-            .unwrap_err();
+        let e = renderer_material(
+            &ct(json!({"rho_d": 0.1, "fresnel": gold()})),
+            Renderer::Pbrt,
+        )
+        .unwrap_err();
         assert!(matches!(
             e,
             ExportError::Unsupported {
@@ -749,10 +762,19 @@ mod tests {
             )
         );
         // Checked in order: the Fresnel first, whatever else is wrong.
-        let e = renderer_material(&ct(json!({"rho_d": 0.3, "masking": "v-cavity"})), Renderer::Mitsuba)
-            .unwrap_err();
+        let e = renderer_material(
+            &ct(json!({"rho_d": 0.3, "masking": "v-cavity"})),
+            Renderer::Mitsuba,
+        )
+        .unwrap_err();
         assert!(
-            matches!(e, ExportError::Unsupported { reason: Refusal::NotConductorFresnel, .. }),
+            matches!(
+                e,
+                ExportError::Unsupported {
+                    reason: Refusal::NotConductorFresnel,
+                    ..
+                }
+            ),
             "{e}"
         );
         assert!(e.to_string().contains("Mitsuba 3's conductor takes"), "{e}");
@@ -769,7 +791,10 @@ mod tests {
             Renderer::Mitsuba,
         )
         .unwrap_err();
-        assert!(matches!(e, ExportError::Model(_)) && e.to_string().contains("rho_d"), "{e}");
+        assert!(
+            matches!(e, ExportError::Model(_)) && e.to_string().contains("rho_d"),
+            "{e}"
+        );
         let e = renderer_material(
             &json!({"model": "lambert", "params": {"rho_d": 0.2}, "extra": 1}),
             Renderer::Mitsuba,
@@ -789,8 +814,10 @@ mod tests {
 
     #[test]
     fn export_forms_carry_source_and_notes() {
-        let v = ct(json!({"rho_d": 0, "rho_s": 1, "alpha": 0.2, "masking": "smith-correlated",
-            "fresnel": gold()}));
+        let v = ct(
+            json!({"rho_d": 0, "rho_s": 1, "alpha": 0.2, "masking": "smith-correlated",
+            "fresnel": gold()}),
+        );
         let p = export(&v, ExportForm::Pbrt, "gold.json").unwrap();
         assert!(p.text.starts_with(
             "# brdfkit export of cook-torrance (ggx, smith-correlated, conductor Fresnel) from gold.json\n"
@@ -799,17 +826,29 @@ mod tests {
         for n in &p.notes {
             assert!(p.text.contains(&format!("# note: {n}\n")), "{}", p.text);
         }
-        assert!(p.text.contains("    \"float roughness\" [ 0.2 ]\n"), "{}", p.text);
+        assert!(
+            p.text.contains("    \"float roughness\" [ 0.2 ]\n"),
+            "{}",
+            p.text
+        );
         // The same model is refused by Mitsuba (correlated masking).
         assert!(export(&v, ExportForm::MitsubaXml, "g").is_err());
         let l = json!({"model": "lambert", "params": {"rho_d": 0.4}});
         let d = export(&l, ExportForm::MitsubaDict, "l").unwrap();
         assert!(d.text.ends_with("}\n"));
         let back: Value = serde_json::from_str(&d.text).unwrap();
-        assert_eq!(back, renderer_material(&l, Renderer::Mitsuba).unwrap().mitsuba_dict());
+        assert_eq!(
+            back,
+            renderer_material(&l, Renderer::Mitsuba)
+                .unwrap()
+                .mitsuba_dict()
+        );
         assert_eq!(d.notes.len(), 1);
         let x = export(&l, ExportForm::MitsubaXml, "l").unwrap();
-        assert!(x.text.starts_with("<!-- brdfkit export of lambert from l -->\n"));
+        assert!(
+            x.text
+                .starts_with("<!-- brdfkit export of lambert from l -->\n")
+        );
         assert!(x.text.contains("value=\"0.4, 0.4, 0.4\""), "{}", x.text);
         // Shortest round-trip numbers.
         let v = ct(json!({"rho_d": 0, "alpha": 0.1 + 0.2, "fresnel": gold()}));

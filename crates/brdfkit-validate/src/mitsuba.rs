@@ -92,14 +92,19 @@ pub enum MitsubaError {
     /// The script ran and failed.
     #[error("{script}: exit status {status}: {stderr}")]
     Failed {
+        /// The script run.
         script: String,
+        /// Its exit status.
         status: String,
+        /// What it wrote on stderr (trimmed).
         stderr: String,
     },
     /// Reading or writing the batch files.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// The I/O failure.
         #[source]
         source: std::io::Error,
     },
@@ -113,9 +118,19 @@ pub enum MitsubaError {
 #[serde(rename_all = "kebab-case", tag = "kind")]
 pub enum Tolerance {
     /// |a − b| ≤ `rel` · max(|a|, |b|).
-    Relative { rel: f64 },
+    Relative {
+        /// The relative tolerance.
+        rel: f64,
+    },
     /// |a − b| ≤ (`base` + `slope` · tan²θh / α²) · max(|a|, |b|).
-    Beckmann { base: f64, slope: f64, alpha: f64 },
+    Beckmann {
+        /// The float32 baseline.
+        base: f64,
+        /// The growth with the exponent tan²θh / α².
+        slope: f64,
+        /// The Beckmann α.
+        alpha: f64,
+    },
 }
 
 impl Tolerance {
@@ -150,6 +165,7 @@ pub struct CrossConfig {
     pub mitsuba: Value,
     /// The brdfkit model in the JSON contract.
     pub model: Value,
+    /// How close the two sides must be where both are non-zero.
     pub tolerance: Tolerance,
     /// For a microfacet configuration: the distribution and α (or αx, αy), to predict
     /// Mitsuba's D floor.
@@ -360,8 +376,11 @@ pub fn workspace_root() -> PathBuf {
 /// What the Python side reports.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MitsubaOutput {
+    /// Mitsuba's version (`mitsuba.__version__`).
     pub mitsuba: String,
+    /// Dr.Jit's version.
     pub drjit: String,
+    /// The variant evaluated (`scalar_rgb`).
     pub variant: String,
     /// Per configuration, in batch order: Mitsuba's f_r per case.
     pub values: Vec<Vec<Rgb>>,
@@ -464,8 +483,11 @@ pub fn run_mitsuba(
 /// The outcome of one configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Comparison {
+    /// The configuration's name ([`CrossConfig::name`]).
     pub name: String,
+    /// Direction pairs compared.
     pub cases: usize,
+    /// The tolerance applied ([`CrossConfig::tolerance`]).
     pub tolerance: Tolerance,
     /// Largest |a − b| / max(|a|, |b|) over the case channels where both are non-zero.
     pub max_rel_diff: f64,
@@ -502,6 +524,7 @@ pub struct Comparison {
     /// erf G1) to Mitsuba over the case channels where both are non-zero: reported,
     /// not judged.
     pub reference_max_rel_diff: Option<f64>,
+    /// No case beyond the tolerance, no zero mismatch and no floor violation.
     pub passed: bool,
 }
 

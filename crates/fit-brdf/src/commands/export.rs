@@ -24,14 +24,14 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
         .with_context(|| format!("{path}: cannot read the model description"))
         .map_err(bad_input)?;
     let text = String::from_utf8(bytes).map_err(|_| bad_msg(format!("{path}: not valid UTF-8")))?;
-    let name = a.params.file_name().map_or_else(
-        || path.to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    );
+    let name = a
+        .params
+        .file_name()
+        .map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned());
     // Every refusal is the input's (exit 2): an invalid description, or a model the
     // renderer evaluates differently.
-    let out = export_str(&text, form, &name)
-        .map_err(|e: ExportError| bad_msg(format!("{path}: {e}")))?;
+    let out =
+        export_str(&text, form, &name).map_err(|e: ExportError| bad_msg(format!("{path}: {e}")))?;
     if !a.quiet {
         for n in &out.notes {
             eprintln!("note: {n}");
