@@ -11,6 +11,9 @@
 //!   of the fitter, per channel and overall, by θh and θd band; relative-error
 //!   percentiles; the albedo of fit and table; held-out validation) and returns a
 //!   [`QualityReport`];
+//! - [`export`]: the one mapping of a model onto a renderer's material (Mitsuba 3's
+//!   `diffuse` and `roughconductor`, pbrt-v4's `diffuse` and `conductor`) with its
+//!   writers (Mitsuba XML and dictionary, pbrt-v4 scene text) and typed refusals;
 //! - [`mitsuba`]: the cross-check against Mitsuba 3's `diffuse` and `roughconductor`
 //!   (case generation, the JSON batch exchanged with `python/mitsuba_eval.py`, the
 //!   comparison and its tolerances).
@@ -43,6 +46,9 @@
 //! # Ok(()) }
 //! ```
 
+#![warn(missing_docs)]
+
+pub mod export;
 pub mod html;
 pub mod mitsuba;
 pub mod physical;

@@ -9,7 +9,9 @@
 //! - [`standard_configs`]: `diffuse` vs `lambert`, and `roughconductor` (GGX and
 //!   Beckmann, α from 0.01 to 1, the RGB η and k of gold, copper, silver and aluminium)
 //!   vs `cook-torrance` with ρd = 0, ρs = 1, `smith-separable` masking and conductor
-//!   Fresnel (Beckmann with `beckmann_g1 = rational`, Walter's G1 as Mitsuba);
+//!   Fresnel (Beckmann with `beckmann_g1 = rational`, Walter's G1 as Mitsuba); the
+//!   Mitsuba dictionary of each comes from [`crate::export`]'s mapping, the one
+//!   `fit-brdf export` writes, so the cross-check tests the export too;
 //! - [`run_mitsuba`]: one Python process (`python/mitsuba_eval.py` of this crate)
 //!   evaluates every configuration's batch;
 //! - [`compare`]: the per-case tolerance test and the measured maxima.
@@ -47,10 +49,12 @@
 //! 2e-5 relative (gold, blue), all of it on brdfkit's side of the comparison, since
 //! float32 emulation of Mitsuba's arithmetic with wo·h reproduces Mitsuba to 5e-8.
 
+use crate::export::{ExportError, Renderer, RendererMaterial, renderer_material};
 use crate::report::{PairAt, num};
 use brdfkit_core::geometry::half_vector;
 use brdfkit_core::scattering::Distribution;
 use brdfkit_core::{Model, Rgb, Vec3};
+use brdfkit_models::cook_torrance::Shape;
 use brdfkit_models::testing::SplitMix64;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
@@ -88,14 +92,19 @@ pub enum MitsubaError {
     /// The script ran and failed.
     #[error("{script}: exit status {status}: {stderr}")]
     Failed {
+        /// The script run.
         script: String,
+        /// Its exit status.
         status: String,
+        /// What it wrote on stderr (trimmed).
         stderr: String,
     },
     /// Reading or writing the batch files.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// The I/O failure.
         #[source]
         source: std::io::Error,
     },
@@ -109,9 +118,19 @@ pub enum MitsubaError {
 #[serde(rename_all = "kebab-case", tag = "kind")]
 pub enum Tolerance {
     /// |a − b| ≤ `rel` · max(|a|, |b|).
-    Relative { rel: f64 },
+    Relative {
+        /// The relative tolerance.
+        rel: f64,
+    },
     /// |a − b| ≤ (`base` + `slope` · tan²θh / α²) · max(|a|, |b|).
-    Beckmann { base: f64, slope: f64, alpha: f64 },
+    Beckmann {
+        /// The float32 baseline.
+        base: f64,
+        /// The growth with the exponent tan²θh / α².
+        slope: f64,
+        /// The Beckmann α.
+        alpha: f64,
+    },
 }
 
 impl Tolerance {
@@ -146,11 +165,12 @@ pub struct CrossConfig {
     pub mitsuba: Value,
     /// The brdfkit model in the JSON contract.
     pub model: Value,
+    /// How close the two sides must be where both are non-zero.
     pub tolerance: Tolerance,
-    /// For a microfacet configuration: the distribution and α, to predict Mitsuba's D
-    /// floor.
+    /// For a microfacet configuration: the distribution and α (or αx, αy), to predict
+    /// Mitsuba's D floor.
     #[serde(skip)]
-    pub microfacet: Option<(Distribution, f64)>,
+    pub microfacet: Option<(Distribution, Shape)>,
     /// A second brdfkit model whose difference is measured and reported, not judged
     /// (Beckmann with the exact erf Smith G1).
     pub reference: Option<Value>,
@@ -171,21 +191,50 @@ pub const METALS: [(&str, [f64; 3], [f64; 3]); 4] = [
 /// The roughness values of the `roughconductor` configurations.
 pub const ALPHAS: [f64; 6] = [0.01, 0.03, 0.1, 0.3, 0.6, 1.0];
 
-fn rgb_texture(v: [f64; 3]) -> Value {
-    json!({"type": "rgb", "value": v})
+impl CrossConfig {
+    /// The configuration `name` of the brdfkit `model`, with the Mitsuba dictionary and
+    /// the microfacet parameters of [`crate::export`]'s mapping: the cross-check tests
+    /// the very dictionary `fit-brdf export --to mitsuba --format dict` writes.
+    pub fn from_model(
+        name: impl Into<String>,
+        model: Value,
+        tolerance: Tolerance,
+        reference: Option<Value>,
+    ) -> Result<Self, ExportError> {
+        let material = renderer_material(&model, Renderer::Mitsuba)?;
+        let microfacet = match material {
+            RendererMaterial::Conductor {
+                distribution,
+                alpha,
+                ..
+            } => Some((distribution, alpha)),
+            RendererMaterial::Diffuse { .. } => None,
+        };
+        Ok(CrossConfig {
+            name: name.into(),
+            mitsuba: material.mitsuba_dict(),
+            model,
+            tolerance,
+            microfacet,
+            reference,
+        })
+    }
 }
 
 /// Every configuration of the cross-check: `diffuse` vs `lambert`, then for GGX and
-/// Beckmann every α of [`ALPHAS`] with every metal of [`METALS`].
+/// Beckmann every α of [`ALPHAS`] with every metal of [`METALS`]. The Mitsuba side of
+/// each is the export mapping's dictionary ([`CrossConfig::from_model`]).
 pub fn standard_configs() -> Vec<CrossConfig> {
-    let mut v = vec![CrossConfig {
-        name: "diffuse".into(),
-        mitsuba: json!({"type": "diffuse", "reflectance": rgb_texture([0.2, 0.5, 0.9])}),
-        model: json!({"model": "lambert", "params": {"rho_d": [0.2, 0.5, 0.9]}}),
-        tolerance: Tolerance::Relative { rel: 1e-5 },
-        microfacet: None,
-        reference: None,
-    }];
+    let config = |name: String, model: Value, tolerance, reference| {
+        CrossConfig::from_model(name, model, tolerance, reference)
+            .expect("the standard configurations are exportable to Mitsuba")
+    };
+    let mut v = vec![config(
+        "diffuse".into(),
+        json!({"model": "lambert", "params": {"rho_d": [0.2, 0.5, 0.9]}}),
+        Tolerance::Relative { rel: 1e-5 },
+        None,
+    )];
     for dist in [Distribution::Ggx, Distribution::Beckmann] {
         for &alpha in &ALPHAS {
             for (metal, eta, k) in METALS {
@@ -197,12 +246,10 @@ pub fn standard_configs() -> Vec<CrossConfig> {
                         "fresnel": {"conductor": {"eta": eta, "k": k}}}})
                 };
                 let beckmann = dist == Distribution::Beckmann;
-                v.push(CrossConfig {
-                    name: format!("roughconductor-{}-{metal}-a{alpha}", dist.name()),
-                    mitsuba: json!({"type": "roughconductor", "distribution": dist.name(),
-                        "alpha": alpha, "eta": rgb_texture(eta), "k": rgb_texture(k)}),
-                    model: model(if beckmann { "rational" } else { "exact" }),
-                    tolerance: if beckmann {
+                v.push(config(
+                    format!("roughconductor-{}-{metal}-a{alpha}", dist.name()),
+                    model(if beckmann { "rational" } else { "exact" }),
+                    if beckmann {
                         Tolerance::Beckmann {
                             base: 2e-6,
                             slope: 1e-6,
@@ -211,9 +258,8 @@ pub fn standard_configs() -> Vec<CrossConfig> {
                     } else {
                         Tolerance::Relative { rel: 1e-5 }
                     },
-                    microfacet: Some((dist, alpha)),
-                    reference: beckmann.then(|| model("exact")),
-                });
+                    beckmann.then(|| model("exact")),
+                ));
             }
         }
     }
@@ -330,8 +376,11 @@ pub fn workspace_root() -> PathBuf {
 /// What the Python side reports.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MitsubaOutput {
+    /// Mitsuba's version (`mitsuba.__version__`).
     pub mitsuba: String,
+    /// Dr.Jit's version.
     pub drjit: String,
+    /// The variant evaluated (`scalar_rgb`).
     pub variant: String,
     /// Per configuration, in batch order: Mitsuba's f_r per case.
     pub values: Vec<Vec<Rgb>>,
@@ -434,8 +483,11 @@ pub fn run_mitsuba(
 /// The outcome of one configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Comparison {
+    /// The configuration's name ([`CrossConfig::name`]).
     pub name: String,
+    /// Direction pairs compared.
     pub cases: usize,
+    /// The tolerance applied ([`CrossConfig::tolerance`]).
     pub tolerance: Tolerance,
     /// Largest |a − b| / max(|a|, |b|) over the case channels where both are non-zero.
     pub max_rel_diff: f64,
@@ -472,6 +524,7 @@ pub struct Comparison {
     /// erf G1) to Mitsuba over the case channels where both are non-zero: reported,
     /// not judged.
     pub reference_max_rel_diff: Option<f64>,
+    /// No case beyond the tolerance, no zero mismatch and no floor violation.
     pub passed: bool,
 }
 
@@ -521,7 +574,8 @@ pub fn compare(
         // Mitsuba's D floor, predicted in f64: under it (outside the band where float32
         // may decide either way) Mitsuba must give exactly 0.
         let floor = config.microfacet.map(|(dist, alpha)| {
-            let dc = dist.d(h.x, h.y, h.z, alpha, alpha) * h.z;
+            let (ax, ay) = alpha.xy();
+            let dc = dist.d(h.x, h.y, h.z, ax, ay) * h.z;
             if dc < MITSUBA_D_FLOOR * (1.0 - FLOOR_BAND) {
                 Some(true)
             } else if dc > MITSUBA_D_FLOOR * (1.0 + FLOOR_BAND) {
@@ -693,6 +747,77 @@ mod tests {
             c.iter()
                 .any(|c| c.name == "roughconductor-beckmann-aluminium-a0.01")
         );
+    }
+
+    #[test]
+    fn configs_use_the_export_mapping() {
+        let c = standard_configs();
+        // An independent transcription of Mitsuba's parameters for one configuration.
+        let gold = c
+            .iter()
+            .find(|c| c.name == "roughconductor-beckmann-gold-a0.3")
+            .unwrap();
+        let rgb = |v: [f64; 3]| json!({"type": "rgb", "value": v});
+        assert_eq!(
+            gold.mitsuba,
+            json!({"type": "roughconductor", "distribution": "beckmann", "alpha": 0.3,
+                "eta": rgb([0.143, 0.374, 1.442]), "k": rgb([3.983, 2.385, 1.603]),
+                "specular_reflectance": rgb([1.0, 1.0, 1.0])})
+        );
+        assert_eq!(
+            gold.microfacet,
+            Some((Distribution::Beckmann, Shape::Isotropic(0.3)))
+        );
+        assert_eq!(
+            c[0].mitsuba,
+            json!({"type": "diffuse", "reflectance": rgb([0.2, 0.5, 0.9])})
+        );
+        assert_eq!(c[0].microfacet, None);
+        for cfg in &c {
+            let m = renderer_material(&cfg.model, Renderer::Mitsuba).unwrap();
+            assert_eq!(cfg.mitsuba, m.mitsuba_dict(), "{}", cfg.name);
+        }
+        // What Mitsuba cannot evaluate is not a configuration.
+        let e = CrossConfig::from_model(
+            "x",
+            json!({"model": "cook-torrance", "params": {"rho_d": 0.1}}),
+            Tolerance::Relative { rel: 1e-5 },
+            None,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("Schlick"), "{e}");
+    }
+
+    #[test]
+    fn anisotropic_floor_uses_both_alphas() {
+        let cfg = CrossConfig::from_model(
+            "aniso",
+            json!({"model": "cook-torrance", "params": {"rho_d": 0, "alpha_x": 0.01,
+                "alpha_y": 0.5, "distribution": "beckmann", "beckmann_g1": "rational",
+                "fresnel": {"conductor": {"eta": METALS[0].1, "k": METALS[0].2}}}}),
+            Tolerance::Relative { rel: 1e-5 },
+            None,
+        )
+        .unwrap();
+        assert_eq!(
+            cfg.microfacet,
+            Some((Distribution::Beckmann, Shape::Anisotropic(0.01, 0.5)))
+        );
+        assert_eq!(cfg.mitsuba["alpha_u"], 0.01);
+        assert_eq!(cfg.mitsuba["alpha_v"], 0.5);
+        let v = cases(9);
+        let exact = ours(&cfg, &v);
+        let floored: Vec<Rgb> = v
+            .iter()
+            .zip(&exact)
+            .map(|((a, b), x)| {
+                let h = half_vector(a, b);
+                let dc = Distribution::Beckmann.d(h.x, h.y, h.z, 0.01, 0.5) * h.z;
+                if dc < 1e-20 { Rgb::ZERO } else { *x }
+            })
+            .collect();
+        let c = compare(&cfg, &v, &floored).unwrap();
+        assert!(c.passed && c.floor_cases > 0, "{c}");
     }
 
     #[test]

@@ -119,6 +119,7 @@ pub enum PoleChoice {
 /// What the checks run over. [`CheckOptions::default`] is what the CLI uses.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CheckOptions {
+    /// The pass/fail thresholds.
     pub thresholds: Thresholds,
     /// Polar steps of the dense grid (0 to 90° inclusive).
     pub dense_theta: usize,
@@ -163,6 +164,7 @@ impl Default for CheckOptions {
 /// f ≥ 0.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NonNegativityCheck {
+    /// Pass when no pair has a channel below −threshold.
     pub verdict: Verdict,
     /// Pairs evaluated.
     pub pairs: usize,
@@ -177,7 +179,9 @@ pub struct NonNegativityCheck {
 /// f(wi, wo) = f(wo, wi).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReciprocityCheck {
+    /// Pass when the largest relative error is within the threshold.
     pub verdict: Verdict,
+    /// Pairs evaluated.
     pub pairs: usize,
     /// max |f(wi,wo) − f(wo,wi)| / max(|f(wi,wo)|, |f(wo,wi)|).
     pub max_rel_error: f64,
@@ -207,6 +211,7 @@ pub struct AlbedoPoint {
 /// Directional albedo ≤ 1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EnergyCheck {
+    /// Pass when the largest albedo is within the threshold.
     pub verdict: Verdict,
     /// Largest albedo over the curve, channels and both readings.
     pub max_albedo: f64,
@@ -225,10 +230,12 @@ pub struct EnergyCheck {
 /// f invariant under a common rotation of wi and wo about the normal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct IsotropyCheck {
+    /// Pass when the largest relative change is within the threshold.
     pub verdict: Verdict,
     /// True when the model declares itself isotropic, so the check counts in the
     /// overall verdict.
     pub required: bool,
+    /// Pairs evaluated (each at every angle).
     pub pairs: usize,
     /// Rotation angles (radians).
     pub angles: Vec<f64>,
@@ -241,6 +248,7 @@ pub struct IsotropyCheck {
 /// No NaN or infinity.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FinitenessCheck {
+    /// Pass when no value or gradient entry is non-finite.
     pub verdict: Verdict,
     /// Pairs of the hard-case grid.
     pub hard_pairs: usize,
@@ -259,11 +267,17 @@ pub struct FinitenessCheck {
 pub struct PhysicalReport {
     /// The model in the JSON contract.
     pub model: serde_json::Value,
+    /// The thresholds the verdicts used.
     pub thresholds: Thresholds,
+    /// f ≥ 0.
     pub non_negativity: NonNegativityCheck,
+    /// f(wi, wo) = f(wo, wi).
     pub reciprocity: ReciprocityCheck,
+    /// Directional albedo ≤ 1.
     pub energy: EnergyCheck,
+    /// Invariance under a rotation about the normal.
     pub isotropy: IsotropyCheck,
+    /// No NaN or infinity.
     pub finiteness: FinitenessCheck,
     /// All required checks passed.
     pub passed: bool,

@@ -46,7 +46,9 @@ pub enum QualityError {
     /// An option out of range.
     #[error("fit-quality option `{option}`: {reason}")]
     Option {
+        /// The option's name.
         option: &'static str,
+        /// Why its value is refused.
         reason: String,
     },
 }
@@ -115,6 +117,7 @@ pub struct Band {
     pub lo: f64,
     /// Upper edge (radians; exclusive, inclusive for the last band).
     pub hi: f64,
+    /// Valid cells in the band.
     pub cells: usize,
     /// `None` when the band holds no cell.
     pub losses: Option<LossReport>,
@@ -123,8 +126,11 @@ pub struct Band {
 /// The 50th, 90th and 99th percentiles of a sample.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Percentiles {
+    /// The median.
     pub p50: f64,
+    /// The 90th percentile.
     pub p90: f64,
+    /// The 99th percentile.
     pub p99: f64,
 }
 
@@ -161,9 +167,13 @@ pub struct AlbedoComparison {
 /// Fit on part of the cells, scored on the rest.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HeldOutReport {
+    /// Fraction of the cells fitted on, in (0, 1).
     pub train_fraction: f64,
+    /// Seed of the stratified split.
     pub seed: u64,
+    /// Cells fitted on.
     pub train_cells: usize,
+    /// Cells held out and scored.
     pub test_cells: usize,
     /// The loss the fit minimised.
     pub loss: Loss,
@@ -183,15 +193,21 @@ pub struct HeldOutReport {
 pub struct QualityReport {
     /// The fitted model(s) in the JSON contract.
     pub model: Value,
+    /// The weighting the losses are measured with.
     pub weighting: Weighting,
     /// Valid cells of the table.
     pub cells: usize,
     /// Every loss over all valid cells.
     pub losses: LossReport,
+    /// Losses by θh band.
     pub theta_h_bands: Vec<Band>,
+    /// Losses by θd band.
     pub theta_d_bands: Vec<Band>,
+    /// Relative-error percentiles.
     pub relative_error: RelativeErrors,
+    /// The albedo of fit and table along θo.
     pub albedo: Vec<AlbedoComparison>,
+    /// Held-out validation, when asked for.
     pub held_out: Option<HeldOutReport>,
 }
 

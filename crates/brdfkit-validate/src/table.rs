@@ -60,6 +60,7 @@ impl Default for TableThresholds {
 /// What the table checks run over.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TableCheckOptions {
+    /// The pass/fail thresholds.
     pub thresholds: TableThresholds,
     /// Polar angles (radians) of the albedo curve.
     pub albedo_thetas: Vec<f64>,
@@ -110,8 +111,11 @@ mod lookup_name {
 /// Missing cells.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CoverageCheck {
+    /// Pass when the holes above the horizon are within the threshold.
     pub verdict: Verdict,
+    /// Cells of the table.
     pub cells: usize,
+    /// Missing cells (every channel negative).
     pub missing: usize,
     /// missing / cells.
     pub missing_fraction: f64,
@@ -129,6 +133,7 @@ pub struct CoverageCheck {
 /// Negative values that are not missing-sample markers.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NegativeCheck {
+    /// Pass when no cell is partially negative.
     pub verdict: Verdict,
     /// Cells with every channel negative: missing-sample markers.
     pub markers: usize,
@@ -141,9 +146,11 @@ pub struct NegativeCheck {
 /// No NaN or infinity.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TableFinitenessCheck {
+    /// Pass when every value is finite.
     pub verdict: Verdict,
     /// Raw values scanned (3 × cells).
     pub values: usize,
+    /// Raw values that are NaN or infinite.
     pub nonfinite: usize,
 }
 
@@ -156,6 +163,7 @@ pub struct TableAlbedoPoint {
     pub albedo: Option<Rgb>,
     /// Fraction of the cosine-weighted hemisphere whose lookups were missing.
     pub missing_weight: f64,
+    /// The quadrature pole used.
     pub pole: QuadPole,
     /// max over channels of |fine − default|.
     pub convergence: f64,
@@ -164,11 +172,15 @@ pub struct TableAlbedoPoint {
 /// Albedo ≤ 1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TableEnergyCheck {
+    /// Pass when the largest albedo is within the threshold.
     pub verdict: Verdict,
+    /// Largest albedo over the curve and channels.
     pub max_albedo: f64,
     /// θo of the maximum (radians).
     pub max_theta: f64,
+    /// Largest convergence estimate over the curve (max over channels of |fine − default|).
     pub convergence: f64,
+    /// The albedo curve.
     pub curve: Vec<TableAlbedoPoint>,
 }
 
@@ -177,13 +189,19 @@ pub struct TableEnergyCheck {
 pub struct TableReport {
     /// (nθh, nθd, nφd).
     pub dims: [usize; 3],
+    /// Cells holding a sample.
     pub valid: usize,
+    /// The thresholds the verdicts used.
     pub thresholds: TableThresholds,
     /// `"nearest"` or `"interpolated"`.
     pub lookup: String,
+    /// Missing cells.
     pub coverage: CoverageCheck,
+    /// Negative values that are not missing-sample markers.
     pub negative: NegativeCheck,
+    /// No NaN or infinity.
     pub finiteness: TableFinitenessCheck,
+    /// Albedo ≤ 1.
     pub energy: TableEnergyCheck,
     /// All checks passed.
     pub passed: bool,

@@ -9,6 +9,7 @@
 
 use assert_cmd::Command;
 use brdfkit::core::{Rgb, Vec3};
+use brdfkit::models::cook_torrance::Shape;
 use brdfkit_validate::mitsuba::{
     CrossConfig, Tolerance, cases, compare, find_python, workspace_root,
 };
@@ -70,7 +71,7 @@ struct Case {
     tolerance: Tolerance,
     /// Distribution and α for Mitsuba's D floor (isotropic Beckmann); GGX never reaches
     /// it at these roughnesses.
-    microfacet: Option<(brdfkit::core::scattering::Distribution, f64)>,
+    microfacet: Option<(brdfkit::core::scattering::Distribution, Shape)>,
 }
 
 fn mitsuba_cases() -> Vec<Case> {
@@ -108,7 +109,7 @@ fn mitsuba_cases() -> Vec<Case> {
                 slope: 1e-6,
                 alpha: 0.25,
             },
-            microfacet: Some((Distribution::Beckmann, 0.25)),
+            microfacet: Some((Distribution::Beckmann, Shape::Isotropic(0.25))),
         },
     ]
 }
@@ -240,6 +241,32 @@ fn mitsuba_export_loads_in_mitsuba_and_matches_the_model() {
         .unwrap();
         assert!(!cmp.passed, "a wrong model must not match: {cmp}");
     }
+}
+
+#[test]
+fn cli_output_is_the_library_mapping() {
+    use brdfkit_validate::export::{self as lib, ExportForm, Renderer, renderer_material};
+    let d = tempfile::tempdir().unwrap();
+    let text = |v: &Value, form| lib::export(v, form, "model.json").unwrap().text;
+    for c in mitsuba_cases() {
+        let dict: Value = serde_json::from_str(&export(
+            d.path(),
+            &c.model,
+            &["--to", "mitsuba", "--format", "dict", "--quiet"],
+        ))
+        .unwrap();
+        // The dictionary brdfkit-validate's cross-check evaluates.
+        let m = renderer_material(&c.model, Renderer::Mitsuba).unwrap();
+        assert_eq!(dict, m.mitsuba_dict(), "{}", c.name);
+        let xml = export(d.path(), &c.model, &["--to", "mitsuba", "--quiet"]);
+        assert_eq!(xml, text(&c.model, ExportForm::MitsubaXml), "{}", c.name);
+    }
+    let pbrt = json!({"model": "cook-torrance", "params": {"rho_d": 0, "rho_s": 1, "alpha": 0.2,
+        "masking": "smith-correlated", "fresnel": conductor(GOLD_ETA, GOLD_K)}});
+    assert_eq!(
+        export(d.path(), &pbrt, &["--to", "pbrt", "--quiet"]),
+        text(&pbrt, ExportForm::Pbrt)
+    );
 }
 
 /// pbrt-v4's `ConductorBxDF::f` (src/pbrt/bxdfs.h) with `TrowbridgeReitzDistribution`
@@ -450,6 +477,20 @@ fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("per-channel fit"), "{}", stderr(&o));
+    // Not JSON.
+    std::fs::write(&p, "{\"model\": ").unwrap();
+    let o = bin()
+        .arg("export")
+        .arg(&p)
+        .args(["--to", "pbrt"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("m.json: not valid JSON"),
+        "{}",
+        stderr(&o)
+    );
     // A model that is not valid at all, a missing file, and usage errors.
     std::fs::write(&p, r#"{"model": "lambert", "params": {"rho_d": 2}}"#).unwrap();
     let o = bin()

@@ -96,6 +96,7 @@ pub(crate) fn slices(
 pub struct ResidualMap {
     /// Blocks along θh and θd.
     pub cols: usize,
+    /// Blocks along θd.
     pub rows: usize,
     /// θh bins per block and θd bins per block.
     pub block: [usize; 2],

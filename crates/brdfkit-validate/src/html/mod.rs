@@ -55,7 +55,9 @@ pub enum ReportError {
     /// An option out of range.
     #[error("report option `{option}`: {reason}")]
     Option {
+        /// The option's name.
         option: &'static str,
+        /// Why its value is refused.
         reason: String,
     },
 }
@@ -134,13 +136,16 @@ pub struct TableInfo {
     pub name: String,
     /// θh, θd, φd bins.
     pub dims: [usize; 3],
+    /// Cells of the table.
     pub cells: usize,
+    /// Cells holding a sample (not missing).
     pub valid_cells: usize,
 }
 
 /// One model's line of the summary.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelSummary {
+    /// The model's label in the report's tables and charts.
     pub label: String,
     /// The fitted parameters in the JSON contract.
     pub params: Value,
@@ -148,7 +153,9 @@ pub struct ModelSummary {
     pub losses: LossReport,
     /// Fit wall time (s), when fitted here.
     pub fit_time_s: Option<f64>,
+    /// Iterations of the fit, when fitted here.
     pub iterations: Option<u64>,
+    /// Whether the fit converged, when fitted here.
     pub converged: Option<bool>,
     /// The physical checks' verdict (all channel models); `None` when not run.
     pub physical_passed: Option<bool>,
@@ -157,55 +164,77 @@ pub struct ModelSummary {
 /// The summary: what `fit-brdf report --json` prints.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReportSummary {
+    /// The table reported on.
     pub table: TableInfo,
     /// The loss the fits minimised, when known.
     pub loss_optimised: Option<String>,
+    /// The weighting the losses are measured with.
     pub weighting: Weighting,
+    /// One line per model, in the report's order.
     pub models: Vec<ModelSummary>,
 }
 
 /// Everything measured about one model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelDetail {
+    /// The model's label (as in [`ModelSummary::label`]).
     pub label: String,
+    /// Fit quality against the table.
     pub quality: QualityReport,
     /// One report for a shared model, three (R, G, B) for a per-channel fit; empty when
     /// the checks did not run.
     pub physical: Vec<PhysicalReport>,
     /// Wall time of the physical checks (s).
     pub physical_time_s: f64,
+    /// The signed log-ratio map over (θh, θd).
     pub residual_map: ResidualMap,
+    /// The fit's record, when fitted here.
     pub record: Option<FitRecord>,
 }
 
 /// Wall times of the report's parts (s).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timings {
+    /// Fit-quality measurements.
     pub quality_s: f64,
+    /// Slices and residual maps.
     pub slices_and_maps_s: f64,
+    /// Albedo curves.
     pub albedo_s: f64,
+    /// Physical checks.
     pub checks_s: f64,
+    /// Sphere renders.
     pub renders_s: f64,
+    /// Building the HTML page.
     pub page_s: f64,
+    /// The whole report.
     pub total_s: f64,
 }
 
 /// The JSON of the report (`report.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ReportData {
+    /// The summary (what `--json` prints).
     pub summary: ReportSummary,
     /// The fit configuration, when given.
     pub fit_config: Option<FitConfig>,
+    /// The options the report was made with.
     pub options: ReportOptions,
+    /// Per model, everything measured.
     pub models: Vec<ModelDetail>,
+    /// The BRDF slices of the charts.
     pub slices: Vec<Slice>,
+    /// The albedo curves of the table and the models.
     pub albedo: AlbedoCurves,
+    /// The sphere renders, one set per lighting.
     pub renders: Vec<RenderSet>,
+    /// Wall times of the parts.
     pub timings: Timings,
 }
 
 /// The report: its data and its page.
 pub struct FitReport {
+    /// The report's data (`report.json`).
     pub data: ReportData,
     /// The self-contained HTML page.
     pub html: String,

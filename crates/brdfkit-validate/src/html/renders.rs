@@ -83,6 +83,7 @@ pub struct ImageDiff {
 /// One lighting's images.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RenderSet {
+    /// The lighting of the images.
     pub lighting: Lighting,
     /// Samples per pixel taken.
     pub spp: usize,
@@ -102,10 +103,13 @@ pub struct RenderSet {
 /// One model's render under one lighting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelRender {
+    /// The model's image (PNG).
     #[serde(skip)]
     pub png: Vec<u8>,
+    /// The difference image against the table's (PNG).
     #[serde(skip)]
     pub diff_png: Vec<u8>,
+    /// The difference figures against the table's image.
     pub diff: ImageDiff,
 }
 
