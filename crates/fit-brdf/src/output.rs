@@ -45,7 +45,11 @@ mod tests {
         std::fs::write(p.join("keep"), "x").unwrap();
         let e = write_atomic(&p, b"new").unwrap_err();
         assert_eq!(e.exit_code(), 1);
-        assert!(e.render().contains(&p.display().to_string()), "{}", e.render());
+        assert!(
+            e.render().contains(&p.display().to_string()),
+            "{}",
+            e.render()
+        );
         assert!(p.join("keep").exists());
         write_text(Some(&d.path().join("a.csv")), "r,g,b\n").unwrap();
         assert_eq!(

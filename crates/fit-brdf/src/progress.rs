@@ -174,7 +174,8 @@ impl BatchObserver for Batch {
     }
 
     fn on_plan(&self, p: &Plan) {
-        let bar = ProgressBar::with_draw_target(Some(p.to_fit as u64), ProgressDrawTarget::hidden());
+        let bar =
+            ProgressBar::with_draw_target(Some(p.to_fit as u64), ProgressDrawTarget::hidden());
         bar.set_style(
             ProgressStyle::with_template(
                 "{spinner} [{bar:24}] {pos}/{len} tables, {elapsed}, eta {eta}: {msg}",

@@ -74,10 +74,10 @@ impl BatchObserver for Log {
         self.events
             .borrow_mut()
             .push(format!("done {k} {} {what}", t.name));
-        if let Some((after, cancel)) = self.stop_after {
-            if k + 1 == after {
-                cancel.request();
-            }
+        if let Some((after, cancel)) = self.stop_after
+            && k + 1 == after
+        {
+            cancel.request();
         }
     }
 }

@@ -96,8 +96,13 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
         fams.len(),
         data.len()
     );
-    let outcomes = fit_each(&data, &fams, &cfg, &progress::Families::with_lines(cfg.get_loss(), false))
-        .map_err(runtime)?;
+    let outcomes = fit_each(
+        &data,
+        &fams,
+        &cfg,
+        &progress::Families::with_lines(cfg.get_loss(), false),
+    )
+    .map_err(runtime)?;
     print!("{}", comparison_text(&outcomes, cfg.get_loss()));
     println!("fits: {:.1} s", t1.elapsed().as_secs_f64());
 

@@ -12,7 +12,7 @@ use brdfkit::fit::families::{Outcome, comparison_text, fit_each};
 use serde_json::Value;
 
 /// Pretty JSON with a final newline.
-pub fn pretty(v: &impl serde::Serialize) -> CliResult<String> {
+fn pretty(v: &impl serde::Serialize) -> CliResult<String> {
     serde_json::to_string_pretty(v)
         .map(|s| s + "\n")
         .map_err(runtime)
@@ -46,8 +46,14 @@ pub fn run(a: FitArgs) -> CliResult<()> {
             .map_err(runtime)?;
         for o in &outcomes {
             let stem = &o.record.family;
-            write_atomic(&dir.join(format!("{stem}.json")), pretty(&o.params)?.as_bytes())?;
-            write_atomic(&dir.join(format!("{stem}.fit.json")), pretty(&o.record)?.as_bytes())?;
+            write_atomic(
+                &dir.join(format!("{stem}.json")),
+                pretty(&o.params)?.as_bytes(),
+            )?;
+            write_atomic(
+                &dir.join(format!("{stem}.fit.json")),
+                pretty(&o.record)?.as_bytes(),
+            )?;
         }
     }
 

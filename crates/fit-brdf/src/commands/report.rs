@@ -112,8 +112,13 @@ pub fn run(a: ReportArgs) -> CliResult<()> {
             data.len()
         );
     }
-    let outcomes = fit_each(&data, &fams, &cfg, &progress::Families::with_lines(cfg.get_loss(), a.quiet))
-        .map_err(runtime)?;
+    let outcomes = fit_each(
+        &data,
+        &fams,
+        &cfg,
+        &progress::Families::with_lines(cfg.get_loss(), a.quiet),
+    )
+    .map_err(runtime)?;
     let t_fit = t0.elapsed().as_secs_f64();
     let name = a
         .table
