@@ -29,13 +29,19 @@
 //! - [`lm`]: Levenberg-Marquardt and Gauss-Newton as argmin solvers;
 //! - [`starts`]: the multi-start scheme;
 //! - [`config`], [`record`], [`observer`]: options, the JSON record, progress events;
-//! - [`synth`]: synthetic tables from a model (tests, benchmarks).
+//! - [`synth`]: synthetic tables from a model (tests, benchmarks);
+//! - [`families`]: model lists with structural choices and fit settings as the command
+//!   line gives them, fitted family by family;
+//! - [`batch`]: the batch engine (every table of a database, resumable, sharded,
+//!   cancellable between tables).
 //!
 //! The formulas, sources and measured performance are in `docs/fitting.md`.
 
+pub mod batch;
 pub mod config;
 pub mod data;
 pub mod error;
+pub mod families;
 mod fit;
 pub mod lm;
 pub mod loss;

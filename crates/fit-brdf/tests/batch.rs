@@ -1,6 +1,6 @@
-//! `fit-brdf batch`: every table fitted, corrupt ones reported (exit 1), reruns resume
-//! without refitting, shards partition the database, and SIGINT leaves only complete
-//! files.
+//! `fit-brdf batch` end to end: every table fitted, corrupt ones reported (exit 1),
+//! reruns resume without refitting, shards partition the database, and SIGINT leaves
+//! only complete files. The engine's logic has its unit tests in `brdfkit_fit::batch`.
 
 use assert_cmd::Command;
 use serde_json::Value;
@@ -446,7 +446,7 @@ fn inputs_globs_and_bad_usage() {
 }
 
 #[cfg(unix)]
-/// Spawns a batch over `db`, waits for its first finished table and 50 ms more (the
+/// Spawns a batch over `db`, waits for its first newly finished table and 50 ms more (the
 /// second table is then being fitted: each takes a few hundred ms), sends `signals`
 /// SIGINTs 30 ms apart, and returns its output.
 fn interrupt(db: &Path, out: &Path, signals: usize) -> std::process::Output {
@@ -468,7 +468,17 @@ fn interrupt(db: &Path, out: &Path, signals: usize) -> std::process::Output {
         .spawn()
         .unwrap();
     let t0 = Instant::now();
-    while !(out.exists() && names(out).iter().any(|n| n.ends_with(".json"))) {
+    let jsons = |out: &Path| {
+        if out.exists() {
+            names(out).iter().filter(|n| n.ends_with(".json")).count()
+        } else {
+            0
+        }
+    };
+    // Outputs of an earlier run do not count: the handler is surely installed once
+    // this run has finished a table.
+    let before = jsons(out);
+    while jsons(out) <= before {
         assert!(t0.elapsed() < Duration::from_secs(120), "no table finished");
         std::thread::sleep(Duration::from_millis(2));
     }
@@ -482,9 +492,14 @@ fn interrupt(db: &Path, out: &Path, signals: usize) -> std::process::Output {
     child.wait_with_output().unwrap()
 }
 
+/// The interrupt glue of the command line, end to end: a first SIGINT makes the batch
+/// stop after the current table (exit 1, every output complete), and on a rerun a second
+/// SIGINT stops it at once, still leaving no partial file. What the engine does with a
+/// stop request (pending rows, the rerun's counts) is tested in
+/// `brdfkit_fit::batch` without signals.
 #[cfg(unix)]
 #[test]
-fn sigint_stops_between_tables_and_a_rerun_resumes() {
+fn sigint_stops_the_batch_and_a_second_stops_it_at_once() {
     let d = tempfile::tempdir().unwrap();
     let n = 6;
     let db = database(d.path(), n, true);
@@ -498,45 +513,12 @@ fn sigint_stops_between_tables_and_a_rerun_resumes() {
     assert!(done >= 1 && done < n, "stopped early: {done} of {n}");
     assert_eq!(v["fitted"].as_u64(), Some(done as u64));
     assert_eq!(v["pending"].as_u64(), Some((n - done) as u64));
-    let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
-    assert_eq!(csv.matches(",pending,").count(), n - done, "{csv}");
 
-    let o = bin()
-        .arg("batch")
-        .arg(&db)
-        .args([
-            "--models",
-            "cook-torrance",
-            "--starts",
-            "8",
-            "--json",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v = json_of(&o);
-    assert_eq!(
-        (v["resumed"].as_u64(), v["fitted"].as_u64()),
-        (Some(done as u64), Some((n - done) as u64))
-    );
-    assert_eq!(assert_outputs_complete(&out), n);
-}
-
-#[cfg(unix)]
-#[test]
-fn a_second_sigint_stops_at_once_and_leaves_no_partial_file() {
-    let d = tempfile::tempdir().unwrap();
-    let n = 6;
-    let db = database(d.path(), n, true);
-    let out = d.path().join("out");
     let t0 = Instant::now();
     let o = interrupt(&db, &out, 2);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("stopped"), "{}", stderr(&o));
-    let done = assert_outputs_complete(&out);
-    assert!(done < n, "{done}");
+    let again = assert_outputs_complete(&out);
+    assert!(again >= done && again < n, "{again}");
     assert!(t0.elapsed() < Duration::from_secs(120));
 }

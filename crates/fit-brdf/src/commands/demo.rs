@@ -9,19 +9,17 @@
 //! 3. write the fit-quality report (OUT/report/index.html and report.json) and say
 //!    where it is.
 
-use super::fit::{Structure, comparison_text, families};
-use super::report::{fit_families, make_report, write_report};
+use super::report::{make_report, write_report};
 use super::{read_table, write_table};
 use crate::cli::DemoArgs;
-use crate::error::{CliResult, bad_msg, runtime};
+use crate::error::{CliResult, bad_input, bad_msg, runtime};
+use crate::progress;
 use anyhow::Context;
 use brdfkit::core::direction::spherical;
+use brdfkit::fit::families::{REPORT_MODELS, Structure, comparison_text, families, fit_each};
+use brdfkit::fit::{FitConfig, FitData};
 use brdfkit::synth::SynthSpec;
-use brdfkit_fit::{FitConfig, FitData};
 use brdfkit_validate::html::ReportOptions;
-
-/// The model families the demo fits (the report's default list).
-pub const DEMO_MODELS: &str = "lambert,plausible-phong,ward,lafortune,cook-torrance";
 
 /// The demo's fit settings: the `cbrt` loss with solid-angle weights and LM (the
 /// defaults of `fit`), 2 starts, on a stratified quarter of the valid cells (every loss
@@ -90,13 +88,7 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
 
     // 2. Fits.
     let t1 = std::time::Instant::now();
-    let none = Structure {
-        distribution: None,
-        masking: None,
-        fresnel: None,
-        normalization: None,
-    };
-    let fams = families(DEMO_MODELS, &none)?;
+    let fams = families(REPORT_MODELS, &Structure::default()).map_err(bad_input)?;
     let cfg = demo_config()?;
     let data = FitData::from_table(&back).map_err(runtime)?;
     println!(
@@ -104,7 +96,13 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
         fams.len(),
         data.len()
     );
-    let outcomes = fit_families(&data, &fams, &cfg, false)?;
+    let outcomes = fit_each(
+        &data,
+        &fams,
+        &cfg,
+        &progress::Families::with_lines(cfg.get_loss(), false),
+    )
+    .map_err(runtime)?;
     print!("{}", comparison_text(&outcomes, cfg.get_loss()));
     println!("fits: {:.1} s", t1.elapsed().as_secs_f64());
 

@@ -14,10 +14,12 @@ mod resample;
 mod study;
 mod synth;
 
-use crate::cli::{Cli, Command, Interp};
+use crate::cli::{Cli, Command, FitOptions, Interp};
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
 use anyhow::Context;
 use brdfkit::core::Model;
+use brdfkit::fit::FitConfig;
+use brdfkit::fit::families::{Family, FitSettings, Structure, check_free, families};
 use brdfkit::merl::{Dims, Lookup, MerlError, MerlTable};
 use std::path::Path;
 
@@ -37,6 +39,36 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Completions(a) => completions::run(a),
         Command::Study(a) => study::run(a),
     }
+}
+
+/// The model families and the validated fit configuration of the fit options (shared by
+/// `fit`, `report` and `batch`), every `--fix` name checked against every family; any
+/// error is bad input (exit 2).
+pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
+    let structure = Structure {
+        distribution: o.distribution,
+        masking: o.masking,
+        fresnel: o.fresnel,
+        normalization: o.normalization,
+    };
+    let fams = families(&o.model, &structure).map_err(bad_input)?;
+    let settings = FitSettings {
+        loss: o.loss,
+        weighting: o.weighting,
+        solver: o.solver,
+        starts: o.starts,
+        finish: o.finish,
+        sample_fraction: o.sample_fraction,
+        theta_d_max_deg: o.theta_d_max,
+        per_channel: o.per_channel,
+        seed: o.seed,
+        fix: o.fix.clone(),
+        robust: o.robust,
+        robust_scale: o.robust_scale,
+    };
+    let cfg = settings.config().map_err(bad_input)?;
+    check_free(&fams, &cfg).map_err(bad_input)?;
+    Ok((fams, cfg))
 }
 
 /// Reads a table; every read failure is the user's input (exit 2).

@@ -1,57 +1,24 @@
 //! `fit-brdf report TABLE --models ... --out DIR`: fit every model and write the
 //! fit-quality report (DIR/index.html, DIR/report.json) of `brdfkit_validate::html`.
 
-use super::fit::{Family, Outcome, comparison_text, config, families, fit_all, structure};
-use super::read_table;
+use super::{fit_setup, read_table};
 use crate::cli::ReportArgs;
 use crate::error::{CliResult, bad_msg, runtime};
-use crate::output::write_text;
+use crate::output::{write_failed, write_text};
+use crate::progress;
 use anyhow::Context;
+use brdfkit::core::atomic::FileSet;
+use brdfkit::fit::families::{Outcome, comparison_text, fit_each};
+use brdfkit::fit::{FitConfig, FitData};
 use brdfkit::merl::MerlTable;
-use brdfkit_fit::{FitConfig, FitData};
 use brdfkit_validate::html::renders::RenderOptions;
 use brdfkit_validate::html::{FitReport, ModelFit, ReportOptions, build_report};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// The report's files in DIR.
 pub const HTML_FILE: &str = "index.html";
 pub const JSON_FILE: &str = "report.json";
-
-/// Fits every family, one after the other, with a line per model on stderr (the
-/// progress bar of `fit` appears under it when a fit runs for more than a second).
-pub fn fit_families(
-    data: &FitData,
-    fams: &[Family],
-    cfg: &FitConfig,
-    quiet: bool,
-) -> CliResult<Vec<Outcome>> {
-    let mut out = Vec::new();
-    for (k, f) in fams.iter().enumerate() {
-        if !quiet {
-            eprintln!("[{}/{}] fitting {} ...", k + 1, fams.len(), f.label);
-        }
-        let mut o = fit_all(data, std::slice::from_ref(f), cfg, quiet)?;
-        let o = o.remove(0);
-        if !quiet {
-            eprintln!(
-                "      {} loss {:.4e} in {:.2} s ({} iterations{})",
-                cfg.get_loss(),
-                o.record.losses_full.get(cfg.get_loss()).overall,
-                o.record.wall_time_s,
-                o.record.iterations,
-                if o.record.converged {
-                    ""
-                } else {
-                    ", not converged"
-                }
-            );
-        }
-        out.push(o);
-    }
-    Ok(out)
-}
 
 /// Builds the report of fitted outcomes; progress lines go to stderr unless `quiet`.
 pub fn make_report(
@@ -82,57 +49,21 @@ pub fn make_report(
         .map_err(|e| runtime(anyhow::anyhow!("{table_name}: the report failed: {e}")))
 }
 
-/// Writes DIR/report.json and DIR/index.html: both are written whole to temporary files
-/// in DIR first, then renamed into place; if the second rename fails the first file is
-/// removed again, so DIR never holds half a report. DIR may exist.
+/// Writes DIR/report.json and DIR/index.html as one [`FileSet`]: both are staged whole
+/// beside their destinations, then renamed into place; if the second rename fails the
+/// first is rolled back, so DIR never holds half a report. DIR may exist.
 pub fn write_report(dir: &Path, report: &FitReport) -> CliResult<(PathBuf, PathBuf)> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create the output directory", dir.display()))
         .map_err(runtime)?;
-    let files = [
-        (dir.join(JSON_FILE), report.to_json_pretty()),
-        (dir.join(HTML_FILE), report.html.clone()),
-    ];
-    let mut temps = Vec::new();
-    for (path, text) in &files {
-        let mut tmp = tempfile::NamedTempFile::new_in(dir)
-            .with_context(|| {
-                format!(
-                    "{}: cannot create a temporary file in {}",
-                    path.display(),
-                    dir.display()
-                )
-            })
-            .map_err(runtime)?;
-        // A temporary file is private (0600); a report is for reading: 0644.
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            let _ = tmp
-                .as_file()
-                .set_permissions(std::fs::Permissions::from_mode(0o644));
-        }
-        tmp.write_all(text.as_bytes())
-            .and_then(|_| tmp.as_file().sync_all())
-            .with_context(|| format!("{}: write failed", path.display()))
-            .map_err(runtime)?;
-        temps.push(tmp);
-    }
-    let mut placed: Vec<&Path> = Vec::new();
-    for (tmp, (path, _)) in temps.into_iter().zip(&files) {
-        if let Err(e) = tmp.persist(path) {
-            for p in &placed {
-                // Best effort: the error below is what the user needs to see.
-                let _ = std::fs::remove_file(p);
-            }
-            return Err(runtime(anyhow::Error::new(e.error).context(format!(
-                "{}: cannot move the finished file into place",
-                path.display()
-            ))));
-        }
-        placed.push(path);
-    }
-    Ok((files[1].0.clone(), files[0].0.clone()))
+    let (json, html) = (dir.join(JSON_FILE), dir.join(HTML_FILE));
+    let mut set = FileSet::new();
+    set.stage_bytes(&json, report.to_json_pretty().as_bytes())
+        .map_err(write_failed)?;
+    set.stage_bytes(&html, report.html.as_bytes())
+        .map_err(write_failed)?;
+    set.commit().map_err(write_failed)?;
+    Ok((html, json))
 }
 
 /// The report options of the command line.
@@ -167,8 +98,7 @@ fn options(a: &ReportArgs) -> CliResult<ReportOptions> {
 
 pub fn run(a: ReportArgs) -> CliResult<()> {
     let t0 = Instant::now();
-    let fams = families(&a.opts.model, &structure(&a.opts))?;
-    let cfg = config(&a.opts)?;
+    let (fams, cfg) = fit_setup(&a.opts)?;
     let mut opts = options(&a)?;
     opts.weighting = cfg.get_weighting();
     let table = read_table(&a.table)?;
@@ -182,7 +112,13 @@ pub fn run(a: ReportArgs) -> CliResult<()> {
             data.len()
         );
     }
-    let outcomes = fit_families(&data, &fams, &cfg, a.quiet)?;
+    let outcomes = fit_each(
+        &data,
+        &fams,
+        &cfg,
+        &progress::Families::with_lines(cfg.get_loss(), a.quiet),
+    )
+    .map_err(runtime)?;
     let t_fit = t0.elapsed().as_secs_f64();
     let name = a
         .table

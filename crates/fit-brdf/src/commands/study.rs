@@ -1,11 +1,9 @@
 //! `fit-brdf study`: the accuracy-vs-time study (`brdfkit-study`), with its grid taken
 //! from the options.
 
-use crate::cli::StudyArgs;
+use crate::cli::{StudyArgs, StudyPart};
 use crate::error::{CliResult, bad_msg, runtime};
-use brdfkit_fit::SolverKind;
 use brdfkit_study::{ModelChoice, StudyConfig, StudyError};
-use std::str::FromStr;
 
 fn list<T>(opt: &str, s: &str, parse: impl Fn(&str) -> Option<T>) -> CliResult<Vec<T>> {
     s.split(',')
@@ -32,7 +30,7 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
         custom = true;
     }
     if let Some(s) = &a.solvers {
-        c.solvers = list("solvers", s, |x| SolverKind::from_str(x).ok())?;
+        c.solvers = s.clone();
         custom = true;
     }
     if let Some(f) = &a.fractions {
@@ -64,14 +62,9 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
     if let Some(b) = a.batch_tables {
         c.batch_tables = b;
     }
-    let parts = list("parts", &a.parts, |x| {
-        ["grid", "choices", "scale"]
-            .contains(&x)
-            .then(|| x.to_string())
-    })?;
-    c.grid = parts.iter().any(|p| p == "grid");
-    c.choices = parts.iter().any(|p| p == "choices");
-    c.scale = parts.iter().any(|p| p == "scale");
+    c.grid = a.parts.contains(&StudyPart::Grid);
+    c.choices = a.parts.contains(&StudyPart::Choices);
+    c.scale = a.parts.contains(&StudyPart::Scale);
     if custom {
         c.grid_name = format!("custom ({})", c.grid_name);
     }

@@ -1,0 +1,638 @@
+//! What `fit`, `report`, `batch` and `demo` fit: model families with their structural
+//! choices, and the fit settings as the command line states them, both validated into
+//! the library's types ([`Family`], [`FitConfig`]); then every family fitted in turn
+//! ([`fit_each`]) and the comparison of the results ([`comparison_text`]).
+//!
+//! Structural choices are applied with the models' builders
+//! (`CookTorrance::with_distribution`, `Ward::with_normalization`, ...), so a choice is
+//! checked by the type system and never written into JSON by hand.
+//!
+//! Error messages name the command-line option concerned (`--model`, `--fix`, ...):
+//! they are what a user of `fit-brdf` reads.
+
+use crate::{
+    FitConfig, FitData, FitError, FitObserver, FitRecord, Loss, RobustKind, Sharing, SolverKind,
+    Weighting, fit, resolve_free,
+};
+use brdfkit_core::scattering::{Distribution, Masking};
+use brdfkit_core::{Model, ModelError};
+use brdfkit_models::cook_torrance::{CookTorrance, FresnelKind};
+use brdfkit_models::ward::{Normalization, Ward};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The model families of the report and the demo, in the order they are shown.
+pub const REPORT_MODELS: &str = "lambert,plausible-phong,ward,lafortune,cook-torrance";
+
+/// Why the model list or the settings cannot be used: always the user's input.
+#[derive(Debug, thiserror::Error)]
+pub enum FamilyError {
+    /// A model file could not be read.
+    #[error("{}: cannot read the model description", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A model file is not JSON.
+    #[error("{}: not valid JSON: {source}", path.display())]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A model file's `params` is neither an object nor null.
+    #[error("{item}: `params` must be an object")]
+    ParamsNotObject {
+        /// The `--model` item (a file).
+        item: String,
+    },
+    /// The model rejected its name, a parameter or a structural choice.
+    #[error("--model {item}: {source}")]
+    Model {
+        /// The `--model` item.
+        item: String,
+        /// The model's message.
+        #[source]
+        source: ModelError,
+    },
+    /// `--model` named nothing.
+    #[error("--model: no model given")]
+    NoModel,
+    /// A structural choice of a model that is not in the list.
+    #[error("{options} apply to {model}, which is not among the models")]
+    ChoiceWithoutModel {
+        /// The options given, e.g. `--distribution, --masking and --fresnel`.
+        options: &'static str,
+        /// The model they belong to.
+        model: &'static str,
+    },
+    /// A fit setting out of range.
+    #[error("--{option}: {reason}")]
+    Setting {
+        /// The option, as on the command line without its dashes (`starts`).
+        option: &'static str,
+        /// Why.
+        reason: String,
+    },
+    /// `--fix` names a parameter a family lacks.
+    #[error("--fix: {label}: {source}")]
+    Free {
+        /// The family.
+        label: String,
+        /// The fitter's message.
+        #[source]
+        source: FitError,
+    },
+    /// `--fix` leaves a family nothing to fit.
+    #[error("--fix: {label}: every parameter is fixed, nothing is left to fit")]
+    AllFixed {
+        /// The family.
+        label: String,
+    },
+}
+
+/// Structural choices given once for the whole model list; each applies to the model
+/// that has it and is an error when that model is not in the list.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Structure {
+    /// Microfacet distribution of cook-torrance.
+    pub distribution: Option<Distribution>,
+    /// Masking-shadowing of cook-torrance.
+    pub masking: Option<Masking>,
+    /// Fresnel kind of cook-torrance (with that kind's default parameters).
+    pub fresnel: Option<FresnelKind>,
+    /// Normalisation of ward.
+    pub normalization: Option<Normalization>,
+}
+
+impl Structure {
+    fn any_cook_torrance(&self) -> bool {
+        self.distribution.is_some() || self.masking.is_some() || self.fresnel.is_some()
+    }
+
+    /// `ct` with the cook-torrance choices applied. A Fresnel kind replaces the start's
+    /// factor by that kind's defaults, whatever the start had.
+    pub fn apply_cook_torrance(&self, mut ct: CookTorrance) -> Result<CookTorrance, ModelError> {
+        if let Some(d) = self.distribution {
+            ct = ct.with_distribution(d);
+        }
+        if let Some(m) = self.masking {
+            ct = ct.with_masking(m);
+        }
+        if let Some(f) = self.fresnel {
+            ct = ct.with_fresnel(f.with_defaults())?;
+        }
+        Ok(ct)
+    }
+
+    /// `w` with the ward choice applied.
+    pub fn apply_ward(&self, w: Ward) -> Ward {
+        match self.normalization {
+            Some(n) => w.with_normalization(n),
+            None => w,
+        }
+    }
+}
+
+/// A model family to fit: a label and its model at the start.
+pub struct Family {
+    /// The model's name, or `name (file)` for a start read from a file.
+    pub label: String,
+    /// The start, with its structural choices.
+    pub model: Box<dyn Model>,
+}
+
+/// One `--model` item: its model name and `params` (a name alone has null params).
+fn read_item(item: &str) -> Result<(bool, Value), FamilyError> {
+    let is_file = item.ends_with(".json") || Path::new(item).is_file();
+    if !is_file {
+        return Ok((false, serde_json::json!({"model": item})));
+    }
+    let path = Path::new(item);
+    let text = std::fs::read_to_string(path).map_err(|source| FamilyError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let v: Value = serde_json::from_str(&text).map_err(|source| FamilyError::Json {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if v.get("params")
+        .is_some_and(|p| !p.is_object() && !p.is_null())
+    {
+        return Err(FamilyError::ParamsNotObject { item: item.into() });
+    }
+    Ok((true, v))
+}
+
+/// Parses a model list (comma-separated names or model JSON files) and applies the
+/// structural choices with the models' builders.
+pub fn families(list: &str, s: &Structure) -> Result<Vec<Family>, FamilyError> {
+    let mut out = Vec::new();
+    let (mut ct_used, mut ward_used) = (false, false);
+    for item in list.split(',').map(str::trim).filter(|x| !x.is_empty()) {
+        let (is_file, v) = read_item(item)?;
+        let err = |source| FamilyError::Model {
+            item: item.into(),
+            source,
+        };
+        // The generic reader checks the whole description (keys, name, parameters).
+        let mut model = brdfkit_models::from_json(&v).map_err(err)?;
+        let params = v.get("params").unwrap_or(&Value::Null);
+        match model.name() {
+            "cook-torrance" => {
+                ct_used = true;
+                if s.any_cook_torrance() {
+                    let ct = CookTorrance::from_params_json(params).map_err(err)?;
+                    model = Box::new(s.apply_cook_torrance(ct).map_err(err)?);
+                }
+            }
+            "ward" => {
+                ward_used = true;
+                if s.normalization.is_some() {
+                    let w = Ward::from_params_json(params).map_err(err)?;
+                    model = Box::new(s.apply_ward(w));
+                }
+            }
+            _ => {}
+        }
+        let label = if is_file {
+            format!("{} ({item})", model.name())
+        } else {
+            model.name().to_string()
+        };
+        out.push(Family { label, model });
+    }
+    if out.is_empty() {
+        return Err(FamilyError::NoModel);
+    }
+    if !ct_used && s.any_cook_torrance() {
+        return Err(FamilyError::ChoiceWithoutModel {
+            options: "--distribution, --masking and --fresnel",
+            model: "cook-torrance",
+        });
+    }
+    if !ward_used && s.normalization.is_some() {
+        return Err(FamilyError::ChoiceWithoutModel {
+            options: "--normalization",
+            model: "ward",
+        });
+    }
+    Ok(out)
+}
+
+/// The fit settings of the command line, typed; [`FitSettings::config`] validates
+/// them into a [`FitConfig`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitSettings {
+    /// The loss optimised.
+    pub loss: Loss,
+    /// Cell weights.
+    pub weighting: Weighting,
+    /// The solver.
+    pub solver: SolverKind,
+    /// Number of starts.
+    pub starts: usize,
+    /// Starts that continue on all cells after the warm-up.
+    pub finish: usize,
+    /// Stratified fraction of the valid cells fitted, in (0, 1].
+    pub sample_fraction: f64,
+    /// Cells with θd above this angle (degrees) are left out.
+    pub theta_d_max_deg: Option<f64>,
+    /// Every parameter per channel (default: shape shared).
+    pub per_channel: bool,
+    /// Seed of the starts and the subsample.
+    pub seed: u64,
+    /// Parameters (names or groups) held at their start values; `Some` of an empty
+    /// list is an error.
+    pub fix: Option<Vec<String>>,
+    /// Robust loss.
+    pub robust: RobustKind,
+    /// Scale of the robust loss (None: automatic).
+    pub robust_scale: Option<f64>,
+}
+
+impl Default for FitSettings {
+    /// The defaults of [`FitConfig::default`] (one start), on every cell; the command
+    /// line has its own defaults (8 starts).
+    fn default() -> Self {
+        let c = FitConfig::default();
+        FitSettings {
+            loss: c.get_loss(),
+            weighting: c.get_weighting(),
+            solver: c.get_solver(),
+            starts: c.get_starts(),
+            finish: c.get_finish(),
+            sample_fraction: 1.0,
+            theta_d_max_deg: None,
+            per_channel: false,
+            seed: c.get_seed(),
+            fix: None,
+            robust: c.get_robust(),
+            robust_scale: None,
+        }
+    }
+}
+
+impl FitSettings {
+    /// The validated configuration; an error names the option at fault.
+    pub fn config(&self) -> Result<FitConfig, FamilyError> {
+        let bad = |option: &'static str| {
+            move |e: FitError| FamilyError::Setting {
+                option,
+                reason: e.to_string(),
+            }
+        };
+        let mut c = FitConfig::default()
+            .loss(self.loss)
+            .weighting(self.weighting)
+            .solver(self.solver)
+            .sharing(if self.per_channel {
+                Sharing::PerChannel
+            } else {
+                Sharing::SharedShape
+            })
+            .seed(self.seed)
+            .starts(self.starts)
+            .map_err(bad("starts"))?
+            .finish(self.finish)
+            .map_err(bad("finish"))?;
+        let f = self.sample_fraction;
+        if !(f > 0.0 && f <= 1.0) {
+            return Err(FamilyError::Setting {
+                option: "sample-fraction",
+                reason: format!("{f}: must lie in (0, 1]"),
+            });
+        }
+        if f < 1.0 {
+            c = c.subsample(f, self.seed).map_err(bad("sample-fraction"))?;
+        }
+        if let Some(names) = &self.fix {
+            let names: Vec<&str> = names
+                .iter()
+                .map(|s| s.trim())
+                .filter(|x| !x.is_empty())
+                .collect();
+            if names.is_empty() {
+                return Err(FamilyError::Setting {
+                    option: "fix",
+                    reason: "no parameter name given".into(),
+                });
+            }
+            c = c.fix_params(names);
+        }
+        if let Some(deg) = self.theta_d_max_deg {
+            c = c.theta_d_max_deg(deg).map_err(bad("theta-d-max"))?;
+        }
+        c.robust(self.robust, self.robust_scale)
+            .map_err(bad("robust-scale"))
+    }
+}
+
+/// Checks the free and fixed parameter names against every family before any fitting
+/// (an unknown name in `--fix` is bad input, not a failure of each fit).
+pub fn check_free(fams: &[Family], cfg: &FitConfig) -> Result<(), FamilyError> {
+    for f in fams {
+        let free = resolve_free(&*f.model, cfg).map_err(|source| FamilyError::Free {
+            label: f.label.clone(),
+            source,
+        })?;
+        if free.is_empty() {
+            return Err(FamilyError::AllFixed {
+                label: f.label.clone(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// One fitted family.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The family's label.
+    pub label: String,
+    /// The fitted model as JSON (the model contract).
+    pub params: Value,
+    /// The fit record.
+    pub record: FitRecord,
+}
+
+impl Outcome {
+    /// `{"label", "params", "record"}`: what `fit --json` prints and a batch stores.
+    pub fn to_json(&self) -> Value {
+        serde_json::json!({"label": self.label, "params": self.params, "record": self.record})
+    }
+}
+
+/// A family's fit failed.
+#[derive(Debug, thiserror::Error)]
+#[error("fitting {label}: {source}")]
+pub struct FamilyFitError {
+    /// The family.
+    pub label: String,
+    /// The fitter's error.
+    #[source]
+    pub source: FitError,
+}
+
+/// Follows [`fit_each`] family by family.
+pub trait FamilyObserver {
+    /// Family `k` of `n` (0-based) starts; the returned observer, if any, follows its
+    /// fit.
+    fn on_family_start(&self, _k: usize, _n: usize, _f: &Family) -> Option<Arc<dyn FitObserver>> {
+        None
+    }
+    /// Family `k` of `n` ended (`None`: it failed; the error follows).
+    fn on_family_done(&self, _k: usize, _n: usize, _o: Option<&Outcome>) {}
+}
+
+/// An observer that observes nothing.
+impl FamilyObserver for () {}
+
+/// Fits every family, one after the other, on the same cells; stops at the first
+/// failure.
+pub fn fit_each(
+    data: &FitData,
+    fams: &[Family],
+    cfg: &FitConfig,
+    obs: &dyn FamilyObserver,
+) -> Result<Vec<Outcome>, FamilyFitError> {
+    let mut out = Vec::with_capacity(fams.len());
+    for (k, f) in fams.iter().enumerate() {
+        let inner = obs.on_family_start(k, fams.len(), f);
+        match fit(&*f.model, data, cfg, inner) {
+            Ok(r) => {
+                let o = Outcome {
+                    label: f.label.clone(),
+                    params: r.fitted.to_json(),
+                    record: r.record,
+                };
+                obs.on_family_done(k, fams.len(), Some(&o));
+                out.push(o);
+            }
+            Err(source) => {
+                obs.on_family_done(k, fams.len(), None);
+                return Err(FamilyFitError {
+                    label: f.label.clone(),
+                    source,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The comparison table: every loss on the full table, time, iterations, termination.
+pub fn comparison_text(outcomes: &[Outcome], optimised: Loss) -> String {
+    let mut s = format!(
+        "{:<28} {:>11} {:>11} {:>11} {:>11} {:>8} {:>6}  {}\n",
+        "model", "cbrt", "l2", "cosine", "log", "time s", "iters", "termination"
+    );
+    for o in outcomes {
+        let l = &o.record.losses_full;
+        s += &format!(
+            "{:<28} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.3} {:>6}  {}{}\n",
+            o.label,
+            l.cbrt.overall,
+            l.l2.overall,
+            l.cosine.overall,
+            l.log.overall,
+            o.record.wall_time_s,
+            o.record.iterations,
+            o.record.termination,
+            if o.record.converged {
+                ""
+            } else {
+                " (not converged)"
+            }
+        );
+    }
+    s += &format!(
+        "losses: weighted RMS over all valid cells ({} cells); optimised: {optimised}\n",
+        outcomes.first().map_or(0, |o| o.record.cells_full)
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn json_of(f: &Family) -> Value {
+        f.model.to_json()
+    }
+
+    #[test]
+    fn names_and_files_become_families_with_their_choices() {
+        let d = tempfile::tempdir().unwrap();
+        let start = d.path().join("start.json");
+        std::fs::write(
+            &start,
+            r#"{"model": "cook-torrance", "params": {"rho_d": 0, "fresnel": {"conductor": {"eta": 1.5, "k": 2}}}}"#,
+        )
+        .unwrap();
+        let list = format!("lambert, ward,{}", start.display());
+        let s = Structure {
+            distribution: Some(Distribution::Beckmann),
+            masking: Some(Masking::VCavity),
+            fresnel: Some(FresnelKind::Schlick),
+            normalization: Some(Normalization::Duer),
+        };
+        let f = families(&list, &s).unwrap();
+        assert_eq!(f.len(), 3);
+        assert_eq!(f[0].label, "lambert");
+        assert_eq!(f[2].label, format!("cook-torrance ({})", start.display()));
+        assert_eq!(json_of(&f[1])["params"]["normalization"], "duer");
+        let ct = &json_of(&f[2])["params"];
+        assert_eq!(ct["distribution"], "beckmann");
+        assert_eq!(ct["masking"], "v-cavity");
+        assert_eq!(ct["rho_d"], serde_json::json!([0.0, 0.0, 0.0]));
+        // The kind's defaults replace the start's factor.
+        let want = CookTorrance::new()
+            .with_fresnel(FresnelKind::Schlick.with_defaults())
+            .unwrap()
+            .fresnel();
+        assert_eq!(
+            CookTorrance::from_params_json(ct).unwrap().fresnel(),
+            want,
+            "{ct}"
+        );
+    }
+
+    #[test]
+    fn the_builders_give_what_the_json_contract_gives() {
+        // The same start as the JSON patching of the command line used to build: the
+        // batch's options hash, which hashes these descriptions, must not change.
+        for kind in FresnelKind::ALL {
+            let s = Structure {
+                fresnel: Some(kind),
+                distribution: Some(Distribution::Beckmann),
+                ..Structure::default()
+            };
+            let built = families("cook-torrance", &s).unwrap().remove(0);
+            let fresnel = match kind {
+                FresnelKind::None => serde_json::json!("none"),
+                k => serde_json::json!({ k.name(): {} }),
+            };
+            let patched = brdfkit_models::from_json(&serde_json::json!({
+                "model": "cook-torrance",
+                "params": {"distribution": "beckmann", "fresnel": fresnel}
+            }))
+            .unwrap();
+            assert_eq!(built.model.to_json(), patched.to_json(), "{kind}");
+        }
+    }
+
+    #[test]
+    fn choices_without_their_model_and_bad_items_are_errors() {
+        let ggx = Structure {
+            distribution: Some(Distribution::Ggx),
+            ..Structure::default()
+        };
+        let e = families("lambert", &ggx).err().unwrap();
+        assert!(
+            matches!(
+                e,
+                FamilyError::ChoiceWithoutModel {
+                    model: "cook-torrance",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let duer = Structure {
+            normalization: Some(Normalization::Duer),
+            ..Structure::default()
+        };
+        assert!(e.to_string().contains("not among the models"));
+        assert!(families("cook-torrance", &duer).is_err());
+        assert!(matches!(
+            families(" , ", &Structure::default()),
+            Err(FamilyError::NoModel)
+        ));
+        let e = families("nope", &Structure::default()).err().unwrap();
+        assert!(e.to_string().contains("nope"), "{e}");
+        let e = families("/no/such/start.json", &Structure::default())
+            .err()
+            .unwrap();
+        assert!(matches!(e, FamilyError::Read { .. }), "{e}");
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("p.json");
+        std::fs::write(&p, r#"{"model": "lambert", "params": 3}"#).unwrap();
+        let e = families(p.to_str().unwrap(), &Structure::default())
+            .err()
+            .unwrap();
+        assert!(matches!(e, FamilyError::ParamsNotObject { .. }), "{e}");
+    }
+
+    #[test]
+    fn settings_are_validated_naming_the_option() {
+        let ok = FitSettings {
+            sample_fraction: 0.5,
+            fix: Some(vec!["rho_d".into()]),
+            theta_d_max_deg: Some(80.0),
+            ..FitSettings::default()
+        };
+        let c = ok.config().unwrap();
+        assert_eq!(c.get_subsample(), Some(0.5));
+        assert_eq!(
+            FitSettings::default().config().unwrap(),
+            FitConfig::default()
+        );
+        for (s, option) in [
+            (
+                FitSettings {
+                    starts: 0,
+                    ..FitSettings::default()
+                },
+                "starts",
+            ),
+            (
+                FitSettings {
+                    sample_fraction: 0.0,
+                    ..FitSettings::default()
+                },
+                "sample-fraction",
+            ),
+            (
+                FitSettings {
+                    fix: Some(vec![" ".into()]),
+                    ..FitSettings::default()
+                },
+                "fix",
+            ),
+            (
+                FitSettings {
+                    robust_scale: Some(-1.0),
+                    robust: RobustKind::Huber,
+                    ..FitSettings::default()
+                },
+                "robust-scale",
+            ),
+        ] {
+            match s.config() {
+                Err(FamilyError::Setting { option: o, .. }) => assert_eq!(o, option),
+                other => panic!("{option}: {other:?}"),
+            }
+        }
+        let fams = families("lambert", &Structure::default()).unwrap();
+        let fix_all = FitSettings {
+            fix: Some(vec!["rho_d".into()]),
+            ..FitSettings::default()
+        };
+        let e = check_free(&fams, &fix_all.config().unwrap()).unwrap_err();
+        assert!(matches!(e, FamilyError::AllFixed { .. }), "{e}");
+        let fix_none = FitSettings {
+            fix: Some(vec!["gloss".into()]),
+            ..FitSettings::default()
+        };
+        let e = check_free(&fams, &fix_none.config().unwrap()).unwrap_err();
+        assert!(matches!(e, FamilyError::Free { .. }), "{e}");
+    }
+}
