@@ -8,8 +8,10 @@
 pub mod cosine_lobe;
 pub mod json;
 mod lanes;
+mod pair;
 pub mod par;
 mod params;
+pub mod shape;
 pub mod testing;
 
 // Models (one file each).
