@@ -63,15 +63,14 @@ use crate::json;
 use crate::lanes::Real;
 use crate::pair::{batch_pair, pair_geometry};
 use crate::params::{
-    DiffuseSpecular, ShapedLayout, check_count, check_rgb, grad_batch_via, grad_via,
-    shape_gradient,
+    DiffuseSpecular, ShapedLayout, check_count, check_rgb, grad_batch_via, grad_via, shape_gradient,
 };
+use brdfkit_core::UnknownName;
 use brdfkit_core::model::{Domain, check_param, eval_batch_f32_widened};
 use brdfkit_core::scattering::fresnel::{
     conductor, conductor_grad, dielectric_grad, schlick_weight,
 };
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking, Smith};
-use brdfkit_core::UnknownName;
 use brdfkit_core::{
     Brdf, GeomSlice, GeomSliceF32, GeomSliceOf, Model, ModelError, ParamSpec, Rgb, Vec3,
 };
@@ -242,9 +241,7 @@ impl Fresnel {
     fn specs(&self) -> Vec<ParamSpec> {
         match self {
             Fresnel::None => vec![],
-            Fresnel::Schlick { .. } => {
-                ParamSpec::per_channel("f0", F0_DOMAIN, DEFAULT_F0).to_vec()
-            }
+            Fresnel::Schlick { .. } => ParamSpec::per_channel("f0", F0_DOMAIN, DEFAULT_F0).to_vec(),
             Fresnel::Conductor { .. } => {
                 let (eta, k) = DEFAULT_CONDUCTOR;
                 ParamSpec::per_channel("eta", ETA_DOMAIN, eta)
@@ -316,10 +313,7 @@ impl Fresnel {
         let empty = Value::Null;
         let body = json::params_object(body.unwrap_or(&empty), M)?;
         let kind: FresnelKind = kind.parse().map_err(|e: UnknownName| {
-            ModelError::Invalid(format!(
-                "unknown fresnel `{}` (expected {kinds})",
-                e.given
-            ))
+            ModelError::Invalid(format!("unknown fresnel `{}` (expected {kinds})", e.given))
         })?;
         // The body's keys are those of the kind's flat parameters (`f0`; `eta`, `k`;
         // `eta`), absent ones at the kind's defaults.

@@ -7,8 +7,8 @@
 //! default start value.
 
 use brdfkit_core::{ModelError, Rgb, UnknownName};
-use std::str::FromStr;
 use serde_json::{Map, Value};
+use std::str::FromStr;
 
 /// The `params` object of a model description (an absent or null `params` is empty).
 pub fn params_object<'a>(
@@ -96,7 +96,8 @@ pub fn string_or<'a>(
 }
 
 /// A structural choice named by a string (through its `FromStr`), or `default` when
-/// absent. An unknown name is `unknown <what> `<name>` for `<model>` (expected <names>)`.
+/// absent. An unknown name is the error ``unknown <what> `<name>` for `<model>` (expected
+/// <names>)``, the wording the JSON contract has always used.
 pub fn choice_or<T: FromStr<Err = UnknownName>>(
     obj: &Map<String, Value>,
     key: &str,
@@ -105,6 +106,7 @@ pub fn choice_or<T: FromStr<Err = UnknownName>>(
 ) -> Result<T, ModelError> {
     match obj.get(key) {
         None => Ok(default),
+        // Present: string_or only checks that it is a string (its default is unused).
         Some(_) => string_or(obj, key, "", model)?
             .parse()
             .map_err(|e| unknown_choice(e, model)),

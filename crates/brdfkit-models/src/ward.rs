@@ -195,8 +195,7 @@ impl Ward {
         )?;
         let d = Ward::default();
         let n = json::choice_or(&o, "normalization", d.normalization, M)?;
-        Ok(d
-            .with_rho_d(LAYOUT.rhos.read_d(&o, M)?)?
+        Ok(d.with_rho_d(LAYOUT.rhos.read_d(&o, M)?)?
             .with_rho_s(LAYOUT.rhos.read_s(&o, M)?)?
             .with_shape(LAYOUT.read_shape(&o, M)?)?
             .with_normalization(n))
