@@ -38,9 +38,10 @@
 //! bilinear in (Rd, Rs), so its maximum over [0, 1]² is at a corner, and the tests
 //! measure the corners: see [`Model::conserves_energy`] and `docs/models.md`.
 
-use crate::cook_torrance::{Shape, batch_pair, pair_geometry};
 use crate::json;
+use crate::pair::{batch_pair, pair_geometry};
 use crate::params::{DiffuseSpecular, ShapedLayout, grad_batch_via, grad_via, shape_gradient};
+use crate::shape::Shape;
 use brdfkit_core::model::Domain;
 use brdfkit_core::scattering::fresnel::schlick_weight;
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
@@ -77,9 +78,9 @@ pub struct AshikhminShirley {
 impl Default for AshikhminShirley {
     fn default() -> Self {
         AshikhminShirley {
-            rho_d: Rgb::splat(0.3),
-            rho_s: Rgb::splat(0.3),
-            n: Shape::Isotropic(100.0),
+            rho_d: Rgb::splat(LAYOUT.rhos.defaults.0),
+            rho_s: Rgb::splat(LAYOUT.rhos.defaults.1),
+            n: Shape::Isotropic(LAYOUT.default),
         }
     }
 }
@@ -145,8 +146,8 @@ impl AshikhminShirley {
         let o = json::params_object(params, M)?;
         json::deny_unknown(&o, &["rho_d", "rho_s", "n", "n_u", "n_v"], M)?;
         AshikhminShirley::new()
-            .with_rho_d(json::rgb_or(&o, "rho_d", 0.3, M)?)?
-            .with_rho_s(json::rgb_or(&o, "rho_s", 0.3, M)?)?
+            .with_rho_d(LAYOUT.rhos.read_d(&o, M)?)?
+            .with_rho_s(LAYOUT.rhos.read_s(&o, M)?)?
             .with_shape(LAYOUT.read_shape(&o, M)?)
     }
 

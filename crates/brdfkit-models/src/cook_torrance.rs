@@ -61,6 +61,11 @@
 
 use crate::json;
 use crate::lanes::Real;
+use crate::pair::{batch_pair, pair_geometry};
+use crate::params::{
+    DiffuseSpecular, ShapedLayout, check_count, check_rgb, grad_batch_via, grad_via, shape_gradient,
+};
+use brdfkit_core::UnknownName;
 use brdfkit_core::model::{Domain, check_param, eval_batch_f32_widened};
 use brdfkit_core::scattering::fresnel::{
     conductor, conductor_grad, dielectric_grad, schlick_weight,
@@ -69,14 +74,18 @@ use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking, Smith};
 use brdfkit_core::{
     Brdf, GeomSlice, GeomSliceF32, GeomSliceOf, Model, ModelError, ParamSpec, Rgb, Vec3,
 };
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
 
 #[path = "cook_torrance_ggx.rs"]
 mod ggx;
 
+/// The roughness shape α or (αx, αy); defined in [`crate::shape`], shared with `ward`
+/// and `ashikhmin-shirley`.
+pub use crate::shape::Shape;
+
 /// The domain of ρd and ρs.
-pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
+pub use crate::params::RHO_DOMAIN;
 /// The domain of the roughness α (and αx, αy).
 pub const ALPHA_DOMAIN: Domain = Domain::closed(1e-6, 100.0);
 /// The domain of Schlick's f0.
@@ -93,143 +102,21 @@ pub const ETA_DOMAIN: Domain = Domain {
 /// The domain of a conductor's extinction coefficient k: [0, 1000].
 pub const K_DOMAIN: Domain = Domain::closed(0.0, 1e3);
 
-/// The channel suffixes of per-channel parameter names.
-pub(crate) const CH: [&str; 3] = ["r", "g", "b"];
+/// The parameter layout before the Fresnel parameters: ρd, ρs (default 0.3), then α or
+/// αx, αy (default 0.2). The Fresnel defaults are the `Fresnel::DEFAULT*` constants.
+const LAYOUT: ShapedLayout = ShapedLayout {
+    rhos: DiffuseSpecular::albedos(0.3, 0.3),
+    keys: ("alpha", "alpha_x", "alpha_y"),
+    domain: ALPHA_DOMAIN,
+    default: 0.2,
+};
 
-/// Checks every channel of `v` against `domain`, naming `name.r` etc. in the error.
-pub(crate) fn check_rgb(name: &str, v: Rgb, domain: Domain) -> Result<Rgb, ModelError> {
-    for (c, ch) in CH.iter().enumerate() {
-        check_param(&format!("{name}.{ch}"), v[c], domain)?;
-    }
-    Ok(v)
-}
-
-/// A lobe-shape parameter that is either one number (isotropic) or a pair along the
-/// tangent x and the binormal y (anisotropic): α or (αx, αy) of a microfacet lobe,
-/// n or (n_u, n_v) of Ashikhmin-Shirley.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Shape {
-    /// The same value along both axes: one entry in the parameter vector.
-    Isotropic(f64),
-    /// (along x, along y): two entries.
-    Anisotropic(f64, f64),
-}
-
-impl Shape {
-    /// The values along x and y.
-    #[inline]
-    pub fn xy(&self) -> (f64, f64) {
-        match *self {
-            Shape::Isotropic(a) => (a, a),
-            Shape::Anisotropic(x, y) => (x, y),
-        }
-    }
-
-    /// Entries in the parameter vector (1 or 2).
-    pub fn len(&self) -> usize {
-        match self {
-            Shape::Isotropic(_) => 1,
-            Shape::Anisotropic(..) => 2,
-        }
-    }
-
-    /// Never empty; for clippy's `len_without_is_empty`.
-    pub fn is_empty(&self) -> bool {
-        false
-    }
-
-    /// Checks the value(s) against `domain`, naming `iso` or `x`/`y` in the error.
-    pub(crate) fn check(
-        self,
-        iso: &str,
-        x: &str,
-        y: &str,
-        domain: Domain,
-    ) -> Result<Self, ModelError> {
-        match self {
-            Shape::Isotropic(a) => check_param(iso, a, domain).map(Shape::Isotropic),
-            Shape::Anisotropic(a, b) => Ok(Shape::Anisotropic(
-                check_param(x, a, domain)?,
-                check_param(y, b, domain)?,
-            )),
-        }
-    }
-
-    /// Parameter specs: `iso`, or `x` and `y`.
-    pub(crate) fn specs(
-        &self,
-        iso: &str,
-        x: &str,
-        y: &str,
-        domain: Domain,
-        def: f64,
-    ) -> Vec<ParamSpec> {
-        match self {
-            Shape::Isotropic(_) => vec![ParamSpec::shared(iso, domain, def)],
-            Shape::Anisotropic(..) => vec![
-                ParamSpec::shared(x, domain, def),
-                ParamSpec::shared(y, domain, def),
-            ],
-        }
-    }
-
-    /// The same kind of shape from parameter-vector entries.
-    pub(crate) fn with_values(&self, p: &[f64]) -> Shape {
-        match self {
-            Shape::Isotropic(_) => Shape::Isotropic(p[0]),
-            Shape::Anisotropic(..) => Shape::Anisotropic(p[0], p[1]),
-        }
-    }
-
-    /// Appends the values to a parameter vector.
-    pub(crate) fn push_to(&self, v: &mut Vec<f64>) {
-        match *self {
-            Shape::Isotropic(a) => v.push(a),
-            Shape::Anisotropic(x, y) => {
-                v.push(x);
-                v.push(y);
-            }
-        }
-    }
-
-    /// Reads `iso` or (`x`, `y`) from a params object; both forms at once is an error,
-    /// absent values take `def`, and neither present gives `Isotropic(def)`.
-    pub(crate) fn from_json(
-        o: &Map<String, Value>,
-        keys: (&str, &str, &str),
-        def: f64,
-        model: &str,
-    ) -> Result<Self, ModelError> {
-        let (iso, x, y) = keys;
-        let has_xy = o.contains_key(x) || o.contains_key(y);
-        if o.contains_key(iso) && has_xy {
-            return Err(ModelError::Invalid(format!(
-                "`{model}` takes either `{iso}` (isotropic) or `{x}` and `{y}` (anisotropic), not both"
-            )));
-        }
-        if has_xy {
-            Ok(Shape::Anisotropic(
-                json::number_or(o, x, def, model)?,
-                json::number_or(o, y, def, model)?,
-            ))
-        } else {
-            Ok(Shape::Isotropic(json::number_or(o, iso, def, model)?))
-        }
-    }
-
-    /// Writes the value(s) into a params object.
-    pub(crate) fn to_json(self, o: &mut Map<String, Value>, keys: (&str, &str, &str)) {
-        match self {
-            Shape::Isotropic(a) => {
-                o.insert(keys.0.into(), a.into());
-            }
-            Shape::Anisotropic(x, y) => {
-                o.insert(keys.1.into(), x.into());
-                o.insert(keys.2.into(), y.into());
-            }
-        }
-    }
-}
+/// The default Schlick f0 (every channel).
+const DEFAULT_F0: f64 = 0.04;
+/// The default conductor η and k (every channel).
+const DEFAULT_CONDUCTOR: (f64, f64) = (0.2, 3.0);
+/// The default dielectric η.
+const DEFAULT_DIELECTRIC_ETA: f64 = 1.5;
 
 /// The Fresnel factor of the specular lobe, with its parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -313,15 +200,17 @@ impl Fresnel {
 
     /// Schlick with f0 = 0.04 in every channel (the model's default).
     pub const DEFAULT: Fresnel = Fresnel::Schlick {
-        f0: Rgb::splat(0.04),
+        f0: Rgb::splat(DEFAULT_F0),
     };
     /// The default conductor (a generic bright metal, F(0) ≈ 0.87).
     pub const DEFAULT_CONDUCTOR: Fresnel = Fresnel::Conductor {
-        eta: Rgb::splat(0.2),
-        k: Rgb::splat(3.0),
+        eta: Rgb::splat(DEFAULT_CONDUCTOR.0),
+        k: Rgb::splat(DEFAULT_CONDUCTOR.1),
     };
     /// The default dielectric (glass-like, F(0) = 0.04).
-    pub const DEFAULT_DIELECTRIC: Fresnel = Fresnel::Dielectric { eta: 1.5 };
+    pub const DEFAULT_DIELECTRIC: Fresnel = Fresnel::Dielectric {
+        eta: DEFAULT_DIELECTRIC_ETA,
+    };
 
     fn validate(self) -> Result<Self, ModelError> {
         match self {
@@ -352,14 +241,17 @@ impl Fresnel {
     fn specs(&self) -> Vec<ParamSpec> {
         match self {
             Fresnel::None => vec![],
-            Fresnel::Schlick { .. } => ParamSpec::per_channel("f0", F0_DOMAIN, 0.04).to_vec(),
-            Fresnel::Conductor { .. } => ParamSpec::per_channel("eta", ETA_DOMAIN, 0.2)
-                .into_iter()
-                .chain(ParamSpec::per_channel("k", K_DOMAIN, 3.0))
-                .map(ParamSpec::fixed)
-                .collect(),
+            Fresnel::Schlick { .. } => ParamSpec::per_channel("f0", F0_DOMAIN, DEFAULT_F0).to_vec(),
+            Fresnel::Conductor { .. } => {
+                let (eta, k) = DEFAULT_CONDUCTOR;
+                ParamSpec::per_channel("eta", ETA_DOMAIN, eta)
+                    .into_iter()
+                    .chain(ParamSpec::per_channel("k", K_DOMAIN, k))
+                    .map(ParamSpec::fixed)
+                    .collect()
+            }
             Fresnel::Dielectric { .. } => {
-                vec![ParamSpec::shared("eta", ETA_DOMAIN, 1.5).fixed()]
+                vec![ParamSpec::shared("eta", ETA_DOMAIN, DEFAULT_DIELECTRIC_ETA).fixed()]
             }
         }
     }
@@ -420,34 +312,35 @@ impl Fresnel {
         };
         let empty = Value::Null;
         let body = json::params_object(body.unwrap_or(&empty), M)?;
-        let f = match kind {
-            "none" => {
-                json::deny_unknown(&body, &[], "fresnel none")?;
+        let kind: FresnelKind = kind.parse().map_err(|e: UnknownName| {
+            ModelError::Invalid(format!("unknown fresnel `{}` (expected {kinds})", e.given))
+        })?;
+        // The body's keys are those of the kind's flat parameters (`f0`; `eta`, `k`;
+        // `eta`), absent ones at the kind's defaults.
+        let m = format!("fresnel {}", kind.name());
+        let f = match kind.with_defaults() {
+            Fresnel::None => {
+                json::deny_unknown(&body, &[], &m)?;
                 Fresnel::None
             }
-            "schlick" => {
-                json::deny_unknown(&body, &["f0"], "fresnel schlick")?;
+            Fresnel::Schlick { f0 } => {
+                json::deny_unknown(&body, &["f0"], &m)?;
                 Fresnel::Schlick {
-                    f0: json::rgb_or(&body, "f0", 0.04, "fresnel schlick")?,
+                    f0: json::rgb_or(&body, "f0", f0[0], &m)?,
                 }
             }
-            "conductor" => {
-                json::deny_unknown(&body, &["eta", "k"], "fresnel conductor")?;
+            Fresnel::Conductor { eta, k } => {
+                json::deny_unknown(&body, &["eta", "k"], &m)?;
                 Fresnel::Conductor {
-                    eta: json::rgb_or(&body, "eta", 0.2, "fresnel conductor")?,
-                    k: json::rgb_or(&body, "k", 3.0, "fresnel conductor")?,
+                    eta: json::rgb_or(&body, "eta", eta[0], &m)?,
+                    k: json::rgb_or(&body, "k", k[0], &m)?,
                 }
             }
-            "dielectric" => {
-                json::deny_unknown(&body, &["eta"], "fresnel dielectric")?;
+            Fresnel::Dielectric { eta } => {
+                json::deny_unknown(&body, &["eta"], &m)?;
                 Fresnel::Dielectric {
-                    eta: json::number_or(&body, "eta", 1.5, "fresnel dielectric")?,
+                    eta: json::number_or(&body, "eta", eta, &m)?,
                 }
-            }
-            other => {
-                return Err(ModelError::Invalid(format!(
-                    "unknown fresnel `{other}` (expected {kinds})"
-                )));
             }
         };
         f.validate()
@@ -476,9 +369,9 @@ pub struct CookTorrance {
 impl Default for CookTorrance {
     fn default() -> Self {
         CookTorrance {
-            rho_d: Rgb::splat(0.3),
-            rho_s: Rgb::splat(0.3),
-            alpha: Shape::Isotropic(0.2),
+            rho_d: Rgb::splat(LAYOUT.rhos.defaults.0),
+            rho_s: Rgb::splat(LAYOUT.rhos.defaults.1),
+            alpha: Shape::Isotropic(LAYOUT.default),
             distribution: Distribution::Ggx,
             masking: Masking::SmithSeparable,
             beckmann_g1: BeckmannG1::Exact,
@@ -497,13 +390,13 @@ impl CookTorrance {
 
     /// Sets ρd (each channel in [0, 1]).
     pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        self.rho_d = check_rgb("rho_d", rho_d, RHO_DOMAIN)?;
+        self.rho_d = LAYOUT.rhos.check_d(rho_d)?;
         Ok(self.refreshed())
     }
 
     /// Sets ρs (each channel in [0, 1]).
     pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
-        self.rho_s = check_rgb("rho_s", rho_s, RHO_DOMAIN)?;
+        self.rho_s = LAYOUT.rhos.check_s(rho_s)?;
         Ok(self.refreshed())
     }
 
@@ -519,7 +412,7 @@ impl CookTorrance {
 
     /// Sets the roughness shape (isotropic or anisotropic).
     pub fn with_shape(mut self, alpha: Shape) -> Result<Self, ModelError> {
-        self.alpha = alpha.check("alpha", "alpha_x", "alpha_y", ALPHA_DOMAIN)?;
+        self.alpha = LAYOUT.check(alpha)?;
         Ok(self.refreshed())
     }
 
@@ -601,47 +494,17 @@ impl CookTorrance {
             ],
             M,
         )?;
-        let distribution = match json::string_or(&o, "distribution", "ggx", M)? {
-            "ggx" => Distribution::Ggx,
-            "beckmann" => Distribution::Beckmann,
-            other => {
-                return Err(ModelError::Invalid(format!(
-                    "unknown distribution `{other}` for `{M}` (expected beckmann, ggx)"
-                )));
-            }
-        };
-        let masking = match json::string_or(&o, "masking", "smith-separable", M)? {
-            "smith-separable" => Masking::SmithSeparable,
-            "smith-correlated" => Masking::SmithCorrelated,
-            "v-cavity" => Masking::VCavity,
-            other => {
-                return Err(ModelError::Invalid(format!(
-                    "unknown masking `{other}` for `{M}` (expected smith-separable, smith-correlated, v-cavity)"
-                )));
-            }
-        };
-        let beckmann_g1 = match json::string_or(&o, "beckmann_g1", "exact", M)? {
-            "exact" => BeckmannG1::Exact,
-            "rational" => BeckmannG1::Rational,
-            other => {
-                return Err(ModelError::Invalid(format!(
-                    "unknown beckmann_g1 `{other}` for `{M}` (expected exact, rational)"
-                )));
-            }
-        };
+        let d = CookTorrance::default();
+        let distribution = json::choice_or(&o, "distribution", d.distribution, M)?;
+        let masking = json::choice_or(&o, "masking", d.masking, M)?;
+        let beckmann_g1 = json::choice_or(&o, "beckmann_g1", d.beckmann_g1, M)?;
         let fresnel = match o.get("fresnel") {
-            None => Fresnel::DEFAULT,
+            None => d.fresnel,
             Some(v) => Fresnel::from_json(v)?,
         };
-        CookTorrance::new()
-            .with_rho_d(json::rgb_or(&o, "rho_d", 0.3, M)?)?
-            .with_rho_s(json::rgb_or(&o, "rho_s", 0.3, M)?)?
-            .with_shape(Shape::from_json(
-                &o,
-                ("alpha", "alpha_x", "alpha_y"),
-                0.2,
-                M,
-            )?)?
+        d.with_rho_d(LAYOUT.rhos.read_d(&o, M)?)?
+            .with_rho_s(LAYOUT.rhos.read_s(&o, M)?)?
+            .with_shape(LAYOUT.read_shape(&o, M)?)?
             .with_distribution(distribution)
             .with_masking(masking)
             .with_beckmann_g1(beckmann_g1)
@@ -733,18 +596,8 @@ impl CookTorrance {
                 self.rho_s[1] * f[1],
                 self.rho_s[2] * f[2],
             );
-            let mut p = 6;
-            match self.alpha {
-                Shape::Isotropic(_) => {
-                    gr[6] = spec * (s_ax + s_ay);
-                    p += 1;
-                }
-                Shape::Anisotropic(..) => {
-                    gr[6] = spec * s_ax;
-                    gr[7] = spec * s_ay;
-                    p += 2;
-                }
-            }
+            shape_gradient(&self.alpha, spec, s_ax, s_ay, gr);
+            let p = ShapedLayout::count(&self.alpha);
             match self.fresnel {
                 Fresnel::None => {}
                 Fresnel::Schlick { .. } => {
@@ -767,31 +620,6 @@ impl CookTorrance {
         }
         out
     }
-}
-
-/// The geometry of one pair exactly as [`GeometryBatch::push`] computes it.
-///
-/// [`GeometryBatch::push`]: brdfkit_core::GeometryBatch::push
-#[inline]
-pub(crate) fn pair_geometry(wi: &Vec3, wo: &Vec3) -> ([f64; 3], [f64; 3], [f64; 3], f64) {
-    let h = brdfkit_core::geometry::half_vector(wi, wo);
-    (
-        [wi.x, wi.y, wi.z],
-        [wo.x, wo.y, wo.z],
-        [h.x, h.y, h.z],
-        wi.dot(&h),
-    )
-}
-
-/// Pair `k` of a batch as arrays.
-#[inline(always)]
-pub(crate) fn batch_pair(g: &GeomSlice<'_>, k: usize) -> ([f64; 3], [f64; 3], [f64; 3], f64) {
-    (
-        [g.wi_x[k], g.wi_y[k], g.wi_z[k]],
-        [g.wo_x[k], g.wo_y[k], g.wo_z[k]],
-        [g.h_x[k], g.h_y[k], g.h_z[k]],
-        g.cos_d[k],
-    )
 }
 
 impl CookTorrance {
@@ -875,45 +703,31 @@ impl Model for CookTorrance {
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {
-        let mut v: Vec<ParamSpec> = ParamSpec::per_channel("rho_d", RHO_DOMAIN, 0.3).to_vec();
-        v.extend(ParamSpec::per_channel("rho_s", RHO_DOMAIN, 0.3));
-        v.extend(
-            self.alpha
-                .specs("alpha", "alpha_x", "alpha_y", ALPHA_DOMAIN, 0.2),
-        );
+        let mut v = LAYOUT.specs(&self.alpha);
         v.extend(self.fresnel.specs());
         v
     }
 
     fn params(&self) -> Vec<f64> {
-        let mut v = Vec::with_capacity(self.num_params());
-        v.extend_from_slice(&self.rho_d.0);
-        v.extend_from_slice(&self.rho_s.0);
-        self.alpha.push_to(&mut v);
+        let mut v = ShapedLayout::values(self.rho_d, self.rho_s, &self.alpha);
         self.fresnel.push_to(&mut v);
         v
     }
 
     fn num_params(&self) -> usize {
-        6 + self.alpha.len() + self.fresnel.num_params()
+        ShapedLayout::count(&self.alpha) + self.fresnel.num_params()
     }
 
     fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        let n = self.num_params();
-        if p.len() != n {
-            return Err(ModelError::ParamCount {
-                expected: n,
-                got: p.len(),
-            });
-        }
-        let na = self.alpha.len();
-        let m = self
+        check_count(self.num_params(), p.len())?;
+        let na = ShapedLayout::count(&self.alpha);
+        let (d, s, alpha) = ShapedLayout::from_values(&p[..na], &self.alpha)?;
+        *self = self
             .clone()
-            .with_rho_d(Rgb::new(p[0], p[1], p[2]))?
-            .with_rho_s(Rgb::new(p[3], p[4], p[5]))?
-            .with_shape(self.alpha.with_values(&p[6..6 + na]))?
-            .with_fresnel(self.fresnel.with_values(&p[6 + na..]))?;
-        *self = m;
+            .with_rho_d(d)?
+            .with_rho_s(s)?
+            .with_shape(alpha)?
+            .with_fresnel(self.fresnel.with_values(&p[na..]))?;
         Ok(())
     }
 
@@ -936,10 +750,9 @@ impl Model for CookTorrance {
             );
             return out;
         }
-        let mut g = [Rgb::ZERO; MAXP];
-        let f = self.kernel(a, b, h, c, Some(&mut g));
-        let n = self.num_params();
-        grad[..n].copy_from_slice(&g[..n]);
+        let f = grad_via::<MAXP>(self.num_params(), grad, |g| {
+            self.kernel(a, b, h, c, Some(g))
+        });
         if self.ggx_config().is_some() {
             // The value of the GGX kernel, as every other path returns it.
             self.value(a, b, h, c)
@@ -985,14 +798,10 @@ impl Model for CookTorrance {
             );
             return;
         }
-        let mut gk = [Rgb::ZERO; MAXP];
-        for (k, o) in out.iter_mut().enumerate().take(n) {
+        grad_batch_via::<MAXP>(n, np, out, grad, |k, gk| {
             let (a, b, h, c) = batch_pair(g, k);
-            *o = self.kernel(a, b, h, c, Some(&mut gk));
-            for (p, v) in gk.iter().enumerate().take(np) {
-                grad[p * n + k] = *v;
-            }
-        }
+            self.kernel(a, b, h, c, Some(gk))
+        });
         if self.ggx_config().is_some() {
             // The values of the GGX kernel, as every other path returns them.
             self.eval_batch(g, &mut out[..n]);
@@ -1000,10 +809,7 @@ impl Model for CookTorrance {
     }
 
     fn to_json(&self) -> Value {
-        let mut o = Map::new();
-        o.insert("rho_d".into(), json::rgb_value(self.rho_d));
-        o.insert("rho_s".into(), json::rgb_value(self.rho_s));
-        self.alpha.to_json(&mut o, ("alpha", "alpha_x", "alpha_y"));
+        let mut o = LAYOUT.write_json(self.rho_d, self.rho_s, self.alpha);
         o.insert("distribution".into(), self.distribution.name().into());
         o.insert("masking".into(), self.masking.name().into());
         o.insert("beckmann_g1".into(), self.beckmann_g1.name().into());

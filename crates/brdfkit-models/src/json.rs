@@ -6,8 +6,9 @@
 //! must not silently fall back to a default); absent parameters take the model's
 //! default start value.
 
-use brdfkit_core::{ModelError, Rgb};
+use brdfkit_core::{ModelError, Rgb, UnknownName};
 use serde_json::{Map, Value};
+use std::str::FromStr;
 
 /// The `params` object of a model description (an absent or null `params` is empty).
 pub fn params_object<'a>(
@@ -92,6 +93,34 @@ pub fn string_or<'a>(
             kind(v)
         ))),
     }
+}
+
+/// A structural choice named by a string (through its `FromStr`), or `default` when
+/// absent. An unknown name is the error ``unknown <what> `<name>` for `<model>` (expected
+/// <names>)``, the wording the JSON contract has always used.
+pub fn choice_or<T: FromStr<Err = UnknownName>>(
+    obj: &Map<String, Value>,
+    key: &str,
+    default: T,
+    model: &str,
+) -> Result<T, ModelError> {
+    match obj.get(key) {
+        None => Ok(default),
+        // Present: string_or only checks that it is a string (its default is unused).
+        Some(_) => string_or(obj, key, "", model)?
+            .parse()
+            .map_err(|e| unknown_choice(e, model)),
+    }
+}
+
+/// An [`UnknownName`] as the model error naming `model`.
+pub fn unknown_choice(e: UnknownName, model: &str) -> ModelError {
+    ModelError::Invalid(format!(
+        "unknown {} `{}` for `{model}` (expected {})",
+        e.what,
+        e.given,
+        e.known.join(", ")
+    ))
 }
 
 /// Parses a number, or a triple, into an [`Rgb`].

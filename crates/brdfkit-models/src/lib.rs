@@ -5,11 +5,15 @@
 //! path over precomputed [`brdfkit_core::GeometryBatch`] geometry, and the JSON contract
 //! `{"model": "<name>", "params": {...}}` read by [`from_json`]. See `docs/models.md`.
 
+#![warn(missing_docs)]
+
 pub mod cosine_lobe;
 pub mod json;
 mod lanes;
+mod pair;
 pub mod par;
 mod params;
+pub mod shape;
 pub mod testing;
 
 // Models (one file each).

@@ -3,8 +3,8 @@
 //! flat parameter vector with (and the lobe shape that may follow it), and the copying
 //! of a fixed-size kernel gradient into the `eval_grad` and `eval_grad_batch` outputs.
 
-use crate::cook_torrance::Shape;
 use crate::json;
+use crate::shape::Shape;
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{ModelError, ParamSpec, Rgb};
 use serde_json::{Map, Value};
@@ -94,6 +94,17 @@ impl DiffuseSpecular {
     /// d and s from the first six entries of a flat vector (of checked length).
     pub fn from_values(p: &[f64]) -> (Rgb, Rgb) {
         (Rgb::new(p[0], p[1], p[2]), Rgb::new(p[3], p[4], p[5]))
+    }
+
+    /// d from a params object (the default where absent), unchecked: the builder
+    /// validates it.
+    pub fn read_d(&self, o: &Map<String, Value>, model: &str) -> Result<Rgb, ModelError> {
+        json::rgb_or(o, self.names.0, self.defaults.0, model)
+    }
+
+    /// s from a params object (the default where absent), unchecked.
+    pub fn read_s(&self, o: &Map<String, Value>, model: &str) -> Result<Rgb, ModelError> {
+        json::rgb_or(o, self.names.1, self.defaults.1, model)
     }
 
     /// d and s from a params object (defaults where absent), unchecked: the builder

@@ -5,7 +5,7 @@
 use brdfkit_core::direction::{spherical, to_spherical};
 use brdfkit_core::quadrature::{AlbedoQuadrature, directional_albedo};
 use brdfkit_core::{Brdf, Model, Rgb, Vec3};
-use brdfkit_models::cook_torrance::Shape;
+use brdfkit_models::shape::Shape;
 use brdfkit_models::testing::*;
 use brdfkit_models::ward::{Normalization, Ward};
 use proptest::prelude::*;
@@ -120,7 +120,7 @@ fn matches_the_papers_formulas() {
     }
 }
 
-/// The albedo rule of the energy checks (see `microfacet_cook_torrance.rs`: 1024
+/// The albedo rule of the energy checks (see `tests/cook_torrance.rs`: 1024
 /// azimuths agree with 4096 at order 32 to 1e-8; the default 128 do not for α = 0.01 at
 /// the horizon).
 fn converged() -> AlbedoQuadrature {

@@ -7,7 +7,7 @@ use brdfkit_core::direction::{spherical, to_spherical};
 use brdfkit_core::quadrature::{AlbedoQuadrature, Pole, directional_albedo};
 use brdfkit_core::{Brdf, Model, Rgb, Vec3};
 use brdfkit_models::ashikhmin_shirley::AshikhminShirley;
-use brdfkit_models::cook_torrance::Shape;
+use brdfkit_models::shape::Shape;
 use brdfkit_models::testing::*;
 use proptest::prelude::*;
 use rayon::prelude::*;
@@ -139,7 +139,7 @@ fn matches_the_paper() {
     }
 }
 
-/// 1024 azimuths: see `microfacet_cook_torrance.rs` (the default 128 are not enough for
+/// 1024 azimuths: see `tests/cook_torrance.rs` (the default 128 are not enough for
 /// narrow lobes cut by the horizon).
 fn converged(pole: Pole) -> AlbedoQuadrature {
     AlbedoQuadrature {
