@@ -10,6 +10,7 @@ pub mod json;
 mod lanes;
 pub mod par;
 mod params;
+pub mod raw;
 pub mod testing;
 
 // Models (one file each).
