@@ -241,11 +241,11 @@ fn check(wi: usize, wo: usize, out: usize) -> Result<(), DirsError> {
     Ok(())
 }
 
+/// N×6 direction rows and N×3 output rows.
+type Flat<'a, 'b, T> = (&'a [[T; 6]], &'b mut [[T; 3]]);
+
 /// N×6 values as rows; the output of N×3 values as rows of three.
-fn flat<'a, 'b, T>(
-    dirs: &'a [T],
-    out: &'b mut [T],
-) -> Result<(&'a [[T; 6]], &'b mut [[T; 3]]), DirsError> {
+fn flat<'a, 'b, T>(dirs: &'a [T], out: &'b mut [T]) -> Result<Flat<'a, 'b, T>, DirsError> {
     let (rows, rest) = dirs.as_chunks::<6>();
     if !rest.is_empty() {
         return Err(DirsError::Flat { len: dirs.len() });
