@@ -5,7 +5,9 @@
 //! - `eval_batch`: the fast path over precomputed `GeometryBatch` geometry;
 //! - `eval_batch_f32`: the single-precision path over a `GeometryBatchF32` (a native
 //!   float32 kernel for `cook-torrance` with GGX, the widening default elsewhere);
-//! - `eval_grad_batch`: value and gradient, as a fit needs them.
+//! - `eval_grad_batch`: value and gradient, as a fit needs them;
+//! - `eval_dirs` / `eval_dirs_f32`: `brdfkit_models::raw` from raw `[x, y, z]` arrays of
+//!   wi and wo (f64, and the directions rounded to f32), nothing precomputed.
 //!
 //! Run with `cargo bench --bench models`. Each measurement is one pass over all cells
 //! (`Throughput::Elements(1_458_000)`). The batch is cut into runs of `CHUNK` cells
@@ -18,6 +20,7 @@
 
 use brdfkit_core::{GeometryBatch, GeometryBatchF32, HalfDiff, Model, Rgb, Vec3, from_half_diff};
 use brdfkit_models::par::{eval_batch_f32_par, eval_batch_par};
+use brdfkit_models::raw::{eval_dirs, eval_dirs_f32};
 use brdfkit_models::{MODEL_NAMES, default_model};
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use rayon::ThreadPool;
@@ -112,6 +115,11 @@ fn bench_models(c: &mut Criterion) {
     let mut out2 = vec![Rgb::ZERO; n];
     let batch32 = GeometryBatchF32::from_slice(&batch.as_slice());
     let mut out32 = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
+    let wi: Vec<[f64; 3]> = pairs.iter().map(|p| [p.0.x, p.0.y, p.0.z]).collect();
+    let wo: Vec<[f64; 3]> = pairs.iter().map(|p| [p.1.x, p.1.y, p.1.z]).collect();
+    let wi32: Vec<[f32; 3]> = wi.iter().map(|v| v.map(|x| x as f32)).collect();
+    let wo32: Vec<[f32; 3]> = wo.iter().map(|v| v.map(|x| x as f32)).collect();
+    let mut rows32 = vec![[0f32; 3]; n];
     for &name in MODEL_NAMES {
         let m = match default_model(name) {
             Ok(m) => m,
@@ -125,10 +133,14 @@ fn bench_models(c: &mut Criterion) {
         // The fast path must give the direction path's numbers on every cell.
         eval_pairs(&pools[1].1, m, &pairs, &mut out);
         eval_batch(&pools[1].1, m, &batch, &mut out2);
-        let differ = out.iter().zip(&out2).filter(|(a, b)| a != b).count();
+        let mut differ = out.iter().zip(&out2).filter(|(a, b)| a != b).count();
+        pools[1]
+            .1
+            .install(|| eval_dirs(m, &wi, &wo, &mut out2).expect("lengths"));
+        differ += out.iter().zip(&out2).filter(|(a, b)| a != b).count();
         let lit = out.iter().filter(|v| v.max_channel() > 0.0).count();
         println!(
-            "{name}: {np} parameters, {lit} of {n} cells non-zero, {differ} cells where eval_batch != eval"
+            "{name}: {np} parameters, {lit} of {n} cells non-zero, {differ} cells where eval_batch or eval_dirs != eval"
         );
 
         let mut group = c.benchmark_group(name);
@@ -147,6 +159,14 @@ fn bench_models(c: &mut Criterion) {
             });
             group.bench_function(format!("eval_batch_f32/{label}"), |b| {
                 b.iter(|| eval_batch_f32(p, m, &batch32, &mut out32))
+            });
+            group.bench_function(format!("eval_dirs/{label}"), |b| {
+                b.iter(|| p.install(|| eval_dirs(m, &wi, &wo, &mut out).expect("lengths")))
+            });
+            group.bench_function(format!("eval_dirs_f32/{label}"), |b| {
+                b.iter(|| {
+                    p.install(|| eval_dirs_f32(m, &wi32, &wo32, &mut rows32).expect("lengths"))
+                })
             });
             let bufs: Vec<Mutex<Vec<Rgb>>> = (0..p.current_num_threads())
                 .map(|_| Mutex::new(vec![Rgb::ZERO; np * CHUNK]))

@@ -8,8 +8,11 @@
 //!   pairs of the MERL grid cells (`DIR/grid_pairs.f64`, 6 planes wi_x … wo_z). Timed:
 //!   the model's `eval_batch_f32` (float32, as Mitsuba's `llvm_ad_rgb`) and `eval_batch`
 //!   (f64) on precomputed geometry through `brdfkit::models::par` (runs of 8192 pairs
-//!   over every thread of the global rayon pool), and `Brdf::eval` from the direction
-//!   pairs (h and cos θd computed per pair, as Mitsuba does).
+//!   over every thread of the global rayon pool), `Brdf::eval` per direction pair, and
+//!   the raw-direction batch paths `brdfkit::models::raw::{eval_dirs_f32, eval_dirs}`
+//!   (`[x, y, z]` arrays of wi and wo in, the half vector and cos θd computed in the
+//!   call, as Mitsuba computes them in its kernel; f32 directions are the f64 ones
+//!   rounded, as Mitsuba reads them).
 //! - `read`: `MerlTable::read` of `DIR/table.binary` (the gold table) and `cat FILE >
 //!   /dev/null`, interleaved in alternating order, at least 100 pairs.
 //! - `nearest`: `lookup_batch(Nearest)` of 1,458,000 seeded random pairs
@@ -26,6 +29,7 @@ use brdfkit::core::{
 use brdfkit::fit::{FitConfig, FitData, Loss, fit};
 use brdfkit::merl::{Dims, Lookup, MerlTable};
 use brdfkit::models::par::{RUN, eval_batch_f32_par, eval_batch_par};
+use brdfkit::models::raw::{eval_dirs, eval_dirs_f32};
 use rayon::prelude::*;
 use serde_json::json;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -155,20 +159,55 @@ fn main() {
             });
         black_box(&o);
     });
+    // From raw directions, in batch: `[x, y, z]` arrays in, nothing precomputed.
+    let wi: Vec<[f64; 3]> = pairs.iter().map(|p| [p.0.x, p.0.y, p.0.z]).collect();
+    let wo: Vec<[f64; 3]> = pairs.iter().map(|p| [p.1.x, p.1.y, p.1.z]).collect();
+    let (t_dirs, t_dirs_min) = median_time(reps, || {
+        eval_dirs(m, &wi, &wo, &mut o).expect("equal lengths");
+        black_box(&o);
+    });
+    let sum_dirs = sums(&o);
+    let same = o
+        .iter()
+        .zip(&pairs)
+        .filter(|(v, (a, b))| **v == Brdf::eval(m, a, b))
+        .count();
+    assert_eq!(same, n, "eval_dirs must give eval's values");
+    let r32 = |v: &[f64; 3]| v.map(|x| x as f32);
+    let wi32: Vec<[f32; 3]> = wi.iter().map(r32).collect();
+    let wo32: Vec<[f32; 3]> = wo.iter().map(r32).collect();
+    let mut o32 = vec![[0f32; 3]; n];
+    let (t_dirs32, t_dirs32_min) = median_time(reps, || {
+        eval_dirs_f32(m, &wi32, &wo32, &mut o32).expect("equal lengths");
+        black_box(&o32);
+    });
+    let sum_dirs32: [f64; 3] = std::array::from_fn(|c| o32.iter().map(|v| v[c] as f64).sum());
     out["eval"] = json!({
         "cells": n,
         "params": gold,
         "eval_batch_s": t_batch, "eval_batch_min_s": t_batch_min,
         "eval_f32_s": t_f32, "eval_f32_min_s": t_f32_min,
         "eval_pairs_s": t_pairs, "eval_pairs_min_s": t_pairs_min,
+        "eval_dirs_s": t_dirs, "eval_dirs_min_s": t_dirs_min,
+        "eval_dirs_f32_s": t_dirs32, "eval_dirs_f32_min_s": t_dirs32_min,
         "sum_f64": sum_batch, "sum_f32": sum32,
+        "sum_dirs": sum_dirs, "sum_dirs_f32": sum_dirs32,
     });
     eprintln!(
-        "eval: eval_batch_f32 {:.2} ms, eval_batch {:.2} ms, eval(pairs) {:.1} ms",
+        "eval: eval_batch_f32 {:.2} ms, eval_batch {:.2} ms, eval(pairs) {:.1} ms, \
+         eval_dirs_f32 {:.2} ms, eval_dirs {:.2} ms",
         t_f32 * 1e3,
         t_batch * 1e3,
         t_pairs * 1e3,
+        t_dirs32 * 1e3,
+        t_dirs * 1e3,
     );
+
+    // `--eval-only`: the model-evaluation rows alone (for quick repeats of them).
+    if args.iter().any(|a| a == "--eval-only") {
+        println!("{}", serde_json::to_string_pretty(&out).expect("json"));
+        return;
+    }
 
     // --- reading a table vs cat ---
     let table = MerlTable::from_brdf(m, Dims::MERL).expect("the gold table");

@@ -44,6 +44,19 @@ def main():
         row("", "eval_batch (f64)", e["eval_batch_s"], "Mitsuba kernel (f32)", m["kernel_s"])
         row("", "eval from (wi, wo) (f64)", e["eval_pairs_s"], "Mitsuba kernel (f32)",
             m["kernel_s"])
+        if "eval_dirs_s" in e:
+            row("eval CT GGX conductor from raw (wi, wo)", "raw::eval_dirs_f32 (f32)",
+                e["eval_dirs_f32_s"], "Mitsuba llvm_ad_rgb kernel (f32)", m["kernel_s"],
+                "ratio >= 1")
+            row("", "raw::eval_dirs_f32 (f32)", e["eval_dirs_f32_s"],
+                "Mitsuba eval+dr.eval+sync (wall)", m["time_s"])
+            row("", "raw::eval_dirs (f64)", e["eval_dirs_s"], "Mitsuba kernel (f32)",
+                m["kernel_s"], "ratio >= 0.5")
+            checks.append(("Mitsuba sum of f_r vs brdfkit raw f32 (1e-4)",
+                           close(m["sum"], e["sum_dirs_f32"], 1e-4)))
+    if "eval_dirs_s" in e:
+        checks.append(("raw::eval_dirs sum == eval_batch sum (same bits)",
+                       e["sum_dirs"] == e["sum_f64"]))
         checks.append(("Mitsuba sum of f_r vs brdfkit f64 (1e-3)",
                        close(m["sum"], e["sum_f64"], 1e-3)))
         checks.append(("Mitsuba sum of f_r vs brdfkit f32 (1e-4)",

@@ -9,6 +9,8 @@
 //! ([`Model::eval_batch_f32`](crate::Model::eval_batch_f32)).
 
 use crate::Vec3;
+use std::ops::{Add, Div, Mul};
+use thiserror::Error;
 
 /// Geometry of many direction pairs, one column per quantity, in precision `T`.
 ///
@@ -55,34 +57,109 @@ pub type GeometryBatchF32 = Geometry<f32>;
 /// A run of a [`GeometryBatchF32`].
 pub type GeomSliceF32<'a> = GeomSliceOf<'a, f32>;
 
+/// The precisions geometry is computed in from directions: `f64` and `f32`. Only IEEE
+/// operations that vectorise (no library calls), so loops over [`pair_columns_of`] run
+/// in vector registers.
+pub trait Component:
+    Copy
+    + Default
+    + PartialOrd
+    + Add<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Send
+    + Sync
+    + 'static
+{
+    const ZERO: Self;
+    const ONE: Self;
+    /// Whether [`half_and_cos_d`] divides each component by |wi + wo| (three correctly
+    /// rounded quotients: `f64`, for the bits of the per-pair code) or multiplies by one
+    /// reciprocal (`f32`: two divisions fewer, within 1 ulp more).
+    const DIVIDE_EACH: bool;
+    /// Correctly rounded square root.
+    fn sqrt(self) -> Self;
+}
+
+impl Component for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    const DIVIDE_EACH: bool = true;
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+}
+
+impl Component for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    const DIVIDE_EACH: bool = false;
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+}
+
+/// `c ? a : b`, written so that LLVM emits a blend rather than a branch.
+#[inline(always)]
+fn select<T: Component>(c: bool, a: T, b: T) -> T {
+    if c { a } else { b }
+}
+
+/// Unit half vector h = (wi + wo)/|wi + wo| of a pair and cos θd = wi·h, branch-free;
+/// h is the normal (0, 0, 1) when wi + wo is zero or not a number (wi = −wo).
+///
+/// The one formula of every path: in `f64` it is what [`half_vector`] and
+/// [`pair_columns`] return (the same operations in the same order as nalgebra's
+/// `norm()`, component-wise division and `dot`), so geometry filled from raw directions
+/// ([`Geometry::fill_from_dirs`]) has the bits of [`GeometryBatch::from_pairs`]. Inputs
+/// are taken as they are, not normalised: for unit wi, wo this is the Rusinkiewicz half
+/// vector and cos θd (conventions.md); for other lengths h is still a unit vector
+/// (where wi + wo ≠ 0) but cos θd scales with |wi|. In `f32` the three quotients are
+/// one reciprocal and three products ([`Component::DIVIDE_EACH`]).
+#[inline(always)]
+pub fn half_and_cos_d<T: Component>(wi: [T; 3], wo: [T; 3]) -> ([T; 3], T) {
+    let s = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+    // nalgebra: norm_squared = 0 + (x² + y² + z²), and 0 + v = v for v ≥ 0 and NaN.
+    let n = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+    let up = n > T::ZERO;
+    let q = if T::DIVIDE_EACH {
+        // Three divisions rather than one reciprocal: the bits of nalgebra's `s / n`.
+        [s[0] / n, s[1] / n, s[2] / n]
+    } else {
+        let r = T::ONE / n;
+        [s[0] * r, s[1] * r, s[2] * r]
+    };
+    let h = [
+        select(up, q[0], T::ZERO),
+        select(up, q[1], T::ZERO),
+        select(up, q[2], T::ONE),
+    ];
+    (h, wi[0] * h[0] + wi[1] * h[1] + wi[2] * h[2])
+}
+
+/// The ten columns of one pair in precision `T`, in declaration order: wi, wo, the unit
+/// half vector and cos θd ([`half_and_cos_d`]).
+#[inline(always)]
+pub fn pair_columns_of<T: Component>(wi: [T; 3], wo: [T; 3]) -> [T; 10] {
+    let (h, cd) = half_and_cos_d(wi, wo);
+    [
+        wi[0], wi[1], wi[2], wo[0], wo[1], wo[2], h[0], h[1], h[2], cd,
+    ]
+}
+
 /// Unit half vector of a pair; the normal when wi = −wo (no half vector exists).
 pub fn half_vector(wi: &Vec3, wo: &Vec3) -> Vec3 {
-    let s = wi + wo;
-    let n = s.norm();
-    if n > 0.0 {
-        s / n
-    } else {
-        Vec3::new(0.0, 0.0, 1.0)
-    }
+    let (h, _) = half_and_cos_d([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]);
+    Vec3::new(h[0], h[1], h[2])
 }
 
 /// The ten columns of one pair, in declaration order: wi, wo, the unit half vector
 /// ([`half_vector`]) and cos θd = wi·h. What [`GeometryBatch::push`] stores; code that
 /// fills a [`Geometry::zeroed`] batch in place writes the same numbers.
 pub fn pair_columns(wi: &Vec3, wo: &Vec3) -> [f64; 10] {
-    let h = half_vector(wi, wo);
-    [
-        wi.x,
-        wi.y,
-        wi.z,
-        wo.x,
-        wo.y,
-        wo.z,
-        h.x,
-        h.y,
-        h.z,
-        wi.dot(&h),
-    ]
+    pair_columns_of([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z])
 }
 
 /// Splits `N` equally long columns into consecutive runs of `lens` rows each (one array
@@ -207,6 +284,83 @@ impl<T> Geometry<T> {
             c.clear();
         }
     }
+}
+
+impl<T: Component> Geometry<T> {
+    /// Sets every column to `n` rows (new rows zero), keeping the capacity.
+    fn set_len(&mut self, n: usize) {
+        for c in self.column_vecs() {
+            c.resize(n, T::ZERO);
+        }
+    }
+
+    /// Replaces the batch by the pairs `(wi[k], wo[k])` (as many as the shorter slice
+    /// holds), computed by [`pair_columns_of`]: in `f64` the bits of
+    /// [`GeometryBatch::from_pairs`]. Reuses the columns' memory, and inlines into the
+    /// caller so that a caller compiled for wider vectors (a `target_feature` copy, as
+    /// `brdfkit_models::raw` runs it) vectorises the loop with them: it has no branch
+    /// and uses only `+ × ÷ √`.
+    #[inline(always)]
+    pub fn fill_from_dirs(&mut self, wi: &[[T; 3]], wo: &[[T; 3]]) {
+        let n = wi.len().min(wo.len());
+        let (wi, wo) = (&wi[..n], &wo[..n]);
+        self.fill_with(n, |k| (wi[k], wo[k]));
+    }
+
+    /// [`fill_from_dirs`](Self::fill_from_dirs) from rows of six values
+    /// `[wi_x, wi_y, wi_z, wo_x, wo_y, wo_z]` (an N×6 array in row-major order).
+    #[inline(always)]
+    pub fn fill_from_rows(&mut self, rows: &[[T; 6]]) {
+        self.fill_with(rows.len(), |k| {
+            let r = rows[k];
+            ([r[0], r[1], r[2]], [r[3], r[4], r[5]])
+        });
+    }
+
+    /// Replaces the batch by `n` pairs, pair k being `pair(k)` (k < n), with the
+    /// columns of [`pair_columns_of`].
+    #[inline(always)]
+    pub fn fill_with(&mut self, n: usize, pair: impl Fn(usize) -> ([T; 3], [T; 3])) {
+        self.set_len(n);
+        // Cut every column to exactly n rows so the loop below has no bounds checks.
+        let [c0, c1, c2, c3, c4, c5, c6, c7, c8, c9] = self.columns_mut().map(|c| &mut c[..n]);
+        for k in 0..n {
+            let (wi, wo) = pair(k);
+            let v = pair_columns_of(wi, wo);
+            c0[k] = v[0];
+            c1[k] = v[1];
+            c2[k] = v[2];
+            c3[k] = v[3];
+            c4[k] = v[4];
+            c5[k] = v[5];
+            c6[k] = v[6];
+            c7[k] = v[7];
+            c8[k] = v[8];
+            c9[k] = v[9];
+        }
+    }
+}
+
+/// Direction and output arrays of a bulk evaluation from raw directions that do not fit
+/// together (`brdfkit_models::raw`).
+#[derive(Debug, Error, Clone, PartialEq, Eq)]
+pub enum DirsError {
+    /// `wi` and `wo` of different lengths.
+    #[error("wi has {wi} directions but wo has {wo}: one wo per wi is needed")]
+    Mismatch { wi: usize, wo: usize },
+    /// A flat array whose length is not a multiple of 6.
+    #[error(
+        "a flat direction array holds 6 values per pair (wi_x wi_y wi_z wo_x wo_y wo_z); \
+         {len} values is not a multiple of 6"
+    )]
+    Flat { len: usize },
+    /// An output of the wrong length.
+    #[error("the output holds {got} entries but {pairs} pairs need {need}")]
+    Output {
+        pairs: usize,
+        need: usize,
+        got: usize,
+    },
 }
 
 impl GeometryBatch {
@@ -361,6 +515,98 @@ mod tests {
         assert_eq!(w.h_x[0], f.h_x[2] as f64);
         assert_eq!(f.slice(2..5).wi_z[1], f.wi_z[3]);
         assert!((w.wi_z[2] - b.wi_z[4]).abs() <= 1e-7 * b.wi_z[4].abs());
+    }
+
+    /// Awkward pairs: unit, opposite, identical, grazing, below the horizon, not unit
+    /// length, zero, huge, tiny and NaN components.
+    fn awkward_pairs() -> Vec<(Vec3, Vec3)> {
+        let mut v = Vec::new();
+        let dirs = [
+            spherical(0.4, 0.1),
+            spherical(1.2, -2.0),
+            spherical(std::f64::consts::FRAC_PI_2, 0.3),
+            Vec3::new(0.6, 0.0, -0.8),
+            Vec3::new(3.0, -1.0, 2.0),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1e-200, 0.0, 1e-200),
+            Vec3::new(1e200, 1e200, 1e200),
+            Vec3::new(f64::NAN, 0.0, 1.0),
+            Vec3::new(0.0, f64::INFINITY, 1.0),
+        ];
+        for a in dirs {
+            for b in dirs {
+                v.push((a, b));
+            }
+            v.push((a, -a));
+        }
+        v
+    }
+
+    /// The branch-free half vector has the bits of nalgebra's `s / s.norm()` (what
+    /// `half_vector` computed before), NaN included.
+    #[test]
+    fn half_vector_is_nalgebras_to_the_bit() {
+        for (wi, wo) in awkward_pairs() {
+            let s = wi + wo;
+            let n = s.norm();
+            let want = if n > 0.0 {
+                s / n
+            } else {
+                Vec3::new(0.0, 0.0, 1.0)
+            };
+            let got = half_vector(&wi, &wo);
+            for c in 0..3 {
+                assert_eq!(got[c].to_bits(), want[c].to_bits(), "{wi:?} {wo:?}");
+            }
+            let cd = pair_columns(&wi, &wo)[9];
+            assert_eq!(cd.to_bits(), wi.dot(&want).to_bits(), "{wi:?} {wo:?}");
+        }
+    }
+
+    fn bits(g: &GeometryBatch) -> Vec<u64> {
+        let s = g.as_slice();
+        s.columns()
+            .iter()
+            .flat_map(|c| c.iter().map(|x| x.to_bits()))
+            .collect()
+    }
+
+    /// Filling from raw directions (two slices or N×6 rows) gives the bits of
+    /// `from_pairs`, reusing a longer batch; f32 fills compute the same formula in f32.
+    #[test]
+    fn fill_from_dirs_is_from_pairs_to_the_bit() {
+        let pairs = awkward_pairs();
+        let want = GeometryBatch::from_pairs(&pairs);
+        let wi: Vec<[f64; 3]> = pairs.iter().map(|p| [p.0.x, p.0.y, p.0.z]).collect();
+        let wo: Vec<[f64; 3]> = pairs.iter().map(|p| [p.1.x, p.1.y, p.1.z]).collect();
+        let mut g = GeometryBatch::zeroed(pairs.len() + 5);
+        g.fill_from_dirs(&wi, &wo);
+        assert_eq!(bits(&g), bits(&want));
+        let rows: Vec<[f64; 6]> = wi
+            .iter()
+            .zip(&wo)
+            .map(|(a, b)| [a[0], a[1], a[2], b[0], b[1], b[2]])
+            .collect();
+        let mut r = GeometryBatch::default();
+        r.fill_from_rows(&rows);
+        assert_eq!(bits(&r), bits(&want));
+        // Unequal slices: the shorter length.
+        g.fill_from_dirs(&wi[..3], &wo);
+        assert_eq!(g.len(), 3);
+        assert_eq!(g.cos_d[2].to_bits(), want.cos_d[2].to_bits());
+
+        let f = |v: [f64; 3]| v.map(|x| x as f32);
+        let (wi32, wo32): (Vec<_>, Vec<_>) =
+            wi.iter().zip(&wo).map(|(a, b)| (f(*a), f(*b))).unzip();
+        let mut g32 = GeometryBatchF32::default();
+        g32.fill_from_dirs(&wi32, &wo32);
+        for k in 0..pairs.len() {
+            let (h, cd) = half_and_cos_d(wi32[k], wo32[k]);
+            assert_eq!(g32.h_x[k].to_bits(), h[0].to_bits());
+            assert_eq!(g32.h_z[k].to_bits(), h[2].to_bits());
+            assert_eq!(g32.cos_d[k].to_bits(), cd.to_bits());
+            assert_eq!(g32.wo_y[k].to_bits(), wo32[k][1].to_bits());
+        }
     }
 
     #[test]

@@ -203,7 +203,10 @@ impl ParamSpec {
 /// [`Model::eval_grad`] (value part), [`Model::eval_batch`] and
 /// [`Model::eval_grad_batch`]; and return exactly 0 (value and gradient) for a pair
 /// with either direction at or below the horizon.
-pub trait Model: Brdf + fmt::Debug {
+///
+/// `Any` as a supertrait lets a bulk driver reach a model's own fused kernel from a
+/// `&dyn Model` (`brdfkit_models::raw` downcasts to Cook-Torrance's).
+pub trait Model: Brdf + fmt::Debug + std::any::Any {
     /// The model's name in the JSON contract (`"cook-torrance"`).
     fn name(&self) -> &'static str;
 

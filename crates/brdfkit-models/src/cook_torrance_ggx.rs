@@ -27,6 +27,8 @@
 
 use super::{CookTorrance, Fresnel, Shape};
 use crate::lanes::{Real, Run, clamp01, dispatch, max, select};
+use crate::raw::Dirs;
+use brdfkit_core::geometry::half_and_cos_d;
 use brdfkit_core::scattering::{Distribution, Masking};
 use brdfkit_core::{GeomSlice, GeomSliceOf, Rgb};
 use std::f64::consts::FRAC_1_PI;
@@ -466,8 +468,9 @@ impl Job for Pair<'_> {
     }
 }
 
-/// Where a batch's values go: [`Rgb`]s (`f64`) or one plane per channel (`f32`).
-pub(super) trait Sink<T> {
+/// Where a batch's values go: [`Rgb`]s (`f64`), one plane per channel (`f32`) or
+/// `[r, g, b]` rows (either precision).
+pub(crate) trait Sink<T> {
     /// Pairs the sink can take.
     fn len(&self) -> usize;
     /// Stores pair `i` (`i < len()`).
@@ -495,6 +498,17 @@ impl Sink<f32> for [&mut [f32]; 3] {
         self[0][i] = v[0];
         self[1][i] = v[1];
         self[2][i] = v[2];
+    }
+}
+
+impl<T: Real> Sink<T> for &mut [[T; 3]] {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        <[[T; 3]]>::len(self)
+    }
+    #[inline(always)]
+    fn put(&mut self, i: usize, v: [T; 3]) {
+        self[i] = v;
     }
 }
 
@@ -539,5 +553,71 @@ impl<T: Real, O: Sink<T>> Job for Batch<'_, '_, T, O> {
         } else {
             dispatch(&mut l);
         }
+    }
+}
+
+/// The values of pairs given as raw directions, in precision `T`, into `out`: the half
+/// vector and cos θd computed in the loop ([`half_and_cos_d`], the bits of
+/// `GeometryBatch::push` in `f64`), so reading the directions, the arithmetic and
+/// writing f_r overlap in one pass instead of three (`brdfkit_models::raw`).
+pub(crate) struct DirsBatch<'a, 'd, T, O> {
+    pub k: &'a Consts<T>,
+    pub dirs: Dirs<'d, T>,
+    pub out: O,
+}
+
+struct DirsLoop<'a, 'd, T, O, const A: bool, const C: bool, const F: u8>(DirsBatch<'a, 'd, T, O>);
+
+impl<
+    T: Real + brdfkit_core::geometry::Component,
+    O: Sink<T>,
+    const A: bool,
+    const C: bool,
+    const F: u8,
+> Run for DirsLoop<'_, '_, T, O, A, C, F>
+{
+    #[inline(always)]
+    fn run(&mut self) {
+        let b = &mut self.0;
+        let n = b.dirs.len().min(b.out.len());
+        // One loop per layout, each over slices cut to n (no bounds checks inside).
+        match b.dirs.sub(0..n) {
+            Dirs::Split(wi, wo) => {
+                for i in 0..n {
+                    let (h, cd) = half_and_cos_d(wi[i], wo[i]);
+                    b.out.put(i, value::<T, A, C, F>(b.k, wi[i], wo[i], h, cd));
+                }
+            }
+            Dirs::Rows(rows) => {
+                for (i, r) in rows.iter().enumerate() {
+                    let (wi, wo) = ([r[0], r[1], r[2]], [r[3], r[4], r[5]]);
+                    let (h, cd) = half_and_cos_d(wi, wo);
+                    b.out.put(i, value::<T, A, C, F>(b.k, wi, wo, h, cd));
+                }
+            }
+        }
+    }
+}
+
+impl<T: Real + brdfkit_core::geometry::Component, O: Sink<T>> Job for DirsBatch<'_, '_, T, O> {
+    fn go<const A: bool, const C: bool, const F: u8>(self) {
+        dispatch(&mut DirsLoop::<T, O, A, C, F>(self));
+    }
+}
+
+impl CookTorrance {
+    /// f_r of raw direction pairs through the GGX kernel, fused with the half vector
+    /// ([`DirsBatch`]); false (nothing written) when the configuration has no kernel.
+    pub(crate) fn ggx_dirs<T: Real + brdfkit_core::geometry::Component, O: Sink<T>>(
+        &self,
+        dirs: Dirs<'_, T>,
+        out: O,
+    ) -> bool {
+        let Some(cfg) = self.ggx_config() else {
+            return false;
+        };
+        let k = self.ggx_consts::<T>();
+        with_config(cfg, DirsBatch { k: &k, dirs, out });
+        true
     }
 }

@@ -13,6 +13,7 @@ mod lanes;
 mod pair;
 pub mod par;
 mod params;
+pub mod raw;
 pub mod shape;
 pub mod testing;
 

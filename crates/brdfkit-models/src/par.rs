@@ -16,7 +16,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub const RUN: usize = 8192;
 
 /// Runs `f(run index, run)` over `runs`, spread over the threads of the current pool.
-fn spread<T: Send>(runs: Vec<T>, f: impl Fn(usize, T) + Sync) {
+pub(crate) fn spread<T: Send>(runs: Vec<T>, f: impl Fn(usize, T) + Sync) {
     let next = AtomicUsize::new(0);
     let slots: Vec<Mutex<Option<T>>> = runs.into_iter().map(|r| Mutex::new(Some(r))).collect();
     rayon::broadcast(|_| {
