@@ -33,6 +33,8 @@
 //!
 //! The formulas, sources and measured performance are in `docs/fitting.md`.
 
+#![warn(missing_docs)]
+
 pub mod config;
 pub mod data;
 pub mod error;

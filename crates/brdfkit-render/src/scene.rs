@@ -10,7 +10,7 @@
 use crate::env::{Environment, LatLong};
 use crate::error::SceneError;
 use crate::geometry::{Camera, Plane, Sphere};
-use crate::material::{Material, MaterialSource, TableBrdf};
+use crate::material::{SceneMaterial, MaterialSource, TableBrdf};
 use brdfkit_core::{Rgb, Vec3};
 use brdfkit_merl::{Lookup, MerlTable};
 use serde::Deserialize;
@@ -136,7 +136,7 @@ pub struct Scene {
     pub camera: Camera,
     pub sphere: Option<Object<Sphere>>,
     pub plane: Option<Object<Plane>>,
-    pub materials: Vec<Material>,
+    pub materials: Vec<SceneMaterial>,
     pub lights: Vec<Light>,
     pub environment: Option<Environment>,
 }
@@ -624,7 +624,7 @@ impl Scene {
     }
 }
 
-fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<Material, SceneError> {
+fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<SceneMaterial, SceneError> {
     match (&m.model, &m.table) {
         (Some(_), Some(_)) => Err(cx.invalid(key, "give either `model` or `table`, not both")),
         (None, None) => {
@@ -682,7 +682,7 @@ fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<Material, Scene
                 file: file.clone(),
                 source: Box::new(source),
             })?;
-            Ok(Material::Model {
+            Ok(SceneMaterial::Model {
                 model: Arc::from(model),
                 source: match file {
                     Some(f) => MaterialSource::ModelFile(f),
@@ -701,7 +701,7 @@ fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<Material, Scene
                 RawLookup::Nearest => Lookup::Nearest,
                 RawLookup::Interpolated => Lookup::Interpolated,
             };
-            Ok(Material::Table {
+            Ok(SceneMaterial::Table {
                 brdf: TableBrdf::new(Arc::new(table), lookup),
                 source: MaterialSource::TableFile(file),
             })

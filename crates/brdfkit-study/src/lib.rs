@@ -21,6 +21,8 @@
 //! report, whose generated sections sit between `<!-- study:NAME -->` markers so the
 //! hand-written reading around them survives a re-run ([`report`]).
 
+#![warn(missing_docs)]
+
 pub mod choices;
 pub mod grid;
 pub mod plot;
