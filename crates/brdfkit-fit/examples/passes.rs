@@ -3,7 +3,8 @@
 //! the loss report. `cargo run --release -p brdfkit-fit --example passes`.
 
 use brdfkit_core::Rgb;
-use brdfkit_fit::problem::{CHUNK, FitProblem};
+use brdfkit_fit::data::PASS_CHUNK_CELLS;
+use brdfkit_fit::problem::FitProblem;
 use brdfkit_fit::synth::{Coverage, synth_data};
 use brdfkit_fit::{FitConfig, Loss, Weighting, evaluate_losses, resolve_free};
 use rayon::prelude::*;
@@ -56,21 +57,21 @@ fn main() {
     let g = data.geometry();
     let np = start.num_params();
     time("model eval_batch only (parallel)", 5, || {
-        (0..n.div_ceil(CHUNK)).into_par_iter().for_each_init(
-            || vec![Rgb::ZERO; CHUNK],
+        (0..n.div_ceil(PASS_CHUNK_CELLS)).into_par_iter().for_each_init(
+            || vec![Rgb::ZERO; PASS_CHUNK_CELLS],
             |out, ci| {
-                let s = ci * CHUNK;
-                let e = (s + CHUNK).min(n);
+                let s = ci * PASS_CHUNK_CELLS;
+                let e = (s + PASS_CHUNK_CELLS).min(n);
                 start.eval_batch(&g.slice(s..e), &mut out[..e - s]);
             },
         )
     });
     time("model eval_grad_batch only (parallel)", 5, || {
-        (0..n.div_ceil(CHUNK)).into_par_iter().for_each_init(
-            || (vec![Rgb::ZERO; CHUNK], vec![Rgb::ZERO; np * CHUNK]),
+        (0..n.div_ceil(PASS_CHUNK_CELLS)).into_par_iter().for_each_init(
+            || (vec![Rgb::ZERO; PASS_CHUNK_CELLS], vec![Rgb::ZERO; np * PASS_CHUNK_CELLS]),
             |(out, gr), ci| {
-                let s = ci * CHUNK;
-                let e = (s + CHUNK).min(n);
+                let s = ci * PASS_CHUNK_CELLS;
+                let e = (s + PASS_CHUNK_CELLS).min(n);
                 start.eval_grad_batch(&g.slice(s..e), &mut out[..e - s], &mut gr[..np * (e - s)]);
             },
         )

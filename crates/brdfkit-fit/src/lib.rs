@@ -29,7 +29,8 @@
 //! - [`lm`]: Levenberg-Marquardt and Gauss-Newton as argmin solvers;
 //! - [`starts`]: the multi-start scheme;
 //! - [`config`], [`record`], [`observer`]: options, the JSON record, progress events;
-//! - [`synth`]: synthetic tables from a model (tests, benchmarks).
+//! - [`synth`]: synthetic materials with known parameters: the `data-synthetic/` spec
+//!   format and its tables, cell sets from a model, seeded noise (tests, benchmarks).
 //!
 //! The formulas, sources and measured performance are in `docs/fitting.md`.
 

@@ -2,7 +2,7 @@
 //! wall time and every loss on the full table, and the Pareto front of loss against
 //! time.
 
-use crate::{Material, StudyConfig, StudyError};
+use crate::{SynthMaterial, StudyConfig, StudyError};
 use brdfkit_fit::{FitConfig, FitData, Loss, SolverKind, fit};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -143,7 +143,7 @@ pub fn fit_one(
 /// Runs the whole grid.
 pub fn run_grid(
     cfg: &StudyConfig,
-    materials: &[Material],
+    materials: &[SynthMaterial],
     progress: &dyn Fn(&str),
 ) -> Result<Vec<GridRow>, StudyError> {
     let confs = configurations(cfg);
@@ -197,7 +197,7 @@ pub fn run_grid(
                 ));
             }
             // Saved after every model and material, so a stopped run can resume.
-            crate::report::write_json(&partial, &rows)?;
+            crate::files::write_json(&partial, &rows)?;
         }
     }
     Ok(rows)

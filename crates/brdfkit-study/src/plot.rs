@@ -226,7 +226,7 @@ pub fn figure(
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .map_err(|e| err(e.to_string()))?;
-    crate::report::write_atomic(path, &png)
+    crate::files::write(path, &png)
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 //! a batch of tables, and the peak resident memory of a full-table fit.
 
 use crate::choices::pool;
-use crate::{Material, StudyConfig, StudyError};
+use crate::{SynthMaterial, StudyConfig, StudyError};
 use brdfkit_fit::{FitConfig, FitData, Loss, fit, resolve_free};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -185,7 +185,7 @@ pub fn child_peak_rss(exe: &Path, args: &[String]) -> Result<MemoryPoint, StudyE
 /// written to a temporary directory that is removed afterwards.
 pub fn run_scale(
     cfg: &StudyConfig,
-    materials: &[Material],
+    materials: &[SynthMaterial],
     progress: &dyn Fn(&str),
 ) -> Result<ScaleResults, StudyError> {
     let mut res = ScaleResults::default();
