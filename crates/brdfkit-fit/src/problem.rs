@@ -372,7 +372,13 @@ impl<'a> FitProblem<'a> {
             .into_par_iter()
             .with_min_len(min_len(nchunks))
             .fold(
-                || (vec![Rgb::ZERO; PASS_CHUNK_CELLS], vec![0.0; PASS_CHUNK_CELLS], Vec::new()),
+                || {
+                    (
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                        Vec::new(),
+                    )
+                },
                 |(mut out, mut tbuf, mut acc): (Vec<Rgb>, Vec<f64>, Vec<f64>), ci| {
                     let s = ci * PASS_CHUNK_CELLS;
                     let e = (s + PASS_CHUNK_CELLS).min(n);
@@ -512,7 +518,13 @@ impl<'a> FitProblem<'a> {
             .into_par_iter()
             .with_min_len(min_len(nchunks))
             .map_init(
-                || (vec![Rgb::ZERO; PASS_CHUNK_CELLS], vec![0.0; PASS_CHUNK_CELLS], vec![0.0; PASS_CHUNK_CELLS]),
+                || {
+                    (
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                    )
+                },
                 |(out, sbuf, tbuf), ci| {
                     let mut acc = 0.0;
                     let s = ci * PASS_CHUNK_CELLS;
@@ -827,8 +839,15 @@ pub fn evaluate_losses(
         .map_init(
             || {
                 (
-                    [vec![Rgb::ZERO; PASS_CHUNK_CELLS], vec![Rgb::ZERO; PASS_CHUNK_CELLS]],
-                    (vec![0.0; PASS_CHUNK_CELLS], vec![0.0; PASS_CHUNK_CELLS], vec![0.0; PASS_CHUNK_CELLS]),
+                    [
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                    ],
+                    (
+                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                    ),
                 )
             },
             |(out, (xm, xt, wb)), ci| {

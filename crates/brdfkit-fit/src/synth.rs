@@ -51,10 +51,10 @@
 //! streams 4 + c the noise of channel c. A cell set's index is the position of the cell
 //! in the [`FitData`].
 
-use brdfkit_core::{Model, Rgb, from_half_diff};
-use brdfkit_merl::{Dims, MerlTable, cell_directions, cell_weight};
 use crate::data::FitData;
 use crate::error::FitError;
+use brdfkit_core::{Model, Rgb, from_half_diff};
+use brdfkit_merl::{Dims, MerlTable, cell_directions, cell_weight};
 use rayon::prelude::*;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -271,7 +271,8 @@ impl SynthSpec {
             if missing.below_horizon && (wi.z <= 0.0 || wo.z <= 0.0) {
                 return None;
             }
-            if missing.fraction > 0.0 && unit(missing.seed, idx, MISSING_STREAM) < missing.fraction {
+            if missing.fraction > 0.0 && unit(missing.seed, idx, MISSING_STREAM) < missing.fraction
+            {
                 return None;
             }
             let mut f = model.eval(&wi, &wo);

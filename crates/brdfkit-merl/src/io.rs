@@ -454,8 +454,8 @@ pub fn atomic_write(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::PathBuf;
     use crate::table::MAX_ABS_RAW;
+    use std::path::PathBuf;
 
     fn leftovers(dir: &Path) -> Vec<String> {
         std::fs::read_dir(dir)

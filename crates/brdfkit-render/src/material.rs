@@ -64,12 +64,16 @@ pub enum MaterialSource {
 pub enum SceneMaterial {
     /// An analytic model.
     Model {
+        /// The model.
         model: Arc<dyn Model>,
+        /// Where it came from.
         source: MaterialSource,
     },
     /// A measured table.
     Table {
+        /// The table and its lookup.
         brdf: TableBrdf,
+        /// Where it came from.
         source: MaterialSource,
     },
 }

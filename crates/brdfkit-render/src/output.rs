@@ -21,7 +21,9 @@ use std::path::Path;
 /// A rendered image.
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
+    /// Pixels per row.
     pub width: usize,
+    /// Rows.
     pub height: usize,
     /// Samples per pixel actually taken: `film.spp`, or 1 with the `center` filter and
     /// no environment (every sample would repeat the same deterministic value).

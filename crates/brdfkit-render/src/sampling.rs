@@ -112,7 +112,9 @@ fn build_cdf(weights: &[f64], cdf: &mut [f64]) -> f64 {
 /// A sampled direction with its density (solid angle measure).
 #[derive(Clone, Copy, Debug)]
 pub struct DirSample {
+    /// Sampled direction, local frame.
     pub wi: Vec3,
+    /// Its density (solid angle measure).
     pub pdf: f64,
 }
 

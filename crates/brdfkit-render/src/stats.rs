@@ -60,8 +60,11 @@ impl EffectCost {
 pub struct RenderStats {
     /// Camera rays (always computed).
     pub camera: EffectCost,
+    /// Direct light.
     pub direct: EffectCost,
+    /// Environment light.
     pub environment: EffectCost,
+    /// Shadow rays.
     pub shadows: EffectCost,
     /// Table lookups that found no sample (missing cells), rendered as zero.
     pub table_misses: u64,

@@ -13,13 +13,13 @@
 //! (docs/fitting.md), so it reads on the same scale as the fit grid's losses. Times: one
 //! thread, minimum over `reps` runs, per evaluated cell or pair.
 
-use crate::{SynthMaterial, StudyConfig, StudyError};
-use brdfkit_fit::synth::SynthSpec;
+use crate::{StudyConfig, StudyError, SynthMaterial};
 use brdfkit_core::direction::spherical;
+use brdfkit_core::scattering::{BeckmannG1, Masking};
 use brdfkit_core::{GeometryBatch, GeometryBatchF32, Model, ModelError, Rgb, Vec3};
+use brdfkit_fit::synth::SynthSpec;
 use brdfkit_fit::{FitConfig, FitData, fit};
 use brdfkit_merl::Lookup;
-use brdfkit_core::scattering::{BeckmannG1, Masking};
 use brdfkit_models::cook_torrance::{CookTorrance, Fresnel};
 use brdfkit_models::par::{eval_batch_f32_par, eval_batch_par};
 use rand::{Rng, SeedableRng};
@@ -35,9 +35,13 @@ use std::time::Instant;
 pub struct ErrorStats {
     /// (pair, channel)s compared (reference > 0, approximation present).
     pub n: usize,
+    /// Median relative error.
     pub rel_median: f64,
+    /// 90th percentile of the relative error.
     pub rel_p90: f64,
+    /// 99th percentile of the relative error.
     pub rel_p99: f64,
+    /// Largest relative error.
     pub rel_max: f64,
     /// Weighted RMS of the cube-root difference (the `cbrt` loss).
     pub cbrt_rms: f64,
@@ -107,15 +111,20 @@ pub fn pool(n: usize) -> rayon::ThreadPool {
 /// One lookup mode on one material.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct LookupRow {
+    /// Spec name of the material.
     pub material: String,
+    /// `nearest` or `interpolated`.
     pub mode: String,
+    /// Direction pairs looked up.
     pub pairs: usize,
     /// Fraction of the pairs that got a value (the rest land in missing cells).
     pub found: f64,
     #[serde(flatten)]
+    /// Errors against the reference.
     pub err: ErrorStats,
     /// Time per lookup through `lookup_batch`, one thread and all threads, ns.
     pub ns_1_thread: f64,
+    /// Same on all threads, ns.
     pub ns_all_threads: f64,
 }
 
@@ -190,13 +199,18 @@ pub fn lookups(
 pub struct VariantRow {
     /// What is chosen (`fresnel`, `beckmann-g1`, `smith`, `precision`).
     pub choice: String,
+    /// Spec name of the material.
     pub material: String,
+    /// The reference choice.
     pub reference: String,
+    /// The cheaper choice.
     pub variant: String,
     #[serde(flatten)]
+    /// Errors against the reference.
     pub err: ErrorStats,
     /// One thread, per valid MERL cell, ns.
     pub ns_reference: f64,
+    /// Same for the variant, ns.
     pub ns_variant: f64,
 }
 
@@ -314,11 +328,10 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
             what: "schlick f0 fit".into(),
             source,
         })?;
-    let fitted =
-        fit(&schlick, &gold_cells, &fc, None).map_err(|source| StudyError::Fit {
-            what: "schlick f0 fit".into(),
-            source,
-        })?;
+    let fitted = fit(&schlick, &gold_cells, &fc, None).map_err(|source| StudyError::Fit {
+        what: "schlick f0 fit".into(),
+        source,
+    })?;
     let fitted = fitted
         .fitted
         .shared()

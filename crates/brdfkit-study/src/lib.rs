@@ -30,8 +30,8 @@ pub mod markdown;
 pub mod plot;
 pub mod scale;
 
-use brdfkit_fit::synth::SynthSpec;
 use brdfkit_fit::SolverKind;
+use brdfkit_fit::synth::SynthSpec;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -46,29 +46,48 @@ pub enum StudyError {
     /// A fit failed in a way the study does not record as a data point.
     #[error("{what}: {source}")]
     Fit {
+        /// What was being done.
         what: String,
         #[source]
+        /// The fitter's error.
         source: brdfkit_fit::FitError,
     },
     /// A model description was rejected.
     #[error("{what}: {msg}")]
-    Model { what: String, msg: String },
+    Model {
+        /// The model or variant.
+        what: String,
+        /// What is wrong.
+        msg: String,
+    },
     /// A file could not be written (the atomic writer names the step).
     #[error(transparent)]
     Write(#[from] brdfkit_core::atomic::WriteError),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
         #[source]
+        /// The fitter's error.
         source: std::io::Error,
     },
     /// A plot could not be drawn.
     #[error("{path}: cannot draw the plot: {msg}")]
-    Plot { path: PathBuf, msg: String },
+    Plot {
+        /// The file.
+        path: PathBuf,
+        /// Why it could not be drawn.
+        msg: String,
+    },
     /// The configuration is unusable.
     #[error("study option {option}: {msg}")]
-    Config { option: &'static str, msg: String },
+    Config {
+        /// The option.
+        option: &'static str,
+        /// Why it is unusable.
+        msg: String,
+    },
 }
 
 impl StudyError {
@@ -290,12 +309,15 @@ pub struct RunInfo {
     pub started_unix: u64,
     /// Load average (1 min) at the start and at the end.
     pub load_start: Option<f64>,
+    /// Load average (1 min) at the end.
     pub load_end: Option<f64>,
     /// Rayon threads.
     pub threads: usize,
     /// Wall time of each part, seconds.
     pub grid_s: Option<f64>,
+    /// Wall time of the evaluation choices, s.
     pub choices_s: Option<f64>,
+    /// Wall time of the scaling part, s.
     pub scale_s: Option<f64>,
     /// The configuration.
     pub config: StudyConfig,
@@ -367,9 +389,13 @@ pub fn rewrite(out: &Path, progress: &dyn Fn(&str)) -> Result<(), StudyError> {
 /// Everything a run measured.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct StudyResults {
+    /// The fit grid, one row per fit.
     pub grid: Vec<grid::GridRow>,
+    /// Table lookup modes against the truth.
     pub lookups: Vec<choices::LookupRow>,
+    /// Cook-Torrance evaluation choices against their references.
     pub variants: Vec<choices::VariantRow>,
+    /// The scaling measurements.
     pub scale: Option<scale::ScaleResults>,
 }
 

@@ -5,9 +5,9 @@
 //! the results around them stays. A report that does not exist yet is created from a
 //! skeleton.
 
+use crate::files::{write, write_json};
 use crate::grid::{GridRow, pareto};
 use crate::plot::{Axes, Panel, Series, figure};
-use crate::files::{write, write_json};
 use crate::{RunInfo, StudyConfig, StudyError, StudyResults};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
