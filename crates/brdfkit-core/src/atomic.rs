@@ -193,12 +193,12 @@ impl Staged {
             .tempfile_in(dir)
             .map_err(|e| WriteError::new(path, "creating a temporary file beside it", e))?;
         fill(tmp.as_file_mut()).map_err(|e| WriteError::new(path, "writing", e))?;
-        if let Ok(m) = std::fs::metadata(path) {
-            if m.is_file() {
-                tmp.as_file()
-                    .set_permissions(m.permissions())
-                    .map_err(|e| WriteError::new(path, "setting permissions", e))?;
-            }
+        if let Ok(m) = std::fs::metadata(path)
+            && m.is_file()
+        {
+            tmp.as_file()
+                .set_permissions(m.permissions())
+                .map_err(|e| WriteError::new(path, "setting permissions", e))?;
         }
         tmp.as_file()
             .sync_all()
