@@ -19,30 +19,50 @@ use thiserror::Error;
 /// `wi_z` and `wo_z` are cos θi and cos θo.
 #[derive(Clone, Debug, Default)]
 pub struct Geometry<T> {
+    /// x of `wi`.
     pub wi_x: Vec<T>,
+    /// y of `wi`.
     pub wi_y: Vec<T>,
+    /// z of `wi`: cos θi.
     pub wi_z: Vec<T>,
+    /// x of `wo`.
     pub wo_x: Vec<T>,
+    /// y of `wo`.
     pub wo_y: Vec<T>,
+    /// z of `wo`: cos θo.
     pub wo_z: Vec<T>,
+    /// x of the unit half vector h.
     pub h_x: Vec<T>,
+    /// y of the unit half vector h.
     pub h_y: Vec<T>,
+    /// z of the unit half vector h: cos θh.
     pub h_z: Vec<T>,
+    /// wi·h = wo·h = cos θd.
     pub cos_d: Vec<T>,
 }
 
 /// A borrowed run of a [`Geometry`]: the unit a model's fast path works on.
 #[derive(Clone, Copy, Debug)]
 pub struct GeomSliceOf<'a, T> {
+    /// x of `wi`.
     pub wi_x: &'a [T],
+    /// y of `wi`.
     pub wi_y: &'a [T],
+    /// z of `wi`: cos θi.
     pub wi_z: &'a [T],
+    /// x of `wo`.
     pub wo_x: &'a [T],
+    /// y of `wo`.
     pub wo_y: &'a [T],
+    /// z of `wo`: cos θo.
     pub wo_z: &'a [T],
+    /// x of the unit half vector h.
     pub h_x: &'a [T],
+    /// y of the unit half vector h.
     pub h_y: &'a [T],
+    /// z of the unit half vector h: cos θh.
     pub h_z: &'a [T],
+    /// wi·h = wo·h = cos θd.
     pub cos_d: &'a [T],
 }
 

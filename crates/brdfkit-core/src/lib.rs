@@ -21,6 +21,8 @@
 //! - [`choice`]: structural choices parsed from their names.
 //! - [`scattering`]: Fresnel, microfacet distributions and masking, with derivatives.
 
+#![warn(missing_docs)]
+
 pub mod atomic;
 pub mod brdf;
 pub mod choice;

@@ -18,13 +18,21 @@ pub enum ModelError {
     /// A parameter value outside its domain.
     #[error("parameter `{name}` = {value} is outside its domain {domain}")]
     OutOfDomain {
+        /// The parameter.
         name: String,
+        /// The value given.
         value: f64,
+        /// Its domain.
         domain: Domain,
     },
     /// A parameter vector of the wrong length.
     #[error("expected {expected} parameters, got {got}")]
-    ParamCount { expected: usize, got: usize },
+    ParamCount {
+        /// Parameters the model has.
+        expected: usize,
+        /// Parameters given.
+        got: usize,
+    },
     /// A model description that does not parse or names unknown things.
     #[error("{0}")]
     Invalid(String),
@@ -33,9 +41,13 @@ pub enum ModelError {
 /// The interval a parameter lives in. Infinite ends are allowed (always open).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Domain {
+    /// Lower end.
     pub lo: f64,
+    /// Upper end.
     pub hi: f64,
+    /// Whether the lower end is excluded.
     pub lo_open: bool,
+    /// Whether the upper end is excluded.
     pub hi_open: bool,
 }
 
@@ -150,6 +162,7 @@ pub struct ParamSpec {
     /// Name as in the JSON contract, with a channel suffix for per-channel entries
     /// (`rho_d.r`) and an index for lists (`lobes[1].n`).
     pub name: String,
+    /// Which channels it acts on (per-channel albedo-like or shared).
     pub role: ParamRole,
     /// Where the model is defined; builders reject values outside.
     pub domain: Domain,

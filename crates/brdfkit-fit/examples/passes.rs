@@ -3,7 +3,8 @@
 //! the loss report. `cargo run --release -p brdfkit-fit --example passes`.
 
 use brdfkit_core::Rgb;
-use brdfkit_fit::problem::{CHUNK, FitProblem};
+use brdfkit_fit::data::PASS_CHUNK_CELLS;
+use brdfkit_fit::problem::FitProblem;
 use brdfkit_fit::synth::{Coverage, synth_data};
 use brdfkit_fit::{FitConfig, Loss, Weighting, evaluate_losses, resolve_free};
 use rayon::prelude::*;
@@ -56,24 +57,37 @@ fn main() {
     let g = data.geometry();
     let np = start.num_params();
     time("model eval_batch only (parallel)", 5, || {
-        (0..n.div_ceil(CHUNK)).into_par_iter().for_each_init(
-            || vec![Rgb::ZERO; CHUNK],
-            |out, ci| {
-                let s = ci * CHUNK;
-                let e = (s + CHUNK).min(n);
-                start.eval_batch(&g.slice(s..e), &mut out[..e - s]);
-            },
-        )
+        (0..n.div_ceil(PASS_CHUNK_CELLS))
+            .into_par_iter()
+            .for_each_init(
+                || vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                |out, ci| {
+                    let s = ci * PASS_CHUNK_CELLS;
+                    let e = (s + PASS_CHUNK_CELLS).min(n);
+                    start.eval_batch(&g.slice(s..e), &mut out[..e - s]);
+                },
+            )
     });
     time("model eval_grad_batch only (parallel)", 5, || {
-        (0..n.div_ceil(CHUNK)).into_par_iter().for_each_init(
-            || (vec![Rgb::ZERO; CHUNK], vec![Rgb::ZERO; np * CHUNK]),
-            |(out, gr), ci| {
-                let s = ci * CHUNK;
-                let e = (s + CHUNK).min(n);
-                start.eval_grad_batch(&g.slice(s..e), &mut out[..e - s], &mut gr[..np * (e - s)]);
-            },
-        )
+        (0..n.div_ceil(PASS_CHUNK_CELLS))
+            .into_par_iter()
+            .for_each_init(
+                || {
+                    (
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                        vec![Rgb::ZERO; np * PASS_CHUNK_CELLS],
+                    )
+                },
+                |(out, gr), ci| {
+                    let s = ci * PASS_CHUNK_CELLS;
+                    let e = (s + PASS_CHUNK_CELLS).min(n);
+                    start.eval_grad_batch(
+                        &g.slice(s..e),
+                        &mut out[..e - s],
+                        &mut gr[..np * (e - s)],
+                    );
+                },
+            )
     });
     time("cost pass", 5, || p.cost_at(&u));
     let mut v = u.clone();

@@ -27,6 +27,12 @@ fn valid_per_slab(t: &MerlTable) -> Result<Vec<usize>, FitError> {
 /// The square root follows MERL's θh spacing, so each bin holds a similar cell count.
 pub const STRATA: usize = 16;
 
+/// Cells per chunk of a parallel pass over a [`FitData`] (model values here, the cost
+/// and normal-equation passes of [`crate::problem`]): big enough to amortise a model
+/// call and a rayon task, small enough that a chunk's scratch
+/// (12 params × 2048 × 24 B ≈ 0.6 MB) stays in the L2 cache.
+pub const PASS_CHUNK_CELLS: usize = 2048;
+
 /// The cells of a fit: per-cell geometry, measured values per channel, the cell's
 /// measure of (wi, wo) pairs, and a multiplicity (how many cells of the full set a cell
 /// stands for after subsampling; 1 otherwise).
@@ -220,10 +226,10 @@ impl FitData {
         let n = self.len();
         let vals: Vec<Rgb> = {
             let mut v = vec![Rgb::ZERO; n];
-            v.par_chunks_mut(crate::problem::CHUNK)
+            v.par_chunks_mut(PASS_CHUNK_CELLS)
                 .enumerate()
                 .for_each(|(ci, o)| {
-                    let s = ci * crate::problem::CHUNK;
+                    let s = ci * PASS_CHUNK_CELLS;
                     model.eval_batch(&self.geometry.slice(s..s + o.len()), o);
                 });
             v

@@ -10,22 +10,30 @@ pub enum FitError {
     /// A configuration value outside its allowed range.
     #[error("fit option `{option}` = {value}: {reason}")]
     InvalidOption {
+        /// The option.
         option: &'static str,
+        /// The value given.
         value: String,
+        /// What the optimiser reported.
         reason: String,
     },
     /// A parameter name (to free or fix) the model does not have.
     #[error("model `{model}` has no parameter `{name}` (parameters: {known})")]
     UnknownParam {
+        /// The model.
         model: String,
+        /// The name given.
         name: String,
+        /// The parameters the model has.
         known: String,
     },
     /// The model rejected a parameter vector or description.
     #[error("model `{model}`: {source}")]
     Model {
+        /// The model.
         model: String,
         #[source]
+        /// What the model rejected.
         source: ModelError,
     },
     /// Input arrays of inconsistent length or with invalid entries.
@@ -40,8 +48,11 @@ pub enum FitError {
     /// The optimiser itself failed (an argmin error, not a non-convergence).
     #[error("solver `{solver}` failed on start {start}: {reason}")]
     Solver {
+        /// The solver.
         solver: String,
+        /// Index of the start.
         start: usize,
+        /// What the optimiser reported.
         reason: String,
     },
 }

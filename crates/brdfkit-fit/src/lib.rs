@@ -29,13 +29,16 @@
 //! - [`lm`]: Levenberg-Marquardt and Gauss-Newton as argmin solvers;
 //! - [`starts`]: the multi-start scheme;
 //! - [`config`], [`record`], [`observer`]: options, the JSON record, progress events;
-//! - [`synth`]: synthetic tables from a model (tests, benchmarks);
+//! - [`synth`]: synthetic materials with known parameters: the `data-synthetic/` spec
+//!   format and its tables, cell sets from a model, seeded noise (tests, benchmarks);
 //! - [`families`]: model lists with structural choices and fit settings as the command
 //!   line gives them, fitted family by family;
 //! - [`batch`]: the batch engine (every table of a database, resumable, sharded,
 //!   cancellable between tables).
 //!
 //! The formulas, sources and measured performance are in `docs/fitting.md`.
+
+#![warn(missing_docs)]
 
 pub mod batch;
 pub mod config;

@@ -303,9 +303,13 @@ pub struct ChannelLoss {
 /// Every loss of a model against a cell set (see [`crate::evaluate_losses`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LossReport {
+    /// Plain squared error.
     pub l2: ChannelLoss,
+    /// Squared error of f·cos θi.
     pub cosine: ChannelLoss,
+    /// Squared error of ∛(f·cos θi) (the default loss).
     pub cbrt: ChannelLoss,
+    /// Squared error of ln(1 + f·cos θi).
     pub log: ChannelLoss,
     /// Number of cells the losses were taken over.
     pub cells: usize,

@@ -18,7 +18,7 @@
 //! ```
 //!
 //! # Evaluation
-//! The cells are split into chunks of [`CHUNK`]; rayon maps over the chunks with one
+//! The cells are split into chunks of [`PASS_CHUNK_CELLS`](crate::data::PASS_CHUNK_CELLS); rayon maps over the chunks with one
 //! scratch set per job (`map_init`: model values, the model's parameter-major
 //! gradient, the Jacobian columns of the chunk), so nothing is allocated per cell.
 //! Each chunk's partial sums are collected and added in chunk order, so a pass gives
@@ -45,7 +45,7 @@
 //! itself, so LM's acceptance test is exact. Without a robust function the pass is
 //! the plain one, unchanged.
 
-use crate::data::FitData;
+use crate::data::{FitData, PASS_CHUNK_CELLS};
 use crate::error::FitError;
 use crate::loss::{Loss, Robust, RobustKind, Weighting};
 use crate::reparam::{Transform, nudge_into};
@@ -56,11 +56,6 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
-
-/// Cells per chunk of the parallel evaluation: big enough to amortise a model call and
-/// a rayon task, small enough that a chunk's scratch (12 params × 2048 × 24 B ≈ 0.6 MB)
-/// stays in the L2 cache.
-pub const CHUNK: usize = 2048;
 
 /// JᵀJ, Jᵀr and the cost at one point.
 #[derive(Debug, Clone)]
@@ -278,7 +273,7 @@ impl<'a> FitProblem<'a> {
         let inv_wsum = 1.0 / (nch * wsum);
         let mut cols: [Vec<usize>; 3] = Default::default();
         let n = data.len();
-        let nchunks = n.div_ceil(CHUNK);
+        let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
         let mut ms = 0.0;
         for &c in &channels {
             // Σ s² t², chunk by chunk (no full-length array of s or t); per-chunk sums
@@ -287,10 +282,10 @@ impl<'a> FitProblem<'a> {
                 .into_par_iter()
                 .with_min_len(min_len(nchunks))
                 .map_init(
-                    || (vec![0.0; CHUNK], vec![0.0; CHUNK]),
+                    || (vec![0.0; PASS_CHUNK_CELLS], vec![0.0; PASS_CHUNK_CELLS]),
                     |(sbuf, tbuf), ci| {
-                        let s = ci * CHUNK;
-                        let len = (s + CHUNK).min(n) - s;
+                        let s = ci * PASS_CHUNK_CELLS;
+                        let len = (s + PASS_CHUNK_CELLS).min(n) - s;
                         let (sb, tb) = (&mut sbuf[..len], &mut tbuf[..len]);
                         fill_scale(data, weighting, inv_wsum, s, sb);
                         fill_target(data, loss, c, s, tb);
@@ -372,15 +367,21 @@ impl<'a> FitProblem<'a> {
         let inn = &*self.inner;
         let n = inn.data.len();
         let g = inn.data.geometry();
-        let nchunks = n.div_ceil(CHUNK);
+        let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
         let mut e: Vec<f64> = (0..nchunks)
             .into_par_iter()
             .with_min_len(min_len(nchunks))
             .fold(
-                || (vec![Rgb::ZERO; CHUNK], vec![0.0; CHUNK], Vec::new()),
+                || {
+                    (
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                        Vec::new(),
+                    )
+                },
                 |(mut out, mut tbuf, mut acc): (Vec<Rgb>, Vec<f64>, Vec<f64>), ci| {
-                    let s = ci * CHUNK;
-                    let e = (s + CHUNK).min(n);
+                    let s = ci * PASS_CHUNK_CELLS;
+                    let e = (s + PASS_CHUNK_CELLS).min(n);
                     m.eval_batch(&g.slice(s..e), &mut out[..e - s]);
                     for &c in &inn.channels {
                         let tg = &mut tbuf[..e - s];
@@ -512,16 +513,22 @@ impl<'a> FitProblem<'a> {
         let robust = self.robust;
         let n = inn.data.len();
         let g = inn.data.geometry();
-        let nchunks = n.div_ceil(CHUNK);
+        let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
         let parts: Vec<f64> = (0..nchunks)
             .into_par_iter()
             .with_min_len(min_len(nchunks))
             .map_init(
-                || (vec![Rgb::ZERO; CHUNK], vec![0.0; CHUNK], vec![0.0; CHUNK]),
+                || {
+                    (
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                    )
+                },
                 |(out, sbuf, tbuf), ci| {
                     let mut acc = 0.0;
-                    let s = ci * CHUNK;
-                    let e = (s + CHUNK).min(n);
+                    let s = ci * PASS_CHUNK_CELLS;
+                    let e = (s + PASS_CHUNK_CELLS).min(n);
                     let len = e - s;
                     m.eval_batch(&g.slice(s..e), &mut out[..len]);
                     let cos_i = &g.wi_z[s..e];
@@ -579,20 +586,20 @@ impl<'a> FitProblem<'a> {
         let n = inn.data.len();
         let np = inn.proto.num_params();
         let g = inn.data.geometry();
-        let nchunks = n.div_ceil(CHUNK);
+        let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
         let maxcols = inn.cols.iter().map(Vec::len).max().unwrap_or(0);
         let parts: Vec<(Vec<f64>, Vec<f64>, f64)> = (0..nchunks)
             .into_par_iter()
             .with_min_len(min_len(nchunks))
             .map_init(
                 || Scratch {
-                    s: vec![0.0; CHUNK],
-                    t: vec![0.0; CHUNK],
-                    out: vec![Rgb::ZERO; CHUNK],
-                    grad: vec![Rgb::ZERO; np * CHUNK],
-                    jcol: vec![0.0; maxcols * CHUNK],
-                    r: vec![0.0; CHUNK],
-                    d: vec![0.0; CHUNK],
+                    s: vec![0.0; PASS_CHUNK_CELLS],
+                    t: vec![0.0; PASS_CHUNK_CELLS],
+                    out: vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                    grad: vec![Rgb::ZERO; np * PASS_CHUNK_CELLS],
+                    jcol: vec![0.0; maxcols * PASS_CHUNK_CELLS],
+                    r: vec![0.0; PASS_CHUNK_CELLS],
+                    d: vec![0.0; PASS_CHUNK_CELLS],
                     jtj: vec![0.0; mdim * mdim],
                     jtr: vec![0.0; mdim],
                     cost: 0.0,
@@ -602,8 +609,8 @@ impl<'a> FitProblem<'a> {
                     sc.jtj.fill(0.0);
                     sc.jtr.fill(0.0);
                     sc.cost = 0.0;
-                    let s = ci * CHUNK;
-                    let e = (s + CHUNK).min(n);
+                    let s = ci * PASS_CHUNK_CELLS;
+                    let e = (s + PASS_CHUNK_CELLS).min(n);
                     let len = e - s;
                     model.eval_grad_batch(
                         &g.slice(s..e),
@@ -825,21 +832,28 @@ pub fn evaluate_losses(
     // order as before.
     let wsum = data.weight_sum(weighting);
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
-    let nchunks = n.div_ceil(CHUNK);
+    let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
     let parts: Vec<[[f64; 3]; 4]> = (0..nchunks)
         .into_par_iter()
         .with_min_len(min_len(nchunks))
         .map_init(
             || {
                 (
-                    [vec![Rgb::ZERO; CHUNK], vec![Rgb::ZERO; CHUNK]],
-                    (vec![0.0; CHUNK], vec![0.0; CHUNK], vec![0.0; CHUNK]),
+                    [
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                    ],
+                    (
+                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS],
+                    ),
                 )
             },
             |(out, (xm, xt, wb)), ci| {
                 let mut acc = [[0.0f64; 3]; 4];
-                let s = ci * CHUNK;
-                let e = (s + CHUNK).min(n);
+                let s = ci * PASS_CHUNK_CELLS;
+                let e = (s + PASS_CHUNK_CELLS).min(n);
                 let len = e - s;
                 let gs = g.slice(s..e);
                 for (k, x) in wb[..len].iter_mut().enumerate() {

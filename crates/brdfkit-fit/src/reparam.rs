@@ -40,11 +40,22 @@ pub enum Transform {
     /// x = u.
     Identity,
     /// x = lo + eᵘ.
-    Log { lo: f64 },
+    Log {
+        /// Lower bound.
+        lo: f64,
+    },
     /// x = hi − eᵘ.
-    NegLog { hi: f64 },
+    NegLog {
+        /// Upper bound.
+        hi: f64,
+    },
     /// x = lo + (hi − lo) σ(u).
-    Logit { lo: f64, hi: f64 },
+    Logit {
+        /// Lower bound.
+        lo: f64,
+        /// Upper bound.
+        hi: f64,
+    },
 }
 
 /// σ(u) = 1/(1 + e⁻ᵘ), evaluated without overflow for either sign.

@@ -8,8 +8,11 @@ use thiserror::Error;
 /// A colour channel of the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Channel {
+    /// Red, the first plane.
     Red,
+    /// Green, the second plane.
     Green,
+    /// Blue, the third plane.
     Blue,
 }
 
@@ -39,13 +42,20 @@ impl fmt::Display for Channel {
 pub enum MerlError {
     /// Shorter than the 12-byte header.
     #[error("{}: {len} bytes is shorter than the 12-byte header", path.display())]
-    TooShort { path: PathBuf, len: u64 },
+    TooShort {
+        /// The file.
+        path: PathBuf,
+        /// Length of the file, bytes.
+        len: u64,
+    },
 
     /// Dims ≤ 0, or so large the size overflows.
     #[error("{}: {source}", path.display())]
     Dims {
+        /// The file.
         path: PathBuf,
         #[source]
+        /// The underlying error.
         source: DimsError,
     },
 
@@ -55,10 +65,15 @@ pub enum MerlError {
         path.display()
     )]
     Truncated {
+        /// The file.
         path: PathBuf,
+        /// The grid dims.
         dims: crate::Dims,
+        /// Cells of the grid.
         cells: usize,
+        /// What the dims require.
         expected: u64,
+        /// What was found.
         actual: u64,
     },
 
@@ -68,10 +83,15 @@ pub enum MerlError {
         path.display(), actual - expected
     )]
     TrailingBytes {
+        /// The file.
         path: PathBuf,
+        /// The grid dims.
         dims: crate::Dims,
+        /// Cells of the grid.
         cells: usize,
+        /// What the dims require.
         expected: u64,
+        /// What was found.
         actual: u64,
     },
 
@@ -81,12 +101,19 @@ pub enum MerlError {
         path.display()
     )]
     NonFinite {
+        /// The file.
         path: PathBuf,
+        /// The colour channel.
         channel: Channel,
+        /// θh index of the cell.
         i: usize,
+        /// θd index of the cell.
         j: usize,
+        /// φd index of the cell.
         k: usize,
+        /// Flat index of the cell.
         index: usize,
+        /// The value.
         value: f64,
     },
 
@@ -96,25 +123,38 @@ pub enum MerlError {
         path.display()
     )]
     TooLarge {
+        /// The file.
         path: PathBuf,
+        /// The colour channel.
         channel: Channel,
+        /// θh index of the cell.
         i: usize,
+        /// θd index of the cell.
         j: usize,
+        /// φd index of the cell.
         k: usize,
+        /// Flat index of the cell.
         index: usize,
+        /// The offending value.
         value: f64,
     },
 
     /// The path names a directory, not a table.
     #[error("{}: is a directory, not a table file", path.display())]
-    IsDirectory { path: PathBuf },
+    IsDirectory {
+        /// The file.
+        path: PathBuf,
+    },
 
     /// An I/O error while `action` (opening, reading, writing, renaming ...).
     #[error("{}: {action}: {source}", path.display())]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The step that failed.
         action: &'static str,
         #[source]
+        /// The underlying error.
         source: std::io::Error,
     },
 }
@@ -149,17 +189,25 @@ pub enum TableError {
     /// A raw buffer or plane of the wrong length.
     #[error("expected {expected} values for dims {dims}, got {actual}")]
     Length {
+        /// The grid dims.
         dims: crate::Dims,
+        /// What the dims require.
         expected: usize,
+        /// What was found.
         actual: usize,
     },
     /// A NaN or infinite value.
     #[error("non-finite value {value} in the {channel} channel at cell ({i}, {j}, {k})")]
     NonFinite {
+        /// The colour channel.
         channel: Channel,
+        /// θh index of the cell.
         i: usize,
+        /// θd index of the cell.
         j: usize,
+        /// φd index of the cell.
         k: usize,
+        /// The offending value.
         value: f64,
     },
     /// A value whose raw form would exceed ±[`crate::MAX_ABS_RAW`].
@@ -167,10 +215,15 @@ pub enum TableError {
         "value {value:e} in the {channel} channel at cell ({i}, {j}, {k}) exceeds 1e30 in magnitude"
     )]
     TooLarge {
+        /// The colour channel.
         channel: Channel,
+        /// θh index of the cell.
         i: usize,
+        /// θd index of the cell.
         j: usize,
+        /// φd index of the cell.
         k: usize,
+        /// The offending value.
         value: f64,
     },
     /// A negative physical value: it would be stored as a negative raw value, which the
@@ -179,18 +232,27 @@ pub enum TableError {
         "negative value {value} in the {channel} channel at cell ({i}, {j}, {k}): negative raw values mean 'missing'; give None instead"
     )]
     Negative {
+        /// The colour channel.
         channel: Channel,
+        /// θh index of the cell.
         i: usize,
+        /// θd index of the cell.
         j: usize,
+        /// φd index of the cell.
         k: usize,
+        /// The offending value.
         value: f64,
     },
     /// A cell index outside the grid.
     #[error("cell ({i}, {j}, {k}) is outside the grid {dims}")]
     OutOfRange {
+        /// The grid dims.
         dims: crate::Dims,
+        /// θh index of the cell.
         i: usize,
+        /// θd index of the cell.
         j: usize,
+        /// φd index of the cell.
         k: usize,
     },
 }

@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use std::cell::RefCell;
 use std::fs::File;
 use std::io::{self, Read, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Cells per parallel task: each task reads this many values of each channel (3 × 64
 /// KiB) into a per-thread buffer that stays in L2, then converts, validates and stores
@@ -439,64 +439,29 @@ fn write_header(dims: Dims, out: &mut [u8]) {
     LittleEndian::write_i32(&mut out[8..12], dims.phi_d() as i32);
 }
 
-/// Writes a file atomically: `body` writes into a temporary file created in the
-/// destination's directory; the file is synced and renamed over `path`. A failure at any
-/// step drops (and so deletes) the temporary file, leaving `path` as it was.
-///
-/// The new file takes the permissions of the file it replaces, or 0644 when there was
-/// none (a temporary file is created 0600).
+/// Writes a file atomically through the one writer of brdfkit,
+/// [`brdfkit_core::atomic::write_file`] (temporary file beside `path`, synced, renamed
+/// over it; new files get 0666 & ~umask, replaced files keep their mode), with its
+/// error as a [`MerlError::Io`] naming `path` and the failed step.
 pub fn atomic_write(
     path: &Path,
     body: impl FnOnce(&mut File) -> io::Result<()>,
 ) -> Result<(), MerlError> {
-    let dir: PathBuf = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".brdfkit-merl-")
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .map_err(|e| MerlError::io(path, "creating a temporary file in its directory", e))?;
-    body(tmp.as_file_mut()).map_err(|e| MerlError::io(path, "writing", e))?;
-    let perms = match std::fs::metadata(path) {
-        Ok(m) => Some(m.permissions()),
-        Err(_) => default_permissions(),
-    };
-    if let Some(p) = perms {
-        tmp.as_file()
-            .set_permissions(p)
-            .map_err(|e| MerlError::io(path, "setting permissions", e))?;
-    }
-    tmp.as_file()
-        .sync_all()
-        .map_err(|e| MerlError::io(path, "syncing", e))?;
-    tmp.persist(path)
-        .map_err(|e| MerlError::io(path, "renaming the temporary file into place", e.error))?;
-    Ok(())
-}
-
-#[cfg(unix)]
-fn default_permissions() -> Option<std::fs::Permissions> {
-    use std::os::unix::fs::PermissionsExt;
-    Some(std::fs::Permissions::from_mode(0o644))
-}
-
-#[cfg(not(unix))]
-fn default_permissions() -> Option<std::fs::Permissions> {
-    None
+    brdfkit_core::atomic::write_file(path, body)
+        .map_err(|e| MerlError::io(&e.path, e.step, e.source))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::table::MAX_ABS_RAW;
+    use std::path::PathBuf;
 
     fn leftovers(dir: &Path) -> Vec<String> {
         std::fs::read_dir(dir)
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .filter(|n| n.starts_with(".brdfkit-merl-"))
+            .filter(|n| n.starts_with(brdfkit_core::atomic::TEMP_PREFIX))
             .collect()
     }
 

@@ -19,6 +19,8 @@
 //! The format, the mappings, their round-off traps and worked examples are in
 //! `docs/merl-format.md`.
 
+#![warn(missing_docs)]
+
 pub mod error;
 pub mod grid;
 mod io;

@@ -41,9 +41,13 @@ pub struct Cell {
 /// units) and its solid-angle weight `weights[m]`.
 #[derive(Clone, Debug, Default)]
 pub struct CellBatch {
+    /// Flat cell index of each entry.
     pub indices: Vec<usize>,
+    /// Directions of each entry (φh = 0).
     pub geometry: GeometryBatch,
+    /// Values per channel (physical units).
     pub values: [Vec<f64>; 3],
+    /// Solid-angle weight of each entry.
     pub weights: Vec<f64>,
 }
 

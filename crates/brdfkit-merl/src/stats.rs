@@ -12,8 +12,11 @@ use std::f64::consts::PI;
 /// The median of an even count is the mean of the two middle values.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ChannelStats {
+    /// Minimum.
     pub min: f64,
+    /// Median.
     pub median: f64,
+    /// Maximum.
     pub max: f64,
 }
 
@@ -54,9 +57,13 @@ impl Default for Quadrature {
 /// Summary of a table.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TableStats {
+    /// The grid.
     pub dims: Dims,
+    /// Cells of the grid.
     pub cells: usize,
+    /// Valid (non-missing) cells.
     pub valid: usize,
+    /// valid / cells.
     pub valid_fraction: f64,
     /// Per channel (R, G, B); `None` when no cell is valid.
     pub channels: Option<[ChannelStats; 3]>,

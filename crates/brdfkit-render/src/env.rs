@@ -38,9 +38,13 @@ pub fn luminance(c: &Rgb) -> f64 {
 /// A lat-long radiance image, already scaled, row-major with row 0 at the top.
 #[derive(Clone, Debug)]
 pub struct LatLong {
+    /// The image file.
     pub path: PathBuf,
+    /// Texels per row.
     pub width: usize,
+    /// Rows.
     pub height: usize,
+    /// Radiance per texel, row-major.
     pub texels: Vec<Rgb>,
 }
 
@@ -101,7 +105,9 @@ pub enum EnvDistribution {
     Uniform,
     /// Luminance × sin θ over texels.
     Image {
+        /// Texels per row.
         width: usize,
+        /// Rows.
         height: usize,
         /// Marginal CDF over rows (height + 1).
         marginal: Vec<f64>,
@@ -117,8 +123,11 @@ pub enum EnvDistribution {
 /// A sampled environment direction.
 #[derive(Clone, Copy, Debug)]
 pub struct EnvSample {
+    /// World direction towards the environment.
     pub dir: Vec3,
+    /// Radiance arriving from it.
     pub radiance: Rgb,
+    /// Density of the direction (solid angle measure).
     pub pdf: f64,
 }
 

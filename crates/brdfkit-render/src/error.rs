@@ -14,21 +14,31 @@ pub enum SceneError {
     /// The scene file itself cannot be read.
     #[error("{}: cannot read the scene file: {source}", path.display())]
     Read {
+        /// The file.
         path: PathBuf,
         #[source]
+        /// The underlying error.
         source: std::io::Error,
     },
 
     /// Not valid TOML, an unknown key, a value of the wrong type or a missing field.
     /// The message of the TOML parser names the key and the line.
     #[error("{}: {message}", path.display())]
-    Syntax { path: PathBuf, message: String },
+    Syntax {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
 
     /// A value outside its domain, or keys that contradict each other.
     #[error("{}: `{key}`: {message}", path.display())]
     Invalid {
+        /// The file.
         path: PathBuf,
+        /// The dotted key of the scene it concerns.
         key: String,
+        /// What is wrong.
         message: String,
     },
 
@@ -36,20 +46,28 @@ pub enum SceneError {
     /// read.
     #[error("{}: `{key}`: cannot read {}: {source}", scene.display(), file.display())]
     File {
+        /// The scene file.
         scene: PathBuf,
+        /// The dotted key of the scene it concerns.
         key: String,
+        /// The referenced file.
         file: PathBuf,
         #[source]
+        /// The underlying error.
         source: std::io::Error,
     },
 
     /// A model JSON file that is not valid JSON.
     #[error("{}: `{key}`: {} is not valid JSON: {source}", scene.display(), file.display())]
     ModelJson {
+        /// The scene file.
         scene: PathBuf,
+        /// The dotted key of the scene it concerns.
         key: String,
+        /// The referenced file.
         file: PathBuf,
         #[source]
+        /// The underlying error.
         source: serde_json::Error,
     },
 
@@ -58,28 +76,39 @@ pub enum SceneError {
     /// model was given by path.
     #[error("{}: `{key}`{}: {source}", scene.display(), file.as_ref().map(|f| format!(" ({})", f.display())).unwrap_or_default())]
     Model {
+        /// The scene file.
         scene: PathBuf,
+        /// The dotted key of the scene it concerns.
         key: String,
+        /// The model JSON file, when the model was given by path.
         file: Option<PathBuf>,
         #[source]
+        /// The underlying error.
         source: Box<ModelError>,
     },
 
     /// A MERL table that cannot be read (its message names the table file).
     #[error("{}: `{key}`: {source}", scene.display())]
     Table {
+        /// The scene file.
         scene: PathBuf,
+        /// The dotted key of the scene it concerns.
         key: String,
         #[source]
+        /// The underlying error.
         source: Box<MerlError>,
     },
 
     /// An environment image that cannot be decoded or holds unusable values.
     #[error("{}: `{key}`: {}: {message}", scene.display(), file.display())]
     Image {
+        /// The scene file.
         scene: PathBuf,
+        /// The dotted key of the scene it concerns.
         key: String,
+        /// The referenced file.
         file: PathBuf,
+        /// What is wrong.
         message: String,
     },
 }
@@ -121,8 +150,11 @@ pub enum RenderError {
     /// [`crate::Scene`] are public; [`crate::Scene::read`] never produces these).
     #[error("{}: `{key}`: {message}", scene.display())]
     Invalid {
+        /// The scene file.
         scene: PathBuf,
+        /// The field of the scene.
         key: &'static str,
+        /// What is wrong.
         message: String,
     },
 
@@ -132,9 +164,13 @@ pub enum RenderError {
         scene.display()
     )]
     NonFinite {
+        /// The scene file.
         scene: PathBuf,
+        /// Pixel column.
         x: usize,
+        /// Pixel row.
         y: usize,
+        /// The pixel value.
         value: [f64; 3],
     },
 }
@@ -145,16 +181,21 @@ pub enum OutputError {
     /// Creating, writing or renaming the file failed.
     #[error("{}: {action}: {source}", path.display())]
     Io {
+        /// The file.
         path: PathBuf,
+        /// The step that failed.
         action: &'static str,
         #[source]
+        /// The underlying error.
         source: std::io::Error,
     },
     /// The image encoder failed.
     #[error("{}: encoding failed: {source}", path.display())]
     Encode {
+        /// The file.
         path: PathBuf,
         #[source]
+        /// The underlying error.
         source: image::ImageError,
     },
 }

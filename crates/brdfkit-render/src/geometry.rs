@@ -5,7 +5,9 @@ use brdfkit_core::Vec3;
 /// A ray o + t d, t > 0, d a unit vector.
 #[derive(Clone, Copy, Debug)]
 pub struct Ray {
+    /// Origin o.
     pub origin: Vec3,
+    /// Unit direction d.
     pub dir: Vec3,
 }
 
@@ -23,6 +25,7 @@ pub struct Ray {
 /// viewer's left, row 0 at the top, as in Mitsuba 3's `perspective` sensor.
 #[derive(Clone, Debug)]
 pub struct Camera {
+    /// Centre of projection.
     pub position: Vec3,
     forward: Vec3,
     right: Vec3,
@@ -93,7 +96,9 @@ impl Camera {
 /// A sphere. Only its outside is a surface: seen from within it is black.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
+    /// Centre.
     pub center: Vec3,
+    /// Radius, > 0.
     pub radius: f64,
 }
 
@@ -144,7 +149,9 @@ impl Sphere {
 /// normal points to is a surface; seen from behind it is black but still opaque.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Plane {
+    /// A point of the plane.
     pub point: Vec3,
+    /// Unit normal (the lit side).
     pub normal: Vec3,
 }
 

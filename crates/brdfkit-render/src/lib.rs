@@ -20,7 +20,10 @@
 //! Modules: [`scene`] (format, validation, loading), [`mod@render`] (estimators, cost
 //! accounting), [`mod@env`] (environment lookup and sampling), [`sampling`] (BRDF lobe
 //! sampling), [`geometry`] (camera, sphere, plane), [`material`] (models and tables),
-//! [`output`] (image files, tone mapping), [`rng`] (per-pixel random streams).
+//! [`output`] (image files, tone mapping), [`stats`] (what a render cost), [`rng`]
+//! (per-pixel random streams).
+
+#![warn(missing_docs)]
 
 pub mod env;
 pub mod error;
@@ -31,9 +34,15 @@ pub mod render;
 pub mod rng;
 pub mod sampling;
 pub mod scene;
+pub mod stats;
 
 pub use error::{OutputError, RenderError, SceneError};
-pub use material::{Material, TableBrdf};
+/// The old name of [`SceneMaterial`], kept only until `brdfkit-validate`'s report
+/// renders move to the new one (the study's material is a different thing).
+#[doc(hidden)]
+pub use material::SceneMaterial as Material;
+pub use material::{SceneMaterial, TableBrdf};
 pub use output::RenderOutput;
-pub use render::{EffectCost, RenderStats, render};
+pub use render::render;
 pub use scene::{Effect, Effects, Film, Light, Mis, PixelFilter, Scene};
+pub use stats::{EffectCost, RenderStats};

@@ -59,29 +59,33 @@ pub enum MaterialSource {
     TableFile(std::path::PathBuf),
 }
 
-/// A surface material.
+/// The material of a scene object: what the renderer evaluates at a hit point.
 #[derive(Debug, Clone)]
-pub enum Material {
+pub enum SceneMaterial {
     /// An analytic model.
     Model {
+        /// The model.
         model: Arc<dyn Model>,
+        /// Where it came from.
         source: MaterialSource,
     },
     /// A measured table.
     Table {
+        /// The table and its lookup.
         brdf: TableBrdf,
+        /// Where it came from.
         source: MaterialSource,
     },
 }
 
-impl Material {
+impl SceneMaterial {
     /// f_r(wi, wo) in the local frame, and whether a table lookup found no sample
     /// (the value is then zero).
     #[inline]
     pub fn eval(&self, wi: &Vec3, wo: &Vec3) -> (Rgb, bool) {
         match self {
-            Material::Model { model, .. } => (model.eval(wi, wo), false),
-            Material::Table { brdf, .. } => match brdf.try_eval(wi, wo) {
+            SceneMaterial::Model { model, .. } => (model.eval(wi, wo), false),
+            SceneMaterial::Table { brdf, .. } => match brdf.try_eval(wi, wo) {
                 Some(v) => (v, false),
                 // Below the horizon is not a miss: the renderer never asks there.
                 None => (Rgb::ZERO, wi.z > 0.0 && wo.z > 0.0),
@@ -92,23 +96,23 @@ impl Material {
     /// The material as a plain [`Brdf`].
     pub fn as_brdf(&self) -> &dyn Brdf {
         match self {
-            Material::Model { model, .. } => model.as_ref(),
-            Material::Table { brdf, .. } => brdf,
+            SceneMaterial::Model { model, .. } => model.as_ref(),
+            SceneMaterial::Table { brdf, .. } => brdf,
         }
     }
 
     /// Where it came from.
     pub fn source(&self) -> &MaterialSource {
         match self {
-            Material::Model { source, .. } | Material::Table { source, .. } => source,
+            SceneMaterial::Model { source, .. } | SceneMaterial::Table { source, .. } => source,
         }
     }
 
     /// A short description: the model name or "MERL table".
     pub fn describe(&self) -> String {
         match self {
-            Material::Model { model, .. } => format!("model `{}`", model.name()),
-            Material::Table { brdf, .. } => format!("MERL table {}", brdf.table().dims()),
+            SceneMaterial::Model { model, .. } => format!("model `{}`", model.name()),
+            SceneMaterial::Table { brdf, .. } => format!("MERL table {}", brdf.table().dims()),
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The rendered image and its files: EXR (linear radiance) and PNG (tone-mapped sRGB),
-//! both written atomically (a temporary file in the destination directory, then a
-//! rename), so a reader never sees a half-written image.
+//! both written atomically by [`brdfkit_core::atomic`] (a temporary file in the
+//! destination directory, then a rename), so a reader never sees a half-written image,
+//! and with the permissions of every other output.
 //!
 //! # Tone mapping (PNG only)
 //!
@@ -11,16 +12,18 @@
 //! radiance itself (float32, no exposure).
 
 use crate::error::OutputError;
-use crate::render::RenderStats;
+use crate::stats::RenderStats;
 use brdfkit_core::Rgb;
 use image::{ImageFormat, Rgb32FImage, RgbImage};
-use std::io::{Cursor, Write};
+use std::io::Cursor;
 use std::path::Path;
 
 /// A rendered image.
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
+    /// Pixels per row.
     pub width: usize,
+    /// Rows.
     pub height: usize,
     /// Samples per pixel actually taken: `film.spp`, or 1 with the `center` filter and
     /// no environment (every sample would repeat the same deterministic value).
@@ -55,24 +58,14 @@ pub fn tonemap_channel(c: f64, exposure: f64) -> u8 {
     (linear_to_srgb(v) * 255.0).round() as u8
 }
 
-fn atomic_write(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    let io = |action: &'static str| {
-        move |source: std::io::Error| OutputError::Io {
-            path: path.to_path_buf(),
-            action,
-            source,
-        }
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io("creating a temporary file"))?;
-    tmp.write_all(bytes).map_err(io("writing"))?;
-    tmp.as_file().sync_all().map_err(io("syncing"))?;
-    tmp.persist(path)
-        .map_err(|e| io("renaming the temporary file")(e.error))?;
-    Ok(())
+/// Writes through brdfkit's one writer ([`brdfkit_core::atomic::write_bytes`]): a new
+/// image gets 0666 & ~umask like any other output, not a temporary file's 0600.
+fn write_image(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    brdfkit_core::atomic::write_bytes(path, bytes).map_err(|e| OutputError::Io {
+        path: e.path,
+        action: e.step,
+        source: e.source,
+    })
 }
 
 impl RenderOutput {
@@ -118,7 +111,7 @@ impl RenderOutput {
                 path: path.to_path_buf(),
                 source,
             })?;
-        atomic_write(path, buf.get_ref())
+        write_image(path, buf.get_ref())
     }
 
     /// Writes the linear radiance as a float32 RGB OpenEXR file.
@@ -131,7 +124,7 @@ impl RenderOutput {
                 path: path.to_path_buf(),
                 source,
             })?;
-        atomic_write(path, buf.get_ref())
+        write_image(path, buf.get_ref())
     }
 }
 

@@ -1,5 +1,5 @@
 //! Importance sampling of directions: cosine-weighted and uniform-sphere warps, and a
-//! tabulated BRDF-lobe sampler that works for any isotropic [`Material`] (analytic or
+//! tabulated BRDF-lobe sampler that works for any isotropic [`SceneMaterial`] (analytic or
 //! measured).
 //!
 //! # The tabulated lobe sampler
@@ -29,7 +29,7 @@
 //! the table only decides how small the variance is. An anisotropic material is
 //! sampled as if isotropic (still unbiased, less efficient).
 
-use crate::material::Material;
+use crate::material::SceneMaterial;
 use brdfkit_core::Vec3;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, PI};
@@ -112,7 +112,9 @@ fn build_cdf(weights: &[f64], cdf: &mut [f64]) -> f64 {
 /// A sampled direction with its density (solid angle measure).
 #[derive(Clone, Copy, Debug)]
 pub struct DirSample {
+    /// Sampled direction, local frame.
     pub wi: Vec3,
+    /// Its density (solid angle measure).
     pub pdf: f64,
 }
 
@@ -176,7 +178,7 @@ impl LobeSampler {
     }
 
     /// Tabulates `material` (in parallel over the θo nodes).
-    pub fn build(material: &Material) -> Self {
+    pub fn build(material: &SceneMaterial) -> Self {
         let theta_edges = Self::edges();
         let cos_edges: Vec<f64> = theta_edges.iter().map(|t| t.cos()).collect();
         let nt = theta_edges.len() - 1;
@@ -341,8 +343,8 @@ mod tests {
     use brdfkit_core::direction::spherical;
     use std::sync::Arc;
 
-    fn model(json: &str) -> Material {
-        Material::Model {
+    fn model(json: &str) -> SceneMaterial {
+        SceneMaterial::Model {
             model: Arc::from(brdfkit_models::from_json_str(json).unwrap()),
             source: MaterialSource::Inline,
         }

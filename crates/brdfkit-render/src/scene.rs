@@ -10,7 +10,7 @@
 use crate::env::{Environment, LatLong};
 use crate::error::SceneError;
 use crate::geometry::{Camera, Plane, Sphere};
-use crate::material::{Material, MaterialSource, TableBrdf};
+use crate::material::{MaterialSource, SceneMaterial, TableBrdf};
 use brdfkit_core::{Rgb, Vec3};
 use brdfkit_merl::{Lookup, MerlTable};
 use serde::Deserialize;
@@ -54,8 +54,11 @@ impl fmt::Display for Effect {
 /// The set of requested effects.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Effects {
+    /// Direct light from the point and directional lights.
     pub direct: bool,
+    /// The environment, if any.
     pub environment: bool,
+    /// Visibility of every light sample (shadow rays).
     pub shadows: bool,
 }
 
@@ -95,12 +98,17 @@ pub enum Mis {
 /// Image size and sampling.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
+    /// Pixels per row.
     pub width: usize,
+    /// Rows.
     pub height: usize,
     /// Samples per pixel.
     pub spp: usize,
+    /// Where in the pixel the camera rays go.
     pub filter: PixelFilter,
+    /// Seed of the per-pixel random streams.
     pub seed: u64,
+    /// The heuristic combining light and BRDF samples.
     pub mis: Mis,
     /// Camera rays that leave the scene see the environment (with the `environment`
     /// effect); otherwise they are black.
@@ -113,16 +121,28 @@ pub struct Film {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {
     /// An isotropic point source of radiant intensity `intensity` (W/sr).
-    Point { position: Vec3, intensity: Rgb },
+    Point {
+        /// Position of the light.
+        position: Vec3,
+        /// Radiant intensity, W/sr.
+        intensity: Rgb,
+    },
     /// A distant source: light travels along `direction` (unit) and gives irradiance
     /// `irradiance` (W/m²) on a surface facing it.
-    Directional { direction: Vec3, irradiance: Rgb },
+    Directional {
+        /// Unit direction the light travels along.
+        direction: Vec3,
+        /// Irradiance on a surface facing it, W/m².
+        irradiance: Rgb,
+    },
 }
 
 /// An object: its shape and the index of its material in [`Scene::materials`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Object<S> {
+    /// The shape.
     pub shape: S,
+    /// Index into [`Scene::materials`].
     pub material: usize,
 }
 
@@ -131,13 +151,21 @@ pub struct Object<S> {
 pub struct Scene {
     /// The scene file (or the name given to [`Scene::from_toml_str`]).
     pub path: PathBuf,
+    /// The effects to simulate.
     pub effects: Effects,
+    /// Image size and sampling.
     pub film: Film,
+    /// The camera.
     pub camera: Camera,
+    /// The sphere, if any.
     pub sphere: Option<Object<Sphere>>,
+    /// The plane, if any.
     pub plane: Option<Object<Plane>>,
-    pub materials: Vec<Material>,
+    /// The materials, loaded.
+    pub materials: Vec<SceneMaterial>,
+    /// Point and directional lights.
     pub lights: Vec<Light>,
+    /// The environment, if any.
     pub environment: Option<Environment>,
 }
 
@@ -624,7 +652,7 @@ impl Scene {
     }
 }
 
-fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<Material, SceneError> {
+fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<SceneMaterial, SceneError> {
     match (&m.model, &m.table) {
         (Some(_), Some(_)) => Err(cx.invalid(key, "give either `model` or `table`, not both")),
         (None, None) => {
@@ -682,7 +710,7 @@ fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<Material, Scene
                 file: file.clone(),
                 source: Box::new(source),
             })?;
-            Ok(Material::Model {
+            Ok(SceneMaterial::Model {
                 model: Arc::from(model),
                 source: match file {
                     Some(f) => MaterialSource::ModelFile(f),
@@ -701,7 +729,7 @@ fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<Material, Scene
                 RawLookup::Nearest => Lookup::Nearest,
                 RawLookup::Interpolated => Lookup::Interpolated,
             };
-            Ok(Material::Table {
+            Ok(SceneMaterial::Table {
                 brdf: TableBrdf::new(Arc::new(table), lookup),
                 source: MaterialSource::TableFile(file),
             })

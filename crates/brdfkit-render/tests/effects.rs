@@ -184,6 +184,35 @@ fn exr_and_png_are_written_atomically_and_read_back() {
     assert!(e.to_string().contains("missing-dir/a.exr"), "{e}");
 }
 
+/// Images get the permissions of every other output: a new file 0666 & ~umask (0644
+/// under umask 022), as a plain create gives, not a temporary file's owner-only 0600;
+/// a replaced file keeps its mode.
+#[cfg(unix)]
+#[test]
+fn images_are_written_with_the_permissions_of_a_plain_create() {
+    use std::os::unix::fs::PermissionsExt;
+    let mode = |p: &std::path::Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    let out = render(&scene(r#"["direct"]"#, POINT).unwrap()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    // The process umask, read the way a plain create sees it.
+    let probe = dir.path().join("probe");
+    std::fs::File::create(&probe).unwrap();
+    let plain = mode(&probe);
+    std::fs::remove_file(&probe).unwrap();
+    let umask = 0o666 & !plain;
+    let (exr, png) = (dir.path().join("a.exr"), dir.path().join("a.png"));
+    out.write_exr(&exr).unwrap();
+    out.write_png(&png).unwrap();
+    for p in [&exr, &png] {
+        assert_eq!(mode(p), 0o666 & !umask, "{}", p.display());
+        assert_ne!(mode(p), 0o600, "{}", p.display());
+    }
+    // A replaced image keeps the mode it had.
+    std::fs::set_permissions(&png, std::fs::Permissions::from_mode(0o640)).unwrap();
+    out.write_png(&png).unwrap();
+    assert_eq!(mode(&png), 0o640);
+}
+
 #[test]
 fn a_scene_edited_into_nonsense_is_a_render_error_not_a_panic() {
     let base = scene(r#"["environment"]"#, ENV).unwrap();
@@ -250,7 +279,7 @@ impl brdfkit_core::Model for Broken {
 fn a_material_returning_nan_is_a_render_error() {
     for (effects, extra) in [(r#"["direct"]"#, POINT), (r#"["environment"]"#, ENV)] {
         let mut s = scene(effects, extra).unwrap();
-        s.materials[0] = brdfkit_render::Material::Model {
+        s.materials[0] = brdfkit_render::SceneMaterial::Model {
             model: std::sync::Arc::new(Broken),
             source: brdfkit_render::material::MaterialSource::Inline,
         };

@@ -13,12 +13,14 @@
 //! (docs/fitting.md), so it reads on the same scale as the fit grid's losses. Times: one
 //! thread, minimum over `reps` runs, per evaluated cell or pair.
 
-use crate::{Material, StudyConfig, StudyError};
-use brdfkit::synth::SynthSpec;
+use crate::{StudyConfig, StudyError, SynthMaterial};
 use brdfkit_core::direction::spherical;
-use brdfkit_core::{GeometryBatch, GeometryBatchF32, Model, Rgb, Vec3};
+use brdfkit_core::scattering::{BeckmannG1, Masking};
+use brdfkit_core::{GeometryBatch, GeometryBatchF32, Model, ModelError, Rgb, Vec3};
+use brdfkit_fit::synth::SynthSpec;
 use brdfkit_fit::{FitConfig, FitData, fit};
 use brdfkit_merl::Lookup;
+use brdfkit_models::cook_torrance::{CookTorrance, Fresnel};
 use brdfkit_models::par::{eval_batch_f32_par, eval_batch_par};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -33,9 +35,13 @@ use std::time::Instant;
 pub struct ErrorStats {
     /// (pair, channel)s compared (reference > 0, approximation present).
     pub n: usize,
+    /// Median relative error.
     pub rel_median: f64,
+    /// 90th percentile of the relative error.
     pub rel_p90: f64,
+    /// 99th percentile of the relative error.
     pub rel_p99: f64,
+    /// Largest relative error.
     pub rel_max: f64,
     /// Weighted RMS of the cube-root difference (the `cbrt` loss).
     pub cbrt_rms: f64,
@@ -105,15 +111,20 @@ pub fn pool(n: usize) -> rayon::ThreadPool {
 /// One lookup mode on one material.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct LookupRow {
+    /// Spec name of the material.
     pub material: String,
+    /// `nearest` or `interpolated`.
     pub mode: String,
+    /// Direction pairs looked up.
     pub pairs: usize,
     /// Fraction of the pairs that got a value (the rest land in missing cells).
     pub found: f64,
     #[serde(flatten)]
+    /// Errors against the reference.
     pub err: ErrorStats,
     /// Time per lookup through `lookup_batch`, one thread and all threads, ns.
     pub ns_1_thread: f64,
+    /// Same on all threads, ns.
     pub ns_all_threads: f64,
 }
 
@@ -132,7 +143,7 @@ pub fn random_pairs(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
 /// ones: a noisy table's error is mostly its noise).
 pub fn lookups(
     cfg: &StudyConfig,
-    materials: &[Material],
+    materials: &[SynthMaterial],
     progress: &dyn Fn(&str),
 ) -> Result<Vec<LookupRow>, StudyError> {
     let pairs = random_pairs(cfg.lookup_pairs, 0x4c4f4f4b);
@@ -188,13 +199,18 @@ pub fn lookups(
 pub struct VariantRow {
     /// What is chosen (`fresnel`, `beckmann-g1`, `smith`, `precision`).
     pub choice: String,
+    /// Spec name of the material.
     pub material: String,
+    /// The reference choice.
     pub reference: String,
+    /// The cheaper choice.
     pub variant: String,
     #[serde(flatten)]
+    /// Errors against the reference.
     pub err: ErrorStats,
     /// One thread, per valid MERL cell, ns.
     pub ns_reference: f64,
+    /// Same for the variant, ns.
     pub ns_variant: f64,
 }
 
@@ -226,8 +242,18 @@ fn compare(data: &FitData, reference: &[Rgb], variant: &[Rgb]) -> ErrorStats {
     acc.finish()
 }
 
-fn model(v: serde_json::Value, what: &str) -> Result<Box<dyn Model>, StudyError> {
-    brdfkit_models::from_json(&v).map_err(|e| StudyError::Model {
+/// The spec's material as a [`CookTorrance`], whose builders make the variants.
+fn cook_torrance(spec: &SynthSpec) -> Result<CookTorrance, StudyError> {
+    let params = spec.material.to_json()["params"].clone();
+    CookTorrance::from_params_json(&params).map_err(|e| StudyError::Model {
+        what: spec.name.clone(),
+        msg: format!("expected a cook-torrance material: {e}"),
+    })
+}
+
+/// A builder's result, its error naming the variant.
+fn built(m: Result<CookTorrance, ModelError>, what: &str) -> Result<CookTorrance, StudyError> {
+    m.map_err(|e| StudyError::Model {
         what: what.into(),
         msg: e.to_string(),
     })
@@ -247,13 +273,8 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
     };
     let gold_cells = cells(&gold)?;
     let copper_cells = cells(&copper)?;
-    let gj = gold.material.to_json();
-    let cj = copper.material.to_json();
-    let with = |base: &serde_json::Value, key: &str, val: serde_json::Value| {
-        let mut v = base.clone();
-        v["params"][key] = val;
-        v
-    };
+    let gold_ct = cook_torrance(&gold)?;
+    let copper_ct = cook_torrance(&copper)?;
     let mut rows = Vec::new();
     let mut push = |choice: &str,
                     material: &str,
@@ -280,30 +301,25 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
 
     // Fresnel: Schlick with f0 = the conductor's normal-incidence reflectance, and with
     // f0 fitted (cbrt loss, everything else held) to the conductor's values.
-    let reference = model(gj.clone(), "gold-ggx")?;
-    let eta: Vec<f64> = serde_json::from_value(gj["params"]["fresnel"]["conductor"]["eta"].clone())
-        .unwrap_or_default();
-    let kk: Vec<f64> = serde_json::from_value(gj["params"]["fresnel"]["conductor"]["k"].clone())
-        .unwrap_or_default();
-    if eta.len() != 3 || kk.len() != 3 {
+    let Fresnel::Conductor { eta, k } = gold_ct.fresnel() else {
         return Err(StudyError::Model {
             what: "gold-ggx".into(),
-            msg: "expected per-channel conductor eta and k".into(),
+            msg: "expected an exact conductor Fresnel".into(),
         });
-    }
-    let f0: Vec<f64> = (0..3)
-        .map(|c| brdfkit_core::scattering::fresnel::conductor(1.0, eta[c], kk[c]))
-        .collect();
-    let schlick = model(
-        with(&gj, "fresnel", serde_json::json!({"schlick": {"f0": f0}})),
+    };
+    let f0c = |c: usize| brdfkit_core::scattering::fresnel::conductor(1.0, eta[c], k[c]);
+    let f0 = Rgb::new(f0c(0), f0c(1), f0c(2));
+    let reference = gold_ct.clone();
+    let schlick = built(
+        gold_ct.clone().with_fresnel(Fresnel::Schlick { f0 }),
         "schlick",
     )?;
     push(
         "fresnel",
         "gold-ggx",
         &gold_cells,
-        ("conductor (exact)", reference.as_ref()),
-        ("Schlick, f0 = F(0°)", schlick.as_ref()),
+        ("conductor (exact)", &reference),
+        ("Schlick, f0 = F(0°)", &schlick),
     );
     let fc = FitConfig::default()
         .fix_params(["rho_d", "rho_s", "alpha"])
@@ -312,11 +328,10 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
             what: "schlick f0 fit".into(),
             source,
         })?;
-    let fitted =
-        fit(schlick.as_ref(), &gold_cells, &fc, None).map_err(|source| StudyError::Fit {
-            what: "schlick f0 fit".into(),
-            source,
-        })?;
+    let fitted = fit(&schlick, &gold_cells, &fc, None).map_err(|source| StudyError::Fit {
+        what: "schlick f0 fit".into(),
+        source,
+    })?;
     let fitted = fitted
         .fitted
         .shared()
@@ -329,49 +344,37 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
         "fresnel",
         "gold-ggx",
         &gold_cells,
-        ("conductor (exact)", reference.as_ref()),
+        ("conductor (exact)", &reference),
         ("Schlick, f0 fitted (cbrt)", fitted.as_ref()),
     );
 
     // Beckmann G1: Walter's rational form vs the exact erf form.
-    let cexact = model(with(&cj, "beckmann_g1", "exact".into()), "copper exact")?;
-    let crational = model(
-        with(&cj, "beckmann_g1", "rational".into()),
-        "copper rational",
-    )?;
+    let cexact = copper_ct.clone().with_beckmann_g1(BeckmannG1::Exact);
+    let crational = copper_ct.clone().with_beckmann_g1(BeckmannG1::Rational);
     push(
         "beckmann-g1",
         "copper-beckmann",
         &copper_cells,
-        ("exact (erf)", cexact.as_ref()),
-        ("rational (Walter 2007)", crational.as_ref()),
+        ("exact (erf)", &cexact),
+        ("rational (Walter 2007)", &crational),
     );
     // Smith: separable vs height-correlated (the reference), GGX and Beckmann.
-    let gcor = model(
-        with(&gj, "masking", "smith-correlated".into()),
-        "gold correlated",
-    )?;
-    let gsep = model(
-        with(&gj, "masking", "smith-separable".into()),
-        "gold separable",
-    )?;
+    let gcor = gold_ct.clone().with_masking(Masking::SmithCorrelated);
+    let gsep = gold_ct.clone().with_masking(Masking::SmithSeparable);
     push(
         "smith",
         "gold-ggx",
         &gold_cells,
-        ("height-correlated", gcor.as_ref()),
-        ("separable", gsep.as_ref()),
+        ("height-correlated", &gcor),
+        ("separable", &gsep),
     );
-    let csep = model(
-        with(&cj, "masking", "smith-separable".into()),
-        "copper separable",
-    )?;
+    let csep = copper_ct.clone().with_masking(Masking::SmithSeparable);
     push(
         "smith",
         "copper-beckmann",
         &copper_cells,
-        ("height-correlated", cexact.as_ref()),
-        ("separable", csep.as_ref()),
+        ("height-correlated", &cexact),
+        ("separable", &csep),
     );
 
     // Precision: the model's float32 path against its f64 path, on gold and on the
@@ -379,7 +382,7 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
     for name in ["gold-ggx", "near-mirror-silver"] {
         let s = spec(name)?;
         let data = cells(&s)?;
-        let m = model(s.material.to_json(), name)?;
+        let m = &s.material;
         let g = data.geometry();
         let reference = eval_model(m.as_ref(), g);
         let ns_ref = time_model(cfg.reps, m.as_ref(), g);

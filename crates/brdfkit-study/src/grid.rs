@@ -2,7 +2,7 @@
 //! wall time and every loss on the full table, and the Pareto front of loss against
 //! time.
 
-use crate::{Material, StudyConfig, StudyError};
+use crate::{StudyConfig, StudyError, SynthMaterial};
 use brdfkit_fit::{FitConfig, FitData, Loss, SolverKind, fit};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -10,11 +10,15 @@ use std::time::Instant;
 /// One fit of the grid.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct GridRow {
+    /// Spec name of the material.
     pub material: String,
+    /// Label of the model family.
     pub model: String,
+    /// Solver name.
     pub solver: String,
     /// Sample fraction of the valid cells the solver saw (1 = all).
     pub fraction: f64,
+    /// Number of starts.
     pub starts: usize,
     /// Cells the solver saw.
     pub cells_fit: usize,
@@ -25,14 +29,19 @@ pub struct GridRow {
     pub cpu_s: f64,
     /// Overall losses on the full table (all valid cells).
     pub cbrt: f64,
+    /// The `l2` loss on the full table.
     pub l2: f64,
+    /// The `cosine` loss on the full table.
     pub cosine: f64,
+    /// The `log` loss on the full table.
     pub log: f64,
     /// Iterations of the kept start.
     pub iterations: u64,
     /// Passes over the fitted cells without / with derivatives, all starts.
     pub cost_evals: u64,
+    /// Passes with derivatives, all starts.
     pub jacobian_evals: u64,
+    /// Whether the kept start met a convergence test.
     pub converged: bool,
     /// Why the kept start stopped, or the error of a failed fit (losses NaN then).
     pub termination: String,
@@ -143,7 +152,7 @@ pub fn fit_one(
 /// Runs the whole grid.
 pub fn run_grid(
     cfg: &StudyConfig,
-    materials: &[Material],
+    materials: &[SynthMaterial],
     progress: &dyn Fn(&str),
 ) -> Result<Vec<GridRow>, StudyError> {
     let confs = configurations(cfg);
@@ -197,7 +206,7 @@ pub fn run_grid(
                 ));
             }
             // Saved after every model and material, so a stopped run can resume.
-            crate::report::write_json(&partial, &rows)?;
+            crate::files::write_json(&partial, &rows)?;
         }
     }
     Ok(rows)

@@ -17,18 +17,21 @@
 //!   and the peak resident memory of a full-table fit (a child process).
 //!
 //! [`run`] performs the parts a [`StudyConfig`] asks for and writes, below `out`, the
-//! raw measurements (CSV and JSON) and PNG plots ([`plot`]), and `out` + `.md` — the
-//! report, whose generated sections sit between `<!-- study:NAME -->` markers so the
-//! hand-written reading around them survives a re-run ([`report`]).
+//! raw measurements (CSV and JSON, [`files`]) and PNG plots ([`plot`]), and `out` + `.md`
+//! — the Markdown document, whose generated sections sit between `<!-- study:NAME -->`
+//! markers so the hand-written reading around them survives a re-run ([`markdown`]).
+
+#![warn(missing_docs)]
 
 pub mod choices;
+pub mod files;
 pub mod grid;
+pub mod markdown;
 pub mod plot;
-pub mod report;
 pub mod scale;
 
-use brdfkit::synth::SynthSpec;
 use brdfkit_fit::SolverKind;
+use brdfkit_fit::synth::SynthSpec;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -39,30 +42,52 @@ use thiserror::Error;
 pub enum StudyError {
     /// A material spec could not be read or synthesised.
     #[error(transparent)]
-    Spec(#[from] brdfkit::synth::SpecError),
+    Spec(#[from] brdfkit_fit::synth::SpecError),
     /// A fit failed in a way the study does not record as a data point.
     #[error("{what}: {source}")]
     Fit {
+        /// What was being done.
         what: String,
         #[source]
+        /// The fitter's error.
         source: brdfkit_fit::FitError,
     },
     /// A model description was rejected.
     #[error("{what}: {msg}")]
-    Model { what: String, msg: String },
+    Model {
+        /// The model or variant.
+        what: String,
+        /// What is wrong.
+        msg: String,
+    },
+    /// A file could not be written (the atomic writer names the step).
+    #[error(transparent)]
+    Write(#[from] brdfkit_core::atomic::WriteError),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
         #[source]
+        /// The fitter's error.
         source: std::io::Error,
     },
     /// A plot could not be drawn.
     #[error("{path}: cannot draw the plot: {msg}")]
-    Plot { path: PathBuf, msg: String },
+    Plot {
+        /// The file.
+        path: PathBuf,
+        /// Why it could not be drawn.
+        msg: String,
+    },
     /// The configuration is unusable.
     #[error("study option {option}: {msg}")]
-    Config { option: &'static str, msg: String },
+    Config {
+        /// The option.
+        option: &'static str,
+        /// Why it is unusable.
+        msg: String,
+    },
 }
 
 impl StudyError {
@@ -255,8 +280,9 @@ impl StudyConfig {
     }
 }
 
-/// A material of the study: its spec and its table.
-pub struct Material {
+/// A synthetic material of the study: its spec (the truth) and the table synthesised
+/// from it.
+pub struct SynthMaterial {
     /// The spec (truth, noise, missing pattern).
     pub spec: SynthSpec,
     /// The synthesised table.
@@ -264,14 +290,14 @@ pub struct Material {
 }
 
 /// Reads and synthesises the named materials.
-pub fn load_materials(cfg: &StudyConfig) -> Result<Vec<Material>, StudyError> {
+pub fn load_materials(cfg: &StudyConfig) -> Result<Vec<SynthMaterial>, StudyError> {
     cfg.materials
         .iter()
         .map(|name| {
             let path = cfg.specs_dir.join(format!("{name}.toml"));
             let spec = SynthSpec::read(&path)?;
             let table = spec.synthesize()?;
-            Ok(Material { spec, table })
+            Ok(SynthMaterial { spec, table })
         })
         .collect()
 }
@@ -283,12 +309,15 @@ pub struct RunInfo {
     pub started_unix: u64,
     /// Load average (1 min) at the start and at the end.
     pub load_start: Option<f64>,
+    /// Load average (1 min) at the end.
     pub load_end: Option<f64>,
     /// Rayon threads.
     pub threads: usize,
     /// Wall time of each part, seconds.
     pub grid_s: Option<f64>,
+    /// Wall time of the evaluation choices, s.
     pub choices_s: Option<f64>,
+    /// Wall time of the scaling part, s.
     pub scale_s: Option<f64>,
     /// The configuration.
     pub config: StudyConfig,
@@ -354,15 +383,19 @@ pub fn rewrite(out: &Path, progress: &dyn Fn(&str)) -> Result<(), StudyError> {
     });
     let mut cfg = info.config.clone();
     cfg.out = out.to_path_buf();
-    report::write_all(&cfg, &info, &res, progress)
+    markdown::write_all(&cfg, &info, &res, progress)
 }
 
 /// Everything a run measured.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct StudyResults {
+    /// The fit grid, one row per fit.
     pub grid: Vec<grid::GridRow>,
+    /// Table lookup modes against the truth.
     pub lookups: Vec<choices::LookupRow>,
+    /// Cook-Torrance evaluation choices against their references.
     pub variants: Vec<choices::VariantRow>,
+    /// The scaling measurements.
     pub scale: Option<scale::ScaleResults>,
 }
 
@@ -412,15 +445,15 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
         let t = Instant::now();
         res.grid = grid::run_grid(cfg, &materials, progress)?;
         info.grid_s = Some(t.elapsed().as_secs_f64());
-        report::write_csv(&cfg.out.join("grid.csv"), &res.grid)?;
+        files::write_csv(&cfg.out.join("grid.csv"), &res.grid)?;
     }
     if cfg.choices {
         let t = Instant::now();
         res.lookups = choices::lookups(cfg, &materials, progress)?;
         res.variants = choices::variants(cfg, progress)?;
         info.choices_s = Some(t.elapsed().as_secs_f64());
-        report::write_csv(&cfg.out.join("lookups.csv"), &res.lookups)?;
-        report::write_csv(&cfg.out.join("variants.csv"), &res.variants)?;
+        files::write_csv(&cfg.out.join("lookups.csv"), &res.lookups)?;
+        files::write_csv(&cfg.out.join("variants.csv"), &res.variants)?;
     }
     if cfg.scale {
         let t = Instant::now();
@@ -428,8 +461,8 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
         info.scale_s = Some(t.elapsed().as_secs_f64());
     }
     info.load_end = load_average();
-    report::write_json(&cfg.out.join("run.json"), &info)?;
-    report::write_json(&cfg.out.join("results.json"), &res)?;
-    report::write_all(cfg, &info, &res, progress)?;
+    files::write_json(&cfg.out.join("run.json"), &info)?;
+    files::write_json(&cfg.out.join("results.json"), &res)?;
+    markdown::write_all(cfg, &info, &res, progress)?;
     Ok(res)
 }

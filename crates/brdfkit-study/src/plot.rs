@@ -22,7 +22,9 @@ fn register_font() {
 /// A set of points of one colour, optionally joined by a line.
 #[derive(Debug, Clone)]
 pub struct Series {
+    /// Label in the legend.
     pub name: String,
+    /// (x, y) points.
     pub points: Vec<(f64, f64)>,
     /// Draw a line through the points (in the given order) instead of markers.
     pub line: bool,
@@ -35,16 +37,22 @@ pub struct Series {
 /// One panel: a title and its series.
 #[derive(Debug, Clone)]
 pub struct Panel {
+    /// Title above the panel.
     pub title: String,
+    /// Its series.
     pub series: Vec<Series>,
 }
 
 /// Axis options shared by the panels of a figure.
 #[derive(Debug, Clone)]
 pub struct Axes {
+    /// Label of the x axis.
     pub x_label: String,
+    /// Label of the y axis.
     pub y_label: String,
+    /// Logarithmic x axis.
     pub log_x: bool,
+    /// Logarithmic y axis.
     pub log_y: bool,
 }
 
@@ -226,7 +234,7 @@ pub fn figure(
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .map_err(|e| err(e.to_string()))?;
-    crate::report::write_atomic(path, &png)
+    crate::files::write(path, &png)
 }
 
 #[cfg(test)]

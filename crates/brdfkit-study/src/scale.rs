@@ -3,7 +3,7 @@
 //! a batch of tables, and the peak resident memory of a full-table fit.
 
 use crate::choices::pool;
-use crate::{Material, StudyConfig, StudyError};
+use crate::{StudyConfig, StudyError, SynthMaterial};
 use brdfkit_fit::{FitConfig, FitData, Loss, fit, resolve_free};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -49,8 +49,11 @@ pub struct MemoryPoint {
 pub struct BatchPoint {
     /// `sequential in-process` (read + fit each table in turn) or `fit-brdf batch`.
     pub how: String,
+    /// Tables fitted.
     pub tables: usize,
+    /// Wall time of all of them, s.
     pub wall_s: f64,
+    /// Tables per second.
     pub tables_per_s: f64,
     /// Why a way was not measured, if so.
     pub note: String,
@@ -59,8 +62,11 @@ pub struct BatchPoint {
 /// All scaling measurements.
 #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 pub struct ScaleResults {
+    /// Fit time against cells, parameters and threads.
     pub points: Vec<ScalePoint>,
+    /// Peak resident memory of full-table fits.
     pub memory: Vec<MemoryPoint>,
+    /// Throughput of many fits.
     pub batch: Vec<BatchPoint>,
 }
 
@@ -185,7 +191,7 @@ pub fn child_peak_rss(exe: &Path, args: &[String]) -> Result<MemoryPoint, StudyE
 /// written to a temporary directory that is removed afterwards.
 pub fn run_scale(
     cfg: &StudyConfig,
-    materials: &[Material],
+    materials: &[SynthMaterial],
     progress: &dyn Fn(&str),
 ) -> Result<ScaleResults, StudyError> {
     let mut res = ScaleResults::default();

@@ -290,16 +290,17 @@ fn percentiles(v: &mut [f64]) -> Option<Percentiles> {
 
 /// The fitted models' values at every cell: plane c from model c.
 fn model_values(models: [&dyn Model; 3], data: &FitData) -> [Vec<f64>; 3] {
-    const CHUNK: usize = 4096;
+    // Cells per parallel task of the model evaluation.
+    const EVAL_CHUNK_CELLS: usize = 4096;
     let n = data.len();
     let g = data.geometry();
     let mut planes = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
     for (c, plane) in planes.iter_mut().enumerate() {
         plane
-            .par_chunks_mut(CHUNK)
+            .par_chunks_mut(EVAL_CHUNK_CELLS)
             .enumerate()
             .for_each(|(k, out)| {
-                let s = k * CHUNK;
+                let s = k * EVAL_CHUNK_CELLS;
                 let mut buf = vec![Rgb::ZERO; out.len()];
                 models[c].eval_batch(&g.slice(s..s + out.len()), &mut buf);
                 for (o, v) in out.iter_mut().zip(&buf) {

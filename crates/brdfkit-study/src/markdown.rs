@@ -1,87 +1,16 @@
-//! Writing the study: raw CSV/JSON, PNG plots and the Markdown report.
+//! The study's Markdown document (`docs/accuracy-vs-time.md`) and its PNG plots.
 //!
 //! The report's generated parts sit between `<!-- study:NAME -->` and
 //! `<!-- /study:NAME -->`; a re-run replaces only those, so the hand-written reading of
 //! the results around them stays. A report that does not exist yet is created from a
 //! skeleton.
 
+use crate::files::{write, write_json};
 use crate::grid::{GridRow, pareto};
 use crate::plot::{Axes, Panel, Series, figure};
 use crate::{RunInfo, StudyConfig, StudyError, StudyResults};
-use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::io::Write as _;
-use std::path::Path;
-
-/// Writes `bytes` to a temporary file in `path`'s directory and renames it into place.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), StudyError> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let mut f = tempfile::NamedTempFile::new_in(dir).map_err(|e| StudyError::io(path, e))?;
-    f.write_all(bytes).map_err(|e| StudyError::io(path, e))?;
-    // Readable by everyone like any other file of the docs (a temp file is 0600).
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        f.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644))
-            .map_err(|e| StudyError::io(path, e))?;
-    }
-    f.persist(path).map_err(|e| StudyError::io(path, e.error))?;
-    Ok(())
-}
-
-/// Pretty JSON of `v`.
-pub fn write_json<T: Serialize>(path: &Path, v: &T) -> Result<(), StudyError> {
-    let s = serde_json::to_string_pretty(v).map_err(|e| StudyError::io(path, e.into()))?;
-    write_atomic(path, s.as_bytes())
-}
-
-fn csv_field(v: &serde_json::Value) -> String {
-    match v {
-        serde_json::Value::String(s) if s.contains([',', '"', '\n']) => {
-            format!("\"{}\"", s.replace('"', "\"\""))
-        }
-        serde_json::Value::String(s) => s.clone(),
-        serde_json::Value::Null => String::new(),
-        x => x.to_string(),
-    }
-}
-
-/// CSV of flat serialisable rows (header from the first row's fields; NaN is empty).
-pub fn write_csv<T: Serialize>(path: &Path, rows: &[T]) -> Result<(), StudyError> {
-    let mut out = String::new();
-    let vals: Vec<serde_json::Map<String, serde_json::Value>> = rows
-        .iter()
-        .filter_map(|r| match serde_json::to_value(r) {
-            Ok(serde_json::Value::Object(m)) => Some(m),
-            _ => None,
-        })
-        .collect();
-    if let Some(first) = vals.first() {
-        let keys: Vec<&String> = first.keys().collect();
-        out.push_str(
-            &keys
-                .iter()
-                .map(|k| k.as_str())
-                .collect::<Vec<_>>()
-                .join(","),
-        );
-        out.push('\n');
-        for m in &vals {
-            let line: Vec<String> = keys
-                .iter()
-                .map(|k| csv_field(m.get(*k).unwrap_or(&serde_json::Value::Null)))
-                .collect();
-            out.push_str(&line.join(","));
-            out.push('\n');
-        }
-    }
-    write_atomic(path, out.as_bytes())
-}
 
 /// Replaces the text between the markers of `name`, appending the section when the
 /// markers are absent.
@@ -648,7 +577,7 @@ pub fn write_all(
         doc = replace_section(&doc, "scale", &scale_section(res));
         doc = replace_section(&doc, "scale-plot", &format!("![scale](./{dir}/scale.png)"));
     }
-    write_atomic(&path, doc.as_bytes())
+    write(&path, doc.as_bytes())
 }
 
 #[cfg(test)]
@@ -674,34 +603,5 @@ mod tests {
         assert_eq!(utc(0), "1970-01-01 00:00");
         assert_eq!(utc(951_782_400), "2000-02-29 00:00");
         assert_eq!(utc(1_795_298_974), "2026-11-21 22:09");
-    }
-
-    #[test]
-    fn csv_quotes_fields_with_commas() {
-        #[derive(Serialize)]
-        struct R {
-            a: String,
-            b: f64,
-        }
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("x.csv");
-        write_csv(
-            &p,
-            &[
-                R {
-                    a: "x, \"y\"".into(),
-                    b: 1.5,
-                },
-                R {
-                    a: "z".into(),
-                    b: f64::NAN,
-                },
-            ],
-        )
-        .unwrap();
-        assert_eq!(
-            std::fs::read_to_string(&p).unwrap(),
-            "a,b\n\"x, \"\"y\"\"\",1.5\nz,\n"
-        );
     }
 }
