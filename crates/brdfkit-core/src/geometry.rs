@@ -91,7 +91,9 @@ pub trait Component:
     + Sync
     + 'static
 {
+    /// 0.
     const ZERO: Self;
+    /// 1.
     const ONE: Self;
     /// Whether [`half_and_cos_d`] divides each component by |wi + wo| (three correctly
     /// rounded quotients: `f64`, for the bits of the per-pair code) or multiplies by one
@@ -367,18 +369,29 @@ impl<T: Component> Geometry<T> {
 pub enum DirsError {
     /// `wi` and `wo` of different lengths.
     #[error("wi has {wi} directions but wo has {wo}: one wo per wi is needed")]
-    Mismatch { wi: usize, wo: usize },
+    Mismatch {
+        /// Directions in `wi`.
+        wi: usize,
+        /// Directions in `wo`.
+        wo: usize,
+    },
     /// A flat array whose length is not a multiple of 6.
     #[error(
         "a flat direction array holds 6 values per pair (wi_x wi_y wi_z wo_x wo_y wo_z); \
          {len} values is not a multiple of 6"
     )]
-    Flat { len: usize },
+    Flat {
+        /// Values in the flat array.
+        len: usize,
+    },
     /// An output of the wrong length.
     #[error("the output holds {got} entries but {pairs} pairs need {need}")]
     Output {
+        /// Direction pairs given.
         pairs: usize,
+        /// Output entries they need.
         need: usize,
+        /// Output entries given.
         got: usize,
     },
 }
