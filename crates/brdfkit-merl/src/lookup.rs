@@ -5,7 +5,6 @@ use crate::table::{MerlTable, SCALES, raw_valid};
 use brdfkit_core::{HalfDiff, Rgb, Vec3, to_half_diff};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI, FRAC_PI_2, PI};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use thiserror::Error;
 
@@ -363,36 +362,43 @@ impl MerlTable {
         conv: impl Fn(Option<Rgb>) -> T + Sync,
     ) {
         let edges = edges(self.dims);
-        spread(out, FLAT_RUN, |start, out| {
-            for (s, out) in out.chunks_mut(BATCH_RUN).enumerate() {
-                let first = start + s * BATCH_RUN;
-                match mode {
-                    Lookup::Nearest => self.nearest_run(&edges, first, pair, out, &conv),
-                    Lookup::Interpolated => {
-                        self.interpolated_run(&edges, first, pair, out, &conv)
+        spread_chunks(out, FLAT_RUN, |start, out| {
+            let mut run = PrepRun::new();
+            for (s, out) in out.chunks_mut(FAST_RUN).enumerate() {
+                let first = start + s * FAST_RUN;
+                for k in 0..out.len() {
+                    let (wi, wo) = pair(first + k);
+                    for c in 0..3 {
+                        run.w[c][k] = wi[c];
+                        run.w[3 + c][k] = wo[c];
                     }
+                }
+                let d = self.dims;
+                run.compute_dispatch([d.theta_h() as f64, d.theta_d() as f64, d.phi_d() as f64]);
+                match mode {
+                    Lookup::Nearest => self.nearest_run(&edges, &run, out, &conv),
+                    Lookup::Interpolated => self.interpolated_run(&edges, &run, out, &conv),
                 }
             }
         });
     }
 
-    /// Nearest lookups of pairs `first..first + out.len()` (at most [`BATCH_RUN`]).
+    /// Nearest lookups of the pairs of `run` (the first `out.len()`), its arithmetic done.
     fn nearest_run<T>(
         &self,
         edges: &Edges,
-        first: usize,
-        pair: &impl Fn(usize) -> ([f64; 3], [f64; 3]),
+        run: &PrepRun,
         out: &mut [T],
         conv: &impl Fn(Option<Rgb>) -> T,
     ) {
         let n = self.cells();
-        let mut idx = [usize::MAX; BATCH_RUN];
+        let mut idx = [usize::MAX; FAST_RUN];
         for (k, x) in idx[..out.len()].iter_mut().enumerate() {
-            let (wi, wo) = pair(first + k);
+            let (wi, wo) = run.pair(k);
             if !(usable3(&wi) && usable3(&wo)) {
                 continue;
             }
-            let i = match edges.locate(&wi, &wo) {
+            let i = match edges.finish(&wi, &wo, &run.prep(k)) {
                 Some(f) => self.dims.index(f.i, f.j, f.k),
                 None => self
                     .dims
@@ -412,25 +418,24 @@ impl MerlTable {
         }
     }
 
-    /// Interpolated lookups of pairs `first..first + out.len()` (at most [`BATCH_RUN`]).
+    /// Interpolated lookups of the pairs of `run` (the first `out.len()`).
     fn interpolated_run<T>(
         &self,
         edges: &Edges,
-        first: usize,
-        pair: &impl Fn(usize) -> ([f64; 3], [f64; 3]),
+        run: &PrepRun,
         out: &mut [T],
         conv: &impl Fn(Option<Rgb>) -> T,
     ) {
         let d = self.dims;
         let n = d.cells();
         // `None`: no lookup (below the horizon, not finite).
-        let mut st: [Option<[Axis; 3]>; BATCH_RUN] = [None; BATCH_RUN];
+        let mut st: [Option<[Axis; 3]>; FAST_RUN] = [None; FAST_RUN];
         for (k, x) in st[..out.len()].iter_mut().enumerate() {
-            let (wi, wo) = pair(first + k);
+            let (wi, wo) = run.pair(k);
             if !(usable3(&wi) && usable3(&wo)) {
                 continue;
             }
-            let s = match edges.locate(&wi, &wo) {
+            let s = match edges.finish(&wi, &wo, &run.prep(k)) {
                 Some(f) => edges.stencil(&f),
                 None => {
                     let c = d.coords(&to_half_diff(&Vec3::from(wi), &Vec3::from(wo)));
@@ -517,9 +522,7 @@ const WALK: usize = 4096;
 #[derive(Clone, Debug, Error, PartialEq, Eq)]
 pub enum PairsError {
     /// A flat pair array whose length is not a multiple of 6.
-    #[error(
-        "pairs: {len} values are not rows of 6 (wi_x, wi_y, wi_z, wo_x, wo_y, wo_z per pair)"
-    )]
+    #[error("pairs: {len} values are not rows of 6 (wi_x, wi_y, wi_z, wo_x, wo_y, wo_z per pair)")]
     NotRows {
         /// Number of values given.
         len: usize,
@@ -552,32 +555,17 @@ fn rgb_or_nan(v: Option<Rgb>) -> [f64; 3] {
     v.map_or([f64::NAN; 3], |v| [v[0], v[1], v[2]])
 }
 
-/// Runs `f(first index, chunk)` over `out` in chunks of `run`, spread over the threads
-/// of the current rayon pool from an atomic counter. [`rayon::broadcast`] wakes every
-/// worker up front: with `par_chunks_mut` a job of a few milliseconds on a 2-thread
-/// pool ran on one thread about a third of the time (brdfkit-models' `par`).
-fn spread<T: Send>(out: &mut [T], run: usize, f: impl Fn(usize, &mut [T]) + Sync) {
+/// Runs `f(first index, chunk)` over `out` in chunks of `run` on every thread of the
+/// current rayon pool ([`spread`](crate::table::spread)); on the calling thread when
+/// there is one chunk.
+fn spread_chunks<T: Send>(out: &mut [T], run: usize, f: impl Fn(usize, &mut [T]) + Sync) {
     if out.len() <= run || rayon::current_num_threads() == 1 {
         for (c, chunk) in out.chunks_mut(run).enumerate() {
             f(c * run, chunk);
         }
         return;
     }
-    let next = AtomicUsize::new(0);
-    let slots: Vec<Mutex<Option<&mut [T]>>> =
-        out.chunks_mut(run).map(|c| Mutex::new(Some(c))).collect();
-    rayon::broadcast(|_| {
-        loop {
-            let c = next.fetch_add(1, Ordering::Relaxed);
-            let Some(slot) = slots.get(c) else { break };
-            // Each slot is taken once (the counter hands out each index once): the lock
-            // is never contended, never poisoned by another chunk.
-            let chunk = slot.lock().ok().and_then(|mut s| s.take());
-            if let Some(chunk) = chunk {
-                f(c * run, chunk);
-            }
-        }
-    });
+    crate::table::spread(out.chunks_mut(run).collect(), |c, chunk| f(c * run, chunk));
 }
 
 /// The bin edges of a grid in the forms the fast path compares with.
@@ -704,65 +692,44 @@ impl Edges {
 
     /// The reference bins of a pair of usable directions (finite, z > 0), or `None`
     /// where the fast path cannot vouch for them (the caller then runs the reference).
-    #[inline]
+    #[cfg(test)]
     fn locate(&self, wi: &[f64; 3], wo: &[f64; 3]) -> Option<Found> {
+        let d = self.dims;
+        let n = [d.theta_h() as f64, d.theta_d() as f64, d.phi_d() as f64];
+        self.finish(wi, wo, &prep(*wi, *wo, n))
+    }
+
+    /// The checks of the fast path on the arithmetic of [`prep`]: the bins, or `None`
+    /// for wi = wo, h on the normal, or a pair within a margin of a bin edge.
+    #[inline(always)]
+    fn finish(&self, wi: &[f64; 3], wo: &[f64; 3], p: &Prep) -> Option<Found> {
         // wi = wo is the reference's special case (θd = φd = 0, θh from to_spherical).
         if !self.exact || wi == wo {
             return None;
         }
-        let (nh, nd, np) = (
-            self.dims.theta_h() as f64,
-            self.dims.theta_d() as f64,
-            self.dims.phi_d() as f64,
-        );
-        // The half vector exactly as `to_half_diff` computes it.
-        let mut hx = wi[0] + wo[0];
-        let mut hy = wi[1] + wo[1];
-        let mut hz = wi[2] + wo[2];
-        let norm = (hx * hx + hy * hy + hz * hz).sqrt();
-        hx /= norm;
-        hy /= norm;
-        hz /= norm;
-        let cos_h = hz.min(1.0);
-        let u = (acos_approx(cos_h) * FRAC_2_PI).sqrt() * nh;
-        let i = bracket(&self.th, hz, u, MARGIN_H)?;
-
-        // h on the normal: the reference's φh = 0 branch.
-        let r2 = hx * hx + hy * hy;
-        if r2 == 0.0 {
+        let i = bracket(&self.th, p.hz, p.u, MARGIN_H)?;
+        // h on the normal: the reference's φh = 0 branch (r = 0 exactly when
+        // hx² + hy² = 0, which the reference's hx = hy = 0 test implies).
+        if p.r == 0.0 {
             return None;
         }
-        let r = r2.sqrt();
-        let sin_h = ((1.0 - cos_h) * (1.0 + cos_h)).sqrt();
-        // wi rotated by −φh about the normal, times r: (a, dy, wi.z · r); then by −θh
-        // about the binormal: d.x = t.x cos θh − t.z sin θh, d.z = t.z cos θh + t.x sin θh.
-        let a = wi[0] * hx + wi[1] * hy;
-        let cos_d = a / r * sin_h + wi[2] * hz;
-        let j = bracket(&self.td, cos_d, acos_approx(cos_d) * FRAC_2_PI * nd, MARGIN_D)?;
-        let mut dx = a * hz - wi[2] * sin_h * r;
-        let mut dy = wi[1] * hx - wi[0] * hy;
-        // φd < 0 folds by +π: the same direction as −d.
-        if dy < 0.0 {
-            dx = -dx;
-            dy = -dy;
-        }
-        let m = MARGIN_PHI * r;
+        let j = bracket(&self.td, p.cos_d, p.v, MARGIN_D)?;
+        let m = MARGIN_PHI * p.r;
         // Near φd = 0 or ±π the fold itself is decided by round-off.
-        if dy <= m {
+        if p.dy <= m {
             return None;
         }
-        let w = atan2_upper_approx(dy, dx) * FRAC_1_PI * np;
-        let k = sector(&self.pd, dx, dy, w, m)?;
+        let k = sector(&self.pd, p.dx, p.dy, p.w, m)?;
         Some(Found {
             i,
             j,
             k,
-            cos_h,
-            sin_h,
-            cos_d,
-            dx,
-            dy,
-            r,
+            cos_h: p.hz.min(1.0),
+            sin_h: p.sin_h,
+            cos_d: p.cos_d,
+            dx: p.dx,
+            dy: p.dy,
+            r: p.r,
         })
     }
 
@@ -785,7 +752,11 @@ impl Edges {
         let ax_d = if f.j + 1 >= nd {
             (f.j, f.j, 0.0)
         } else {
-            (f.j, f.j + 1, (delta * FRAC_2_PI * nd as f64).clamp(0.0, 1.0))
+            (
+                f.j,
+                f.j + 1,
+                (delta * FRAC_2_PI * nd as f64).clamp(0.0, 1.0),
+            )
         };
         let [ex, ey] = self.pd[f.k];
         let delta = small_angle(ex * f.dy - ey * f.dx, ex * f.dx + ey * f.dy);
@@ -798,10 +769,159 @@ impl Edges {
     }
 }
 
+/// Pairs per arithmetic pass of the fast path: its arrays (about 17 KiB) stay in L1.
+const FAST_RUN: usize = 128;
+
+/// The arithmetic of the fast path for one pair, branch-free so that a loop over a run
+/// vectorises; [`Edges::finish`] does the comparisons.
+#[derive(Clone, Copy, Debug, Default)]
+struct Prep {
+    /// h.z exactly as the reference computes it, and the approximate θh coordinate.
+    hz: f64,
+    u: f64,
+    /// r = √(hx² + hy²) and sin θh = √((1 − h.z)(1 + h.z)).
+    r: f64,
+    sin_h: f64,
+    /// cos θd and the approximate θd coordinate.
+    cos_d: f64,
+    v: f64,
+    /// r · (d.x, d.y) folded into d.y ≥ 0, and the approximate φd coordinate.
+    dx: f64,
+    dy: f64,
+    w: f64,
+}
+
+/// [`Prep`] of a pair, for grid sizes `n` (θh, θd, φd). Meaningless (but harmless) for
+/// pairs that [`Edges::finish`] or [`usable3`] turn away.
+#[inline(always)]
+fn prep(wi: [f64; 3], wo: [f64; 3], n: [f64; 3]) -> Prep {
+    // The half vector exactly as `to_half_diff` computes it: sum, norm, divide.
+    let hx = wi[0] + wo[0];
+    let hy = wi[1] + wo[1];
+    let hz = wi[2] + wo[2];
+    let norm = (hx * hx + hy * hy + hz * hz).sqrt();
+    let (hx, hy, hz) = (hx / norm, hy / norm, hz / norm);
+    let cos_h = hz.min(1.0);
+    let u = (acos_approx(cos_h) * FRAC_2_PI).sqrt() * n[0];
+    let r = (hx * hx + hy * hy).sqrt();
+    let sin_h = ((1.0 - cos_h) * (1.0 + cos_h)).sqrt();
+    // wi rotated by −φh about the normal, times r: (a, dy, wi.z · r); then by −θh about
+    // the binormal: d.x = t.x cos θh − t.z sin θh, d.z = t.z cos θh + t.x sin θh.
+    let a = wi[0] * hx + wi[1] * hy;
+    let cos_d = a / r * sin_h + wi[2] * hz;
+    let v = acos_approx(cos_d) * FRAC_2_PI * n[1];
+    let dx = a * hz - wi[2] * sin_h * r;
+    let dy = wi[1] * hx - wi[0] * hy;
+    // φd < 0 folds by +π: the same direction as −d.
+    let (dx, dy) = if dy < 0.0 { (-dx, -dy) } else { (dx, dy) };
+    let w = atan2_upper_approx(dy, dx) * FRAC_1_PI * n[2];
+    Prep {
+        hz,
+        u,
+        r,
+        sin_h,
+        cos_d,
+        v,
+        dx,
+        dy,
+        w,
+    }
+}
+
+/// A run of pairs in columns and their [`Prep`]s in columns.
+struct PrepRun {
+    w: [[f64; FAST_RUN]; 6],
+    out: [[f64; FAST_RUN]; 9],
+}
+
+impl PrepRun {
+    fn new() -> Self {
+        PrepRun {
+            w: [[0.0; FAST_RUN]; 6],
+            out: [[0.0; FAST_RUN]; 9],
+        }
+    }
+
+    /// Pair k of the run.
+    #[inline]
+    fn pair(&self, k: usize) -> ([f64; 3], [f64; 3]) {
+        let w = &self.w;
+        ([w[0][k], w[1][k], w[2][k]], [w[3][k], w[4][k], w[5][k]])
+    }
+
+    /// The [`Prep`] of pair k.
+    #[inline]
+    fn prep(&self, k: usize) -> Prep {
+        let o = &self.out;
+        Prep {
+            hz: o[0][k],
+            u: o[1][k],
+            r: o[2][k],
+            sin_h: o[3][k],
+            cos_d: o[4][k],
+            v: o[5][k],
+            dx: o[6][k],
+            dy: o[7][k],
+            w: o[8][k],
+        }
+    }
+
+    /// [`prep`] over the whole run (every lane, so the loop has no remainder).
+    #[inline(always)]
+    fn compute(&mut self, n: [f64; 3]) {
+        for k in 0..FAST_RUN {
+            let (wi, wo) = self.pair(k);
+            let p = prep(wi, wo, n);
+            let o = &mut self.out;
+            o[0][k] = p.hz;
+            o[1][k] = p.u;
+            o[2][k] = p.r;
+            o[3][k] = p.sin_h;
+            o[4][k] = p.cos_d;
+            o[5][k] = p.v;
+            o[6][k] = p.dx;
+            o[7][k] = p.dy;
+            o[8][k] = p.w;
+        }
+    }
+
+    /// [`compute`](Self::compute) in a copy compiled for AVX-512 or AVX2 when the
+    /// processor has them (the crate is compiled for baseline x86-64). Rust never fuses
+    /// a multiply and an add, and division and square root are correctly rounded in
+    /// every instruction set, so every copy computes the same bits (h.z included, which
+    /// must equal the reference's).
+    fn compute_dispatch(&mut self, n: [f64; 3]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the instruction set the copy is compiled for is present.
+                return unsafe { self.compute_avx512(n) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: as above.
+                return unsafe { self.compute_avx2(n) };
+            }
+        }
+        self.compute(n)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2")]
+    fn compute_avx512(&mut self, n: [f64; 3]) {
+        self.compute(n)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn compute_avx2(&mut self, n: [f64; 3]) {
+        self.compute(n)
+    }
+}
+
 /// The bracket b with `t[b + 1] < x ≤ t[b]` of non-increasing thresholds `t`, starting
 /// from the approximate bin `approx`; `None` when x lies within `margin` of either
 /// threshold (or is NaN).
-#[inline]
+#[inline(always)]
 fn bracket(t: &[f64], x: f64, approx: f64, margin: f64) -> Option<usize> {
     if x.is_nan() {
         return None;
@@ -821,7 +941,7 @@ fn bracket(t: &[f64], x: f64, approx: f64, margin: f64) -> Option<usize> {
 /// The φd sector k of the folded direction (dx, dy), dy > 0: strictly between edge
 /// directions k and k + 1 by more than `margin` (cross products), starting from the
 /// approximate coordinate `approx`; `None` when that cannot be vouched for.
-#[inline]
+#[inline(always)]
 fn sector(pd: &[[f64; 2]], dx: f64, dy: f64, approx: f64, margin: f64) -> Option<usize> {
     let n = pd.len() - 1;
     let mut k = (approx as usize).min(n - 1);
@@ -911,5 +1031,102 @@ mod tests {
         assert_eq!(wrapped_axis(4.0, 4), (0, 1, 0.0));
         assert_eq!(wrapped_axis(-1e-18, 4), (0, 1, 0.0));
         assert_eq!(wrapped_axis(-0.5, 4), (3, 0, 0.5));
+    }
+
+    /// The approximations pick brackets only, but their stated errors hold.
+    #[test]
+    fn approximations_within_their_bounds() {
+        for k in 0..=100_000 {
+            let x = k as f64 / 100_000.0;
+            assert!((acos_approx(x) - x.acos()).abs() <= 2.2e-8, "{x}");
+            let a = x * PI;
+            let (s, c) = a.sin_cos();
+            assert!(
+                (atan2_upper_approx(s, c) - s.atan2(c)).abs() <= 1.4e-8,
+                "{a}"
+            );
+            let t = x * 0.05;
+            assert!(
+                (small_angle(t, 1.0) - t.atan()).abs() <= 1e-17 + 1e-16 * t,
+                "{t}"
+            );
+        }
+    }
+
+    /// Each threshold is the reference's exact switch point, and the reference is
+    /// monotone for 256 ulps on both sides of it.
+    #[test]
+    fn thresholds_are_the_reference_switch_points() {
+        let d = Dims::MERL;
+        let e = Edges::new(d);
+        assert!(e.exact);
+        for (t, n, f) in [
+            (&e.th, d.theta_h(), theta_h_bin as fn(f64, usize) -> usize),
+            (&e.td, d.theta_d(), theta_d_bin),
+        ] {
+            let g = |x: f64| f(x.clamp(-1.0, 1.0).acos(), n);
+            for j in 1..n {
+                assert!(g(t[j]) >= j && g(t[j].next_up()) < j, "threshold {j}");
+                let (mut lo, mut hi) = (t[j], t[j].next_up());
+                for _ in 0..256 {
+                    lo = lo.next_down();
+                    hi = hi.next_up();
+                    assert!(g(lo) >= j && g(hi) < j, "not monotone near threshold {j}");
+                }
+            }
+        }
+    }
+
+    /// The margins against the round-off they guard: over a million random pairs the
+    /// fast cos θd and r · (d.x, d.y) are compared with the reference's rotated vector;
+    /// the largest differences must stay 100 times below the margins. And the reference
+    /// conversion is needed for next to no random pair.
+    #[test]
+    fn margins_cover_the_measured_round_off() {
+        use brdfkit_core::direction::{BINORMAL, NORMAL, rotate};
+        let e = Edges::new(Dims::MERL);
+        // A small deterministic generator (no dev-dependency in unit tests needed).
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut max_d, mut max_xy, mut fallbacks) = (0.0f64, 0.0f64, 0);
+        let n = 1_000_000;
+        for _ in 0..n {
+            let mut dir = || {
+                let z: f64 = uniform();
+                let p = (2.0 * uniform() - 1.0) * PI;
+                let s = (1.0 - z * z).sqrt();
+                [s * p.cos(), s * p.sin(), z]
+            };
+            let (wi, wo) = (dir(), dir());
+            if !(usable3(&wi) && usable3(&wo)) {
+                continue;
+            }
+            let Some(f) = e.locate(&wi, &wo) else {
+                fallbacks += 1;
+                continue;
+            };
+            // The reference's rotated vector, as to_half_diff computes it.
+            let (vi, vo) = (Vec3::from(wi), Vec3::from(wo));
+            let h = (vi + vo) / (vi + vo).norm();
+            let temp = rotate(&vi, &NORMAL, -h.y.atan2(h.x));
+            let dref = rotate(&temp, &BINORMAL, -h.z.clamp(-1.0, 1.0).acos());
+            max_d = max_d.max((f.cos_d - dref.z).abs());
+            // The fast (dx, dy) is folded: compare with ± the reference's, per unit r.
+            let sgn = if dref.y < 0.0 { -1.0 } else { 1.0 };
+            let ex = (f.dx / f.r - sgn * dref.x).abs();
+            let ey = (f.dy / f.r - sgn * dref.y).abs();
+            max_xy = max_xy.max(ex.max(ey));
+        }
+        assert!(max_d * 100.0 <= MARGIN_D, "cos θd round-off {max_d:e}");
+        assert!(max_xy * 100.0 <= MARGIN_PHI, "d.xy round-off {max_xy:e}");
+        assert!(
+            fallbacks <= 10,
+            "{fallbacks} of {n} pairs took the reference"
+        );
     }
 }

@@ -60,7 +60,10 @@ fn assert_nearest_exact(t: &MerlTable, pairs: &[(Vec3, Vec3)], what: &str) -> us
 
 /// A unit vector uniform on the upper hemisphere.
 fn hemisphere(rng: &mut ChaCha8Rng) -> Vec3 {
-    spherical(rng.random_range(0.0f64..1.0).acos(), rng.random_range(-PI..PI))
+    spherical(
+        rng.random_range(0.0f64..1.0).acos(),
+        rng.random_range(-PI..PI),
+    )
 }
 
 /// `v` tilted by a small angle `eps` in a random direction.
@@ -154,10 +157,15 @@ fn nearest_is_the_reference_cell_within_ulps_of_every_bin_edge() {
         .iter()
         .filter(|(wi, wo)| {
             let c = d.coords(&to_half_diff(wi, wo));
-            c.iter().any(|x| (x - x.round()).abs() < 1e-12 && x.round() > 0.0)
+            c.iter()
+                .any(|x| (x - x.round()).abs() < 1e-12 && x.round() > 0.0)
         })
         .count();
-    assert!(near > pairs.len() / 2, "{near} of {} near an edge", pairs.len());
+    assert!(
+        near > pairs.len() / 2,
+        "{near} of {} near an edge",
+        pairs.len()
+    );
     assert_nearest_exact(&t, &pairs, "bin edges");
 }
 
@@ -317,7 +325,11 @@ fn shape_errors_are_typed() {
     let mut o = vec![[0.0; 3]; 2];
     assert!(matches!(
         t.lookup_nearest_batch(&[[0.0; 3]], &[[0.0; 3]], &mut o),
-        Err(PairsError::Lengths { wi: 1, wo: 1, out: 2 })
+        Err(PairsError::Lengths {
+            wi: 1,
+            wo: 1,
+            out: 2
+        })
     ));
     // Empty input is fine.
     t.nearest_flat(&[], &mut []).unwrap();
