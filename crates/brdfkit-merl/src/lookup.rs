@@ -1065,9 +1065,10 @@ mod tests {
             (&e.td, d.theta_d(), theta_d_bin),
         ] {
             let g = |x: f64| f(x.clamp(-1.0, 1.0).acos(), n);
-            for j in 1..n {
-                assert!(g(t[j]) >= j && g(t[j].next_up()) < j, "threshold {j}");
-                let (mut lo, mut hi) = (t[j], t[j].next_up());
+            assert_eq!(t.len(), n + 1);
+            for (j, &tj) in t.iter().enumerate().take(n).skip(1) {
+                assert!(g(tj) >= j && g(tj.next_up()) < j, "threshold {j}");
+                let (mut lo, mut hi) = (tj, tj.next_up());
                 for _ in 0..256 {
                     lo = lo.next_down();
                     hi = hi.next_up();
