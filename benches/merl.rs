@@ -4,7 +4,9 @@
 //! Run: `cargo bench --bench merl` (add `-- merl_read` to run only criterion's read and
 //! `cat` benchmarks). After criterion's figures it prints an interleaved comparison of
 //! the read and `cat` (medians, spread, ratio of medians, distribution of the ratio of
-//! each pair) and the load average, then timings of the lookup batches.
+//! each pair) and the load average, then timings of the lookup batches: `lookup_batch`
+//! over `(Vec3, Vec3)` pairs and `lookup_flat` over N × 6 rows, nearest and
+//! interpolated.
 
 use brdfkit::core::direction::spherical;
 use brdfkit::core::{Rgb, Vec3};
@@ -51,6 +53,14 @@ fn random_pairs() -> Vec<(Vec3, Vec3)> {
         spherical(z.acos(), rng.random_range(-PI..PI))
     };
     (0..PAIRS).map(|_| (dir(), dir())).collect()
+}
+
+/// The pairs as N × 6 rows (wi, wo), the layout of an N × 6 `.npy`.
+fn flat_rows(pairs: &[(Vec3, Vec3)]) -> Vec<f64> {
+    pairs
+        .iter()
+        .flat_map(|(a, b)| [a.x, a.y, a.z, b.x, b.y, b.z])
+        .collect()
 }
 
 fn median(mut v: Vec<Duration>) -> Duration {
@@ -103,6 +113,20 @@ fn main() {
     ] {
         g.bench_with_input(BenchmarkId::new(name, PAIRS), &pairs, |b, p| {
             b.iter(|| black_box(t.lookup_batch(mode, black_box(p))))
+        });
+    }
+    // The flat N × 6 -> N × 3 form (the `.npy` layout), fast path for both modes.
+    let rows = flat_rows(&pairs);
+    let mut out = vec![0.0; 3 * PAIRS];
+    for (name, mode) in [
+        ("nearest_flat", Lookup::Nearest),
+        ("interpolated_flat", Lookup::Interpolated),
+    ] {
+        g.bench_with_input(BenchmarkId::new(name, PAIRS), &rows, |b, r| {
+            b.iter(|| {
+                t.lookup_flat(mode, black_box(r), &mut out).unwrap();
+                black_box(&out);
+            })
         });
     }
     g.finish();
@@ -174,6 +198,20 @@ fn main() {
         let m = median(runs).as_secs_f64();
         println!(
             "merl {name} lookup: {PAIRS} pairs in {:.1} ms (median of 5): {:.2} M pairs/s",
+            m * 1e3,
+            PAIRS as f64 / m / 1e6
+        );
+        let mut out = vec![0.0; 3 * PAIRS];
+        let mut runs = Vec::new();
+        for _ in 0..5 {
+            let s = Instant::now();
+            t.lookup_flat(mode, &rows, &mut out).unwrap();
+            black_box(&out);
+            runs.push(s.elapsed());
+        }
+        let m = median(runs).as_secs_f64();
+        println!(
+            "merl {name} lookup_flat: {PAIRS} pairs in {:.1} ms (median of 5): {:.2} M pairs/s",
             m * 1e3,
             PAIRS as f64 / m / 1e6
         );

@@ -15,8 +15,10 @@
 //!   rounded, as Mitsuba reads them).
 //! - `read`: `MerlTable::read` of `DIR/table.binary` (the gold table) and `cat FILE >
 //!   /dev/null`, interleaved in alternating order, at least 100 pairs.
-//! - `nearest`: `lookup_batch(Nearest)` of 1,458,000 seeded random pairs
-//!   (`DIR/random_pairs.f64`).
+//! - `nearest`: `MerlTable::nearest_flat` of 1,458,000 seeded random pairs
+//!   (`DIR/random_pairs.f64`) as N × 6 rows into N × 3 (and `lookup_batch(Nearest)` of
+//!   the same pairs as `(Vec3, Vec3)`);
+//! - `interpolated`: `MerlTable::interpolated_flat` of the same pairs.
 //! - `fit`: the default full-table fit of the `fit` bench's noise-free table (Cook-Torrance
 //!   GGX + Schlick, ρd = (0.1, 0.2, 0.3), ρs = (0.5, 0.4, 0.3), α = 0.08, f0 = (0.9, 0.6,
 //!   0.3)), cells in `DIR/fit_cells.bin` for `fit_scipy.py`.
@@ -275,20 +277,58 @@ fn main() {
         ratios.len()
     );
 
-    // --- nearest lookup of random pairs ---
+    // --- nearest and interpolated lookups of random pairs ---
     let rp = brdfkit_study::choices::random_pairs(n, 0x4d45524c);
     write_pairs(&dir.join("random_pairs.f64"), &rp).expect("write random pairs");
-    let mut got = Vec::new();
+    // The N × 6 rows of the `.npy` layout (wi, wo per row), N × 3 out.
+    let rows: Vec<f64> = rp
+        .iter()
+        .flat_map(|(a, b)| [a.x, a.y, a.z, b.x, b.y, b.z])
+        .collect();
+    let mut flat = vec![0.0; 3 * n];
+    let found_sums = |flat: &[f64]| {
+        let rgb: Vec<Rgb> = flat
+            .chunks_exact(3)
+            .filter(|r| !r[0].is_nan())
+            .map(|r| Rgb::new(r[0], r[1], r[2]))
+            .collect();
+        (rgb.len(), sums(&rgb))
+    };
     let (t_near, t_near_min) = median_time(reps, || {
+        table
+            .nearest_flat(black_box(&rows), &mut flat)
+            .expect("shapes");
+    });
+    let (found, sum_near) = found_sums(&flat);
+    let mut got = Vec::new();
+    let (t_batch, t_batch_min) = median_time(reps, || {
         got = table.lookup_batch(Lookup::Nearest, black_box(&rp));
     });
-    let found = got.iter().filter(|g| g.is_some()).count();
-    let sum_near = sums(&got.iter().flatten().copied().collect::<Vec<_>>());
+    assert_eq!(got.iter().filter(|g| g.is_some()).count(), found);
     out["nearest"] = json!({
         "pairs": n, "time_s": t_near, "min_s": t_near_min,
+        "lookup_batch_s": t_batch, "lookup_batch_min_s": t_batch_min,
         "found": found, "sum": sum_near,
     });
-    eprintln!("nearest: {:.1} ms, {found} found", t_near * 1e3);
+    eprintln!(
+        "nearest: nearest_flat {:.1} ms, lookup_batch {:.1} ms, {found} found",
+        t_near * 1e3,
+        t_batch * 1e3
+    );
+    let (t_interp, t_interp_min) = median_time(reps, || {
+        table
+            .interpolated_flat(black_box(&rows), &mut flat)
+            .expect("shapes");
+    });
+    let (found_i, sum_interp) = found_sums(&flat);
+    out["interpolated"] = json!({
+        "pairs": n, "time_s": t_interp, "min_s": t_interp_min,
+        "found": found_i, "sum": sum_interp,
+    });
+    eprintln!(
+        "interpolated: interpolated_flat {:.1} ms, {found_i} found",
+        t_interp * 1e3
+    );
 
     // --- a full-table fit ---
     if !args.iter().any(|a| a == "--no-fit") {

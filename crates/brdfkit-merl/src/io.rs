@@ -17,9 +17,8 @@
 
 use crate::error::{Channel, MerlError};
 use crate::grid::{Dims, HEADER_BYTES};
-use crate::table::{MerlTable, acceptable_raw, alloc_mask, alloc_raw, raw_valid};
+use crate::table::{MerlTable, acceptable_raw, alloc_mask, alloc_raw, raw_valid, spread};
 use byteorder::{ByteOrder, LittleEndian};
-use rayon::prelude::*;
 use std::cell::RefCell;
 use std::fs::File;
 use std::io::{self, Read, Write};
@@ -286,26 +285,34 @@ fn read_body(
         (Some(x), Some(y)) => Some(if y.0 < x.0 { y } else { x }),
         (x, y) => x.or(y),
     };
-    let (n_valid, bad) = r
-        .par_chunks_mut(chunk)
-        .zip(g.par_chunks_mut(chunk))
-        .zip(b.par_chunks_mut(chunk))
-        .zip(valid.par_chunks_mut(chunk))
-        .enumerate()
-        .map(|(q, (((r, g), b), v))| -> io::Result<Run> {
-            STAGE.with_borrow_mut(|buf| {
-                let bytes = src.planes(n, q * chunk, r.len(), shift, buf)?;
-                let (count, all_ok) = decode_run(bytes, r, g, b, v);
-                let bad = if all_ok {
-                    None
-                } else {
-                    first_bad(bytes).map(|(c, i, x)| (c * n + q * chunk + i, x))
-                };
-                Ok((count, bad))
-            })
-        })
-        .try_reduce(|| (0, None), |a, b| Ok((a.0 + b.0, earliest(a.1, b.1))))
-        .map_err(|e| MerlError::io(path, "reading", e))?;
+    // Every worker of the pool woken up front (`spread`): a plain `par_chunks_mut` left
+    // one of two workers asleep for a whole read now and then, doubling its time.
+    let mut results: Vec<io::Result<Run>> = (0..n.div_ceil(chunk)).map(|_| Ok((0, None))).collect();
+    let runs: Vec<_> = r
+        .chunks_mut(chunk)
+        .zip(g.chunks_mut(chunk))
+        .zip(b.chunks_mut(chunk))
+        .zip(valid.chunks_mut(chunk))
+        .zip(results.iter_mut())
+        .collect();
+    spread(runs, |q, ((((r, g), b), v), result)| {
+        *result = STAGE.with_borrow_mut(|buf| {
+            let bytes = src.planes(n, q * chunk, r.len(), shift, buf)?;
+            let (count, all_ok) = decode_run(bytes, r, g, b, v);
+            let bad = if all_ok {
+                None
+            } else {
+                first_bad(bytes).map(|(c, i, x)| (c * n + q * chunk + i, x))
+            };
+            Ok((count, bad))
+        });
+    });
+    let (mut n_valid, mut bad) = (0, None);
+    for result in results {
+        let (count, b) = result.map_err(|e| MerlError::io(path, "reading", e))?;
+        n_valid += count;
+        bad = earliest(bad, b);
+    }
     if let Some((at, value)) = bad {
         let (c, index) = (at / n, at % n);
         let (i, j, k) = dims.unflatten(index);
@@ -455,6 +462,7 @@ pub fn atomic_write(
 mod tests {
     use super::*;
     use crate::table::MAX_ABS_RAW;
+    use rayon::prelude::*;
     use std::path::PathBuf;
 
     fn leftovers(dir: &Path) -> Vec<String> {

@@ -35,7 +35,7 @@ pub use grid::{
     theta_d_bin, theta_d_coord, theta_h_angle, theta_h_bin, theta_h_coord,
 };
 pub use io::{CHUNK, atomic_write};
-pub use lookup::{BATCH_RUN, Lookup};
+pub use lookup::{BATCH_RUN, Lookup, PairsError};
 pub use resample::{Cell, CellBatch, cell_directions};
 pub use stats::{AlbedoSample, ChannelStats, Quadrature, TableStats, gauss_legendre_01};
 pub use table::{MAX_ABS_RAW, MISSING_RAW, MerlTable, SCALES};
