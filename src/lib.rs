@@ -12,5 +12,6 @@ pub use brdfkit_core as core;
 pub use brdfkit_fit as fit;
 pub use brdfkit_merl as merl;
 pub use brdfkit_models as models;
+pub use brdfkit_nbrdf as nbrdf;
 
 pub mod synth;

@@ -84,9 +84,17 @@ pub fn clamp(v: Rgb) -> Rgb {
 /// Network input for Rusinkiewicz angles, φh = 0 (see [`Nbrdf`]).
 #[inline]
 pub fn input(theta_h: f64, theta_d: f64, phi_d: f64) -> [f64; INPUTS] {
-    let (sh, ch) = theta_h.sin_cos();
-    let (sd, cd) = theta_d.sin_cos();
-    let (sp, cp) = phi_d.sin_cos();
+    input_sc(theta_h.sin_cos(), theta_d.sin_cos(), phi_d.sin_cos())
+}
+
+/// [`input`] from the (sin, cos) of each angle: the table path computes them once per
+/// grid row instead of once per cell (a third of its time went to `sin_cos`).
+#[inline]
+pub(crate) fn input_sc(
+    (sh, ch): (f64, f64),
+    (sd, cd): (f64, f64),
+    (sp, cp): (f64, f64),
+) -> [f64; INPUTS] {
     [sh, 0.0, ch, sd * cp, sd * sp, cd]
 }
 

@@ -1,7 +1,7 @@
 //! Resampling a network onto a MERL table.
 
 use crate::error::NbrdfError;
-use crate::net::{INPUTS, Nbrdf, clamp, input};
+use crate::net::{INPUTS, Nbrdf, clamp, input_sc};
 use brdfkit_core::Rgb;
 use brdfkit_merl::{Dims, MerlTable, cell_directions};
 use rayon::prelude::*;
@@ -12,8 +12,8 @@ use rayon::prelude::*;
 ///
 /// [`cell_directions`]' own flag is z > 0; the two differ only on cells exactly at
 /// grazing (θh + θd = π/2 at φd = 0), whose z is round-off either side of 0: the
-/// threshold makes them missing whatever the round-off (on the MERL grid that is cell
-/// (60, 50, 0); (30, 80, 0) is missing by both rules).
+/// threshold makes them missing whatever the round-off. On the MERL grid these are
+/// cells (30, 80, 0) and (60, 50, 0), both of which the z > 0 flag keeps.
 pub const HORIZON_Z: f64 = 1e-12;
 
 /// What [`Nbrdf::to_table`] did.
@@ -63,6 +63,13 @@ impl Nbrdf {
     /// weights of a sane fit), naming the network.
     pub fn to_table(&self, dims: Dims) -> Result<(MerlTable, ResampleStats), NbrdfError> {
         let slab = dims.theta_d() * dims.phi_d();
+        // (sin, cos) of each grid angle, once per row; the same angles as the cells'.
+        let sc = |n: usize, angle: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
+            (0..n).map(|x| angle(x).sin_cos()).collect()
+        };
+        let th = sc(dims.theta_h(), &|i| dims.cell_angles(i, 0, 0).theta_h);
+        let td = sc(dims.theta_d(), &|j| dims.cell_angles(0, j, 0).theta_d);
+        let pd = sc(dims.phi_d(), &|k| dims.cell_angles(0, 0, k).phi_d);
         let slabs: Vec<(Vec<Option<Rgb>>, ResampleStats)> = (0..dims.theta_h())
             .into_par_iter()
             .map_init(
@@ -70,11 +77,11 @@ impl Nbrdf {
                 |s, i| {
                     let mut xs: Vec<[f64; INPUTS]> = Vec::with_capacity(slab);
                     let mut at: Vec<usize> = Vec::with_capacity(slab);
-                    for j in 0..dims.theta_d() {
-                        for k in 0..dims.phi_d() {
-                            let (c, wi, wo, _) = cell_directions(dims, i, j, k);
+                    for (j, &tdj) in td.iter().enumerate() {
+                        for (k, &pdk) in pd.iter().enumerate() {
+                            let (_, wi, wo, _) = cell_directions(dims, i, j, k);
                             if wi.z > HORIZON_Z && wo.z > HORIZON_Z {
-                                xs.push(input(c.theta_h, c.theta_d, c.phi_d));
+                                xs.push(input_sc(th[i], tdj, pdk));
                                 at.push(k + dims.phi_d() * j);
                             }
                         }
