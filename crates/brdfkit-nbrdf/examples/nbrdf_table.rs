@@ -57,13 +57,14 @@ fn main() -> ExitCode {
         return ExitCode::from(1);
     }
     println!(
-        "{}: {} cells, {} missing ({:.2} %), {} values clamped to 0 in {} cells; resampled in {:.3} s",
+        "{}: {} cells, {} missing ({:.2} %), {} values clamped to 0 in {} cells (most negative {:.3e} /sr); resampled in {:.3} s",
         net.name(),
         st.cells,
         st.missing,
         100.0 * st.missing_fraction(),
         st.clamped_values,
         st.clamped_cells,
+        st.most_negative,
         secs
     );
     ExitCode::SUCCESS

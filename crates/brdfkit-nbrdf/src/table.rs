@@ -17,7 +17,7 @@ use rayon::prelude::*;
 pub const HORIZON_Z: f64 = 1e-12;
 
 /// What [`Nbrdf::to_table`] did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ResampleStats {
     /// Cells of the grid.
     pub cells: usize,
@@ -27,6 +27,9 @@ pub struct ResampleStats {
     pub clamped_values: usize,
     /// Valid cells with at least one clamped channel.
     pub clamped_cells: usize,
+    /// The most negative value clamped, in 1/sr (0 when none was): how far below zero
+    /// the fit went.
+    pub most_negative: f64,
 }
 
 impl ResampleStats {
@@ -44,6 +47,7 @@ impl std::ops::Add for ResampleStats {
             missing: self.missing + o.missing,
             clamped_values: self.clamped_values + o.clamped_values,
             clamped_cells: self.clamped_cells + o.clamped_cells,
+            most_negative: self.most_negative.min(o.most_negative),
         }
     }
 }
@@ -96,6 +100,7 @@ impl Nbrdf {
                     };
                     for (&c, v) in at.iter().zip(&raw) {
                         let neg = v.0.iter().filter(|&&x| x < 0.0).count();
+                        st.most_negative = v.0.iter().fold(st.most_negative, |m, &x| m.min(x));
                         st.clamped_values += neg;
                         st.clamped_cells += usize::from(neg > 0);
                         vals[c] = Some(clamp(*v));

@@ -19,6 +19,7 @@ fn small_grid_mask_and_clamps() {
     let (table, st) = net.to_table(dims).unwrap();
     assert_eq!(st.cells, dims.cells());
     let (mut missing, mut clamped_values, mut clamped_cells) = (0, 0, 0);
+    let mut most_negative = 0.0f64;
     for i in 0..dims.theta_h() {
         for j in 0..dims.theta_d() {
             for k in 0..dims.phi_d() {
@@ -40,6 +41,7 @@ fn small_grid_mask_and_clamps() {
                 let neg = raw.0.iter().filter(|&&x| x < 0.0).count();
                 clamped_values += neg;
                 clamped_cells += usize::from(neg > 0);
+                most_negative = raw.0.iter().fold(most_negative, |m, &x| m.min(x));
                 let want = clamp(raw);
                 let got = got.unwrap_or_else(|| panic!("({i}, {j}, {k}) must be valid"));
                 for ch in 0..3 {
@@ -54,6 +56,7 @@ fn small_grid_mask_and_clamps() {
     assert_eq!(st.missing, missing);
     assert_eq!(st.clamped_values, clamped_values);
     assert_eq!(st.clamped_cells, clamped_cells);
+    assert_eq!(st.most_negative, most_negative);
     assert_eq!(table.valid_count(), dims.cells() - missing);
     // Pinned, so a change of mask or clamp shows: 1,080 cells, 178 below the horizon,
     // one cell with one negative channel.
@@ -127,6 +130,7 @@ fn every_valid_cell_clamped() {
     let (table, st) = net.to_table(small()).unwrap();
     let valid = st.cells - st.missing;
     assert_eq!((st.clamped_cells, st.clamped_values), (valid, valid));
+    assert_eq!(st.most_negative, (-1.0f64).exp_m1());
     let v = table.valid_cells().next().unwrap().value;
     assert_eq!(v.0[0], 0.0);
     assert!((v.0[2] - 0.5f64.exp_m1()).abs() < 1e-15);
