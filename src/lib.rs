@@ -7,6 +7,7 @@
 //!   the [`core::Brdf`] trait and the shared scattering math.
 //! - [`merl`]: the MERL binary table format, lookup and resampling.
 //! - [`models`]: the analytic BRDF models and their JSON contract.
+//! - [`nbrdf`]: neural BRDFs (NBRDF) of measured materials as a source.
 //! - [`fit`]: fitting models to tables (losses, LM, multi-start, the fit record).
 //! - [`synth`]: synthetic materials with known parameters (the `data-synthetic/` specs),
 //!   i.e. [`fit::synth`].
@@ -15,3 +16,4 @@ pub use brdfkit_fit as fit;
 pub use brdfkit_fit::synth;
 pub use brdfkit_merl as merl;
 pub use brdfkit_models as models;
+pub use brdfkit_nbrdf as nbrdf;
