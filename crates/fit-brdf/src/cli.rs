@@ -46,19 +46,24 @@ pub enum Command {
         after_help = "Examples:\n  fit-brdf info gold-metallic-paint.binary\n  fit-brdf info table.binary --json"
     )]
     Info(InfoArgs),
-    /// Evaluate a table or a model at direction pairs read from a CSV file.
+    /// Evaluate a table, a model or a neural BRDF at direction pairs (CSV or .npy).
     #[command(
         after_help = "Examples:\n  fit-brdf eval --table t.binary --dirs pairs.csv --interp linear --out values.csv\n  \
-                            fit-brdf eval --model params.json --dirs pairs.csv\n\n\
+                            fit-brdf eval --model params.json --dirs pairs.csv\n  \
+                            fit-brdf eval --table t.binary --dirs pairs.npy --out values.npy\n  \
+                            fit-brdf eval --nbrdf data-measured/merl/red-fabric --dirs pairs.csv\n\n\
                             IN.csv: header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z then one unit-vector pair per line \
-                            (local frame, z = normal, both pointing away from the surface).\n\
-                            OUT.csv: header r,g,b; f_r without the cosine; empty fields where the table has no valid sample."
+                            (local frame, z = normal, both pointing away from the surface). \
+                            IN.npy: the same six columns as an N×6 float64 array.\n\
+                            OUT.csv: header r,g,b; f_r without the cosine; empty fields where the table has no valid sample. \
+                            OUT.npy: an N×3 float64 array, NaN where the table has no valid sample."
     )]
     Eval(EvalArgs),
-    /// Resample a table onto another grid, or write a model as a table.
+    /// Resample a table onto another grid, or write a model or a neural BRDF as a table.
     #[command(
         after_help = "Examples:\n  fit-brdf resample --table t.binary --dims 45,45,90 --out small.binary\n  \
-                            fit-brdf resample --model params.json --dims 90,90,180 --out model.binary"
+                            fit-brdf resample --model params.json --dims 90,90,180 --out model.binary\n  \
+                            fit-brdf resample --nbrdf data-measured/merl/red-fabric --dims 90,90,180 --out red-fabric.binary"
     )]
     Resample(ResampleArgs),
     /// Generate the table of a synthetic material spec (data-synthetic/*.toml).
@@ -166,7 +171,7 @@ pub struct InfoArgs {
     pub json: bool,
 }
 
-/// Where values come from: a measured table or an analytic model.
+/// Where values come from: a measured table, an analytic model or a neural BRDF.
 #[derive(Args, Debug)]
 #[group(required = true, multiple = false)]
 pub struct Source {
@@ -176,6 +181,10 @@ pub struct Source {
     /// A model as JSON: `{"model": "<name>", "params": {...}}`.
     #[arg(long, value_name = "PARAMS.json")]
     pub model: Option<PathBuf>,
+    /// A neural BRDF (NBRDF) of a measured material: DIR/NAME, the stem of the six files
+    /// NAME_{fc1,b1,fc2,b2,fc3,b3}.npy (docs/measured.md).
+    #[arg(long, value_name = "DIR/NAME")]
+    pub nbrdf: Option<PathBuf>,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -190,14 +199,18 @@ pub enum Interp {
 pub struct EvalArgs {
     #[command(flatten)]
     pub source: Source,
-    /// Direction pairs (CSV with header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z).
-    #[arg(long, value_name = "IN.csv")]
+    /// Direction pairs: a CSV file with the header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z and one
+    /// pair per line, or (by the .npy extension) an N×6 float64 array with the same
+    /// columns. Directions must be unit vectors (within 1e-6).
+    #[arg(long, value_name = "IN.csv|IN.npy")]
     pub dirs: PathBuf,
     /// Table lookup (ignored for models).
     #[arg(long, value_enum, default_value = "nearest")]
     pub interp: Interp,
-    /// Output CSV (default: standard output).
-    #[arg(long, value_name = "OUT.csv")]
+    /// Output: CSV (header r,g,b; empty fields where there is no sample), or by the .npy
+    /// extension an N×3 float64 array (NaN where there is no sample). Default: CSV on
+    /// standard output.
+    #[arg(long, value_name = "OUT.csv|OUT.npy")]
     pub out: Option<PathBuf>,
 }
 

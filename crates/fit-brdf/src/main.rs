@@ -11,6 +11,7 @@ mod cli;
 mod commands;
 mod csvio;
 mod error;
+mod npyio;
 mod output;
 mod progress;
 

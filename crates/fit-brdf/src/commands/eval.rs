@@ -1,29 +1,54 @@
-//! `fit-brdf eval`: a table or a model at the direction pairs of a CSV file.
+//! `fit-brdf eval`: a table, a model or a neural BRDF at direction pairs, CSV or `.npy`
+//! in and out (chosen by extension).
 
-use super::{lookup_mode, read_model, read_table};
+use super::{lookup_mode, read_model, read_nbrdf, read_table};
 use crate::cli::EvalArgs;
-use crate::csvio::{format_rgb, read_pairs};
-use crate::error::CliResult;
-use crate::output::write_text;
-use brdfkit::core::Rgb;
+use crate::csvio::{UNIT_TOLERANCE, format_rgb, read_pairs};
+use crate::error::{CliResult, bad_input, runtime};
+use crate::npyio::{self, is_npy};
+use crate::output::{write_atomic, write_text};
+use brdfkit::core::{Rgb, Vec3};
+use brdfkit::models::raw::eval_dirs_flat;
 use rayon::prelude::*;
 
 pub fn run(a: EvalArgs) -> CliResult<()> {
-    let pairs = read_pairs(&a.dirs)?;
-    let values: Vec<Option<Rgb>> = if let Some(t) = &a.source.table {
-        let table = read_table(t)?;
-        table.lookup_batch(lookup_mode(a.interp), &pairs)
+    // Both sides as flat rows: N×6 directions in, N×3 values out, NaN for no sample.
+    let dirs: Vec<f64> = if is_npy(&a.dirs) {
+        npyio::read_pairs(&a.dirs, UNIT_TOLERANCE).map_err(bad_input)?
     } else {
-        let path = a
-            .source
-            .model
-            .as_ref()
-            .expect("clap requires --table or --model");
-        let model = read_model(path)?;
-        pairs
-            .par_iter()
-            .map(|(wi, wo)| Some(model.eval(wi, wo)))
+        read_pairs(&a.dirs)?
+            .iter()
+            .flat_map(|(wi, wo)| [wi.x, wi.y, wi.z, wo.x, wo.y, wo.z])
             .collect()
     };
-    write_text(a.out.as_deref(), &format_rgb(&values))
+    let mut values = vec![0.0; dirs.len() / 2];
+    if let Some(t) = &a.source.table {
+        read_table(t)?
+            .lookup_flat(lookup_mode(a.interp), &dirs, &mut values)
+            .map_err(runtime)?;
+    } else if let Some(n) = &a.source.nbrdf {
+        let pairs: Vec<(Vec3, Vec3)> = dirs
+            .par_chunks_exact(6)
+            .map(|r| (Vec3::new(r[0], r[1], r[2]), Vec3::new(r[3], r[4], r[5])))
+            .collect();
+        for (o, v) in values
+            .chunks_exact_mut(3)
+            .zip(read_nbrdf(n)?.eval_pairs(&pairs))
+        {
+            o.copy_from_slice(&v.0);
+        }
+    } else {
+        let path = a.source.model.as_ref().expect("clap requires a source");
+        eval_dirs_flat(&*read_model(path)?, &dirs, &mut values).map_err(runtime)?;
+    }
+    match &a.out {
+        Some(p) if is_npy(p) => write_atomic(p, &npyio::values_bytes(&values).map_err(runtime)?),
+        out => {
+            let rows: Vec<Option<Rgb>> = values
+                .chunks_exact(3)
+                .map(|v| (!v[0].is_nan()).then(|| Rgb([v[0], v[1], v[2]])))
+                .collect();
+            write_text(out.as_deref(), &format_rgb(&rows))
+        }
+    }
 }

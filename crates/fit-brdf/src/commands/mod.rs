@@ -81,6 +81,11 @@ pub fn write_table(table: &MerlTable, path: &Path) -> CliResult<()> {
     table.write(path).map_err(|e: MerlError| runtime(e))
 }
 
+/// Loads a neural BRDF (DIR/NAME); every failure is the user's input (exit 2).
+pub fn read_nbrdf(path: &Path) -> CliResult<brdfkit::nbrdf::Nbrdf> {
+    brdfkit::nbrdf::Nbrdf::load(path).map_err(bad_input)
+}
+
 /// Reads a model description (JSON) from a file.
 pub fn read_model(path: &Path) -> CliResult<Box<dyn Model>> {
     let bytes = std::fs::read(path)

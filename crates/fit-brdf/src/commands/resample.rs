@@ -1,20 +1,29 @@
-//! `fit-brdf resample`: a table onto another grid, or a model written as a table.
+//! `fit-brdf resample`: a table onto another grid, or a model or a neural BRDF written
+//! as a table.
 
-use super::{lookup_mode, parse_dims, read_model, read_table, write_table};
+use super::{lookup_mode, parse_dims, read_model, read_nbrdf, read_table, write_table};
 use crate::cli::ResampleArgs;
 use crate::error::{CliResult, runtime};
 use brdfkit::merl::MerlTable;
 
 pub fn run(a: ResampleArgs) -> CliResult<()> {
     let dims = parse_dims(&a.dims)?;
+    let mut note = None;
     let out = if let Some(t) = &a.source.table {
         read_table(t)?.resample(dims, lookup_mode(a.interp))
+    } else if let Some(n) = &a.source.nbrdf {
+        let (table, stats) = read_nbrdf(n)?.to_table(dims).map_err(runtime)?;
+        // The network can dip below zero where the measurement is dark; a table cannot
+        // hold negative values as data (they mean "missing"), so they are clamped to 0:
+        // say how many, and how far below zero they were.
+        note = Some(format!(
+            "{} values in {} cells were negative and are stored as 0 (most negative {:.3e} 1/sr); \
+             {} cells below the horizon are missing",
+            stats.clamped_values, stats.clamped_cells, stats.most_negative, stats.missing
+        ));
+        table
     } else {
-        let path = a
-            .source
-            .model
-            .as_ref()
-            .expect("clap requires --table or --model");
+        let path = a.source.model.as_ref().expect("clap requires a source");
         let model = read_model(path)?;
         MerlTable::from_brdf(&*model, dims).map_err(runtime)?
     };
@@ -30,5 +39,8 @@ pub fn run(a: ResampleArgs) -> CliResult<()> {
         dims.phi_d(),
         100.0 * out.valid_fraction()
     );
+    if let Some(n) = note {
+        eprintln!("{n}");
+    }
     Ok(())
 }

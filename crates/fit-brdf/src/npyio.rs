@@ -1,0 +1,269 @@
+//! The `.npy` contract of `eval`: direction pairs in as an N×6 float64 array (rows
+//! `wi_x wi_y wi_z wo_x wo_y wo_z`), values out as an N×3 float64 array (`r g b`, NaN
+//! where there is no sample). The header is parsed and written by `npyz`; the body is
+//! converted in bulk, since a million pairs are 48 MB that a per-element reader would
+//! spend most of the command's time on.
+
+use npyz::{DType, NpyHeader, Order, TypeChar, TypeStr, WriteOptions, WriterBuilder};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// What is wrong with a `.npy` file of direction pairs.
+#[derive(Debug, Error)]
+pub enum NpyError {
+    /// The file could not be read.
+    #[error("{}: cannot read the directions file: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Not a `.npy` file, or a damaged header.
+    #[error("{}: not a valid .npy file: {source}", path.display())]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What npyz found.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Another dtype than little-endian float64.
+    #[error("{}: dtype '{found}', expected float64 ('<f8'): convert with arr.astype(np.float64)", path.display())]
+    Dtype {
+        /// The file.
+        path: PathBuf,
+        /// The file's dtype descriptor.
+        found: String,
+    },
+    /// Not an N×6 array.
+    #[error("{}: shape {found:?}, expected (N, 6): one row wi_x, wi_y, wi_z, wo_x, wo_y, wo_z per pair", path.display())]
+    Shape {
+        /// The file.
+        path: PathBuf,
+        /// The file's shape.
+        found: Vec<u64>,
+    },
+    /// Fewer or more data bytes than the header's shape.
+    #[error("{}: the header says {rows} rows ({need} bytes of data) but the file holds {got}", path.display())]
+    Length {
+        /// The file.
+        path: PathBuf,
+        /// Rows in the header.
+        rows: u64,
+        /// Data bytes they need.
+        need: u64,
+        /// Data bytes present.
+        got: u64,
+    },
+    /// A row that is not two unit directions.
+    #[error("{}: row {row}: {what}", path.display())]
+    Row {
+        /// The file.
+        path: PathBuf,
+        /// Zero-based row index, as numpy counts.
+        row: usize,
+        /// What is wrong with it.
+        what: String,
+    },
+}
+
+/// Whether `path` names a `.npy` file (by extension, case-insensitive).
+pub fn is_npy(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+}
+
+/// Reads an N×6 float64 array (C or Fortran order) as N rows of six values, and checks
+/// every direction is finite and of unit length within `unit_tol`, as the CSV contract
+/// does (directions are not renormalised behind the user's back).
+pub fn read_pairs(path: &Path, unit_tol: f64) -> Result<Vec<f64>, NpyError> {
+    let bytes = std::fs::read(path).map_err(|source| NpyError::Read {
+        path: path.to_owned(),
+        source,
+    })?;
+    let mut body: &[u8] = &bytes;
+    let header = NpyHeader::from_reader(&mut body).map_err(|source| NpyError::Format {
+        path: path.to_owned(),
+        source,
+    })?;
+    let dtype = header.dtype();
+    // descr() quotes a plain type string: `'<f8'`.
+    let descr = dtype.descr().trim_matches('\'').to_string();
+    let little_f64 = matches!(&dtype, DType::Plain(t)
+        if t.type_char() == TypeChar::Float && t.size_field() == 8 && descr.starts_with('<'));
+    if !little_f64 {
+        return Err(NpyError::Dtype {
+            path: path.to_owned(),
+            found: descr,
+        });
+    }
+    let shape = header.shape().to_vec();
+    if shape.len() != 2 || shape[1] != 6 {
+        return Err(NpyError::Shape {
+            path: path.to_owned(),
+            found: shape,
+        });
+    }
+    let rows = shape[0];
+    let need = rows.saturating_mul(48);
+    if body.len() as u64 != need {
+        return Err(NpyError::Length {
+            path: path.to_owned(),
+            rows,
+            need,
+            got: body.len() as u64,
+        });
+    }
+    let mut v: Vec<f64> = body
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().expect("chunks of 8")))
+        .collect();
+    drop(bytes);
+    if header.order() == Order::Fortran && rows > 1 {
+        let n = rows as usize;
+        let mut c = vec![0.0; v.len()];
+        for (col, column) in v.chunks_exact(n).enumerate() {
+            for (r, &x) in column.iter().enumerate() {
+                c[r * 6 + col] = x;
+            }
+        }
+        v = c;
+    }
+    check_rows(&v, unit_tol).map_err(|(row, what)| NpyError::Row {
+        path: path.to_owned(),
+        row,
+        what,
+    })?;
+    Ok(v)
+}
+
+/// The first row that is not two finite directions of unit length.
+fn check_rows(v: &[f64], tol: f64) -> Result<(), (usize, String)> {
+    let bad = v.chunks_exact(6).position(|r| {
+        let ni = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+        let no = r[3] * r[3] + r[4] * r[4] + r[5] * r[5];
+        // Written as a negated "good" test so NaN lands on the bad side.
+        !((ni.sqrt() - 1.0).abs() <= tol && (no.sqrt() - 1.0).abs() <= tol)
+    });
+    match bad {
+        None => Ok(()),
+        Some(k) => {
+            let r = &v[6 * k..6 * k + 6];
+            let what = if r.iter().any(|x| !x.is_finite()) {
+                format!("non-finite value in {r:?}")
+            } else {
+                let ni = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+                let no = (r[3] * r[3] + r[4] * r[4] + r[5] * r[5]).sqrt();
+                format!("|wi| = {ni}, |wo| = {no}: directions must be unit vectors (within {tol})")
+            };
+            Err((k, what))
+        }
+    }
+}
+
+/// The bytes of an N×3 float64 `.npy` file holding `values` (r, g, b per row).
+pub fn values_bytes(values: &[f64]) -> std::io::Result<Vec<u8>> {
+    debug_assert_eq!(values.len() % 3, 0);
+    let rows = (values.len() / 3) as u64;
+    let f8: TypeStr = "<f8".parse().expect("a valid type string");
+    let mut out = WriteOptions::new_header_only()
+        .dtype(DType::Plain(f8))
+        .shape(&[rows, 3])
+        .writer(Vec::with_capacity(128 + values.len() * 8))
+        .write_header_only()?;
+    for x in values {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn npy(dtype: &str, shape: &str, body: &[u8]) -> Vec<u8> {
+        let mut h = format!("{{'descr': '{dtype}', 'fortran_order': False, 'shape': {shape}, }}");
+        while (10 + h.len() + 1) % 64 != 0 {
+            h.push(' ');
+        }
+        h.push('\n');
+        let mut v = b"\x93NUMPY\x01\x00".to_vec();
+        v.extend_from_slice(&(h.len() as u16).to_le_bytes());
+        v.extend_from_slice(h.as_bytes());
+        v.extend_from_slice(body);
+        v
+    }
+
+    fn f64s(x: &[f64]) -> Vec<u8> {
+        x.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    }
+
+    #[test]
+    fn reads_rows_and_writes_values_that_numpy_layout_expects() {
+        let d = tempfile::tempdir().unwrap();
+        let rows = [0.0, 0.0, 1.0, 0.6, 0.0, 0.8, 0.8, 0.0, 0.6, 0.0, 0.0, 1.0];
+        let p = write(d.path(), "p.npy", &npy("<f8", "(2, 6)", &f64s(&rows)));
+        assert_eq!(read_pairs(&p, 1e-6).unwrap(), rows);
+        let out = values_bytes(&[1.0, 2.0, f64::NAN, 4.0, 5.0, 6.0]).unwrap();
+        let mut body: &[u8] = &out;
+        let h = NpyHeader::from_reader(&mut body).unwrap();
+        assert_eq!(h.shape(), &[2, 3]);
+        assert_eq!(h.dtype().descr(), "'<f8'");
+        assert_eq!(body.len(), 48);
+        assert!(f64::from_le_bytes(body[16..24].try_into().unwrap()).is_nan());
+    }
+
+    #[test]
+    fn fortran_order_is_transposed() {
+        let d = tempfile::tempdir().unwrap();
+        let c = [0.0, 0.0, 1.0, 0.6, 0.0, 0.8, 0.8, 0.0, 0.6, 0.0, 0.0, 1.0];
+        let mut f = [0.0; 12];
+        for r in 0..2 {
+            for k in 0..6 {
+                f[k * 2 + r] = c[r * 6 + k];
+            }
+        }
+        let mut bytes = npy("<f8", "(2, 6)", &f64s(&f));
+        let at = bytes.windows(5).position(|w| w == b"False").unwrap();
+        bytes[at..at + 5].copy_from_slice(b"True ");
+        let p = write(d.path(), "f.npy", &bytes);
+        assert_eq!(read_pairs(&p, 1e-6).unwrap(), c);
+    }
+
+    #[test]
+    fn bad_files_get_typed_errors_naming_the_file() {
+        let d = tempfile::tempdir().unwrap();
+        let one = f64s(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]);
+        let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+            ("text.npy", b"wi_x,wi_y\n".to_vec(), "not a valid .npy"),
+            ("f32.npy", npy("<f4", "(1, 6)", &[0u8; 24]), "dtype '<f4'"),
+            ("shape.npy", npy("<f8", "(2, 3)", &one), "shape [2, 3]"),
+            ("short.npy", npy("<f8", "(2, 6)", &one), "holds 48"),
+            (
+                "long.npy",
+                npy("<f8", "(1, 6)", &f64s(&[0.0, 0.0, 2.0, 0.0, 0.0, 1.0])),
+                "row 0: |wi| = 2",
+            ),
+            (
+                "nan.npy",
+                npy("<f8", "(1, 6)", &f64s(&[f64::NAN, 0.0, 1.0, 0.0, 0.0, 1.0])),
+                "row 0: non-finite",
+            ),
+        ];
+        for (name, bytes, want) in cases {
+            let p = write(d.path(), name, &bytes);
+            let e = read_pairs(&p, 1e-6).unwrap_err().to_string();
+            assert!(e.contains(name) && e.contains(want), "{name}: {e}");
+        }
+        let e = read_pairs(&d.path().join("none.npy"), 1e-6).unwrap_err();
+        assert!(matches!(e, NpyError::Read { .. }), "{e}");
+    }
+}
