@@ -2,7 +2,7 @@
 //! [`LANES`] pairs), and the [`Brdf`] implementation.
 
 use crate::error::NbrdfError;
-use crate::npy::{ArrayF32, read_f32};
+use crate::npy::{ArrayF32, parse_f32, read_f32};
 use brdfkit_core::{Brdf, Rgb, Vec3, to_half_diff};
 use rayon::prelude::*;
 use std::ffi::OsString;
@@ -165,26 +165,46 @@ impl Nbrdf {
     /// [`PARTS`] order is reported.
     pub fn load(dir_and_stem: &Path) -> Result<Nbrdf, NbrdfError> {
         let name = Self::stem(dir_and_stem)?;
-        let [f1, fb1, f2, fb2, f3, fb3] = Self::files(dir_and_stem)?;
-        let fc1 = read_f32(&f1)?;
-        let (_, h1) = matrix(&fc1, &f1, Some(INPUTS), None, "fc1: 6 inputs")?;
-        let b1 = read_f32(&fb1)?;
-        vector(&b1, &fb1, h1, "the width of fc1")?;
-        let fc2 = read_f32(&f2)?;
-        let (_, h2) = matrix(&fc2, &f2, Some(h1), None, "the width of fc1")?;
-        let b2 = read_f32(&fb2)?;
-        vector(&b2, &fb2, h2, "the width of fc2")?;
-        let fc3 = read_f32(&f3)?;
-        matrix(&fc3, &f3, Some(h2), Some(3), "the width of fc2, 3 channels")?;
-        let b3 = read_f32(&fb3)?;
-        vector(&b3, &fb3, 3, "3 channels")?;
+        let files = Self::files(dir_and_stem)?;
+        Self::from_parts(name, &files, read_f32)
+    }
+
+    /// An NBRDF from the bytes of its six `.npy` files held in memory (in [`PARTS`]
+    /// order), e.g. embedded in a binary with `include_bytes!`. The same checks as
+    /// [`load`](Self::load); errors name `(embedded) <name>_<part>.npy`.
+    pub fn from_npy_bytes(name: &str, parts: [&[u8]; 6]) -> Result<Nbrdf, NbrdfError> {
+        let files = PARTS.map(|p| PathBuf::from(format!("(embedded) {name}_{p}.npy")));
+        Self::from_parts(name.to_owned(), &files, |p| {
+            let k = files.iter().position(|f| f == p).expect("one of the six");
+            parse_f32(parts[k], p)
+        })
+    }
+
+    fn from_parts(
+        name: String,
+        files: &[PathBuf; 6],
+        read: impl Fn(&Path) -> Result<ArrayF32, NbrdfError>,
+    ) -> Result<Nbrdf, NbrdfError> {
+        let [f1, fb1, f2, fb2, f3, fb3] = files;
+        let fc1 = read(f1)?;
+        let (_, h1) = matrix(&fc1, f1, Some(INPUTS), None, "fc1: 6 inputs")?;
+        let b1 = read(fb1)?;
+        vector(&b1, fb1, h1, "the width of fc1")?;
+        let fc2 = read(f2)?;
+        let (_, h2) = matrix(&fc2, f2, Some(h1), None, "the width of fc1")?;
+        let b2 = read(fb2)?;
+        vector(&b2, fb2, h2, "the width of fc2")?;
+        let fc3 = read(f3)?;
+        matrix(&fc3, f3, Some(h2), Some(3), "the width of fc2, 3 channels")?;
+        let b3 = read(fb3)?;
+        vector(&b3, fb3, 3, "3 channels")?;
         for (a, p) in [
-            (&fc1, &f1),
-            (&b1, &fb1),
-            (&fc2, &f2),
-            (&b2, &fb2),
-            (&fc3, &f3),
-            (&b3, &fb3),
+            (&fc1, f1),
+            (&b1, fb1),
+            (&fc2, f2),
+            (&b2, fb2),
+            (&fc3, f3),
+            (&b3, fb3),
         ] {
             finite(a, p)?;
         }

@@ -34,11 +34,17 @@ pub fn read_f32(path: &Path) -> Result<ArrayF32, NbrdfError> {
             }
         }
     })?;
+    parse_f32(&bytes, path)
+}
+
+/// [`read_f32`] of a file's bytes already in memory (an embedded file); `path` names it
+/// in errors.
+pub fn parse_f32(bytes: &[u8], path: &Path) -> Result<ArrayF32, NbrdfError> {
     let format = |source| NbrdfError::Format {
         path: path.to_owned(),
         source,
     };
-    let npy = NpyFile::new(&bytes[..]).map_err(format)?;
+    let npy = NpyFile::new(bytes).map_err(format)?;
     let dtype = npy.dtype();
     let is_f32 = matches!(&dtype, DType::Plain(t)
         if t.type_char() == TypeChar::Float && t.size_field() == 4);

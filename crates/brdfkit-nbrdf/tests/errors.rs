@@ -263,3 +263,28 @@ fn other_widths_and_layouts() {
         }
     }
 }
+
+#[test]
+fn embedded_bytes_give_the_same_network_as_the_files() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data-measured/merl");
+    let read = |p: &str| std::fs::read(dir.join(format!("pink-fabric_{p}.npy"))).unwrap();
+    let parts = brdfkit_nbrdf::PARTS.map(read);
+    let from_bytes =
+        brdfkit_nbrdf::Nbrdf::from_npy_bytes("pink-fabric", parts.each_ref().map(|v| &v[..]))
+            .unwrap();
+    let from_files = brdfkit_nbrdf::Nbrdf::load(&dir.join("pink-fabric")).unwrap();
+    for t in [[0.1, 0.2, 0.3], [1.0, 0.5, 2.0], [0.01, 1.4, 0.0]] {
+        assert_eq!(
+            from_bytes.raw(t[0], t[1], t[2]),
+            from_files.raw(t[0], t[1], t[2])
+        );
+    }
+    assert_eq!(from_bytes.name(), "pink-fabric");
+    // A damaged embedded part is named as such.
+    let mut bad = parts.clone();
+    bad[2].truncate(20);
+    let e = brdfkit_nbrdf::Nbrdf::from_npy_bytes("pink-fabric", bad.each_ref().map(|v| &v[..]))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("(embedded) pink-fabric_fc2.npy"), "{e}");
+}

@@ -438,6 +438,10 @@ pub struct DemoArgs {
     /// Directory for the demo's outputs.
     #[arg(long, default_value = "brdfkit-demo")]
     pub out: PathBuf,
+    /// Run on the synthetic red plastic with known parameters (data-synthetic/
+    /// demo-plastic.toml) instead of the measured specular-red-phenolic.
+    #[arg(long)]
+    pub synthetic: bool,
 }
 
 #[derive(Args, Debug)]

@@ -283,37 +283,3 @@ fn write_failures_exit_1_and_leave_no_partial_report() {
     c.assert().success();
     assert_eq!(names(&out), ["index.html", "report.json"]);
 }
-
-#[test]
-fn demo_runs_the_whole_job_and_writes_the_report() {
-    let d = tempfile::tempdir().unwrap();
-    let out = d.path().join("demo");
-    let o = bin().arg("demo").arg("--out").arg(&out).output().unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
-    let s = String::from_utf8(o.stdout).unwrap();
-    // The steps, in order: the round trip, the fits, the report and where it is.
-    let at = |needle: &str| {
-        s.find(needle)
-            .unwrap_or_else(|| panic!("no `{needle}` in\n{s}"))
-    };
-    assert!(at("identical to what was written") < at("fitting 5 model families"));
-    assert!(at("optimised: cbrt") < at("report written"));
-    let page = out.join("report").join("index.html");
-    assert!(s.contains(&page.display().to_string()), "{s}");
-    assert_eq!(names(&out.join("report")), ["index.html", "report.json"]);
-    let json: Value = serde_json::from_str(
-        &std::fs::read_to_string(out.join("report").join("report.json")).unwrap(),
-    )
-    .unwrap();
-    let models = json["summary"]["models"].as_array().unwrap();
-    assert_eq!(models.len(), 5);
-    assert_eq!(
-        json["summary"]["table"]["dims"],
-        serde_json::json!([90, 90, 180])
-    );
-    // The embedded material is a cook-torrance: its family fits it exactly.
-    assert_eq!(models[4]["label"], "cook-torrance");
-    assert!(models[4]["losses"]["cbrt"]["overall"].as_f64().unwrap() < 1e-6);
-    let html = std::fs::read_to_string(&page).unwrap();
-    assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 22);
-}

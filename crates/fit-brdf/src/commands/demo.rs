@@ -1,14 +1,18 @@
 //! `fit-brdf demo`: the whole job on an embedded material, with no downloaded data and
 //! no network.
 //!
-//! 1. synthesise the embedded spec (a red plastic on the MERL grid), write the table,
-//!    read it back and check it is bit-identical, print its statistics and compare
-//!    table lookups with the analytic truth;
+//! 1. tabulate the embedded material on the MERL grid: by default a measured one (the
+//!    neural proxy of MERL's specular-red-phenolic, `data-measured/`), which no analytic
+//!    model fits exactly, so the report shows what each model gets right and wrong;
+//!    with `--synthetic` the synthetic red plastic with known parameters. Write the
+//!    table, read it back and check it is bit-identical, print its statistics and
+//!    compare table lookups with the material itself;
 //! 2. fit the five model families of the report (lambert, plausible-phong, ward,
 //!    lafortune, cook-torrance) with the demo's fit settings ([`demo_config`]);
 //! 3. write the fit-quality report (OUT/report/index.html and report.json) and say
 //!    where it is.
 
+use super::demo_material::{Material, material};
 use super::report::{make_report, write_report};
 use super::{read_table, write_table};
 use crate::cli::DemoArgs;
@@ -18,7 +22,6 @@ use anyhow::Context;
 use brdfkit::core::direction::spherical;
 use brdfkit::fit::families::{REPORT_MODELS, Structure, comparison_text, families, fit_each};
 use brdfkit::fit::{FitConfig, FitData};
-use brdfkit::synth::SynthSpec;
 use brdfkit_validate::html::ReportOptions;
 
 /// The demo's fit settings: the `cbrt` loss with solid-angle weights and LM (the
@@ -33,22 +36,22 @@ pub fn demo_config() -> CliResult<FitConfig> {
         .map_err(runtime)
 }
 
-/// The embedded default material.
-pub const DEMO_SPEC: &str = include_str!("../../../../data-synthetic/demo-plastic.toml");
-
 pub fn run(a: DemoArgs) -> CliResult<()> {
-    let spec =
-        SynthSpec::from_toml_str(DEMO_SPEC, "embedded demo-plastic.toml").map_err(runtime)?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("{}: cannot create the output directory", a.out.display()))
         .map_err(runtime)?;
-    println!("brdfkit demo: {} — {}", spec.name, spec.description);
     let t0 = std::time::Instant::now();
-    let table = spec.synthesize().map_err(runtime)?;
-    let path = a.out.join(format!("{}.binary", spec.name));
+    let Material {
+        name: mat,
+        about,
+        table,
+        truth,
+    } = material(a.synthetic)?;
+    println!("brdfkit demo: {mat} — {about}");
+    let path = a.out.join(format!("{mat}.binary"));
     write_table(&table, &path)?;
     println!(
-        "synthesised and wrote {} in {:.2} s",
+        "tabulated and wrote {} in {:.2} s",
         path.display(),
         t0.elapsed().as_secs_f64()
     );
@@ -64,7 +67,7 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
         "{}",
         super::info::format_stats(&path.display().to_string(), &back.stats())
     );
-    println!("\nlookups against the analytic truth (f_r in 1/sr, red channel):");
+    println!("\nlookups against the material itself (f_r in 1/sr, red channel):");
     println!("  θi     θo     Δφ      truth          nearest        interpolated");
     for &(ti, to, dphi) in &[
         (0.0, 0.0, 0.0),
@@ -75,7 +78,7 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
     ] {
         let wi = spherical(f64::to_radians(ti), 0.0);
         let wo = spherical(f64::to_radians(to), f64::to_radians(dphi));
-        let truth = spec.truth(&wi, &wo).r();
+        let truth = truth(&wi, &wo).r();
         let fmt = |v: Option<brdfkit::core::Rgb>| {
             v.map_or("missing".to_string(), |c| format!("{:.6e}", c.r()))
         };
@@ -108,7 +111,7 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
 
     // 3. The report.
     let options = ReportOptions {
-        title: format!("brdfkit demo: {}", spec.name),
+        title: format!("brdfkit demo: {mat}"),
         ..ReportOptions::default()
     };
     let name = path

@@ -4,6 +4,7 @@ mod batch;
 mod check;
 mod completions;
 mod demo;
+mod demo_material;
 mod eval;
 mod export;
 mod fit;
