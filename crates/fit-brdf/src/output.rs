@@ -18,6 +18,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> CliResult<()> {
     atomic::write_bytes(path, bytes).map_err(write_failed)
 }
 
+/// Writes `path` atomically through `fill`.
+pub fn write_file(
+    path: &Path,
+    fill: impl FnOnce(&mut std::fs::File) -> std::io::Result<()>,
+) -> CliResult<()> {
+    atomic::write_file(path, fill).map_err(write_failed)
+}
+
 /// Writes text to `path` atomically, or to stdout when `path` is None.
 pub fn write_text(path: Option<&Path>, text: &str) -> CliResult<()> {
     match path {

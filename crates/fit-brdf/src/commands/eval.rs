@@ -6,7 +6,7 @@ use crate::cli::EvalArgs;
 use crate::csvio::{UNIT_TOLERANCE, format_rgb, read_pairs};
 use crate::error::{CliResult, bad_input, runtime};
 use crate::npyio::{self, is_npy};
-use crate::output::{write_atomic, write_text};
+use crate::output::{write_file, write_text};
 use brdfkit::core::{Rgb, Vec3};
 use brdfkit::models::raw::eval_dirs_flat;
 use rayon::prelude::*;
@@ -42,7 +42,7 @@ pub fn run(a: EvalArgs) -> CliResult<()> {
         eval_dirs_flat(&*read_model(path)?, &dirs, &mut values).map_err(runtime)?;
     }
     match &a.out {
-        Some(p) if is_npy(p) => write_atomic(p, &npyio::values_bytes(&values).map_err(runtime)?),
+        Some(p) if is_npy(p) => write_file(p, |f| npyio::write_values(f, &values)),
         out => {
             let rows: Vec<Option<Rgb>> = values
                 .chunks_exact(3)
