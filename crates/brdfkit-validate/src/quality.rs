@@ -246,92 +246,150 @@ fn check_edges(option: &'static str, e: &[f64]) -> Result<(), QualityError> {
     }
 }
 
-/// The losses of the cells whose `angle` (radians) lies in each band.
+/// The losses of the cells whose `angle` (radians) lies in each band, for every model
+/// (outer: model, inner: band). Each band's cells are gathered once and scored for
+/// every model before the next band is gathered: one band's copy at a time.
 fn bands(
-    models: [&dyn Model; 3],
+    models: &[[&dyn Model; 3]],
     data: &FitData,
     angle: &[f64],
     edges: &[f64],
     w: Weighting,
-) -> Vec<Band> {
+) -> Vec<Vec<Band>> {
     let last = edges.len() - 2;
-    edges
-        .windows(2)
-        .enumerate()
-        .map(|(b, e)| {
-            let (lo, hi) = (e[0], e[1]);
-            // The last band is closed, and takes the round-off above 90° (θ computed by
-            // acos of a dot product) too.
-            let sub = data.filter(|m| angle[m] >= lo && (angle[m] < hi || b == last));
-            Band {
+    let mut out: Vec<Vec<Band>> = models.iter().map(|_| Vec::new()).collect();
+    for (b, e) in edges.windows(2).enumerate() {
+        let (lo, hi) = (e[0], e[1]);
+        // The last band is closed, and takes the round-off above 90° (θ computed by
+        // acos of a dot product) too.
+        let sub = data.filter(|m| angle[m] >= lo && (angle[m] < hi || b == last));
+        for (bands, ms) in out.iter_mut().zip(models) {
+            bands.push(Band {
                 lo,
                 hi,
                 cells: sub.len(),
-                losses: (!sub.is_empty()).then(|| evaluate_losses(models, &sub, w)),
-            }
-        })
-        .collect()
+                losses: (!sub.is_empty()).then(|| evaluate_losses(*ms, &sub, w)),
+            });
+        }
+    }
+    out
 }
 
-/// Nearest-rank percentiles of `v` (sorted in place); `None` when empty.
+/// Nearest-rank percentiles of `v` (reordered in place); `None` when empty.
+///
+/// The ⌈p·n/100⌉-th smallest value, by selection (O(n)) rather than a full sort: the
+/// 99th first, then the 90th among the values left of it, then the 50th; in the
+/// `total_cmp` order the k-th smallest is one value whatever the algorithm, so the
+/// result is the sort's to the bit.
 fn percentiles(v: &mut [f64]) -> Option<Percentiles> {
     if v.is_empty() {
         return None;
     }
-    v.par_sort_unstable_by(f64::total_cmp);
     let n = v.len();
-    let at = |p: f64| v[((p / 100.0 * n as f64).ceil() as usize).clamp(1, n) - 1];
-    Some(Percentiles {
-        p50: at(50.0),
-        p90: at(90.0),
-        p99: at(99.0),
-    })
+    let rank = |p: f64| ((p / 100.0 * n as f64).ceil() as usize).clamp(1, n) - 1;
+    let (r50, r90, r99) = (rank(50.0), rank(90.0), rank(99.0));
+    let (left, p99, _) = v.select_nth_unstable_by(r99, f64::total_cmp);
+    let p99 = *p99;
+    // `left` holds the r99 smallest values: ranks below r99 are found among them.
+    let (p90, left) = if r90 == r99 {
+        (p99, &mut left[..])
+    } else {
+        let (l, x, _) = left.select_nth_unstable_by(r90, f64::total_cmp);
+        (*x, l)
+    };
+    let p50 = if r50 == r90 {
+        p90
+    } else {
+        *left.select_nth_unstable_by(r50, f64::total_cmp).1
+    };
+    Some(Percentiles { p50, p90, p99 })
 }
 
-/// The fitted models' values at every cell: plane c from model c.
-fn model_values(models: [&dyn Model; 3], data: &FitData) -> [Vec<f64>; 3] {
-    const CHUNK: usize = 4096;
+/// Cells per chunk of the evaluations below: a few `Rgb` buffers of this size per
+/// thread instead of full-length planes.
+const CHUNK: usize = 4096;
+
+/// The relative errors |f − f̂| / f̂ of every cell channel measured above 0, channel
+/// after channel in one array (channel c in `out[ranges[c]]`), and the count of cell
+/// channels measured as exactly 0. Evaluated in chunks straight into the one array (the
+/// chunks' offsets are counted first from the measurements), so the only full-length
+/// allocation is the result.
+fn relative_error_values(
+    models: [&dyn Model; 3],
+    data: &FitData,
+) -> (Vec<f64>, [std::ops::Range<usize>; 3], usize) {
     let n = data.len();
-    let g = data.geometry();
-    let mut planes = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-    for (c, plane) in planes.iter_mut().enumerate() {
-        plane
-            .par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(k, out)| {
-                let s = k * CHUNK;
-                let mut buf = vec![Rgb::ZERO; out.len()];
-                models[c].eval_batch(&g.slice(s..s + out.len()), &mut buf);
-                for (o, v) in out.iter_mut().zip(&buf) {
-                    *o = v[c];
-                }
-            });
+    let vals = data.values();
+    let nchunks = n.div_ceil(CHUNK);
+    let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
+    // Positive measurements per (channel, chunk): the chunks' places in the output.
+    let counts: Vec<[usize; 3]> = (0..nchunks)
+        .into_par_iter()
+        .map(|k| {
+            let r = k * CHUNK..((k + 1) * CHUNK).min(n);
+            [0, 1, 2].map(|c| vals[c][r.clone()].iter().filter(|m| **m > 0.0).count())
+        })
+        .collect();
+    let totals = [0, 1, 2].map(|c| counts.iter().map(|k| k[c]).sum::<usize>());
+    let zero = (0..3)
+        .map(|c| vals[c].iter().filter(|m| **m == 0.0).count())
+        .sum();
+    let mut out = vec![0.0; totals.iter().sum()];
+    let ranges = [
+        0..totals[0],
+        totals[0]..totals[0] + totals[1],
+        totals[0] + totals[1]..out.len(),
+    ];
+    // Split the output into one (R, G, B) triple of slices per chunk.
+    let mut pieces: Vec<[&mut [f64]; 3]> = Vec::with_capacity(nchunks);
+    {
+        let (r, rest) = out.split_at_mut(totals[0]);
+        let (g, b) = rest.split_at_mut(totals[1]);
+        let mut planes = [r, g, b];
+        for k in &counts {
+            let [r, g, b] = planes;
+            let (r0, r1) = r.split_at_mut(k[0]);
+            let (g0, g1) = g.split_at_mut(k[1]);
+            let (b0, b1) = b.split_at_mut(k[2]);
+            pieces.push([r0, g0, b0]);
+            planes = [r1, g1, b1];
+        }
     }
-    planes
+    let g = data.geometry();
+    pieces.into_par_iter().enumerate().for_each_init(
+        || vec![Rgb::ZERO; CHUNK],
+        |buf, (k, dst)| {
+            let s = k * CHUNK;
+            let e = (s + CHUNK).min(n);
+            let gs = g.slice(s..e);
+            let buf = &mut buf[..e - s];
+            for (c, dst) in dst.into_iter().enumerate() {
+                if c == 0 || !same {
+                    models[c].eval_batch(&gs, buf);
+                }
+                let mut o = 0;
+                for (f, &m) in buf.iter().zip(&vals[c][s..e]) {
+                    if m > 0.0 {
+                        dst[o] = (f[c] - m).abs() / m;
+                        o += 1;
+                    }
+                }
+                debug_assert_eq!(o, dst.len());
+            }
+        },
+    );
+    (out, ranges, zero)
 }
 
 fn relative_errors(models: [&dyn Model; 3], data: &FitData) -> RelativeErrors {
-    let f = model_values(models, data);
-    let mut zero = 0;
-    let mut per: [Vec<f64>; 3] = Default::default();
-    for c in 0..3 {
-        let meas = &data.values()[c];
-        per[c] = f[c]
-            .iter()
-            .zip(meas)
-            .filter(|&(_, &m)| m > 0.0)
-            .map(|(&a, &m)| (a - m).abs() / m)
-            .collect();
-        zero += meas.iter().filter(|m| **m == 0.0).count();
-    }
-    let mut pooled: Vec<f64> = per.iter().flatten().copied().collect();
-    let samples = pooled.len();
-    let overall = percentiles(&mut pooled);
-    let [a, b, c] = &mut per;
+    let (mut all, ranges, zero) = relative_error_values(models, data);
+    let channels = ranges.map(|r| percentiles(&mut all[r]));
+    // Selection within a channel only reorders that channel's values: the pool is the
+    // same multiset.
     RelativeErrors {
-        channels: [percentiles(a), percentiles(b), percentiles(c)],
-        overall,
-        samples,
+        channels,
+        samples: all.len(),
+        overall: percentiles(&mut all),
         zero_measured: zero,
     }
 }
@@ -462,36 +520,64 @@ pub fn fit_quality_with(
     check_edges("theta_h_bands", &o.theta_h_bands)?;
     check_edges("theta_d_bands", &o.theta_d_bands)?;
     let data = FitData::from_table(table)?;
-    let models = models_of(fitted);
-    let losses = evaluate_losses(models, &data, o.weighting);
-    let theta_h_bands = bands(models, &data, data.theta_h(), &o.theta_h_bands, o.weighting);
-    let theta_d_bands = bands(models, &data, data.theta_d(), &o.theta_d_bands, o.weighting);
-    let relative_error = relative_errors(models, &data);
-    let albedo = albedo_comparison(models, table, &o.albedo_thetas);
-    let held_out = match &o.held_out {
-        Some(h) => {
-            let family = brdfkit_models::from_json(&h.family)?;
-            Some(held_out(
-                family.as_ref(),
-                &data,
-                &h.config,
-                h.train_fraction,
-                h.seed,
-            )?)
-        }
-        None => None,
-    };
-    Ok(QualityReport {
-        model: fitted.to_json(),
-        weighting: o.weighting,
-        cells: data.len(),
-        losses,
-        theta_h_bands,
-        theta_d_bands,
-        relative_error,
-        albedo,
-        held_out,
-    })
+    let mut r = fit_quality_of(table, &data, &[(fitted, None)], o)?;
+    Ok(r.remove(0))
+}
+
+/// Fit quality of several fitted models against one table, on its cells `data`
+/// ([`FitData::from_table`] of `table`, built once by the caller and shared by every
+/// model). A model may come with its losses over exactly these cells under
+/// `o.weighting` (the fit's record has them: [`brdfkit_fit::FitRecord::losses_full`]);
+/// they are then used as they are instead of being evaluated again.
+pub(crate) fn fit_quality_of(
+    table: &MerlTable,
+    data: &FitData,
+    fits: &[(&Fitted, Option<&LossReport>)],
+    o: &QualityOptions,
+) -> Result<Vec<QualityReport>, QualityError> {
+    check_edges("theta_h_bands", &o.theta_h_bands)?;
+    check_edges("theta_d_bands", &o.theta_d_bands)?;
+    let models: Vec<[&dyn Model; 3]> = fits.iter().map(|(f, _)| models_of(f)).collect();
+    let theta_h_bands = bands(&models, data, data.theta_h(), &o.theta_h_bands, o.weighting);
+    let theta_d_bands = bands(&models, data, data.theta_d(), &o.theta_d_bands, o.weighting);
+    fits.iter()
+        .zip(models)
+        .zip(theta_h_bands.into_iter().zip(theta_d_bands))
+        .map(
+            |(((fitted, known), models), (theta_h_bands, theta_d_bands))| {
+                let losses = match known {
+                    Some(l) => **l,
+                    None => evaluate_losses(models, data, o.weighting),
+                };
+                let relative_error = relative_errors(models, data);
+                let albedo = albedo_comparison(models, table, &o.albedo_thetas);
+                let held_out = match &o.held_out {
+                    Some(h) => {
+                        let family = brdfkit_models::from_json(&h.family)?;
+                        Some(held_out(
+                            family.as_ref(),
+                            data,
+                            &h.config,
+                            h.train_fraction,
+                            h.seed,
+                        )?)
+                    }
+                    None => None,
+                };
+                Ok(QualityReport {
+                    model: fitted.to_json(),
+                    weighting: o.weighting,
+                    cells: data.len(),
+                    losses,
+                    theta_h_bands,
+                    theta_d_bands,
+                    relative_error,
+                    albedo,
+                    held_out,
+                })
+            },
+        )
+        .collect()
 }
 
 fn loss_row(l: &LossReport, loss: Loss) -> String {
