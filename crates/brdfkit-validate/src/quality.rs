@@ -942,8 +942,8 @@ mod tests {
                 let pooled: Vec<f64> = per.iter().flatten().copied().collect();
                 assert_eq!(r.samples, pooled.len());
                 assert_eq!(r.overall, sorted_percentiles(&pooled));
-                for c in 0..3 {
-                    assert_eq!(r.channels[c], sorted_percentiles(&per[c]));
+                for (got, v) in r.channels.iter().zip(&per) {
+                    assert_eq!(*got, sorted_percentiles(v));
                 }
             }
         }

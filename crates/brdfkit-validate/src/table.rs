@@ -585,7 +585,7 @@ mod tests {
         // Holes in the table, so the indicator is not 1 wherever a direction is up.
         let t = MerlTable::from_fn(dims, |i, j, k| {
             let (_, _, _, up) = cell_directions(dims, i, j, k);
-            (up && (i + j + k) % 7 != 0).then(|| Rgb([0.1 + i as f64 * 0.01, 0.2, 0.3]))
+            (up && (i + j + k) % 7 != 0).then_some(Rgb([0.1 + i as f64 * 0.01, 0.2, 0.3]))
         })
         .unwrap();
         let mut holes = false;

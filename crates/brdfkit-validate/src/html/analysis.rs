@@ -167,12 +167,11 @@ pub(crate) fn residual_map(
                 }
             }
             let mut acc = vec![(0.0, 0, 0); nd];
-            let mut q = 0;
-            for (x, _) in mask[i * slab..(i + 1) * slab]
+            let cells = mask[i * slab..(i + 1) * slab]
                 .iter()
                 .enumerate()
-                .filter(|(_, v)| **v)
-            {
+                .filter(|(_, v)| **v);
+            for (q, (x, _)) in cells.enumerate() {
                 let a = &mut acc[x / np];
                 for c in 0..3 {
                     let meas = vals[c][s + q];
@@ -187,7 +186,6 @@ pub(crate) fn residual_map(
                         a.1 += 1;
                     }
                 }
-                q += 1;
             }
             acc
         })
