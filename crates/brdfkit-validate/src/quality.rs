@@ -392,7 +392,6 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
     let vals = data.values();
     let measure = data.measure();
     let g = data.geometry();
-    let (th, td) = (data.theta_h(), data.theta_d());
     let nblocks = n.div_ceil(BLOCK);
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
     let weight = |m: usize| match o.weighting {
@@ -453,7 +452,7 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
         }
         // In parallel: each block's loss differences d[cell][loss][channel] (and its
         // relative errors, into their places).
-        let diffs: Vec<(usize, Vec<f64>)> = window
+        let diffs: Vec<(usize, Vec<f64>, Vec<[Option<usize>; 2]>)> = window
             .into_par_iter()
             .map(|(k, dst)| {
                 let s = k * BLOCK;
@@ -475,6 +474,17 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
                         }
                     }
                 }
+                // The cells' bands, from θ = acos(z) as `FitData::theta_h` / `theta_d`
+                // compute it (no full-length angle arrays).
+                let theta = |z: f64| z.clamp(-1.0, 1.0).acos();
+                let bands: Vec<[Option<usize>; 2]> = (s..e)
+                    .map(|m| {
+                        [
+                            band_of(&o.theta_h_bands, theta(g.h_z[m])),
+                            band_of(&o.theta_d_bands, theta(g.cos_d[m])),
+                        ]
+                    })
+                    .collect();
                 let mut d = vec![0.0; len * 12];
                 for (c, dst) in dst.into_iter().enumerate() {
                     let mut q = 0;
@@ -498,18 +508,17 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
                     }
                     debug_assert_eq!(q, dst.len());
                 }
-                (s, d)
+                (s, d, bands)
             })
             .collect();
         // In cell order: the sums.
-        for (s, d) in diffs {
-            for (k, dk) in d.chunks_exact(12).enumerate() {
-                let m = s + k;
-                let w = weight(m);
-                if let Some(b) = band_of(&o.theta_h_bands, th[m]) {
+        for (s, d, bands) in diffs {
+            for (k, (dk, [bh, bd])) in d.chunks_exact(12).zip(bands).enumerate() {
+                let w = weight(s + k);
+                if let Some(b) = bh {
                     hs[b].add(w, dk);
                 }
-                if let Some(b) = band_of(&o.theta_d_bands, td[m]) {
+                if let Some(b) = bd {
                     ds[b].add(w, dk);
                 }
                 if all {
