@@ -369,6 +369,10 @@ impl LossSums {
     }
 }
 
+/// One block's first cell, its cells' loss differences `d[cell][loss][channel]` and
+/// their (θh, θd) bands.
+type BlockTerms = (usize, Vec<f64>, Vec<[Option<usize>; 2]>);
+
 /// What one pass over the cells measures of one model.
 struct CellPass {
     /// Over all cells (`None` when not asked for).
@@ -452,7 +456,7 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
         }
         // In parallel: each block's loss differences d[cell][loss][channel] (and its
         // relative errors, into their places).
-        let diffs: Vec<(usize, Vec<f64>, Vec<[Option<usize>; 2]>)> = window
+        let diffs: Vec<BlockTerms> = window
             .into_par_iter()
             .map(|(k, dst)| {
                 let s = k * BLOCK;
