@@ -23,7 +23,8 @@ use brdfkit_core::direction::spherical;
 use brdfkit_core::{Model, ModelError, Rgb};
 use brdfkit_fit::data::STRATA;
 use brdfkit_fit::{
-    FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting, evaluate_losses, fit,
+    ChannelLoss, FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting,
+    evaluate_losses, fit,
 };
 use brdfkit_merl::{Lookup, MerlTable};
 use brdfkit_models::testing::SplitMix64;
@@ -246,94 +247,316 @@ fn check_edges(option: &'static str, e: &[f64]) -> Result<(), QualityError> {
     }
 }
 
-/// The losses of the cells whose `angle` (radians) lies in each band.
-fn bands(
-    models: [&dyn Model; 3],
-    data: &FitData,
-    angle: &[f64],
-    edges: &[f64],
-    w: Weighting,
-) -> Vec<Band> {
-    let last = edges.len() - 2;
-    edges
-        .windows(2)
-        .enumerate()
-        .map(|(b, e)| {
-            let (lo, hi) = (e[0], e[1]);
-            // The last band is closed, and takes the round-off above 90° (θ computed by
-            // acos of a dot product) too.
-            let sub = data.filter(|m| angle[m] >= lo && (angle[m] < hi || b == last));
-            Band {
-                lo,
-                hi,
-                cells: sub.len(),
-                losses: (!sub.is_empty()).then(|| evaluate_losses(models, &sub, w)),
-            }
-        })
-        .collect()
-}
-
-/// Nearest-rank percentiles of `v` (sorted in place); `None` when empty.
+/// Nearest-rank percentiles of `v` (reordered in place); `None` when empty.
+///
+/// The ⌈p·n/100⌉-th smallest value, by selection (O(n)) rather than a full sort: the
+/// 99th first, then the 90th among the values left of it, then the 50th; in the
+/// `total_cmp` order the k-th smallest is one value whatever the algorithm, so the
+/// result is the sort's to the bit.
 fn percentiles(v: &mut [f64]) -> Option<Percentiles> {
     if v.is_empty() {
         return None;
     }
-    v.par_sort_unstable_by(f64::total_cmp);
     let n = v.len();
-    let at = |p: f64| v[((p / 100.0 * n as f64).ceil() as usize).clamp(1, n) - 1];
-    Some(Percentiles {
-        p50: at(50.0),
-        p90: at(90.0),
-        p99: at(99.0),
-    })
+    let rank = |p: f64| ((p / 100.0 * n as f64).ceil() as usize).clamp(1, n) - 1;
+    let (r50, r90, r99) = (rank(50.0), rank(90.0), rank(99.0));
+    let (left, p99, _) = v.select_nth_unstable_by(r99, f64::total_cmp);
+    let p99 = *p99;
+    // `left` holds the r99 smallest values: ranks below r99 are found among them.
+    let (p90, left) = if r90 == r99 {
+        (p99, &mut left[..])
+    } else {
+        let (l, x, _) = left.select_nth_unstable_by(r90, f64::total_cmp);
+        (*x, l)
+    };
+    let p50 = if r50 == r90 {
+        p90
+    } else {
+        *left.select_nth_unstable_by(r50, f64::total_cmp).1
+    };
+    Some(Percentiles { p50, p90, p99 })
 }
 
-/// The fitted models' values at every cell: plane c from model c.
-fn model_values(models: [&dyn Model; 3], data: &FitData) -> [Vec<f64>; 3] {
-    // Cells per parallel task of the model evaluation.
-    const EVAL_CHUNK_CELLS: usize = 4096;
+/// Cells per block of the per-cell pass below: a few buffers of this size per thread
+/// instead of full-length planes.
+const BLOCK: usize = 4096;
+
+/// Blocks computed in parallel before their sums are taken in cell order.
+const WINDOW: usize = 16;
+
+/// The band of an angle: the `b` with lo ≤ θ < hi, the last band closed and taking the
+/// round-off above 90° too (θ computed by acos of a dot product); `None` below the
+/// first edge.
+fn band_of(edges: &[f64], theta: f64) -> Option<usize> {
+    let last = edges.len() - 2;
+    (0..=last).find(|&b| theta >= edges[b] && (theta < edges[b + 1] || b == last))
+}
+
+/// The weighted sums of [`brdfkit_fit::evaluate_losses`] over one subset of the cells,
+/// taken cell by cell in cell order: one partial sum per run of
+/// [`brdfkit_fit::data::PASS_CHUNK_CELLS`] member cells, the partial sums added in chunk order,
+/// exactly as `evaluate_losses` sums the subset gathered into a set of its own.
+struct LossSums {
+    parts: [[f64; 3]; 4],
+    cur: [[f64; 3]; 4],
+    in_chunk: usize,
+    cells: usize,
+    wsum: f64,
+}
+
+impl LossSums {
+    fn new() -> Self {
+        LossSums {
+            parts: [[0.0; 3]; 4],
+            cur: [[0.0; 3]; 4],
+            in_chunk: 0,
+            cells: 0,
+            wsum: 0.0,
+        }
+    }
+
+    /// Adds a cell of weight `w` with differences `d[loss][channel]`.
+    #[inline]
+    fn add(&mut self, w: f64, d: &[f64]) {
+        for l in 0..4 {
+            for c in 0..3 {
+                let x = d[l * 3 + c];
+                self.cur[l][c] += w * x * x;
+            }
+        }
+        self.wsum += w;
+        self.cells += 1;
+        self.in_chunk += 1;
+        if self.in_chunk == brdfkit_fit::data::PASS_CHUNK_CELLS {
+            self.close_chunk();
+        }
+    }
+
+    fn close_chunk(&mut self) {
+        for l in 0..4 {
+            for c in 0..3 {
+                self.parts[l][c] += self.cur[l][c];
+            }
+        }
+        self.cur = [[0.0; 3]; 4];
+        self.in_chunk = 0;
+    }
+
+    /// The losses (`LossReport::from_sums`); `None` for an empty subset.
+    fn finish(mut self) -> Option<LossReport> {
+        if self.cells == 0 {
+            return None;
+        }
+        if self.in_chunk > 0 {
+            self.close_chunk();
+        }
+        let wsum = self.wsum;
+        let mk = |s: [f64; 3]| {
+            let ch = s.map(|v| if wsum > 0.0 { (v / wsum).sqrt() } else { 0.0 });
+            let overall = ((ch[0] * ch[0] + ch[1] * ch[1] + ch[2] * ch[2]) / 3.0).sqrt();
+            ChannelLoss {
+                channels: ch,
+                overall,
+            }
+        };
+        Some(LossReport {
+            l2: mk(self.parts[0]),
+            cosine: mk(self.parts[1]),
+            cbrt: mk(self.parts[2]),
+            log: mk(self.parts[3]),
+            cells: self.cells,
+        })
+    }
+}
+
+/// One block's first cell, its cells' loss differences `d[cell][loss][channel]` and
+/// their (θh, θd) bands.
+type BlockTerms = (usize, Vec<f64>, Vec<[Option<usize>; 2]>);
+
+/// What one pass over the cells measures of one model.
+struct CellPass {
+    /// Over all cells (`None` when not asked for).
+    losses: Option<LossReport>,
+    theta_h_bands: Vec<Band>,
+    theta_d_bands: Vec<Band>,
+    relative_error: RelativeErrors,
+}
+
+/// Every per-cell figure of one model in one pass over the cells (`data` of a whole
+/// table: multiplicity 1): the model is evaluated once per cell, in blocks, and each
+/// cell's loss terms are added to its θh band, its θd band and (when `all`) the whole
+/// set, in cell order, with the arithmetic and the chunked summation of
+/// [`brdfkit_fit::evaluate_losses`], so every band's losses are those of
+/// `evaluate_losses` on the band's cells gathered into a set of their own (to the bit;
+/// a test holds them together) without gathering them. The relative errors of the
+/// cell channels measured above 0 are written straight into one array (each block's
+/// place counted first from the measurements).
+fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: bool) -> CellPass {
     let n = data.len();
+    let vals = data.values();
+    let measure = data.measure();
     let g = data.geometry();
-    let mut planes = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-    for (c, plane) in planes.iter_mut().enumerate() {
-        plane
-            .par_chunks_mut(EVAL_CHUNK_CELLS)
-            .enumerate()
-            .for_each(|(k, out)| {
-                let s = k * EVAL_CHUNK_CELLS;
-                let mut buf = vec![Rgb::ZERO; out.len()];
-                models[c].eval_batch(&g.slice(s..s + out.len()), &mut buf);
-                for (o, v) in out.iter_mut().zip(&buf) {
-                    *o = v[c];
-                }
-            });
-    }
-    planes
-}
+    let nblocks = n.div_ceil(BLOCK);
+    let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
+    let weight = |m: usize| match o.weighting {
+        Weighting::SolidAngle => measure[m],
+        Weighting::Uniform => 1.0,
+    };
 
-fn relative_errors(models: [&dyn Model; 3], data: &FitData) -> RelativeErrors {
-    let f = model_values(models, data);
-    let mut zero = 0;
-    let mut per: [Vec<f64>; 3] = Default::default();
-    for c in 0..3 {
-        let meas = &data.values()[c];
-        per[c] = f[c]
-            .iter()
-            .zip(meas)
-            .filter(|&(_, &m)| m > 0.0)
-            .map(|(&a, &m)| (a - m).abs() / m)
-            .collect();
-        zero += meas.iter().filter(|m| **m == 0.0).count();
+    // Relative errors: positive measurements per (block, channel) place each block's
+    // values in the one output array, channel after channel.
+    let counts: Vec<[usize; 3]> = (0..nblocks)
+        .into_par_iter()
+        .map(|k| {
+            let r = k * BLOCK..((k + 1) * BLOCK).min(n);
+            [0, 1, 2].map(|c| vals[c][r.clone()].iter().filter(|m| **m > 0.0).count())
+        })
+        .collect();
+    let totals = [0, 1, 2].map(|c| counts.iter().map(|k| k[c]).sum::<usize>());
+    let zero = (0..3)
+        .map(|c| vals[c].iter().filter(|m| **m == 0.0).count())
+        .sum();
+    let mut rel = vec![0.0; totals.iter().sum()];
+    let ranges = [
+        0..totals[0],
+        totals[0]..totals[0] + totals[1],
+        totals[0] + totals[1]..rel.len(),
+    ];
+    let mut pieces: Vec<[&mut [f64]; 3]> = Vec::with_capacity(nblocks);
+    {
+        let (r, rest) = rel.split_at_mut(totals[0]);
+        let (gr, b) = rest.split_at_mut(totals[1]);
+        let mut planes = [r, gr, b];
+        for k in &counts {
+            let [r, gr, b] = planes;
+            let (r0, r1) = r.split_at_mut(k[0]);
+            let (g0, g1) = gr.split_at_mut(k[1]);
+            let (b0, b1) = b.split_at_mut(k[2]);
+            pieces.push([r0, g0, b0]);
+            planes = [r1, g1, b1];
+        }
     }
-    let mut pooled: Vec<f64> = per.iter().flatten().copied().collect();
-    let samples = pooled.len();
-    let overall = percentiles(&mut pooled);
-    let [a, b, c] = &mut per;
-    RelativeErrors {
-        channels: [percentiles(a), percentiles(b), percentiles(c)],
-        overall,
-        samples,
+
+    let mut hs: Vec<LossSums> = o
+        .theta_h_bands
+        .windows(2)
+        .map(|_| LossSums::new())
+        .collect();
+    let mut ds: Vec<LossSums> = o
+        .theta_d_bands
+        .windows(2)
+        .map(|_| LossSums::new())
+        .collect();
+    let mut full = LossSums::new();
+    let mut pieces = pieces.into_iter().enumerate();
+    loop {
+        let window: Vec<(usize, [&mut [f64]; 3])> = pieces.by_ref().take(WINDOW).collect();
+        if window.is_empty() {
+            break;
+        }
+        // In parallel: each block's loss differences d[cell][loss][channel] (and its
+        // relative errors, into their places).
+        let diffs: Vec<BlockTerms> = window
+            .into_par_iter()
+            .map(|(k, dst)| {
+                let s = k * BLOCK;
+                let e = (s + BLOCK).min(n);
+                let len = e - s;
+                let gs = g.slice(s..e);
+                let mut out = vec![Rgb::ZERO; len];
+                let mut tmp = if same {
+                    Vec::new()
+                } else {
+                    vec![Rgb::ZERO; len]
+                };
+                models[0].eval_batch(&gs, &mut out);
+                if !same {
+                    for c in 1..3 {
+                        models[c].eval_batch(&gs, &mut tmp);
+                        for (a, b) in out.iter_mut().zip(&tmp) {
+                            a[c] = b[c];
+                        }
+                    }
+                }
+                // The cells' bands, from θ = acos(z) as `FitData::theta_h` / `theta_d`
+                // compute it (no full-length angle arrays).
+                let theta = |z: f64| z.clamp(-1.0, 1.0).acos();
+                let bands: Vec<[Option<usize>; 2]> = (s..e)
+                    .map(|m| {
+                        [
+                            band_of(&o.theta_h_bands, theta(g.h_z[m])),
+                            band_of(&o.theta_d_bands, theta(g.cos_d[m])),
+                        ]
+                    })
+                    .collect();
+                let mut d = vec![0.0; len * 12];
+                for (c, dst) in dst.into_iter().enumerate() {
+                    let mut q = 0;
+                    for k in 0..len {
+                        let fm = vals[c][s + k];
+                        let ci = g.wi_z[s + k];
+                        // The terms of `evaluate_losses`, in its order.
+                        let mut xm = out[k][c];
+                        if fm > 0.0 {
+                            dst[q] = (xm - fm).abs() / fm;
+                            q += 1;
+                        }
+                        let d0 = xm - fm;
+                        xm *= ci;
+                        let xt = fm * ci;
+                        let d1 = xm - xt;
+                        let d2 = brdfkit_fit::loss::cbrt(xm) - brdfkit_fit::loss::cbrt(xt);
+                        let d3 = ((xm - xt) / (1.0 + xt)).ln_1p();
+                        let r = &mut d[k * 12..k * 12 + 12];
+                        (r[c], r[3 + c], r[6 + c], r[9 + c]) = (d0, d1, d2, d3);
+                    }
+                    debug_assert_eq!(q, dst.len());
+                }
+                (s, d, bands)
+            })
+            .collect();
+        // In cell order: the sums.
+        for (s, d, bands) in diffs {
+            for (k, (dk, [bh, bd])) in d.chunks_exact(12).zip(bands).enumerate() {
+                let w = weight(s + k);
+                if let Some(b) = bh {
+                    hs[b].add(w, dk);
+                }
+                if let Some(b) = bd {
+                    ds[b].add(w, dk);
+                }
+                if all {
+                    full.add(w, dk);
+                }
+            }
+        }
+    }
+    let bands = |edges: &[f64], sums: Vec<LossSums>| -> Vec<Band> {
+        edges
+            .windows(2)
+            .zip(sums)
+            .map(|(e, s)| Band {
+                lo: e[0],
+                hi: e[1],
+                cells: s.cells,
+                losses: s.finish(),
+            })
+            .collect()
+    };
+    let channels = ranges.map(|r| percentiles(&mut rel[r]));
+    // Selection within a channel only reorders that channel's values: the pool is the
+    // same multiset.
+    let relative_error = RelativeErrors {
+        channels,
+        samples: rel.len(),
+        overall: percentiles(&mut rel),
         zero_measured: zero,
+    };
+    CellPass {
+        losses: if all { full.finish() } else { None },
+        theta_h_bands: bands(&o.theta_h_bands, hs),
+        theta_d_bands: bands(&o.theta_d_bands, ds),
+        relative_error,
     }
 }
 
@@ -463,36 +686,62 @@ pub fn fit_quality_with(
     check_edges("theta_h_bands", &o.theta_h_bands)?;
     check_edges("theta_d_bands", &o.theta_d_bands)?;
     let data = FitData::from_table(table)?;
-    let models = models_of(fitted);
-    let losses = evaluate_losses(models, &data, o.weighting);
-    let theta_h_bands = bands(models, &data, data.theta_h(), &o.theta_h_bands, o.weighting);
-    let theta_d_bands = bands(models, &data, data.theta_d(), &o.theta_d_bands, o.weighting);
-    let relative_error = relative_errors(models, &data);
-    let albedo = albedo_comparison(models, table, &o.albedo_thetas);
-    let held_out = match &o.held_out {
-        Some(h) => {
-            let family = brdfkit_models::from_json(&h.family)?;
-            Some(held_out(
-                family.as_ref(),
-                &data,
-                &h.config,
-                h.train_fraction,
-                h.seed,
-            )?)
-        }
-        None => None,
-    };
-    Ok(QualityReport {
-        model: fitted.to_json(),
-        weighting: o.weighting,
-        cells: data.len(),
-        losses,
-        theta_h_bands,
-        theta_d_bands,
-        relative_error,
-        albedo,
-        held_out,
-    })
+    let mut r = fit_quality_of(table, &data, &[(fitted, None)], o)?;
+    Ok(r.remove(0))
+}
+
+/// Fit quality of several fitted models against one table, on its cells `data`
+/// ([`FitData::from_table`] of `table`, built once by the caller and shared by every
+/// model). A model may come with its losses over exactly these cells under
+/// `o.weighting` (the fit's record has them: [`brdfkit_fit::FitRecord::losses_full`]);
+/// they are then used as they are instead of being evaluated again.
+pub(crate) fn fit_quality_of(
+    table: &MerlTable,
+    data: &FitData,
+    fits: &[(&Fitted, Option<&LossReport>)],
+    o: &QualityOptions,
+) -> Result<Vec<QualityReport>, QualityError> {
+    check_edges("theta_h_bands", &o.theta_h_bands)?;
+    check_edges("theta_d_bands", &o.theta_d_bands)?;
+    fits.iter()
+        .map(|(fitted, known)| {
+            let models = models_of(fitted);
+            let pass = cell_pass(models, data, o, known.is_none());
+            let losses = match (known, pass.losses) {
+                (Some(l), _) => **l,
+                (None, Some(l)) => l,
+                // A set without cells: the fitter's own report of it.
+                (None, None) => evaluate_losses(models, data, o.weighting),
+            };
+            let (theta_h_bands, theta_d_bands, relative_error) =
+                (pass.theta_h_bands, pass.theta_d_bands, pass.relative_error);
+            let albedo = albedo_comparison(models, table, &o.albedo_thetas);
+            let held_out = match &o.held_out {
+                Some(h) => {
+                    let family = brdfkit_models::from_json(&h.family)?;
+                    Some(held_out(
+                        family.as_ref(),
+                        data,
+                        &h.config,
+                        h.train_fraction,
+                        h.seed,
+                    )?)
+                }
+                None => None,
+            };
+            Ok(QualityReport {
+                model: fitted.to_json(),
+                weighting: o.weighting,
+                cells: data.len(),
+                losses,
+                theta_h_bands,
+                theta_d_bands,
+                relative_error,
+                albedo,
+                held_out,
+            })
+        })
+        .collect()
 }
 
 fn loss_row(l: &LossReport, loss: Loss) -> String {
@@ -595,5 +844,132 @@ impl QualityReport {
 impl fmt::Display for QualityReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.to_text())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdfkit_merl::Dims;
+
+    /// A table of a model with a different one's values in a few cells, and some holes.
+    fn table() -> MerlTable {
+        let m = brdfkit_models::from_json_str(
+            r#"{"model": "ward", "params": {"rho_d": [0.2, 0.3, 0.4], "rho_s": 0.3, "alpha_x": 0.15, "alpha_y": 0.15}}"#,
+        )
+        .unwrap();
+        let dims = Dims::new(40, 30, 60).unwrap();
+        MerlTable::from_fn(dims, |i, j, k| {
+            let (_, wi, wo, up) = brdfkit_merl::cell_directions(dims, i, j, k);
+            let f = m.eval(&wi, &wo);
+            (up && (i * 7 + j * 3 + k) % 11 != 0).then(|| {
+                // Every 13th cell measured as 0 in red (a relative error left out).
+                if (i + j + k) % 13 == 0 {
+                    Rgb([0.0, f[1], f[2]])
+                } else {
+                    f * 1.1
+                }
+            })
+        })
+        .unwrap()
+    }
+
+    fn fits() -> Vec<Fitted> {
+        let m = |j: &str| brdfkit_models::from_json_str(j).unwrap();
+        let ct = r#"{"model": "cook-torrance", "params": {"rho_d": [0.2, 0.25, 0.3], "rho_s": 0.5, "alpha": 0.2}}"#;
+        let lam = |r: f64| format!(r#"{{"model": "lambert", "params": {{"rho_d": {r}}}}}"#);
+        vec![
+            Fitted::Shared(m(ct)),
+            Fitted::PerChannel([m(&lam(0.2)), m(&lam(0.3)), m(&lam(0.5))]),
+        ]
+    }
+
+    /// Sorting percentiles, as the nearest-rank definition reads.
+    fn sorted_percentiles(v: &[f64]) -> Option<Percentiles> {
+        let mut v = v.to_vec();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_unstable_by(f64::total_cmp);
+        let n = v.len();
+        let at = |p: f64| v[((p / 100.0 * n as f64).ceil() as usize).clamp(1, n) - 1];
+        Some(Percentiles {
+            p50: at(50.0),
+            p90: at(90.0),
+            p99: at(99.0),
+        })
+    }
+
+    /// The one-pass figures are those of `evaluate_losses` on each band's cells
+    /// gathered into a set of their own, and of sorting the relative errors, to the bit.
+    #[test]
+    fn one_pass_matches_gathered_bands_and_sorted_percentiles() {
+        let t = table();
+        let data = FitData::from_table(&t).unwrap();
+        assert!(data.len() > 4 * brdfkit_fit::data::PASS_CHUNK_CELLS);
+        for w in [Weighting::SolidAngle, Weighting::Uniform] {
+            let o = QualityOptions {
+                weighting: w,
+                ..QualityOptions::default()
+            };
+            for f in fits() {
+                let models = models_of(&f);
+                let p = cell_pass(models, &data, &o, true);
+                assert_eq!(p.losses, Some(evaluate_losses(models, &data, w)));
+                for (bands, angle, edges) in [
+                    (&p.theta_h_bands, data.theta_h(), &o.theta_h_bands),
+                    (&p.theta_d_bands, data.theta_d(), &o.theta_d_bands),
+                ] {
+                    let last = edges.len() - 2;
+                    assert_eq!(bands.len(), last + 1);
+                    for (b, band) in bands.iter().enumerate() {
+                        let (lo, hi) = (edges[b], edges[b + 1]);
+                        let sub = data.filter(|m| angle[m] >= lo && (angle[m] < hi || b == last));
+                        assert_eq!(band.cells, sub.len());
+                        assert_eq!(
+                            band.losses,
+                            (!sub.is_empty()).then(|| evaluate_losses(models, &sub, w)),
+                            "band {b}"
+                        );
+                    }
+                }
+                // Relative errors: every cell channel measured above 0.
+                let mut per: [Vec<f64>; 3] = Default::default();
+                let mut zero = 0;
+                for c in 0..3 {
+                    for m in 0..data.len() {
+                        let g = data.geometry().slice(m..m + 1);
+                        let mut v = [Rgb::ZERO];
+                        models[c].eval_batch(&g, &mut v);
+                        let fm = data.values()[c][m];
+                        if fm > 0.0 {
+                            per[c].push((v[0][c] - fm).abs() / fm);
+                        } else if fm == 0.0 {
+                            zero += 1;
+                        }
+                    }
+                }
+                let r = &p.relative_error;
+                assert!(zero > 0);
+                assert_eq!(r.zero_measured, zero);
+                let pooled: Vec<f64> = per.iter().flatten().copied().collect();
+                assert_eq!(r.samples, pooled.len());
+                assert_eq!(r.overall, sorted_percentiles(&pooled));
+                for (got, v) in r.channels.iter().zip(&per) {
+                    assert_eq!(*got, sorted_percentiles(v));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn selection_percentiles_are_the_sorted_ones() {
+        let mut r = brdfkit_models::testing::SplitMix64(3);
+        for n in [1usize, 2, 3, 10, 99, 100, 101, 1000, 4097] {
+            let v: Vec<f64> = (0..n).map(|_| (r.next_u64() % 1000) as f64 / 7.0).collect();
+            let mut w = v.clone();
+            assert_eq!(percentiles(&mut w), sorted_percentiles(&v), "n = {n}");
+        }
+        assert_eq!(percentiles(&mut []), None);
     }
 }

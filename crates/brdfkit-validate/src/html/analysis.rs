@@ -6,7 +6,7 @@ use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
 use brdfkit_core::rusinkiewicz::from_half_diff;
 use brdfkit_core::{Model, Rgb};
-use brdfkit_fit::Fitted;
+use brdfkit_fit::{FitData, Fitted};
 use brdfkit_merl::{Lookup, MerlTable};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -115,42 +115,79 @@ pub struct ResidualMap {
 /// every other cell in it; −6 (a factor of a million) is far beyond any colour scale.
 pub const LOG_RATIO_FLOOR: f64 = -6.0;
 
-/// The residual map of `fitted` against `table`, on blocks of at most `max_bins` × `max_bins`.
-pub(crate) fn residual_map(table: &MerlTable, fitted: &Fitted, max_bins: usize) -> ResidualMap {
+/// The residual map of `fitted` against `table`, on blocks of at most `max_bins` ×
+/// `max_bins`. `data` holds the table's cells ([`FitData::from_table`]): their
+/// geometry is evaluated in batches, one θh slab per parallel task, instead of
+/// rebuilding every cell's directions from its angles (the same directions, and the
+/// same values: a model's batch and pair paths agree to the bit).
+pub(crate) fn residual_map(
+    table: &MerlTable,
+    data: &FitData,
+    fitted: &Fitted,
+    max_bins: usize,
+) -> ResidualMap {
     let d = table.dims();
     let (nh, nd, np) = (d.theta_h(), d.theta_d(), d.phi_d());
     let max_bins = max_bins.max(1);
     let bh = nh.div_ceil(max_bins);
     let bd = nd.div_ceil(max_bins);
     let (cols, rows) = (nh.div_ceil(bh), nd.div_ceil(bd));
+    let slab = nd * np;
+    let mask = table.valid_mask();
+    // The cells are the valid ones in file order (θh slowest): slab i's are a run.
+    let mut start = 0;
+    let runs: Vec<(usize, usize)> = mask
+        .chunks(slab)
+        .map(|s| {
+            let n = s.iter().filter(|v| **v).count();
+            start += n;
+            (start - n, n)
+        })
+        .collect();
+    debug_assert_eq!(start, data.len());
+    let models = [0, 1, 2].map(|c| fitted.channel_model(c));
+    let same = matches!(fitted, Fitted::Shared(_));
+    let (g, vals) = (data.geometry(), data.values());
     // Per (i, j): (sum of log ratios, count, model zeros), in parallel over θh.
-    let per_ij: Vec<Vec<(f64, usize, usize)>> = (0..nh)
+    let per_ij: Vec<Vec<(f64, usize, usize)>> = runs
         .into_par_iter()
-        .map(|i| {
-            (0..nd)
-                .map(|j| {
-                    let mut acc = (0.0, 0, 0);
-                    for k in 0..np {
-                        let Some(meas) = table.get(i, j, k) else {
-                            continue;
-                        };
-                        let f = model_at_cell(fitted, table, i, j, k);
-                        for c in 0..3 {
-                            if meas[c] > 0.0 {
-                                let r = if f[c] > 0.0 {
-                                    (f[c] / meas[c]).log10().max(LOG_RATIO_FLOOR)
-                                } else {
-                                    acc.2 += 1;
-                                    LOG_RATIO_FLOOR
-                                };
-                                acc.0 += r;
-                                acc.1 += 1;
-                            }
-                        }
+        .enumerate()
+        .map(|(i, (s, n))| {
+            // The model at the slab's cells: channel c from the channel-c model.
+            let mut f = vec![Rgb::ZERO; n];
+            let mut tmp = if same { Vec::new() } else { vec![Rgb::ZERO; n] };
+            let gs = g.slice(s..s + n);
+            models[0].eval_batch(&gs, &mut f);
+            if !same {
+                for c in 1..3 {
+                    models[c].eval_batch(&gs, &mut tmp);
+                    for (a, b) in f.iter_mut().zip(&tmp) {
+                        a[c] = b[c];
                     }
-                    acc
-                })
-                .collect()
+                }
+            }
+            let mut acc = vec![(0.0, 0, 0); nd];
+            let cells = mask[i * slab..(i + 1) * slab]
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| **v);
+            for (q, (x, _)) in cells.enumerate() {
+                let a = &mut acc[x / np];
+                for c in 0..3 {
+                    let meas = vals[c][s + q];
+                    if meas > 0.0 {
+                        let r = if f[q][c] > 0.0 {
+                            (f[q][c] / meas).log10().max(LOG_RATIO_FLOOR)
+                        } else {
+                            a.2 += 1;
+                            LOG_RATIO_FLOOR
+                        };
+                        a.0 += r;
+                        a.1 += 1;
+                    }
+                }
+            }
+            acc
         })
         .collect();
     let mut values = vec![None; cols * rows];
@@ -263,14 +300,15 @@ mod tests {
     fn residual_map_is_the_log_ratio_of_a_known_scale() {
         let t = lambert_table(0.5);
         // A model twice as bright everywhere: log10(2) in every block.
-        let m = residual_map(&t, &lambert(1.0), 4);
+        let cells = FitData::from_table(&t).unwrap();
+        let m = residual_map(&t, &cells, &lambert(1.0), 4);
         assert_eq!((m.cols, m.rows, m.block), (4, 4, [2, 2]));
         for v in &m.values {
             assert!((v.unwrap() - 2f64.log10()).abs() < 1e-12, "{v:?}");
         }
         assert_eq!(m.model_zero, 0);
         // The exact model: 0 everywhere.
-        let m = residual_map(&t, &lambert(0.5), 100);
+        let m = residual_map(&t, &cells, &lambert(0.5), 100);
         assert_eq!((m.cols, m.rows), (8, 8));
         assert!(m.values.iter().all(|v| v.unwrap().abs() < 1e-12));
     }

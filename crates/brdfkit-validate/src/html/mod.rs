@@ -3,7 +3,7 @@
 //! table and the models fitted to it.
 //!
 //! [`build_report`] computes, for every fitted model:
-//! - every loss of the fitter over all valid cells ([`fit_quality_with`]: overall, per
+//! - every loss of the fitter over all valid cells ([`crate::fit_quality_with`]: overall, per
 //!   channel, by θh and θd band, relative-error percentiles);
 //! - θh slices of the table and the model at several θd (φd = 90° by default), per
 //!   channel, on a log axis ([`analysis::Slice`]);
@@ -25,9 +25,9 @@ mod page;
 pub mod renders;
 
 use crate::physical::{CheckOptions, PhysicalReport, check_model_with};
-use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_with};
+use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_of};
 use analysis::{AlbedoCurves, ResidualMap, Slice};
-use brdfkit_fit::{FitConfig, FitRecord, Fitted, LossReport, Weighting};
+use brdfkit_fit::{FitConfig, FitData, FitRecord, Fitted, LossReport, Weighting};
 use brdfkit_merl::MerlTable;
 use rayon::prelude::*;
 use renders::{Lighting, RenderOptions, RenderSet};
@@ -292,6 +292,9 @@ fn physical(f: &Fitted, o: &CheckOptions) -> Vec<PhysicalReport> {
 /// Builds the report of `fits` against `table`. `progress` receives a short line per
 /// step (for a command line's stderr). `config` is the fit configuration, recorded and
 /// shown when given.
+///
+/// Builds the table's cells and copies the table for the renders; a caller that holds
+/// them already (the fitter's cells) saves both with [`build_report_from`].
 pub fn build_report(
     table: &MerlTable,
     table_name: &str,
@@ -304,6 +307,52 @@ pub fn build_report(
         return Err(ReportError::NoModels);
     }
     check_options(o)?;
+    let cells = FitData::from_table(table).map_err(QualityError::from)?;
+    build_report_from(
+        Arc::new(table.clone()),
+        cells,
+        table_name,
+        fits,
+        config,
+        o,
+        progress,
+    )
+}
+
+/// [`build_report`] on a shared table and its cells (`cells` must be
+/// [`FitData::from_table`] of `table`: the cells a fit of the whole table sees, so the
+/// fitter's own can be handed on).
+///
+/// The cells' geometry is built once and shared by every model and section (losses,
+/// bands, relative errors, residual maps), each model is evaluated in chunks (no
+/// full-length value planes), the cells are dropped as soon as the sections that read
+/// them are done, and the renders read `table` itself (no copy). A model whose
+/// [`ModelFit::record`] is its fit on these cells under the report's weighting (the
+/// record's model, cell count and weighting match) takes its overall losses from the
+/// record: the fitter computed them with the same function on the same cells.
+pub fn build_report_from(
+    table: Arc<MerlTable>,
+    cells: FitData,
+    table_name: &str,
+    fits: &[ModelFit],
+    config: Option<&FitConfig>,
+    o: &ReportOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<FitReport, ReportError> {
+    if fits.is_empty() {
+        return Err(ReportError::NoModels);
+    }
+    check_options(o)?;
+    if cells.len() != table.valid_count() {
+        return Err(ReportError::Option {
+            option: "cells",
+            reason: format!(
+                "{} cells given for a table with {} valid cells",
+                cells.len(),
+                table.valid_count()
+            ),
+        });
+    }
     let t_all = Instant::now();
     let mut timings = Timings::default();
     let fitted: Vec<&Fitted> = fits.iter().map(|f| &f.fitted).collect();
@@ -317,24 +366,35 @@ pub fn build_report(
         albedo_thetas: Vec::new(),
         ..QualityOptions::default()
     };
-    let quality: Vec<QualityReport> = fitted
+    let known: Vec<(&Fitted, Option<&LossReport>)> = fits
         .iter()
-        .map(|f| fit_quality_with(table, f, &qopt))
-        .collect::<Result<_, _>>()?;
+        .map(|f| {
+            let losses = f.record.as_ref().and_then(|r| {
+                (r.weighting == o.weighting
+                    && r.cells_full == cells.len()
+                    && r.model == f.fitted.to_json())
+                .then_some(&r.losses_full)
+            });
+            (&f.fitted, losses)
+        })
+        .collect();
+    let quality = fit_quality_of(&table, &cells, &known, &qopt)?;
     timings.quality_s = t.elapsed().as_secs_f64();
 
     progress("θh slices and residual maps");
     let t = Instant::now();
-    let slices = analysis::slices(table, &fitted, &o.slice_theta_d, o.slice_phi_d);
+    let slices = analysis::slices(&table, &fitted, &o.slice_theta_d, o.slice_phi_d);
     let maps: Vec<ResidualMap> = fitted
         .iter()
-        .map(|f| analysis::residual_map(table, f, o.residual_max_bins))
+        .map(|f| analysis::residual_map(&table, &cells, f, o.residual_max_bins))
         .collect();
+    // Nothing below reads the cells: free them before the albedo and the renders.
+    drop(cells);
     timings.slices_and_maps_s = t.elapsed().as_secs_f64();
 
     progress("albedo curves");
     let t = Instant::now();
-    let albedo = analysis::albedo_curves(table, &fitted, &o.albedo_theta_o);
+    let albedo = analysis::albedo_curves(&table, &fitted, &o.albedo_theta_o);
     timings.albedo_s = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
@@ -355,10 +415,9 @@ pub fn build_report(
     let t = Instant::now();
     let mut render_sets = Vec::new();
     if let Some(ro) = &o.render {
-        let shared = Arc::new(table.clone());
         for l in Lighting::ALL {
             progress(&format!("rendering spheres under the {}", l.title()));
-            render_sets.push(renders::render_set(l, ro, &shared, &fitted)?);
+            render_sets.push(renders::render_set(l, ro, &table, &fitted)?);
         }
     }
     timings.renders_s = t.elapsed().as_secs_f64();

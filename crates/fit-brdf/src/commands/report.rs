@@ -12,13 +12,38 @@ use brdfkit::fit::families::{Outcome, comparison_text, fit_each};
 use brdfkit::fit::{FitConfig, FitData};
 use brdfkit::merl::MerlTable;
 use brdfkit_validate::html::renders::RenderOptions;
-use brdfkit_validate::html::{FitReport, ModelFit, ReportOptions, build_report};
+use brdfkit_validate::html::{FitReport, ModelFit, ReportOptions, build_report, build_report_from};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The report's files in DIR.
 pub const HTML_FILE: &str = "index.html";
 pub const JSON_FILE: &str = "report.json";
+
+/// The report's models: each outcome's fitted model, with its record.
+fn model_fits(outcomes: &[Outcome]) -> CliResult<Vec<ModelFit>> {
+    outcomes
+        .iter()
+        .map(|o| {
+            Ok(ModelFit {
+                label: o.label.clone(),
+                fitted: brdfkit_validate::fitted_from_json(&o.params)
+                    .map_err(|e| runtime(anyhow::anyhow!("{}: fitted model: {e}", o.label)))?,
+                record: Some(o.record.clone()),
+            })
+        })
+        .collect()
+}
+
+/// A progress sink that prints `report: <step>` on stderr unless `quiet`.
+fn progress_lines(quiet: bool) -> impl Fn(&str) + Sync {
+    move |s: &str| {
+        if !quiet {
+            eprintln!("report: {s}");
+        }
+    }
+}
 
 /// Builds the report of fitted outcomes; progress lines go to stderr unless `quiet`.
 pub fn make_report(
@@ -29,24 +54,41 @@ pub fn make_report(
     options: &ReportOptions,
     quiet: bool,
 ) -> CliResult<FitReport> {
-    let fits = outcomes
-        .iter()
-        .map(|o| {
-            Ok(ModelFit {
-                label: o.label.clone(),
-                fitted: brdfkit_validate::fitted_from_json(&o.params)
-                    .map_err(|e| runtime(anyhow::anyhow!("{}: fitted model: {e}", o.label)))?,
-                record: Some(o.record.clone()),
-            })
-        })
-        .collect::<CliResult<Vec<_>>>()?;
-    let progress = |s: &str| {
-        if !quiet {
-            eprintln!("report: {s}");
-        }
-    };
-    build_report(table, table_name, &fits, Some(cfg), options, &progress)
-        .map_err(|e| runtime(anyhow::anyhow!("{table_name}: the report failed: {e}")))
+    let fits = model_fits(outcomes)?;
+    build_report(
+        table,
+        table_name,
+        &fits,
+        Some(cfg),
+        options,
+        &progress_lines(quiet),
+    )
+    .map_err(|e| runtime(anyhow::anyhow!("{table_name}: the report failed: {e}")))
+}
+
+/// [`make_report`] on the table and the cells the fits used (`cells` is
+/// `FitData::from_table(&table)`): the report reuses the cells and the fits' losses
+/// instead of rebuilding them, and frees the cells once it no longer needs them.
+pub fn make_report_from(
+    table: Arc<MerlTable>,
+    cells: FitData,
+    table_name: &str,
+    outcomes: &[Outcome],
+    cfg: &FitConfig,
+    options: &ReportOptions,
+    quiet: bool,
+) -> CliResult<FitReport> {
+    let fits = model_fits(outcomes)?;
+    build_report_from(
+        table,
+        cells,
+        table_name,
+        &fits,
+        Some(cfg),
+        options,
+        &progress_lines(quiet),
+    )
+    .map_err(|e| runtime(anyhow::anyhow!("{table_name}: the report failed: {e}")))
 }
 
 /// Writes DIR/report.json and DIR/index.html as one [`FileSet`]: both are staged whole
@@ -125,7 +167,17 @@ pub fn run(a: ReportArgs) -> CliResult<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| a.table.display().to_string());
-    let report = make_report(&table, &name, &outcomes, &cfg, &opts, a.quiet)?;
+    // The report takes the table and the fits' cells over: it shares the cells' geometry
+    // across models and sections and frees it before the renders.
+    let report = make_report_from(
+        Arc::new(table),
+        data,
+        &name,
+        &outcomes,
+        &cfg,
+        &opts,
+        a.quiet,
+    )?;
     let (html, json) = write_report(&a.out, &report)?;
     if a.json {
         write_text(None, &report.summary_json_pretty())
