@@ -256,6 +256,12 @@ pub struct FitSettings {
     pub robust: RobustKind,
     /// Scale of the robust loss (None: automatic).
     pub robust_scale: Option<f64>,
+    /// Energy conservation: the bound on the directional albedo (None: unconstrained;
+    /// see [`FitConfig::albedo_max`]).
+    pub albedo_max: Option<f64>,
+    /// Cap on the iterations over all cells after a warm-up (see
+    /// [`FitConfig::full_iters`]; None: to convergence).
+    pub full_iters: Option<u64>,
 }
 
 impl Default for FitSettings {
@@ -276,6 +282,8 @@ impl Default for FitSettings {
             fix: None,
             robust: c.get_robust(),
             robust_scale: None,
+            albedo_max: None,
+            full_iters: c.get_full_iters(),
         }
     }
 }
@@ -331,7 +339,10 @@ impl FitSettings {
             c = c.theta_d_max_deg(deg).map_err(bad("theta-d-max"))?;
         }
         c.robust(self.robust, self.robust_scale)
-            .map_err(bad("robust-scale"))
+            .map_err(bad("robust-scale"))?
+            .albedo_max(self.albedo_max)
+            .map_err(bad("energy-conserving"))
+            .map(|c| c.full_iters(self.full_iters))
     }
 }
 
@@ -457,6 +468,15 @@ pub fn comparison_text(outcomes: &[Outcome], optimised: Loss) -> String {
         "losses: weighted RMS over all valid cells ({} cells); optimised: {optimised}\n",
         outcomes.first().map_or(0, |o| o.record.cells_full)
     );
+    for o in outcomes {
+        if !o.record.active_bounds.is_empty() {
+            s += &format!(
+                "note: {}: at a domain bound at the optimum: {}\n",
+                o.label,
+                o.record.active_bounds.join(", ")
+            );
+        }
+    }
     s
 }
 
