@@ -128,10 +128,7 @@ impl AlbedoQuadrature {
 
     /// The largest albedo over the directions and channels.
     pub fn max_albedo(&self, m: &dyn Model) -> f64 {
-        self.albedos(m)
-            .iter()
-            .flat_map(|a| a.0)
-            .fold(0.0, f64::max)
+        self.albedos(m).iter().flat_map(|a| a.0).fold(0.0, f64::max)
     }
 
     /// The albedo and its gradient with respect to every model parameter, per
@@ -242,7 +239,7 @@ mod tests {
     #[test]
     fn penalty_gradient_matches_differences() {
         let m = brdfkit_models::from_json_str(
-            r#"{"model":"cook-torrance","params":{"rho_d":[0.5,0.5,0.5],"rho_s":[2.0,1.0,1.0],"alpha":0.3}}"#,
+            r#"{"model":"cook-torrance","params":{"rho_d":[0.9,0.9,0.9],"rho_s":[4.0,2.0,2.0],"alpha":0.3}}"#,
         )
         .unwrap();
         let pen = AlbedoPenalty {

@@ -262,6 +262,9 @@ pub struct FitSettings {
     /// Cap on the iterations over all cells after a warm-up (see
     /// [`FitConfig::full_iters`]; None: to convergence).
     pub full_iters: Option<u64>,
+    /// Size of the exploration set of a ranked fit (see [`FitConfig::explore_cells`];
+    /// None: the library's rule).
+    pub explore_cells: Option<usize>,
 }
 
 impl Default for FitSettings {
@@ -284,6 +287,7 @@ impl Default for FitSettings {
             robust_scale: None,
             albedo_max: None,
             full_iters: c.get_full_iters(),
+            explore_cells: c.get_explore_cells(),
         }
     }
 }
@@ -342,7 +346,9 @@ impl FitSettings {
             .map_err(bad("robust-scale"))?
             .albedo_max(self.albedo_max)
             .map_err(bad("energy-conserving"))
-            .map(|c| c.full_iters(self.full_iters))
+            .map(|c| c.full_iters(self.full_iters))?
+            .explore_cells(self.explore_cells)
+            .map_err(bad("explore-cells"))
     }
 }
 

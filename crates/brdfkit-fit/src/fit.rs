@@ -96,16 +96,13 @@ struct Explored {
     rank_cost: Option<f64>,
 }
 
-/// Size of the exploration set of a ranked fit: the warm-up size over this (1024
-/// cells for the default warm-up: 4 per stratum of the 16 × 16 grid). Measured on 15
-/// measured tables (docs/fitting.md): 8 → 64 changed no fit's full-table loss by more
-/// than 0.004 % and cut the exploration's CPU time eightfold; the ranking itself is
-/// on the warm-up set.
-const EXPLORE_DIVISOR: usize = 64;
+/// Size of the exploration set of a ranked fit: the warm-up size over this, unless
+/// [`FitConfig::explore_cells`] gives a size.
+const EXPLORE_DIVISOR: usize = 8;
 
-/// Smallest separate exploration set (4 cells per stratum of the 16 × 16 grid);
-/// below it the warm-up set is explored directly.
-const EXPLORE_MIN_CELLS: usize = 1024;
+/// Smallest separate exploration set of the default rule (a few cells per stratum of
+/// the 16 × 16 grid); below it the warm-up set is explored directly.
+const EXPLORE_MIN_CELLS: usize = 4096;
 
 /// Seed offset of the exploration subsample.
 const EXPLORE_SEED: u64 = 0x4558_504C;
@@ -429,10 +426,10 @@ fn run_pass(
     // converges there; the finishers then pass through the warm-up set to the full
     // one), unless that would be under EXPLORE_MIN_CELLS, when the warm-up set is the
     // exploration set.
-    let explore_cells = warm_cells
-        .filter(|_| ranked)
-        .map(|w| w / EXPLORE_DIVISOR)
-        .filter(|&e| e >= EXPLORE_MIN_CELLS);
+    let explore_cells = warm_cells.filter(|_| ranked).and_then(|w| match config.explore_cells {
+        None => Some(w / EXPLORE_DIVISOR).filter(|&e| e >= EXPLORE_MIN_CELLS),
+        Some(e) => (e < w).then_some(e),
+    });
     let subsample = |cells: usize, seed: u64| {
         data.stratified_subsample(cells as f64 / data.len() as f64, config.seed ^ seed)
     };
@@ -617,7 +614,10 @@ fn run_pass(
     // `FitConfig::full_iters`); 0: its warm-up optimum is only evaluated.
     let full_iters = config.full_iters;
     let capped_cfg = match full_iters {
-        Some(n) if n > 0 => config.clone().max_iters(n).unwrap_or_else(|_| config.clone()),
+        Some(n) if n > 0 => config
+            .clone()
+            .max_iters(n)
+            .unwrap_or_else(|_| config.clone()),
         _ => config.clone(),
     };
     let mut finished: Vec<(usize, Result<Outcome, FitError>)> = finishers
@@ -650,7 +650,11 @@ fn run_pass(
                 run_start(
                     stage1.clone(),
                     e.u.clone(),
-                    if e.warm.is_some() { &capped_cfg } else { config },
+                    if e.warm.is_some() {
+                        &capped_cfg
+                    } else {
+                        config
+                    },
                     observer,
                     k,
                     channel,

@@ -46,9 +46,9 @@
 //! the plain one, unchanged.
 
 use crate::data::FitData;
+use crate::energy::AlbedoPenalty;
 use crate::error::FitError;
 use crate::loss::{Loss, Robust, RobustKind, Weighting};
-use crate::energy::AlbedoPenalty;
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
 use brdfkit_core::model::Domain;

@@ -21,7 +21,12 @@ fn rho_s_above_one_is_recovered() {
     let (err, name) = worst_param(&res, truth.as_ref());
     assert!(err < 1e-6, "{name} off by {err:e}: {}", show(&res));
     assert!(res.record.active_bounds.is_empty(), "{}", show(&res));
-    let t = res.record.params.iter().find(|p| p.name == "rho_s.r").unwrap();
+    let t = res
+        .record
+        .params
+        .iter()
+        .find(|p| p.name == "rho_s.r")
+        .unwrap();
     assert_eq!(t.transform.as_deref(), Some("log"));
 }
 

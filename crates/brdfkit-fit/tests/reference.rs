@@ -54,6 +54,8 @@ pub fn default_cli_config() -> FitConfig {
         .starts(8)
         .expect("8 starts")
         .full_iters(Some(brdfkit_fit::config::CLI_FULL_ITERS))
+        .explore_cells(Some(brdfkit_fit::config::CLI_EXPLORE_CELLS))
+        .expect("explore cells")
 }
 
 /// The default fit's full-table loss on a table.

@@ -326,6 +326,10 @@ pub struct FitOptions {
     /// `all` iterates to convergence.
     #[arg(long, default_value = "0", value_name = "N|all")]
     pub full_iters: FullIters,
+    /// Cells of the subsample every start explores before the starts are ranked (when
+    /// there are more starts than --finish and the table is large enough for a warm-up).
+    #[arg(long, default_value_t = brdfkit::fit::config::CLI_EXPLORE_CELLS, value_name = "N")]
+    pub explore_cells: usize,
 }
 
 /// `--full-iters`: a cap, or `all` (None: to convergence).
