@@ -256,6 +256,15 @@ pub struct FitSettings {
     pub robust: RobustKind,
     /// Scale of the robust loss (None: automatic).
     pub robust_scale: Option<f64>,
+    /// Energy conservation: the bound on the directional albedo (None: unconstrained;
+    /// see [`FitConfig::albedo_max`]).
+    pub albedo_max: Option<f64>,
+    /// Cap on the iterations over all cells after a warm-up (see
+    /// [`FitConfig::full_iters`]; None: to convergence).
+    pub full_iters: Option<u64>,
+    /// Size of the exploration set of a ranked fit (see [`FitConfig::explore_cells`];
+    /// None: the library's rule).
+    pub explore_cells: Option<usize>,
 }
 
 impl Default for FitSettings {
@@ -276,6 +285,9 @@ impl Default for FitSettings {
             fix: None,
             robust: c.get_robust(),
             robust_scale: None,
+            albedo_max: None,
+            full_iters: c.get_full_iters(),
+            explore_cells: c.get_explore_cells(),
         }
     }
 }
@@ -331,7 +343,12 @@ impl FitSettings {
             c = c.theta_d_max_deg(deg).map_err(bad("theta-d-max"))?;
         }
         c.robust(self.robust, self.robust_scale)
-            .map_err(bad("robust-scale"))
+            .map_err(bad("robust-scale"))?
+            .albedo_max(self.albedo_max)
+            .map_err(bad("energy-conserving"))
+            .map(|c| c.full_iters(self.full_iters))?
+            .explore_cells(self.explore_cells)
+            .map_err(bad("explore-cells"))
     }
 }
 
@@ -457,6 +474,15 @@ pub fn comparison_text(outcomes: &[Outcome], optimised: Loss) -> String {
         "losses: weighted RMS over all valid cells ({} cells); optimised: {optimised}\n",
         outcomes.first().map_or(0, |o| o.record.cells_full)
     );
+    for o in outcomes {
+        if !o.record.active_bounds.is_empty() {
+            s += &format!(
+                "note: {}: at a domain bound at the optimum: {}\n",
+                o.label,
+                o.record.active_bounds.join(", ")
+            );
+        }
+    }
     s
 }
 

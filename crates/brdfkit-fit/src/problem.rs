@@ -46,6 +46,7 @@
 //! the plain one, unchanged.
 
 use crate::data::{FitData, PASS_CHUNK_CELLS};
+use crate::energy::AlbedoPenalty;
 use crate::error::FitError;
 use crate::loss::{Loss, Robust, RobustKind, Weighting};
 use crate::reparam::{Transform, nudge_into};
@@ -116,6 +117,8 @@ struct Inner<'a> {
 pub struct FitProblem<'a> {
     inner: Arc<Inner<'a>>,
     robust: Option<Robust>,
+    /// The albedo penalty of an energy-conserving fit ([`crate::energy`]).
+    penalty: Option<Arc<AlbedoPenalty>>,
     cost_evals: AtomicU64,
     jac_evals: AtomicU64,
     cache: Mutex<Option<(DVector<f64>, NormalEq)>>,
@@ -126,6 +129,7 @@ impl Clone for FitProblem<'_> {
         FitProblem {
             inner: self.inner.clone(),
             robust: self.robust,
+            penalty: self.penalty.clone(),
             cost_evals: AtomicU64::new(0),
             jac_evals: AtomicU64::new(0),
             cache: Mutex::new(None),
@@ -330,6 +334,7 @@ impl<'a> FitProblem<'a> {
                 target_ms: ms,
             }),
             robust: None,
+            penalty: None,
             cost_evals: AtomicU64::new(0),
             jac_evals: AtomicU64::new(0),
             cache: Mutex::new(None),
@@ -345,6 +350,22 @@ impl<'a> FitProblem<'a> {
             (robust.kind != RobustKind::None && robust.scale.is_finite() && robust.scale > 0.0)
                 .then_some(robust);
         p
+    }
+
+    /// The same problem with an albedo penalty added to its cost and normal
+    /// equations (see [`crate::energy`]): the penalty residuals join the cell
+    /// residuals in [`cost_at`](Self::cost_at) and [`normal_eq`](Self::normal_eq)
+    /// (every solver's path); the dense [`residuals`](Self::residuals) and
+    /// [`jacobian_dense`](Self::jacobian_dense) stay those of the cells.
+    pub fn with_penalty(&self, penalty: Option<Arc<AlbedoPenalty>>) -> Self {
+        let mut p = self.clone();
+        p.penalty = penalty;
+        p
+    }
+
+    /// The albedo penalty in force, if any.
+    pub fn penalty(&self) -> Option<&AlbedoPenalty> {
+        self.penalty.as_deref()
     }
 
     /// The robust function in force, if any.
@@ -560,7 +581,10 @@ impl<'a> FitProblem<'a> {
             )
             .collect();
         // Chunk partials added in chunk order: the same sum whatever the threads.
-        let c = 0.5 * parts.iter().sum::<f64>();
+        let mut c = 0.5 * parts.iter().sum::<f64>();
+        if let Some(pen) = &self.penalty {
+            c += pen.cost(m.as_ref(), &inn.channels);
+        }
         if c.is_finite() { c } else { f64::INFINITY }
     }
 
@@ -701,11 +725,18 @@ impl<'a> FitProblem<'a> {
                 }
             }
         }
-        let ne = NormalEq {
-            jtj,
-            jtr: DVector::from_vec(jtr),
-            cost,
-        };
+        let mut jtr = DVector::from_vec(jtr);
+        if let Some(pen) = &self.penalty {
+            cost += pen.add_normal_eq(
+                model.as_ref(),
+                &inn.free,
+                &dx,
+                &inn.channels,
+                &mut jtj,
+                &mut jtr,
+            );
+        }
+        let ne = NormalEq { jtj, jtr, cost };
         if !(ne.cost.is_finite()
             && ne.jtr.iter().all(|v| v.is_finite())
             && ne.jtj.iter().all(|v| v.is_finite()))

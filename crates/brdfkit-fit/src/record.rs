@@ -21,6 +21,13 @@ pub struct ParamRecord {
     /// The reparameterisation the solver used (`logit`, `log`, `neg-log`,
     /// `identity`); `None` for a fixed parameter.
     pub transform: Option<String>,
+    /// `"lower"` or `"upper"` when the fit drove this free parameter onto an end of its
+    /// domain (the reparameterised coordinate past ±[`crate::reparam::U_ACTIVE`]: within
+    /// e^-20 ≈ 2e-9 of the end, relative to a bounded interval's width); absent
+    /// otherwise. A bound active at the optimum is a modelling claim the data pushed
+    /// against (see [`FitRecord::active_bounds`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at_bound: Option<String>,
 }
 
 /// A subsample stage of a start (the warm-up, or the exploration of a ranked fit): its
@@ -187,4 +194,17 @@ pub struct FitRecord {
     /// plain fits; `losses_fit` and `losses_full` are always the plain losses).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robust: Option<RobustRecord>,
+    /// The parameters at an end of their domain at the optimum, as `name (lower end
+    /// lo)` / `name (upper end hi)`; empty when none (absent in older records).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub active_bounds: Vec<String>,
+    /// The bound on the directional albedo of an energy-conserving fit
+    /// ([`crate::FitConfig::albedo_max`]); absent when the fit was unconstrained.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo_max: Option<f64>,
+    /// The fitted model's largest directional albedo over the channels and the
+    /// incidence angles of [`crate::energy::AlbedoQuadrature`] (per-channel fits: over
+    /// the three channel models); absent in older records.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_albedo: Option<f64>,
 }

@@ -29,6 +29,13 @@ use serde::{Deserialize, Serialize};
 /// round-off; lo + e^700 is beyond any physical parameter).
 pub const U_MAX: f64 = 700.0;
 
+/// |u| beyond which a parameter counts as at the end of its domain in the record
+/// ([`crate::ParamRecord::at_bound`]): e^-20 ≈ 2e-9 of a bounded interval (or
+/// absolutely on a half-line) from the end. A fit reaches it only when the data pull the
+/// parameter onto the end: a transform's slope there is ≈ 2e-9, so an interior optimum
+/// is never that far out.
+pub const U_ACTIVE: f64 = 20.0;
+
 /// Fraction of a bounded interval (or absolute offset for a half-line) by which a start
 /// value sitting exactly on a domain end is moved inside, where u is finite.
 pub const END_OFFSET: f64 = 1e-6;
@@ -87,6 +94,25 @@ impl Transform {
             Transform::Log { .. } => "log",
             Transform::NegLog { .. } => "neg-log",
             Transform::Logit { .. } => "logit",
+        }
+    }
+
+    /// Which end of the domain u sits at, if |u| is past [`U_ACTIVE`] on a side the
+    /// domain bounds: `Some("lower")`, `Some("upper")` or `None`.
+    pub fn end_at(&self, u: f64) -> Option<&'static str> {
+        match *self {
+            Transform::Identity => None,
+            Transform::Log { .. } => (u < -U_ACTIVE).then_some("lower"),
+            Transform::NegLog { .. } => (u < -U_ACTIVE).then_some("upper"),
+            Transform::Logit { .. } => {
+                if u < -U_ACTIVE {
+                    Some("lower")
+                } else if u > U_ACTIVE {
+                    Some("upper")
+                } else {
+                    None
+                }
+            }
         }
     }
 

@@ -18,7 +18,7 @@
 //! | parameter | JSON | per channel | domain | default |
 //! |-----------|------|-------------|--------|---------|
 //! | Rd | `rho_d` | yes | [0, 1] | 0.3 |
-//! | Rs | `rho_s` | yes | [0, 1] | 0.3 |
+//! | Rs | `rho_s` | yes | [0, 1] (a Fresnel reflectance; 1 − Rs weights the diffuse term) | 0.3 |
 //! | n (isotropic) | `n` | no | [0, 1e6] | 100 |
 //! | n_u, n_v (anisotropic) | `n_u`, `n_v` | no | [0, 1e6] | 100 |
 //!
@@ -55,7 +55,7 @@ pub const N_DOMAIN: Domain = Domain::closed(0.0, 1e6);
 
 /// The parameter layout: Rd, Rs (default 0.3), then n or n_u, n_v (default 100).
 const LAYOUT: ShapedLayout = ShapedLayout {
-    rhos: DiffuseSpecular::albedos(0.3, 0.3),
+    rhos: DiffuseSpecular::bounded_albedos(0.3, 0.3),
     keys: ("n", "n_u", "n_v"),
     domain: N_DOMAIN,
     default: 100.0,

@@ -10,7 +10,7 @@
 //! | parameter | JSON    | per channel | domain | default |
 //! |-----------|---------|-------------|--------|---------|
 //! | ρd        | `rho_d` | yes         | [0, 1] | 0.5     |
-//! | ρs        | `rho_s` | yes         | [0, 1] | 0.3     |
+//! | ρs        | `rho_s` | yes         | [0, ∞) | 0.3     |
 //! | n         | `n`     | no          | [0, ∞) | 50      |
 //!
 //! Reciprocal (h is symmetric in wi and wo).

@@ -20,7 +20,7 @@
 //! | parameter | JSON | per channel | domain | default |
 //! |-----------|------|-------------|--------|---------|
 //! | ρd | `rho_d` | yes | [0, 1] | 0.3 |
-//! | ρs | `rho_s` | yes | [0, 1] | 0.3 |
+//! | ρs | `rho_s` | yes | [0, ∞) (a scale; see `params::RHO_S_DOMAIN`) | 0.3 |
 //! | α (isotropic) | `alpha` | no | [1e-6, 100] | 0.2 |
 //! | αx, αy (anisotropic) | `alpha_x`, `alpha_y` | no | [1e-6, 100] | 0.2 |
 //! | distribution | `distribution` | structural | `beckmann`, `ggx` | `ggx` |
@@ -84,8 +84,8 @@ mod ggx;
 /// and `ashikhmin-shirley`.
 pub use crate::shape::Shape;
 
-/// The domain of ρd and ρs.
-pub use crate::params::RHO_DOMAIN;
+/// The domain of ρd, and of ρs.
+pub use crate::params::{RHO_DOMAIN, RHO_S_DOMAIN};
 /// The domain of the roughness α (and αx, αy).
 pub const ALPHA_DOMAIN: Domain = Domain::closed(1e-6, 100.0);
 /// The domain of Schlick's f0.
@@ -394,7 +394,7 @@ impl CookTorrance {
         Ok(self.refreshed())
     }
 
-    /// Sets ρs (each channel in [0, 1]).
+    /// Sets ρs (each channel in [0, ∞)).
     pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
         self.rho_s = LAYOUT.rhos.check_s(rho_s)?;
         Ok(self.refreshed())

@@ -274,7 +274,7 @@ impl<K: LobeKind> CosineLobeModel<K> {
     }
 }
 
-/// The kinds whose d and s are the albedos ρd and ρs (`rho_d`, `rho_s`, in [0, 1]).
+/// The kinds whose d and s are the albedos ρd and ρs (`rho_d` in [0, 1]; `rho_s` in [0, ∞), or [0, 1] for plausible Phong).
 pub trait AlbedoLobe: LobeKind {}
 
 impl<K: AlbedoLobe> CosineLobeModel<K> {
@@ -283,7 +283,7 @@ impl<K: AlbedoLobe> CosineLobeModel<K> {
         self.with_diffuse(rho_d)
     }
 
-    /// Sets ρs (each channel in [0, 1]).
+    /// Sets ρs (each channel in its domain: [0, ∞), plausible Phong [0, 1]).
     pub fn with_rho_s(self, rho_s: Rgb) -> Result<Self, ModelError> {
         self.with_specular(rho_s)
     }
@@ -526,7 +526,7 @@ mod tests {
             let (d, s) = (Rgb::new(0.1, 0.2, 0.3), Rgb::new(0.4, 0.5, 0.6));
             let m = model::<K>().with_rho_d(d).unwrap().with_rho_s(s).unwrap();
             assert_eq!((m.rho_d(), m.rho_s()), (d, s));
-            let e = m.clone().with_rho_s(Rgb::new(0.1, 1.5, 0.1)).unwrap_err();
+            let e = m.clone().with_rho_s(Rgb::new(0.1, -1.5, 0.1)).unwrap_err();
             assert!(e.to_string().contains("`rho_s.g`"), "{e}");
             let e = m.with_rho_d(Rgb::new(0.1, 0.1, -0.5)).unwrap_err();
             assert!(e.to_string().contains("`rho_d.b`"), "{e}");

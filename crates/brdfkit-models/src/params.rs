@@ -9,8 +9,17 @@ use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{ModelError, ParamSpec, Rgb};
 use serde_json::{Map, Value};
 
-/// The domain of an albedo (ρd, ρs).
+/// The domain of an albedo (ρd; ρs where it is a reflectance, e.g. a Fresnel f0 or
+/// a model that conserves energy by construction).
 pub const RHO_DOMAIN: Domain = Domain::closed(0.0, 1.0);
+
+/// The domain of a specular scale ρs that multiplies a normalised lobe (Cook-Torrance,
+/// Ward, Blinn-Phong): [0, ∞). A bound ρs ≤ 1 is not energy conservation: with a
+/// Fresnel factor below 1 or a lobe whose albedo is below 1 at some angles, ρs > 1 can
+/// still reflect less than it receives (a fabric's sheen needs ρs·F > 1 at grazing), and
+/// where the albedo does exceed 1 the fitter's energy option
+/// (`brdfkit_fit::FitConfig::albedo_max`) constrains the albedo itself.
+pub const RHO_S_DOMAIN: Domain = Domain::at_least(0.0);
 
 /// Checks every channel of a per-channel parameter, naming `name.r`, `name.g` or
 /// `name.b` in the error.
@@ -46,18 +55,34 @@ pub fn channel(c: usize, v: f64) -> Rgb {
 pub struct DiffuseSpecular {
     /// The JSON names of the diffuse and the specular parameter.
     pub names: (&'static str, &'static str),
-    /// The domain of both.
+    /// The domain of the diffuse parameter.
     pub domain: Domain,
+    /// The domain of the specular parameter.
+    pub s_domain: Domain,
     /// Their default start (the same in every channel).
     pub defaults: (f64, f64),
 }
 
 impl DiffuseSpecular {
-    /// ρd and ρs per channel in [0, 1] under the names `rho_d` and `rho_s`.
+    /// ρd per channel in [0, 1] and a specular scale ρs per channel in [0, ∞)
+    /// ([`RHO_S_DOMAIN`]) under the names `rho_d` and `rho_s`.
     pub const fn albedos(d: f64, s: f64) -> Self {
         DiffuseSpecular {
             names: ("rho_d", "rho_s"),
             domain: RHO_DOMAIN,
+            s_domain: RHO_S_DOMAIN,
+            defaults: (d, s),
+        }
+    }
+
+    /// ρd and ρs per channel, both in [0, 1]: for models whose ρs is a reflectance
+    /// (Ashikhmin-Shirley's Rs, a Fresnel value whose 1 − Rs weights the diffuse term)
+    /// or that conserve energy by construction (plausible Phong).
+    pub const fn bounded_albedos(d: f64, s: f64) -> Self {
+        DiffuseSpecular {
+            names: ("rho_d", "rho_s"),
+            domain: RHO_DOMAIN,
+            s_domain: RHO_DOMAIN,
             defaults: (d, s),
         }
     }
@@ -69,7 +94,7 @@ impl DiffuseSpecular {
 
     /// Validates the specular parameter, naming its channel in an error.
     pub fn check_s(&self, v: Rgb) -> Result<Rgb, ModelError> {
-        check_rgb(self.names.1, v, self.domain)
+        check_rgb(self.names.1, v, self.s_domain)
     }
 
     /// The six specs `d.r`, `d.g`, `d.b`, `s.r`, `s.g`, `s.b`.
@@ -77,7 +102,7 @@ impl DiffuseSpecular {
         let mut v = ParamSpec::per_channel(self.names.0, self.domain, self.defaults.0).to_vec();
         v.extend(ParamSpec::per_channel(
             self.names.1,
-            self.domain,
+            self.s_domain,
             self.defaults.1,
         ));
         v

@@ -63,6 +63,7 @@ impl LobeKind for PhongLobe {
     const PARAMS: DiffuseSpecular = DiffuseSpecular {
         names: ("k_d", "k_s"),
         domain: K_DOMAIN,
+        s_domain: K_DOMAIN,
         defaults: (0.15, 0.3),
     };
     const DEFAULT_N: f64 = 20.0;

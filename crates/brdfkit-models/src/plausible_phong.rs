@@ -46,7 +46,7 @@ pub struct PlausiblePhongLobe;
 impl LobeKind for PlausiblePhongLobe {
     const NAME: &'static str = "plausible-phong";
     const TYPE: &'static str = "PlausiblePhong";
-    const PARAMS: DiffuseSpecular = DiffuseSpecular::albedos(0.5, 0.3);
+    const PARAMS: DiffuseSpecular = DiffuseSpecular::bounded_albedos(0.5, 0.3);
     const DEFAULT_N: f64 = 20.0;
     const DIFFUSE_SCALE: f64 = FRAC_1_PI;
     const COSINE: Cosine = Cosine::Mirror;

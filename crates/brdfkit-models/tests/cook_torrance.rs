@@ -519,7 +519,7 @@ fn builder_and_set_params_reject_out_of_domain() {
         .to_string();
     assert!(e.contains("`alpha_y`"), "{e}");
     let e = CookTorrance::new()
-        .with_rho_s(Rgb::new(0.1, 1.2, 0.1))
+        .with_rho_s(Rgb::new(0.1, -0.2, 0.1))
         .unwrap_err()
         .to_string();
     assert!(e.contains("rho_s.g"), "{e}");

@@ -328,6 +328,37 @@ pub struct FitOptions {
     /// residuals of a plain fit: 1.4826 · median |e| times 1.345 (huber) or 2.385 (cauchy)).
     #[arg(long, value_name = "C")]
     pub robust_scale: Option<f64>,
+    /// Keep the fitted model's directional albedo ≤ 1 (energy conservation, as a
+    /// penalty on the albedo at fixed incidence angles; parameters such as rho_s are
+    /// otherwise unbounded above; docs/fitting.md).
+    #[arg(long)]
+    pub energy_conserving: bool,
+    /// LM iterations over all cells after a start's warm-up on a 65 536-cell stratified
+    /// subsample (tables above 262 144 cells): 0 evaluates the warm-up optimum on all
+    /// cells (within 0.004 % of converging there on 15 measured tables, docs/fitting.md);
+    /// `all` iterates to convergence.
+    #[arg(long, default_value = "0", value_name = "N|all")]
+    pub full_iters: FullIters,
+    /// Cells of the subsample every start explores before the starts are ranked (when
+    /// there are more starts than --finish and the table is large enough for a warm-up).
+    #[arg(long, default_value_t = brdfkit::fit::config::CLI_EXPLORE_CELLS, value_name = "N")]
+    pub explore_cells: usize,
+}
+
+/// `--full-iters`: a cap, or `all` (None: to convergence).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FullIters(pub Option<u64>);
+
+impl std::str::FromStr for FullIters {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "all" {
+            return Ok(FullIters(None));
+        }
+        s.parse()
+            .map(|n| FullIters(Some(n)))
+            .map_err(|_| format!("`{s}`: a number of iterations or `all`"))
+    }
 }
 
 #[derive(Args, Debug)]

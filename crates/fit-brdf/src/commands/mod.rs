@@ -66,6 +66,9 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         fix: o.fix.clone(),
         robust: o.robust,
         robust_scale: o.robust_scale,
+        albedo_max: o.energy_conserving.then_some(1.0),
+        full_iters: o.full_iters.0,
+        explore_cells: Some(o.explore_cells),
     };
     let cfg = settings.config().map_err(bad_input)?;
     check_free(&fams, &cfg).map_err(bad_input)?;
