@@ -398,6 +398,18 @@ fn pbrt_export_matches_pbrts_conductor_formula() {
     );
 }
 
+/// `fit-brdf export MODEL --to TO` exits 2 with `needle` in its stderr.
+fn refused(model: &Path, to: &str, needle: &str) {
+    let o = bin()
+        .arg("export")
+        .arg(model)
+        .args(["--to", to])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains(needle), "{}", stderr(&o));
+}
+
 #[test]
 fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
     let d = tempfile::tempdir().unwrap();
@@ -463,45 +475,14 @@ fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
             .to_string(),
     )
     .unwrap();
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "mitsuba"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("per-channel fit"), "{}", stderr(&o));
+    refused(&p, "mitsuba", "per-channel fit");
     // Not JSON.
     std::fs::write(&p, "{\"model\": ").unwrap();
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "pbrt"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        stderr(&o).contains("m.json: not valid JSON"),
-        "{}",
-        stderr(&o)
-    );
+    refused(&p, "pbrt", "m.json: not valid JSON");
     // A model that is not valid at all, a missing file, and usage errors.
     std::fs::write(&p, r#"{"model": "lambert", "params": {"rho_d": 2}}"#).unwrap();
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "mitsuba"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("rho_d"), "{}", stderr(&o));
-    let o = bin()
-        .arg("export")
-        .arg(d.path().join("nope.json"))
-        .args(["--to", "mitsuba"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
+    refused(&p, "mitsuba", "rho_d");
+    refused(&d.path().join("nope.json"), "mitsuba", "");
     std::fs::write(&p, r#"{"model": "lambert"}"#).unwrap();
     for args in [
         vec!["--to", "blender"],
