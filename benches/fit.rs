@@ -24,20 +24,6 @@ const TRUTH: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","
     "fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.08}}"#;
 const START: &str = r#"{"model":"cook-torrance","params":{"distribution":"ggx","masking":"smith-separable","fresnel":"schlick"}}"#;
 
-/// CPU time (user + system, all threads) of this process in seconds, from
-/// `/proc/self/stat` (clock ticks of 1/100 s). On a machine shared with other jobs the
-/// wall time stretches while the CPU time stays near what the fit needs; CPU time / 2
-/// is then the wall time the fit would take alone on the 2 cores.
-fn cpu_seconds() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the parenthesised command name; utime and stime are fields 14, 15.
-    let rest = &s[s.rfind(')')? + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ut: f64 = f.get(11)?.parse().ok()?;
-    let st: f64 = f.get(12)?.parse().ok()?;
-    Some((ut + st) / 100.0)
-}
-
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     v[v.len() / 2]
@@ -46,6 +32,9 @@ fn median(v: &mut [f64]) -> f64 {
 #[path = "common/cells.rs"]
 mod cells;
 use cells::write_cells;
+#[path = "common/cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
 
 fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -18,38 +18,24 @@
 //! A model name of `brdfkit_models::MODEL_NAMES` that is not registered yet is reported
 //! and skipped.
 
-use brdfkit_core::{GeometryBatch, GeometryBatchF32, HalfDiff, Model, Rgb, Vec3, from_half_diff};
+use brdfkit_core::{GeometryBatch, GeometryBatchF32, Model, Rgb, Vec3};
 use brdfkit_models::par::{eval_batch_f32_par, eval_batch_par};
 use brdfkit_models::raw::{eval_dirs, eval_dirs_f32};
 use brdfkit_models::{MODEL_NAMES, default_model};
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use rayon::ThreadPool;
 use rayon::prelude::*;
-use std::f64::consts::{FRAC_PI_2, PI};
 use std::hint::black_box;
 use std::sync::Mutex;
 use std::time::Duration;
 
+#[path = "common/pairs.rs"]
+mod pairs;
+use pairs::merl_pairs;
+
 /// Cells per rayon task: large enough to amortise scheduling, small enough that the
 /// per-thread gradient buffer stays in the cache hierarchy.
 const CHUNK: usize = 8192;
-
-/// The (wi, wo) pairs of the MERL cells, θh = (i/90)² π/2, θd = j/90 · π/2,
-/// φd = k/180 · π, φh = 0, in table order.
-fn merl_pairs() -> Vec<(Vec3, Vec3)> {
-    let mut v = Vec::with_capacity(90 * 90 * 180);
-    for i in 0..90 {
-        let th = (i as f64 / 90.0).powi(2) * FRAC_PI_2;
-        for j in 0..90 {
-            let td = j as f64 / 90.0 * FRAC_PI_2;
-            for k in 0..180 {
-                let pd = k as f64 / 180.0 * PI;
-                v.push(from_half_diff(&HalfDiff::new(th, 0.0, td, pd)));
-            }
-        }
-    }
-    v
-}
 
 fn pool(threads: Option<usize>) -> ThreadPool {
     let mut b = rayon::ThreadPoolBuilder::new();

@@ -25,16 +25,13 @@
 //!
 //! Timings are the median of `--reps N` runs (default 7) after one warm-up run.
 
-use brdfkit::core::{
-    Brdf, GeometryBatch, GeometryBatchF32, HalfDiff, Model, Rgb, Vec3, from_half_diff,
-};
+use brdfkit::core::{Brdf, GeometryBatch, GeometryBatchF32, Model, Rgb, Vec3};
 use brdfkit::fit::{FitConfig, FitData, Loss, fit};
 use brdfkit::merl::{Dims, Lookup, MerlTable};
 use brdfkit::models::par::{RUN, eval_batch_f32_par, eval_batch_par};
 use brdfkit::models::raw::{eval_dirs, eval_dirs_f32};
 use rayon::prelude::*;
 use serde_json::json;
-use std::f64::consts::{FRAC_PI_2, PI};
 use std::hint::black_box;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -63,21 +60,6 @@ fn median_time(reps: usize, mut f: impl FnMut()) -> (f64, f64) {
     (v[v.len() / 2], v[0])
 }
 
-fn grid_pairs() -> Vec<(Vec3, Vec3)> {
-    let mut v = Vec::with_capacity(1_458_000);
-    for i in 0..90 {
-        let th = (i as f64 / 90.0).powi(2) * FRAC_PI_2;
-        for j in 0..90 {
-            let td = j as f64 / 90.0 * FRAC_PI_2;
-            for k in 0..180 {
-                let pd = k as f64 / 180.0 * PI;
-                v.push(from_half_diff(&HalfDiff::new(th, 0.0, td, pd)));
-            }
-        }
-    }
-    v
-}
-
 /// Six little-endian f64 planes: wi_x wi_y wi_z wo_x wo_y wo_z.
 fn write_pairs(path: &Path, pairs: &[(Vec3, Vec3)]) -> std::io::Result<()> {
     let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
@@ -93,6 +75,12 @@ fn write_pairs(path: &Path, pairs: &[(Vec3, Vec3)]) -> std::io::Result<()> {
 #[path = "common/cells.rs"]
 mod cells;
 use cells::write_cells;
+#[path = "common/cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
+#[path = "common/pairs.rs"]
+mod pairs;
+use pairs::merl_pairs;
 
 fn sums(v: &[Rgb]) -> [f64; 3] {
     let mut s = [0.0; 3];
@@ -102,15 +90,6 @@ fn sums(v: &[Rgb]) -> [f64; 3] {
         }
     }
     s
-}
-
-fn cpu_seconds() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
-    let rest = &s[s.rfind(')')? + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ut: f64 = f.get(11)?.parse().ok()?;
-    let st: f64 = f.get(12)?.parse().ok()?;
-    Some((ut + st) / 100.0)
 }
 
 fn main() {
@@ -128,7 +107,7 @@ fn main() {
     let mut out = json!({"threads": threads, "reps": reps});
 
     // --- model evaluation over the MERL grid ---
-    let pairs = grid_pairs();
+    let pairs = merl_pairs();
     let n = pairs.len();
     write_pairs(&dir.join("grid_pairs.f64"), &pairs).expect("write grid pairs");
     let batch = GeometryBatch::from_pairs(&pairs);

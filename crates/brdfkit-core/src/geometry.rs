@@ -339,6 +339,16 @@ impl<T: Component> Geometry<T> {
         });
     }
 
+    /// Replaces the batch by the pairs of `dirs` ([`fill_from_dirs`](Self::fill_from_dirs)
+    /// or [`fill_from_rows`](Self::fill_from_rows)).
+    #[inline(always)]
+    pub fn fill_from_pairs(&mut self, dirs: DirPairs<'_, T>) {
+        match dirs {
+            DirPairs::Split(wi, wo) => self.fill_from_dirs(wi, wo),
+            DirPairs::Rows(rows) => self.fill_from_rows(rows),
+        }
+    }
+
     /// Replaces the batch by `n` pairs, pair k being `pair(k)` (k < n), with the
     /// columns of [`pair_columns_of`].
     #[inline(always)]
@@ -359,6 +369,40 @@ impl<T: Component> Geometry<T> {
             c7[k] = v[7];
             c8[k] = v[8];
             c9[k] = v[9];
+        }
+    }
+}
+
+/// A run of raw direction pairs, as a bulk evaluation from directions receives them
+/// (`brdfkit_models::raw`): two slices of vectors, or rows of six values
+/// `[wi_x, wi_y, wi_z, wo_x, wo_y, wo_z]` (an N×6 array in row-major order).
+#[derive(Clone, Copy, Debug)]
+pub enum DirPairs<'a, T> {
+    /// `wi[k]` and `wo[k]` for pair k (the shorter slice sets the length).
+    Split(&'a [[T; 3]], &'a [[T; 3]]),
+    /// Row k holds wi then wo of pair k.
+    Rows(&'a [[T; 6]]),
+}
+
+impl<T> DirPairs<'_, T> {
+    /// Number of pairs.
+    pub fn len(&self) -> usize {
+        match self {
+            DirPairs::Split(wi, wo) => wi.len().min(wo.len()),
+            DirPairs::Rows(rows) => rows.len(),
+        }
+    }
+
+    /// True when there is no pair.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Pairs `r` (panics, like slicing, when `r` reaches past [`len`](Self::len)).
+    pub fn sub(&self, r: std::ops::Range<usize>) -> Self {
+        match self {
+            DirPairs::Split(wi, wo) => DirPairs::Split(&wi[r.clone()], &wo[r]),
+            DirPairs::Rows(rows) => DirPairs::Rows(&rows[r]),
         }
     }
 }

@@ -38,7 +38,7 @@ pub use brdf::Brdf;
 pub use choice::UnknownName;
 pub use direction::Vec3;
 pub use geometry::{
-    GeomSlice, GeomSliceF32, GeomSliceOf, Geometry, GeometryBatch, GeometryBatchF32,
+    DirPairs, GeomSlice, GeomSliceF32, GeomSliceOf, Geometry, GeometryBatch, GeometryBatchF32,
 };
 pub use model::{Model, ModelError, ParamRole, ParamSpec};
 pub use rgb::Rgb;

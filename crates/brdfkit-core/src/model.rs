@@ -8,6 +8,7 @@
 //! Gradients are with respect to the physical parameters of that vector; the fitter
 //! applies its own reparameterisation (log / logit) on top.
 
+use crate::geometry::DirPairs;
 use crate::{Brdf, GeomSlice, GeomSliceF32, GeometryBatch, Rgb, Vec3};
 use std::fmt;
 use thiserror::Error;
@@ -216,10 +217,7 @@ impl ParamSpec {
 /// [`Model::eval_grad`] (value part), [`Model::eval_batch`] and
 /// [`Model::eval_grad_batch`]; and return exactly 0 (value and gradient) for a pair
 /// with either direction at or below the horizon.
-///
-/// `Any` as a supertrait lets a bulk driver reach a model's own fused kernel from a
-/// `&dyn Model` (`brdfkit_models::raw` downcasts to Cook-Torrance's).
-pub trait Model: Brdf + fmt::Debug + std::any::Any {
+pub trait Model: Brdf + fmt::Debug {
     /// The model's name in the JSON contract (`"cook-torrance"`).
     fn name(&self) -> &'static str;
 
@@ -260,6 +258,33 @@ pub trait Model: Brdf + fmt::Debug + std::any::Any {
     /// float32 kernel overrides it (`cook-torrance` with GGX) and documents its error.
     fn eval_batch_f32(&self, g: &GeomSliceF32<'_>, out: [&mut [f32]; 3]) {
         eval_batch_f32_widened(self, g, out)
+    }
+
+    /// f_r of a run of raw direction pairs into `out[k]` through the model's own fused
+    /// kernel, one that reads the directions itself (the half vector computed in the
+    /// loop) instead of a filled [`Geometry`](crate::Geometry) run: one pass over memory
+    /// instead of a fill, the kernel and a copy. Returns false, writing nothing, when
+    /// the model (or its configuration) has none; the bulk driver
+    /// (`brdfkit_models::raw`) then fills a geometry run
+    /// ([`Geometry::fill_from_pairs`](crate::Geometry::fill_from_pairs)) and calls
+    /// [`Model::eval_batch`]. An override must give exactly `eval_batch`'s bits.
+    /// `out` is as long as `dirs`.
+    fn eval_dirs_fused(&self, dirs: DirPairs<'_, f64>, out: &mut [Rgb]) -> bool {
+        let _ = (dirs, out);
+        false
+    }
+
+    /// [`Model::eval_dirs_fused`] into `[r, g, b]` rows.
+    fn eval_dirs_fused_rows(&self, dirs: DirPairs<'_, f64>, out: &mut [[f64; 3]]) -> bool {
+        let _ = (dirs, out);
+        false
+    }
+
+    /// [`Model::eval_dirs_fused`] in single precision, into `[r, g, b]` rows; the
+    /// fallback is [`Model::eval_batch_f32`], whose error bound an override keeps.
+    fn eval_dirs_fused_f32(&self, dirs: DirPairs<'_, f32>, out: &mut [[f32; 3]]) -> bool {
+        let _ = (dirs, out);
+        false
     }
 
     /// The model in the JSON contract: `{"model": name, "params": {...}}`.

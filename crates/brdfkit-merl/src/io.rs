@@ -5,7 +5,7 @@
 //!
 //! Reading checks the header against the file's length (from its metadata) **before**
 //! allocating, so a corrupt header cannot make the reader allocate more than the file
-//! holds. The body is then read in parallel (rayon) by positional reads of [`CHUNK`]
+//! holds. The body is then read in parallel (rayon) by positional reads of [`IO_CHUNK_CELLS`]
 //! cells per channel into per-thread staging buffers that stay in cache (placed where
 //! the copy is fast: see `ALIAS_PERIOD`), and converted, validated (finite values, the
 //! missing mask) and stored from there: one pass over the data, into a table allocated
@@ -24,12 +24,13 @@ use std::fs::File;
 use std::io::{self, Read, Write};
 use std::path::Path;
 
-/// Cells per parallel task: each task reads this many values of each channel (3 × 64
-/// KiB) into a per-thread buffer that stays in L2, then converts, validates and stores
+/// Cells per I/O run (reading: per parallel task; writing: per buffered write). A read
+/// task reads this many values of each channel (3 × 64 KiB) into a per-thread buffer
+/// that stays in L2, then converts, validates and stores
 /// them and their mask entries in one pass. Longer runs mean fewer `pread` calls (three
 /// per run): 16384 and 32768 cells saved 3–5 % of the CPU of a MERL read, at two and
 /// four times the buffer (beyond L2 on smaller caches) and fewer tasks to balance.
-pub const CHUNK: usize = 8 * 1024;
+pub const IO_CHUNK_CELLS: usize = 8 * 1024;
 
 /// Where the body's bytes come from: a file read positionally (parallel tasks share it)
 /// or a byte slice.
@@ -122,7 +123,7 @@ fn staging_shift(table_shift: usize) -> usize {
 }
 
 thread_local! {
-    /// Each thread's staging buffer for positional reads (24 × [`CHUNK`] bytes), kept
+    /// Each thread's staging buffer for positional reads (24 × [`IO_CHUNK_CELLS`] bytes), kept
     /// from one read to the next: allocating it per task would cost a `calloc` of 192
     /// KiB (zeroing, or fresh pages to fault) some 20 times per table.
     static STAGE: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
@@ -258,11 +259,11 @@ fn read_stream(mut r: impl Read, path: &Path) -> Result<MerlTable, MerlError> {
         .map_err(|e| MerlError::io(path, "reading", e))?;
     let extra = io::copy(&mut r, &mut io::sink()).map_err(|e| MerlError::io(path, "reading", e))?;
     check_length(dims, HEADER_BYTES + body.len() as u64 + extra, path)?;
-    read_body(dims, path, &body[..], CHUNK)
+    read_body(dims, path, &body[..], IO_CHUNK_CELLS)
 }
 
 /// Reads the body (3 planes of little-endian f64) from `src` into a new table, in
-/// parallel over runs of `chunk` cells ([`CHUNK`] outside tests), validating in the same
+/// parallel over runs of `chunk` cells ([`IO_CHUNK_CELLS`] outside tests), validating in the same
 /// pass: each task takes the same cells from the three planes, so it alone owns their
 /// mask entries. The first unacceptable value in file order is an error: each task
 /// reports its own first one, and the earliest in the file wins.
@@ -383,7 +384,7 @@ impl MerlTable {
         let dims = parse_header(&header, len, path)?;
         #[cfg(unix)]
         {
-            read_body(dims, path, &file, CHUNK)
+            read_body(dims, path, &file, IO_CHUNK_CELLS)
         }
         #[cfg(not(unix))]
         {
@@ -392,7 +393,7 @@ impl MerlTable {
             let mut bytes = vec![0u8; len as usize - 12];
             file.read_exact(&mut bytes)
                 .map_err(|e| MerlError::io(path, "reading", e))?;
-            read_body(dims, path, &bytes[..], CHUNK)
+            read_body(dims, path, &bytes[..], IO_CHUNK_CELLS)
         }
     }
 
@@ -408,7 +409,7 @@ impl MerlTable {
         }
         let header: [u8; 12] = bytes[..12].try_into().expect("12 bytes");
         let dims = parse_header(&header, len, path)?;
-        read_body(dims, path, &bytes[HEADER_BYTES as usize..], CHUNK)
+        read_body(dims, path, &bytes[HEADER_BYTES as usize..], IO_CHUNK_CELLS)
     }
 
     /// The file image: header then the raw planes, exactly the bytes [`write`](Self::write)
@@ -428,8 +429,8 @@ impl MerlTable {
             let mut header = [0u8; 12];
             write_header(self.dims, &mut header);
             file.write_all(&header)?;
-            let mut buf = vec![0u8; 8 * CHUNK];
-            for chunk in self.raw.chunks(CHUNK) {
+            let mut buf = vec![0u8; 8 * IO_CHUNK_CELLS];
+            for chunk in self.raw.chunks(IO_CHUNK_CELLS) {
                 let bytes = &mut buf[..8 * chunk.len()];
                 LittleEndian::write_f64_into(chunk, bytes);
                 file.write_all(bytes)?;
@@ -541,7 +542,7 @@ mod tests {
         let path = dir.path().join("odd.binary");
         std::fs::write(&path, &bytes).unwrap();
         let file = File::open(&path).unwrap();
-        for chunk in [1, 3, 7, 8, 13, 500, 1000, 1001, 1002, CHUNK] {
+        for chunk in [1, 3, 7, 8, 13, 500, 1000, 1001, 1002, IO_CHUNK_CELLS] {
             let what = format!("run of {chunk} cells");
             let t = read_body(dims, &path, &file, chunk).unwrap();
             assert_bit_identical(&t, &reference, &format!("file, {what}"));
@@ -590,7 +591,7 @@ mod tests {
         std::fs::write(&path, &bytes).unwrap();
         let file = File::open(&path).unwrap();
         let (i, j, k) = dims.unflatten(900);
-        for chunk in [1, 3, 7, 64, 901, 1001, CHUNK] {
+        for chunk in [1, 3, 7, 64, 901, 1001, IO_CHUNK_CELLS] {
             for e in [
                 read_body(dims, &path, &file, chunk).unwrap_err(),
                 read_body(dims, &path, &bytes[12..], chunk).unwrap_err(),

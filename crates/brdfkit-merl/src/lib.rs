@@ -34,7 +34,7 @@ pub use grid::{
     Dims, DimsError, cell_weight, phi_d_angle, phi_d_bin, phi_d_coord, snap_coord, theta_d_angle,
     theta_d_bin, theta_d_coord, theta_h_angle, theta_h_bin, theta_h_coord,
 };
-pub use io::{CHUNK, atomic_write};
+pub use io::{IO_CHUNK_CELLS, atomic_write};
 pub use lookup::{BATCH_RUN, Lookup, PairsError};
 pub use resample::{Cell, CellBatch, cell_directions};
 pub use stats::{AlbedoSample, ChannelStats, Quadrature, TableStats, gauss_legendre_01};

@@ -77,6 +77,21 @@ fn tilt(rng: &mut ChaCha8Rng, v: &Vec3, eps: f64) -> Vec3 {
     (v * eps.cos() + p * eps.sin()).normalize()
 }
 
+/// A random pair of kind `kind % 4`: uniform on the hemisphere; wo within about `eps`
+/// of wi's mirror image (small θh); wo within `eps` of wi (small θd); wo `eps` from
+/// grazing. `eps` = 10^u, u uniform in `log_eps`.
+fn random_pair(rng: &mut ChaCha8Rng, kind: usize, log_eps: std::ops::Range<f64>) -> (Vec3, Vec3) {
+    let wi = hemisphere(rng);
+    let eps = 10f64.powf(rng.random_range(log_eps));
+    let wo = match kind % 4 {
+        0 => hemisphere(rng),
+        1 => tilt(rng, &Vec3::new(-wi.x, -wi.y, wi.z), eps),
+        2 => tilt(rng, &wi, eps),
+        _ => spherical(FRAC_PI_2 - eps, rng.random_range(-PI..PI)),
+    };
+    (wi, wo)
+}
+
 /// 4 million random pairs: uniform on the hemisphere, near the specular direction
 /// (small θh), near the retro direction (small θd), near grazing; all cells compared.
 #[test]
@@ -86,17 +101,7 @@ fn nearest_is_the_reference_cell_for_millions_of_random_pairs() {
     let mut total_found = 0;
     for batch in 0..8 {
         let pairs: Vec<(Vec3, Vec3)> = (0..500_000)
-            .map(|_| {
-                let wi = hemisphere(&mut rng);
-                let eps = 10f64.powf(rng.random_range(-12.0..-0.5));
-                let wo = match batch % 4 {
-                    0 => hemisphere(&mut rng),
-                    1 => tilt(&mut rng, &Vec3::new(-wi.x, -wi.y, wi.z), eps),
-                    2 => tilt(&mut rng, &wi, eps),
-                    _ => spherical(FRAC_PI_2 - eps, rng.random_range(-PI..PI)),
-                };
-                (wi, wo)
-            })
+            .map(|_| random_pair(&mut rng, batch, -12.0..-0.5))
             .collect();
         total_found += assert_nearest_exact(&t, &pairs, &format!("random batch {batch}"));
     }
@@ -287,17 +292,7 @@ fn interpolated_matches_the_reference_over_the_same_stencil() {
     let mut rng = ChaCha8Rng::seed_from_u64(99);
     for batch in 0..4 {
         let pairs: Vec<(Vec3, Vec3)> = (0..250_000)
-            .map(|_| {
-                let wi = hemisphere(&mut rng);
-                let eps = 10f64.powf(rng.random_range(-10.0..-0.5));
-                let wo = match batch {
-                    0 => hemisphere(&mut rng),
-                    1 => tilt(&mut rng, &Vec3::new(-wi.x, -wi.y, wi.z), eps),
-                    2 => tilt(&mut rng, &wi, eps),
-                    _ => spherical(FRAC_PI_2 - eps, rng.random_range(-PI..PI)),
-                };
-                (wi, wo)
-            })
+            .map(|_| random_pair(&mut rng, batch, -10.0..-0.5))
             .collect();
         assert_interpolated_within(&smooth, &pairs, "smooth", 0.04);
         if batch == 0 {

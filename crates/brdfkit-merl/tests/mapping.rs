@@ -201,32 +201,21 @@ fn bins_equal_the_reference_on_random_and_edge_angles() {
         angles.push(phi_d_angle(x as f64, 180));
         angles.push(phi_d_angle(x as f64, 180) - PI);
     }
+    // (axis, our bin and its count, the reference's index and its resolution; the
+    // reference's φd resolution spans 2π, ours π).
+    type Bin = fn(f64, usize) -> usize;
+    type Index = fn(f64, i32) -> i32;
+    let axes: [(&str, Bin, usize, Index, i32); 5] = [
+        ("θh", theta_h_bin, 90, reference::theta_half_index, 90),
+        ("θd", theta_d_bin, 90, reference::theta_diff_index, 90),
+        ("φd", phi_d_bin, 180, reference::phi_diff_index, 360),
+        ("θh", theta_h_bin, 45, reference::theta_half_index, 45),
+        ("φd", phi_d_bin, 90, reference::phi_diff_index, 180),
+    ];
     for &a in &angles {
-        assert_eq!(
-            theta_h_bin(a, 90) as i32,
-            reference::theta_half_index(a, 90),
-            "θh {a}"
-        );
-        assert_eq!(
-            theta_d_bin(a, 90) as i32,
-            reference::theta_diff_index(a, 90),
-            "θd {a}"
-        );
-        assert_eq!(
-            phi_d_bin(a, 180) as i32,
-            reference::phi_diff_index(a, 360),
-            "φd {a}"
-        );
-        assert_eq!(
-            theta_h_bin(a, 45) as i32,
-            reference::theta_half_index(a, 45),
-            "θh {a}"
-        );
-        assert_eq!(
-            phi_d_bin(a, 90) as i32,
-            reference::phi_diff_index(a, 180),
-            "φd {a}"
-        );
+        for (axis, bin, n, index, res) in axes {
+            assert_eq!(bin(a, n) as i32, index(a, res), "{axis} {a}");
+        }
         // bin = clamp(trunc(coordinate)), bit for bit.
         let u = theta_h_coord(a, 90);
         assert_eq!(theta_h_bin(a, 90), (u as usize).min(89));

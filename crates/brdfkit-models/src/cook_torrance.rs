@@ -72,7 +72,7 @@ use brdfkit_core::scattering::fresnel::{
 };
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking, Smith};
 use brdfkit_core::{
-    Brdf, GeomSlice, GeomSliceF32, GeomSliceOf, Model, ModelError, ParamSpec, Rgb, Vec3,
+    Brdf, DirPairs, GeomSlice, GeomSliceF32, GeomSliceOf, Model, ModelError, ParamSpec, Rgb, Vec3,
 };
 use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
@@ -780,6 +780,21 @@ impl Model for CookTorrance {
         } else {
             eval_batch_f32_widened(self, g, out);
         }
+    }
+
+    /// GGX configurations: the loop of `cook_torrance_ggx.rs` that reads the
+    /// directions itself (fused with the half vector), with the bits of `eval_batch` in
+    /// `f64` and of `eval_batch_f32` in `f32`; the others have no fused kernel.
+    fn eval_dirs_fused(&self, dirs: DirPairs<'_, f64>, out: &mut [Rgb]) -> bool {
+        self.ggx_dirs(dirs, out)
+    }
+
+    fn eval_dirs_fused_rows(&self, dirs: DirPairs<'_, f64>, out: &mut [[f64; 3]]) -> bool {
+        self.ggx_dirs(dirs, out)
+    }
+
+    fn eval_dirs_fused_f32(&self, dirs: DirPairs<'_, f32>, out: &mut [[f32; 3]]) -> bool {
+        self.ggx_dirs(dirs, out)
     }
 
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {

@@ -27,10 +27,9 @@
 
 use super::{CookTorrance, Fresnel, Shape};
 use crate::lanes::{Real, Run, clamp01, dispatch, max, select};
-use crate::raw::Dirs;
 use brdfkit_core::geometry::half_and_cos_d;
 use brdfkit_core::scattering::{Distribution, Masking};
-use brdfkit_core::{GeomSlice, GeomSliceOf, Rgb};
+use brdfkit_core::{DirPairs, GeomSlice, GeomSliceOf, Rgb};
 use std::f64::consts::FRAC_1_PI;
 
 const F_NONE: u8 = 0;
@@ -562,7 +561,7 @@ impl<T: Real, O: Sink<T>> Job for Batch<'_, '_, T, O> {
 /// writing f_r overlap in one pass instead of three (`brdfkit_models::raw`).
 pub(crate) struct DirsBatch<'a, 'd, T, O> {
     pub k: &'a Consts<T>,
-    pub dirs: Dirs<'d, T>,
+    pub dirs: DirPairs<'d, T>,
     pub out: O,
 }
 
@@ -582,13 +581,13 @@ impl<
         let n = b.dirs.len().min(b.out.len());
         // One loop per layout, each over slices cut to n (no bounds checks inside).
         match b.dirs.sub(0..n) {
-            Dirs::Split(wi, wo) => {
+            DirPairs::Split(wi, wo) => {
                 for i in 0..n {
                     let (h, cd) = half_and_cos_d(wi[i], wo[i]);
                     b.out.put(i, value::<T, A, C, F>(b.k, wi[i], wo[i], h, cd));
                 }
             }
-            Dirs::Rows(rows) => {
+            DirPairs::Rows(rows) => {
                 for (i, r) in rows.iter().enumerate() {
                     let (wi, wo) = ([r[0], r[1], r[2]], [r[3], r[4], r[5]]);
                     let (h, cd) = half_and_cos_d(wi, wo);
@@ -610,7 +609,7 @@ impl CookTorrance {
     /// ([`DirsBatch`]); false (nothing written) when the configuration has no kernel.
     pub(crate) fn ggx_dirs<T: Real + brdfkit_core::geometry::Component, O: Sink<T>>(
         &self,
-        dirs: Dirs<'_, T>,
+        dirs: DirPairs<'_, T>,
         out: O,
     ) -> bool {
         let Some(cfg) = self.ggx_config() else {

@@ -8,6 +8,8 @@
 //! cos θd, a branch-free loop compiled for AVX-512 or AVX2 where the processor has them)
 //! and calls the model's [`Model::eval_batch`] or [`Model::eval_batch_f32`] on it, while
 //! it is still in the L1/L2 cache. Nothing proportional to the input is allocated.
+//! A model with its own fused kernel ([`Model::eval_dirs_fused`], Cook-Torrance with
+//! GGX) reads the directions itself instead, one pass over memory.
 //!
 //! **Values.** In `f64` ([`eval_dirs`], [`eval_dirs_flat`]) pair k gets exactly the bits
 //! of `m.eval(wi[k], wo[k])`: the geometry is [`GeometryBatch::from_pairs`]'s to the bit
@@ -31,12 +33,10 @@
 //! gives whatever `eval` gives for it. Lengths that do not fit together are a
 //! [`DirsError`], never a panic.
 
-use crate::cook_torrance::CookTorrance;
 use crate::lanes::{Run, dispatch};
 use crate::par::{RUN, spread};
 use brdfkit_core::geometry::{Component, DirsError};
-use brdfkit_core::{Geometry, GeometryBatch, GeometryBatchF32, Model, Rgb};
-use std::any::Any;
+use brdfkit_core::{DirPairs, Geometry, GeometryBatch, GeometryBatchF32, Model, Rgb};
 use std::cell::RefCell;
 
 /// Pairs per geometry run: a run's float32 geometry (10 columns) and its three output
@@ -44,49 +44,21 @@ use std::cell::RefCell;
 /// on current x86) between the fill and the model's loop; larger runs were no faster.
 pub const GEOM_RUN: usize = 1024;
 
-/// Where the directions come from: two slices of vectors, or N×6 rows.
-#[derive(Clone, Copy)]
-pub(crate) enum Dirs<'a, T> {
-    Split(&'a [[T; 3]], &'a [[T; 3]]),
-    Rows(&'a [[T; 6]]),
-}
-
-impl<T> Dirs<'_, T> {
-    /// Number of pairs.
-    pub(crate) fn len(&self) -> usize {
-        match self {
-            Dirs::Split(wi, wo) => wi.len().min(wo.len()),
-            Dirs::Rows(rows) => rows.len(),
-        }
-    }
-
-    /// Pairs `r`.
-    pub(crate) fn sub(&self, r: std::ops::Range<usize>) -> Self {
-        match self {
-            Dirs::Split(wi, wo) => Dirs::Split(&wi[r.clone()], &wo[r]),
-            Dirs::Rows(rows) => Dirs::Rows(&rows[r]),
-        }
-    }
-}
-
 /// The fill of one geometry run, run by [`dispatch`] so that the inlined loop of
 /// [`Geometry::fill_from_dirs`] is compiled with the widest vectors available.
 struct Fill<'a, 'd, T> {
     g: &'a mut Geometry<T>,
-    dirs: Dirs<'d, T>,
+    dirs: DirPairs<'d, T>,
 }
 
 impl<T: Component> Run for Fill<'_, '_, T> {
     #[inline(always)]
     fn run(&mut self) {
-        match self.dirs {
-            Dirs::Split(wi, wo) => self.g.fill_from_dirs(wi, wo),
-            Dirs::Rows(rows) => self.g.fill_from_rows(rows),
-        }
+        self.g.fill_from_pairs(self.dirs);
     }
 }
 
-fn fill<T: Component>(g: &mut Geometry<T>, dirs: Dirs<'_, T>) {
+fn fill<T: Component>(g: &mut Geometry<T>, dirs: DirPairs<'_, T>) {
     dispatch(&mut Fill { g, dirs });
 }
 
@@ -131,15 +103,6 @@ fn with_scratch(f: impl FnOnce(&mut Scratch)) {
     })
 }
 
-/// The model as Cook-Torrance, whose GGX configurations have a loop that reads the
-/// directions itself (fused with the half vector, `cook_torrance_ggx.rs`): one pass over
-/// memory instead of a fill, the kernel and a copy, which the 2-core measurement showed
-/// to cost more than the arithmetic (docs/performance.md).
-fn cook_torrance(m: &dyn Model) -> Option<&CookTorrance> {
-    let any: &dyn Any = m;
-    any.downcast_ref::<CookTorrance>()
-}
-
 /// Runs `f(run index, run)` for every run: on the calling thread when there is only one
 /// (no wake-up of the pool for small batches), else spread over the current rayon pool.
 fn for_runs<O: Send>(runs: Vec<O>, f: impl Fn(usize, O) + Sync) {
@@ -154,22 +117,23 @@ fn for_runs<O: Send>(runs: Vec<O>, f: impl Fn(usize, O) + Sync) {
 trait Out64: Send + Sized {
     /// f_r of the pairs of `g` into `o`, `vals` a scratch buffer.
     fn eval(m: &dyn Model, g: &GeometryBatch, o: &mut [Self], vals: &mut Vec<Rgb>);
-    /// Cook-Torrance's fused GGX loop into `o`; false when it has none.
-    fn fused(ct: &CookTorrance, dirs: Dirs<'_, f64>, o: &mut [Self]) -> bool;
+    /// The model's fused kernel into `o` ([`Model::eval_dirs_fused`]); false when it
+    /// has none.
+    fn fused(m: &dyn Model, dirs: DirPairs<'_, f64>, o: &mut [Self]) -> bool;
 }
 
 impl Out64 for Rgb {
     fn eval(m: &dyn Model, g: &GeometryBatch, o: &mut [Self], _: &mut Vec<Rgb>) {
         m.eval_batch(&g.as_slice(), o);
     }
-    fn fused(ct: &CookTorrance, dirs: Dirs<'_, f64>, o: &mut [Self]) -> bool {
-        ct.ggx_dirs(dirs, o)
+    fn fused(m: &dyn Model, dirs: DirPairs<'_, f64>, o: &mut [Self]) -> bool {
+        m.eval_dirs_fused(dirs, o)
     }
 }
 
 impl Out64 for [f64; 3] {
-    fn fused(ct: &CookTorrance, dirs: Dirs<'_, f64>, o: &mut [Self]) -> bool {
-        ct.ggx_dirs(dirs, o)
+    fn fused(m: &dyn Model, dirs: DirPairs<'_, f64>, o: &mut [Self]) -> bool {
+        m.eval_dirs_fused_rows(dirs, o)
     }
     fn eval(m: &dyn Model, g: &GeometryBatch, o: &mut [Self], vals: &mut Vec<Rgb>) {
         vals.resize(o.len(), Rgb::ZERO);
@@ -181,12 +145,14 @@ impl Out64 for [f64; 3] {
 }
 
 /// The f64 driver: pair `k` of `dirs` into `out[k]`.
-fn drive64<O: Out64>(m: &dyn Model, dirs: Dirs<'_, f64>, out: &mut [O]) {
+fn drive64<O: Out64>(m: &dyn Model, dirs: DirPairs<'_, f64>, out: &mut [O]) {
     let runs: Vec<&mut [O]> = out.chunks_mut(RUN).collect();
-    let ct = cook_torrance(m);
     for_runs(runs, |i, o| {
         let a = i * RUN;
-        if ct.is_some_and(|ct| O::fused(ct, dirs.sub(a..a + o.len()), o)) {
+        // A model's own fused kernel (Cook-Torrance's GGX loop) reads the directions in
+        // one pass; the fill, the kernel and a copy cost more on 2 cores
+        // (docs/performance.md).
+        if O::fused(m, dirs.sub(a..a + o.len()), o) {
             return;
         }
         with_scratch(|s| {
@@ -200,12 +166,11 @@ fn drive64<O: Out64>(m: &dyn Model, dirs: Dirs<'_, f64>, out: &mut [O]) {
 }
 
 /// The f32 driver: pair `k` of `dirs` into `out[k]`.
-fn drive32(m: &dyn Model, dirs: Dirs<'_, f32>, out: &mut [[f32; 3]]) {
+fn drive32(m: &dyn Model, dirs: DirPairs<'_, f32>, out: &mut [[f32; 3]]) {
     let runs: Vec<&mut [[f32; 3]]> = out.chunks_mut(RUN).collect();
-    let ct = cook_torrance(m);
     for_runs(runs, |i, o| {
         let a = i * RUN;
-        if ct.is_some_and(|ct| ct.ggx_dirs(dirs.sub(a..a + o.len()), &mut *o)) {
+        if m.eval_dirs_fused_f32(dirs.sub(a..a + o.len()), o) {
             return;
         }
         with_scratch(|s| {
@@ -272,7 +237,7 @@ pub fn eval_dirs(
     out: &mut [Rgb],
 ) -> Result<(), DirsError> {
     check(wi.len(), wo.len(), out.len())?;
-    drive64(m, Dirs::Split(wi, wo), out);
+    drive64(m, DirPairs::Split(wi, wo), out);
     Ok(())
 }
 
@@ -280,7 +245,7 @@ pub fn eval_dirs(
 /// pair (a NumPy `(N, 6)` float64 array), into an N×3 array `[r, g, b]` per pair.
 pub fn eval_dirs_flat(m: &dyn Model, dirs: &[f64], out: &mut [f64]) -> Result<(), DirsError> {
     let (rows, out) = flat(dirs, out)?;
-    drive64(m, Dirs::Rows(rows), out);
+    drive64(m, DirPairs::Rows(rows), out);
     Ok(())
 }
 
@@ -295,7 +260,7 @@ pub fn eval_dirs_f32(
     out: &mut [[f32; 3]],
 ) -> Result<(), DirsError> {
     check(wi.len(), wo.len(), out.len())?;
-    drive32(m, Dirs::Split(wi, wo), out);
+    drive32(m, DirPairs::Split(wi, wo), out);
     Ok(())
 }
 
@@ -303,6 +268,6 @@ pub fn eval_dirs_f32(
 /// [`eval_dirs_flat`]).
 pub fn eval_dirs_flat_f32(m: &dyn Model, dirs: &[f32], out: &mut [f32]) -> Result<(), DirsError> {
     let (rows, out) = flat(dirs, out)?;
-    drive32(m, Dirs::Rows(rows), out);
+    drive32(m, DirPairs::Rows(rows), out);
     Ok(())
 }

@@ -5,6 +5,7 @@
 //! The `assert_*` functions panic with a message naming the model, the pair and the
 //! parameter; they are meant for tests.
 
+use crate::shape::Shape;
 use brdfkit_core::direction::spherical;
 use brdfkit_core::{GeometryBatch, Model, Rgb, Vec3};
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
@@ -376,5 +377,30 @@ pub fn assert_matches_angle_formula(
                 w[c]
             );
         }
+    }
+}
+
+/// The roughness shapes the hard-case tests sweep: for each α in {1e-6, 1e-4, 1e-2,
+/// 0.5, 1, 2, 100}, isotropic α, (α, 0.3) and (1e-6, α), in that order.
+pub fn hard_shapes() -> Vec<Shape> {
+    [1e-6, 1e-4, 1e-2, 0.5, 1.0, 2.0, 100.0]
+        .into_iter()
+        .flat_map(|a| {
+            [
+                Shape::Isotropic(a),
+                Shape::Anisotropic(a, 0.3),
+                Shape::Anisotropic(1e-6, a),
+            ]
+        })
+        .collect()
+}
+
+/// A shape from decimal logarithms (property tests draw exponents or roughnesses over
+/// decades): (10^la, 10^lb) when `aniso`, else isotropic 10^la.
+pub fn shape_from_log10(aniso: bool, la: f64, lb: f64) -> Shape {
+    if aniso {
+        Shape::Anisotropic(10f64.powf(la), 10f64.powf(lb))
+    } else {
+        Shape::Isotropic(10f64.powf(la))
     }
 }

@@ -81,11 +81,7 @@ proptest! {
         p in proptest::collection::vec(0.05f64..0.95, 6),
         seed in any::<u64>(),
     ) {
-        let shape = if aniso {
-            Shape::Anisotropic(10f64.powf(la), 10f64.powf(lb))
-        } else {
-            Shape::Isotropic(10f64.powf(la))
-        };
+        let shape = shape_from_log10(aniso, la, lb);
         let m = AshikhminShirley::new()
             .with_rho_d(Rgb::new(p[0], p[1], p[2])).unwrap()
             .with_rho_s(Rgb::new(p[3], p[4], p[5])).unwrap()

@@ -444,25 +444,19 @@ fn hard_cases_stay_finite() {
         for mk in MASKS {
             for b in G1S {
                 for f in fresnels() {
-                    for &a in &[1e-6, 1e-4, 1e-2, 0.5, 1.0, 2.0, 100.0] {
-                        for shape in [
-                            Shape::Isotropic(a),
-                            Shape::Anisotropic(a, 0.3),
-                            Shape::Anisotropic(1e-6, a),
-                        ] {
-                            let m = CookTorrance::new()
-                                .with_rho_s(Rgb::splat(1.0))
-                                .unwrap()
-                                .with_shape(shape)
-                                .unwrap()
-                                .with_distribution(d)
-                                .with_masking(mk)
-                                .with_beckmann_g1(b)
-                                .with_fresnel(f)
-                                .unwrap();
-                            assert_finite_everywhere(&m, &hard);
-                            assert_nonnegative(&m, &hard);
-                        }
+                    for shape in hard_shapes() {
+                        let m = CookTorrance::new()
+                            .with_rho_s(Rgb::splat(1.0))
+                            .unwrap()
+                            .with_shape(shape)
+                            .unwrap()
+                            .with_distribution(d)
+                            .with_masking(mk)
+                            .with_beckmann_g1(b)
+                            .with_fresnel(f)
+                            .unwrap();
+                        assert_finite_everywhere(&m, &hard);
+                        assert_nonnegative(&m, &hard);
                     }
                 }
             }

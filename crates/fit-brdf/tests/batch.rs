@@ -2,18 +2,12 @@
 //! reruns resume without refitting, shards partition the database, and SIGINT leaves
 //! only complete files. The engine's logic has its unit tests in `brdfkit_fit::batch`.
 
-use assert_cmd::Command;
+mod common;
+
+use common::{bin, stderr, synth_to};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
-
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
-
-fn stderr(o: &std::process::Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// A spec of a small table (16 x 16 x 32 cells, or 24 x 24 x 48 with `big`).
 fn spec(alpha: f64, big: bool) -> String {
@@ -36,13 +30,7 @@ fresnel = {{ schlick = {{ f0 = 0.04 }} }}
 fn synth(dir: &Path, alpha: f64, big: bool, out: &Path) {
     let s = dir.join(format!("spec-{alpha}-{big}.toml"));
     std::fs::write(&s, spec(alpha, big)).unwrap();
-    bin()
-        .arg("synth")
-        .arg(&s)
-        .arg("--out")
-        .arg(out)
-        .assert()
-        .success();
+    synth_to(&s, out);
 }
 
 /// `n` tables `t00.binary`… in `db` (copies of one synthesis: fitting cost is what the

@@ -1,11 +1,9 @@
 //! Drives the `fit-brdf` binary as a user would: every subcommand and its failure modes.
 
-use assert_cmd::Command;
-use std::path::{Path, PathBuf};
+mod common;
 
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
+use common::{bin, stderr, synth_output, synth_spec};
+use std::path::{Path, PathBuf};
 
 const SMALL_LAMBERT: &str = r#"
 name = "small"
@@ -17,21 +15,7 @@ params = { rho_d = [0.5, 0.25, 0.125] }
 
 /// Writes a spec and synthesises its table in `dir`; returns the table path.
 fn small_table(dir: &Path) -> PathBuf {
-    let spec = dir.join("small.toml");
-    std::fs::write(&spec, SMALL_LAMBERT).unwrap();
-    let out = dir.join("small.binary");
-    bin()
-        .args(["synth"])
-        .arg(&spec)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
-    out
-}
-
-fn stderr(o: &std::process::Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
+    synth_spec(dir, "small", SMALL_LAMBERT)
 }
 
 #[test]
@@ -239,13 +223,7 @@ fn write_failure_is_exit_1_and_leaves_nothing_behind() {
     let d = tempfile::tempdir().unwrap();
     let spec = d.path().join("small.toml");
     std::fs::write(&spec, SMALL_LAMBERT).unwrap();
-    let o = bin()
-        .arg("synth")
-        .arg(&spec)
-        .arg("--out")
-        .arg(d.path().join("no-such-dir").join("t.binary"))
-        .output()
-        .unwrap();
+    let o = synth_output(&spec, &d.path().join("no-such-dir").join("t.binary"));
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("t.binary"));
     let names: Vec<_> = std::fs::read_dir(d.path())
@@ -264,13 +242,7 @@ fn synth_rejects_a_bad_spec_with_exit_2() {
         "name = \"x\"\ncolour = 1\n[material]\nmodel = \"lambert\"\n",
     )
     .unwrap();
-    let o = bin()
-        .arg("synth")
-        .arg(&spec)
-        .arg("--out")
-        .arg(d.path().join("t.binary"))
-        .output()
-        .unwrap();
+    let o = synth_output(&spec, &d.path().join("t.binary"));
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
     assert!(e.contains("bad.toml") && e.contains("colour"), "{e}");
@@ -386,17 +358,7 @@ fresnel = { schlick = { f0 = 0.04 } }
 "#;
 
 fn small_plastic(dir: &Path) -> PathBuf {
-    let spec = dir.join("plastic.toml");
-    std::fs::write(&spec, SMALL_PLASTIC).unwrap();
-    let out = dir.join("plastic.binary");
-    bin()
-        .arg("synth")
-        .arg(&spec)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
-    out
+    synth_spec(dir, "plastic", SMALL_PLASTIC)
 }
 
 #[test]

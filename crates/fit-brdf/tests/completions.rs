@@ -1,11 +1,9 @@
 //! `fit-brdf completions SHELL`: a completion script for every shell clap_complete knows,
 //! listing every subcommand; and the help conventions of batch, export and completions.
 
-use assert_cmd::Command;
+mod common;
 
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
+use common::bin;
 
 /// The subcommands as `fit-brdf --help` lists them (so a new one is checked too).
 fn subcommands() -> Vec<String> {

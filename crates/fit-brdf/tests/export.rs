@@ -7,23 +7,17 @@
 //! `CI` set (to anything but "", "0" or "false") a missing Mitsuba fails the test;
 //! without it the test prints one loud line and passes.
 
-use assert_cmd::Command;
+mod common;
+
 use brdfkit::core::{Rgb, Vec3};
 use brdfkit::models::cook_torrance::Shape;
 use brdfkit_validate::mitsuba::{
     CrossConfig, Tolerance, cases, compare, find_python, workspace_root,
 };
+use common::{bin, stderr, synth_spec};
 use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
-
-fn stderr(o: &std::process::Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// Uncaptured output: the harness captures `eprintln!`, not direct writes.
 fn say(s: &str) {
@@ -404,6 +398,18 @@ fn pbrt_export_matches_pbrts_conductor_formula() {
     );
 }
 
+/// `fit-brdf export MODEL --to TO` exits 2 with `needle` in its stderr.
+fn refused(model: &Path, to: &str, needle: &str) {
+    let o = bin()
+        .arg("export")
+        .arg(model)
+        .args(["--to", to])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains(needle), "{}", stderr(&o));
+}
+
 #[test]
 fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
     let d = tempfile::tempdir().unwrap();
@@ -469,45 +475,14 @@ fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
             .to_string(),
     )
     .unwrap();
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "mitsuba"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("per-channel fit"), "{}", stderr(&o));
+    refused(&p, "mitsuba", "per-channel fit");
     // Not JSON.
     std::fs::write(&p, "{\"model\": ").unwrap();
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "pbrt"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        stderr(&o).contains("m.json: not valid JSON"),
-        "{}",
-        stderr(&o)
-    );
+    refused(&p, "pbrt", "m.json: not valid JSON");
     // A model that is not valid at all, a missing file, and usage errors.
     std::fs::write(&p, r#"{"model": "lambert", "params": {"rho_d": 2}}"#).unwrap();
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "mitsuba"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("rho_d"), "{}", stderr(&o));
-    let o = bin()
-        .arg("export")
-        .arg(d.path().join("nope.json"))
-        .args(["--to", "mitsuba"])
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
+    refused(&p, "mitsuba", "rho_d");
+    refused(&d.path().join("nope.json"), "mitsuba", "");
     std::fs::write(&p, r#"{"model": "lambert"}"#).unwrap();
     for args in [
         vec!["--to", "blender"],
@@ -569,24 +544,15 @@ fn export_writes_the_file_atomically_and_notes_on_stderr() {
 #[test]
 fn a_conductor_fitted_with_rho_d_fixed_at_0_exports() {
     let d = tempfile::tempdir().unwrap();
-    let spec = d.path().join("gold.toml");
-    std::fs::write(
-        &spec,
-        format!(
+    let table = synth_spec(
+        d.path(),
+        "gold",
+        &format!(
             "name = \"gold\"\ndims = [16, 16, 32]\n[material]\nmodel = \"cook-torrance\"\n\
              [material.params]\nrho_d = 0.0\nrho_s = 0.7\nalpha = 0.15\n\
              fresnel = {{ conductor = {{ eta = {GOLD_ETA:?}, k = {GOLD_K:?} }} }}\n"
         ),
-    )
-    .unwrap();
-    let table = d.path().join("gold.binary");
-    bin()
-        .arg("synth")
-        .arg(&spec)
-        .arg("--out")
-        .arg(&table)
-        .assert()
-        .success();
+    );
     let start = d.path().join("start.json");
     std::fs::write(
         &start,

@@ -3,14 +3,12 @@
 //! message names the file and the problem, exit code 2, and no panic; a header's claim
 //! never makes the reader allocate beyond the file's size.
 
-use assert_cmd::Command;
+mod common;
+
 use brdfkit::merl::{MerlError, MerlTable};
+use common::bin;
 use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
-
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
 
 fn header(a: i32, b: i32, c: i32) -> Vec<u8> {
     [a.to_le_bytes(), b.to_le_bytes(), c.to_le_bytes()].concat()

@@ -4,17 +4,11 @@
 //! `--rewrite` reproduces the report from the stored figures, and that bad input is a
 //! clear error (exit 2) that leaves no output behind.
 
-use assert_cmd::Command;
+mod common;
+
+use common::{bin, stderr};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
-
-fn stderr(o: &std::process::Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// The specs the grid (lambert-white) and the choices (gold, copper, silver) read, on a
 /// 16 × 16 × 32 grid instead of the MERL one.

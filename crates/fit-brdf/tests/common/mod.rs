@@ -1,0 +1,49 @@
+//! Helpers shared by the CLI test files: the binary, its stderr, and a synthesised
+//! table from a spec text.
+
+#![allow(dead_code)] // each test file uses its own subset
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+/// The `fit-brdf` binary of this build.
+pub fn bin() -> Command {
+    Command::cargo_bin("fit-brdf").unwrap()
+}
+
+/// A finished command's stderr as text.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Runs `fit-brdf synth SPEC --out OUT` and asserts it succeeds.
+pub fn synth_to(spec: &Path, out: &Path) {
+    bin()
+        .arg("synth")
+        .arg(spec)
+        .arg("--out")
+        .arg(out)
+        .assert()
+        .success();
+}
+
+/// Writes `spec_text` to `dir/NAME.toml` and synthesises it to `dir/NAME.binary`;
+/// returns the table's path.
+pub fn synth_spec(dir: &Path, name: &str, spec_text: &str) -> PathBuf {
+    let spec = dir.join(format!("{name}.toml"));
+    std::fs::write(&spec, spec_text).unwrap();
+    let out = dir.join(format!("{name}.binary"));
+    synth_to(&spec, &out);
+    out
+}
+
+/// Runs `fit-brdf synth SPEC --out OUT` and returns its output, whatever its status.
+pub fn synth_output(spec: &Path, out: &Path) -> std::process::Output {
+    bin()
+        .arg("synth")
+        .arg(spec)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
