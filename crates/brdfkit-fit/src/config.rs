@@ -437,7 +437,11 @@ impl FitConfig {
         if let Some(v) = n
             && v < 256
         {
-            return Err(bad("explore_cells", v, "must be at least 256 cells (or none)"));
+            return Err(bad(
+                "explore_cells",
+                v,
+                "must be at least 256 cells (or none)",
+            ));
         }
         self.explore_cells = n;
         Ok(self)

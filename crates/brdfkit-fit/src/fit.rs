@@ -426,10 +426,12 @@ fn run_pass(
     // converges there; the finishers then pass through the warm-up set to the full
     // one), unless that would be under EXPLORE_MIN_CELLS, when the warm-up set is the
     // exploration set.
-    let explore_cells = warm_cells.filter(|_| ranked).and_then(|w| match config.explore_cells {
-        None => Some(w / EXPLORE_DIVISOR).filter(|&e| e >= EXPLORE_MIN_CELLS),
-        Some(e) => (e < w).then_some(e),
-    });
+    let explore_cells = warm_cells
+        .filter(|_| ranked)
+        .and_then(|w| match config.explore_cells {
+            None => Some(w / EXPLORE_DIVISOR).filter(|&e| e >= EXPLORE_MIN_CELLS),
+            Some(e) => (e < w).then_some(e),
+        });
     let subsample = |cells: usize, seed: u64| {
         data.stratified_subsample(cells as f64 / data.len() as f64, config.seed ^ seed)
     };
