@@ -2,7 +2,9 @@
 //!
 //! The directional albedo of channel c is
 //!
-//!     a_c(ωi) = ∫_{H²} f_c(ωi, ωo) cos θo dωo
+//! ```text
+//! a_c(ωi) = ∫_{H²} f_c(ωi, ωo) cos θo dωo
+//! ```
 //!
 //! (the fraction of light from ωi reflected anywhere; energy conservation is a_c ≤ 1 for
 //! every ωi; E. P. Lafortune, Y. D. Willems, "Using the modified Phong reflectance model

@@ -18,7 +18,7 @@
 //! ```
 //!
 //! # Evaluation
-//! The cells are split into chunks of [`PASS_CHUNK_CELLS`](crate::data::PASS_CHUNK_CELLS); rayon maps over the chunks with one
+//! The cells are split into chunks of [`PASS_CHUNK_CELLS`]; rayon maps over the chunks with one
 //! scratch set per job (`map_init`: model values, the model's parameter-major
 //! gradient, the Jacobian columns of the chunk), so nothing is allocated per cell.
 //! Each chunk's partial sums are collected and added in chunk order, so a pass gives

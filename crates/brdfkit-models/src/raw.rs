@@ -2,7 +2,7 @@
 //! in `f64` or `f32`, on every thread of the current rayon pool.
 //!
 //! This is what a renderer or a script passes: directions, no precomputed geometry. Each
-//! thread takes runs of [`RUN`](crate::par::RUN) pairs (handed out as in [`crate::par`])
+//! thread takes runs of [`RUN`] pairs (handed out as in [`crate::par`])
 //! and cuts them into runs of [`GEOM_RUN`] pairs; for each it fills a per-thread
 //! [`Geometry`] from the directions ([`Geometry::fill_from_dirs`]: the half vector and
 //! cos θd, a branch-free loop compiled for AVX-512 or AVX2 where the processor has them)
