@@ -13,7 +13,7 @@
 //!    where it is.
 
 use super::demo_material::{Material, material};
-use super::report::{make_report, write_report};
+use super::report::{make_report_from, write_report};
 use super::{read_table, write_table};
 use crate::cli::DemoArgs;
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
@@ -118,7 +118,16 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let report = make_report(&back, &name, &outcomes, &cfg, &options, false)?;
+    // The report reuses the fits' cells and losses instead of rebuilding them.
+    let report = make_report_from(
+        std::sync::Arc::new(back),
+        data,
+        &name,
+        &outcomes,
+        &cfg,
+        &options,
+        false,
+    )?;
     let (html, json) = write_report(&a.out.join("report"), &report)?;
     println!(
         "\nreport written in {:.1} s: {}\n  (data: {}); open it in a browser, no server needed",

@@ -12,7 +12,7 @@ use brdfkit::fit::families::{Outcome, comparison_text, fit_each};
 use brdfkit::fit::{FitConfig, FitData};
 use brdfkit::merl::MerlTable;
 use brdfkit_validate::html::renders::RenderOptions;
-use brdfkit_validate::html::{FitReport, ModelFit, ReportOptions, build_report, build_report_from};
+use brdfkit_validate::html::{FitReport, ModelFit, ReportOptions, build_report_from};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -45,29 +45,9 @@ fn progress_lines(quiet: bool) -> impl Fn(&str) + Sync {
     }
 }
 
-/// Builds the report of fitted outcomes; progress lines go to stderr unless `quiet`.
-pub fn make_report(
-    table: &MerlTable,
-    table_name: &str,
-    outcomes: &[Outcome],
-    cfg: &FitConfig,
-    options: &ReportOptions,
-    quiet: bool,
-) -> CliResult<FitReport> {
-    let fits = model_fits(outcomes)?;
-    build_report(
-        table,
-        table_name,
-        &fits,
-        Some(cfg),
-        options,
-        &progress_lines(quiet),
-    )
-    .map_err(|e| runtime(anyhow::anyhow!("{table_name}: the report failed: {e}")))
-}
-
-/// [`make_report`] on the table and the cells the fits used (`cells` is
-/// `FitData::from_table(&table)`): the report reuses the cells and the fits' losses
+/// Builds the report of fitted outcomes on the table and the cells the fits used
+/// (`cells` is `FitData::from_table(&table)`); progress lines go to stderr unless
+/// `quiet`. The report reuses the cells and the fits' losses
 /// instead of rebuilding them, and frees the cells once it no longer needs them.
 pub fn make_report_from(
     table: Arc<MerlTable>,
