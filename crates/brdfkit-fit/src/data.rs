@@ -315,7 +315,7 @@ impl FitData {
 
     /// θd of cell m.
     #[inline]
-    fn theta_d_at(&self, m: usize) -> f64 {
+    pub(crate) fn theta_d_at(&self, m: usize) -> f64 {
         acos_clamped(self.geometry.cos_d[m])
     }
 

@@ -8,6 +8,7 @@ use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
 use crate::loss::{Robust, RobustKind};
 use crate::observer::{Bridge, FitObserver, FitPlan, StartDone};
 use crate::problem::{FitProblem, NormalEquations, evaluate_losses};
+use crate::score::CellFilter;
 use crate::record::{FitRecord, ParamRecord, RobustRecord, StartRecord, WarmUpRecord};
 use crate::starts::start_points;
 use argmin::core::observers::ObserverMode;
@@ -851,20 +852,9 @@ pub fn fit(
 ) -> Result<FitResult, FitError> {
     let t0 = Instant::now();
     config.validate()?;
-    let full_owned;
-    let full: &FitData = match config.theta_d_max {
-        Some(t) => {
-            full_owned = data.with_theta_d_max(t);
-            &full_owned
-        }
-        None => data,
-    };
-    if full.is_empty() {
-        return Err(FitError::NoCells(format!(
-            "{} cells, none with θd ≤ the cutoff",
-            data.len()
-        )));
-    }
+    // The cells of the final losses: the ones a score of the result takes (score.rs).
+    let full = CellFilter::of(config).apply(data)?;
+    let full: &FitData = &full;
     let sub_owned;
     let fitset: &FitData = match config.subsample {
         Some(f) => {

@@ -31,6 +31,7 @@
 //! - [`config`], [`record`], [`observer`]: options, the JSON record, progress events;
 //! - [`synth`]: synthetic materials with known parameters: the `data-synthetic/` spec
 //!   format and its tables, cell sets from a model, seeded noise (tests, benchmarks);
+//! - [`score`]: every loss of given parameters on a fit's cells, without fitting;
 //! - [`families`]: model lists with structural choices and fit settings as the command
 //!   line gives them, fitted family by family;
 //! - [`batch`]: the batch engine (every table of a database, resumable, sharded,
@@ -53,6 +54,7 @@ pub mod observer;
 pub mod problem;
 pub mod record;
 pub mod reparam;
+pub mod score;
 pub mod starts;
 pub mod synth;
 
@@ -65,3 +67,4 @@ pub use loss::{ChannelLoss, Loss, LossReport, Robust, RobustKind, Weighting};
 pub use observer::{FitObserver, FitPlan, IterEvent, OnIter, StartDone};
 pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses};
 pub use record::{FitRecord, ParamRecord, RobustRecord, StartRecord, WarmUpRecord};
+pub use score::{CellFilter, Score, ScoreError, losses_of_values, score};

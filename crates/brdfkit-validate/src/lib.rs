@@ -11,6 +11,9 @@
 //!   of the fitter, per channel and overall, by θh and θd band; relative-error
 //!   percentiles; the albedo of fit and table; held-out validation) and returns a
 //!   [`QualityReport`];
+//! - [`compare`]: two representations of a material (tables, models, neural BRDFs)
+//!   against each other: every loss, the largest relative differences and where they
+//!   are, the render pair and its difference images;
 //! - [`export`]: the one mapping of a model onto a renderer's material (Mitsuba 3's
 //!   `diffuse` and `roughconductor`, pbrt-v4's `diffuse` and `conductor`) with its
 //!   writers (Mitsuba XML and dictionary, pbrt-v4 scene text) and typed refusals;
@@ -48,6 +51,7 @@
 
 #![warn(missing_docs)]
 
+pub mod compare;
 pub mod export;
 pub mod html;
 pub mod mitsuba;

@@ -57,14 +57,7 @@ pub enum QualityError {
 /// A fitted model as JSON: a model description, or `{"per_channel": [r, g, b]}` as
 /// [`Fitted::to_json`] writes it.
 pub fn fitted_from_json(v: &Value) -> Result<Fitted, ModelError> {
-    if let Some(pc) = v.get("per_channel") {
-        let arr = pc.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
-            ModelError::Invalid("`per_channel` must be an array of three model descriptions".into())
-        })?;
-        let m = |c: usize| brdfkit_models::from_json(&arr[c]);
-        return Ok(Fitted::PerChannel([m(0)?, m(1)?, m(2)?]));
-    }
-    Ok(Fitted::Shared(brdfkit_models::from_json(v)?))
+    Fitted::from_json(v)
 }
 
 /// Held-out validation settings.

@@ -6,7 +6,7 @@ use brdfkit::fit::families::REPORT_MODELS;
 use brdfkit::fit::{Loss, RobustKind, SolverKind, Weighting};
 use brdfkit::models::cook_torrance::FresnelKind;
 use brdfkit::models::ward::Normalization;
-use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::builder::{ArgPredicate, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use std::str::FromStr;
@@ -111,7 +111,8 @@ pub enum Command {
     #[command(
         after_help = "Examples:\n  fit-brdf report gold.binary --out gold-report\n  \
                             fit-brdf report gold.binary --models lambert,cook-torrance --fresnel conductor --starts 4 --out r\n  \
-                            fit-brdf report t.binary --json --quiet > summary.json\n\n\
+                            fit-brdf report t.binary --json --quiet > summary.json\n  \
+                            fit-brdf report gold.binary --given published.json --models cook-torrance --out r\n\n\
                             Every option of `fit` applies. The page opens from disk (no server). \
                             What each section shows and how to read it: docs/report.md."
     )]
@@ -160,6 +161,31 @@ pub enum Command {
                             <!-- study:NAME --> markers are replaced; the rest of OUT.md is kept). Details: docs/accuracy-vs-time.md."
     )]
     Study(StudyArgs),
+    /// Score given models against a table without fitting: every loss (l2, cosine,
+    /// cbrt, log) per channel and overall, on the cells and with the weights of `fit`.
+    #[command(
+        after_help = "Examples:\n  fit-brdf score gold.binary published.json\n  \
+                            fit-brdf score gold.binary a.json b.json --weighting uniform --theta-d-max 80 --json\n\n\
+                            MODEL.json: a model description ({\"model\": ..., \"params\": ...}), a per-channel fit \
+                            ({\"per_channel\": [r, g, b]}) or a fit record (fit --record). The losses are those a fit \
+                            with the same --weighting and --theta-d-max reports as losses_full, to the bit. \
+                            Worked example with published parameters: docs/scoring.md."
+    )]
+    Score(ScoreArgs),
+    /// Compare two representations of a material: every loss of B against A on A's
+    /// valid cells, the largest relative differences with where they are, and the
+    /// report's render pair and difference images.
+    #[command(
+        after_help = "Examples:\n  fit-brdf compare gold.binary gold-45.binary --resample linear\n  \
+                            fit-brdf compare gold.binary data-measured/merl/gold-paint --out cmp/\n  \
+                            fit-brdf compare gold.binary fit.json --json\n\n\
+                            A and B are each recognised by their name: *.binary is a MERL table, *.json a model \
+                            (or a per-channel fit, or a fit record), anything else DIR/NAME, the stem of the six \
+                            NBRDF files NAME_{fc1,b1,fc2,b2,fc3,b3}.npy. A is the reference: a model or an NBRDF as A \
+                            is tabulated on B's grid when B is a table, else on --dims. Two tables of different \
+                            grids are refused (exit 2) unless --resample says how to bring B onto A's grid."
+    )]
+    Compare(CompareArgs),
 }
 
 #[derive(Args, Debug)]
@@ -291,9 +317,8 @@ pub struct FitOptions {
     /// Loss optimised (every loss is reported).
     #[arg(long, default_value = "cbrt", value_parser = choice::<Loss>(Loss::ALL.map(|v| v.name())))]
     pub loss: Loss,
-    /// Cell weights.
-    #[arg(long, default_value = "solid-angle", value_parser = choice::<Weighting>(WEIGHTINGS))]
-    pub weighting: Weighting,
+    #[command(flatten)]
+    pub cells: CellOptions,
     /// Solver.
     #[arg(long, default_value = "lm", value_parser = choice::<SolverKind>(SolverKind::ALL.map(|v| v.name())))]
     pub solver: SolverKind,
@@ -307,9 +332,6 @@ pub struct FitOptions {
     /// Fit on this stratified fraction of the valid cells (losses are also reported on all).
     #[arg(long, default_value_t = 1.0)]
     pub sample_fraction: f64,
-    /// Ignore cells with θd above this angle (degrees): grazing data is the least reliable.
-    #[arg(long, value_name = "DEG")]
-    pub theta_d_max: Option<f64>,
     /// Fit every parameter per channel independently (default: shape shared).
     #[arg(long)]
     pub per_channel: bool,
@@ -343,6 +365,19 @@ pub struct FitOptions {
     /// there are more starts than --finish and the table is large enough for a warm-up).
     #[arg(long, default_value_t = brdfkit::fit::config::CLI_EXPLORE_CELLS, value_name = "N")]
     pub explore_cells: usize,
+}
+
+/// Which cells the losses are taken over and how they are weighted: the options of
+/// `fit` (through [`FitOptions`]) that `score` shares, so a score takes the cells and
+/// weights of a fit.
+#[derive(Args, Debug, Clone)]
+pub struct CellOptions {
+    /// Cell weights.
+    #[arg(long, default_value = "solid-angle", value_parser = choice::<Weighting>(WEIGHTINGS))]
+    pub weighting: Weighting,
+    /// Ignore cells with θd above this angle (degrees): grazing data is the least reliable.
+    #[arg(long, value_name = "DEG")]
+    pub theta_d_max: Option<f64>,
 }
 
 /// `--full-iters`: a cap, or `all` (None: to convergence).
@@ -476,12 +511,20 @@ pub struct DemoArgs {
 }
 
 #[derive(Args, Debug)]
-#[command(mut_arg("model", |a| a.default_value(REPORT_MODELS)))]
+#[command(mut_arg("model", |a| a
+    .default_value(REPORT_MODELS)
+    // With --given alone nothing is fitted (an empty list).
+    .default_value_if("given", ArgPredicate::IsPresent, Some(""))))]
 pub struct ReportArgs {
     /// The MERL binary table to fit and report on.
     pub table: PathBuf,
     #[command(flatten)]
     pub opts: FitOptions,
+    /// Models to report as given, not fitted (comma-separated JSON files: model
+    /// descriptions, per-channel fits or fit records), beside the fits of --models; with
+    /// --given and no --models, nothing is fitted.
+    #[arg(long, value_name = "MODEL.json", value_delimiter = ',')]
+    pub given: Vec<PathBuf>,
     /// Output directory (created if needed); index.html and report.json are replaced
     /// atomically.
     #[arg(long, value_name = "DIR", default_value = "fit-report")]
@@ -504,6 +547,55 @@ pub struct ReportArgs {
     /// No progress on stderr.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct ScoreArgs {
+    /// The MERL binary table to score against.
+    pub table: PathBuf,
+    /// The models (JSON), each scored on its own.
+    #[arg(required = true, value_name = "MODEL.json")]
+    pub models: Vec<PathBuf>,
+    #[command(flatten)]
+    pub cells: CellOptions,
+    /// Print the scores as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// The reference: a table (.binary), a model (.json) or an NBRDF (DIR/NAME).
+    pub a: PathBuf,
+    /// The representation compared with it (same kinds).
+    pub b: PathBuf,
+    #[command(flatten)]
+    pub cells: CellOptions,
+    /// Bring a table B of another grid onto A's by resampling it (never done
+    /// otherwise).
+    #[arg(long, value_enum, value_name = "LOOKUP")]
+    pub resample: Option<Interp>,
+    /// The grid a model or an NBRDF A is tabulated on when B is not a table.
+    #[arg(long, value_name = "A,B,C", default_value = "90,90,180")]
+    pub dims: String,
+    /// How many of the largest relative differences to list.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    pub top: usize,
+    /// Write the render pair and difference images (PNG) and compare.json here.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Side of each rendered sphere image (pixels, 8 to 1024).
+    #[arg(long, value_name = "PX", default_value_t = 128)]
+    pub render_size: usize,
+    /// Samples per pixel of the environment renders.
+    #[arg(long, value_name = "N", default_value_t = 16)]
+    pub env_spp: usize,
+    /// Skip the renders.
+    #[arg(long)]
+    pub no_renders: bool,
+    /// Print the comparison as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// A part of the study.

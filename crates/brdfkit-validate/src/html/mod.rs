@@ -16,7 +16,9 @@
 //!   [`ReportOptions::checks`]).
 //!
 //! The caller fits (the CLI's `fit-brdf report` and `demo` use `brdfkit_fit::fit`) and
-//! writes the files; this module only computes and formats. What each section shows
+//! writes the files; this module only computes and formats. Models can also be given
+//! ([`Origin::Given`]: published parameters, another tool's fit): they are measured the
+//! same way, labelled as given. What each section shows
 //! and how to read it: `docs/report.md`.
 
 pub mod analysis;
@@ -62,14 +64,27 @@ pub enum ReportError {
     },
 }
 
-/// One fitted model.
+/// Where a model of the report comes from.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Origin {
+    /// Fitted to the table (reports written before given models existed: all).
+    #[default]
+    Fitted,
+    /// Given (published parameters, another tool's fit): reported, not fitted.
+    Given,
+}
+
+/// One model of the report: fitted here, or given.
 pub struct ModelFit {
     /// Its name in the report (`cook-torrance`).
     pub label: String,
-    /// The fitted model(s).
+    /// The model(s).
     pub fitted: Fitted,
     /// The fitter's record (fit time, iterations, starts), when it was fitted here.
     pub record: Option<FitRecord>,
+    /// Fitted or given.
+    pub origin: Origin,
 }
 
 /// What the report computes.
@@ -147,7 +162,10 @@ pub struct TableInfo {
 pub struct ModelSummary {
     /// The model's label in the report's tables and charts.
     pub label: String,
-    /// The fitted parameters in the JSON contract.
+    /// Fitted here or given.
+    #[serde(default)]
+    pub origin: Origin,
+    /// The parameters in the JSON contract.
     pub params: Value,
     /// Every loss over all valid cells (overall and per channel).
     pub losses: LossReport,
@@ -179,6 +197,9 @@ pub struct ReportSummary {
 pub struct ModelDetail {
     /// The model's label (as in [`ModelSummary::label`]).
     pub label: String,
+    /// Fitted here or given.
+    #[serde(default)]
+    pub origin: Origin,
     /// Fit quality against the table.
     pub quality: QualityReport,
     /// One report for a shared model, three (R, G, B) for a per-channel fit; empty when
@@ -437,6 +458,7 @@ pub fn build_report_from(
             .enumerate()
             .map(|(m, f)| ModelSummary {
                 label: f.label.clone(),
+                origin: f.origin,
                 params: f.fitted.to_json(),
                 losses: quality[m].losses,
                 fit_time_s: f.record.as_ref().map(|r| r.wall_time_s),
@@ -457,6 +479,7 @@ pub fn build_report_from(
             let (physical, physical_time_s) = physical_reports.get(m).cloned().unwrap_or_default();
             ModelDetail {
                 label: f.label.clone(),
+                origin: f.origin,
                 quality: q,
                 physical,
                 physical_time_s,

@@ -203,25 +203,41 @@ fn run(scene: &Scene) -> Result<RenderOutput, ReportError> {
     render(scene).map_err(|e| ReportError::Render(e.to_string()))
 }
 
-/// A fitted model's render: a shared model once, a per-channel fit once per channel
-/// (channel c of image c).
-fn render_fitted(l: Lighting, o: &RenderOptions, f: &Fitted) -> Result<Vec<Rgb>, ReportError> {
+/// What a render shows: a model (fitted or given) or a table (interpolated lookups).
+#[derive(Clone, Copy)]
+pub(crate) enum Shown<'a> {
+    /// A model, or one per channel.
+    Fitted(&'a Fitted),
+    /// A table.
+    Table(&'a Arc<MerlTable>),
+}
+
+/// A render of what is shown: its radiance and the render's figures. A per-channel
+/// fit renders once per channel (channel c of image c).
+fn render_shown(l: Lighting, o: &RenderOptions, s: Shown) -> Result<RenderOutput, ReportError> {
     let mat = |m: &dyn brdfkit_core::Model| Material::Model {
         model: Arc::from(m.clone_box()),
         source: MaterialSource::Inline,
     };
-    match f {
-        Fitted::Shared(m) => Ok(run(&scene_for(l, o, &mat(m.as_ref()))?)?.radiance),
-        Fitted::PerChannel(ms) => {
-            let mut out: Option<Vec<Rgb>> = None;
-            for (c, m) in ms.iter().enumerate() {
+    match s {
+        Shown::Table(t) => run(&scene_for(
+            l,
+            o,
+            &Material::Table {
+                brdf: TableBrdf::new(t.clone(), Lookup::Interpolated),
+                source: MaterialSource::Inline,
+            },
+        )?),
+        Shown::Fitted(Fitted::Shared(m)) => run(&scene_for(l, o, &mat(m.as_ref()))?),
+        Shown::Fitted(Fitted::PerChannel(ms)) => {
+            let mut out = run(&scene_for(l, o, &mat(ms[0].as_ref()))?)?;
+            for (c, m) in ms.iter().enumerate().skip(1) {
                 let r = run(&scene_for(l, o, &mat(m.as_ref()))?)?.radiance;
-                let dst = out.get_or_insert_with(|| vec![Rgb::ZERO; r.len()]);
-                for (d, v) in dst.iter_mut().zip(&r) {
+                for (d, v) in out.radiance.iter_mut().zip(&r) {
                     d[c] = v[c];
                 }
             }
-            Ok(out.unwrap_or_default())
+            Ok(out)
         }
     }
 }
@@ -323,17 +339,25 @@ pub(crate) fn render_set(
     table: &Arc<MerlTable>,
     fits: &[&Fitted],
 ) -> Result<RenderSet, ReportError> {
+    let shown: Vec<Shown> = fits.iter().map(|f| Shown::Fitted(f)).collect();
+    render_set_of(l, o, Shown::Table(table), &shown)
+}
+
+/// Renders a reference (the set's `table_png`, which sets the exposure) and each of
+/// `others` under `l`, with their differences against the reference.
+pub(crate) fn render_set_of(
+    l: Lighting,
+    o: &RenderOptions,
+    reference: Shown,
+    others: &[Shown],
+) -> Result<RenderSet, ReportError> {
     let t0 = std::time::Instant::now();
-    let tab_mat = Material::Table {
-        brdf: TableBrdf::new(table.clone(), Lookup::Interpolated),
-        source: MaterialSource::Inline,
-    };
-    let tab = run(&scene_for(l, o, &tab_mat)?)?;
+    let tab = render_shown(l, o, reference)?;
     let exposure = auto_exposure(&tab.radiance);
     let tab8 = srgb8(&tab.radiance, exposure);
     let mut models = Vec::new();
-    for f in fits {
-        let r = render_fitted(l, o, f)?;
+    for f in others {
+        let r = render_shown(l, o, *f)?.radiance;
         let r8 = srgb8(&r, exposure);
         let (diff8, diff) = difference(o, (&tab.radiance, &tab8), (&r, &r8));
         models.push(ModelRender {

@@ -2,6 +2,7 @@
 
 mod batch;
 mod check;
+mod compare;
 mod completions;
 mod demo;
 mod demo_material;
@@ -12,14 +13,15 @@ mod info;
 mod render;
 mod report;
 mod resample;
+mod score;
 mod study;
 mod synth;
 
-use crate::cli::{Cli, Command, FitOptions, Interp};
+use crate::cli::{CellOptions, Cli, Command, FitOptions, Interp};
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
 use anyhow::Context;
 use brdfkit::core::Model;
-use brdfkit::fit::FitConfig;
+use brdfkit::fit::{FitConfig, Fitted};
 use brdfkit::fit::families::{Family, FitSettings, Structure, check_free, families};
 use brdfkit::merl::{Dims, Lookup, MerlError, MerlTable};
 use std::path::Path;
@@ -39,6 +41,8 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Export(a) => export::run(a),
         Command::Completions(a) => completions::run(a),
         Command::Study(a) => study::run(a),
+        Command::Score(a) => score::run(a),
+        Command::Compare(a) => compare::run(a),
     }
 }
 
@@ -55,12 +59,10 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
     let fams = families(&o.model, &structure).map_err(bad_input)?;
     let settings = FitSettings {
         loss: o.loss,
-        weighting: o.weighting,
         solver: o.solver,
         starts: o.starts,
         finish: o.finish,
         sample_fraction: o.sample_fraction,
-        theta_d_max_deg: o.theta_d_max,
         per_channel: o.per_channel,
         seed: o.seed,
         fix: o.fix.clone(),
@@ -69,10 +71,28 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         albedo_max: o.energy_conserving.then_some(1.0),
         full_iters: o.full_iters.0,
         explore_cells: Some(o.explore_cells),
+        ..cell_settings(&o.cells)
     };
     let cfg = settings.config().map_err(bad_input)?;
     check_free(&fams, &cfg).map_err(bad_input)?;
     Ok((fams, cfg))
+}
+
+/// The cell options as fit settings, the rest at their defaults: the one place where a
+/// cell option (shared by `fit`, `report`, `batch`, `score` and `compare`) becomes a
+/// library setting.
+pub fn cell_settings(c: &CellOptions) -> FitSettings {
+    FitSettings {
+        weighting: c.weighting,
+        theta_d_max_deg: c.theta_d_max,
+        ..FitSettings::default()
+    }
+}
+
+/// The validated configuration of the cell options alone (what `score` and `compare`
+/// need); an error is bad input (exit 2).
+pub fn cell_config(c: &CellOptions) -> CliResult<FitConfig> {
+    cell_settings(c).config().map_err(bad_input)
 }
 
 /// Reads a table; every read failure is the user's input (exit 2).
@@ -90,14 +110,27 @@ pub fn read_nbrdf(path: &Path) -> CliResult<brdfkit::nbrdf::Nbrdf> {
     brdfkit::nbrdf::Nbrdf::load(path).map_err(bad_input)
 }
 
-/// Reads a model description (JSON) from a file.
-pub fn read_model(path: &Path) -> CliResult<Box<dyn Model>> {
+/// The text of a model description file; every failure is bad input.
+fn read_model_text(path: &Path) -> CliResult<String> {
     let bytes = std::fs::read(path)
         .with_context(|| format!("{}: cannot read the model description", path.display()))
         .map_err(bad_input)?;
-    let text = String::from_utf8(bytes)
-        .map_err(|_| bad_msg(format!("{}: not valid UTF-8", path.display())))?;
+    String::from_utf8(bytes).map_err(|_| bad_msg(format!("{}: not valid UTF-8", path.display())))
+}
+
+/// Reads a model description (JSON) from a file.
+pub fn read_model(path: &Path) -> CliResult<Box<dyn Model>> {
+    let text = read_model_text(path)?;
     brdfkit::models::from_json_str(&text).map_err(|e| bad_msg(format!("{}: {e}", path.display())))
+}
+
+/// Reads given parameters: a model description, a per-channel fit or a fit record
+/// ([`Fitted::from_json`]); every failure is bad input naming the file.
+pub fn read_fitted(path: &Path) -> CliResult<Fitted> {
+    let text = read_model_text(path)?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| bad_msg(format!("{}: not valid JSON: {e}", path.display())))?;
+    Fitted::from_json(&v).map_err(|e| bad_msg(format!("{}: {e}", path.display())))
 }
 
 /// Parses `A,B,C` into grid dims.

@@ -1,7 +1,8 @@
-//! `fit-brdf report TABLE --models ... --out DIR`: fit every model and write the
-//! fit-quality report (DIR/index.html, DIR/report.json) of `brdfkit_validate::html`.
+//! `fit-brdf report TABLE --models ... [--given MODEL.json,...] --out DIR`: fit every
+//! model, add the given ones (not fitted), and write the fit-quality report
+//! (DIR/index.html, DIR/report.json) of `brdfkit_validate::html`.
 
-use super::{fit_setup, read_table};
+use super::{cell_config, fit_setup, read_fitted, read_table};
 use crate::cli::ReportArgs;
 use crate::error::{CliResult, bad_msg, runtime};
 use crate::output::{write_failed, write_text};
@@ -12,7 +13,8 @@ use brdfkit::fit::families::{Outcome, comparison_text, fit_each};
 use brdfkit::fit::{FitConfig, FitData};
 use brdfkit::merl::MerlTable;
 use brdfkit_validate::html::renders::RenderOptions;
-use brdfkit_validate::html::{FitReport, ModelFit, ReportOptions, build_report_from};
+use brdfkit::fit::score::check_isotropic;
+use brdfkit_validate::html::{FitReport, ModelFit, Origin, ReportOptions, build_report_from};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -31,6 +33,28 @@ fn model_fits(outcomes: &[Outcome]) -> CliResult<Vec<ModelFit>> {
                 fitted: brdfkit_validate::fitted_from_json(&o.params)
                     .map_err(|e| runtime(anyhow::anyhow!("{}: fitted model: {e}", o.label)))?,
                 record: Some(o.record.clone()),
+                origin: Origin::Fitted,
+            })
+        })
+        .collect()
+}
+
+/// The report's given models: each file read ([`read_fitted`]), labelled as given.
+fn given_fits(paths: &[PathBuf]) -> CliResult<Vec<ModelFit>> {
+    paths
+        .iter()
+        .map(|p| {
+            let fitted = read_fitted(p)?;
+            check_isotropic(&fitted).map_err(|e| bad_msg(format!("{}: {e}", p.display())))?;
+            let name = fitted
+                .shared()
+                .map_or("per-channel", |m| m.name())
+                .to_string();
+            Ok(ModelFit {
+                label: format!("{name} (given: {})", p.display()),
+                fitted,
+                record: None,
+                origin: Origin::Given,
             })
         })
         .collect()
@@ -58,13 +82,34 @@ pub fn make_report_from(
     options: &ReportOptions,
     quiet: bool,
 ) -> CliResult<FitReport> {
-    let fits = model_fits(outcomes)?;
+    make_report_with(
+        table,
+        cells,
+        table_name,
+        &model_fits(outcomes)?,
+        Some(cfg),
+        options,
+        quiet,
+    )
+}
+
+/// [`make_report_from`] for any models, fitted or given; `cfg` is the fit
+/// configuration when something was fitted.
+fn make_report_with(
+    table: Arc<MerlTable>,
+    cells: FitData,
+    table_name: &str,
+    fits: &[ModelFit],
+    cfg: Option<&FitConfig>,
+    options: &ReportOptions,
+    quiet: bool,
+) -> CliResult<FitReport> {
     build_report_from(
         table,
         cells,
         table_name,
-        &fits,
-        Some(cfg),
+        fits,
+        cfg,
         options,
         &progress_lines(quiet),
     )
@@ -120,7 +165,14 @@ fn options(a: &ReportArgs) -> CliResult<ReportOptions> {
 
 pub fn run(a: ReportArgs) -> CliResult<()> {
     let t0 = Instant::now();
-    let (fams, cfg) = fit_setup(&a.opts)?;
+    let given = given_fits(&a.given)?;
+    // `--given` alone leaves --models empty: nothing is fitted.
+    let fitting = !a.opts.model.trim().is_empty() || given.is_empty();
+    let (fams, cfg) = if fitting {
+        fit_setup(&a.opts)?
+    } else {
+        (Vec::new(), cell_config(&a.opts.cells)?)
+    };
     let mut opts = options(&a)?;
     opts.weighting = cfg.get_weighting();
     let table = read_table(&a.table)?;
@@ -128,10 +180,11 @@ pub fn run(a: ReportArgs) -> CliResult<()> {
         FitData::from_table(&table).map_err(|e| bad_msg(format!("{}: {e}", a.table.display())))?;
     if !a.quiet {
         eprintln!(
-            "fitting {} model(s) to {} ({} valid cells)",
+            "fitting {} model(s) to {} ({} valid cells); {} given",
             fams.len(),
             a.table.display(),
-            data.len()
+            data.len(),
+            given.len()
         );
     }
     let outcomes = fit_each(
@@ -147,29 +200,43 @@ pub fn run(a: ReportArgs) -> CliResult<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| a.table.display().to_string());
+    let mut fits = model_fits(&outcomes)?;
+    fits.extend(given);
     // The report takes the table and the fits' cells over: it shares the cells' geometry
     // across models and sections and frees it before the renders.
-    let report = make_report_from(
+    let report = make_report_with(
         Arc::new(table),
         data,
         &name,
-        &outcomes,
-        &cfg,
+        &fits,
+        fitting.then_some(&cfg),
         &opts,
         a.quiet,
     )?;
     let (html, json) = write_report(&a.out, &report)?;
     if a.json {
-        write_text(None, &report.summary_json_pretty())
-    } else {
-        let text = format!(
-            "{}report: {} (and {}); fits {:.1} s, report {:.1} s\n",
-            comparison_text(&outcomes, cfg.get_loss()),
-            html.display(),
-            json.display(),
-            t_fit,
-            report.data.timings.total_s
-        );
-        write_text(None, &text)
+        return write_text(None, &report.summary_json_pretty());
     }
+    let mut text = if outcomes.is_empty() {
+        String::new()
+    } else {
+        comparison_text(&outcomes, cfg.get_loss())
+    };
+    for m in report.data.summary.models.iter() {
+        if m.origin == Origin::Given {
+            let l = &m.losses;
+            text += &format!(
+                "{}: cbrt {:.6e}, l2 {:.6e}, cosine {:.6e}, log {:.6e}\n",
+                m.label, l.cbrt.overall, l.l2.overall, l.cosine.overall, l.log.overall
+            );
+        }
+    }
+    text += &format!(
+        "report: {} (and {}); fits {:.1} s, report {:.1} s\n",
+        html.display(),
+        json.display(),
+        t_fit,
+        report.data.timings.total_s
+    );
+    write_text(None, &text)
 }
