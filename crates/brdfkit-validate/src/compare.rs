@@ -547,3 +547,112 @@ pub fn compare(
         renders,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdfkit_fit::Loss;
+
+    fn lambert(rho: [f64; 3]) -> Fitted {
+        Fitted::Shared(
+            brdfkit_models::from_json(&serde_json::json!({"model": "lambert", "params": {"rho_d": rho}}))
+                .unwrap(),
+        )
+    }
+
+    fn no_renders() -> CompareOptions {
+        CompareOptions {
+            render: None,
+            ..CompareOptions::default()
+        }
+    }
+
+    fn table(f: &Fitted, dims: Dims) -> Arc<MerlTable> {
+        Representation::Model(f.clone())
+            .tabulate(Path::new("t"), dims)
+            .unwrap()
+    }
+
+    #[test]
+    fn one_changed_cell_is_the_largest_difference_where_it_is() {
+        let dims = Dims::new(12, 12, 24).unwrap();
+        let a = table(&lambert([0.2, 0.4, 0.6]), dims);
+        let mut b = (*a).clone();
+        let (i, j, k) = (5, 3, 7);
+        let v = a.get(i, j, k).unwrap();
+        b.set(i, j, k, Some(Rgb::new(v[0], 3.0 * v[1], v[2])))
+            .unwrap();
+        let (pa, pb) = (Path::new("a.binary"), Path::new("b.binary"));
+        let c = compare(
+            pa,
+            &Representation::Table(a.clone()),
+            pb,
+            &Representation::Table(Arc::new(b)),
+            &no_renders(),
+        )
+        .unwrap();
+        let d = c.largest[0];
+        assert_eq!(d.cell, [i, j, k]);
+        assert_eq!(d.channel, 1);
+        assert!((d.relative - 2.0).abs() < 1e-12, "{}", d.relative);
+        let h = dims.cell_angles(i, j, k);
+        assert_eq!(d.angles_deg, [h.theta_h, h.theta_d, h.phi_d].map(f64::to_degrees));
+        // Every other cell is equal.
+        assert_eq!(c.largest[1].relative, 0.0);
+        // l2 of one cell: sqrt(w (2v)² / Σw) in G, 0 in R and B.
+        let data = FitData::from_table(&a).unwrap();
+        let w = brdfkit_merl::cell_weight(dims, i, j);
+        let sum: f64 = data.measure().iter().sum();
+        let want = (w * (2.0 * v[1]).powi(2) / sum).sqrt();
+        let got = c.losses.get(Loss::L2).channels;
+        assert!((got[1] - want).abs() < 1e-12 * want, "{} vs {want}", got[1]);
+        assert_eq!((got[0], got[2]), (0.0, 0.0));
+        assert_eq!(c.cells_missing_in_b, 0);
+    }
+
+    #[test]
+    fn grids_must_match_unless_resampled() {
+        let f = lambert([0.3; 3]);
+        let a = Representation::Table(table(&f, Dims::new(12, 12, 24).unwrap()));
+        let b = Representation::Table(table(&f, Dims::new(6, 6, 12).unwrap()));
+        let (pa, pb) = (Path::new("a.binary"), Path::new("b.binary"));
+        let e = compare(pa, &a, pb, &b, &no_renders()).unwrap_err();
+        assert!(matches!(e, CompareError::GridMismatch { .. }) && e.is_bad_input());
+        let msg = e.to_string();
+        assert!(msg.contains("a.binary") && msg.contains("6 x 6 x 12"), "{msg}");
+        // A constant resamples to itself.
+        let o = CompareOptions {
+            resample: Some(Lookup::Interpolated),
+            ..no_renders()
+        };
+        let c = compare(pa, &a, pb, &b, &o).unwrap();
+        assert!(c.losses.get(Loss::Cbrt).overall < 1e-12);
+    }
+
+    #[test]
+    fn a_model_b_has_the_losses_of_its_score() {
+        let dims = Dims::new(12, 12, 24).unwrap();
+        let a = table(&lambert([0.2, 0.4, 0.6]), dims);
+        let f = lambert([0.25, 0.35, 0.5]);
+        let cfg = FitConfig::default().theta_d_max_deg(70.0).unwrap();
+        let o = CompareOptions {
+            config: cfg.clone(),
+            ..no_renders()
+        };
+        let c = compare(
+            Path::new("a"),
+            &Representation::Table(a.clone()),
+            Path::new("b"),
+            &Representation::Model(f.clone()),
+            &o,
+        )
+        .unwrap();
+        let s = brdfkit_fit::score(&f, &FitData::from_table(&a).unwrap(), &cfg).unwrap();
+        assert_eq!(c.losses, s.losses);
+        // The largest relative difference of two Lambertians is their constant ratio.
+        let want = [0.05 / 0.2, 0.05 / 0.4, 0.1 / 0.6]
+            .into_iter()
+            .fold(0.0, f64::max);
+        assert!((c.largest[0].relative - want).abs() < 1e-12);
+    }
+}
