@@ -31,7 +31,7 @@
 //! - [`config`], [`record`], [`observer`]: options, the JSON record, progress events;
 //! - [`synth`]: synthetic materials with known parameters: the `data-synthetic/` spec
 //!   format and its tables, cell sets from a model, seeded noise (tests, benchmarks);
-//! - [`score`]: every loss of given parameters on a fit's cells, without fitting;
+//! - [`score`](mod@score): every loss of given parameters on a fit's cells, without fitting;
 //! - [`families`]: model lists with structural choices and fit settings as the command
 //!   line gives them, fitted family by family;
 //! - [`batch`]: the batch engine (every table of a database, resumable, sharded,

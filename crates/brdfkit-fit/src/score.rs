@@ -310,12 +310,7 @@ mod tests {
         let c = 0.2 / std::f64::consts::PI;
         let t = MerlTable::from_brdf(lambert(0.2).as_ref(), dims).unwrap();
         let data = FitData::from_table(&t).unwrap();
-        let s = score(
-            &Fitted::Shared(lambert(0.5)),
-            &data,
-            &FitConfig::default(),
-        )
-        .unwrap();
+        let s = score(&Fitted::Shared(lambert(0.5)), &data, &FitConfig::default()).unwrap();
         let k = 0.5 / std::f64::consts::PI;
         for ch in s.losses.l2.channels {
             // The table stores value / scale: exact to a few ulp.
@@ -342,7 +337,12 @@ mod tests {
         // As the fit record states it (radians back to degrees).
         assert!((s.theta_d_max_deg.unwrap() - 60.0).abs() < 1e-12);
         // Uniform weights are not solid-angle weights.
-        let sa = score(&f, &data, &FitConfig::default().theta_d_max_deg(60.0).unwrap()).unwrap();
+        let sa = score(
+            &f,
+            &data,
+            &FitConfig::default().theta_d_max_deg(60.0).unwrap(),
+        )
+        .unwrap();
         assert_ne!(sa.losses, s.losses);
     }
 
@@ -446,7 +446,10 @@ mod tests {
         }
         // r = 0 is clamped into the model's domain, as the BRDF Explorer does.
         let v = published::metallic_roughness([0.5; 3], 1.0, 0.0, 0.5);
-        assert_eq!(v["params"]["alpha"], serde_json::json!(published::MIN_ALPHA));
+        assert_eq!(
+            v["params"]["alpha"],
+            serde_json::json!(published::MIN_ALPHA)
+        );
     }
 
     #[test]
@@ -457,7 +460,10 @@ mod tests {
         let pc = serde_json::json!({"per_channel": [one, one, one]});
         let f = Fitted::from_json(&pc).unwrap();
         assert!(f.shared().is_none());
-        assert_eq!(Fitted::from_json(&f.to_json()).unwrap().to_json(), f.to_json());
+        assert_eq!(
+            Fitted::from_json(&f.to_json()).unwrap().to_json(),
+            f.to_json()
+        );
         // A fit record: its `model`.
         let record = serde_json::json!({"model": one, "losses_full": {}, "family": "lambert"});
         assert_eq!(
@@ -465,6 +471,9 @@ mod tests {
             f.channel_model(0).to_json()
         );
         // A description with a `model` name and no record fields is itself.
-        assert_eq!(Fitted::from_json(&one).unwrap().to_json(), f.channel_model(0).to_json());
+        assert_eq!(
+            Fitted::from_json(&one).unwrap().to_json(),
+            f.channel_model(0).to_json()
+        );
     }
 }

@@ -4,7 +4,7 @@
 //! - every loss of the fitter, per channel and overall, with B in the place of the
 //!   model and A in the place of the measurement (the cells, weights and cutoff of a
 //!   fit: [`brdfkit_fit::CellFilter`]); for a model B these are
-//!   [`brdfkit_fit::score`]'s figures bit for bit;
+//!   [`brdfkit_fit::score()`]'s figures bit for bit;
 //! - the largest relative differences |B − A| / A (A > 0) with the cell and its angles;
 //! - the sphere renders of A and B under the report's two lightings, same seed and
 //!   exposure, and their difference images ([`crate::html::renders`]).
@@ -183,9 +183,9 @@ impl Representation {
                         source,
                     })
             }
-            _ if path.is_file() || path.is_dir() => Err(CompareError::Unrecognised {
-                path: path.into(),
-            }),
+            _ if path.is_file() || path.is_dir() => {
+                Err(CompareError::Unrecognised { path: path.into() })
+            }
             _ => {
                 // Nothing of the NBRDF's at all: say what was expected, not which of
                 // the six is missing.
@@ -225,9 +225,9 @@ impl Representation {
         };
         match self {
             Representation::Table(t) => Ok(t.clone()),
-            Representation::Model(Fitted::Shared(m)) => {
-                Ok(Arc::new(MerlTable::from_brdf(m.as_ref(), dims).map_err(err)?))
-            }
+            Representation::Model(Fitted::Shared(m)) => Ok(Arc::new(
+                MerlTable::from_brdf(m.as_ref(), dims).map_err(err)?,
+            )),
             Representation::Model(f) => Ok(Arc::new(
                 MerlTable::from_fn(dims, |i, j, k| {
                     let (_, wi, wo, above) = cell_directions(dims, i, j, k);
@@ -555,8 +555,10 @@ mod tests {
 
     fn lambert(rho: [f64; 3]) -> Fitted {
         Fitted::Shared(
-            brdfkit_models::from_json(&serde_json::json!({"model": "lambert", "params": {"rho_d": rho}}))
-                .unwrap(),
+            brdfkit_models::from_json(
+                &serde_json::json!({"model": "lambert", "params": {"rho_d": rho}}),
+            )
+            .unwrap(),
         )
     }
 
@@ -596,7 +598,10 @@ mod tests {
         assert_eq!(d.channel, 1);
         assert!((d.relative - 2.0).abs() < 1e-12, "{}", d.relative);
         let h = dims.cell_angles(i, j, k);
-        assert_eq!(d.angles_deg, [h.theta_h, h.theta_d, h.phi_d].map(f64::to_degrees));
+        assert_eq!(
+            d.angles_deg,
+            [h.theta_h, h.theta_d, h.phi_d].map(f64::to_degrees)
+        );
         // Every other cell is equal.
         assert_eq!(c.largest[1].relative, 0.0);
         // l2 of one cell: sqrt(w (2v)² / Σw) in G, 0 in R and B.
@@ -619,7 +624,10 @@ mod tests {
         let e = compare(pa, &a, pb, &b, &no_renders()).unwrap_err();
         assert!(matches!(e, CompareError::GridMismatch { .. }) && e.is_bad_input());
         let msg = e.to_string();
-        assert!(msg.contains("a.binary") && msg.contains("6 x 6 x 12"), "{msg}");
+        assert!(
+            msg.contains("a.binary") && msg.contains("6 x 6 x 12"),
+            "{msg}"
+        );
         // A constant resamples to itself.
         let o = CompareOptions {
             resample: Some(Lookup::Interpolated),

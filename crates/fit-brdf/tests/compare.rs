@@ -61,8 +61,15 @@ fn a_table_against_itself_and_a_model_against_its_score() {
 
     // A model B: the losses of `score`, bit for bit (the same cells and function).
     let m = d.path().join("lam.json");
-    std::fs::write(&m, r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#).unwrap();
-    for extra in [&[][..], &["--weighting", "uniform", "--theta-d-max", "50"][..]] {
+    std::fs::write(
+        &m,
+        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#,
+    )
+    .unwrap();
+    for extra in [
+        &[][..],
+        &["--weighting", "uniform", "--theta-d-max", "50"][..],
+    ] {
         let mut args = vec!["--json"];
         args.extend_from_slice(extra);
         let c = json_of(&compare(&t, &m, &args));
@@ -103,7 +110,13 @@ fn mismatched_grids_are_refused_unless_resampled() {
     let o = compare(&t, &half, &[]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let e = stderr(&o);
-    for want in ["plastic.binary", "half.binary", "24 x 24 x 48", "12 x 12 x 24", "--resample"] {
+    for want in [
+        "plastic.binary",
+        "half.binary",
+        "24 x 24 x 48",
+        "12 x 12 x 24",
+        "--resample",
+    ] {
         assert!(e.contains(want), "{want}: {e}");
     }
     // What resampling to the coarser grid lost: > 0, and the nearest lookup loses more
@@ -113,7 +126,12 @@ fn mismatched_grids_are_refused_unless_resampled() {
     let l = lin["losses"]["cbrt"]["overall"].as_f64().unwrap();
     let n = near["losses"]["cbrt"]["overall"].as_f64().unwrap();
     assert!(l > 0.0 && n > 0.0 && l != n, "{l} {n}");
-    assert!(lin["b_on_grid"].as_str().unwrap().contains("resampled from 12 x 12 x 24"));
+    assert!(
+        lin["b_on_grid"]
+            .as_str()
+            .unwrap()
+            .contains("resampled from 12 x 12 x 24")
+    );
 }
 
 #[test]
@@ -139,7 +157,11 @@ fn renders_and_json_are_written() {
     let d = tempfile::tempdir().unwrap();
     let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
     let m = d.path().join("lam.json");
-    std::fs::write(&m, r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#).unwrap();
+    std::fs::write(
+        &m,
+        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#,
+    )
+    .unwrap();
     let out = d.path().join("cmp");
     let o = bin()
         .arg("compare")
@@ -158,9 +180,15 @@ fn renders_and_json_are_written() {
             assert!(png.starts_with(b"\x89PNG"));
         }
     }
-    let c: Value = serde_json::from_slice(&std::fs::read(out.join("compare.json")).unwrap()).unwrap();
+    let c: Value =
+        serde_json::from_slice(&std::fs::read(out.join("compare.json")).unwrap()).unwrap();
     assert_eq!(c["renders"].as_array().unwrap().len(), 2);
-    assert!(c["renders"][0]["models"][0]["diff"]["rel_rms_radiance"].as_f64().unwrap() > 0.0);
+    assert!(
+        c["renders"][0]["models"][0]["diff"]["rel_rms_radiance"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
     // An output directory that cannot be created: a runtime failure, exit 1.
     let blocker = d.path().join("file");
     std::fs::write(&blocker, "x").unwrap();

@@ -91,7 +91,14 @@ fn rescored_fits_equal_their_records_to_the_bit() {
         ("ward", &["--loss", "log"], &[]),
         (
             "cook-torrance",
-            &["--loss", "l2", "--weighting", "uniform", "--theta-d-max", "70"],
+            &[
+                "--loss",
+                "l2",
+                "--weighting",
+                "uniform",
+                "--theta-d-max",
+                "70",
+            ],
             &["--weighting", "uniform", "--theta-d-max", "70"],
         ),
         ("plausible-phong", &["--per-channel"], &[]),
@@ -121,9 +128,17 @@ fn score_reports_every_loss_and_the_settings() {
     let d = tempfile::tempdir().unwrap();
     let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
     let m = d.path().join("lam.json");
-    std::fs::write(&m, r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#).unwrap();
+    std::fs::write(
+        &m,
+        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#,
+    )
+    .unwrap();
     let all = score(&t, &[&m], &[]);
-    let cut = score(&t, &[&m], &["--theta-d-max", "45", "--weighting", "uniform"]);
+    let cut = score(
+        &t,
+        &[&m],
+        &["--theta-d-max", "45", "--weighting", "uniform"],
+    );
     let (a, c) = (&all["models"][0], &cut["models"][0]);
     assert_eq!(a["weighting"], "solid-angle");
     assert_eq!(c["weighting"], "uniform");
@@ -139,7 +154,10 @@ fn score_reports_every_loss_and_the_settings() {
     for loss in ["cbrt", "l2", "cosine", "log"] {
         assert!(text.contains(&format!("  {loss} ")), "{text}");
     }
-    assert!(text.contains("lambert (") && text.contains("solid-angle weights"), "{text}");
+    assert!(
+        text.contains("lambert (") && text.contains("solid-angle weights"),
+        "{text}"
+    );
 }
 
 #[test]
@@ -157,8 +175,14 @@ fn bad_input_exits_2_naming_the_file() {
     );
     let cases = [
         (write("broken.json", "{\"model\": "), "broken.json"),
-        (write("unknown.json", r#"{"model": "no-such"}"#), "unknown.json"),
-        (write("two.json", r#"{"per_channel": [{"model": "lambert"}]}"#), "two.json"),
+        (
+            write("unknown.json", r#"{"model": "no-such"}"#),
+            "unknown.json",
+        ),
+        (
+            write("two.json", r#"{"per_channel": [{"model": "lambert"}]}"#),
+            "two.json",
+        ),
         (aniso, "anisotropic"),
         (d.path().join("missing.json"), "missing.json"),
     ];
@@ -203,7 +227,14 @@ fn report_given_models_beside_fitted_ones() {
         let o = bin()
             .arg("report")
             .arg(&t)
-            .args(["--render-size", "16", "--env-spp", "1", "--no-checks", "--quiet"])
+            .args([
+                "--render-size",
+                "16",
+                "--env-spp",
+                "1",
+                "--no-checks",
+                "--quiet",
+            ])
             .arg("--out")
             .arg(out)
             .args(extra)
@@ -235,7 +266,14 @@ fn report_given_models_beside_fitted_ones() {
     // Beside a fit of the same family.
     let (r, _) = run(
         &d.path().join("both"),
-        &["--given", &given.display().to_string(), "--models", "cook-torrance", "--starts", "1"],
+        &[
+            "--given",
+            &given.display().to_string(),
+            "--models",
+            "cook-torrance",
+            "--starts",
+            "1",
+        ],
     );
     let origins: Vec<&str> = r["summary"]["models"]
         .as_array()

@@ -8,7 +8,9 @@ use crate::error::{CliError, CliResult, bad_input, bad_msg, runtime};
 use crate::output::{write_failed, write_text};
 use anyhow::Context;
 use brdfkit::core::atomic::FileSet;
-use brdfkit_validate::compare::{CompareError, CompareOptions, Comparison, Representation, compare};
+use brdfkit_validate::compare::{
+    CompareError, CompareOptions, Comparison, Kind, Representation, compare,
+};
 use brdfkit_validate::html::renders::RenderOptions;
 use std::fmt::Write;
 use std::path::Path;
@@ -21,13 +23,21 @@ fn failed(e: CompareError) -> CliError {
     }
 }
 
+fn kind(k: Kind) -> &'static str {
+    match k {
+        Kind::Table => "table",
+        Kind::Model => "model",
+        Kind::Nbrdf => "NBRDF",
+    }
+}
+
 fn text(c: &Comparison) -> String {
     let mut t = format!(
-        "{} ({:?}) against {} ({:?}) on a {} x {} x {} grid; B: {}\n{} of A's {} valid cells compared ({} missing in B), {} weights{}\n",
+        "{} ({}) against {} ({}) on a {} x {} x {} grid; B: {}\n{} of A's {} valid cells compared ({} missing in B), {} weights{}\n",
         c.b.path.display(),
-        c.b.kind,
+        kind(c.b.kind),
         c.a.path.display(),
-        c.a.kind,
+        kind(c.a.kind),
         c.grid[0],
         c.grid[1],
         c.grid[2],

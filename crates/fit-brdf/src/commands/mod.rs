@@ -21,8 +21,8 @@ use crate::cli::{CellOptions, Cli, Command, FitOptions, Interp};
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
 use anyhow::Context;
 use brdfkit::core::Model;
-use brdfkit::fit::{FitConfig, Fitted};
 use brdfkit::fit::families::{Family, FitSettings, Structure, check_free, families};
+use brdfkit::fit::{FitConfig, Fitted};
 use brdfkit::merl::{Dims, Lookup, MerlError, MerlTable};
 use std::path::Path;
 

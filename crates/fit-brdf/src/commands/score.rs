@@ -65,9 +65,13 @@ pub fn run(a: ScoreArgs) -> CliResult<()> {
     let scores: Vec<(&PathBuf, Score)> = given
         .into_iter()
         .map(|(p, f)| {
-            score(&f, &data, &cfg)
-                .map(|s| (p, s))
-                .map_err(|e| bad_msg(format!("{} against {}: {e}", p.display(), a.table.display())))
+            score(&f, &data, &cfg).map(|s| (p, s)).map_err(|e| {
+                bad_msg(format!(
+                    "{} against {}: {e}",
+                    p.display(),
+                    a.table.display()
+                ))
+            })
         })
         .collect::<CliResult<_>>()?;
     if a.json {
