@@ -49,32 +49,14 @@ pub enum CompareError {
     /// A table that cannot be read.
     #[error(transparent)]
     Table(#[from] MerlError),
-    /// A model file that cannot be read.
-    #[error("{}: cannot read the model description: {source}", path.display())]
-    Read {
+    /// A model file that cannot be read, parsed or built.
+    #[error("{}: {source}", path.display())]
+    ModelFile {
         /// The file.
         path: PathBuf,
         /// Why.
         #[source]
-        source: std::io::Error,
-    },
-    /// A model file that is not JSON.
-    #[error("{}: not valid JSON: {source}", path.display())]
-    Json {
-        /// The file.
-        path: PathBuf,
-        /// The parser's message.
-        #[source]
-        source: serde_json::Error,
-    },
-    /// A model the library rejects.
-    #[error("{}: {source}", path.display())]
-    Model {
-        /// The file.
-        path: PathBuf,
-        /// The model's message.
-        #[source]
-        source: ModelError,
+        source: ModelFileError,
     },
     /// A model that cannot be compared with a table (anisotropic).
     #[error("{}: {source}", path.display())]
@@ -129,6 +111,20 @@ pub enum CompareError {
     Render(#[from] ReportError),
 }
 
+/// Why a model file cannot be used.
+#[derive(Debug, Error)]
+pub enum ModelFileError {
+    /// The file cannot be read.
+    #[error("cannot read the model description: {0}")]
+    Io(#[from] std::io::Error),
+    /// Not JSON.
+    #[error("not valid JSON: {0}")]
+    Json(#[from] serde_json::Error),
+    /// Not a model the library knows, or a bad parameter.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+}
+
 impl CompareError {
     /// True when the input is at fault (every variant but a failed render).
     pub fn is_bad_input(&self) -> bool {
@@ -167,18 +163,13 @@ impl Representation {
         match ext {
             Some("binary") => Ok(Representation::Table(Arc::new(MerlTable::read(path)?))),
             Some("json") => {
-                let text = std::fs::read_to_string(path).map_err(|source| CompareError::Read {
-                    path: path.into(),
-                    source,
-                })?;
-                let v: serde_json::Value =
-                    serde_json::from_str(&text).map_err(|source| CompareError::Json {
-                        path: path.into(),
-                        source,
-                    })?;
-                Fitted::from_json(&v)
+                let read = || -> Result<Fitted, ModelFileError> {
+                    let v = serde_json::from_str(&std::fs::read_to_string(path)?)?;
+                    Ok(Fitted::from_json(&v)?)
+                };
+                read()
                     .map(Representation::Model)
-                    .map_err(|source| CompareError::Model {
+                    .map_err(|source| CompareError::ModelFile {
                         path: path.into(),
                         source,
                     })

@@ -529,15 +529,8 @@ pub struct ReportArgs {
     /// atomically.
     #[arg(long, value_name = "DIR", default_value = "fit-report")]
     pub out: PathBuf,
-    /// Side of each rendered sphere image (pixels, 8 to 1024).
-    #[arg(long, value_name = "PX", default_value_t = 128)]
-    pub render_size: usize,
-    /// Samples per pixel of the environment renders.
-    #[arg(long, value_name = "N", default_value_t = 16)]
-    pub env_spp: usize,
-    /// Skip the sphere renders.
-    #[arg(long)]
-    pub no_renders: bool,
+    #[command(flatten)]
+    pub spheres: SphereOptions,
     /// Skip the physical checks of the fitted models.
     #[arg(long)]
     pub no_checks: bool,
@@ -547,6 +540,20 @@ pub struct ReportArgs {
     /// No progress on stderr.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// The sphere renders of `report` and `compare`.
+#[derive(Args, Debug)]
+pub struct SphereOptions {
+    /// Side of each rendered sphere image (pixels, 8 to 1024).
+    #[arg(long, value_name = "PX", default_value_t = 128)]
+    pub render_size: usize,
+    /// Samples per pixel of the environment renders.
+    #[arg(long, value_name = "N", default_value_t = 16)]
+    pub env_spp: usize,
+    /// Skip the sphere renders.
+    #[arg(long)]
+    pub no_renders: bool,
 }
 
 #[derive(Args, Debug)]
@@ -584,15 +591,8 @@ pub struct CompareArgs {
     /// Write the render pair and difference images (PNG) and compare.json here.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Side of each rendered sphere image (pixels, 8 to 1024).
-    #[arg(long, value_name = "PX", default_value_t = 128)]
-    pub render_size: usize,
-    /// Samples per pixel of the environment renders.
-    #[arg(long, value_name = "N", default_value_t = 16)]
-    pub env_spp: usize,
-    /// Skip the renders.
-    #[arg(long)]
-    pub no_renders: bool,
+    #[command(flatten)]
+    pub spheres: SphereOptions,
     /// Print the comparison as JSON.
     #[arg(long)]
     pub json: bool,

@@ -3,23 +3,9 @@
 
 mod common;
 
-use common::{bin, stderr, synth_spec};
+use common::{bin, red_plastic, stderr, synth_spec};
 use serde_json::Value;
 use std::path::Path;
-
-const SMALL_PLASTIC: &str = r#"
-name = "small-plastic"
-dims = [24, 24, 48]
-[material]
-model = "cook-torrance"
-[material.params]
-rho_d = [0.45, 0.08, 0.05]
-rho_s = 1.0
-alpha = 0.12
-distribution = "ggx"
-masking = "smith-separable"
-fresnel = { schlick = { f0 = [0.04, 0.04, 0.04] } }
-"#;
 
 fn compare(a: &Path, b: &Path, extra: &[&str]) -> std::process::Output {
     bin()
@@ -50,7 +36,7 @@ fn resample(src: &[&str], dims: &str, out: &Path) {
 #[test]
 fn a_table_against_itself_and_a_model_against_its_score() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
+    let t = synth_spec(d.path(), "plastic", &red_plastic());
     let c = json_of(&compare(&t, &t, &["--json"]));
     for loss in ["l2", "cosine", "cbrt", "log"] {
         assert_eq!(c["losses"][loss]["overall"].as_f64(), Some(0.0));
@@ -104,7 +90,7 @@ fn a_table_against_itself_and_a_model_against_its_score() {
 #[test]
 fn mismatched_grids_are_refused_unless_resampled() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
+    let t = synth_spec(d.path(), "plastic", &red_plastic());
     let half = d.path().join("half.binary");
     resample(&["--table", t.to_str().unwrap()], "12,12,24", &half);
     let o = compare(&t, &half, &[]);
@@ -155,7 +141,7 @@ fn an_nbrdf_against_its_own_table_is_exact() {
 #[test]
 fn renders_and_json_are_written() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
+    let t = synth_spec(d.path(), "plastic", &red_plastic());
     let m = d.path().join("lam.json");
     std::fs::write(
         &m,
@@ -206,7 +192,7 @@ fn renders_and_json_are_written() {
 #[test]
 fn unrecognised_and_incompatible_inputs_exit_2_naming_the_file() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
+    let t = synth_spec(d.path(), "plastic", &red_plastic());
     let txt = d.path().join("notes.txt");
     std::fs::write(&txt, "hello").unwrap();
     let aniso = d.path().join("aniso.json");

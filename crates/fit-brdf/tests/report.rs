@@ -1,6 +1,8 @@
 //! `fit-brdf report`: the files, their content, and the failure modes, driven as a user
 //! would.
 
+mod common;
+
 use assert_cmd::Command;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -9,27 +11,11 @@ fn bin() -> Command {
     Command::cargo_bin("fit-brdf").unwrap()
 }
 
-/// A small red plastic (the demo's material on a 24 × 24 × 48 grid): cook-torrance
-/// fits it exactly, the other families cannot.
-const SMALL_PLASTIC: &str = r#"
-name = "small-plastic"
-dims = [24, 24, 48]
-[material]
-model = "cook-torrance"
-[material.params]
-rho_d = [0.45, 0.08, 0.05]
-rho_s = 1.0
-alpha = 0.12
-distribution = "ggx"
-masking = "smith-separable"
-fresnel = { schlick = { f0 = [0.04, 0.04, 0.04] } }
-"#;
-
 const FIVE: &str = "lambert,plausible-phong,ward,lafortune,cook-torrance";
 
 fn small_table(dir: &Path) -> PathBuf {
     let spec = dir.join("small.toml");
-    std::fs::write(&spec, SMALL_PLASTIC).unwrap();
+    std::fs::write(&spec, common::red_plastic()).unwrap();
     let out = dir.join("small.binary");
     bin()
         .arg("synth")

@@ -5,22 +5,11 @@
 //! Needs Debian's `chromium` (`apt-get install chromium`). Without it the test prints
 //! one loud line and does not run; with `CI` set, a missing browser is a failure.
 
+mod common;
+
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
 use std::process::Output;
-
-const SPEC: &str = r#"
-name = "browser-plastic"
-dims = [24, 24, 48]
-[material]
-model = "cook-torrance"
-[material.params]
-rho_d = [0.45, 0.08, 0.05]
-rho_s = 1.0
-alpha = 0.12
-distribution = "ggx"
-fresnel = { schlick = { f0 = 0.04 } }
-"#;
 
 fn find_chromium() -> Option<PathBuf> {
     // An explicit browser (CHROMIUM=/path) first, when it exists.
@@ -86,7 +75,13 @@ fn the_report_renders_in_a_browser_with_every_image() {
     };
     let d = tempfile::tempdir().unwrap();
     let spec = d.path().join("spec.toml");
-    std::fs::write(&spec, SPEC).unwrap();
+    let text = common::plastic_spec(
+        "browser-plastic",
+        [0.45, 0.08, 0.05],
+        0.12,
+        "distribution = \"ggx\"\n",
+    );
+    std::fs::write(&spec, text).unwrap();
     let table = d.path().join("t.binary");
     Command::cargo_bin("fit-brdf")
         .unwrap()

@@ -3,25 +3,9 @@
 
 mod common;
 
-use common::{bin, stderr, synth_spec};
+use common::{bin, red_plastic, stderr, synth_spec};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-
-/// A red plastic on a small grid (24 × 24 × 48): quick fits, and no family but
-/// cook-torrance fits it exactly, so the losses are not zero.
-const SMALL_PLASTIC: &str = r#"
-name = "small-plastic"
-dims = [24, 24, 48]
-[material]
-model = "cook-torrance"
-[material.params]
-rho_d = [0.45, 0.08, 0.05]
-rho_s = 1.0
-alpha = 0.12
-distribution = "ggx"
-masking = "smith-separable"
-fresnel = { schlick = { f0 = [0.04, 0.04, 0.04] } }
-"#;
 
 fn json_of(o: &std::process::Output) -> Value {
     assert!(o.status.success(), "{}", stderr(o));
@@ -84,7 +68,7 @@ fn assert_same_bits(a: &Value, b: &Value, what: &str) {
 #[test]
 fn rescored_fits_equal_their_records_to_the_bit() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
+    let t = synth_spec(d.path(), "plastic", &red_plastic());
     // (model, fit options, the same cell options for score)
     let cases: [(&str, &[&str], &[&str]); 5] = [
         ("lambert", &[], &[]),
@@ -126,7 +110,7 @@ fn rescored_fits_equal_their_records_to_the_bit() {
 #[test]
 fn score_reports_every_loss_and_the_settings() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
+    let t = synth_spec(d.path(), "plastic", &red_plastic());
     let m = d.path().join("lam.json");
     std::fs::write(
         &m,
@@ -163,7 +147,7 @@ fn score_reports_every_loss_and_the_settings() {
 #[test]
 fn bad_input_exits_2_naming_the_file() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
+    let t = synth_spec(d.path(), "plastic", &red_plastic());
     let write = |name: &str, text: &str| {
         let p = d.path().join(name);
         std::fs::write(&p, text).unwrap();
@@ -215,7 +199,7 @@ fn bad_input_exits_2_naming_the_file() {
 #[test]
 fn report_given_models_beside_fitted_ones() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", SMALL_PLASTIC);
+    let t = synth_spec(d.path(), "plastic", &red_plastic());
     let (p, _) = fit(d.path(), &t, "ward", &[], "ward");
     let given = d.path().join("given.json");
     std::fs::write(

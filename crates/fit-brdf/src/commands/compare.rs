@@ -1,17 +1,17 @@
 //! `fit-brdf compare A B`: two representations of a material (tables, models, NBRDFs)
 //! against each other (the engine: `brdfkit_validate::compare`).
 
+use super::report::render_options;
 use super::score::loss_lines;
 use super::{cell_config, lookup_mode, parse_dims};
 use crate::cli::CompareArgs;
-use crate::error::{CliError, CliResult, bad_input, bad_msg, runtime};
+use crate::error::{CliError, CliResult, bad_input, runtime};
 use crate::output::{write_failed, write_text};
 use anyhow::Context;
 use brdfkit::core::atomic::FileSet;
 use brdfkit_validate::compare::{
     CompareError, CompareOptions, Comparison, Kind, Representation, compare,
 };
-use brdfkit_validate::html::renders::RenderOptions;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -105,22 +105,12 @@ fn write_out(dir: &Path, c: &Comparison) -> CliResult<()> {
 }
 
 pub fn run(a: CompareArgs) -> CliResult<()> {
-    if !(8..=1024).contains(&a.render_size) || !(1..=4096).contains(&a.env_spp) {
-        return Err(bad_msg(format!(
-            "--render-size {} / --env-spp {}: must be in 8..=1024 pixels / 1..=4096",
-            a.render_size, a.env_spp
-        )));
-    }
     let o = CompareOptions {
         config: cell_config(&a.cells)?,
         resample: a.resample.map(lookup_mode),
         dims: parse_dims(&a.dims)?,
         top: a.top,
-        render: (!a.no_renders).then(|| RenderOptions {
-            size: a.render_size,
-            env_spp: a.env_spp,
-            ..RenderOptions::default()
-        }),
+        render: render_options(&a.spheres)?,
     };
     let ra = Representation::load(&a.a).map_err(failed)?;
     let rb = Representation::load(&a.b).map_err(failed)?;

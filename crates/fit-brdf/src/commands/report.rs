@@ -3,7 +3,7 @@
 //! (DIR/index.html, DIR/report.json) of `brdfkit_validate::html`.
 
 use super::{cell_config, fit_setup, read_fitted, read_table};
-use crate::cli::ReportArgs;
+use crate::cli::{ReportArgs, SphereOptions};
 use crate::error::{CliResult, bad_msg, runtime};
 use crate::output::{write_failed, write_text};
 use crate::progress;
@@ -133,30 +133,33 @@ pub fn write_report(dir: &Path, report: &FitReport) -> CliResult<(PathBuf, PathB
     Ok((html, json))
 }
 
-/// The report options of the command line.
-fn options(a: &ReportArgs) -> CliResult<ReportOptions> {
-    if !(8..=1024).contains(&a.render_size) {
+/// The sphere renders of the command line (`None`: skipped); shared with `compare`.
+pub fn render_options(s: &SphereOptions) -> CliResult<Option<RenderOptions>> {
+    if !(8..=1024).contains(&s.render_size) {
         return Err(bad_msg(format!(
             "--render-size {}: must be in 8..=1024 pixels",
-            a.render_size
+            s.render_size
         )));
     }
-    if !(1..=4096).contains(&a.env_spp) {
+    if !(1..=4096).contains(&s.env_spp) {
         return Err(bad_msg(format!(
             "--env-spp {}: must be in 1..=4096",
-            a.env_spp
+            s.env_spp
         )));
     }
-    let mut o = ReportOptions::default();
-    if a.no_renders {
-        o.render = None;
-    } else {
-        o.render = Some(RenderOptions {
-            size: a.render_size,
-            env_spp: a.env_spp,
-            ..RenderOptions::default()
-        });
-    }
+    Ok((!s.no_renders).then(|| RenderOptions {
+        size: s.render_size,
+        env_spp: s.env_spp,
+        ..RenderOptions::default()
+    }))
+}
+
+/// The report options of the command line.
+fn options(a: &ReportArgs) -> CliResult<ReportOptions> {
+    let mut o = ReportOptions {
+        render: render_options(&a.spheres)?,
+        ..ReportOptions::default()
+    };
     if a.no_checks {
         o.checks = None;
     }

@@ -47,3 +47,25 @@ pub fn synth_output(spec: &Path, out: &Path) -> std::process::Output {
         .output()
         .unwrap()
 }
+
+/// The spec of a Cook-Torrance plastic on a small grid (24 × 24 × 48: quick to
+/// synthesise and to fit), ρs = 1 and Schlick F0 = 0.04, with `extra` further
+/// `[material.params]` lines.
+pub fn plastic_spec(name: &str, rho_d: [f64; 3], alpha: f64, extra: &str) -> String {
+    format!(
+        "name = \"{name}\"\ndims = [24, 24, 48]\n[material]\nmodel = \"cook-torrance\"\n\
+         [material.params]\nrho_d = [{}, {}, {}]\nrho_s = 1.0\nalpha = {alpha}\n{extra}\
+         fresnel = {{ schlick = {{ f0 = 0.04 }} }}\n",
+        rho_d[0], rho_d[1], rho_d[2]
+    )
+}
+
+/// The red plastic of the report and score tests: GGX, separable Smith.
+pub fn red_plastic() -> String {
+    plastic_spec(
+        "small-plastic",
+        [0.45, 0.08, 0.05],
+        0.12,
+        "distribution = \"ggx\"\nmasking = \"smith-separable\"\n",
+    )
+}
