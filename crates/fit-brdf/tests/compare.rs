@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{bin, red_plastic, stderr, synth_spec};
+use common::{bin, plastic_and_lambert, red_plastic, stderr, synth_spec};
 use serde_json::Value;
 use std::path::Path;
 
@@ -36,7 +36,7 @@ fn resample(src: &[&str], dims: &str, out: &Path) {
 #[test]
 fn a_table_against_itself_and_a_model_against_its_score() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", &red_plastic());
+    let (t, m) = plastic_and_lambert(d.path());
     let c = json_of(&compare(&t, &t, &["--json"]));
     for loss in ["l2", "cosine", "cbrt", "log"] {
         assert_eq!(c["losses"][loss]["overall"].as_f64(), Some(0.0));
@@ -46,12 +46,6 @@ fn a_table_against_itself_and_a_model_against_its_score() {
     assert_eq!(c["b_on_grid"], "the same cells");
 
     // A model B: the losses of `score`, bit for bit (the same cells and function).
-    let m = d.path().join("lam.json");
-    std::fs::write(
-        &m,
-        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#,
-    )
-    .unwrap();
     for extra in [
         &[][..],
         &["--weighting", "uniform", "--theta-d-max", "50"][..],
@@ -141,13 +135,7 @@ fn an_nbrdf_against_its_own_table_is_exact() {
 #[test]
 fn renders_and_json_are_written() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", &red_plastic());
-    let m = d.path().join("lam.json");
-    std::fs::write(
-        &m,
-        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#,
-    )
-    .unwrap();
+    let (t, m) = plastic_and_lambert(d.path());
     let out = d.path().join("cmp");
     let o = bin()
         .arg("compare")

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{bin, red_plastic, stderr, synth_spec};
+use common::{bin, plastic_and_lambert, red_plastic, stderr, synth_spec};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -110,13 +110,7 @@ fn rescored_fits_equal_their_records_to_the_bit() {
 #[test]
 fn score_reports_every_loss_and_the_settings() {
     let d = tempfile::tempdir().unwrap();
-    let t = synth_spec(d.path(), "plastic", &red_plastic());
-    let m = d.path().join("lam.json");
-    std::fs::write(
-        &m,
-        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#,
-    )
-    .unwrap();
+    let (t, m) = plastic_and_lambert(d.path());
     let all = score(&t, &[&m], &[]);
     let cut = score(
         &t,

@@ -69,3 +69,16 @@ pub fn red_plastic() -> String {
         "distribution = \"ggx\"\nmasking = \"smith-separable\"\n",
     )
 }
+
+/// The red plastic's table in `dir` and a Lambertian of about its diffuse colour as
+/// `dir/lam.json`: a model that does not fit it exactly (non-zero losses).
+pub fn plastic_and_lambert(dir: &Path) -> (PathBuf, PathBuf) {
+    let t = synth_spec(dir, "plastic", &red_plastic());
+    let m = dir.join("lam.json");
+    std::fs::write(
+        &m,
+        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.1, 0.05]}}"#,
+    )
+    .unwrap();
+    (t, m)
+}
