@@ -16,15 +16,14 @@ use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-/// A named choice (`loss = "cbrt"`, ...) parsed by the library's own `FromStr`.
-fn choice<T: FromStr<Err = E>, E: std::error::Error + 'static>(s: &str) -> PyResult<T> {
-    T::from_str(s).map_err(errors::input)
+/// A named choice (`loss = "cbrt"`, ...) parsed by the library's own `FromStr`, whose
+/// message names the choice and the accepted names.
+fn choice<T: FromStr<Err = E>, E: std::fmt::Display>(s: &str) -> PyResult<T> {
+    T::from_str(s).map_err(|e| errors::value(e.to_string()))
 }
 
 /// An optional named choice.
-fn opt_choice<T: FromStr<Err = E>, E: std::error::Error + 'static>(
-    s: Option<&str>,
-) -> PyResult<Option<T>> {
+fn opt_choice<T: FromStr<Err = E>, E: std::fmt::Display>(s: Option<&str>) -> PyResult<Option<T>> {
     s.map(choice).transpose()
 }
 
@@ -102,10 +101,13 @@ impl FitObserver for FamilyProgress {
     }
 }
 
-impl FamilyObserver for Arc<Progress> {
+/// Hands each family's fit a [`FamilyProgress`].
+struct Families(Arc<Progress>);
+
+impl FamilyObserver for Families {
     fn on_family_start(&self, _k: usize, _n: usize, f: &Family) -> Option<Arc<dyn FitObserver>> {
         Some(Arc::new(FamilyProgress {
-            shared: Arc::clone(self),
+            shared: Arc::clone(&self.0),
             family: f.label.clone(),
         }))
     }
@@ -207,7 +209,7 @@ pub fn fit(
         let data = FitData::from_table(&t.inner)
             .map_err(|e| errors::value(format!("{}: {}", t.label(), errors::message(&e))))?;
         match &observer {
-            Some(o) => fit_each(&data, &fams, &cfg, o),
+            Some(o) => fit_each(&data, &fams, &cfg, &Families(Arc::clone(o))),
             None => fit_each(&data, &fams, &cfg, &()),
         }
         .map_err(errors::runtime)

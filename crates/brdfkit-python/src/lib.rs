@@ -39,5 +39,6 @@ fn _brdfkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::check, m)?)?;
     m.add_function(wrap_pyfunction!(model::resample, m)?)?;
+    m.add_function(wrap_pyfunction!(table::lookup_seconds, m)?)?;
     Ok(())
 }

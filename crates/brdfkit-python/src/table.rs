@@ -216,3 +216,28 @@ impl PyTable {
         )
     }
 }
+
+/// Seconds the library's batch lookup takes on these pairs, timed inside Rust (no
+/// argument conversion, no output array): what `MerlTable.lookup`'s binding overhead is
+/// measured against (bench/bench_python.py).
+#[pyfunction(name = "_lookup_seconds")]
+pub fn lookup_seconds(
+    py: Python<'_>,
+    table: &Bound<'_, PyTable>,
+    wi: &Bound<'_, PyAny>,
+    wo: &Bound<'_, PyAny>,
+    interp: &str,
+) -> PyResult<f64> {
+    let mode = lookup_mode(interp)?;
+    let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
+    let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
+    let mut out = vec![[0.0; 3]; wi.len()];
+    let t = table.get();
+    py.detach(|| {
+        let start = std::time::Instant::now();
+        t.inner
+            .lookup_split(mode, wi, wo, &mut out)
+            .map(|()| start.elapsed().as_secs_f64())
+    })
+    .map_err(errors::input)
+}

@@ -38,7 +38,8 @@ class FitResult:
 
     @property
     def losses(self) -> dict[str, float]:
-        return {name: v["overall"] for name, v in self.record["losses_full"].items()}
+        full = self.record["losses_full"]
+        return {name: v["overall"] for name, v in full.items() if isinstance(v, dict)}
 
     def __repr__(self) -> str:
         r = self.record

@@ -99,7 +99,7 @@ def _class(mi, dr):
             if sampling not in ("lobe", "cosine"):
                 raise ValueError(f"{label}: sampling `{sampling}`: expected \"lobe\" or \"cosine\"")
             alpha, frac = lobe() if sampling == "lobe" else (0.5, 0.0)
-            if props.has_property("lobe_fraction"):
+            if "lobe_fraction" in props:
                 frac = float(props["lobe_fraction"])
                 if not 0.0 <= frac <= 1.0:
                     raise ValueError(f"{label}: lobe_fraction {frac} is outside [0, 1]")
@@ -116,7 +116,7 @@ def _class(mi, dr):
         def _f(self, wi, wo, active):
             """f_r · cos θo: brdfkit's values for every lane in one call."""
             f = np.nan_to_num(self._evaluate(rows(wi), rows(wo)), nan=0.0)
-            f = mi.Color3f(f.T.astype(np.float32)) if dr.is_jit_v(mi.Float) else mi.Color3f(*f[0])
+            f = mi.Color3f(f.T.astype(np.float32)) if dr.is_jit_v(mi.Float) else mi.Color3f(*map(float, f[0]))
             cos_o = mi.Frame3f.cos_theta(wo)
             ok = active & (mi.Frame3f.cos_theta(wi) > 0) & (cos_o > 0)
             return dr.select(ok, f * cos_o, 0.0)
@@ -172,7 +172,7 @@ def _class(mi, dr):
 
 
 def _merl(cls, props):
-    if not props.has_property("filename"):
+    if "filename" not in props:
         raise ValueError("brdfkit_merl: `filename` (a MERL binary table) is required")
     path = str(props["filename"])
     interp = props.get("interp", "nearest")
@@ -189,9 +189,9 @@ def _merl(cls, props):
 
 
 def _model(cls, props):
-    if props.has_property("json"):
+    if "json" in props:
         text = str(props["json"])
-    elif props.has_property("filename"):
+    elif "filename" in props:
         with open(str(props["filename"]), encoding="utf-8") as f:
             text = f.read()
     else:
