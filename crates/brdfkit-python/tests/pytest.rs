@@ -214,9 +214,14 @@ fn python_package_tests() {
             String::from_utf8_lossy(&probe.stderr).trim()
         ));
     }
+    // BRDFKIT_REFS_DIR keeps the references (to rerun pytest by hand against them).
     let refs = tempfile::tempdir().expect("a temporary directory");
+    let refs = std::env::var_os("BRDFKIT_REFS_DIR").map_or(refs.path().to_path_buf(), |d| {
+        std::fs::create_dir_all(&d).expect("create BRDFKIT_REFS_DIR");
+        PathBuf::from(d)
+    });
     let t = std::time::Instant::now();
-    write_references(refs.path());
+    write_references(&refs);
     say(&format!(
         "brdfkit-python: references computed in {:.1} s",
         t.elapsed().as_secs_f64()
@@ -224,7 +229,7 @@ fn python_package_tests() {
     let mut cmd = Command::new(&python);
     cmd.args(["-m", "pytest", "-q", "-rs", "crates/brdfkit-python/tests"])
         .current_dir(&root)
-        .env("BRDFKIT_REFS", refs.path());
+        .env("BRDFKIT_REFS", &refs);
     // Mitsuba's LLVM backend needs LLVM 19 (docs/python.md).
     let llvm = Path::new("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1");
     if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() && llvm.exists() {

@@ -157,9 +157,13 @@ def test_fit_reports_progress_and_raises_what_the_callback_raises(gold):
 
 
 def test_fit_choices_and_lists(gold):
-    rs = brdfkit.fit(gold, "lambert,cook-torrance", starts=1, distribution="ggx", fix="rho_d")
+    rs = brdfkit.fit(gold, "lambert,cook-torrance", starts=1, distribution="ggx")
     assert [r.label for r in rs] == ["lambert", "cook-torrance"]
     assert rs[1].model.params["distribution"] == "ggx"
+    start = brdfkit.Model.default("cook-torrance").params["rho_d"]
+    fixed = brdfkit.fit(gold, "cook-torrance", starts=1, fix="rho_d")
+    assert fixed.model.params["rho_d"] == start
+    assert fixed.model.params["rho_s"] != brdfkit.Model.default("cook-torrance").params["rho_s"]
     per = brdfkit.fit(gold, "lambert", starts=1, per_channel=True)
     assert isinstance(per.model, tuple) and len(per.model) == 3
 

@@ -81,7 +81,7 @@ def test_chi2_sample_against_pdf(table_path, refs, plugin, sampling, wi):
         d = {"type": "brdfkit_merl", "filename": table_path, "sampling": sampling}
     else:
         d = {"type": "brdfkit_model", "json": brdfkit.Model.from_json(refs.json("model")).to_json()}
-    sample_func, pdf_func = BSDFAdapter(d["type"], d, wi=list(unit(wi)))
+    sample_func, pdf_func = BSDFAdapter(d["type"], d, wi=mi.Vector3f(*map(float, unit(wi))))
     chi2 = ChiSquareTest(
         domain=SphericalDomain(), sample_func=sample_func, pdf_func=pdf_func, sample_dim=3
     )

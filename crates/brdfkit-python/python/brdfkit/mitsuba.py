@@ -115,7 +115,11 @@ def _class(mi, dr):
 
         def _f(self, wi, wo, active):
             """f_r · cos θo: brdfkit's values for every lane in one call."""
-            f = np.nan_to_num(self._evaluate(rows(wi), rows(wo)), nan=0.0)
+            a, b = rows(wi), rows(wo)
+            if len(a) != len(b):  # one side broadcast (a single wi against many wo)
+                n = max(len(a), len(b))
+                a, b = (np.ascontiguousarray(np.broadcast_to(x, (n, 3))) for x in (a, b))
+            f = np.nan_to_num(self._evaluate(a, b), nan=0.0)
             f = mi.Color3f(f.T.astype(np.float32)) if dr.is_jit_v(mi.Float) else mi.Color3f(*map(float, f[0]))
             cos_o = mi.Frame3f.cos_theta(wo)
             ok = active & (mi.Frame3f.cos_theta(wi) > 0) & (cos_o > 0)
