@@ -2,16 +2,16 @@
 //! (`brdfkit_fit::families`: the model list, the settings, `fit_each`), with an
 //! optional progress callback.
 
-use crate::errors;
 use crate::model::PyModel;
 use crate::table::PyTable;
+use crate::{errors, json_to_py};
 use brdfkit_fit::config::{CLI_EXPLORE_CELLS, DEFAULT_FINISH};
 use brdfkit_fit::families::{
     Family, FamilyObserver, FitSettings, Structure, check_free, families, fit_each,
 };
 use brdfkit_fit::{FitData, FitObserver, FitPlan, IterEvent, StartDone};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use serde_json::json;
 use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -28,7 +28,8 @@ fn opt_choice<T: FromStr<Err = E>, E: std::fmt::Display>(s: Option<&str>) -> PyR
 }
 
 /// Forwards fit progress to a Python callable, one dict per event, from whichever
-/// thread the event comes (the GIL is taken for the call only). The first exception the
+/// thread the event comes (the GIL is taken for the call only; the dict is the event's
+/// JSON, so floats cross bit for bit). The first exception the
 /// callable raises stops the forwarding and is raised when the fit returns.
 struct Progress {
     callback: Py<PyAny>,
@@ -37,15 +38,15 @@ struct Progress {
 }
 
 impl Progress {
-    fn send(&self, fill: impl FnOnce(&Bound<'_, PyDict>) -> PyResult<()>) {
+    /// Calls the callable with the event as a dict.
+    fn send(&self, event: serde_json::Value) {
         if self.stopped.load(Ordering::Relaxed) {
             return;
         }
         // The lock is never held while Python runs (the callback may release the GIL).
         let failed = Python::attach(|py| {
-            let d = PyDict::new(py);
-            fill(&d)
-                .and_then(|()| self.callback.call1(py, (d,)))
+            json_to_py(py, &event)
+                .and_then(|d| self.callback.call1(py, (d,)))
                 .err()
         });
         if let Some(e) = failed {
@@ -64,40 +65,26 @@ struct FamilyProgress {
 
 impl FitObserver for FamilyProgress {
     fn on_plan(&self, p: &FitPlan) {
-        self.shared.send(|d| {
-            d.set_item("event", "plan")?;
-            d.set_item("family", &self.family)?;
-            d.set_item("starts", p.starts)?;
-            d.set_item("finish", p.finish)?;
-            d.set_item("passes", p.passes)?;
-            d.set_item("max_iters", p.max_iters)?;
-            d.set_item("cells", p.cells)
-        });
+        self.shared.send(
+            json!({"event": "plan", "family": self.family, "starts": p.starts,
+            "finish": p.finish, "passes": p.passes, "max_iters": p.max_iters, "cells": p.cells}),
+        );
     }
 
-    fn on_iter(&self, ev: &IterEvent) {
-        self.shared.send(|d| {
-            d.set_item("event", "iter")?;
-            d.set_item("family", &self.family)?;
-            d.set_item("start", ev.start)?;
-            d.set_item("channel", ev.channel)?;
-            d.set_item("iter", ev.iter)?;
-            d.set_item("cost", ev.cost)?;
-            d.set_item("best_cost", ev.best_cost)?;
-            d.set_item("warm_up", ev.warm_up)
-        });
+    fn on_iter(&self, e: &IterEvent) {
+        self.shared.send(
+            json!({"event": "iter", "family": self.family, "start": e.start,
+            "channel": e.channel, "iter": e.iter, "cost": e.cost, "best_cost": e.best_cost,
+            "warm_up": e.warm_up}),
+        );
     }
 
     fn on_start_done(&self, s: &StartDone) {
-        self.shared.send(|d| {
-            d.set_item("event", "start_done")?;
-            d.set_item("family", &self.family)?;
-            d.set_item("start", s.start)?;
-            d.set_item("channel", s.channel)?;
-            d.set_item("loss", s.loss)?;
-            d.set_item("iterations", s.iterations)?;
-            d.set_item("termination", &s.termination)
-        });
+        self.shared.send(
+            json!({"event": "start_done", "family": self.family, "start": s.start,
+            "channel": s.channel, "loss": s.loss, "iterations": s.iterations,
+            "termination": s.termination}),
+        );
     }
 }
 

@@ -7,7 +7,7 @@
 //! (the Python layer makes them so), outputs are built in Rust and handed to NumPy
 //! without a copy. The GIL is released around reads, writes, lookups, evaluations,
 //! fits, checks and resampling. Errors are Python exceptions with the Rust messages
-//! (see [`errors`]). The Python API, its stubs and docs are in `python/brdfkit`, the
+//! (see the `errors` module). The Python API, its stubs and docs are in `python/brdfkit`, the
 //! guide in `docs/python.md`.
 
 #![warn(missing_docs)]

@@ -75,7 +75,11 @@ impl PyModel {
     /// Names of the flat parameter vector (the fitter's view).
     #[getter]
     fn param_names(&self) -> Vec<String> {
-        self.inner.param_specs().into_iter().map(|s| s.name).collect()
+        self.inner
+            .param_specs()
+            .into_iter()
+            .map(|s| s.name)
+            .collect()
     }
 
     /// The flat parameter vector, float64.

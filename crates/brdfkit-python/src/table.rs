@@ -6,8 +6,8 @@ use brdfkit_merl::{Dims, Lookup, MerlTable};
 use numpy::{
     PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray4, PyUntypedArrayMethods,
 };
-use pyo3::types::PyDict;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -123,7 +123,7 @@ impl PyTable {
                 MerlTable::from_fn(dims, |i, j, k| {
                     let x = i * slab + j * dims.phi_d() + k;
                     let c = [v[x], v[n + x], v[2 * n + x]];
-                    (!c.iter().any(|c| c.is_nan())).then(|| Rgb(c))
+                    (!c.iter().any(|c| c.is_nan())).then_some(Rgb(c))
                 })
             })
             .map_err(errors::input)?;
@@ -206,10 +206,9 @@ impl PyTable {
 
     fn __repr__(&self) -> String {
         let (a, b, c) = self.dims();
-        let src = self
-            .path
-            .as_ref()
-            .map_or_else(String::new, |p| format!(", path={:?}", p.display().to_string()));
+        let src = self.path.as_ref().map_or_else(String::new, |p| {
+            format!(", path={:?}", p.display().to_string())
+        });
         format!(
             "MerlTable(dims=({a}, {b}, {c}), valid={:.2}%{src})",
             100.0 * self.inner.valid_fraction()

@@ -90,24 +90,10 @@ fn test_model() -> serde_json::Value {
 fn scene_toml(table: &Path, seed: u64) -> String {
     format!(
         r#"effects = ["environment"]
-[film]
-width = 96
-height = 96
-spp = 64
-filter = "box"
-seed = {seed}
-show_environment = false
-[camera]
-position = [0.0, 0.0, 4.0]
-look_at = [0.0, 0.0, 0.0]
-up = [0.0, 1.0, 0.0]
-fov = 32.0
-[sphere]
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = {{ table = {table:?}, lookup = "nearest" }}
-[environment]
-constant = [1.0, 1.0, 1.0]
+film = {{ width = 96, height = 96, spp = 64, filter = "box", seed = {seed}, show_environment = false }}
+camera = {{ position = [0.0, 0.0, 4.0], look_at = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0], fov = 32.0 }}
+sphere = {{ center = [0.0, 0.0, 0.0], radius = 1.0, material = {{ table = {table:?}, lookup = "nearest" }} }}
+environment = {{ constant = [1.0, 1.0, 1.0] }}
 "#
     )
 }
@@ -122,14 +108,23 @@ fn write_references(dir: &Path) {
     table.write(&table_path).expect("write the table");
 
     let mut rng = SplitMix(0x5059_5445_5354);
-    let (wi, wo): (Vec<[f64; 3]>, Vec<[f64; 3]>) =
-        (0..PAIRS).map(|_| (rng.direction(), rng.direction())).unzip();
+    let (wi, wo): (Vec<[f64; 3]>, Vec<[f64; 3]>) = (0..PAIRS)
+        .map(|_| (rng.direction(), rng.direction()))
+        .unzip();
     write_f64(&dir.join("wi.f64"), wi.iter().flatten().copied());
     write_f64(&dir.join("wo.f64"), wo.iter().flatten().copied());
-    for (mode, name) in [(Lookup::Nearest, "nearest"), (Lookup::Interpolated, "linear")] {
+    for (mode, name) in [
+        (Lookup::Nearest, "nearest"),
+        (Lookup::Interpolated, "linear"),
+    ] {
         let mut out = vec![[0.0; 3]; PAIRS];
-        table.lookup_split(mode, &wi, &wo, &mut out).expect("lookup");
-        write_f64(&dir.join(format!("lookup_{name}.f64")), out.into_iter().flatten());
+        table
+            .lookup_split(mode, &wi, &wo, &mut out)
+            .expect("lookup");
+        write_f64(
+            &dir.join(format!("lookup_{name}.f64")),
+            out.into_iter().flatten(),
+        );
     }
 
     let model_json = test_model();
@@ -139,7 +134,10 @@ fn write_references(dir: &Path) {
     brdfkit_models::raw::eval_dirs(&*model, &wi, &wo, &mut rgb).expect("eval");
     write_f64(&dir.join("eval.f64"), rgb.iter().flat_map(|c| c.0));
     let report = brdfkit_validate::check_model(&*model);
-    write_json(&dir.join("check.json"), &serde_json::to_value(&report).expect("JSON"));
+    write_json(
+        &dir.join("check.json"),
+        &serde_json::to_value(&report).expect("JSON"),
+    );
     let small = Dims::new(10, 10, 20).expect("dims");
     MerlTable::from_brdf(model.as_ref() as &dyn Model, small)
         .expect("resample the model")
