@@ -87,9 +87,9 @@ def main():
         import mitsuba as mi
 
         mi.set_variant("llvm_ad_rgb")
-        import brdfkit.mitsuba
+        from brdfkit import mitsuba as plugin
 
-        brdfkit.mitsuba.register()
+        plugin.register()
 
         def scene(bsdf):
             return mi.load_dict({

@@ -163,7 +163,10 @@ pub fn check<'py>(py: Python<'py>, source: &Bound<'py, PyAny>) -> PyResult<Bound
 /// A table on the grid `dims` from a model (evaluated at each cell), a table
 /// (resampled with `interp`) or a neural BRDF, as `fit-brdf resample` makes it.
 #[pyfunction]
-#[pyo3(signature = (source, dims = (90, 90, 180), interp = "nearest"))]
+#[pyo3(
+    signature = (source, dims = (90, 90, 180), interp = "nearest"),
+    text_signature = "(source, dims=(90, 90, 180), interp='nearest')"
+)]
 pub fn resample(
     py: Python<'_>,
     source: &Bound<'_, PyAny>,
