@@ -1,0 +1,115 @@
+//! Typed Rust errors as Python exceptions, with the Rust messages.
+//!
+//! An error with an `std::io::Error` anywhere in its cause chain is an `OSError` (the
+//! subclass Python itself raises for that kind: `FileNotFoundError`,
+//! `PermissionError`, `IsADirectoryError`); any other error of the input (a malformed
+//! table, an unknown model or parameter, a bad setting, mismatched arrays) is a
+//! `ValueError`; a failure of the computation itself is a `RuntimeError`. The message
+//! is the error's `Display` followed by each cause it does not already contain, as the
+//! command line prints them.
+
+use pyo3::PyErr;
+use pyo3::exceptions::{
+    PyFileNotFoundError, PyIsADirectoryError, PyOSError, PyPermissionError, PyRuntimeError,
+    PyValueError,
+};
+use std::error::Error;
+use std::io::ErrorKind;
+
+/// The message with its cause chain.
+pub(crate) fn message(e: &(dyn Error + 'static)) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let t = c.to_string();
+        if !s.contains(&t) {
+            s.push_str(": ");
+            s.push_str(&t);
+        }
+        cause = c.source();
+    }
+    s
+}
+
+/// The kind of the first I/O error in the chain.
+fn io_kind(e: &(dyn Error + 'static)) -> Option<ErrorKind> {
+    let mut cur = Some(e);
+    while let Some(c) = cur {
+        if let Some(io) = c.downcast_ref::<std::io::Error>() {
+            return Some(io.kind());
+        }
+        cur = c.source();
+    }
+    None
+}
+
+/// The `OSError` subclass of an I/O error kind.
+fn os_error(kind: ErrorKind, msg: String) -> PyErr {
+    match kind {
+        ErrorKind::NotFound => PyFileNotFoundError::new_err(msg),
+        ErrorKind::PermissionDenied => PyPermissionError::new_err(msg),
+        ErrorKind::IsADirectory => PyIsADirectoryError::new_err(msg),
+        _ => PyOSError::new_err(msg),
+    }
+}
+
+/// An error of the caller's input or files: `OSError` (by kind) or `ValueError`.
+pub(crate) fn input<E: Error + 'static>(e: E) -> PyErr {
+    let msg = message(&e);
+    match io_kind(&e) {
+        Some(kind) => os_error(kind, msg),
+        None => PyValueError::new_err(msg),
+    }
+}
+
+/// A table read or write error; a directory given for a table is `IsADirectoryError`.
+pub(crate) fn merl(e: brdfkit_merl::MerlError) -> PyErr {
+    if matches!(e, brdfkit_merl::MerlError::IsDirectory { .. }) {
+        return PyIsADirectoryError::new_err(message(&e));
+    }
+    input(e)
+}
+
+/// A failure of the computation (not of its input): `RuntimeError`, or `OSError` when
+/// an I/O error caused it.
+pub(crate) fn runtime<E: Error + 'static>(e: E) -> PyErr {
+    let msg = message(&e);
+    match io_kind(&e) {
+        Some(kind) => os_error(kind, msg),
+        None => PyRuntimeError::new_err(msg),
+    }
+}
+
+/// A `ValueError` with a message of the bindings' own (argument shapes and names).
+pub(crate) fn value(msg: impl Into<String>) -> PyErr {
+    PyValueError::new_err(msg.into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The chain is appended only where the top message lacks it.
+    #[test]
+    fn message_appends_missing_causes_once() {
+        let io = std::io::Error::new(ErrorKind::NotFound, "no such file");
+        let e = brdfkit_merl::MerlError::Io {
+            path: "t.binary".into(),
+            action: "opening",
+            source: io,
+        };
+        assert_eq!(message(&e), "t.binary: opening: no such file");
+        assert_eq!(io_kind(&e), Some(ErrorKind::NotFound));
+        let fam = brdfkit_fit::families::FamilyError::Read {
+            path: "m.json".into(),
+            source: std::io::Error::new(ErrorKind::PermissionDenied, "denied"),
+        };
+        assert_eq!(
+            message(&fam),
+            "m.json: cannot read the model description: denied"
+        );
+        assert_eq!(io_kind(&fam), Some(ErrorKind::PermissionDenied));
+        let bad = brdfkit_core::ModelError::Invalid("unknown model `x`".into());
+        assert_eq!(io_kind(&bad), None);
+    }
+}

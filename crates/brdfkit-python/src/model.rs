@@ -1,0 +1,196 @@
+//! `brdfkit.Model` (an analytic model of `brdfkit_models`), `brdfkit.Nbrdf` (a neural
+//! BRDF of `brdfkit_nbrdf`), `check` (`brdfkit_validate`) and `resample`.
+
+use crate::table::{PyTable, dims_of, directions, lookup_mode, rows_array, rows3};
+use crate::{errors, json_to_py};
+use brdfkit_core::{Model, Rgb};
+use brdfkit_merl::MerlTable;
+use brdfkit_nbrdf::Nbrdf;
+use numpy::PyArray1;
+use pyo3::prelude::*;
+use pyo3::types::PyString;
+use std::path::PathBuf;
+
+/// An analytic BRDF model with its parameters, as the JSON contract
+/// `{"model": "<name>", "params": {...}}` describes it.
+#[pyclass(name = "Model", module = "brdfkit", frozen)]
+pub struct PyModel {
+    pub(crate) inner: Box<dyn Model>,
+}
+
+/// JSON text of a `str` or of any object `json.dumps` takes (a dict).
+fn json_text(obj: &Bound<'_, PyAny>) -> PyResult<String> {
+    if let Ok(s) = obj.cast::<PyString>() {
+        return Ok(s.to_string());
+    }
+    obj.py()
+        .import("json")?
+        .call_method1("dumps", (obj,))?
+        .extract()
+}
+
+#[pymethods]
+impl PyModel {
+    /// A model from its JSON description: the text, or the dict.
+    #[staticmethod]
+    fn from_json(description: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let text = json_text(description)?;
+        let inner = brdfkit_models::from_json_str(&text).map_err(errors::input)?;
+        Ok(PyModel { inner })
+    }
+
+    /// The model `name` at its default start.
+    #[staticmethod]
+    fn default(name: &str) -> PyResult<Self> {
+        let inner = brdfkit_models::default_model(name).map_err(errors::input)?;
+        Ok(PyModel { inner })
+    }
+
+    /// The JSON description (the text `fit-brdf` reads and writes), compact or
+    /// pretty-printed.
+    #[pyo3(signature = (pretty = false))]
+    fn to_json(&self, pretty: bool) -> PyResult<String> {
+        let v = self.inner.to_json();
+        let s = if pretty {
+            serde_json::to_string_pretty(&v)
+        } else {
+            serde_json::to_string(&v)
+        };
+        s.map_err(errors::runtime)
+    }
+
+    /// The model's name (`cook-torrance`, ...).
+    #[getter]
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+
+    /// The `params` object of the JSON description, as a dict.
+    #[getter]
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let v = self.inner.to_json();
+        json_to_py(py, v.get("params").unwrap_or(&serde_json::Value::Null))
+    }
+
+    /// Names of the flat parameter vector (the fitter's view).
+    #[getter]
+    fn param_names(&self) -> Vec<String> {
+        self.inner
+            .param_specs()
+            .into_iter()
+            .map(|s| s.name)
+            .collect()
+    }
+
+    /// The flat parameter vector, float64.
+    #[getter]
+    fn param_vector<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_vec(py, self.inner.params())
+    }
+
+    /// f_r (1/sr, no cosine) at each pair (wi[k], wo[k]): (N, 3) in, (N, 3) out; 0 below
+    /// the horizon.
+    fn eval<'py>(
+        &self,
+        py: Python<'py>,
+        wi: &Bound<'py, PyAny>,
+        wo: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
+        let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
+        let out = py
+            .detach(|| {
+                let mut rgb = vec![Rgb([0.0; 3]); wi.len()];
+                brdfkit_models::raw::eval_dirs(&*self.inner, wi, wo, &mut rgb)
+                    .map(|()| rgb.iter().flat_map(|c| c.0).collect::<Vec<f64>>())
+            })
+            .map_err(errors::input)?;
+        rows_array(py, out)
+    }
+
+    fn __repr__(&self) -> String {
+        let v = self.inner.to_json();
+        let params = v.get("params").map_or_else(String::new, |p| p.to_string());
+        format!("Model({}, params={params})", self.inner.name())
+    }
+}
+
+/// A neural BRDF (Sztrajman et al. 2021): the six `.npy` weight files `DIR/NAME_*.npy`.
+#[pyclass(name = "Nbrdf", module = "brdfkit", frozen)]
+pub struct PyNbrdf {
+    inner: Nbrdf,
+}
+
+#[pymethods]
+impl PyNbrdf {
+    /// Loads `DIR/NAME` (the stem of the six weight files).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let inner = py.detach(|| Nbrdf::load(&path)).map_err(errors::input)?;
+        Ok(PyNbrdf { inner })
+    }
+
+    /// The material's name.
+    #[getter]
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn __repr__(&self) -> String {
+        let (a, b) = self.inner.widths();
+        format!("Nbrdf({:?}, hidden widths ({a}, {b}))", self.inner.name())
+    }
+}
+
+/// The physical-check report of a model or a table (`fit-brdf check --json`), as a
+/// dict.
+#[pyfunction]
+pub fn check<'py>(py: Python<'py>, source: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    let report = if let Ok(m) = source.cast::<PyModel>() {
+        let m = m.get();
+        py.detach(|| serde_json::to_value(brdfkit_validate::check_model(&*m.inner)))
+    } else if let Ok(t) = source.cast::<PyTable>() {
+        let t = t.get();
+        py.detach(|| serde_json::to_value(brdfkit_validate::check_table(&t.inner)))
+    } else {
+        return Err(errors::value(
+            "check: expected a brdfkit.Model or a brdfkit.MerlTable",
+        ));
+    };
+    json_to_py(py, &report.map_err(errors::runtime)?)
+}
+
+/// A table on the grid `dims` from a model (evaluated at each cell), a table
+/// (resampled with `interp`) or a neural BRDF, as `fit-brdf resample` makes it.
+#[pyfunction]
+#[pyo3(
+    signature = (source, dims = (90, 90, 180), interp = "nearest"),
+    text_signature = "(source, dims=(90, 90, 180), interp='nearest')"
+)]
+pub fn resample(
+    py: Python<'_>,
+    source: &Bound<'_, PyAny>,
+    dims: (i64, i64, i64),
+    interp: &str,
+) -> PyResult<PyTable> {
+    let dims = dims_of(dims)?;
+    let mode = lookup_mode(interp)?;
+    let table = if let Ok(m) = source.cast::<PyModel>() {
+        let m = m.get();
+        py.detach(|| MerlTable::from_brdf(&*m.inner, dims))
+            .map_err(errors::runtime)?
+    } else if let Ok(t) = source.cast::<PyTable>() {
+        let t = t.get();
+        py.detach(|| t.inner.resample(dims, mode))
+    } else if let Ok(n) = source.cast::<PyNbrdf>() {
+        let n = n.get();
+        py.detach(|| n.inner.to_table(dims))
+            .map_err(errors::runtime)?
+            .0
+    } else {
+        return Err(errors::value(
+            "resample: expected a brdfkit.Model, a brdfkit.MerlTable or a brdfkit.Nbrdf",
+        ));
+    };
+    Ok(PyTable::new(table))
+}

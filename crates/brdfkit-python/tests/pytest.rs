@@ -1,0 +1,238 @@
+//! Runs the Python tests of the `brdfkit` package (`tests/test_*.py`) with pytest, after
+//! computing what they compare against with the Rust API: lookups, evaluations, a fit,
+//! a check, resampled tables and a `brdfkit-render` image, written into a temporary
+//! directory (`BRDFKIT_REFS`). The Python side must give the same values to the bit.
+//!
+//! The Python is `$BRDFKIT_PYTHON` or `<workspace>/.venv/bin/python`, with the package
+//! installed (`.venv/bin/pip install ./crates/brdfkit-python`, as `.ci/run` does).
+//! With `CI` set (to anything but "", "0" or "false") a missing Python or package fails
+//! the test; without it, the test prints one loud line saying the Python tests did not
+//! run, and passes. The package is not rebuilt here: after changing the Rust side,
+//! reinstall it.
+
+use brdfkit_core::Model;
+use brdfkit_fit::config::{CLI_EXPLORE_CELLS, DEFAULT_FINISH};
+use brdfkit_fit::families::{FitSettings, Structure, families, fit_each};
+use brdfkit_fit::{FitData, Loss, RobustKind, SolverKind, Weighting};
+use brdfkit_merl::{Dims, Lookup, MerlTable};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
+                      && .venv/bin/pip install ./crates/brdfkit-python (in the workspace root)";
+
+/// The grid of the test table: small, so that the debug-build fit here is quick.
+const DIMS: (i64, i64, i64) = (24, 24, 48);
+
+/// Pairs of the lookup and evaluation comparisons.
+const PAIRS: usize = 20_000;
+
+/// Seed and starts of the reference fit (the Python test fits with the same).
+const FIT_STARTS: usize = 2;
+
+fn under_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.as_str(), "" | "0" | "false"))
+}
+
+/// Uncaptured output: the harness captures `print!`/`eprint!`, not direct writes.
+fn say(s: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{s}");
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .expect("the workspace root")
+}
+
+/// SplitMix64 (Steele, Lea & Flood, OOPSLA 2014): a seeded stream with no dependency.
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn unit(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// A uniform direction on the sphere, z ≥ −0.2 (some pairs below the horizon).
+    fn direction(&mut self) -> [f64; 3] {
+        let z = -0.2 + 1.2 * self.unit();
+        let phi = std::f64::consts::TAU * self.unit();
+        let r = (1.0 - z * z).sqrt();
+        [r * phi.cos(), r * phi.sin(), z]
+    }
+}
+
+/// Little-endian float64 values, read in Python with `np.fromfile(path, "<f8")`.
+fn write_f64(path: &Path, v: impl IntoIterator<Item = f64>) {
+    let bytes: Vec<u8> = v.into_iter().flat_map(f64::to_le_bytes).collect();
+    std::fs::write(path, bytes).expect("write a reference file");
+}
+
+fn write_json(path: &Path, v: &serde_json::Value) {
+    std::fs::write(path, serde_json::to_string(v).expect("JSON")).expect("write a reference");
+}
+
+/// The model of the evaluation, check and resampling comparisons.
+fn test_model() -> serde_json::Value {
+    serde_json::json!({"model": "cook-torrance", "params": {
+        "rho_d": [0.3, 0.2, 0.1], "rho_s": 0.7, "alpha": 0.2, "distribution": "ggx",
+        "fresnel": {"schlick": {"f0": 0.04}}}})
+}
+
+/// The scene of the render comparison: a lone sphere with the test table under a
+/// uniform sky (the Python test builds the same scene in Mitsuba).
+fn scene_toml(table: &Path, seed: u64) -> String {
+    format!(
+        r#"effects = ["environment"]
+film = {{ width = 96, height = 96, spp = 64, filter = "box", seed = {seed}, show_environment = false }}
+camera = {{ position = [0.0, 0.0, 4.0], look_at = [0.0, 0.0, 0.0], up = [0.0, 1.0, 0.0], fov = 32.0 }}
+sphere = {{ center = [0.0, 0.0, 0.0], radius = 1.0, material = {{ table = {table:?}, lookup = "nearest" }} }}
+environment = {{ constant = [1.0, 1.0, 1.0] }}
+"#
+    )
+}
+
+/// Writes every reference the Python tests compare against into `dir`.
+fn write_references(dir: &Path) {
+    let dims = Dims::new(DIMS.0, DIMS.1, DIMS.2).expect("dims");
+    let nbrdf_path = root().join("data-measured/merl/gold-paint");
+    let nbrdf = brdfkit_nbrdf::Nbrdf::load(&nbrdf_path).expect("the gold-paint NBRDF");
+    let (table, _) = nbrdf.to_table(dims).expect("tabulate");
+    let table_path = dir.join("gold.binary");
+    table.write(&table_path).expect("write the table");
+
+    let mut rng = SplitMix(0x5059_5445_5354);
+    let (wi, wo): (Vec<[f64; 3]>, Vec<[f64; 3]>) = (0..PAIRS)
+        .map(|_| (rng.direction(), rng.direction()))
+        .unzip();
+    write_f64(&dir.join("wi.f64"), wi.iter().flatten().copied());
+    write_f64(&dir.join("wo.f64"), wo.iter().flatten().copied());
+    for (mode, name) in [
+        (Lookup::Nearest, "nearest"),
+        (Lookup::Interpolated, "linear"),
+    ] {
+        let mut out = vec![[0.0; 3]; PAIRS];
+        table
+            .lookup_split(mode, &wi, &wo, &mut out)
+            .expect("lookup");
+        write_f64(
+            &dir.join(format!("lookup_{name}.f64")),
+            out.into_iter().flatten(),
+        );
+    }
+
+    let model_json = test_model();
+    write_json(&dir.join("model.json"), &model_json);
+    let model = brdfkit_models::from_json(&model_json).expect("the test model");
+    let mut rgb = vec![brdfkit_core::Rgb([0.0; 3]); PAIRS];
+    brdfkit_models::raw::eval_dirs(&*model, &wi, &wo, &mut rgb).expect("eval");
+    write_f64(&dir.join("eval.f64"), rgb.iter().flat_map(|c| c.0));
+    let report = brdfkit_validate::check_model(&*model);
+    write_json(
+        &dir.join("check.json"),
+        &serde_json::to_value(&report).expect("JSON"),
+    );
+    let small = Dims::new(10, 10, 20).expect("dims");
+    MerlTable::from_brdf(model.as_ref() as &dyn Model, small)
+        .expect("resample the model")
+        .write(dir.join("model_10_10_20.binary"))
+        .expect("write");
+
+    write_fit(&table, dir);
+
+    for seed in [1, 2] {
+        let text = scene_toml(&table_path, seed);
+        let scene = brdfkit_render::Scene::from_toml_str(&text, dir.join("scene.toml"))
+            .expect("the render scene");
+        let out = brdfkit_render::render(&scene).expect("render");
+        let px = out.radiance.iter().flat_map(|c| c.0);
+        write_f64(&dir.join(format!("render_seed{seed}.f64")), px);
+    }
+}
+
+/// The reference fit: `fit-brdf fit`'s defaults (the Python `fit`'s) but two starts.
+fn write_fit(table: &MerlTable, dir: &Path) {
+    let fams = families("cook-torrance", &Structure::default()).expect("family");
+    let cfg = FitSettings {
+        loss: Loss::Cbrt,
+        weighting: Weighting::SolidAngle,
+        solver: SolverKind::Lm,
+        starts: FIT_STARTS,
+        finish: DEFAULT_FINISH,
+        sample_fraction: 1.0,
+        theta_d_max_deg: None,
+        per_channel: false,
+        seed: 0,
+        fix: None,
+        robust: RobustKind::None,
+        robust_scale: None,
+        albedo_max: None,
+        full_iters: Some(0),
+        explore_cells: Some(CLI_EXPLORE_CELLS),
+    }
+    .config()
+    .expect("settings");
+    let data = FitData::from_table(table).expect("cells");
+    let o = fit_each(&data, &fams, &cfg, &()).expect("fit");
+    write_json(&dir.join("fit.json"), &o[0].to_json());
+}
+
+#[test]
+fn python_package_tests() {
+    let root = root();
+    let python = std::env::var_os("BRDFKIT_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join(".venv/bin/python"));
+    let missing = |why: String| {
+        assert!(
+            !under_ci(),
+            "the Python tests could not run under CI: {why}. Install: {ENABLE}"
+        );
+        say(&format!(
+            "!!! PYTHON PACKAGE TESTS DID NOT RUN: {why}. Enable them: {ENABLE}"
+        ));
+    };
+    if !python.exists() {
+        return missing(format!("no Python at {}", python.display()));
+    }
+    let probe = Command::new(&python)
+        .args(["-c", "import brdfkit, pytest"])
+        .output()
+        .expect("run Python");
+    if !probe.status.success() {
+        return missing(format!(
+            "{} cannot import brdfkit and pytest ({})",
+            python.display(),
+            String::from_utf8_lossy(&probe.stderr).trim()
+        ));
+    }
+    // BRDFKIT_REFS_DIR keeps the references (to rerun pytest by hand against them).
+    let refs = tempfile::tempdir().expect("a temporary directory");
+    let refs = std::env::var_os("BRDFKIT_REFS_DIR").map_or(refs.path().to_path_buf(), |d| {
+        std::fs::create_dir_all(&d).expect("create BRDFKIT_REFS_DIR");
+        PathBuf::from(d)
+    });
+    let t = std::time::Instant::now();
+    write_references(&refs);
+    say(&format!(
+        "brdfkit-python: references computed in {:.1} s",
+        t.elapsed().as_secs_f64()
+    ));
+    let mut cmd = Command::new(&python);
+    cmd.args(["-m", "pytest", "-q", "-rs", "crates/brdfkit-python/tests"])
+        .current_dir(&root)
+        .env("BRDFKIT_REFS", &refs);
+    // Mitsuba's LLVM backend needs LLVM 19 (docs/python.md).
+    let llvm = Path::new("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1");
+    if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() && llvm.exists() {
+        cmd.env("DRJIT_LIBLLVM_PATH", llvm);
+    }
+    let status = cmd.status().expect("run pytest");
+    assert!(status.success(), "pytest failed: {status}");
+}
