@@ -228,8 +228,14 @@ pub const PLAUSIBLE_DIM: i64 = 1 << 24;
 /// Signatures of formats mistaken for tables: (first bytes, what the file is).
 const SIGNATURES: [(&[u8], &str); 5] = [
     (b"\x1f\x8b", "it is gzip-compressed (decompress it first)"),
-    (b"PK\x03\x04", "it is a zip archive (extract the table first)"),
-    (b"\x93NUMPY", "it is a NumPy .npy array (a neural BRDF is read with --nbrdf)"),
+    (
+        b"PK\x03\x04",
+        "it is a zip archive (extract the table first)",
+    ),
+    (
+        b"\x93NUMPY",
+        "it is a NumPy .npy array (a neural BRDF is read with --nbrdf)",
+    ),
     (b"\x89PNG", "it is a PNG image"),
     (b"v/1\x01", "it is an OpenEXR image"),
 ];

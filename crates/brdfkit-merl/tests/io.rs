@@ -170,7 +170,11 @@ fn a_file_that_is_not_a_table_says_so_before_judging_its_dims() {
     let npy = [&b"\x93NUMPY\x01\x00v\x00{'descr'"[..], &[0u8; 40][..]].concat();
     let cases: [(&str, &[u8], &str); 4] = [
         ("pairs.csv", csv, "it starts with text (`wi_x,wi_y,wi`)"),
-        ("notes.txt", "θh θd φd\n1 2 3\n".as_bytes(), "it starts with text"),
+        (
+            "notes.txt",
+            "θh θd φd\n1 2 3\n".as_bytes(),
+            "it starts with text",
+        ),
         ("table.binary.gz", &gz, "gzip"),
         ("mlp_fc1.npy", &npy, "NumPy"),
     ];
@@ -203,13 +207,17 @@ fn a_plausible_header_is_never_taken_for_text_or_another_format() {
     // Every dim in 1..=2^24 has a zero high byte: such a header is judged as a table
     // even when its first bytes spell a signature (dims 559903 = 1f 8b 08 00, gzip's).
     let dir = tempfile::tempdir().unwrap();
-    for dims in [[559903, 1, 1], [0x2020_20, 0x20, 0x20], [1 << 24, 1, 1]] {
+    for dims in [[559903, 1, 1], [0x0020_2020, 0x20, 0x20], [1 << 24, 1, 1]] {
         let p = write_file(dir.path(), "odd.binary", &image(dims, &[0.5; 3]));
         let e = MerlTable::read(&p).unwrap_err();
         assert!(matches!(e, MerlError::Truncated { .. }), "{dims:?}: {e}");
     }
     // One dim beyond 2^24 whose bytes are not text: the dims are judged as before.
-    let p = write_file(dir.path(), "big.binary", &image([(1 << 24) + 1, 1, 1], &[0.5; 3]));
+    let p = write_file(
+        dir.path(),
+        "big.binary",
+        &image([(1 << 24) + 1, 1, 1], &[0.5; 3]),
+    );
     let e = MerlTable::read(&p).unwrap_err();
     assert!(matches!(e, MerlError::Truncated { .. }), "{e}");
 }

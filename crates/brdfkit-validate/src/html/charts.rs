@@ -4,9 +4,9 @@
 use super::ReportError;
 use super::analysis::{AlbedoCurves, ResidualMap, Slice};
 use plotters::coord::Shift;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::ops::Range;
 
 /// θh on MERL's √ axis: the coordinate is the bin index u = n √(θh / 90°), the ticks
@@ -281,14 +281,18 @@ pub fn residual_chart(
         chart.draw_series(rects).map_err(err)?;
         // A map white all over reads as empty: say that the fit is exact there.
         if let Some(text) = exact_label(map, scale) {
-            let style = ("sans-serif", 14)
-                .into_font()
-                .color(&BLACK.mix(0.75))
-                .pos(Pos::new(HPos::Center, VPos::Center));
-            for (k, line) in text.iter().enumerate() {
-                let y = 45.0 + 9.0 * (1.0 - 2.0 * k as f64);
+            // The verdict large, the figure below it.
+            for (line, size, y) in [(&text[0], 22, 52.0), (&text[1], 12, 36.0)] {
+                let style = ("sans-serif", size)
+                    .into_font()
+                    .color(&BLACK.mix(0.75))
+                    .pos(Pos::new(HPos::Center, VPos::Center));
                 chart
-                    .draw_series(std::iter::once(Text::new(line.clone(), (n / 2.0, y), &style)))
+                    .draw_series(std::iter::once(Text::new(
+                        line.clone(),
+                        (n / 2.0, y),
+                        &style,
+                    )))
                     .map_err(err)?;
             }
         }
@@ -684,7 +688,7 @@ mod tests {
     /// The legend's box (x0, y0, x1, y1) and the black dots drawn before it (cx, cy, r),
     /// read back from the SVG: the legend's background is the one rectangle with
     /// opacity 0.85, and its own icons come after it.
-    fn legend_and_dots(svg: &str) -> ((f64, f64, f64, f64), Vec<(f64, f64, f64)>) {
+    fn legend_and_dots(svg: &str) -> ([f64; 4], Vec<[f64; 3]>) {
         let at = svg.find("opacity=\"0.85\"").expect("a legend");
         let start = svg[..at].rfind('<').unwrap();
         let el = &svg[start..start + svg[start..].find('>').unwrap()];
@@ -694,9 +698,9 @@ mod tests {
             .split("<circle")
             .skip(1)
             .filter(|c| c.contains("fill=\"#000000\""))
-            .map(|c| (attr(c, "cx").unwrap(), attr(c, "cy").unwrap(), attr(c, "r").unwrap()))
+            .map(|c| ["cx", "cy", "r"].map(|a| attr(c, a).unwrap()))
             .collect();
-        ((x, y, x + w, y + h), dots)
+        ([x, y, x + w, y + h], dots)
     }
 
     #[test]
@@ -712,11 +716,23 @@ mod tests {
             |t| 0.9 - 0.8 * t * t,
             |_| 0.7,
             |t| 0.2 + 0.6 * (std::f64::consts::PI * t).sin(),
-            |t| if (0.2..0.8).contains(&t) { 0.5 } else { 0.95 * (1.0 - t) + 0.02 },
+            |t| {
+                if (0.2..0.8).contains(&t) {
+                    0.5
+                } else {
+                    0.95 * (1.0 - t) + 0.02
+                }
+            },
         ];
-        let labels: Vec<String> = ["lambert", "plausible-phong", "ward", "lafortune", "cook-torrance"]
-            .map(String::from)
-            .to_vec();
+        let labels: Vec<String> = [
+            "lambert",
+            "plausible-phong",
+            "ward",
+            "lafortune",
+            "cook-torrance",
+        ]
+        .map(String::from)
+        .to_vec();
         for (k, f) in shapes.iter().enumerate() {
             let curve = |scale: f64| -> Vec<Rgb> {
                 theta
@@ -732,13 +748,19 @@ mod tests {
             };
             let svg = albedo_chart(&a, 0, &labels).unwrap();
             for l in labels.iter().map(String::as_str).chain(["measured"]) {
-                assert!(svg.contains(&format!(">\n{l}\n<")), "shape {k}: no legend entry {l}");
+                assert!(
+                    svg.contains(&format!(">\n{l}\n<")),
+                    "shape {k}: no legend entry {l}"
+                );
             }
-            let ((x0, y0, x1, y1), dots) = legend_and_dots(&svg);
+            let ([x0, y0, x1, y1], dots) = legend_and_dots(&svg);
             assert_eq!(dots.len(), theta.len(), "shape {k}: every dot drawn");
-            for (cx, cy, r) in dots {
+            for [cx, cy, r] in dots {
                 let clear = cx + r < x0 || cx - r > x1 || cy + r < y0 || cy - r > y1;
-                assert!(clear, "shape {k}: dot ({cx}, {cy}) under the legend {x0},{y0}..{x1},{y1}");
+                assert!(
+                    clear,
+                    "shape {k}: dot ({cx}, {cy}) under the legend {x0},{y0}..{x1},{y1}"
+                );
             }
         }
     }
@@ -747,16 +769,27 @@ mod tests {
     fn legend_place_takes_the_first_free_corner_and_else_the_least_covered() {
         let area = (0..300, 0..200);
         // Nothing drawn: the upper right.
-        assert_eq!(legend_place(area.clone(), (80, 40), &[], &[], 3), ((215, 5), 0));
+        assert_eq!(
+            legend_place(area.clone(), (80, 40), &[], &[], 3),
+            ((215, 5), 0)
+        );
         // A dot in the upper right and one in the upper left: the lower right.
         let dots = [(280, 20), (20, 20)];
-        assert_eq!(legend_place(area.clone(), (80, 40), &[], &dots, 3).0, (215, 155));
+        assert_eq!(
+            legend_place(area.clone(), (80, 40), &[], &dots, 3).0,
+            (215, 155)
+        );
         // A line across the whole top and the whole bottom: a middle place.
         let lines = vec![vec![(0, 20), (300, 20)], vec![(0, 180), (300, 180)]];
-        assert_eq!(legend_place(area.clone(), (80, 40), &lines, &[], 3), ((215, 80), 0));
+        assert_eq!(
+            legend_place(area.clone(), (80, 40), &lines, &[], 3),
+            ((215, 80), 0)
+        );
         // Everything covered: the fewest dots win over lines.
         let lines = vec![vec![(0, 100), (300, 100)]];
-        let dots: Vec<(i32, i32)> = (0..30).flat_map(|x| [(x * 10, 20), (x * 10, 180)]).collect();
+        let dots: Vec<(i32, i32)> = (0..30)
+            .flat_map(|x| [(x * 10, 20), (x * 10, 180)])
+            .collect();
         let (_, cost) = legend_place(area, (80, 160), &lines, &dots, 3);
         assert!(cost > 0);
     }
@@ -776,7 +809,10 @@ mod tests {
         assert!(exact.contains(">\nexact\n<"), "{exact}");
         assert!(exact.contains("max |log10 ratio| 3.0e-16"), "{exact}");
         let near = text(2e-3);
-        assert!(near.contains(">\n≈ exact\n<") && near.contains("2.0e-3"), "{near}");
+        assert!(
+            near.contains(">\n≈ exact\n<") && near.contains("2.0e-3"),
+            "{near}"
+        );
         // A visible residual (a tenth of the scale) or no value at all: no label.
         assert!(!text(0.05).contains("exact"));
         let empty = ResidualMap {

@@ -413,9 +413,8 @@ mod tests {
         // so that no pixel of the sphere is the outline's grey.
         let dims = brdfkit_merl::Dims::new(8, 8, 16).unwrap();
         let rho = Rgb::new(0.3, 0.1, 0.05);
-        let table = Arc::new(
-            MerlTable::from_fn(dims, |_, _, _| Some(rho / std::f64::consts::PI)).unwrap(),
-        );
+        let table =
+            Arc::new(MerlTable::from_fn(dims, |_, _, _| Some(rho / std::f64::consts::PI)).unwrap());
         let lam = Fitted::Shared(
             brdfkit_models::from_json_str(
                 r#"{"model": "lambert", "params": {"rho_d": [0.3, 0.1, 0.05]}}"#,
@@ -442,7 +441,10 @@ mod tests {
                 if p.0 == OUTLINE {
                     ring += 1;
                     // Just outside the silhouette, never on the sphere.
-                    assert!(r > radius && r < radius + 1.5, "({x}, {y}): r {r}, R {radius}");
+                    assert!(
+                        r > radius && r < radius + 1.5,
+                        "({x}, {y}): r {r}, R {radius}"
+                    );
                     quadrants[usize::from(dx > 0.0) + 2 * usize::from(dy > 0.0)] += 1;
                 } else if r > radius {
                     assert_eq!(p.0, [0, 0, 0], "({x}, {y}) outside the sphere");
@@ -454,7 +456,10 @@ mod tests {
                 (ring as f64) > 0.8 * around && (ring as f64) < 1.6 * around,
                 "{ring} ring pixels, circumference {around}"
             );
-            assert!(quadrants.iter().all(|&q| q as f64 > 0.15 * around), "{quadrants:?}");
+            assert!(
+                quadrants.iter().all(|&q| q as f64 > 0.15 * around),
+                "{quadrants:?}"
+            );
         }
         // The ring is drawn on the images only: an exact fit's figures stay zero.
         assert!(s.models[0].diff.rel_rms_radiance < 1e-9);
