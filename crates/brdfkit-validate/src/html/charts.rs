@@ -3,6 +3,7 @@
 
 use super::ReportError;
 use super::analysis::{AlbedoCurves, ResidualMap, Slice};
+use plotters::chart::MeshStyle;
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, ValueFormatter};
 use plotters::prelude::*;
@@ -124,6 +125,29 @@ fn svg(
     Ok(s)
 }
 
+/// The frame of a captioned chart: the caption, the margin and the axis label areas
+/// (the y one `y_labels` pixels wide).
+fn framed<'a, 'b>(
+    area: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    caption: impl AsRef<str>,
+    y_labels: u32,
+) -> ChartBuilder<'a, 'b, SVGBackend<'b>> {
+    let mut b = ChartBuilder::on(area);
+    b.caption(caption, ("sans-serif", 15))
+        .margin(8)
+        .x_label_area_size(34)
+        .y_label_area_size(y_labels);
+    b
+}
+
+/// The axis text of every chart: tick labels and axis descriptions.
+fn mesh<'m, 'a, 'b, X: Ranged, Y: Ranged, DB: DrawingBackend>(
+    m: &'m mut MeshStyle<'a, 'b, X, Y, DB>,
+) -> &'m mut MeshStyle<'a, 'b, X, Y, DB> {
+    m.label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
+}
+
 /// A log-scale y range covering `values` (positive ones), with a margin.
 fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
@@ -163,17 +187,10 @@ pub fn slice_chart(
         s.phi_d.to_degrees()
     );
     svg((420, 300), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, ("sans-serif", 15))
-            .margin(8)
-            .x_label_area_size(34)
-            .y_label_area_size(58)
+        let mut chart = framed(root, title, 58)
             .build_cartesian_2d(axis, (lo..hi).log_scale())
             .map_err(err)?;
-        chart
-            .configure_mesh()
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 13))
+        mesh(&mut chart.configure_mesh())
             .x_desc("θh (degrees, √ axis)")
             .y_desc("f_r (1/sr)")
             // Label the decades only: the log axis puts a key point at every digit.
@@ -246,17 +263,10 @@ pub fn residual_chart(
     let axis = SqrtThetaH::new(theta_h_bins, &[0.0, 1.0, 5.0, 20.0, 45.0, 90.0]);
     let bw = map.block[0] as f64;
     svg((330, 300), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(label, ("sans-serif", 15))
-            .margin(8)
-            .x_label_area_size(34)
-            .y_label_area_size(44)
+        let mut chart = framed(root, label, 44)
             .build_cartesian_2d(axis, 0.0..90.0)
             .map_err(err)?;
-        chart
-            .configure_mesh()
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 13))
+        mesh(&mut chart.configure_mesh())
             .disable_mesh()
             .x_desc("θh (degrees, √ axis)")
             .y_desc("θd (degrees)")
@@ -327,10 +337,7 @@ pub fn colour_bar(scale: f64) -> Result<String, ReportError> {
             .y_label_area_size(58)
             .build_cartesian_2d(0.0..1.0, -scale..scale)
             .map_err(err)?;
-        chart
-            .configure_mesh()
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 13))
+        mesh(&mut chart.configure_mesh())
             .disable_mesh()
             .disable_x_axis()
             .y_desc("log10(model / measured)")
@@ -419,17 +426,10 @@ fn albedo_svg(
     let mut free = false;
     let svg = svg((w, h + extra), |root| {
         let (plot, below) = root.split_vertically(h);
-        let mut chart = ChartBuilder::on(&plot)
-            .caption(format!("albedo, {}", CHANNELS[c]), ("sans-serif", 15))
-            .margin(8)
-            .x_label_area_size(34)
-            .y_label_area_size(50)
+        let mut chart = framed(&plot, format!("albedo, {}", CHANNELS[c]), 50)
             .build_cartesian_2d(0.0..90.0, 0.0..top)
             .map_err(err)?;
-        chart
-            .configure_mesh()
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 13))
+        mesh(&mut chart.configure_mesh())
             .x_desc("θo (degrees)")
             .y_desc("a(θo) = ∫ f cos θi dωi")
             .x_label_formatter(&|x| format!("{x:.0}"))
