@@ -49,6 +49,23 @@ pub enum MerlError {
         len: u64,
     },
 
+    /// The file is not a MERL table at all (text, a compressed archive, an image, a
+    /// NumPy array): found from its first bytes before the dims are judged.
+    #[error(
+        "{}: not a MERL table: {what}, so its header dims {} x {} x {} are not plausible \
+         (a MERL table starts with three little-endian int32 dims such as 90 90 180, then \
+         3 x n float64)",
+        path.display(), dims[0], dims[1], dims[2]
+    )]
+    NotMerl {
+        /// The file.
+        path: PathBuf,
+        /// The dims its first 12 bytes would give.
+        dims: [i64; 3],
+        /// What the file is instead.
+        what: String,
+    },
+
     /// Dims ≤ 0, or so large the size overflows.
     #[error("{}: {source}", path.display())]
     Dims {
@@ -164,6 +181,7 @@ impl MerlError {
     pub fn path(&self) -> &std::path::Path {
         match self {
             MerlError::TooShort { path, .. }
+            | MerlError::NotMerl { path, .. }
             | MerlError::Dims { path, .. }
             | MerlError::Truncated { path, .. }
             | MerlError::TrailingBytes { path, .. }
@@ -174,6 +192,26 @@ impl MerlError {
         }
     }
 
+    /// The error for a header that is not a MERL header, or None: its dims are not
+    /// plausible (one outside 1..=[`PLAUSIBLE_DIM`]) and its bytes say what the file is
+    /// instead (text, another format's signature). The header of any plausible grid
+    /// has a zero high byte in every dim, so it is never text. Other implausible
+    /// headers (negative dims, dims that overflow) are left to
+    /// [`Dims::new`](crate::Dims::new) to judge.
+    pub(crate) fn not_merl(header: &[u8; 12], path: &std::path::Path) -> Option<MerlError> {
+        let dims: [i64; 3] = std::array::from_fn(|k| {
+            i32::from_le_bytes(header[4 * k..4 * k + 4].try_into().expect("4 bytes")) as i64
+        });
+        if dims.iter().all(|d| (1..=PLAUSIBLE_DIM).contains(d)) {
+            return None;
+        }
+        Some(MerlError::NotMerl {
+            path: path.to_path_buf(),
+            dims,
+            what: not_merl_what(header)?,
+        })
+    }
+
     pub(crate) fn io(path: &std::path::Path, action: &'static str, source: std::io::Error) -> Self {
         MerlError::Io {
             path: path.to_path_buf(),
@@ -181,6 +219,48 @@ impl MerlError {
             source,
         }
     }
+}
+
+/// The largest dim a header may plausibly hold: 2^24 bins along one axis (MERL has
+/// 90 × 90 × 180; one such axis alone would make a 400 MB table).
+pub const PLAUSIBLE_DIM: i64 = 1 << 24;
+
+/// Signatures of formats mistaken for tables: (first bytes, what the file is).
+const SIGNATURES: [(&[u8], &str); 5] = [
+    (b"\x1f\x8b", "it is gzip-compressed (decompress it first)"),
+    (
+        b"PK\x03\x04",
+        "it is a zip archive (extract the table first)",
+    ),
+    (
+        b"\x93NUMPY",
+        "it is a NumPy .npy array (a neural BRDF is read with --nbrdf)",
+    ),
+    (b"\x89PNG", "it is a PNG image"),
+    (b"v/1\x01", "it is an OpenEXR image"),
+];
+
+/// What a 12-byte header is when it is not a MERL header: another format by its
+/// signature, or text (UTF-8 without control characters other than whitespace).
+fn not_merl_what(header: &[u8; 12]) -> Option<String> {
+    if let Some((_, what)) = SIGNATURES.iter().find(|(sig, _)| header.starts_with(sig)) {
+        return Some((*what).to_string());
+    }
+    let text = match std::str::from_utf8(header) {
+        Ok(s) => s,
+        // A multi-byte character cut by the 12th byte.
+        Err(e) if e.error_len().is_none() => {
+            std::str::from_utf8(&header[..e.valid_up_to()]).expect("the valid prefix")
+        }
+        Err(_) => return None,
+    };
+    let printable = |c: char| !c.is_control() || matches!(c, '\t' | '\n' | '\r');
+    (!text.is_empty() && text.chars().all(printable)).then(|| {
+        format!(
+            "it starts with text (`{}`)",
+            text.trim_end().escape_default()
+        )
+    })
 }
 
 /// Errors building or changing a table in memory.

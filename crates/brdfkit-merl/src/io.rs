@@ -188,6 +188,9 @@ fn first_bad(src: [&[u8]; 3]) -> Option<(usize, usize, f64)> {
 
 /// The dims of a header (positive, within int32, size representable).
 fn header_dims(header: &[u8; 12], path: &Path) -> Result<Dims, MerlError> {
+    if let Some(e) = MerlError::not_merl(header, path) {
+        return Err(e);
+    }
     let d = [
         LittleEndian::read_i32(&header[0..4]) as i64,
         LittleEndian::read_i32(&header[4..8]) as i64,

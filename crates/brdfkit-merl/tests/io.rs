@@ -158,6 +158,71 @@ fn dims_not_positive() {
 }
 
 #[test]
+fn a_file_that_is_not_a_table_says_so_before_judging_its_dims() {
+    let dir = tempfile::tempdir().unwrap();
+    // The case: a text file given as a table. Its first 12 bytes read as dims
+    // beyond 2^24 (an overflow, before this check).
+    let csv = b"wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n";
+    let dims_of = |b: &[u8]| -> [i64; 3] {
+        std::array::from_fn(|k| i32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap()) as i64)
+    };
+    let gz = [&[0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 3][..], &[0xff; 30][..]].concat();
+    let npy = [&b"\x93NUMPY\x01\x00v\x00{'descr'"[..], &[0u8; 40][..]].concat();
+    let cases: [(&str, &[u8], &str); 4] = [
+        ("pairs.csv", csv, "it starts with text (`wi_x,wi_y,wi`)"),
+        (
+            "notes.txt",
+            "θh θd φd\n1 2 3\n".as_bytes(),
+            "it starts with text",
+        ),
+        ("table.binary.gz", &gz, "gzip"),
+        ("mlp_fc1.npy", &npy, "NumPy"),
+    ];
+    for (name, bytes, what) in cases {
+        let p = write_file(dir.path(), name, bytes);
+        for e in [
+            MerlTable::read(&p).unwrap_err(),
+            MerlTable::from_bytes(bytes, &p).unwrap_err(),
+        ] {
+            match &e {
+                MerlError::NotMerl { dims, .. } => assert_eq!(*dims, dims_of(bytes), "{name}"),
+                other => panic!("{name}: {other:?}"),
+            }
+            let msg = e.to_string();
+            assert!(
+                msg.starts_with(&format!("{}: not a MERL table: ", p.display()))
+                    && msg.contains(what)
+                    && msg.contains("not plausible"),
+                "{msg}"
+            );
+            assert!(!msg.contains("too large"), "{msg}");
+        }
+    }
+    // The dims the CSV's bytes spell, which the reader used to report as "too large".
+    assert_eq!(dims_of(csv), [0x785f_6977, 0x5f69_772c, 0x6977_2c79]);
+}
+
+#[test]
+fn a_plausible_header_is_never_taken_for_text_or_another_format() {
+    // Every dim in 1..=2^24 has a zero high byte: such a header is judged as a table
+    // even when its first bytes spell a signature (dims 559903 = 1f 8b 08 00, gzip's).
+    let dir = tempfile::tempdir().unwrap();
+    for dims in [[559903, 1, 1], [0x0020_2020, 0x20, 0x20], [1 << 24, 1, 1]] {
+        let p = write_file(dir.path(), "odd.binary", &image(dims, &[0.5; 3]));
+        let e = MerlTable::read(&p).unwrap_err();
+        assert!(matches!(e, MerlError::Truncated { .. }), "{dims:?}: {e}");
+    }
+    // One dim beyond 2^24 whose bytes are not text: the dims are judged as before.
+    let p = write_file(
+        dir.path(),
+        "big.binary",
+        &image([(1 << 24) + 1, 1, 1], &[0.5; 3]),
+    );
+    let e = MerlTable::read(&p).unwrap_err();
+    assert!(matches!(e, MerlError::Truncated { .. }), "{e}");
+}
+
+#[test]
 fn dims_whose_size_overflows() {
     let dir = tempfile::tempdir().unwrap();
     let p = write_file(

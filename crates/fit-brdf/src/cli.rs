@@ -126,7 +126,8 @@ pub enum Command {
                             Inputs: a directory (its *.binary files), a glob pattern (quoted), or table files. \
                             Every option of `fit` applies. A table whose OUTDIR/<stem>.json exists and was made \
                             with the same options from the same table is skipped (resume); --force refits. \
-                            --shard I/N takes the tables whose file name hashes to shard I (1-based). \
+                            --shard I/N takes the tables whose file name hashes to shard I (1-based); \
+                            a shard that holds none of them says so and exits 0. \
                             Ctrl-C stops after the current table (twice: now); no partial file is left. \
                             Exit 1 when a table failed (the others are finished). Slurm and GNU parallel \
                             recipes: docs/batch.md."
@@ -144,11 +145,17 @@ pub enum Command {
                             Details: docs/export.md."
     )]
     Export(ExportArgs),
-    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell), or install
+    /// it where the shell looks for it (--install).
     #[command(
-        after_help = "Examples:\n  fit-brdf completions bash > ~/.local/share/bash-completion/completions/fit-brdf\n  \
-                            fit-brdf completions zsh > ~/.zfunc/_fit-brdf\n  \
-                            fit-brdf completions fish > ~/.config/fish/completions/fit-brdf.fish"
+        after_help = "Examples:\n  fit-brdf completions bash --install     # creates the folder if needed\n  \
+                            fit-brdf completions zsh --install\n  \
+                            fit-brdf completions fish --install\n  \
+                            fit-brdf completions elvish > fit-brdf.elv\n\n\
+                            --install writes bash's to ${XDG_DATA_HOME:-~/.local/share}/bash-completion/completions/fit-brdf, \
+                            fish's to ${XDG_CONFIG_HOME:-~/.config}/fish/completions/fit-brdf.fish and zsh's to \
+                            ~/.zfunc/_fit-brdf (zsh also needs `fpath=(~/.zfunc $fpath)` in ~/.zshrc before compinit). \
+                            Redirecting by hand: create the folder first (mkdir -p)."
     )]
     Completions(CompletionsArgs),
     /// The accuracy-vs-time study: fit grids, evaluation choices and scaling on the
@@ -497,6 +504,10 @@ pub struct CompletionsArgs {
     /// The shell.
     #[arg(value_enum)]
     pub shell: clap_complete::Shell,
+    /// Install the script where the shell looks for it (bash, zsh, fish), creating the
+    /// folder, instead of printing it.
+    #[arg(long)]
+    pub install: bool,
 }
 
 #[derive(Args, Debug)]

@@ -510,3 +510,43 @@ fn sigint_stops_the_batch_and_a_second_stops_it_at_once() {
     assert!(again >= done && again < n, "{again}");
     assert!(t0.elapsed() < Duration::from_secs(120));
 }
+
+#[test]
+fn an_empty_shard_says_so_plainly_and_exits_0() {
+    // The issue's case: `--shard 1/4` over 3 tables; with 3 tables and 4 shards at least
+    // one shard is empty, whichever the hash picks.
+    let d = tempfile::tempdir().unwrap();
+    let db = database(d.path(), 3, false);
+    let out = d.path().join("out");
+    let mut empty = 0;
+    for i in 1..=4 {
+        let shard = format!("{i}/4");
+        let run = |json: bool| {
+            let mut c = bin();
+            c.arg("batch")
+                .arg(&db)
+                .args(["--models", "lambert", "--quiet", "--shard", &shard, "--out"])
+                .arg(&out);
+            if json {
+                c.arg("--json");
+            }
+            let o = c.output().unwrap();
+            assert!(o.status.success(), "{shard}: {}", stderr(&o));
+            o
+        };
+        let v = json_of(&run(true));
+        if v["tables"].as_u64() != Some(0) {
+            assert!(v["note"].is_null(), "{v}");
+            continue;
+        }
+        empty += 1;
+        let want = format!(
+            "shard {shard} holds none of the 3 tables (tables are assigned by file-name hash); \
+             nothing to do"
+        );
+        assert_eq!(v["note"].as_str(), Some(want.as_str()), "{v}");
+        let text = String::from_utf8(run(false).stdout).unwrap();
+        assert!(text.starts_with(&want), "{text}");
+    }
+    assert!(empty >= 1);
+}

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::bin;
+use common::{bin, stderr};
 
 /// The subcommands as `fit-brdf --help` lists them (so a new one is checked too).
 fn subcommands() -> Vec<String> {
@@ -77,4 +77,66 @@ fn batch_export_and_completions_show_examples_in_their_help() {
             "{sub}: {h}"
         );
     }
+}
+
+#[test]
+fn install_creates_the_folder_and_writes_where_each_shell_looks() {
+    let d = tempfile::tempdir().unwrap();
+    let home = d.path().join("home");
+    std::fs::create_dir(&home).unwrap();
+    let run = |args: &[&str], xdg: Option<&std::path::Path>| {
+        let mut c = bin();
+        c.args(args)
+            .env("HOME", &home)
+            .env_remove("XDG_DATA_HOME")
+            .env_remove("XDG_CONFIG_HOME");
+        if let Some(x) = xdg {
+            c.env("XDG_DATA_HOME", x).env("XDG_CONFIG_HOME", x);
+        }
+        c.output().unwrap()
+    };
+    let script = |shell: &str| run(&["completions", shell], None).stdout;
+    for (shell, xdg, want) in [
+        // The case: ~/.local/share/bash-completion/completions does not exist.
+        (
+            "bash",
+            None,
+            home.join(".local/share/bash-completion/completions/fit-brdf"),
+        ),
+        (
+            "bash",
+            Some(d.path().join("data")),
+            d.path().join("data/bash-completion/completions/fit-brdf"),
+        ),
+        (
+            "fish",
+            None,
+            home.join(".config/fish/completions/fit-brdf.fish"),
+        ),
+        ("zsh", None, home.join(".zfunc/_fit-brdf")),
+    ] {
+        assert!(!want.exists());
+        // Twice: the second replaces the first.
+        for _ in 0..2 {
+            let o = run(&["completions", shell, "--install"], xdg.as_deref());
+            assert!(o.status.success(), "{shell}: {}", stderr(&o));
+            let said = String::from_utf8_lossy(&o.stdout);
+            assert!(said.contains(&want.display().to_string()), "{said}");
+            assert_eq!(std::fs::read(&want).unwrap(), script(shell), "{shell}");
+        }
+        // Nothing but the script in its folder (no temporary file left).
+        let n = std::fs::read_dir(want.parent().unwrap()).unwrap().count();
+        assert_eq!(n, 1, "{shell}");
+    }
+    // No known place, or no HOME: bad input, nothing written.
+    let o = run(&["completions", "elvish", "--install"], None);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("elvish"), "{}", stderr(&o));
+    let o = bin()
+        .args(["completions", "bash", "--install"])
+        .env_remove("HOME")
+        .env_remove("XDG_DATA_HOME")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }

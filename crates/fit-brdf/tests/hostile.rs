@@ -49,6 +49,12 @@ fn malformed_tables_are_typed_errors_in_the_library_and_exit_2_in_the_cli() {
     let full = table_bytes(d2, 0.5);
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         ("empty.binary", vec![], "header"),
+        // A CSV of direction pairs given as a table: said before its "dims" are judged.
+        (
+            "pairs.csv",
+            b"wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n".to_vec(),
+            "not a MERL table: it starts with text",
+        ),
         ("eleven.binary", vec![0u8; 11], "header"),
         ("negative-dims.binary", header(-90, 90, 180), "dims"),
         ("zero-dims.binary", header(90, 0, 180), "dims"),
@@ -93,6 +99,7 @@ fn malformed_tables_are_typed_errors_in_the_library_and_exit_2_in_the_cli() {
             ("nan.binary" | "inf.binary", MerlError::NonFinite { .. }) => {}
             ("huge.binary", MerlError::TooLarge { .. }) => {}
             ("trailing.binary", MerlError::TrailingBytes { .. }) => {}
+            ("pairs.csv", MerlError::NotMerl { .. }) => {}
             ("empty.binary" | "eleven.binary", MerlError::TooShort { .. }) => {}
             (
                 "negative-dims.binary" | "zero-dims.binary" | "usize-overflow.binary",

@@ -510,16 +510,31 @@ impl BatchReport {
             "failed": self.failures.len(),
             "pending": self.pending,
             "interrupted": self.interrupted,
+            "note": self.note(),
             "wall_time_s": self.wall_time_s,
             "failures": self.failures.iter().map(|(t, e)| json!({"table": t, "error": e})).collect::<Vec<_>>(),
             "results": results,
         })
     }
 
-    /// The report as text: counts, the summary's path, every failure.
+    /// Why the run had nothing to do, when a shard holds none of the tables (legitimate:
+    /// a job array may have more tasks than a database has tables), or None.
+    pub fn note(&self) -> Option<String> {
+        let sh = self.shard.filter(|_| self.tables.is_empty())?;
+        Some(format!(
+            "shard {}/{} holds none of the {} tables (tables are assigned by file-name hash); \
+             nothing to do",
+            sh.index, sh.count, self.tables_matched
+        ))
+    }
+
+    /// The report as text: the note of an empty shard, counts, the summary's path,
+    /// every failure.
     pub fn text(&self) -> String {
         let n = self.tables.len();
-        let mut s = format!(
+        let mut s = self.note().map_or(String::new(), |m| m + "\n");
+        let _ = write!(
+            s,
             "batch: {n} tables{}: {} fitted, {} already done, {} failed{}; {:.2} s",
             self.shard.map_or(String::new(), |sh| format!(
                 " (shard {}/{} of {})",

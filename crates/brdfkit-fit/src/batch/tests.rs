@@ -229,6 +229,42 @@ fn shards_split_the_tables_and_name_their_summary() {
 }
 
 #[test]
+fn an_empty_shard_says_why_it_has_nothing_to_do() {
+    // 3 tables over 4 shards: at least one shard is empty (pigeonhole).
+    let d = tempfile::tempdir().unwrap();
+    let db = database(d.path(), 3);
+    let out = d.path().join("out");
+    let mut empty = 0;
+    for i in 1..=4 {
+        let j = job(&db, &out, Some(Shard { index: i, count: 4 }), Loss::Cbrt);
+        let r = j.run(false, &Cancel::new(), &()).unwrap();
+        let want = format!(
+            "shard {i}/4 holds none of the 3 tables (tables are assigned by file-name hash); \
+             nothing to do"
+        );
+        if j.tables.is_empty() {
+            empty += 1;
+            assert_eq!(r.note().as_deref(), Some(want.as_str()));
+            assert!(r.text().starts_with(&(want.clone() + "\n")), "{}", r.text());
+            assert_eq!(r.to_json()["note"], serde_json::json!(want));
+            assert_eq!(r.problem(), None, "an empty shard is not a failure");
+            // The shard's summary exists (a merge step finds every shard's file).
+            assert!(j.summary_path().is_file());
+        } else {
+            assert_eq!(r.note(), None);
+            assert!(r.to_json()["note"].is_null());
+            assert!(!r.text().contains("holds none"), "{}", r.text());
+        }
+    }
+    assert!(empty >= 1);
+    // Without shards a run over tables has no note either.
+    let r = job(&db, &out, None, Loss::Cbrt)
+        .run(false, &Cancel::new(), &())
+        .unwrap();
+    assert_eq!(r.note(), None);
+}
+
+#[test]
 fn options_that_cannot_work_are_refused_before_anything_is_written() {
     let d = tempfile::tempdir().unwrap();
     let db = database(d.path(), 1);

@@ -255,7 +255,7 @@ pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, Report
                 p.note {
                     "log10(f_model / f_measured) averaged over φd and the three channels, per block of "
                     @if let Some(m) = d.models.first() { (m.residual_map.block[0]) " θh × " (m.residual_map.block[1]) " θd bins" }
-                    ". Red: the model is too bright, blue: too dark, white: exact; ±" (num(scale))
+                    ". Red: the model is too bright, blue: too dark, white: exact (a map white all over says so, with its largest |log10 ratio|); ±" (num(scale))
                     " (a factor " (num(10f64.powf(scale))) ") saturates, the same scale for every model. Grey: no measured value (below the horizon or missing). Specular peak at the left edge, grazing angles at the top."
                 }
                 div.row {
@@ -276,7 +276,7 @@ pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, Report
                         "The table (interpolated lookups) and each fitted model on a sphere, same camera, light, seed and exposure (set from the table's image), "
                         (d.options.render.as_ref().map_or(0, |r| r.size)) " × " (d.options.render.as_ref().map_or(0, |r| r.size))
                         " pixels. Difference (right of each fit): the fit's displayed image minus the table's, averaged over the channels; orange: the fit is brighter, blue: darker, black: equal; ±"
-                        (d.options.render.as_ref().map_or(0.0, |r| r.diff_scale) * 100.0) " % of the display range saturates. Figures: mean |Δ| over the sphere in display units, and the relative RMS radiance error."
+                        (d.options.render.as_ref().map_or(0.0, |r| r.diff_scale) * 100.0) " % of the display range saturates. Figures: mean |Δ| over the sphere in display units, and the relative RMS radiance error. A thin grey ring just outside the sphere marks its outline on every image, so the side the point light leaves dark still reads as part of the sphere (the ring covers no sphere pixel and enters no figure)."
                     }
                     @for set in &d.renders {
                         h3 { (set.lighting.title()) " (" (set.spp) " spp, exposure " (format!("{:+.2}", set.exposure)) " stops"

@@ -214,32 +214,76 @@ pub(crate) enum Shown<'a> {
 
 /// A render of what is shown: its radiance and the render's figures. A per-channel
 /// fit renders once per channel (channel c of image c).
-fn render_shown(l: Lighting, o: &RenderOptions, s: Shown) -> Result<RenderOutput, ReportError> {
-    let mat = |m: &dyn brdfkit_core::Model| Material::Model {
+/// The material of channel `c` of `s` (a per-channel fit has one model per channel).
+fn shown_material(s: Shown, c: usize) -> Material {
+    let model = |m: &dyn brdfkit_core::Model| Material::Model {
         model: Arc::from(m.clone_box()),
         source: MaterialSource::Inline,
     };
     match s {
-        Shown::Table(t) => run(&scene_for(
-            l,
-            o,
-            &Material::Table {
-                brdf: TableBrdf::new(t.clone(), Lookup::Interpolated),
-                source: MaterialSource::Inline,
-            },
-        )?),
-        Shown::Fitted(Fitted::Shared(m)) => run(&scene_for(l, o, &mat(m.as_ref()))?),
-        Shown::Fitted(Fitted::PerChannel(ms)) => {
-            let mut out = run(&scene_for(l, o, &mat(ms[0].as_ref()))?)?;
-            for (c, m) in ms.iter().enumerate().skip(1) {
-                let r = run(&scene_for(l, o, &mat(m.as_ref()))?)?.radiance;
-                for (d, v) in out.radiance.iter_mut().zip(&r) {
-                    d[c] = v[c];
-                }
+        Shown::Table(t) => Material::Table {
+            brdf: TableBrdf::new(t.clone(), Lookup::Interpolated),
+            source: MaterialSource::Inline,
+        },
+        Shown::Fitted(Fitted::Shared(m)) => model(m.as_ref()),
+        Shown::Fitted(Fitted::PerChannel(ms)) => model(ms[c].as_ref()),
+    }
+}
+
+fn render_shown(l: Lighting, o: &RenderOptions, s: Shown) -> Result<RenderOutput, ReportError> {
+    let mut out = run(&scene_for(l, o, &shown_material(s, 0))?)?;
+    if let Shown::Fitted(Fitted::PerChannel(_)) = s {
+        for c in 1..3 {
+            let r = run(&scene_for(l, o, &shown_material(s, c))?)?.radiance;
+            for (d, v) in out.radiance.iter_mut().zip(&r) {
+                d[c] = v[c];
             }
-            Ok(out)
         }
     }
+    Ok(out)
+}
+
+/// Grey of the sphere's outline: between the background's black and the lit body, so
+/// it shows where the unlit side ends without being taken for reflected light.
+pub const OUTLINE: [u8; 3] = [96, 96, 96];
+
+/// The pixels of the sphere's outline: those whose centre ray misses the sphere next to
+/// one (of their four neighbours) whose ray hits it, i.e. a one-pixel ring just outside
+/// the silhouette. Under the point light the unlit side is as black as the background,
+/// and the sphere would read as an egg without it. The ring lies outside every
+/// rendered sphere pixel, so no measured or fitted value is covered and the difference
+/// figures do not change (the report's renders sample pixel centres only).
+fn outline_mask(scene: &Scene) -> Vec<bool> {
+    let (w, h) = (scene.film.width, scene.film.height);
+    let hit: Vec<bool> = (0..w * h)
+        .map(|k| {
+            let ray = scene.camera.ray((k % w) as f64 + 0.5, (k / w) as f64 + 0.5);
+            scene
+                .sphere
+                .as_ref()
+                .is_some_and(|s| s.shape.intersect(&ray, f64::INFINITY).is_some())
+        })
+        .collect();
+    (0..w * h)
+        .map(|k| {
+            let (x, y) = (k % w, k / w);
+            let near = [
+                (x > 0).then(|| k - 1),
+                (x + 1 < w).then(|| k + 1),
+                (y > 0).then(|| k - w),
+                (y + 1 < h).then(|| k + w),
+            ];
+            !hit[k] && near.into_iter().flatten().any(|n| hit[n])
+        })
+        .collect()
+}
+
+/// `px` with the outline drawn in.
+fn outlined(mut px: Vec<[u8; 3]>, outline: &[bool]) -> Vec<[u8; 3]> {
+    for (p, _) in px.iter_mut().zip(outline).filter(|(_, o)| **o) {
+        *p = OUTLINE;
+    }
+    px
 }
 
 fn srgb8(radiance: &[Rgb], exposure: f64) -> Vec<[u8; 3]> {
@@ -353,6 +397,8 @@ pub(crate) fn render_set_of(
 ) -> Result<RenderSet, ReportError> {
     let t0 = std::time::Instant::now();
     let tab = render_shown(l, o, reference)?;
+    // The outline depends on the camera and the sphere, not on the material.
+    let ring = outline_mask(&scene_for(l, o, &shown_material(reference, 0))?);
     let exposure = auto_exposure(&tab.radiance);
     let tab8 = srgb8(&tab.radiance, exposure);
     let mut models = Vec::new();
@@ -361,8 +407,8 @@ pub(crate) fn render_set_of(
         let r8 = srgb8(&r, exposure);
         let (diff8, diff) = difference(o, (&tab.radiance, &tab8), (&r, &r8));
         models.push(ModelRender {
-            png: png(o.size, &r8)?,
-            diff_png: png(o.size, &diff8)?,
+            png: png(o.size, &outlined(r8, &ring))?,
+            diff_png: png(o.size, &outlined(diff8, &ring))?,
             diff,
         });
     }
@@ -372,7 +418,7 @@ pub(crate) fn render_set_of(
         exposure,
         table_misses: tab.stats.table_misses,
         time_s: t0.elapsed().as_secs_f64(),
-        table_png: png(o.size, &tab8)?,
+        table_png: png(o.size, &outlined(tab8, &ring))?,
         models,
     })
 }
@@ -380,6 +426,70 @@ pub(crate) fn render_set_of(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pixels of a PNG.
+    fn pixels(png: &[u8]) -> image::RgbImage {
+        image::load_from_memory(png).unwrap().to_rgb8()
+    }
+
+    #[test]
+    fn the_sphere_is_outlined_all_round_outside_its_pixels() {
+        // A red Lambertian table under the point light (the lower right is unlit); red,
+        // so that no pixel of the sphere is the outline's grey.
+        let dims = brdfkit_merl::Dims::new(8, 8, 16).unwrap();
+        let rho = Rgb::new(0.3, 0.1, 0.05);
+        let table =
+            Arc::new(MerlTable::from_fn(dims, |_, _, _| Some(rho / std::f64::consts::PI)).unwrap());
+        let lam = Fitted::Shared(
+            brdfkit_models::from_json_str(
+                r#"{"model": "lambert", "params": {"rho_d": [0.3, 0.1, 0.05]}}"#,
+            )
+            .unwrap(),
+        );
+        let o = RenderOptions {
+            size: 64,
+            ..Default::default()
+        };
+        let s = render_set(Lighting::Point, &o, &table, &[&lam]).unwrap();
+        // The silhouette's radius in pixels, from the scene's camera alone: a unit
+        // sphere seen from 4.2 spans asin(1 / 4.2) off axis; the 31° field of view
+        // spans the image's width.
+        let size = o.size as f64;
+        let radius = (1.0f64 / 4.2).asin().tan() / 15.5f64.to_radians().tan() * size / 2.0;
+        for img in [&s.table_png, &s.models[0].png, &s.models[0].diff_png] {
+            let img = pixels(img);
+            let mut quadrants = [0usize; 4];
+            let mut ring = 0usize;
+            for (x, y, p) in img.enumerate_pixels() {
+                let (dx, dy) = (x as f64 + 0.5 - size / 2.0, y as f64 + 0.5 - size / 2.0);
+                let r = dx.hypot(dy);
+                if p.0 == OUTLINE {
+                    ring += 1;
+                    // Just outside the silhouette, never on the sphere.
+                    assert!(
+                        r > radius && r < radius + 1.5,
+                        "({x}, {y}): r {r}, R {radius}"
+                    );
+                    quadrants[usize::from(dx > 0.0) + 2 * usize::from(dy > 0.0)] += 1;
+                } else if r > radius {
+                    assert_eq!(p.0, [0, 0, 0], "({x}, {y}) outside the sphere");
+                }
+            }
+            // All round, the unlit lower right included: about the circumference.
+            let around = 2.0 * std::f64::consts::PI * radius;
+            assert!(
+                (ring as f64) > 0.8 * around && (ring as f64) < 1.6 * around,
+                "{ring} ring pixels, circumference {around}"
+            );
+            assert!(
+                quadrants.iter().all(|&q| q as f64 > 0.15 * around),
+                "{quadrants:?}"
+            );
+        }
+        // The ring is drawn on the images only: an exact fit's figures stay zero.
+        assert!(s.models[0].diff.rel_rms_radiance < 1e-9);
+        assert!(s.models[0].diff.mean_abs_display < 1e-3);
+    }
 
     #[test]
     fn an_exact_model_renders_like_its_table_and_a_brighter_one_does_not() {
