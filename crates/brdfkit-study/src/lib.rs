@@ -27,6 +27,7 @@ pub mod choices;
 pub mod files;
 pub mod grid;
 pub mod markdown;
+pub mod measured;
 pub mod plot;
 pub mod scale;
 
