@@ -110,9 +110,10 @@ fn expand(inputs: &[String], source: Source) -> Result<Vec<PathBuf>, BatchError>
                     looked_for: source,
                 });
             }
-        } else if p.exists() && source == Source::Binary {
-            out.push(p.to_path_buf());
-        } else if source == Source::Nbrdf && listed(&marker(p, source)) {
+        } else if match source {
+            Source::Binary => p.exists(),
+            Source::Nbrdf => listed(&marker(p, source)),
+        } {
             out.push(p.to_path_buf());
         } else if source == Source::Nbrdf && listed(p) {
             out.extend(take(p));
