@@ -256,15 +256,11 @@ mod tests {
         let d = tempfile::tempdir().unwrap();
         let db = d.path().join("db");
         std::fs::create_dir(&db).unwrap();
-        for n in [
-            "b.2_fc1.npy",
-            "b.2_b1.npy",
-            "a_fc1.npy",
-            "t.binary",
-            "_fc1.npy",
-        ] {
-            std::fs::write(db.join(n), "x").unwrap();
-        }
+        // Two proxies (one with a dot in its name), a table, and a nameless file.
+        let files = "b.2_fc1.npy b.2_b1.npy a_fc1.npy t.binary _fc1.npy";
+        files
+            .split(' ')
+            .for_each(|n| std::fs::write(db.join(n), "x").unwrap());
         let out = d.path().join("out");
         let nb = |inputs: &[String]| tables_of(inputs, Source::Nbrdf, &out);
         // The directory, a stem and a file of the same proxy: two proxies.
