@@ -177,6 +177,17 @@ pub fn families(list: &str, s: &Structure) -> Result<Vec<Family>, FamilyError> {
     let mut out = Vec::new();
     let (mut ct_used, mut ward_used) = (false, false);
     for item in list.split(',').map(str::trim).filter(|x| !x.is_empty()) {
+        if let Some(model) = named_family(item) {
+            let model = model.map_err(|source| FamilyError::Model {
+                item: item.into(),
+                source,
+            })?;
+            out.push(Family {
+                label: item.to_string(),
+                model,
+            });
+            continue;
+        }
         let (is_file, v) = read_item(item)?;
         let err = |source| FamilyError::Model {
             item: item.into(),
@@ -225,6 +236,70 @@ pub fn families(list: &str, s: &Structure) -> Result<Vec<Family>, FamilyError> {
         });
     }
     Ok(out)
+}
+
+/// The named families beyond the models' own names: variants and multi-lobe models
+/// that measured materials need. The literature finds two-lobe Cook-Torrance and
+/// Lafortune with 2–3 lobes best for many MERL materials (A. Ngan, F. Durand,
+/// W. Matusik, "Experimental Analysis of BRDF Models", EGSR 2005, sec. 5; E. Lafortune
+/// et al., "Non-Linear Approximation of Reflectance Functions", SIGGRAPH 1997).
+pub const NAMED_FAMILIES: [&str; 4] = [
+    "cook-torrance-beckmann",
+    "cook-torrance-2",
+    "lafortune-2",
+    "lafortune-3",
+];
+
+/// The families of a whole-database run: every model family of issue 12, one- and
+/// multi-lobe.
+pub const DATABASE_MODELS: &str = "lambert,oren-nayar,plausible-phong,blinn-phong,ward,\
+lafortune,lafortune-2,ashikhmin-shirley,cook-torrance,cook-torrance-beckmann,cook-torrance-2";
+
+/// The start of a named family ([`NAMED_FAMILIES`]), or None for any other name.
+///
+/// Multi-lobe starts are a broad and a narrow lobe (roughness or exponent a decade
+/// apart, on either side of the one-lobe default), so that from the first iteration
+/// each lobe has its own part of the data to follow: two equal lobes would share every
+/// gradient and stay equal. The multi-start grid then varies both shapes.
+/// - `cook-torrance-beckmann`: Cook-Torrance with the Beckmann distribution.
+/// - `cook-torrance-2`: the `sum` of two Cook-Torrance (GGX) lobes, α = 0.3 and 0.03,
+///   the second lobe's ρd held at 0 (diffuse parts add up: only one is identifiable).
+/// - `lafortune-N` (N = 2, 3): N Phong-like lobes (cxy = −1, cz = 1) with exponents
+///   spread a decade apart from 5, each ρ set so the lobe's albedo bound 2πρ/(n+2)
+///   (see `LafortuneLobe::albedo_bound`) is 0.1.
+pub fn named_family(name: &str) -> Option<Result<Box<dyn Model>, ModelError>> {
+    use brdfkit_models::lafortune::{Lafortune, LafortuneLobe};
+    use brdfkit_models::sum::Sum;
+    let lafortune = |n: usize| -> Result<Box<dyn Model>, ModelError> {
+        let lobes = (0..n)
+            .map(|j| {
+                let e = 5.0 * 10f64.powi(j as i32);
+                let rho = 0.1 * (e + 2.0) / (2.0 * std::f64::consts::PI);
+                LafortuneLobe::new(-1.0, 1.0, e, brdfkit_core::Rgb::splat(rho))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Box::new(Lafortune::new(
+            brdfkit_core::Rgb::splat(0.5),
+            lobes,
+        )?))
+    };
+    let ct = |alpha: f64, rho_d: f64| -> Result<Box<dyn Model>, ModelError> {
+        let params = serde_json::json!({"model": "cook-torrance",
+            "params": {"alpha": alpha, "rho_d": rho_d}});
+        brdfkit_models::from_json(&params)
+    };
+    Some(match name {
+        "cook-torrance-beckmann" => {
+            Ok(Box::new(CookTorrance::new().with_distribution(Distribution::Beckmann)) as _)
+        }
+        "cook-torrance-2" => (|| {
+            let sum = Sum::new(vec![ct(0.3, 0.3)?, ct(0.03, 0.0)?])?;
+            Ok(Box::new(sum.with_fixed(&["terms[1].rho_d"])?) as Box<dyn Model>)
+        })(),
+        "lafortune-2" => lafortune(2),
+        "lafortune-3" => lafortune(3),
+        _ => return None,
+    })
 }
 
 /// The fit settings of the command line, typed; [`FitSettings::config`] validates

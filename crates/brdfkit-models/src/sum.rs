@@ -34,6 +34,9 @@ pub struct Sum {
     terms: Vec<Box<dyn Model>>,
     /// Offset of term i's parameters in the flat vector; `offsets[len]` is the total.
     offsets: Vec<usize>,
+    /// Flat parameter names or groups a fit keeps at their start values unless asked
+    /// (see [`Sum::with_fixed`]).
+    fixed: Vec<String>,
 }
 
 impl Default for Sum {
@@ -49,6 +52,12 @@ fn default_terms_json() -> Value {
         {"model": "plausible-phong", "params": {"rho_d": 0.05, "rho_s": 0.2, "n": 10.0}},
         {"model": "plausible-phong", "params": {"rho_d": 0.05, "rho_s": 0.1, "n": 500.0}},
     ]})
+}
+
+/// Whether flat parameter `name` is `group` or one of its entries (`rho_d.r` of
+/// `rho_d`).
+fn in_group(name: &str, group: &str) -> bool {
+    name == group || (name.starts_with(group) && name[group.len()..].starts_with('.'))
 }
 
 /// Prefixes the parameter named in an error with `terms[i].`.
@@ -85,14 +94,40 @@ impl Sum {
             o += t.num_params();
         }
         offsets.push(o);
-        Ok(Sum { terms, offsets })
+        Ok(Sum {
+            terms,
+            offsets,
+            fixed: Vec::new(),
+        })
     }
 
-    /// Appends a term.
+    /// Appends a term (the parameters held fixed stay so).
     pub fn with_term(self, term: Box<dyn Model>) -> Result<Self, ModelError> {
+        let fixed = self.fixed;
         let mut terms = self.terms;
         terms.push(term);
-        Sum::new(terms)
+        Ok(Sum {
+            fixed,
+            ..Sum::new(terms)?
+        })
+    }
+
+    /// Marks parameters a fit keeps at their start values unless asked
+    /// ([`ParamSpec::fit_by_default`] false), by flat name or group (`terms[1].rho_d`
+    /// for its three channels). Why: the diffuse parts of several terms add up, so all
+    /// but one must stay fixed for the fit to be identifiable (module doc). The mark
+    /// is a fitting default, not a parameter: `to_json` does not carry it.
+    pub fn with_fixed(mut self, names: &[&str]) -> Result<Self, ModelError> {
+        let specs = self.param_specs();
+        for &n in names {
+            if !specs.iter().any(|s| in_group(&s.name, n)) {
+                return Err(ModelError::Invalid(format!(
+                    "`sum` has no parameter `{n}` to hold fixed"
+                )));
+            }
+            self.fixed.push(n.to_string());
+        }
+        Ok(self)
     }
 
     /// The terms.
@@ -151,6 +186,9 @@ impl Model for Sum {
         for (i, t) in self.terms.iter().enumerate() {
             v.extend(t.param_specs().into_iter().map(|mut s| {
                 s.name = format!("terms[{i}].{}", s.name);
+                if self.fixed.iter().any(|g| in_group(&s.name, g)) {
+                    s.fit_by_default = false;
+                }
                 s
             }));
         }
@@ -333,6 +371,38 @@ mod tests {
             .with_term(Box::new(BlinnPhong::default()))
             .unwrap();
         assert_eq!(m2.num_params(), 10);
+    }
+
+    #[test]
+    fn held_parameters_are_not_fitted_by_default_and_unknown_ones_are_errors() {
+        let m = model()
+            .with_fixed(&["terms[1].rho_d", "terms[0].sigma"])
+            .unwrap();
+        let specs = m.param_specs();
+        let held: Vec<&str> = specs
+            .iter()
+            .filter(|s| !s.fit_by_default)
+            .map(|s| s.name.as_str())
+            .collect();
+        // Lafortune's cz is fixed by its own spec; `terms[1].rho_d` is a group.
+        assert_eq!(
+            held,
+            [
+                "terms[0].sigma",
+                "terms[1].rho_d.r",
+                "terms[1].rho_d.g",
+                "terms[1].rho_d.b",
+                "terms[2].lobes[0].cz"
+            ]
+        );
+        // A group is matched whole, not by prefix: `terms[1].rho` is not `rho_d`.
+        let e = model().with_fixed(&["terms[1].rho"]).unwrap_err();
+        assert!(e.to_string().contains("`terms[1].rho`"), "{e}");
+        // The mark survives an appended term and a clone, not the JSON.
+        let m2 = m.with_term(Box::new(Lambert::default())).unwrap();
+        assert!(!m2.clone_box().param_specs()[4].fit_by_default);
+        let back = Sum::from_params_json(&m2.to_json()["params"]).unwrap();
+        assert!(back.param_specs()[4].fit_by_default);
     }
 
     #[test]

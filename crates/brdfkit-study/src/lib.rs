@@ -16,6 +16,10 @@
 //!   a Lambertian and 1–3 Cook-Torrance lobes) and threads, the throughput of 20 fits,
 //!   and the peak resident memory of a full-table fit (a child process).
 //!
+//! A fourth part, [`measured`], reads a whole-database `fit-brdf batch --nbrdf` run of
+//! the measured-material proxies and writes `docs/measured.md`'s ranking of every model
+//! family (`fit-brdf study --parts measured`).
+//!
 //! [`run`] performs the parts a [`StudyConfig`] asks for and writes, below `out`, the
 //! raw measurements (CSV and JSON, [`files`]) and PNG plots ([`plot`]), and `out` + `.md`
 //! — the Markdown document, whose generated sections sit between `<!-- study:NAME -->`
@@ -27,6 +31,7 @@ pub mod choices;
 pub mod files;
 pub mod grid;
 pub mod markdown;
+pub mod measured;
 pub mod plot;
 pub mod scale;
 

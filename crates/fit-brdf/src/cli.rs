@@ -122,7 +122,8 @@ pub enum Command {
     #[command(
         after_help = "Examples:\n  fit-brdf batch merl/ --models lambert,cook-torrance --fresnel conductor --out fits/\n  \
                             fit-brdf batch 'merl/*-paint.binary' --out fits/ --starts 4 --json\n  \
-                            fit-brdf batch merl/ --out fits/ --shard 3/16     # one task of a 16-task job array\n\n\
+                            fit-brdf batch merl/ --out fits/ --shard 3/16     # one task of a 16-task job array\n  \
+                            fit-brdf batch --nbrdf proxies/merl proxies/rgl-isotropic --models lafortune-2,cook-torrance-2 --out fits/\n\n\
                             Inputs: a directory (its *.binary files), a glob pattern (quoted), or table files. \
                             Every option of `fit` applies. A table whose OUTDIR/<stem>.json exists and was made \
                             with the same options from the same table is skipped (resume); --force refits. \
@@ -163,6 +164,7 @@ pub enum Command {
     #[command(
         after_help = "Examples:\n  fit-brdf study --out docs/accuracy-vs-time            # the full grid (long)\n  \
                             fit-brdf study --quick --out /tmp/study                # a CI-sized grid\n  \
+                            fit-brdf study --parts measured --fits target/measured-fits   # docs/measured.md from a batch run\n  \
                             fit-brdf study --parts grid --models cook-torrance --solvers lm,lbfgs --fractions 0.02,1 --starts 1,4\n\n\
                             Writes OUT/*.csv, OUT/*.json, OUT/*.png and OUT.md (only the generated sections between \
                             <!-- study:NAME --> markers are replaced; the rest of OUT.md is kept). Details: docs/accuracy-vs-time.md."
@@ -444,6 +446,11 @@ pub struct BatchArgs {
     /// Tables: directories (their *.binary files), glob patterns (quoted) or files.
     #[arg(required = true, value_name = "DIR_OR_GLOB")]
     pub inputs: Vec<String>,
+    /// The inputs are neural BRDF proxies (six .npy files each): directories (every
+    /// NAME with a NAME_fc1.npy), stems DIR/NAME or patterns; each is resampled onto
+    /// the MERL grid in memory, no table is written.
+    #[arg(long)]
+    pub nbrdf: bool,
     #[command(flatten)]
     pub opts: FitOptions,
     /// Output directory: `<stem>.json` per table and the summary CSV.
@@ -618,6 +625,9 @@ pub enum StudyPart {
     Choices,
     /// The scale figures.
     Scale,
+    /// The whole measured database fitted and ranked, from a `batch --nbrdf` run
+    /// (`--fits`): docs/measured.md, its CSV files, ranking figure and thumbnails.
+    Measured,
 }
 
 #[derive(Args, Debug)]
@@ -682,6 +692,23 @@ pub struct StudyArgs {
     /// measuring nothing.
     #[arg(long)]
     pub rewrite: bool,
+    /// The measured part: the output directory of the `fit-brdf batch --nbrdf` run.
+    #[arg(long, value_name = "DIR", default_value = "target/measured-fits")]
+    pub fits: PathBuf,
+    /// The measured part: `name,database,category` of every proxy.
+    #[arg(
+        long,
+        value_name = "CSV",
+        default_value = "data-measured/categories.csv"
+    )]
+    pub categories: PathBuf,
+    /// The measured part: the document (its data and images go to the directory of the
+    /// same name without `.md`).
+    #[arg(long, value_name = "MD", default_value = "docs/measured.md")]
+    pub measured_doc: PathBuf,
+    /// The measured part: thumbnails of this many best and worst fitted materials.
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    pub thumbnails: usize,
     /// No progress lines on stderr.
     #[arg(long, short)]
     pub quiet: bool,

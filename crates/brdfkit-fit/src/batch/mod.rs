@@ -1,7 +1,12 @@
 //! The batch engine of `fit-brdf batch`: fit every table of a database, one table at a
 //! time, resumably, shardable over a job array, and stoppable between tables.
 //!
-//! Per table `<stem>.binary` the batch writes `OUTDIR/<stem>.json`:
+//! The inputs are MERL tables, or neural BRDF proxies ([`Source::Nbrdf`], the six-file
+//! NBRDF layout) each resampled onto the MERL grid in memory: a whole database of
+//! proxies is fitted without writing a 35 MB table per material. A proxy's identity
+//! (size, time, hash below) is that of its six files together.
+//!
+//! Per table `<stem>.binary` (or proxy `NAME`) the batch writes `OUTDIR/<stem>.json`:
 //!
 //! ```json
 //! {"format": "fit-brdf-batch/1", "fit_brdf": "0.1.0",
@@ -41,8 +46,8 @@ mod resume;
 mod shard;
 mod summary;
 
-pub use inputs::{TABLE_EXT, Table, tables};
-pub use resume::{Prior, Stamp, options_hash, options_value, prior};
+pub use inputs::{NBRDF_MARK, Source, TABLE_EXT, Table, tables, tables_of};
+pub use resume::{Prior, Stamp, files, options_hash, options_value, prior, table_bytes};
 pub use shard::{Shard, ShardError, fnv1a64, hex};
 pub use summary::{CSV_HEADER, Row, Status, csv_field, summary_csv};
 
@@ -72,11 +77,16 @@ pub enum BatchError {
         /// The input.
         input: String,
     },
-    /// A directory input holds no table.
-    #[error("{input}: the directory holds no *.{TABLE_EXT} table")]
+    /// A directory input holds no table (or no proxy).
+    #[error("{input}: the directory holds no {}", match looked_for {
+        Source::Binary => format!("*.{TABLE_EXT} table"),
+        Source::Nbrdf => format!("neural BRDF proxy (*{NBRDF_MARK})"),
+    })]
     EmptyDir {
         /// The input.
         input: String,
+        /// What was looked for.
+        looked_for: Source,
     },
     /// A glob pattern matches no file.
     #[error("{input}: the pattern matches no file")]
@@ -295,9 +305,21 @@ impl BatchJob {
         families: Vec<Family>,
         config: FitConfig,
     ) -> Result<BatchJob, BatchError> {
+        BatchJob::new_from(inputs, Source::Binary, out, shard, families, config)
+    }
+
+    /// [`BatchJob::new`] for inputs holding `source` (tables or neural BRDF proxies).
+    pub fn new_from(
+        inputs: &[String],
+        source: Source,
+        out: &Path,
+        shard: Option<Shard>,
+        families: Vec<Family>,
+        config: FitConfig,
+    ) -> Result<BatchJob, BatchError> {
         config.validate().map_err(BatchError::Config)?;
         check_free(&families, &config)?;
-        let all = tables(inputs, out)?;
+        let all = tables_of(inputs, source, out)?;
         let tables_matched = all.len();
         let tables = match shard {
             Some(s) => all.into_iter().filter(|t| s.contains(&t.name)).collect(),
@@ -433,27 +455,13 @@ impl BatchJob {
         options_hash: &str,
     ) -> Result<Result<(Vec<Row>, String), String>, BatchError> {
         let t0 = Instant::now();
-        let st = match Stamp::of(&t.path) {
+        let st = match Stamp::of_table(t) {
             Ok(s) => s,
             Err(e) => return Ok(Err(format!("{}: {e}", t.path.display()))),
         };
-        let (data, hash) = {
-            let bytes = match std::fs::read(&t.path) {
-                Ok(b) => b,
-                Err(e) => return Ok(Err(format!("{}: cannot read: {e}", t.path.display()))),
-            };
-            let hash = hex(fnv1a64(&bytes));
-            let table = match MerlTable::from_bytes(&bytes, &t.path) {
-                Ok(t) => t,
-                Err(e) => return Ok(Err(e.to_string())),
-            };
-            drop(bytes);
-            // The table is not needed after its cells: freeing it before the geometry is
-            // built keeps the table and the cells out of memory together.
-            match FitData::from_owned_table(table) {
-                Ok(d) => (d, hash),
-                Err(e) => return Ok(Err(format!("{}: {e}", t.path.display()))),
-            }
+        let (data, hash) = match read_data(t) {
+            Ok(d) => d,
+            Err(e) => return Ok(Err(e)),
         };
         let outcomes = match fit_each(&data, &self.families, &self.config, &()) {
             Ok(o) => o,
@@ -482,6 +490,29 @@ impl BatchJob {
         let rows = Row::from_fits(t, &fits, Status::Fitted).expect("labels were just written");
         Ok(Ok((rows, text)))
     }
+}
+
+/// The fitted cells of a table and the hash of its bytes, or the message of a table
+/// that cannot be read (naming its file).
+fn read_data(t: &Table) -> Result<(FitData, String), String> {
+    let bytes = table_bytes(t).map_err(|e| format!("{}: cannot read: {e}", t.path.display()))?;
+    let hash = hex(fnv1a64(&bytes));
+    let table = match t.source {
+        Source::Binary => MerlTable::from_bytes(&bytes, &t.path).map_err(|e| e.to_string())?,
+        Source::Nbrdf => {
+            drop(bytes);
+            // Resampled in memory: a proxy is a few KB, its table 35 MB.
+            let net = brdfkit_nbrdf::Nbrdf::load(&t.path).map_err(|e| e.to_string())?;
+            net.to_table(brdfkit_merl::Dims::MERL)
+                .map_err(|e| e.to_string())?
+                .0
+        }
+    };
+    // The table is not needed after its cells: freeing it before the geometry is built
+    // keeps the table and the cells out of memory together.
+    let data =
+        FitData::from_owned_table(table).map_err(|e| format!("{}: {e}", t.path.display()))?;
+    Ok((data, hash))
 }
 
 impl BatchReport {

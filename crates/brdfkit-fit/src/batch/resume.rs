@@ -2,11 +2,11 @@
 //! [`crate::batch`]).
 
 use super::summary::{Row, Status};
-use super::{FORMAT, Table, fnv1a64, hex};
+use super::{FORMAT, Source, Table, fnv1a64, hex};
 use crate::FitConfig;
 use crate::families::Family;
 use serde_json::{Value, json};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::UNIX_EPOCH;
 
 /// What decides whether a finished table can be reused: the models at their start
@@ -52,6 +52,51 @@ impl Stamp {
     }
 }
 
+/// The files a table is read from: the table file, or a proxy's six `.npy` files.
+pub fn files(t: &Table) -> Vec<PathBuf> {
+    match t.source {
+        Source::Binary => vec![t.path.clone()],
+        Source::Nbrdf => brdfkit_nbrdf::PARTS
+            .iter()
+            .map(|p| {
+                let mut name = t.path.file_name().unwrap_or_default().to_os_string();
+                name.push(format!("_{p}.npy"));
+                t.path.with_file_name(name)
+            })
+            .collect(),
+    }
+}
+
+/// The bytes of a table's files, in [`files`] order, one after the other (what its
+/// FNV-1a hash is taken of).
+pub fn table_bytes(t: &Table) -> std::io::Result<Vec<u8>> {
+    let mut all = Vec::new();
+    for f in files(t) {
+        let b = std::fs::read(&f)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", f.display())))?;
+        all.extend_from_slice(&b);
+    }
+    Ok(all)
+}
+
+impl Stamp {
+    /// The stamp of a table: of its file, or for a proxy the total size and latest
+    /// modification time of its six files.
+    pub fn of_table(t: &Table) -> std::io::Result<Stamp> {
+        let mut total = Stamp {
+            size: 0,
+            mtime_ns: Some(0),
+        };
+        for f in files(t) {
+            let s = Stamp::of(&f)
+                .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", f.display())))?;
+            total.size += s.size;
+            total.mtime_ns = total.mtime_ns.zip(s.mtime_ns).map(|(a, b)| a.max(b));
+        }
+        Ok(total)
+    }
+}
+
 /// Whether a table is done: its summary rows, or why it is not (None: no output yet,
 /// nothing worth saying).
 #[derive(Debug, Clone, PartialEq)]
@@ -81,7 +126,7 @@ pub fn prior(t: &Table, options_hash: &str, n_fits: usize) -> Prior {
     if v["options_hash"] != options_hash {
         return Prior::Todo(Some("made with other options".into()));
     }
-    let Ok(now) = Stamp::of(&t.path) else {
+    let Ok(now) = Stamp::of_table(t) else {
         return Prior::Todo(None);
     };
     let rec = &v["table"];
@@ -95,7 +140,7 @@ pub fn prior(t: &Table, options_hash: &str, n_fits: usize) -> Prior {
             == now.mtime_ns;
     if !same_time {
         // A copy or a touch: the bytes decide.
-        let same_bytes = std::fs::read(&t.path)
+        let same_bytes = table_bytes(t)
             .map(|b| hex(fnv1a64(&b)))
             .is_ok_and(|h| rec["fnv1a64"] == h.as_str());
         if !same_bytes {

@@ -175,6 +175,7 @@ mod tests {
             path: PathBuf::from("db/gold.binary"),
             name: "gold.binary".into(),
             out: PathBuf::from("out/gold.json"),
+            source: crate::batch::Source::Binary,
         };
         let fits = [json!({"label": "lambert", "record": {
             "losses_full": {"cbrt": {"overall": 0.5}, "l2": {"overall": 2.0}},

@@ -376,8 +376,9 @@ fn difference(
     )
 }
 
-/// Renders the table and every fitted model under `l`.
-pub(crate) fn render_set(
+/// Renders the table and every fitted model under `l` (the report's spheres; also what
+/// `brdfkit-study` draws its thumbnails and image scores with).
+pub fn render_set(
     l: Lighting,
     o: &RenderOptions,
     table: &Arc<MerlTable>,

@@ -14,7 +14,7 @@ use crate::error::{CliResult, bad_input, runtime};
 use crate::output::write_text;
 use crate::progress;
 use anyhow::{Context, anyhow};
-use brdfkit::fit::batch::{BatchError, BatchJob, Cancel};
+use brdfkit::fit::batch::{BatchError, BatchJob, Cancel, Source};
 
 /// The stop requests of this process (a signal handler can reach only a static).
 static CANCEL: Cancel = Cancel::new();
@@ -48,7 +48,13 @@ fn batch_error(e: BatchError) -> crate::error::CliError {
 
 pub fn run(a: BatchArgs) -> CliResult<()> {
     let (fams, cfg) = fit_setup(&a.opts)?;
-    let job = BatchJob::new(&a.inputs, &a.out, a.shard, fams, cfg).map_err(batch_error)?;
+    let source = if a.nbrdf {
+        Source::Nbrdf
+    } else {
+        Source::Binary
+    };
+    let job =
+        BatchJob::new_from(&a.inputs, source, &a.out, a.shard, fams, cfg).map_err(batch_error)?;
     install_handler()?;
     let bars = progress::Batch::new(a.quiet);
     let report = job.run(a.force, &CANCEL, &bars);

@@ -83,13 +83,28 @@ pub fn run(a: StudyArgs) -> CliResult<()> {
     if a.rewrite {
         return brdfkit_study::rewrite(&a.out, &progress).map_err(|e| bad_msg(e.to_string()));
     }
-    let cfg = config(&a)?;
-    brdfkit_study::run(&cfg, &progress).map_err(|e| match e {
+    let study_error = |e: StudyError| match e {
         StudyError::Spec(_) | StudyError::Config { .. } | StudyError::Model { .. } => {
             bad_msg(e.to_string())
         }
         e => runtime(e),
-    })?;
+    };
+    if a.parts.contains(&StudyPart::Measured) {
+        let m = brdfkit_study::measured::MeasuredConfig {
+            fits: a.fits.clone(),
+            out: a.measured_doc.with_extension(""),
+            report: a.measured_doc.clone(),
+            categories: a.categories.clone(),
+            thumbnails: a.thumbnails,
+            thumb_size: 96,
+        };
+        brdfkit_study::measured::run(&m, &progress).map_err(study_error)?;
+        if a.parts.iter().all(|p| *p == StudyPart::Measured) {
+            return Ok(());
+        }
+    }
+    let cfg = config(&a)?;
+    brdfkit_study::run(&cfg, &progress).map_err(study_error)?;
     if !quiet {
         eprintln!(
             "study: wrote {} and {}",
