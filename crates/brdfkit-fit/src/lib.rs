@@ -33,6 +33,8 @@
 //!   format and its tables, cell sets from a model, seeded noise (tests, benchmarks);
 //! - [`families`]: model lists with structural choices and fit settings as the command
 //!   line gives them, fitted family by family;
+//! - [`target`]: fits for a renderer (`--for mitsuba|pbrt|gltf`): its configurations,
+//!   each fitted, the best by loss;
 //! - [`batch`]: the batch engine (every table of a database, resumable, sharded,
 //!   cancellable between tables).
 //!
@@ -55,6 +57,7 @@ pub mod record;
 pub mod reparam;
 pub mod starts;
 pub mod synth;
+pub mod target;
 
 pub use config::{FitConfig, Sharing, SolverKind};
 pub use data::FitData;

@@ -60,7 +60,7 @@ use crate::pair::{batch_pair, pair_geometry};
 use crate::params::{RHO_DOMAIN, RHO_S_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::quadrature::gauss_legendre;
-use brdfkit_core::scattering::fresnel::{dielectric, dielectric_grad};
+use brdfkit_core::scattering::fresnel::dielectric_grad;
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Value, json};
 use std::f64::consts::{FRAC_1_PI, PI};
@@ -411,7 +411,11 @@ impl RoughPlastic {
         for c in 0..3 {
             let den = 1.0 - tab.r_int * x(c);
             // ∂(ρ/(1 − R x))/∂ρ: 1/(1 − R) linear, 1/(1 − Rρ)² nonlinear.
-            let dk = if self.nonlinear { 1.0 / (den * den) } else { 1.0 / den };
+            let dk = if self.nonlinear {
+                1.0 / (den * den)
+            } else {
+                1.0 / den
+            };
             g[c] = channel(c, dk * tt);
             g[3 + c] = channel(c, f * lobe);
         }
@@ -420,7 +424,8 @@ impl RoughPlastic {
             let den = 1.0 - tab.r_int * x(c);
             self.rho_d[c] * x(c) / (den * den)
         };
-        let dlobe_da = (d.d_alpha() * gi.v * go.v + d.d * (gi.d_alpha() * go.v + gi.v * go.d_alpha())) * norm;
+        let dlobe_da =
+            (d.d_alpha() * gi.v * go.v + d.d * (gi.d_alpha() * go.v + gi.v * go.d_alpha())) * norm;
         let (dti_da, dto_da) = (Tables::lerp(&dv.dt_da, zi), Tables::lerp(&dv.dt_da, zo));
         let dtt_da = (dti_da * to + ti * dto_da) * FRAC_1_PI / e2;
         g[6] = Rgb(std::array::from_fn(|c| {
@@ -539,7 +544,9 @@ mod tests {
             // θm on a grid dense where GGX is: tan θm = a · tan(u π/2).
             let u = (i as f64 + 0.5) / nt as f64;
             let t = (a * (u * PI / 2.0).tan()).atan();
-            let dt_du = a * (PI / 2.0) / (u * PI / 2.0).cos().powi(2) / (1.0 + (a * (u * PI / 2.0).tan()).powi(2));
+            let dt_du = a * (PI / 2.0)
+                / (u * PI / 2.0).cos().powi(2)
+                / (1.0 + (a * (u * PI / 2.0).tan()).powi(2));
             for k in 0..np {
                 let p = (k as f64 + 0.5) / np as f64 * 2.0 * PI;
                 let m = [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
@@ -554,7 +561,8 @@ mod tests {
                 if wt[2] >= 0.0 {
                     continue;
                 }
-                let val = dd * g1(wi, a) * c / mu * (1.0 - dielectric(c, eta))
+                let val = dd * g1(wi, a) * c / mu
+                    * (1.0 - brdfkit_core::scattering::fresnel::dielectric(c, eta))
                     * g1([-wt[0], -wt[1], -wt[2]], a);
                 s += val * t.sin() * dt_du / nt as f64 * 2.0 * PI / np as f64;
             }
@@ -568,7 +576,10 @@ mod tests {
             for mu in [1.0, 0.7, 0.3, 0.08] {
                 let got = transmittance(mu, a, eta)[0];
                 let want = brute_transmittance(mu, a, eta);
-                assert!((got - want).abs() < 2e-3, "a {a} eta {eta} mu {mu}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 2e-3,
+                    "a {a} eta {eta} mu {mu}: {got} vs {want}"
+                );
             }
         }
         // Smooth interface limit: T(1) → 1 − F(0) = 1 − ((η − 1)/(η + 1))².
@@ -630,7 +641,10 @@ mod tests {
                     } else {
                         1e-5 * a.abs().max(b.abs()) + 1e-8 * f[c].abs() / m.params()[p]
                     };
-                    assert!((a - b).abs() <= tol, "param {p} ch {c}: {a} vs {b} at {wi:?} {wo:?}");
+                    assert!(
+                        (a - b).abs() <= tol,
+                        "param {p} ch {c}: {a} vs {b} at {wi:?} {wo:?}"
+                    );
                 }
             }
         }
@@ -641,10 +655,13 @@ mod tests {
         // T is smooth in η (no kink from outside): a central difference agrees.
         for (a, mu) in [(0.05, 0.9), (0.3, 0.4), (0.8, 0.1)] {
             let h = 1e-5;
-            let fd = (transmittance(mu, a, 1.5 + h)[0] - transmittance(mu, a, 1.5 - h)[0])
-                / (2.0 * h);
+            let fd =
+                (transmittance(mu, a, 1.5 + h)[0] - transmittance(mu, a, 1.5 - h)[0]) / (2.0 * h);
             let d = transmittance(mu, a, 1.5)[1];
-            assert!((fd - d).abs() <= 1e-7 * d.abs().max(1e-3), "a {a} mu {mu}: {d} vs {fd}");
+            assert!(
+                (fd - d).abs() <= 1e-7 * d.abs().max(1e-3),
+                "a {a} mu {mu}: {d} vs {fd}"
+            );
         }
     }
 
@@ -672,7 +689,10 @@ mod tests {
             .unwrap_err();
         assert!(e.to_string().contains("nonlinear"), "{e}");
         let mut m = model();
-        assert!(m.set_params(&[0.1, 0.1, 0.1, 1.0, 1.0, 1.0, 0.1, 0.5]).is_err());
+        assert!(
+            m.set_params(&[0.1, 0.1, 0.1, 1.0, 1.0, 1.0, 0.1, 0.5])
+                .is_err()
+        );
         assert_eq!(m, model());
         let spec = m.param_specs();
         assert!(!spec[7].fit_by_default, "eta is fixed by default");
