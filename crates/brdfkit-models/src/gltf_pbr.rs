@@ -52,7 +52,7 @@
 //! model, kept as written: a fit reproduces what glTF viewers render.
 
 use crate::json;
-use crate::pair::{batch_pair, pair_geometry};
+use crate::pair::{batch_by_pairs, pair_geometry};
 use crate::params::{channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::scattering::Masking;
@@ -186,8 +186,8 @@ impl GltfPbr {
         let f: [f64; 3] = std::array::from_fn(|k| f0[k] + (1.0 - f0[k]) * w);
         let out = Rgb(std::array::from_fn(|k| diff_k * bc[k] + dv * f[k]));
         if let Some(g) = grad {
-            for k in 0..3 {
-                g[k] = channel(k, diff_k + dv * m * (1.0 - w));
+            for (k, gk) in g[..3].iter_mut().enumerate() {
+                *gk = channel(k, diff_k + dv * m * (1.0 - w));
             }
             g[3] = Rgb(std::array::from_fn(|k| {
                 -(1.0 - DIELECTRIC_F0) * (1.0 - w) * FRAC_1_PI * bc[k]
@@ -250,22 +250,13 @@ impl Model for GltfPbr {
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        for (k, o) in out.iter_mut().enumerate().take(g.len()) {
-            let (i, w, h, cd) = batch_pair(g, k);
-            *o = self.kernel(i, w, h, cd, None);
-        }
+        batch_by_pairs::<5>(g, out, None, |i, w, h, cd, gr| self.kernel(i, w, h, cd, gr));
     }
 
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let mut gk = [Rgb::ZERO; 5];
-        for (k, o) in out.iter_mut().enumerate().take(n) {
-            let (i, w, h, cd) = batch_pair(g, k);
-            *o = self.kernel(i, w, h, cd, Some(&mut gk));
-            for (p, v) in gk.iter().enumerate() {
-                grad[p * n + k] = *v;
-            }
-        }
+        batch_by_pairs::<5>(g, out, Some(grad), |i, w, h, cd, gr| {
+            self.kernel(i, w, h, cd, gr)
+        });
     }
 
     fn to_json(&self) -> Value {
@@ -424,6 +415,10 @@ mod tests {
         assert!(m.set_params(&[0.1, 0.2, 0.3, 0.5, 2.0]).is_err());
         assert_eq!(m, model(Masking::SmithSeparable));
         m.set_params(&[0.1, 0.2, 0.3, 0.5, 0.2]).unwrap();
-        assert_eq!(m.masking(), Masking::SmithSeparable, "set_params keeps the masking");
+        assert_eq!(
+            m.masking(),
+            Masking::SmithSeparable,
+            "set_params keeps the masking"
+        );
     }
 }

@@ -56,7 +56,7 @@
 //! directions depend on η).
 
 use crate::json;
-use crate::pair::{batch_pair, pair_geometry};
+use crate::pair::{batch_by_pairs, pair_geometry};
 use crate::params::{RHO_DOMAIN, RHO_S_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::quadrature::gauss_legendre;
@@ -490,22 +490,13 @@ impl Model for RoughPlastic {
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        for (k, o) in out.iter_mut().enumerate().take(g.len()) {
-            let (i, w, h, cd) = batch_pair(g, k);
-            *o = self.kernel(i, w, h, cd, None);
-        }
+        batch_by_pairs::<8>(g, out, None, |i, w, h, cd, gr| self.kernel(i, w, h, cd, gr));
     }
 
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let mut gk = [Rgb::ZERO; 8];
-        for (k, o) in out.iter_mut().enumerate().take(n) {
-            let (i, w, h, cd) = batch_pair(g, k);
-            *o = self.kernel(i, w, h, cd, Some(&mut gk));
-            for (p, v) in gk.iter().enumerate() {
-                grad[p * n + k] = *v;
-            }
-        }
+        batch_by_pairs::<8>(g, out, Some(grad), |i, w, h, cd, gr| {
+            self.kernel(i, w, h, cd, gr)
+        });
     }
 
     fn to_json(&self) -> Value {
