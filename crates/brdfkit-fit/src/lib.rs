@@ -34,6 +34,8 @@
 //! - [`score`](mod@score): every loss of given parameters on a fit's cells, without fitting;
 //! - [`families`]: model lists with structural choices and fit settings as the command
 //!   line gives them, fitted family by family;
+//! - [`target`]: fits for a renderer (`--for mitsuba|pbrt|gltf`): its configurations,
+//!   each fitted, the best by loss;
 //! - [`batch`]: the batch engine (every table of a database, resumable, sharded,
 //!   cancellable between tables).
 //!
@@ -57,6 +59,7 @@ pub mod reparam;
 pub mod score;
 pub mod starts;
 pub mod synth;
+pub mod target;
 
 pub use config::{FitConfig, Sharing, SolverKind};
 pub use data::FitData;

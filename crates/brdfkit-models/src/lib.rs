@@ -21,11 +21,13 @@ pub mod testing;
 pub mod ashikhmin_shirley;
 pub mod blinn_phong;
 pub mod cook_torrance;
+pub mod gltf_pbr;
 pub mod lafortune;
 pub mod lambert;
 pub mod oren_nayar;
 pub mod phong;
 pub mod plausible_phong;
+pub mod rough_plastic;
 pub mod sum;
 pub mod ward;
 
@@ -44,6 +46,8 @@ pub const MODEL_NAMES: &[&str] = &[
     "cook-torrance",
     "ashikhmin-shirley",
     "sum",
+    "gltf-pbr",
+    "rough-plastic",
 ];
 
 /// Builds a model from its JSON description `{"model": "<name>", "params": {...}}`.
@@ -90,6 +94,8 @@ pub fn from_name_and_params(name: &str, params: &Value) -> Result<Box<dyn Model>
         "ashikhmin-shirley" => boxed(ashikhmin_shirley::AshikhminShirley::from_params_json(
             params,
         )),
+        "gltf-pbr" => boxed(gltf_pbr::GltfPbr::from_params_json(params)),
+        "rough-plastic" => boxed(rough_plastic::RoughPlastic::from_params_json(params)),
         other => Err(ModelError::Invalid(format!(
             "unknown model `{other}` (known: {})",
             MODEL_NAMES.join(", ")

@@ -45,8 +45,14 @@
 
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking};
 use brdfkit_core::{ModelError, Rgb};
+use brdfkit_fit::FitConfig;
+use brdfkit_fit::families::FamilyFitError;
+use brdfkit_fit::target::{Target, TargetFit, fit_for};
+use brdfkit_merl::Dims;
 use brdfkit_models::cook_torrance::{CookTorrance, Fresnel, Shape};
+use brdfkit_models::gltf_pbr::GltfPbr;
 use brdfkit_models::lambert::Lambert;
+use brdfkit_models::rough_plastic::RoughPlastic;
 use serde_json::{Value, json};
 use std::fmt::{self, Write as _};
 use thiserror::Error;
@@ -68,12 +74,14 @@ impl Renderer {
     pub fn supported(self) -> &'static str {
         match self {
             Renderer::Mitsuba => {
-                "lambert (-> diffuse) and cook-torrance with conductor Fresnel, rho_d = 0, \
-                 smith-separable masking, GGX or Beckmann with beckmann_g1 = rational (-> roughconductor)"
+                "lambert (-> diffuse), cook-torrance with conductor Fresnel, rho_d = 0, \
+                 smith-separable masking, GGX or Beckmann with beckmann_g1 = rational (-> roughconductor) \
+                 and rough-plastic (-> roughplastic)"
             }
             Renderer::Pbrt => {
-                "lambert (-> diffuse) and cook-torrance with conductor Fresnel, rho_d = 0, rho_s = 1, \
-                 smith-correlated masking, GGX, alpha >= 1e-3 (-> conductor)"
+                "lambert (-> diffuse), cook-torrance with conductor Fresnel, rho_d = 0, rho_s = 1, \
+                 smith-correlated masking, GGX, alpha >= 1e-3 (-> conductor) and rough-plastic with \
+                 rho_s = 1, nonlinear false, alpha >= 1e-3 (-> coateddiffuse, approximately)"
             }
         }
     }
@@ -98,14 +106,27 @@ pub enum ExportForm {
     MitsubaDict,
     /// A pbrt-v4 `Material` directive ([`RendererMaterial::pbrt`]).
     Pbrt,
+    /// A glTF 2.0 document with one metallic-roughness material
+    /// ([`GltfMaterial::document`]).
+    Gltf,
 }
 
 impl ExportForm {
-    /// The renderer of the form.
-    pub fn renderer(self) -> Renderer {
+    /// The renderer of the form (`None` for glTF, a format rather than a renderer).
+    pub fn renderer(self) -> Option<Renderer> {
         match self {
-            ExportForm::MitsubaXml | ExportForm::MitsubaDict => Renderer::Mitsuba,
-            ExportForm::Pbrt => Renderer::Pbrt,
+            ExportForm::MitsubaXml | ExportForm::MitsubaDict => Some(Renderer::Mitsuba),
+            ExportForm::Pbrt => Some(Renderer::Pbrt),
+            ExportForm::Gltf => None,
+        }
+    }
+
+    /// The target a model is fitted for to be written in this form (`--approximate`).
+    pub fn target(self) -> Target {
+        match self {
+            ExportForm::MitsubaXml | ExportForm::MitsubaDict => Target::Mitsuba,
+            ExportForm::Pbrt => Target::Pbrt,
+            ExportForm::Gltf => Target::Gltf,
         }
     }
 }
@@ -135,6 +156,20 @@ pub enum RendererMaterial {
         /// ρs: Mitsuba's `specular_reflectance` (1 for pbrt, which has no such factor).
         specular: Rgb,
     },
+    /// `rough-plastic`: Mitsuba's `roughplastic` (exact), pbrt's `coateddiffuse`
+    /// (an approximation: a stochastic layered BSDF, see [`notes`]).
+    Plastic {
+        /// ρd: `diffuse_reflectance` / `reflectance`.
+        diffuse: Rgb,
+        /// ρs: Mitsuba's `specular_reflectance` (1 for pbrt).
+        specular: Rgb,
+        /// GGX α.
+        alpha: f64,
+        /// The coating's relative index (`int_ior`, `ext_ior` = 1; pbrt `eta`).
+        eta: f64,
+        /// Mitsuba's `nonlinear` (false for pbrt).
+        nonlinear: bool,
+    },
 }
 
 /// Why a cook-torrance configuration has no counterpart in the renderer.
@@ -156,6 +191,8 @@ pub enum Refusal {
     SpecularScale(Rgb),
     /// pbrt: α below [`PBRT_SMOOTH_ALPHA`], a perfect mirror there.
     Smooth(f64),
+    /// pbrt: a rough plastic with `nonlinear` (coateddiffuse has no such switch).
+    Nonlinear,
 }
 
 impl Refusal {
@@ -187,13 +224,18 @@ impl Refusal {
                 m.name()
             ),
             Refusal::SpecularScale(s) => format!(
-                "rho_s = {} is not 1 and pbrt-v4's conductor has no specular scale \
+                "rho_s = {} is not 1 and pbrt-v4's conductor and coateddiffuse have no specular scale \
                  (export to Mitsuba, whose specular_reflectance takes it, or fit with \
                  rho_s fixed at 1)",
                 rgb_list(*s)
             ),
             Refusal::Smooth(a) => {
                 format!("alpha {a} is below 1e-3, where pbrt-v4 renders a perfect mirror")
+            }
+            Refusal::Nonlinear => {
+                "nonlinear = true: pbrt-v4's coateddiffuse has no such switch (fit with \
+                 nonlinear false)"
+                    .into()
             }
         }
     }
@@ -213,7 +255,7 @@ pub enum ExportError {
     )]
     PerChannel,
     /// A model the renderer has no material for (`ward`, `sum`, …).
-    #[error("model `{model}` has no counterpart in {renderer} (supported: {})", .renderer.supported())]
+    #[error("model `{model}` has no counterpart in {renderer} (supported: {}); {APPROXIMATE_HINT}", .renderer.supported())]
     UnsupportedModel {
         /// The model's name.
         model: String,
@@ -221,7 +263,7 @@ pub enum ExportError {
         renderer: Renderer,
     },
     /// A cook-torrance configuration the renderer evaluates differently.
-    #[error("{config}: {} (supported by {renderer}: {})", .reason.explain(*.renderer), .renderer.supported())]
+    #[error("{config}: {} (supported by {renderer}: {}); {APPROXIMATE_HINT}", .reason.explain(*.renderer), .renderer.supported())]
     Unsupported {
         /// The configuration in words ([`describe_cook_torrance`]).
         config: String,
@@ -230,7 +272,32 @@ pub enum ExportError {
         /// What the renderer lacks.
         reason: Refusal,
     },
+    /// Another model than `gltf-pbr` exported as glTF.
+    #[error(
+        "model `{model}` is not a glTF metallic-roughness material (glTF takes gltf-pbr); \
+         {APPROXIMATE_HINT}"
+    )]
+    NotGltf {
+        /// The model's name.
+        model: String,
+    },
+    /// `--approximate`: fitting the target's configurations to the model failed.
+    #[error("approximating the model: {0}")]
+    Approximation(#[from] FamilyFitError),
 }
+
+/// The note on every pbrt-v4 `coateddiffuse` export.
+pub const PBRT_COATED_NOTE: &str = "APPROXIMATION: pbrt-v4's coateddiffuse is a stochastic \
+     layered BSDF (a random walk between a rough dielectric interface and a Lambertian base, \
+     thickness 0.01, maxdepth 10), not rough-plastic's closed form: it also follows light \
+     bouncing between coat and base and its interface transmittance is not Mitsuba's table, \
+     so the diffuse colour and its falloff towards grazing angles differ; the size of the \
+     difference is not measured here (pbrt-v4 could not be built on this machine, \
+     docs/export.md)";
+
+/// What a refusal suggests instead.
+pub const APPROXIMATE_HINT: &str = "export --approximate fits the nearest material the target \
+     has to the model and reports the error, and `fit --for` fits it to the measured table";
 
 fn rgb_text(c: Rgb, sep: &str) -> String {
     format!("{}{sep}{}{sep}{}", c.r(), c.g(), c.b())
@@ -344,11 +411,46 @@ pub fn map_model(description: &Value, to: Renderer) -> Result<Mapped, ExportErro
                 }),
             }
         }
+        "rough-plastic" => {
+            let p = RoughPlastic::from_params_json(params)?;
+            let model = format!("rough-plastic (ggx, eta {})", p.eta());
+            match plastic_of(&p, to) {
+                Ok(material) => Ok(Mapped { material, model }),
+                Err(reason) => Err(ExportError::Unsupported {
+                    config: model,
+                    renderer: to,
+                    reason,
+                }),
+            }
+        }
         other => Err(ExportError::UnsupportedModel {
             model: other.into(),
             renderer: to,
         }),
     }
+}
+
+/// The conditions of `to` on a rough plastic.
+fn plastic_of(p: &RoughPlastic, to: Renderer) -> Result<RendererMaterial, Refusal> {
+    if to == Renderer::Pbrt {
+        let s = p.rho_s();
+        if (0..3).any(|c| (s[c] - 1.0).abs() > 1e-12) {
+            return Err(Refusal::SpecularScale(s));
+        }
+        if p.nonlinear() {
+            return Err(Refusal::Nonlinear);
+        }
+        if p.alpha() < PBRT_SMOOTH_ALPHA {
+            return Err(Refusal::Smooth(p.alpha()));
+        }
+    }
+    Ok(RendererMaterial::Plastic {
+        diffuse: p.rho_d(),
+        specular: p.rho_s(),
+        alpha: p.alpha(),
+        eta: p.eta(),
+        nonlinear: p.nonlinear(),
+    })
 }
 
 /// The material of a model description for `to` ([`map_model`] without the words).
@@ -369,6 +471,13 @@ pub fn notes(m: &RendererMaterial, to: Renderer) -> Vec<String> {
                 "Mitsuba evaluates in float32 (agreement ~1e-6 relative in the *_rgb variants)"
                     .to_string(),
             );
+            if matches!(m, RendererMaterial::Plastic { .. }) {
+                n.push(
+                    "roughplastic integrates its transmittance tables with its own quadrature: \
+                     agreement with rough-plastic ~6e-4 relative (docs/export.md)"
+                        .into(),
+                );
+            }
             if conductor {
                 n.push(
                     "Mitsuba zeroes D where D(h) cos(theta_h) < 1e-20 (values there are below ~1e-18)"
@@ -388,8 +497,11 @@ pub fn notes(m: &RendererMaterial, to: Renderer) -> Vec<String> {
                  the rendered colour approximates the RGB model"
                     .into(),
             );
-            if conductor {
+            if !matches!(m, RendererMaterial::Diffuse { .. }) {
                 n.push("remaproughness is false: roughness is the microfacet alpha itself".into());
+            }
+            if matches!(m, RendererMaterial::Plastic { .. }) {
+                n.push(PBRT_COATED_NOTE.into());
             }
         }
     }
@@ -455,6 +567,30 @@ impl RendererMaterial {
                     rgb_text(*specular, ", ")
                 );
             }
+            RendererMaterial::Plastic {
+                diffuse,
+                specular,
+                alpha,
+                eta,
+                nonlinear,
+            } => {
+                s += "<bsdf type=\"roughplastic\" version=\"3.0.0\">\n";
+                s += "    <string name=\"distribution\" value=\"ggx\"/>\n";
+                let _ = writeln!(s, "    <float name=\"alpha\" value=\"{alpha}\"/>");
+                let _ = writeln!(s, "    <float name=\"int_ior\" value=\"{eta}\"/>");
+                s += "    <float name=\"ext_ior\" value=\"1\"/>\n";
+                for (name, c) in [
+                    ("diffuse_reflectance", diffuse),
+                    ("specular_reflectance", specular),
+                ] {
+                    let _ = writeln!(
+                        s,
+                        "    <rgb name=\"{name}\" value=\"{}\"/>",
+                        rgb_text(*c, ", ")
+                    );
+                }
+                let _ = writeln!(s, "    <boolean name=\"nonlinear\" value=\"{nonlinear}\"/>");
+            }
         }
         s += "</bsdf>\n";
         s
@@ -487,6 +623,15 @@ impl RendererMaterial {
                 }
                 d
             }
+            RendererMaterial::Plastic {
+                diffuse,
+                specular,
+                alpha,
+                eta,
+                nonlinear,
+            } => json!({"type": "roughplastic", "distribution": "ggx", "alpha": alpha,
+                "int_ior": eta, "ext_ior": 1.0, "diffuse_reflectance": rgb_value(*diffuse),
+                "specular_reflectance": rgb_value(*specular), "nonlinear": nonlinear}),
         }
     }
 
@@ -521,6 +666,18 @@ impl RendererMaterial {
                 let _ = writeln!(s, "    \"rgb eta\" [ {} ]", rgb_text(*eta, " "));
                 let _ = writeln!(s, "    \"rgb k\" [ {} ]", rgb_text(*k, " "));
             }
+            RendererMaterial::Plastic {
+                diffuse,
+                alpha,
+                eta,
+                ..
+            } => {
+                s += "Material \"coateddiffuse\"\n";
+                let _ = writeln!(s, "    \"rgb reflectance\" [ {} ]", rgb_text(*diffuse, " "));
+                let _ = writeln!(s, "    \"float roughness\" [ {alpha} ]");
+                s += "    \"bool remaproughness\" false\n";
+                let _ = writeln!(s, "    \"float eta\" [ {eta} ]");
+            }
         }
         s
     }
@@ -542,7 +699,16 @@ pub fn export(
     form: ExportForm,
     source_name: &str,
 ) -> Result<Exported, ExportError> {
-    let to = form.renderer();
+    let Some(to) = form.renderer() else {
+        let (m, model) = gltf_material(description)?;
+        let notes = m.notes();
+        let text = serde_json::to_string_pretty(
+            &m.document(&format!("{model} from {source_name}"), &notes),
+        )
+        .expect("JSON of plain values")
+            + "\n";
+        return Ok(Exported { text, notes });
+    };
     let Mapped { material, model } = map_model(description, to)?;
     let notes = notes(&material, to);
     let source = format!("{model} from {source_name}");
@@ -552,9 +718,200 @@ pub fn export(
             serde_json::to_string_pretty(&material.mitsuba_dict()).expect("JSON of plain values")
                 + "\n"
         }
-        ExportForm::Pbrt => material.pbrt(&source, &notes),
+        // glTF returned above.
+        ExportForm::Pbrt | ExportForm::Gltf => material.pbrt(&source, &notes),
     };
     Ok(Exported { text, notes })
+}
+
+/// A glTF 2.0 metallic-roughness material: the factors of `pbrMetallicRoughness`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GltfMaterial {
+    /// `baseColorFactor` (RGB; alpha is 1).
+    pub base_color: Rgb,
+    /// `metallicFactor`.
+    pub metallic: f64,
+    /// `roughnessFactor`.
+    pub roughness: f64,
+    /// The masking the model was fitted with (glTF has no field for it: a note).
+    pub masking: Masking,
+}
+
+/// The glTF material of a `gltf-pbr` description (and the model in words), or why not.
+pub fn gltf_material(description: &Value) -> Result<(GltfMaterial, String), ExportError> {
+    if description.get("per_channel").is_some() {
+        return Err(ExportError::PerChannel);
+    }
+    let model = brdfkit_models::from_json(description)?;
+    if model.name() != "gltf-pbr" {
+        return Err(ExportError::NotGltf {
+            model: model.name().into(),
+        });
+    }
+    let g = GltfPbr::from_params_json(description.get("params").unwrap_or(&Value::Null))?;
+    let words = format!("gltf-pbr ({})", g.masking().name());
+    Ok((
+        GltfMaterial {
+            base_color: g.base_color(),
+            metallic: g.metallic(),
+            roughness: g.roughness(),
+            masking: g.masking(),
+        },
+        words,
+    ))
+}
+
+impl GltfMaterial {
+    /// What a glTF viewer does differently (the document's `extras`, stderr).
+    pub fn notes(&self) -> Vec<String> {
+        vec![
+            format!(
+                "fitted with the {} Smith term; glTF viewers differ here (the Khronos Sample \
+                 Renderer, three.js and Filament use the height-correlated form, the \
+                 specification's text the separable one): highlights of rough materials \
+                 differ by a few percent",
+                self.masking.name()
+            ),
+            "factors are linear RGB, as glTF's baseColorFactor is; viewers evaluate in float32"
+                .into(),
+        ]
+    }
+
+    /// A minimal glTF 2.0 document (JSON) holding this material alone:
+    /// `asset.version` "2.0" and `materials[0].pbrMetallicRoughness` with
+    /// `baseColorFactor` [r, g, b, 1], `metallicFactor` and `roughnessFactor`; `source`
+    /// and `notes` go into the material's `extras.brdfkit`.
+    pub fn document(&self, source: &str, notes: &[String]) -> Value {
+        let b = self.base_color;
+        json!({
+            "asset": {"version": "2.0", "generator": concat!("brdfkit ", env!("CARGO_PKG_VERSION"))},
+            "materials": [{
+                "name": "brdfkit",
+                "pbrMetallicRoughness": {
+                    "baseColorFactor": [b.r(), b.g(), b.b(), 1.0],
+                    "metallicFactor": self.metallic,
+                    "roughnessFactor": self.roughness,
+                },
+                "extras": {"brdfkit": {"source": source, "notes": notes}},
+            }],
+        })
+    }
+}
+
+/// The grid `--approximate` samples a model on: 45 × 45 × 90 cells of the MERL
+/// parameterisation (its θh spacing dense near the specular peak), ~180,000 valid cells.
+pub const APPROXIMATE_DIMS: (i64, i64, i64) = (45, 45, 90);
+
+/// An export by `--approximate`.
+#[derive(Debug, Clone)]
+pub struct Approximated {
+    /// The export (exact, or of the best fitted configuration, the conversion's error in
+    /// its notes).
+    pub exported: Exported,
+    /// The fits, or `None` when the model was exported exactly.
+    pub fit: Option<TargetFit>,
+    /// The best fit's relative error: the RMS of the difference over the RMS of the
+    /// model's values (the l2 loss of the fit over that of f = 0), cell-weighted.
+    pub relative_l2: f64,
+}
+
+/// Exports exactly when the form takes the model; otherwise fits every configuration the
+/// target has ([`brdfkit_fit::target`]) to the model's values on the
+/// [`APPROXIMATE_DIMS`] grid (cells above the horizon, solid-angle weights of `cfg`),
+/// exports the best by `cfg`'s loss and states the conversion error in the notes. Never
+/// writes something else silently: an invalid description is still an error.
+pub fn export_approximate(
+    description: &Value,
+    form: ExportForm,
+    source_name: &str,
+    cfg: &FitConfig,
+) -> Result<Approximated, ExportError> {
+    match export(description, form, source_name) {
+        Ok(exported) => {
+            return Ok(Approximated {
+                exported,
+                fit: None,
+                relative_l2: 0.0,
+            });
+        }
+        Err(e @ (ExportError::Model(_) | ExportError::PerChannel)) => return Err(e),
+        Err(_) => {}
+    }
+    let model = brdfkit_models::from_json(description)?;
+    let (a, b, c) = APPROXIMATE_DIMS;
+    let dims = Dims::new(a, b, c).expect("a valid grid");
+    let data =
+        brdfkit_fit::synth::synth_data(&*model, dims, brdfkit_fit::synth::Coverage::AboveHorizon)
+            .map_err(|source| FamilyFitError {
+            label: model.name().into(),
+            source,
+        })?;
+    let fit = fit_for(&data, form.target(), cfg, &())?;
+    let best = fit.best();
+    let zero = Lambert::new(Rgb::ZERO)?;
+    let scale = brdfkit_fit::evaluate_losses([&zero, &zero, &zero], &data, cfg.get_weighting())
+        .l2
+        .overall;
+    let l = &best.record.losses_full;
+    let relative_l2 = if scale > 0.0 {
+        l.l2.overall / scale
+    } else {
+        0.0
+    };
+    let mut exported = export(&best.params, form, source_name)?;
+    let note = format!(
+        "approximation: `{}` is not exactly a {} material; fitted `{}` (best of {}) to it \
+         over {} cells of a {a}x{b}x{c} grid: relative RMS error {:.3} %, {} loss {:.4e}",
+        model.name(),
+        form.target().name(),
+        best.label,
+        fit.outcomes
+            .iter()
+            .map(|o| o.label.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        best.record.cells_full,
+        100.0 * relative_l2,
+        cfg.get_loss(),
+        l.get(cfg.get_loss()).overall,
+    );
+    // The note goes into the text as every other note does, and first.
+    exported = with_first_note(exported, form, &note);
+    Ok(Approximated {
+        exported,
+        fit: Some(fit),
+        relative_l2,
+    })
+}
+
+/// `e` with `note` added before its other notes, in the text as well.
+fn with_first_note(e: Exported, form: ExportForm, note: &str) -> Exported {
+    let mut notes = vec![note.to_string()];
+    notes.extend(e.notes.iter().cloned());
+    let text = match form {
+        ExportForm::MitsubaXml => {
+            let marker = "<bsdf ";
+            let at = e.text.find(marker).unwrap_or(0);
+            format!(
+                "{}<!-- note: {} -->\n{}",
+                &e.text[..at],
+                note.replace("--", "- -"),
+                &e.text[at..]
+            )
+        }
+        ExportForm::Pbrt => {
+            let at = e.text.find('\n').map_or(0, |i| i + 1);
+            format!("{}# note: {note}\n{}", &e.text[..at], &e.text[at..])
+        }
+        // JSON: the dict has no comments (stderr only); glTF's extras take the notes.
+        ExportForm::MitsubaDict => e.text,
+        ExportForm::Gltf => {
+            let mut v: Value = serde_json::from_str(&e.text).expect("our own JSON");
+            v["materials"][0]["extras"]["brdfkit"]["notes"] = json!(notes);
+            serde_json::to_string_pretty(&v).expect("JSON of plain values") + "\n"
+        }
+    };
+    Exported { text, notes }
 }
 
 /// [`export`] of a description's JSON text (a parse failure is [`ExportError::Model`],
@@ -749,15 +1106,18 @@ mod tests {
             e.to_string(),
             "cook-torrance (ggx, smith-separable, conductor Fresnel): rho_d = [0.1, 0.1, 0.1] is \
              not 0 and pbrt-v4's conductor has no diffuse term (supported by pbrt-v4: lambert \
-             (-> diffuse) and cook-torrance with conductor Fresnel, rho_d = 0, rho_s = 1, \
-             smith-correlated masking, GGX, alpha >= 1e-3 (-> conductor))"
+             (-> diffuse), cook-torrance with conductor Fresnel, rho_d = 0, rho_s = 1, \
+             smith-correlated masking, GGX, alpha >= 1e-3 (-> conductor) and rough-plastic with \
+             rho_s = 1, nonlinear false, alpha >= 1e-3 (-> coateddiffuse, approximately)); \
+             export --approximate fits the nearest material the target has to the model and \
+             reports the error, and `fit --for` fits it to the measured table"
         );
         let e = renderer_material(&json!({"model": "ward", "params": {}}), Renderer::Mitsuba)
             .unwrap_err();
         assert_eq!(
             e.to_string(),
             format!(
-                "model `ward` has no counterpart in Mitsuba 3 (supported: {})",
+                "model `ward` has no counterpart in Mitsuba 3 (supported: {}); {APPROXIMATE_HINT}",
                 Renderer::Mitsuba.supported()
             )
         );
@@ -854,6 +1214,76 @@ mod tests {
         let v = ct(json!({"rho_d": 0, "alpha": 0.1 + 0.2, "fresnel": gold()}));
         let x = export(&v, ExportForm::MitsubaXml, "s").unwrap().text;
         assert!(x.contains("value=\"0.30000000000000004\""), "{x}");
+    }
+
+    #[test]
+    fn gltf_and_plastic_map_and_the_rest_is_refused() {
+        let g = json!({"model": "gltf-pbr", "params": {"base_color": [0.8, 0.5, 0.2],
+            "metallic": 0.9, "roughness": 0.35, "masking": "smith-separable"}});
+        let e = export(&g, ExportForm::Gltf, "g.json").unwrap();
+        let v: Value = serde_json::from_str(&e.text).unwrap();
+        let m = &v["materials"][0];
+        assert_eq!(
+            m["pbrMetallicRoughness"],
+            json!({"baseColorFactor": [0.8, 0.5, 0.2, 1.0], "metallicFactor": 0.9,
+                   "roughnessFactor": 0.35})
+        );
+        assert_eq!(
+            m["extras"]["brdfkit"]["source"],
+            "gltf-pbr (smith-separable) from g.json"
+        );
+        assert_eq!(m["extras"]["brdfkit"]["notes"], json!(e.notes));
+        for to in [ExportForm::MitsubaXml, ExportForm::Pbrt] {
+            assert!(matches!(
+                export(&g, to, "g").unwrap_err(),
+                ExportError::UnsupportedModel { .. }
+            ));
+        }
+        let e = export(&json!({"model": "lambert"}), ExportForm::Gltf, "l").unwrap_err();
+        assert!(matches!(e, ExportError::NotGltf { .. }), "{e}");
+        assert!(e.to_string().contains("--approximate"), "{e}");
+        let p = json!({"model": "rough-plastic", "params": {"rho_d": [0.6, 0.3, 0.1],
+            "rho_s": 1, "alpha": 0.2, "eta": 1.5}});
+        let d = renderer_material(&p, Renderer::Mitsuba)
+            .unwrap()
+            .mitsuba_dict();
+        assert_eq!(
+            d,
+            json!({"type": "roughplastic", "distribution": "ggx", "alpha": 0.2,
+                "int_ior": 1.5, "ext_ior": 1.0,
+                "diffuse_reflectance": {"type": "rgb", "value": [0.6, 0.3, 0.1]},
+                "specular_reflectance": {"type": "rgb", "value": [1.0, 1.0, 1.0]},
+                "nonlinear": false})
+        );
+        let x = export(&p, ExportForm::Pbrt, "p").unwrap();
+        for line in [
+            "Material \"coateddiffuse\"",
+            "    \"rgb reflectance\" [ 0.6 0.3 0.1 ]",
+            "    \"float roughness\" [ 0.2 ]",
+            "    \"bool remaproughness\" false",
+            "    \"float eta\" [ 1.5 ]",
+        ] {
+            assert!(x.text.lines().any(|l| l == line), "{line} in\n{}", x.text);
+        }
+        assert!(
+            x.notes.iter().any(|n| n.starts_with("APPROXIMATION")),
+            "{:?}",
+            x.notes
+        );
+        let mut nl = p.clone();
+        nl["params"]["nonlinear"] = json!(true);
+        let e = renderer_material(&nl, Renderer::Pbrt).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ExportError::Unsupported {
+                    reason: Refusal::Nonlinear,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(renderer_material(&nl, Renderer::Mitsuba).is_ok());
     }
 
     #[test]

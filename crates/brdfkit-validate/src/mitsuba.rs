@@ -208,7 +208,7 @@ impl CrossConfig {
                 alpha,
                 ..
             } => Some((distribution, alpha)),
-            RendererMaterial::Diffuse { .. } => None,
+            RendererMaterial::Diffuse { .. } | RendererMaterial::Plastic { .. } => None,
         };
         Ok(CrossConfig {
             name: name.into(),

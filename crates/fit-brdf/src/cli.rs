@@ -75,10 +75,12 @@ pub enum Command {
     #[command(
         after_help = "Examples:\n  fit-brdf fit gold.binary --model cook-torrance --distribution ggx --fresnel schlick --out params.json\n  \
                             fit-brdf fit gold.binary --model lambert,plausible-phong,ward,lafortune,cook-torrance\n  \
-                            fit-brdf fit t.binary --model my-start.json --loss log --starts 16 --record fit.json\n\n\
+                            fit-brdf fit t.binary --model my-start.json --loss log --starts 16 --record fit.json\n  \
+                            fit-brdf fit gold.binary --for mitsuba --out gold.json     # then: export gold.json --to mitsuba\n\n\
                             --model takes model names or model JSON files (a start with fixed structural choices). \
                             With one model, --out is the fitted PARAMS.json; with several, a directory that receives \
-                            <model>.json and <model>.fit.json for each. Losses and solvers: docs/fitting.md."
+                            <model>.json and <model>.fit.json for each. --for mitsuba|pbrt|gltf fits every configuration \
+                            that renderer has (docs/export.md) and writes the best to --out. Losses and solvers: docs/fitting.md."
     )]
     Fit(FitArgs),
     /// Physical checks of a model (JSON) or a measured table: non-negativity,
@@ -134,16 +136,19 @@ pub enum Command {
                             recipes: docs/batch.md."
     )]
     Batch(BatchArgs),
-    /// Export a model as a renderer material: Mitsuba 3 (XML or dict) or pbrt-v4.
+    /// Export a model as a renderer material: Mitsuba 3 (XML or dict), pbrt-v4 or glTF 2.0.
     #[command(
         after_help = "Examples:\n  fit-brdf export params.json --to mitsuba                  # <bsdf> XML on stdout\n  \
                             fit-brdf export params.json --to mitsuba --format dict --out bsdf.json\n  \
-                            fit-brdf export params.json --to pbrt --out material.pbrt\n\n\
+                            fit-brdf export params.json --to pbrt --out material.pbrt\n  \
+                            fit-brdf export gltf.json --to gltf --out material.gltf     # from fit --for gltf\n  \
+                            fit-brdf export ward.json --to mitsuba --approximate       # nearest material, error stated\n\n\
                             Supported: lambert -> diffuse; cook-torrance with conductor Fresnel and rho_d = 0 -> \
                             Mitsuba roughconductor (smith-separable; GGX, or Beckmann with beckmann_g1 = rational; \
                             rho_s -> specular_reflectance) or pbrt-v4 conductor (smith-correlated, GGX, rho_s = 1, \
-                            alpha >= 1e-3). Anything else is an error (exit 2) saying what the renderer lacks. \
-                            Details: docs/export.md."
+                            alpha >= 1e-3); gltf-pbr -> glTF pbrMetallicRoughness. Anything else is an error \
+                            (exit 2) saying what the target lacks, unless --approximate. `fit --for RENDERER` \
+                            fits exactly what the renderer has. Details: docs/export.md."
     )]
     Export(ExportArgs),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell), or install
@@ -291,6 +296,11 @@ pub struct FitArgs {
     /// The fit record (one model only).
     #[arg(long, value_name = "FIT.json")]
     pub record: Option<PathBuf>,
+    /// Fit exactly the configurations a renderer has (its free parameters free, e.g. a
+    /// conductor's eta and k), pick the best by loss and write a model `export` takes.
+    #[arg(long = "for", value_enum, value_name = "RENDERER",
+          conflicts_with_all = ["model", "distribution", "masking", "fresnel", "normalization", "fix", "per_channel"])]
+    pub for_renderer: Option<Renderer>,
     /// Print the results as JSON.
     #[arg(long)]
     pub json: bool,
@@ -470,13 +480,27 @@ pub struct BatchArgs {
     pub quiet: bool,
 }
 
-/// A renderer `export` writes for.
+/// A renderer or format `export` writes for and `fit --for` fits for.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Renderer {
     /// Mitsuba 3 (`diffuse`, `roughconductor`).
     Mitsuba,
     /// pbrt-v4 (`diffuse`, `conductor`).
     Pbrt,
+    /// glTF 2.0 (`pbrMetallicRoughness`, from the `gltf-pbr` model).
+    Gltf,
+}
+
+impl Renderer {
+    /// The library's fit target.
+    pub fn target(self) -> brdfkit::fit::target::Target {
+        use brdfkit::fit::target::Target;
+        match self {
+            Renderer::Mitsuba => Target::Mitsuba,
+            Renderer::Pbrt => Target::Pbrt,
+            Renderer::Gltf => Target::Gltf,
+        }
+    }
 }
 
 /// The form of a Mitsuba export.
@@ -498,6 +522,10 @@ pub struct ExportArgs {
     /// Mitsuba only: xml (default) or dict.
     #[arg(long, value_enum)]
     pub format: Option<ExportFormat>,
+    /// When the model has no exact counterpart, fit the target's nearest material to it
+    /// over the hemisphere and write that, with the conversion error in the notes.
+    #[arg(long)]
+    pub approximate: bool,
     /// Output file (default: standard output).
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,

@@ -1,5 +1,6 @@
 //! `fit-brdf fit TABLE --model ...`: nonlinear least-squares fits of analytic models
-//! (the families and the settings: `brdfkit::fit::families`).
+//! (the families and the settings: `brdfkit::fit::families`); `--for RENDERER`: the
+//! renderer's configurations, the best written (`brdfkit::fit::target`).
 
 use super::{fit_setup, read_table};
 use crate::cli::FitArgs;
@@ -9,6 +10,7 @@ use crate::progress;
 use anyhow::Context;
 use brdfkit::fit::FitData;
 use brdfkit::fit::families::{Outcome, comparison_text, fit_each};
+use brdfkit::fit::target::fit_for;
 use serde_json::Value;
 
 /// Pretty JSON with a final newline.
@@ -30,8 +32,18 @@ pub fn run(a: FitArgs) -> CliResult<()> {
     // before their geometry is allocated (FitData::from_owned_table).
     let data = FitData::from_owned_table(table)
         .map_err(|e| bad_msg(format!("{}: {e}", a.table.display())))?;
-    let outcomes =
-        fit_each(&data, &fams, &cfg, &progress::Families::bars(a.quiet)).map_err(runtime)?;
+    let bars = progress::Families::bars(a.quiet);
+    let (outcomes, best) = match a.for_renderer {
+        None => (fit_each(&data, &fams, &cfg, &bars).map_err(runtime)?, None),
+        Some(r) => {
+            let t = fit_for(&data, r.target(), &cfg, &bars).map_err(runtime)?;
+            let best = t.best;
+            (t.outcomes, Some((r, best)))
+        }
+    };
+    if let Some((r, best)) = best {
+        return write_best(&a, &outcomes, best, r, cfg.get_loss());
+    }
 
     if let [o] = &outcomes[..] {
         if let Some(p) = &a.out {
@@ -67,4 +79,39 @@ pub fn run(a: FitArgs) -> CliResult<()> {
         }
         write_text(None, &text)
     }
+}
+
+/// `--for`: the comparison, the choice and the best model (to --out, or stdout).
+fn write_best(
+    a: &FitArgs,
+    outcomes: &[Outcome],
+    best: usize,
+    r: crate::cli::Renderer,
+    loss: brdfkit::fit::Loss,
+) -> CliResult<()> {
+    let o = &outcomes[best];
+    if let Some(p) = &a.out {
+        write_atomic(p, pretty(&o.params)?.as_bytes())?;
+    }
+    if let Some(p) = &a.record {
+        write_atomic(p, pretty(&o.record)?.as_bytes())?;
+    }
+    let target = r.target().name();
+    if a.json {
+        let v: Vec<Value> = outcomes.iter().map(Outcome::to_json).collect();
+        let v = serde_json::json!({"for": target, "best": o.label, "outcomes": v});
+        return write_text(None, &pretty(&v)?);
+    }
+    let mut text = comparison_text(outcomes, loss);
+    text += &format!(
+        "best for {target}: {} (lowest {loss} loss); `fit-brdf export {} --to {target}` writes it\n",
+        o.label,
+        a.out
+            .as_ref()
+            .map_or_else(|| "PARAMS.json".into(), |p| p.display().to_string()),
+    );
+    if a.out.is_none() {
+        text += &pretty(&o.params)?;
+    }
+    write_text(None, &text)
 }

@@ -1,0 +1,301 @@
+//! Fits for a renderer (`fit-brdf fit --for mitsuba|pbrt|gltf`, `export --approximate`):
+//! exactly the configurations the renderer evaluates, with the renderer's free
+//! parameters free, each fitted in turn on the same cells and the best taken by the
+//! optimised loss.
+//!
+//! | target | material | brdfkit family | free | held |
+//! |--------|----------|----------------|------|------|
+//! | Mitsuba 3 | `diffuse` | `lambert` | ρd | |
+//! | Mitsuba 3 | `roughconductor` (GGX) | `cook-torrance` GGX, smith-separable, conductor | ρs, α, η, k | ρd = 0 |
+//! | Mitsuba 3 | `roughconductor` (Beckmann) | `cook-torrance` Beckmann (rational G1), smith-separable, conductor | ρs, α, η, k | ρd = 0 |
+//! | pbrt-v4 | `diffuse` | `lambert` | ρd | |
+//! | Mitsuba 3 | `roughplastic` | `rough-plastic` (GGX) | ρd, ρs, α, η | |
+//! | pbrt-v4 | `conductor` | `cook-torrance` GGX, smith-correlated, conductor | α, η, k | ρd = 0, ρs = 1 |
+//! | pbrt-v4 | `coateddiffuse` (approximately, docs/export.md) | `rough-plastic` (GGX) | ρd, α, η | ρs = 1 |
+//! | glTF 2.0 | metallic-roughness | `gltf-pbr` | baseColor, metallic, roughness | |
+//!
+//! η and k of a conductor are fixed by default in an ordinary fit (they trade off against
+//! ρs); here they are free, since the renderer takes them: the fitted colour shift is the
+//! material's, not the start's. Every fitted model is one `export` writes without error
+//! (the export's conditions are the held values above).
+
+use crate::families::{Family, FamilyFitError, FamilyObserver, Outcome, fit_each};
+use crate::{FitConfig, FitData};
+use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking};
+use brdfkit_core::{Model, Rgb};
+use brdfkit_models::cook_torrance::{CookTorrance, Fresnel};
+use brdfkit_models::gltf_pbr::GltfPbr;
+use brdfkit_models::lambert::Lambert;
+use brdfkit_models::rough_plastic::RoughPlastic;
+
+/// A renderer or format a model is fitted for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Target {
+    /// Mitsuba 3.
+    Mitsuba,
+    /// pbrt-v4.
+    Pbrt,
+    /// A glTF 2.0 metallic-roughness material.
+    Gltf,
+}
+
+impl Target {
+    /// Every target.
+    pub const ALL: [Target; 3] = [Target::Mitsuba, Target::Pbrt, Target::Gltf];
+
+    /// The name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Mitsuba => "mitsuba",
+            Target::Pbrt => "pbrt",
+            Target::Gltf => "gltf",
+        }
+    }
+}
+
+brdfkit_core::named_choice!(Target, "target");
+
+/// One configuration a target renders: the material's name in the renderer, the
+/// brdfkit family at its start, and the parameters freed or held beyond the model's
+/// defaults.
+pub struct TargetFamily {
+    /// The family (label: the renderer's material name).
+    pub family: Family,
+    /// Parameters freed (fixed by default in the model).
+    pub free: &'static [&'static str],
+    /// Parameters held at the start's value.
+    pub fixed: &'static [&'static str],
+}
+
+impl TargetFamily {
+    fn new(label: &str, model: Box<dyn Model>) -> Self {
+        TargetFamily {
+            family: Family {
+                label: label.into(),
+                model,
+            },
+            free: &[],
+            fixed: &[],
+        }
+    }
+
+    /// `cfg` with this family's freed and held parameters.
+    pub fn config(&self, cfg: &FitConfig) -> FitConfig {
+        cfg.clone()
+            .free_params(self.free.iter().copied())
+            .fix_params(self.fixed.iter().copied())
+    }
+}
+
+/// A conductor start: ρd = 0 (held), GGX or Beckmann with Walter's rational G1 (what
+/// Mitsuba evaluates), the conductor Fresnel at its default η, k.
+fn conductor(dist: Distribution, masking: Masking, rho_s: f64) -> Box<dyn Model> {
+    let ct = CookTorrance::new()
+        .with_rho_d(Rgb::ZERO)
+        .and_then(|c| c.with_rho_s(Rgb::splat(rho_s)))
+        .and_then(|c| c.with_fresnel(Fresnel::DEFAULT_CONDUCTOR))
+        .expect("the defaults are in their domains")
+        .with_distribution(dist)
+        .with_masking(masking)
+        .with_beckmann_g1(BeckmannG1::Rational);
+    Box::new(ct)
+}
+
+/// The configurations `t` renders (module table), in the order they are fitted.
+pub fn target_families(t: Target) -> Vec<TargetFamily> {
+    const ETA_K: &[&str] = &["eta", "k"];
+    let diffuse = || TargetFamily::new("diffuse", Box::new(Lambert::default()));
+    match t {
+        Target::Mitsuba => vec![
+            diffuse(),
+            TargetFamily {
+                free: ETA_K,
+                fixed: &["rho_d"],
+                ..TargetFamily::new(
+                    "roughconductor-ggx",
+                    conductor(Distribution::Ggx, Masking::SmithSeparable, 1.0),
+                )
+            },
+            TargetFamily {
+                free: ETA_K,
+                fixed: &["rho_d"],
+                ..TargetFamily::new(
+                    "roughconductor-beckmann",
+                    conductor(Distribution::Beckmann, Masking::SmithSeparable, 1.0),
+                )
+            },
+            TargetFamily {
+                free: &["eta"],
+                ..TargetFamily::new("roughplastic", Box::new(RoughPlastic::default()))
+            },
+        ],
+        Target::Pbrt => vec![
+            diffuse(),
+            TargetFamily {
+                free: ETA_K,
+                fixed: &["rho_d", "rho_s"],
+                ..TargetFamily::new(
+                    "conductor",
+                    conductor(Distribution::Ggx, Masking::SmithCorrelated, 1.0),
+                )
+            },
+            TargetFamily {
+                free: &["eta"],
+                fixed: &["rho_s"],
+                ..TargetFamily::new("coateddiffuse", Box::new(RoughPlastic::default()))
+            },
+        ],
+        Target::Gltf => vec![TargetFamily::new("gltf-pbr", Box::new(GltfPbr::default()))],
+    }
+}
+
+/// Every configuration of a target fitted, and the best.
+#[derive(Debug, Clone)]
+pub struct TargetFit {
+    /// One outcome per configuration, in [`target_families`] order.
+    pub outcomes: Vec<Outcome>,
+    /// The index of the best outcome by the optimised loss over all fitted cells.
+    pub best: usize,
+}
+
+impl TargetFit {
+    /// The best outcome.
+    pub fn best(&self) -> &Outcome {
+        &self.outcomes[self.best]
+    }
+}
+
+/// Fits every configuration of `t` on `data` with the settings of `cfg` (plus each
+/// family's freed and held parameters) and picks the best by `cfg`'s loss on all cells.
+pub fn fit_for(
+    data: &FitData,
+    t: Target,
+    cfg: &FitConfig,
+    obs: &dyn FamilyObserver,
+) -> Result<TargetFit, FamilyFitError> {
+    let fams = target_families(t);
+    let mut outcomes = Vec::with_capacity(fams.len());
+    for tf in &fams {
+        let one = [Family {
+            label: tf.family.label.clone(),
+            model: tf.family.model.clone(),
+        }];
+        outcomes.extend(fit_each(data, &one, &tf.config(cfg), obs)?);
+    }
+    let loss = cfg.get_loss();
+    let best = (0..outcomes.len())
+        .min_by(|&a, &b| {
+            let la = outcomes[a].record.losses_full.get(loss).overall;
+            let lb = outcomes[b].record.losses_full.get(loss).overall;
+            la.total_cmp(&lb)
+        })
+        .expect("every target has a configuration");
+    Ok(TargetFit { outcomes, best })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{Coverage, synth_data};
+    use crate::{Loss, resolve_free};
+    use brdfkit_merl::Dims;
+
+    #[test]
+    fn the_conductors_free_eta_and_k_and_hold_what_the_renderer_lacks() {
+        for t in Target::ALL {
+            for tf in target_families(t) {
+                let cfg = tf.config(&FitConfig::default());
+                let free = resolve_free(&*tf.family.model, &cfg).unwrap();
+                let names: Vec<String> = free
+                    .iter()
+                    .map(|&p| tf.family.model.param_specs()[p].name.clone())
+                    .collect();
+                if tf.family.label.contains("conductor") {
+                    for n in ["eta.r", "k.b", "alpha"] {
+                        assert!(
+                            names.iter().any(|x| x == n),
+                            "{}: {names:?}",
+                            tf.family.label
+                        );
+                    }
+                    assert!(!names.iter().any(|x| x.starts_with("rho_d")), "{names:?}");
+                    assert_eq!(
+                        names.iter().any(|x| x.starts_with("rho_s")),
+                        t == Target::Mitsuba,
+                        "{}: {names:?}",
+                        tf.family.label
+                    );
+                } else {
+                    let has = |f: &str| {
+                        names
+                            .iter()
+                            .any(|x| x == f || x.starts_with(&format!("{f}.")))
+                    };
+                    assert!(
+                        tf.free.iter().all(|f| has(f)),
+                        "{}: {names:?}",
+                        tf.family.label
+                    );
+                    assert!(
+                        !tf.fixed.iter().any(|f| has(f)),
+                        "{}: {names:?}",
+                        tf.family.label
+                    );
+                    assert!(!names.is_empty());
+                }
+            }
+        }
+        assert_eq!("pbrt".parse::<Target>().unwrap(), Target::Pbrt);
+        assert!("blender".parse::<Target>().is_err());
+    }
+
+    #[test]
+    fn a_conductor_is_recovered_with_its_eta_and_k_and_chosen_over_diffuse() {
+        // A gold-like conductor as pbrt renders it: the fit must find η, k (not keep the
+        // start's) and pick `conductor`.
+        let truth = CookTorrance::new()
+            .with_rho_d(Rgb::ZERO)
+            .and_then(|c| c.with_rho_s(Rgb::splat(1.0)))
+            .and_then(|c| {
+                c.with_fresnel(Fresnel::Conductor {
+                    eta: Rgb::new(0.143, 0.374, 1.442),
+                    k: Rgb::new(3.983, 2.385, 1.603),
+                })
+            })
+            .unwrap()
+            .with_masking(Masking::SmithCorrelated)
+            .with_alpha(0.25)
+            .unwrap();
+        let data = synth_data(
+            &truth,
+            Dims::new(30, 30, 60).unwrap(),
+            Coverage::AboveHorizon,
+        )
+        .unwrap();
+        let cfg = FitConfig::default().loss(Loss::Cbrt).starts(2).unwrap();
+        let r = fit_for(&data, Target::Pbrt, &cfg, &()).unwrap();
+        assert_eq!(r.best().label, "conductor");
+        let loss = r.best().record.losses_full.cbrt.overall;
+        assert!(loss < 1e-3, "loss {loss}");
+        let back = CookTorrance::from_params_json(&r.best().params["params"]).unwrap();
+        let Fresnel::Conductor { eta, k } = back.fresnel() else {
+            panic!("{}", r.best().params)
+        };
+        // F(θ) of the fit matches the truth's (η, k are identifiable only through F).
+        for c in [0.05, 0.5, 1.0] {
+            for ch in 0..3 {
+                let want = brdfkit_core::scattering::fresnel::conductor(
+                    c,
+                    [0.143, 0.374, 1.442][ch],
+                    [3.983, 2.385, 1.603][ch],
+                );
+                let got = brdfkit_core::scattering::fresnel::conductor(c, eta[ch], k[ch]);
+                assert!(
+                    (got - want).abs() < 0.02,
+                    "cos {c} ch {ch}: {got} vs {want}"
+                );
+            }
+        }
+        assert!(r.outcomes[0].record.losses_full.cbrt.overall > 10.0 * loss);
+    }
+}
