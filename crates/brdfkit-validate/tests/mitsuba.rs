@@ -1,24 +1,22 @@
 //! The Mitsuba 3 cross-check (see `brdfkit_validate::mitsuba` and docs/validation.md).
 //!
-//! The Python is `$BRDFKIT_PYTHON` or `<workspace>/.venv/bin/python`. With `CI` set
-//! (to anything but "", "0" or "false") a missing Mitsuba fails the test; without it,
-//! the test prints one loud line saying the cross-check did not run and passes.
+//! The Python is `$BRDFKIT_PYTHON` or `<workspace>/.venv/bin/python`. Without Mitsuba the
+//! tests that need it are ignored, with the reason (probed by build.rs, see
+//! build/external_tools.rs); with `CI` set (to anything but "", "0" or "false") a
+//! missing Mitsuba fails them.
 //!
 //! The measured maxima are written to stderr directly (not through `eprintln!`, which
 //! the test harness captures), so they show in every `cargo test` run.
 
+#[path = "../../../build/external_tools.rs"]
+mod external_tools;
+
 use brdfkit_validate::mitsuba::{
-    Comparison, DRJIT_VERSION, MITSUBA_VERSION, MitsubaError, cases, compare, find_python,
-    run_mitsuba, script_path, standard_configs, workspace_root,
+    Comparison, DRJIT_VERSION, MITSUBA_VERSION, MitsubaError, cases, compare, run_mitsuba,
+    script_path, standard_configs,
 };
+use external_tools::{require_mitsuba, under_ci};
 use std::io::Write;
-
-const ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
-                      (in the workspace root), or set BRDFKIT_PYTHON to a Python with mitsuba==3.9.1 and drjit==1.5.0";
-
-fn under_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| !matches!(v.as_str(), "" | "0" | "false"))
-}
 
 /// Uncaptured output: the harness captures `print!`/`eprint!`, not direct writes.
 fn say(s: &str) {
@@ -26,37 +24,18 @@ fn say(s: &str) {
     let _ = writeln!(e, "{s}");
 }
 
-/// Not available: a failure under CI, one loud line otherwise.
-fn unavailable(why: &str) {
-    if under_ci() {
-        panic!("the Mitsuba 3 cross-check could not run under CI: {why}. Install it: {ENABLE}");
-    }
-    say(&format!(
-        "!!! MITSUBA CROSS-CHECK DID NOT RUN: {why}. Enable it: {ENABLE}"
-    ));
-}
-
 #[test]
+#[cfg_attr(
+    not(has_mitsuba),
+    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
+)]
 fn mitsuba_cross_check() {
-    let root = workspace_root();
-    let Some(python) = find_python(&root) else {
-        unavailable(&format!(
-            "no Python (BRDFKIT_PYTHON unset and {} missing)",
-            root.join(".venv/bin/python").display()
-        ));
-        return;
-    };
+    let python = require_mitsuba();
     let configs = standard_configs();
     let cases = cases(0x4D49_5453);
     let t = std::time::Instant::now();
-    let out = match run_mitsuba(&python, &script_path(), &configs, &cases) {
-        Ok(o) => o,
-        Err(MitsubaError::Missing(why)) => {
-            unavailable(&format!("{} ({})", why, python.display()));
-            return;
-        }
-        Err(e) => panic!("the Mitsuba side failed: {e}"),
-    };
+    let out = run_mitsuba(&python, &script_path(), &configs, &cases)
+        .unwrap_or_else(|e| panic!("the Mitsuba side failed: {e}"));
     let pinned = out.mitsuba == MITSUBA_VERSION && out.drjit == DRJIT_VERSION;
     if !pinned {
         let msg = format!(
@@ -151,20 +130,13 @@ fn a_missing_interpreter_is_reported_as_missing() {
     assert!(matches!(e, MitsubaError::Missing(_)), "{e}");
 }
 
-/// For the secondary tests: a failure under CI, silence otherwise (the main test
-/// prints the one loud line).
-fn quietly_unavailable(why: &str) {
-    if under_ci() {
-        unavailable(why);
-    }
-}
-
 #[test]
+#[cfg_attr(
+    not(has_mitsuba),
+    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
+)]
 fn mitsuba_rejects_a_bad_bsdf_with_a_named_error() {
-    let Some(python) = find_python(&workspace_root()) else {
-        quietly_unavailable("no Python");
-        return;
-    };
+    let python = require_mitsuba();
     let mut cfg = standard_configs().remove(0);
     cfg.name = "broken".into();
     cfg.mitsuba = serde_json::json!({"type": "no-such-plugin"});
@@ -175,7 +147,6 @@ fn mitsuba_rejects_a_bad_bsdf_with_a_named_error() {
                 "{stderr}"
             )
         }
-        Err(MitsubaError::Missing(why)) => quietly_unavailable(&why),
         other => panic!("expected a failure, got {other:?}"),
     }
 }

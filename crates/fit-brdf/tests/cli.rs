@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{bin, stderr, synth_output, synth_spec};
+use common::{bin, small_plastic_spec, stderr, synth_output, synth_spec};
 use std::path::{Path, PathBuf};
 
 const SMALL_LAMBERT: &str = r#"
@@ -345,20 +345,9 @@ fn render_writes_png_and_exr_and_rejects_bad_scenes() {
     assert!(stderr(&o).contains("bad.toml"), "{}", stderr(&o));
 }
 
-const SMALL_PLASTIC: &str = r#"
-name = "small-plastic"
-dims = [24, 24, 48]
-[material]
-model = "cook-torrance"
-[material.params]
-rho_d = [0.4, 0.2, 0.1]
-rho_s = 1.0
-alpha = 0.15
-fresnel = { schlick = { f0 = 0.04 } }
-"#;
-
 fn small_plastic(dir: &Path) -> PathBuf {
-    synth_spec(dir, "plastic", SMALL_PLASTIC)
+    let spec = small_plastic_spec("small-plastic", [0.4, 0.2, 0.1], 0.15);
+    synth_spec(dir, "plastic", &spec)
 }
 
 #[test]

@@ -3,17 +3,18 @@
 //! pbrt-v4's `ConductorBxDF::f`; unsupported configurations refused with exit 2.
 //!
 //! The Mitsuba check runs `python/export_check.py` under `$BRDFKIT_PYTHON` or
-//! `<workspace>/.venv/bin/python` (the discovery of brdfkit-validate's cross-check). With
-//! `CI` set (to anything but "", "0" or "false") a missing Mitsuba fails the test;
-//! without it the test prints one loud line and passes.
+//! `<workspace>/.venv/bin/python` (the discovery of brdfkit-validate's cross-check).
+//! Without Mitsuba that test is ignored, with the reason (probed by build.rs, see
+//! build/external_tools.rs); with `CI` set (to anything but "", "0" or "false") a missing
+//! Mitsuba fails it.
 
 mod common;
+#[path = "../../../build/external_tools.rs"]
+mod external_tools;
 
 use brdfkit::core::{Rgb, Vec3};
 use brdfkit::models::cook_torrance::Shape;
-use brdfkit_validate::mitsuba::{
-    CrossConfig, Tolerance, cases, compare, find_python, workspace_root,
-};
+use brdfkit_validate::mitsuba::{CrossConfig, Tolerance, cases, compare};
 use common::{bin, stderr, synth_spec};
 use serde_json::{Value, json};
 use std::io::Write;
@@ -22,23 +23,6 @@ use std::path::{Path, PathBuf};
 /// Uncaptured output: the harness captures `eprintln!`, not direct writes.
 fn say(s: &str) {
     let _ = writeln!(std::io::stderr().lock(), "{s}");
-}
-
-fn under_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| !matches!(v.as_str(), "" | "0" | "false"))
-}
-
-fn unavailable(why: &str) {
-    if under_ci() {
-        panic!(
-            "the Mitsuba export check could not run under CI: {why}. Install it: python3 -m venv .venv \
-             && .venv/bin/pip install -r python/requirements.txt"
-        );
-    }
-    say(&format!(
-        "!!! MITSUBA EXPORT CHECK DID NOT RUN: {why}. Enable it: python3 -m venv .venv && \
-         .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)"
-    ));
 }
 
 const GOLD_ETA: [f64; 3] = [0.143, 0.374, 1.442];
@@ -120,15 +104,12 @@ fn cross(c: &Case, mitsuba: Value, model: Value) -> CrossConfig {
 }
 
 #[test]
+#[cfg_attr(
+    not(has_mitsuba),
+    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
+)]
 fn mitsuba_export_loads_in_mitsuba_and_matches_the_model() {
-    let root = workspace_root();
-    let Some(python) = find_python(&root) else {
-        unavailable(&format!(
-            "no Python (BRDFKIT_PYTHON unset and {} missing)",
-            root.join(".venv/bin/python").display()
-        ));
-        return;
-    };
+    let python = external_tools::require_mitsuba();
     let d = tempfile::tempdir().unwrap();
     // Every 8th case of the cross-check: 700 pairs with grazing, mirror and near-normal
     // configurations, float32-exact so both sides see the same bits.
@@ -164,10 +145,6 @@ fn mitsuba_export_loads_in_mitsuba_and_matches_the_model() {
         .arg(&output)
         .output()
         .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
-    if o.status.code() == Some(3) {
-        unavailable(&format!("{} ({})", stderr(&o).trim(), python.display()));
-        return;
-    }
     assert!(o.status.success(), "export_check.py failed: {}", stderr(&o));
     let out: Value = serde_json::from_slice(&std::fs::read(&output).unwrap()).unwrap();
     let values = |v: &Value| -> Vec<Rgb> {

@@ -1,46 +1,21 @@
 //! `fit-brdf report`: the files, their content, and the failure modes, driven as a user
 //! would.
 
+mod common;
+
 use assert_cmd::Command;
+use common::{bin, names, small_plastic_spec, stderr, synth_spec};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
+const FIVE: &str = "lambert,plausible-phong,ward,lafortune,cook-torrance";
 
 /// A small red plastic (the demo's material on a 24 × 24 × 48 grid): cook-torrance
 /// fits it exactly, the other families cannot.
-const SMALL_PLASTIC: &str = r#"
-name = "small-plastic"
-dims = [24, 24, 48]
-[material]
-model = "cook-torrance"
-[material.params]
-rho_d = [0.45, 0.08, 0.05]
-rho_s = 1.0
-alpha = 0.12
-distribution = "ggx"
-masking = "smith-separable"
-fresnel = { schlick = { f0 = [0.04, 0.04, 0.04] } }
-"#;
-
-const FIVE: &str = "lambert,plausible-phong,ward,lafortune,cook-torrance";
-
 fn small_table(dir: &Path) -> PathBuf {
-    let spec = dir.join("small.toml");
-    std::fs::write(&spec, SMALL_PLASTIC).unwrap();
-    let out = dir.join("small.binary");
-    bin()
-        .arg("synth")
-        .arg(&spec)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
-    out
+    let spec = small_plastic_spec("small-plastic", [0.45, 0.08, 0.05], 0.12);
+    synth_spec(dir, "small", &spec)
 }
-
 /// The quick settings of these tests: the five families, one start, small renders.
 fn report(table: &Path, out: &Path) -> Command {
     report_of(table, out, FIVE)
@@ -54,19 +29,6 @@ fn report_of(table: &Path, out: &Path, models: &str) -> Command {
         .args(["--env-spp", "4", "--quiet", "--out"])
         .arg(out);
     c
-}
-
-fn stderr(o: &std::process::Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 #[test]

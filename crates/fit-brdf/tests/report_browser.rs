@@ -2,44 +2,17 @@
 //! taken and checked not blank, and the page's own check (every <img> decoded, the
 //! summary table filled) read back from the rendered DOM.
 //!
-//! Needs Debian's `chromium` (`apt-get install chromium`). Without it the test prints
-//! one loud line and does not run; with `CI` set, a missing browser is a failure.
+//! Needs Debian's `chromium` (`apt-get install chromium`). Without it the test is
+//! ignored, with the reason (probed by build.rs, see build/external_tools.rs); with `CI`
+//! set, a missing browser is a failure.
 
-use assert_cmd::Command;
-use std::path::{Path, PathBuf};
+mod common;
+#[path = "../../../build/external_tools.rs"]
+mod external_tools;
+
+use common::{bin, small_plastic_spec, synth_spec};
+use std::path::Path;
 use std::process::Output;
-
-const SPEC: &str = r#"
-name = "browser-plastic"
-dims = [24, 24, 48]
-[material]
-model = "cook-torrance"
-[material.params]
-rho_d = [0.45, 0.08, 0.05]
-rho_s = 1.0
-alpha = 0.12
-distribution = "ggx"
-fresnel = { schlick = { f0 = 0.04 } }
-"#;
-
-fn find_chromium() -> Option<PathBuf> {
-    // An explicit browser (CHROMIUM=/path) first, when it exists.
-    if let Some(p) = std::env::var_os("CHROMIUM").map(PathBuf::from)
-        && p.is_file()
-    {
-        return Some(p);
-    }
-    let path = std::env::var_os("PATH").unwrap_or_default();
-    for name in ["chromium", "chromium-browser"] {
-        for dir in std::env::split_paths(&path).chain([PathBuf::from("/usr/bin")]) {
-            let p = dir.join(name);
-            if p.is_file() {
-                return Some(p);
-            }
-        }
-    }
-    None
-}
 
 /// Headless Chromium with a fresh profile and no network chatter.
 fn chromium(exe: &Path, profile: &Path, extra: &[&str], url: &str) -> Output {
@@ -72,33 +45,17 @@ fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
 }
 
 #[test]
+#[cfg_attr(
+    not(has_chromium),
+    ignore = "needs chromium (apt-get install chromium)"
+)]
 fn the_report_renders_in_a_browser_with_every_image() {
-    let Some(exe) = find_chromium() else {
-        if std::env::var_os("CI").is_some() {
-            panic!(
-                "CI is set and chromium is missing: the browser check of the report cannot run (apt-get install chromium)"
-            );
-        }
-        eprintln!(
-            "!!!!! BROWSER CHECK DID NOT RUN: chromium not found; `apt-get install chromium` (Debian) to enable it (under CI it is required) !!!!!"
-        );
-        return;
-    };
+    let exe = external_tools::require_chromium();
     let d = tempfile::tempdir().unwrap();
-    let spec = d.path().join("spec.toml");
-    std::fs::write(&spec, SPEC).unwrap();
-    let table = d.path().join("t.binary");
-    Command::cargo_bin("fit-brdf")
-        .unwrap()
-        .arg("synth")
-        .arg(&spec)
-        .arg("--out")
-        .arg(&table)
-        .assert()
-        .success();
+    let spec = small_plastic_spec("browser-plastic", [0.45, 0.08, 0.05], 0.12);
+    let table = synth_spec(d.path(), "t", &spec);
     let out = d.path().join("report");
-    Command::cargo_bin("fit-brdf")
-        .unwrap()
+    bin()
         .arg("report")
         .arg(&table)
         .args(["--models", "lambert,ward,cook-torrance", "--starts", "1"])

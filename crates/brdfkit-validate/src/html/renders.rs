@@ -10,7 +10,7 @@ use brdfkit_merl::{Lookup, MerlTable};
 use brdfkit_render::env::{Environment, LatLong, uv_to_direction};
 use brdfkit_render::material::MaterialSource;
 use brdfkit_render::output::tonemap_channel;
-use brdfkit_render::{Material, RenderOutput, Scene, TableBrdf, render};
+use brdfkit_render::{RenderOutput, Scene, SceneMaterial, TableBrdf, render};
 use image::{ImageFormat, RgbImage};
 use serde::{Deserialize, Serialize};
 use std::io::Cursor;
@@ -187,7 +187,7 @@ pub fn studio_environment() -> Environment {
     })
 }
 
-fn scene_for(l: Lighting, o: &RenderOptions, m: &Material) -> Result<Scene, ReportError> {
+fn scene_for(l: Lighting, o: &RenderOptions, m: &SceneMaterial) -> Result<Scene, ReportError> {
     let mut scene = Scene::from_toml_str(&scene_text(l, o), format!("report-{l:?}.toml"))
         .map_err(|e| ReportError::Render(e.to_string()))?;
     for slot in scene.materials.iter_mut() {
@@ -206,7 +206,7 @@ fn run(scene: &Scene) -> Result<RenderOutput, ReportError> {
 /// A fitted model's render: a shared model once, a per-channel fit once per channel
 /// (channel c of image c).
 fn render_fitted(l: Lighting, o: &RenderOptions, f: &Fitted) -> Result<Vec<Rgb>, ReportError> {
-    let mat = |m: &dyn brdfkit_core::Model| Material::Model {
+    let mat = |m: &dyn brdfkit_core::Model| SceneMaterial::Model {
         model: Arc::from(m.clone_box()),
         source: MaterialSource::Inline,
     };
@@ -324,7 +324,7 @@ pub(crate) fn render_set(
     fits: &[&Fitted],
 ) -> Result<RenderSet, ReportError> {
     let t0 = std::time::Instant::now();
-    let tab_mat = Material::Table {
+    let tab_mat = SceneMaterial::Table {
         brdf: TableBrdf::new(table.clone(), Lookup::Interpolated),
         source: MaterialSource::Inline,
     };

@@ -1,7 +1,9 @@
-//! Helpers shared by the CLI test files: the binary, its stderr, and a synthesised
-//! table from a spec text.
+//! Helpers shared by the CLI test files: the binary, its stderr, a synthesised table
+//! from a spec text, the spec of a small plastic, and hand-built `.npy` files.
 
 #![allow(dead_code)] // each test file uses its own subset
+
+pub mod npy;
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
@@ -46,4 +48,35 @@ pub fn synth_output(spec: &Path, out: &Path) -> std::process::Output {
         .arg(out)
         .output()
         .unwrap()
+}
+
+/// The spec of a small (24 × 24 × 48) red-ish plastic named `name`: Cook-Torrance GGX
+/// with diffuse `rho_d`, ρs = 1, roughness `alpha` and Schlick f0 = 0.04.
+pub fn small_plastic_spec(name: &str, rho_d: [f64; 3], alpha: f64) -> String {
+    format!(
+        "name = \"{name}\"\ndims = [24, 24, 48]\n[material]\nmodel = \"cook-torrance\"\n\
+         [material.params]\nrho_d = {rho_d:?}\nrho_s = 1.0\nalpha = {alpha:?}\n\
+         distribution = \"ggx\"\nfresnel = {{ schlick = {{ f0 = 0.04 }} }}\n"
+    )
+}
+
+/// The names of the entries of `dir`, sorted.
+pub fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Asserts that a command was refused as bad input: exit code 2, a stderr that names
+/// every one of `needles`, and no panic.
+pub fn assert_bad_input(o: &std::process::Output, needles: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{n}` not in {err}");
+    }
 }
