@@ -10,16 +10,45 @@
 //!   run the checks, and a missing tool fails them loudly;
 //! - a test calls [`require_mitsuba`] / [`require_chromium`], which return the tool or
 //!   panic saying how to install it (under CI, after a stale probe, or with
-//!   `--include-ignored`).
+//!   `--include-ignored`);
+//! - the tests are declared with `mitsuba_test!` / `chromium_test!` (`#[test]` plus the
+//!   `cfg_attr` and its reason, in one place); the including `mod` needs `#[macro_use]`.
 //!
 //! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`; Chromium is
 //! `$CHROMIUM`, else `chromium` or `chromium-browser` on the `PATH` or in `/usr/bin`.
 
-// Build scripts use the probes, tests the `require_*` functions: neither uses all.
-#![allow(dead_code)]
+// Build scripts use the probes, tests the `require_*` functions and the macros: neither
+// uses all.
+#![allow(dead_code, unused_macros)]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+/// `#[test]`, ignored with the reason when the build script found no Mitsuba 3.
+macro_rules! mitsuba_test {
+    ($(#[$m:meta])* fn $name:ident() $body:block) => {
+        $(#[$m])*
+        #[test]
+        #[cfg_attr(
+            not(has_mitsuba),
+            ignore = "needs Mitsuba 3: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)"
+        )]
+        fn $name() $body
+    };
+}
+
+/// `#[test]`, ignored with the reason when the build script found no Chromium.
+macro_rules! chromium_test {
+    ($(#[$m:meta])* fn $name:ident() $body:block) => {
+        $(#[$m])*
+        #[test]
+        #[cfg_attr(
+            not(has_chromium),
+            ignore = "needs chromium: apt-get install chromium (or set CHROMIUM)"
+        )]
+        fn $name() $body
+    };
+}
 
 /// How to get Mitsuba 3 for the cross-checks.
 pub const MITSUBA_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \

@@ -18,6 +18,7 @@
 
 mod common;
 #[path = "../../../build/external_tools.rs"]
+#[macro_use]
 mod external_tools;
 
 use brdfkit_render::{Scene, render};
@@ -221,99 +222,81 @@ constant = [0.9, 1.0, 1.2]
     )
 }
 
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn point_light_ggx_conductor_matches_mitsuba() {
-    check("point-ggx", &point_scene(GGX_CONDUCTOR), None, 0.01);
+mitsuba_test! {
+    fn point_light_ggx_conductor_matches_mitsuba() {
+        check("point-ggx", &point_scene(GGX_CONDUCTOR), None, 0.01);
+    }
 }
 
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn point_light_lambert_matches_mitsuba() {
-    check("point-lambert", &point_scene(LAMBERT), None, 0.01);
+mitsuba_test! {
+    fn point_light_lambert_matches_mitsuba() {
+        check("point-lambert", &point_scene(LAMBERT), None, 0.01);
+    }
 }
 
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn directional_light_matches_mitsuba() {
-    check(
-        "directional-ggx",
-        &directional_scene(GGX_CONDUCTOR),
-        None,
-        0.01,
-    );
-    check(
-        "directional-lambert",
-        &directional_scene(LAMBERT),
-        None,
-        0.01,
-    );
+mitsuba_test! {
+    fn directional_light_matches_mitsuba() {
+        check(
+            "directional-ggx",
+            &directional_scene(GGX_CONDUCTOR),
+            None,
+            0.01,
+        );
+        check(
+            "directional-lambert",
+            &directional_scene(LAMBERT),
+            None,
+            0.01,
+        );
+    }
 }
 
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn constant_environment_ggx_conductor_matches_mitsuba() {
-    check(
-        "env-ggx",
-        &constant_env_scene(GGX_CONDUCTOR, 256),
-        Some(256),
-        0.03,
-    );
+mitsuba_test! {
+    fn constant_environment_ggx_conductor_matches_mitsuba() {
+        check(
+            "env-ggx",
+            &constant_env_scene(GGX_CONDUCTOR, 256),
+            Some(256),
+            0.03,
+        );
+    }
 }
 
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn constant_environment_lambert_matches_mitsuba() {
-    check(
-        "env-lambert",
-        &constant_env_scene(LAMBERT, 256),
-        Some(256),
-        0.03,
-    );
+mitsuba_test! {
+    fn constant_environment_lambert_matches_mitsuba() {
+        check(
+            "env-lambert",
+            &constant_env_scene(LAMBERT, 256),
+            Some(256),
+            0.03,
+        );
+    }
 }
 
-/// A lat-long EXR with a smooth, lopsided sky (a broad lobe towards +x, +y, +z over a
-/// dim base): any flip of u or v, or an offset of the azimuth, moves the lobe and fails.
-/// Mitsuba's `envmap` interpolates bilinearly, brdfkit reads texels as constant; on a
-/// smooth 128 x 64 image the difference integrates away on a Lambertian sphere.
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn lat_long_environment_matches_mitsuba() {
-    let text = constant_env_scene(LAMBERT, 256).replace(
-        "constant = [0.9, 1.0, 1.2]",
-        "file = \"sky.exr\"\nscale = 1.5",
-    );
-    check_with("env-latlong-lambert", &text, Some(256), 0.03, |dir| {
-        let (w, h) = (128u32, 64u32);
-        let s = brdfkit_core::Vec3::new(0.6, 0.5, 0.6).normalize();
-        let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
-            let d = brdfkit_render::env::uv_to_direction(
-                (x as f64 + 0.5) / w as f64,
-                (y as f64 + 0.5) / h as f64,
-            );
-            let lobe = d.dot(&s).max(0.0).powi(3) as f32;
-            image::Rgb([0.1 + 2.0 * lobe, 0.15 + 1.5 * lobe, 0.2 + lobe])
+mitsuba_test! {
+    /// A lat-long EXR with a smooth, lopsided sky (a broad lobe towards +x, +y, +z over a
+    /// dim base): any flip of u or v, or an offset of the azimuth, moves the lobe and fails.
+    /// Mitsuba's `envmap` interpolates bilinearly, brdfkit reads texels as constant; on a
+    /// smooth 128 x 64 image the difference integrates away on a Lambertian sphere.
+    fn lat_long_environment_matches_mitsuba() {
+        let text = constant_env_scene(LAMBERT, 256).replace(
+            "constant = [0.9, 1.0, 1.2]",
+            "file = \"sky.exr\"\nscale = 1.5",
+        );
+        check_with("env-latlong-lambert", &text, Some(256), 0.03, |dir| {
+            let (w, h) = (128u32, 64u32);
+            let s = brdfkit_core::Vec3::new(0.6, 0.5, 0.6).normalize();
+            let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
+                let d = brdfkit_render::env::uv_to_direction(
+                    (x as f64 + 0.5) / w as f64,
+                    (y as f64 + 0.5) / h as f64,
+                );
+                let lobe = d.dot(&s).max(0.0).powi(3) as f32;
+                image::Rgb([0.1 + 2.0 * lobe, 0.15 + 1.5 * lobe, 0.2 + lobe])
+            });
+            img.save(dir.join("sky.exr")).unwrap();
         });
-        img.save(dir.join("sky.exr")).unwrap();
-    });
+    }
 }
 
 /// Sphere over a floor: the floor (a 2000 x 2000 `rectangle` in Mitsuba, the infinite
@@ -337,30 +320,24 @@ material = {{ {LAMBERT} }}
     )
 }
 
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn point_light_shadow_on_a_floor_matches_mitsuba() {
-    let text = floor_scene(
-        r#"["direct", "shadows"]"#,
-        "filter = \"center\"",
-        "[[light]]\ntype = \"point\"\nposition = [-1.5, 3.0, 1.0]\nintensity = [20.0, 18.0, 15.0]",
-    );
-    check("floor-point-shadow", &text, None, 0.01);
+mitsuba_test! {
+    fn point_light_shadow_on_a_floor_matches_mitsuba() {
+        let text = floor_scene(
+            r#"["direct", "shadows"]"#,
+            "filter = \"center\"",
+            "[[light]]\ntype = \"point\"\nposition = [-1.5, 3.0, 1.0]\nintensity = [20.0, 18.0, 15.0]",
+        );
+        check("floor-point-shadow", &text, None, 0.01);
+    }
 }
 
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn environment_occlusion_on_a_floor_matches_mitsuba() {
-    let text = floor_scene(
-        r#"["environment", "shadows"]"#,
-        "filter = \"box\"\nspp = 256\nseed = 3\nshow_environment = false",
-        "[environment]\nconstant = [0.9, 1.0, 1.2]",
-    );
-    check("floor-env-shadow", &text, Some(256), 0.03);
+mitsuba_test! {
+    fn environment_occlusion_on_a_floor_matches_mitsuba() {
+        let text = floor_scene(
+            r#"["environment", "shadows"]"#,
+            "filter = \"box\"\nspp = 256\nseed = 3\nshow_environment = false",
+            "[environment]\nconstant = [0.9, 1.0, 1.2]",
+        );
+        check("floor-env-shadow", &text, Some(256), 0.03);
+    }
 }

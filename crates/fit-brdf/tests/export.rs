@@ -10,6 +10,7 @@
 
 mod common;
 #[path = "../../../build/external_tools.rs"]
+#[macro_use]
 mod external_tools;
 
 use brdfkit::core::{Rgb, Vec3};
@@ -103,114 +104,111 @@ fn cross(c: &Case, mitsuba: Value, model: Value) -> CrossConfig {
     }
 }
 
-#[test]
-#[cfg_attr(
-    not(has_mitsuba),
-    ignore = "needs .venv with Mitsuba 3 (python/requirements.txt)"
-)]
-fn mitsuba_export_loads_in_mitsuba_and_matches_the_model() {
-    let python = external_tools::require_mitsuba();
-    let d = tempfile::tempdir().unwrap();
-    // Every 8th case of the cross-check: 700 pairs with grazing, mirror and near-normal
-    // configurations, float32-exact so both sides see the same bits.
-    let pairs: Vec<(Vec3, Vec3)> = cases(0x4558_504f).into_iter().step_by(8).collect();
-    assert!(pairs.len() >= 500);
-    let configs = mitsuba_cases();
-    let mut exports = Vec::new();
-    for c in &configs {
-        let xml = export(d.path(), &c.model, &["--to", "mitsuba", "--quiet"]);
-        let dict = export(
-            d.path(),
-            &c.model,
-            &["--to", "mitsuba", "--format", "dict", "--quiet"],
-        );
-        let dict: Value = serde_json::from_str(&dict).expect("--format dict is JSON");
-        exports.push(json!({"name": c.name, "xml": xml, "dict": dict}));
-    }
-    let input = d.path().join("in.json");
-    let output = d.path().join("out.json");
-    let flat: Vec<[f64; 6]> = pairs
-        .iter()
-        .map(|(a, b)| [a.x, a.y, a.z, b.x, b.y, b.z])
-        .collect();
-    std::fs::write(
-        &input,
-        json!({"variant": "scalar_rgb", "cases": flat, "exports": exports}).to_string(),
-    )
-    .unwrap();
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/export_check.py");
-    let o = std::process::Command::new(&python)
-        .arg(&script)
-        .arg(&input)
-        .arg(&output)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
-    assert!(o.status.success(), "export_check.py failed: {}", stderr(&o));
-    let out: Value = serde_json::from_slice(&std::fs::read(&output).unwrap()).unwrap();
-    let values = |v: &Value| -> Vec<Rgb> {
-        v.as_array()
-            .unwrap()
+mitsuba_test! {
+    fn mitsuba_export_loads_in_mitsuba_and_matches_the_model() {
+        let python = external_tools::require_mitsuba();
+        let d = tempfile::tempdir().unwrap();
+        // Every 8th case of the cross-check: 700 pairs with grazing, mirror and near-normal
+        // configurations, float32-exact so both sides see the same bits.
+        let pairs: Vec<(Vec3, Vec3)> = cases(0x4558_504f).into_iter().step_by(8).collect();
+        assert!(pairs.len() >= 500);
+        let configs = mitsuba_cases();
+        let mut exports = Vec::new();
+        for c in &configs {
+            let xml = export(d.path(), &c.model, &["--to", "mitsuba", "--quiet"]);
+            let dict = export(
+                d.path(),
+                &c.model,
+                &["--to", "mitsuba", "--format", "dict", "--quiet"],
+            );
+            let dict: Value = serde_json::from_str(&dict).expect("--format dict is JSON");
+            exports.push(json!({"name": c.name, "xml": xml, "dict": dict}));
+        }
+        let input = d.path().join("in.json");
+        let output = d.path().join("out.json");
+        let flat: Vec<[f64; 6]> = pairs
             .iter()
-            .map(|x| {
-                Rgb::new(
-                    x[0].as_f64().unwrap(),
-                    x[1].as_f64().unwrap(),
-                    x[2].as_f64().unwrap(),
-                )
-            })
-            .collect()
-    };
-    for (c, r) in configs.iter().zip(out["exports"].as_array().unwrap()) {
-        assert_eq!(r["name"], c.name);
-        let (xml, dict) = (values(&r["xml"]), values(&r["dict"]));
-        assert_eq!(xml.len(), pairs.len());
-        assert_eq!(
-            xml, dict,
-            "{}: the XML and the dict are the same BSDF",
-            c.name
-        );
-        let plugin = if c.name == "lambert" {
-            "SmoothDiffuse"
-        } else {
-            "RoughConductor"
-        };
-        assert_eq!(
-            (r["xml_type"].as_str(), r["dict_type"].as_str()),
-            (Some(plugin), Some(plugin))
-        );
-        let cfg = cross(c, Value::Null, c.model.clone());
-        let cmp = compare(&cfg, &pairs, &xml).unwrap();
-        say(&format!(
-            "export {} (Mitsuba {}, {plugin}): {}",
-            c.name,
-            out["mitsuba"].as_str().unwrap_or("?"),
-            cmp.to_text()
-        ));
-        assert!(cmp.passed, "{cmp}");
-        assert!(cmp.max_rel_diff > 0.0, "{}: float32 leaves a trace", c.name);
-    }
-    // The comparison can fail: the anisotropic export against the model with its axes
-    // swapped, and the scaled gold against the model without ρs.
-    let swapped = {
-        let mut m = configs[2].model.clone();
-        m["params"]["alpha_x"] = json!(0.45);
-        m["params"]["alpha_y"] = json!(0.12);
-        m
-    };
-    let unscaled = {
-        let mut m = configs[1].model.clone();
-        m["params"]["rho_s"] = json!(1.0);
-        m
-    };
-    for (k, wrong) in [(2usize, swapped), (1, unscaled)] {
-        let r = &out["exports"][k];
-        let cmp = compare(
-            &cross(&configs[k], Value::Null, wrong),
-            &pairs,
-            &values(&r["xml"]),
+            .map(|(a, b)| [a.x, a.y, a.z, b.x, b.y, b.z])
+            .collect();
+        std::fs::write(
+            &input,
+            json!({"variant": "scalar_rgb", "cases": flat, "exports": exports}).to_string(),
         )
         .unwrap();
-        assert!(!cmp.passed, "a wrong model must not match: {cmp}");
+        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/export_check.py");
+        let o = std::process::Command::new(&python)
+            .arg(&script)
+            .arg(&input)
+            .arg(&output)
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
+        assert!(o.status.success(), "export_check.py failed: {}", stderr(&o));
+        let out: Value = serde_json::from_slice(&std::fs::read(&output).unwrap()).unwrap();
+        let values = |v: &Value| -> Vec<Rgb> {
+            v.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| {
+                    Rgb::new(
+                        x[0].as_f64().unwrap(),
+                        x[1].as_f64().unwrap(),
+                        x[2].as_f64().unwrap(),
+                    )
+                })
+                .collect()
+        };
+        for (c, r) in configs.iter().zip(out["exports"].as_array().unwrap()) {
+            assert_eq!(r["name"], c.name);
+            let (xml, dict) = (values(&r["xml"]), values(&r["dict"]));
+            assert_eq!(xml.len(), pairs.len());
+            assert_eq!(
+                xml, dict,
+                "{}: the XML and the dict are the same BSDF",
+                c.name
+            );
+            let plugin = if c.name == "lambert" {
+                "SmoothDiffuse"
+            } else {
+                "RoughConductor"
+            };
+            assert_eq!(
+                (r["xml_type"].as_str(), r["dict_type"].as_str()),
+                (Some(plugin), Some(plugin))
+            );
+            let cfg = cross(c, Value::Null, c.model.clone());
+            let cmp = compare(&cfg, &pairs, &xml).unwrap();
+            say(&format!(
+                "export {} (Mitsuba {}, {plugin}): {}",
+                c.name,
+                out["mitsuba"].as_str().unwrap_or("?"),
+                cmp.to_text()
+            ));
+            assert!(cmp.passed, "{cmp}");
+            assert!(cmp.max_rel_diff > 0.0, "{}: float32 leaves a trace", c.name);
+        }
+        // The comparison can fail: the anisotropic export against the model with its axes
+        // swapped, and the scaled gold against the model without ρs.
+        let swapped = {
+            let mut m = configs[2].model.clone();
+            m["params"]["alpha_x"] = json!(0.45);
+            m["params"]["alpha_y"] = json!(0.12);
+            m
+        };
+        let unscaled = {
+            let mut m = configs[1].model.clone();
+            m["params"]["rho_s"] = json!(1.0);
+            m
+        };
+        for (k, wrong) in [(2usize, swapped), (1, unscaled)] {
+            let r = &out["exports"][k];
+            let cmp = compare(
+                &cross(&configs[k], Value::Null, wrong),
+                &pairs,
+                &values(&r["xml"]),
+            )
+            .unwrap();
+            assert!(!cmp.passed, "a wrong model must not match: {cmp}");
+        }
     }
 }
 
