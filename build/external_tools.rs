@@ -24,29 +24,27 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// `#[test]`, ignored with the reason when the build script found no Mitsuba 3.
-macro_rules! mitsuba_test {
-    ($(#[$m:meta])* fn $name:ident() $body:block) => {
+/// `#[test]`, ignored with `$reason` unless the build script set `$cfg`.
+macro_rules! tool_test {
+    ($cfg:ident, $reason:literal, $(#[$m:meta])* fn $name:ident() $body:block) => {
         $(#[$m])*
         #[test]
-        #[cfg_attr(
-            not(has_mitsuba),
-            ignore = "needs Mitsuba 3: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)"
-        )]
+        #[cfg_attr(not($cfg), ignore = $reason)]
         fn $name() $body
     };
 }
 
-/// `#[test]`, ignored with the reason when the build script found no Chromium.
+/// A test that needs Mitsuba 3 (see [`tool_test`]).
+macro_rules! mitsuba_test {
+    ($($t:tt)*) => {
+        tool_test! { has_mitsuba, "needs Mitsuba 3: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)", $($t)* }
+    };
+}
+
+/// A test that needs Chromium (see [`tool_test`]).
 macro_rules! chromium_test {
-    ($(#[$m:meta])* fn $name:ident() $body:block) => {
-        $(#[$m])*
-        #[test]
-        #[cfg_attr(
-            not(has_chromium),
-            ignore = "needs chromium: apt-get install chromium (or set CHROMIUM)"
-        )]
-        fn $name() $body
+    ($($t:tt)*) => {
+        tool_test! { has_chromium, "needs chromium: apt-get install chromium (or set CHROMIUM)", $($t)* }
     };
 }
 

@@ -169,6 +169,46 @@ fn stop_tests(
     TerminationStatus::NotTerminated
 }
 
+/// The [`Solver`] impl of a normal-equation solver `$solver` (fields `ne`, `failed`,
+/// `criterion`, `tol`): `init` evaluates the normal equations at the start point and
+/// calls the solver's `started`, `next_iter` is its `iterate`, `terminate` the shared
+/// stop tests.
+macro_rules! normal_equation_solver {
+    ($solver:ty, $name:literal, [$($bound:tt)+]) => {
+        impl<O> Solver<O, LsState> for $solver
+        where
+            O: $($bound)+,
+        {
+            fn name(&self) -> &str {
+                $name
+            }
+
+            fn init(
+                &mut self,
+                problem: &mut Problem<O>,
+                state: LsState,
+            ) -> Result<(LsState, Option<KV>), Error> {
+                let (u, ne) = start(problem, &state, $name)?;
+                self.started(&ne);
+                Ok((settle(&mut self.ne, state, u, ne, true), None))
+            }
+
+            fn next_iter(
+                &mut self,
+                problem: &mut Problem<O>,
+                state: LsState,
+            ) -> Result<(LsState, Option<KV>), Error> {
+                self.iterate(problem, state)
+            }
+
+            fn terminate(&mut self, state: &LsState) -> TerminationStatus {
+                let ne = self.ne.as_ref();
+                stop_tests(self.failed, &mut self.criterion, ne, state, self.tol.gtol)
+            }
+        }
+    };
+}
+
 /// Levenberg-Marquardt with Marquardt's diagonal scaling and Nielsen's damping update.
 ///
 /// Iteration (Madsen, Nielsen & Tingleff, *Methods for Non-Linear Least Squares
@@ -222,33 +262,25 @@ impl LevenbergMarquardt {
     }
 }
 
-impl<O> Solver<O, LsState> for LevenbergMarquardt
-where
-    O: NormalEquations + CostFunction<Param = DVector<f64>, Output = f64>,
-{
-    fn name(&self) -> &str {
-        "Levenberg-Marquardt"
-    }
-
-    fn init(
-        &mut self,
-        problem: &mut Problem<O>,
-        state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error> {
-        let (u, ne) = start(problem, &state, "Levenberg-Marquardt")?;
+impl LevenbergMarquardt {
+    /// μ = τ · max diag(JᵀJ) at the start point.
+    fn started(&mut self, ne: &NormalEq) {
         let max = (0..ne.jtj.nrows())
             .map(|q| ne.jtj[(q, q)])
             .fold(0.0, f64::max);
         self.mu = self.tau * if max > 0.0 { max } else { 1.0 };
         self.nu = 2.0;
-        Ok((settle(&mut self.ne, state, u, ne, true), None))
     }
 
-    fn next_iter(
+    /// One accepted step (with the rejected trials it took), or a stop.
+    fn iterate<O>(
         &mut self,
         problem: &mut Problem<O>,
         mut state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error> {
+    ) -> Result<(LsState, Option<KV>), Error>
+    where
+        O: NormalEquations + CostFunction<Param = DVector<f64>, Output = f64>,
+    {
         let (u, ne) = resume(&mut state, &mut self.ne, "Levenberg-Marquardt")?;
         let d = scaling(&ne.jtj);
         let maxd = d.max();
@@ -330,12 +362,13 @@ where
             rejected += 1;
         }
     }
-
-    fn terminate(&mut self, state: &LsState) -> TerminationStatus {
-        let ne = self.ne.as_ref();
-        stop_tests(self.failed, &mut self.criterion, ne, state, self.tol.gtol)
-    }
 }
+
+normal_equation_solver!(
+    LevenbergMarquardt,
+    "Levenberg-Marquardt",
+    [NormalEquations + CostFunction<Param = DVector<f64>, Output = f64>]
+);
 
 /// Access to the cost floor from a state (the solvers store it as the target cost).
 trait FloorOf {
@@ -383,30 +416,21 @@ impl GaussNewtonLs {
     }
 }
 
-impl<O> Solver<O, LsState> for GaussNewtonLs
-where
-    O: NormalEquations
-        + CostFunction<Param = DVector<f64>, Output = f64>
-        + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>,
-{
-    fn name(&self) -> &str {
-        "Gauss-Newton with line search"
-    }
+impl GaussNewtonLs {
+    /// Nothing to set up beyond the shared start.
+    fn started(&mut self, _ne: &NormalEq) {}
 
-    fn init(
-        &mut self,
-        problem: &mut Problem<O>,
-        state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error> {
-        let (u, ne) = start(problem, &state, "Gauss-Newton")?;
-        Ok((settle(&mut self.ne, state, u, ne, true), None))
-    }
-
-    fn next_iter(
+    /// One step along the Gauss-Newton direction, its length from the line search.
+    fn iterate<O>(
         &mut self,
         problem: &mut Problem<O>,
         mut state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error> {
+    ) -> Result<(LsState, Option<KV>), Error>
+    where
+        O: NormalEquations
+            + CostFunction<Param = DVector<f64>, Output = f64>
+            + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>,
+    {
         let (u, ne) = resume(&mut state, &mut self.ne, "Gauss-Newton")?;
         let m = ne.jtj.nrows();
         let maxd = (0..m).map(|q| ne.jtj[(q, q)]).fold(0.0, f64::max);
@@ -455,12 +479,15 @@ where
         }
         Ok((settle(&mut self.ne, state, un, ne2, true), None))
     }
-
-    fn terminate(&mut self, state: &LsState) -> TerminationStatus {
-        let ne = self.ne.as_ref();
-        stop_tests(self.failed, &mut self.criterion, ne, state, self.tol.gtol)
-    }
 }
+
+normal_equation_solver!(
+    GaussNewtonLs,
+    "Gauss-Newton with line search",
+    [NormalEquations
+         + CostFunction<Param = DVector<f64>, Output = f64>
+         + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>]
+);
 
 /// Wraps an argmin solver and stops it when the best cost has not decreased by more
 /// than `ftol` (relative) over `window` consecutive iterations, or has reached the

@@ -13,15 +13,7 @@ fn recover(truth_json: &str, start_json: &str, tol: f64) {
     let truth = model(truth_json);
     let start = model(start_json);
     let data = synth(truth.as_ref(), dims(45, 45, 90), Coverage::All);
-    let res = fit(start.as_ref(), &data, &FitConfig::default(), None).unwrap();
-    let (err, name) = worst_param(&res, truth.as_ref());
-    assert!(res.record.converged, "{}: {}", truth.name(), show(&res));
-    assert!(
-        err <= tol,
-        "{}: parameter {name} off by {err:e} relative: {}",
-        truth.name(),
-        show(&res)
-    );
+    let (res, err, name) = fit_recovers(start.as_ref(), truth.as_ref(), &data, tol);
     // The cube roots of f·cos θi are O(0.1 … 1): a perfect fit leaves ~1e-16 of that
     // (measured 2e-17 … 1e-15).
     let l = res.record.losses_full.cbrt.overall;

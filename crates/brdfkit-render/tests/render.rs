@@ -85,6 +85,16 @@ fn sphere_scene(effects: &str, material: &str, lights: &str, film_extra: &str) -
     format!("effects = {effects}\n{blocks}[material]\n{material}\n{lights}\n")
 }
 
+/// The sphere view with `material` under `lights` (direct light only), written in `dir`
+/// (where the files it names are) and rendered.
+fn render_direct_in(dir: &Path, material: &str, lights: &str) -> RenderOutput {
+    render(&scene_in(
+        dir,
+        &sphere_scene(r#"["direct"]"#, material, lights, ""),
+    ))
+    .unwrap()
+}
+
 /// For each pixel of the sphere view: Some(normal) on the sphere, None off it, skipping
 /// silhouette pixels.
 fn sphere_pixels() -> Vec<(usize, usize, Option<Vec3>)> {
@@ -544,27 +554,17 @@ fn a_merl_table_of_lambert_renders_as_lambert() {
     let table = MerlTable::from_brdf(&lambert, Dims::MERL).unwrap();
     table.write(dir.path().join("lambert.binary")).unwrap();
     let light = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2.5]\nintensity = [10, 20, 30]";
-    let model = render(&scene_in(
+    let model = render_direct_in(
         dir.path(),
-        &sphere_scene(
-            r#"["direct"]"#,
-            r#"model = { model = "lambert", params = { rho_d = [0.8, 0.5, 0.3] } }"#,
-            light,
-            "",
-        ),
-    ))
-    .unwrap();
+        r#"model = { model = "lambert", params = { rho_d = [0.8, 0.5, 0.3] } }"#,
+        light,
+    );
     for lookup in ["nearest", "interpolated"] {
-        let tab = render(&scene_in(
+        let tab = render_direct_in(
             dir.path(),
-            &sphere_scene(
-                r#"["direct"]"#,
-                &format!("table = \"lambert.binary\"\nlookup = \"{lookup}\""),
-                light,
-                "",
-            ),
-        ))
-        .unwrap();
+            &format!("table = \"lambert.binary\"\nlookup = \"{lookup}\""),
+            light,
+        );
         // Every valid cell holds ρ/π exactly as the model (stored in raw units, so to
         // round-off); a lookup in a missing cell (near grazing) renders 0 and is counted.
         let mut zero_where_model_lit = 0;
@@ -601,21 +601,12 @@ fn a_merl_table_of_a_glossy_model_renders_close_to_the_model() {
         .unwrap();
     std::fs::write(dir.path().join("ct.json"), json).unwrap();
     let light = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2.5]\nintensity = 10";
-    let a = render(&scene_in(
+    let a = render_direct_in(dir.path(), "model = \"ct.json\"", light);
+    let b = render_direct_in(
         dir.path(),
-        &sphere_scene(r#"["direct"]"#, "model = \"ct.json\"", light, ""),
-    ))
-    .unwrap();
-    let b = render(&scene_in(
-        dir.path(),
-        &sphere_scene(
-            r#"["direct"]"#,
-            "table = \"ct.binary\"\nlookup = \"interpolated\"",
-            light,
-            "",
-        ),
-    ))
-    .unwrap();
+        "table = \"ct.binary\"\nlookup = \"interpolated\"",
+        light,
+    );
     let max = a
         .radiance
         .iter()
@@ -652,21 +643,12 @@ fn missing_table_cells_render_black_and_are_counted() {
         .write(dir.path().join("coarse.binary"))
         .unwrap();
     let light = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2.5]\nintensity = 10";
-    let model = render(&scene_in(
+    let model = render_direct_in(
         dir.path(),
-        &sphere_scene(
-            r#"["direct"]"#,
-            r#"model = { model = "lambert", params = { rho_d = 0.5 } }"#,
-            light,
-            "",
-        ),
-    ))
-    .unwrap();
-    let tab = render(&scene_in(
-        dir.path(),
-        &sphere_scene(r#"["direct"]"#, "table = \"coarse.binary\"", light, ""),
-    ))
-    .unwrap();
+        r#"model = { model = "lambert", params = { rho_d = 0.5 } }"#,
+        light,
+    );
+    let tab = render_direct_in(dir.path(), "table = \"coarse.binary\"", light);
     let mut black = 0u64;
     for (a, b) in tab.radiance.iter().zip(&model.radiance) {
         if *a == Rgb::ZERO && b.max_channel() > 0.0 {

@@ -16,7 +16,7 @@ mod external_tools;
 use brdfkit::core::{Rgb, Vec3};
 use brdfkit::models::cook_torrance::Shape;
 use brdfkit_validate::mitsuba::{CrossConfig, Tolerance, cases, compare};
-use common::{bin, stderr, synth_spec};
+use common::{assert_bad_input, bin, stderr, synth_spec};
 use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -381,8 +381,7 @@ fn refused(model: &Path, to: &str, needle: &str) {
         .args(["--to", to])
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains(needle), "{}", stderr(&o));
+    assert_bad_input(&o, &[needle]);
 }
 
 #[test]

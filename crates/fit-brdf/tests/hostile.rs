@@ -162,6 +162,24 @@ fn a_non_utf8_path_is_handled() {
     bin().arg("info").arg(&good).assert().success();
 }
 
+/// `fit-brdf <verb> FILE --out OUT` on FILE holding `text`: refused as by [`rejects`],
+/// and nothing written at OUT.
+fn rejects_writing(verb: &str, file: &Path, text: impl AsRef<[u8]>, out: &Path, what: &str) {
+    std::fs::write(file, text).unwrap();
+    let args = [
+        verb.as_ref(),
+        file.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    rejects(&args, file, what);
+    assert!(
+        !out.exists(),
+        "{}: no output from a bad input",
+        file.display()
+    );
+}
+
 /// `fit-brdf <cmd> FILE ...` on a bad file: exit 2, the file named, `what` said.
 fn rejects(args: &[&std::ffi::OsStr], file: &Path, what: &str) {
     let o = bin().args(args).output().unwrap();
@@ -204,19 +222,7 @@ fn bad_specs_are_rejected() {
         ("syntax.toml", "name = \"x\n", "TOML"),
     ];
     for (file, text, what) in cases {
-        let p = d.path().join(file);
-        std::fs::write(&p, text).unwrap();
-        rejects(
-            &[
-                "synth".as_ref(),
-                p.as_os_str(),
-                "--out".as_ref(),
-                out.as_os_str(),
-            ],
-            &p,
-            what,
-        );
-        assert!(!out.exists(), "{file}: no output on a bad spec");
+        rejects_writing("synth", &d.path().join(file), text, &out, what);
     }
 }
 
@@ -308,18 +314,6 @@ fn bad_scenes_are_rejected() {
         ("syntax.toml", "effects = [\n".to_string(), "TOML"),
     ];
     for (file, text, what) in cases {
-        let p = d.path().join(file);
-        std::fs::write(&p, text).unwrap();
-        rejects(
-            &[
-                "render".as_ref(),
-                p.as_os_str(),
-                "--out".as_ref(),
-                out.as_os_str(),
-            ],
-            &p,
-            what,
-        );
-        assert!(!out.exists(), "{file}: no image on a bad scene");
+        rejects_writing("render", &d.path().join(file), text, &out, what);
     }
 }

@@ -50,14 +50,23 @@ pub fn synth_output(spec: &Path, out: &Path) -> std::process::Output {
         .unwrap()
 }
 
-/// The spec of a small (24 × 24 × 48) red-ish plastic named `name`: Cook-Torrance GGX
-/// with diffuse `rho_d`, ρs = 1, roughness `alpha` and Schlick f0 = 0.04.
-pub fn small_plastic_spec(name: &str, rho_d: [f64; 3], alpha: f64) -> String {
+/// The text of a synth spec: `name`, grid `dims`, material `model` with the TOML
+/// `params` lines.
+pub fn spec_text(name: &str, dims: [usize; 3], model: &str, params: &str) -> String {
     format!(
-        "name = \"{name}\"\ndims = [24, 24, 48]\n[material]\nmodel = \"cook-torrance\"\n\
-         [material.params]\nrho_d = {rho_d:?}\nrho_s = 1.0\nalpha = {alpha:?}\n\
-         distribution = \"ggx\"\nfresnel = {{ schlick = {{ f0 = 0.04 }} }}\n"
+        "name = \"{name}\"\ndims = {dims:?}\n[material]\nmodel = \"{model}\"\n\
+         [material.params]\n{params}\n"
     )
+}
+
+/// The spec of a small (24 × 24 × 48) plastic named `name`: Cook-Torrance GGX with
+/// diffuse `rho_d`, ρs = 1, roughness `alpha` and Schlick f0 = 0.04.
+pub fn small_plastic_spec(name: &str, rho_d: [f64; 3], alpha: f64) -> String {
+    let params = format!(
+        "rho_d = {rho_d:?}\nrho_s = 1.0\nalpha = {alpha:?}\ndistribution = \"ggx\"\n\
+         fresnel = {{ schlick = {{ f0 = 0.04 }} }}"
+    );
+    spec_text(name, [24, 24, 48], "cook-torrance", &params)
 }
 
 /// The names of the entries of `dir`, sorted.
