@@ -158,29 +158,30 @@ fn which_normalisation_bounds_the_albedo() {
     assert!(!spec_only(Normalization::Ward, 0.1).conserves_energy());
 }
 
+/// The albedo of the spec-only lobe (normalisation `n`, roughness `a`) at θo = `deg`
+/// degrees.
+fn spec_albedo(n: Normalization, a: f64, deg: f64) -> f64 {
+    let wo = spherical(deg.to_radians(), 0.0);
+    directional_albedo(&spec_only(n, a), &wo, &azimuth_converged_rule()).r()
+}
+
 #[test]
 fn original_ward_loses_energy_then_diverges_at_the_horizon() {
     // Dür 2006's analysis: for narrow lobes Ward's 1/√(cos θi cos θo) gives an albedo
     // ≈ cos θo (too dark away from the normal), while at the horizon 1/√cos θo
     // diverges and the albedo exceeds 1.
-    let q = azimuth_converged_rule();
-    let wo = spherical(60f64.to_radians(), 0.0);
-    let a = directional_albedo(&spec_only(Normalization::Ward, 0.01), &wo, &q).r();
+    let a = spec_albedo(Normalization::Ward, 0.01, 60.0);
     assert!((a - 0.5).abs() < 1e-3, "{a}");
-    let wo = spherical(89.9f64.to_radians(), 0.0);
-    let a = directional_albedo(&spec_only(Normalization::Ward, 0.5), &wo, &q).r();
+    let a = spec_albedo(Normalization::Ward, 0.5, 89.9);
     assert!(a > 1.4, "{a}");
     // Dür's normalisation: ≈ 1 for the narrow lobe at 60°, above 1 at 85° for α = 0.3.
-    let wo = spherical(60f64.to_radians(), 0.0);
-    let a = directional_albedo(&spec_only(Normalization::Duer, 0.01), &wo, &q).r();
+    let a = spec_albedo(Normalization::Duer, 0.01, 60.0);
     assert!((a - 1.0).abs() < 1e-3, "{a}");
-    let wo = spherical(85f64.to_radians(), 0.0);
-    let a = directional_albedo(&spec_only(Normalization::Duer, 0.3), &wo, &q).r();
+    let a = spec_albedo(Normalization::Duer, 0.3, 85.0);
     assert!(a > 1.2, "{a}");
     // At normal incidence with a narrow lobe all three give ≈ ρs.
-    let z = Vec3::new(0.0, 0.0, 1.0);
     for n in NORMS {
-        let a = directional_albedo(&spec_only(n, 0.02), &z, &q).r();
+        let a = spec_albedo(n, 0.02, 0.0);
         assert!((a - 1.0).abs() < 2e-3, "{n:?}: {a}");
     }
 }
