@@ -109,6 +109,16 @@ fn sweep<M: Brdf>(
     (max_a, worst_at)
 }
 
+/// [`sweep`] of a Phong-type lobe: the exponents EXPONENTS, about the mirror direction.
+fn phong_sweep<M: Brdf>(
+    label: &str,
+    make: impl Fn(f64) -> M,
+    check: impl FnMut(f64, &M, &[f64]),
+    tol: (f64, f64),
+) -> (f64, (f64, f64)) {
+    sweep(label, &EXPONENTS, Pole::Mirror, make, check, tol)
+}
+
 fn wo_at(deg: f64) -> Vec3 {
     spherical(deg.to_radians(), 0.4)
 }
@@ -154,15 +164,7 @@ fn plausible_phong_conserves_energy() {
             );
         }
     };
-    let tol = (5e-6, 1e-7);
-    let (max_a, _) = sweep(
-        "plausible-phong",
-        &EXPONENTS,
-        Pole::Mirror,
-        make,
-        check,
-        tol,
-    );
+    let (max_a, _) = phong_sweep("plausible-phong", make, check, (5e-6, 1e-7));
     assert!(max_a <= 1.0 + 1e-9, "albedo {max_a}");
     // And a mixture at the limit ρd + ρs = 1, per channel.
     let m = PlausiblePhong::new(Rgb::new(0.3, 0.6, 0.0), Rgb::new(0.7, 0.4, 1.0), 10.0).unwrap();
@@ -213,15 +215,7 @@ fn blinn_phong_albedo_exceeds_one_as_documented() {
     let make = |n| BlinnPhong::new(Rgb::ZERO, Rgb::splat(1.0), n).unwrap();
     // The lobe squeezed by cos θo at grazing (n = 10⁴, 89°) is the default rule's
     // hardest case; the fine rule still resolves it.
-    let tol = (2e-5, 1e-7);
-    let (max_a, _) = sweep(
-        "blinn-phong",
-        &EXPONENTS,
-        Pole::Mirror,
-        make,
-        |_, _, _| {},
-        tol,
-    );
+    let (max_a, _) = phong_sweep("blinn-phong", make, |_, _, _| {}, (2e-5, 1e-7));
     // ρs = 1 overshoots: conserves_energy() is false, and ρd + 1.076 ρs ≤ 1 suffices.
     assert!(max_a > 1.05 && max_a < 1.076, "{max_a}");
     assert!(!BlinnPhong::default().conserves_energy());
