@@ -63,6 +63,22 @@ fn flat_rows(pairs: &[(Vec3, Vec3)]) -> Vec<f64> {
         .collect()
 }
 
+/// Times `run` five times and prints `merl <what>` with the median rate over PAIRS pairs.
+fn print_rate(what: &str, mut run: impl FnMut()) {
+    let mut runs = Vec::new();
+    for _ in 0..5 {
+        let s = Instant::now();
+        run();
+        runs.push(s.elapsed());
+    }
+    let m = median(runs).as_secs_f64();
+    println!(
+        "merl {what}: {PAIRS} pairs in {:.1} ms (median of 5): {:.2} M pairs/s",
+        m * 1e3,
+        PAIRS as f64 / m / 1e6
+    );
+}
+
 fn median(mut v: Vec<Duration>) -> Duration {
     v.sort();
     v[v.len() / 2]
@@ -189,31 +205,13 @@ fn main() {
         ("nearest", Lookup::Nearest),
         ("interpolated", Lookup::Interpolated),
     ] {
-        let mut runs = Vec::new();
-        for _ in 0..5 {
-            let s = Instant::now();
+        print_rate(&format!("{name} lookup"), || {
             black_box(t.lookup_batch(mode, &pairs));
-            runs.push(s.elapsed());
-        }
-        let m = median(runs).as_secs_f64();
-        println!(
-            "merl {name} lookup: {PAIRS} pairs in {:.1} ms (median of 5): {:.2} M pairs/s",
-            m * 1e3,
-            PAIRS as f64 / m / 1e6
-        );
+        });
         let mut out = vec![0.0; 3 * PAIRS];
-        let mut runs = Vec::new();
-        for _ in 0..5 {
-            let s = Instant::now();
+        print_rate(&format!("{name} lookup_flat"), || {
             t.lookup_flat(mode, &rows, &mut out).unwrap();
             black_box(&out);
-            runs.push(s.elapsed());
-        }
-        let m = median(runs).as_secs_f64();
-        println!(
-            "merl {name} lookup_flat: {PAIRS} pairs in {:.1} ms (median of 5): {:.2} M pairs/s",
-            m * 1e3,
-            PAIRS as f64 / m / 1e6
-        );
+        });
     }
 }

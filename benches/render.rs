@@ -7,24 +7,22 @@ use brdfkit_render::{Scene, render};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::time::Duration;
 
-const SPHERE: &str = r#"
-[film]
-width = 256
-height = 256
-spp = 16
-[camera]
-position = [0, 0, 4]
-look_at = [0, 0, 0]
-fov = 40
-[sphere]
-center = [0, 0, 0]
-radius = 1
-[material]
-model = { model = "cook-torrance", params = { rho_d = 0.3, rho_s = 0.5, alpha = 0.2, fresnel = { conductor = { eta = 0.2, k = 3.0 } } } }
-"#;
+#[path = "../crates/brdfkit-render/tests/common/mod.rs"]
+mod common;
+
+use common::{Camera, film_camera_sphere};
 
 fn scene(effects: &str, light: &str) -> Scene {
-    let text = format!("effects = [{effects}]\n{SPHERE}\n{light}");
+    let cam = Camera {
+        position: [0.0, 0.0, 4.0],
+        look_at: [0.0; 3],
+        fov: 40.0,
+    };
+    let blocks = film_camera_sphere((256, 256), "spp = 16", &cam, [0.0; 3], 1.0);
+    let text = format!(
+        "effects = [{effects}]\n{blocks}[material]\nmodel = {{ model = \"cook-torrance\", params = \
+         {{ rho_d = 0.3, rho_s = 0.5, alpha = 0.2, fresnel = {{ conductor = {{ eta = 0.2, k = 3.0 }} }} }} }}\n{light}"
+    );
     Scene::from_toml_str(&text, "bench.toml").expect("bench scene")
 }
 

@@ -174,6 +174,21 @@ fn describe(reason: Option<&TerminationReason>, criterion: Option<&str>) -> (Str
     }
 }
 
+/// `run` from where `prev` ended; the outcome counts the iterations and passes of both
+/// runs.
+fn run_on(
+    prev: &Outcome,
+    run: impl FnOnce(DVector<f64>) -> Result<Outcome, FitError>,
+) -> Result<Outcome, FitError> {
+    let r = run(prev.u.clone())?;
+    Ok(Outcome {
+        iterations: prev.iterations + r.iterations,
+        cost_evals: prev.cost_evals + r.cost_evals,
+        jac_evals: prev.jac_evals + r.jac_evals,
+        ..r
+    })
+}
+
 /// Runs one start with the configured solver.
 fn run_start(
     problem: FitProblem<'_>,
@@ -335,24 +350,14 @@ fn sub_stage(
         && !w.converged
         && w.iterations >= config.get_max_iters() * rounds
     {
-        let r = run_start(
-            problem.clone(),
-            w.u.clone(),
-            config,
-            observer,
-            k,
-            channel,
-            true,
-        )?;
+        let r = run_on(&w, |u| {
+            run_start(problem.clone(), u, config, observer, k, channel, true)
+        })?;
         rounds += 1;
         let gain = w.cost - r.cost;
-        let capped = r.iterations >= config.get_max_iters();
-        w = Outcome {
-            iterations: w.iterations + r.iterations,
-            cost_evals: w.cost_evals + r.cost_evals,
-            jac_evals: w.jac_evals + r.jac_evals,
-            ..r
-        };
+        // This round alone ran into the iteration cap.
+        let capped = r.iterations - w.iterations >= config.get_max_iters();
+        w = r;
         // Stop unless it improved by more than ftol (relative); a NaN gain stops too.
         let improved = gain > config.get_tolerances().ftol * w.cost;
         if !improved || !capped {
@@ -453,14 +458,20 @@ fn run_pass(
         (kind, Some(scale)) => Some(Robust { kind, scale }),
         (_, None) => None,
     };
+    /// What every stage's problem shares: model, free parameters, channels, config,
+    /// robust loss, albedo penalty.
+    type Parts<'a> = (
+        &'a dyn Model,
+        &'a [usize],
+        &'a [usize],
+        &'a FitConfig,
+        Option<Robust>,
+        &'a Option<Arc<AlbedoPenalty>>,
+    );
+    /// The problem on a subsample `d` (none without one).
     fn sub_problem<'d>(
         d: Option<&'d FitData>,
-        model: &dyn Model,
-        free: &[usize],
-        channels: &[usize],
-        config: &FitConfig,
-        given: Option<Robust>,
-        penalty: &Option<Arc<AlbedoPenalty>>,
+        (model, free, channels, config, given, penalty): Parts<'_>,
     ) -> Result<Option<FitProblem<'d>>, FitError> {
         d.map(|d| {
             let p = FitProblem::new(
@@ -479,24 +490,9 @@ fn run_pass(
         })
         .transpose()
     }
-    let warm_problem = sub_problem(
-        warm_data.as_ref(),
-        model,
-        &free,
-        &channels,
-        config,
-        given,
-        &penalty,
-    )?;
-    let explore_problem = sub_problem(
-        explore_data.as_ref(),
-        model,
-        &free,
-        &channels,
-        config,
-        given,
-        &penalty,
-    )?;
+    let parts: Parts<'_> = (model, &free, &channels, config, given, &penalty);
+    let warm_problem = sub_problem(warm_data.as_ref(), parts)?;
+    let explore_problem = sub_problem(explore_data.as_ref(), parts)?;
     let auto = config.robust != RobustKind::None && config.robust_scale.is_none();
     let stage1 = match given {
         Some(r) => problem.with_robust(r),
@@ -702,19 +698,10 @@ fn run_pass(
                         Ok(o) => o,
                         Err(e) => return (k, Err(e)),
                     };
-                    let o = run_start(
-                        rp.clone(),
-                        o1.u.clone(),
-                        config,
-                        observer,
-                        k,
-                        channel,
-                        false,
-                    )
+                    let o = run_on(&o1, |u| {
+                        run_start(rp.clone(), u, config, observer, k, channel, false)
+                    })
                     .map(|mut o| {
-                        o.iterations += o1.iterations;
-                        o.cost_evals += o1.cost_evals;
-                        o.jac_evals += o1.jac_evals;
                         o.warm = o1.warm.clone();
                         o.explore = o1.explore.clone();
                         o

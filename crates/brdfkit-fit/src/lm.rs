@@ -92,6 +92,123 @@ fn damped_step(
     h.iter().all(|v| v.is_finite()).then_some(h)
 }
 
+/// The normal equations at the start point, which must have a finite cost.
+fn start<O: NormalEquations>(
+    problem: &mut Problem<O>,
+    state: &LsState,
+    solver: &str,
+) -> Result<(DVector<f64>, NormalEq), Error> {
+    let u = state
+        .get_param()
+        .cloned()
+        .ok_or_else(|| Error::msg(format!("{solver} needs a start point")))?;
+    let ne = problem.problem("jacobian_count", |p| p.normal_equations(&u))?;
+    if !ne.cost.is_finite() {
+        return Err(Error::msg("the cost at the start point is not finite"));
+    }
+    Ok((u, ne))
+}
+
+/// The current point and its normal equations, taken out of the state and the solver.
+fn resume(
+    state: &mut LsState,
+    slot: &mut Option<NormalEq>,
+    solver: &str,
+) -> Result<(DVector<f64>, NormalEq), Error> {
+    let u = state
+        .take_param()
+        .ok_or_else(|| Error::msg(format!("{solver} lost its parameter")))?;
+    let ne = slot.take().ok_or_else(|| Error::msg("not initialised"))?;
+    Ok((u, ne))
+}
+
+/// Moves the state to `u` with its normal equations `ne` (kept for the next iteration
+/// and the stop tests); with the gradient when `u` is a new point.
+fn settle(
+    slot: &mut Option<NormalEq>,
+    state: LsState,
+    u: DVector<f64>,
+    ne: NormalEq,
+    new: bool,
+) -> LsState {
+    let state = state.param(u).cost(ne.cost);
+    let state = if new {
+        state.gradient(ne.jtr.clone())
+    } else {
+        state
+    };
+    *slot = Some(ne);
+    state
+}
+
+/// The stop tests both solvers share: a failure, a rule that fired in the iteration,
+/// the cost at the round-off floor, or gtol.
+fn stop_tests(
+    failed: Option<&'static str>,
+    criterion: &mut Option<&'static str>,
+    ne: Option<&NormalEq>,
+    state: &LsState,
+    gtol: f64,
+) -> TerminationStatus {
+    if let Some(why) = failed {
+        return TerminationStatus::Terminated(TerminationReason::SolverExit(why.into()));
+    }
+    if criterion.is_some() {
+        return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+    }
+    if let Some(ne) = ne {
+        if ne.cost <= state.get_problem_floor() {
+            *criterion = Some("cost at the round-off floor of a perfect fit");
+            return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+        }
+        if gradient_cosine(ne) <= gtol {
+            *criterion = Some("gradient orthogonal to the residuals (gtol)");
+            return TerminationStatus::Terminated(TerminationReason::SolverConverged);
+        }
+    }
+    TerminationStatus::NotTerminated
+}
+
+/// The [`Solver`] impl of a normal-equation solver `$solver` (fields `ne`, `failed`,
+/// `criterion`, `tol`): `init` evaluates the normal equations at the start point and
+/// calls the solver's `started`, `next_iter` is its `iterate`, `terminate` the shared
+/// stop tests.
+macro_rules! normal_equation_solver {
+    ($solver:ty, $name:literal, [$($bound:tt)+]) => {
+        impl<O> Solver<O, LsState> for $solver
+        where
+            O: $($bound)+,
+        {
+            fn name(&self) -> &str {
+                $name
+            }
+
+            fn init(
+                &mut self,
+                problem: &mut Problem<O>,
+                state: LsState,
+            ) -> Result<(LsState, Option<KV>), Error> {
+                let (u, ne) = start(problem, &state, $name)?;
+                self.started(&ne);
+                Ok((settle(&mut self.ne, state, u, ne, true), None))
+            }
+
+            fn next_iter(
+                &mut self,
+                problem: &mut Problem<O>,
+                state: LsState,
+            ) -> Result<(LsState, Option<KV>), Error> {
+                self.iterate(problem, state)
+            }
+
+            fn terminate(&mut self, state: &LsState) -> TerminationStatus {
+                let ne = self.ne.as_ref();
+                stop_tests(self.failed, &mut self.criterion, ne, state, self.tol.gtol)
+            }
+        }
+    };
+}
+
 /// Levenberg-Marquardt with Marquardt's diagonal scaling and Nielsen's damping update.
 ///
 /// Iteration (Madsen, Nielsen & Tingleff, *Methods for Non-Linear Least Squares
@@ -145,62 +262,34 @@ impl LevenbergMarquardt {
     }
 }
 
-impl<O> Solver<O, LsState> for LevenbergMarquardt
-where
-    O: NormalEquations + CostFunction<Param = DVector<f64>, Output = f64>,
-{
-    fn name(&self) -> &str {
-        "Levenberg-Marquardt"
-    }
-
-    fn init(
-        &mut self,
-        problem: &mut Problem<O>,
-        state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error> {
-        let u = state
-            .get_param()
-            .cloned()
-            .ok_or_else(|| Error::msg("Levenberg-Marquardt needs a start point"))?;
-        let ne = problem.problem("jacobian_count", |p| p.normal_equations(&u))?;
-        if !ne.cost.is_finite() {
-            return Err(Error::msg("the cost at the start point is not finite"));
-        }
+impl LevenbergMarquardt {
+    /// μ = τ · max diag(JᵀJ) at the start point.
+    fn started(&mut self, ne: &NormalEq) {
         let max = (0..ne.jtj.nrows())
             .map(|q| ne.jtj[(q, q)])
             .fold(0.0, f64::max);
         self.mu = self.tau * if max > 0.0 { max } else { 1.0 };
         self.nu = 2.0;
-        let cost = ne.cost;
-        let g = ne.jtr.clone();
-        self.ne = Some(ne);
-        Ok((state.param(u).cost(cost).gradient(g), None))
     }
 
-    fn next_iter(
+    /// One accepted step (with the rejected trials it took), or a stop.
+    fn iterate<O>(
         &mut self,
         problem: &mut Problem<O>,
         mut state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error> {
-        let u = state
-            .take_param()
-            .ok_or_else(|| Error::msg("Levenberg-Marquardt lost its parameter"))?;
-        let ne = self
-            .ne
-            .take()
-            .ok_or_else(|| Error::msg("not initialised"))?;
+    ) -> Result<(LsState, Option<KV>), Error>
+    where
+        O: NormalEquations + CostFunction<Param = DVector<f64>, Output = f64>,
+    {
+        let (u, ne) = resume(&mut state, &mut self.ne, "Levenberg-Marquardt")?;
         let d = scaling(&ne.jtj);
         let maxd = d.max();
         let mut rejected = 0u64;
         loop {
             if self.mu > 1e30 * maxd.max(1e-300) {
                 self.failed = Some("damping grew past 1e30 without a descent step");
-                let cost = ne.cost;
-                self.ne = Some(ne);
-                return Ok((
-                    state.param(u).cost(cost),
-                    Some(argmin::kv!("rejected" => rejected;)),
-                ));
+                let kv = argmin::kv!("rejected" => rejected;);
+                return Ok((settle(&mut self.ne, state, u, ne, false), Some(kv)));
             }
             let Some(h) = damped_step(&ne.jtj, &ne.jtr, &d, self.mu) else {
                 self.mu *= self.nu;
@@ -224,12 +313,8 @@ where
                 // than ftol: converged, without paying for a trial pass (MINPACK's
                 // ftol test uses the predicted reduction the same way).
                 self.criterion = Some("predicted cost decrease below ftol");
-                let cost = ne.cost;
-                self.ne = Some(ne);
-                return Ok((
-                    state.param(u).cost(cost),
-                    Some(argmin::kv!("rejected" => rejected;)),
-                ));
+                let kv = argmin::kv!("rejected" => rejected;);
+                return Ok((settle(&mut self.ne, state, u, ne, false), Some(kv)));
             }
             let un = &u + &h;
             // After an accepted step the next trial is usually accepted too: evaluate
@@ -262,52 +347,28 @@ where
                 } else if !clipped && actual <= self.tol.ftol * ne.cost {
                     self.criterion = Some("relative cost decrease below ftol");
                 }
-                let g = ne2.jtr.clone();
-                let cost = ne2.cost;
-                self.ne = Some(ne2);
-                return Ok((
-                    state.param(un).cost(cost).gradient(g),
-                    Some(argmin::kv!("mu" => self.mu; "rejected" => rejected;)),
-                ));
+                let kv = argmin::kv!("mu" => self.mu; "rejected" => rejected;);
+                return Ok((settle(&mut self.ne, state, un, ne2, true), Some(kv)));
             }
             self.last_accepted = false;
             if small {
                 // A rejected step this small: more damping only shrinks it further.
                 self.criterion = Some("step below xtol");
-                let cost = ne.cost;
-                self.ne = Some(ne);
-                return Ok((
-                    state.param(u).cost(cost),
-                    Some(argmin::kv!("rejected" => rejected;)),
-                ));
+                let kv = argmin::kv!("rejected" => rejected;);
+                return Ok((settle(&mut self.ne, state, u, ne, false), Some(kv)));
             }
             self.mu *= self.nu;
             self.nu *= 2.0;
             rejected += 1;
         }
     }
-
-    fn terminate(&mut self, state: &LsState) -> TerminationStatus {
-        if let Some(why) = self.failed {
-            return TerminationStatus::Terminated(TerminationReason::SolverExit(why.into()));
-        }
-        if self.criterion.is_some() {
-            return TerminationStatus::Terminated(TerminationReason::SolverConverged);
-        }
-        if let Some(ne) = &self.ne {
-            let floor = state.get_problem_floor();
-            if ne.cost <= floor {
-                self.criterion = Some("cost at the round-off floor of a perfect fit");
-                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
-            }
-            if gradient_cosine(ne) <= self.tol.gtol {
-                self.criterion = Some("gradient orthogonal to the residuals (gtol)");
-                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
-            }
-        }
-        TerminationStatus::NotTerminated
-    }
 }
+
+normal_equation_solver!(
+    LevenbergMarquardt,
+    "Levenberg-Marquardt",
+    [NormalEquations + CostFunction<Param = DVector<f64>, Output = f64>]
+);
 
 /// Access to the cost floor from a state (the solvers store it as the target cost).
 trait FloorOf {
@@ -355,61 +416,33 @@ impl GaussNewtonLs {
     }
 }
 
-impl<O> Solver<O, LsState> for GaussNewtonLs
-where
-    O: NormalEquations
-        + CostFunction<Param = DVector<f64>, Output = f64>
-        + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>,
-{
-    fn name(&self) -> &str {
-        "Gauss-Newton with line search"
-    }
+impl GaussNewtonLs {
+    /// Nothing to set up beyond the shared start.
+    fn started(&mut self, _ne: &NormalEq) {}
 
-    fn init(
-        &mut self,
-        problem: &mut Problem<O>,
-        state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error> {
-        let u = state
-            .get_param()
-            .cloned()
-            .ok_or_else(|| Error::msg("Gauss-Newton needs a start point"))?;
-        let ne = problem.problem("jacobian_count", |p| p.normal_equations(&u))?;
-        if !ne.cost.is_finite() {
-            return Err(Error::msg("the cost at the start point is not finite"));
-        }
-        let (c, g) = (ne.cost, ne.jtr.clone());
-        self.ne = Some(ne);
-        Ok((state.param(u).cost(c).gradient(g), None))
-    }
-
-    fn next_iter(
+    /// One step along the Gauss-Newton direction, its length from the line search.
+    fn iterate<O>(
         &mut self,
         problem: &mut Problem<O>,
         mut state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error> {
-        let u = state
-            .take_param()
-            .ok_or_else(|| Error::msg("Gauss-Newton lost its parameter"))?;
-        let ne = self
-            .ne
-            .take()
-            .ok_or_else(|| Error::msg("not initialised"))?;
+    ) -> Result<(LsState, Option<KV>), Error>
+    where
+        O: NormalEquations
+            + CostFunction<Param = DVector<f64>, Output = f64>
+            + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>,
+    {
+        let (u, ne) = resume(&mut state, &mut self.ne, "Gauss-Newton")?;
         let m = ne.jtj.nrows();
         let maxd = (0..m).map(|q| ne.jtj[(q, q)]).fold(0.0, f64::max);
         let ones = DVector::from_element(m, 1.0);
         let Some(h) = damped_step(&ne.jtj, &ne.jtr, &ones, 1e-12 * maxd.max(1e-300)) else {
             self.failed = Some("the Gauss-Newton system is not positive definite");
-            let c = ne.cost;
-            self.ne = Some(ne);
-            return Ok((state.param(u).cost(c), None));
+            return Ok((settle(&mut self.ne, state, u, ne, false), None));
         };
         let h = clip_step(h);
         if h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol) {
             self.criterion = Some("step below xtol");
-            let c = ne.cost;
-            self.ne = Some(ne);
-            return Ok((state.param(u).cost(c), None));
+            return Ok((settle(&mut self.ne, state, u, ne, false), None));
         }
         let mut ls = BacktrackingLineSearch::new(ArmijoCondition::new(1e-4)?).rho(0.5)?;
         ls.search_direction(h);
@@ -438,39 +471,23 @@ where
         if !ok || fnew.is_nan() || fnew >= ne.cost {
             self.failed =
                 Some("the line search found no decrease along the Gauss-Newton direction");
-            let c = ne.cost;
-            self.ne = Some(ne);
-            return Ok((state.param(u).cost(c), None));
+            return Ok((settle(&mut self.ne, state, u, ne, false), None));
         }
         let ne2 = problem.problem("jacobian_count", |p| p.normal_equations(&un))?;
         if ne.cost - ne2.cost <= self.tol.ftol * ne.cost {
             self.criterion = Some("relative cost decrease below ftol");
         }
-        let (c, g) = (ne2.cost, ne2.jtr.clone());
-        self.ne = Some(ne2);
-        Ok((state.param(un).cost(c).gradient(g), None))
-    }
-
-    fn terminate(&mut self, state: &LsState) -> TerminationStatus {
-        if let Some(why) = self.failed {
-            return TerminationStatus::Terminated(TerminationReason::SolverExit(why.into()));
-        }
-        if self.criterion.is_some() {
-            return TerminationStatus::Terminated(TerminationReason::SolverConverged);
-        }
-        if let Some(ne) = &self.ne {
-            if ne.cost <= state.get_problem_floor() {
-                self.criterion = Some("cost at the round-off floor of a perfect fit");
-                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
-            }
-            if gradient_cosine(ne) <= self.tol.gtol {
-                self.criterion = Some("gradient orthogonal to the residuals (gtol)");
-                return TerminationStatus::Terminated(TerminationReason::SolverConverged);
-            }
-        }
-        TerminationStatus::NotTerminated
+        Ok((settle(&mut self.ne, state, un, ne2, true), None))
     }
 }
+
+normal_equation_solver!(
+    GaussNewtonLs,
+    "Gauss-Newton with line search",
+    [NormalEquations
+         + CostFunction<Param = DVector<f64>, Output = f64>
+         + Gradient<Param = DVector<f64>, Gradient = DVector<f64>>]
+);
 
 /// Wraps an argmin solver and stops it when the best cost has not decreased by more
 /// than `ftol` (relative) over `window` consecutive iterations, or has reached the
@@ -581,9 +598,10 @@ mod tests {
         }
     }
 
-    #[test]
-    fn lm_solves_rosenbrock() {
-        let res = Executor::new(Rosen, LevenbergMarquardt::new(1e-3, Tolerances::default()))
+    /// Runs `solver` on Rosenbrock's function from (−1.2, 1) and asserts that it reached
+    /// the minimum (1, 1) to 1e-8; returns the final state.
+    fn solves_rosenbrock<S: Solver<Rosen, LsState>>(solver: S) -> LsState {
+        let res = Executor::new(Rosen, solver)
             .configure(|s: LsState| s.param(DVector::from_vec(vec![-1.2, 1.0])).max_iters(200))
             .run()
             .unwrap();
@@ -592,23 +610,21 @@ mod tests {
             (u[0] - 1.0).abs() < 1e-8 && (u[1] - 1.0).abs() < 1e-8,
             "{u}"
         );
+        res.state
+    }
+
+    #[test]
+    fn lm_solves_rosenbrock() {
+        let state = solves_rosenbrock(LevenbergMarquardt::new(1e-3, Tolerances::default()));
         assert_eq!(
-            res.state.get_termination_reason(),
+            state.get_termination_reason(),
             Some(&TerminationReason::SolverConverged)
         );
-        assert!(res.state.get_iter() < 100);
+        assert!(state.get_iter() < 100);
     }
 
     #[test]
     fn gauss_newton_solves_rosenbrock() {
-        let res = Executor::new(Rosen, GaussNewtonLs::new(Tolerances::default()))
-            .configure(|s: LsState| s.param(DVector::from_vec(vec![-1.2, 1.0])).max_iters(200))
-            .run()
-            .unwrap();
-        let u = res.state.get_best_param().unwrap();
-        assert!(
-            (u[0] - 1.0).abs() < 1e-8 && (u[1] - 1.0).abs() < 1e-8,
-            "{u}"
-        );
+        solves_rosenbrock(GaussNewtonLs::new(Tolerances::default()));
     }
 }

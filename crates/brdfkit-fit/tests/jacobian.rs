@@ -27,12 +27,7 @@ fn check(truth_json: &str, at_json: &str) {
             let r0 = p.residuals(&u).unwrap();
             let mut worst = 0.0f64;
             for q in 0..p.dim() {
-                let h = 1e-6 * u[q].abs().max(1.0);
-                let mut up = u.clone();
-                up[q] += h;
-                let mut um = u.clone();
-                um[q] -= h;
-                let fd = (p.residuals(&up).unwrap() - p.residuals(&um).unwrap()) / (2.0 * h);
+                let fd = central_diff(&u, q, |v| p.residuals(v).unwrap());
                 let col = j.column(q);
                 let scale = col.amax().max(fd.amax());
                 assert!(

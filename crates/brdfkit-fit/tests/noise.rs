@@ -4,7 +4,6 @@
 
 mod common;
 use brdfkit_fit::synth::{Coverage, add_lognormal_noise};
-use brdfkit_fit::{FitConfig, fit};
 use common::*;
 
 /// The bound this test proves.
@@ -15,15 +14,7 @@ fn noisy(truth_json: &str, start_json: &str) -> f64 {
     let start = model(start_json);
     let mut data = synth(truth.as_ref(), dims(45, 45, 90), Coverage::AboveHorizon);
     add_lognormal_noise(&mut data, 0.05, 11);
-    let res = fit(start.as_ref(), &data, &FitConfig::default(), None).unwrap();
-    let (err, name) = worst_param(&res, truth.as_ref());
-    assert!(res.record.converged, "{}", show(&res));
-    assert!(
-        err <= BOUND,
-        "{}: {name} off by {err:e}: {}",
-        truth.name(),
-        show(&res)
-    );
+    let (res, err, name) = fit_recovers(start.as_ref(), truth.as_ref(), &data, BOUND);
     // cbrt residual of 5 % noise: ∛(1.05) − 1 ≈ 1.6 % of each cube root.
     let l = res.record.losses_full.cbrt.overall;
     assert!(l > 1e-3 && l < 0.05, "{l}");

@@ -92,12 +92,7 @@ fn irls_normal_equations_match_a_dense_computation_and_finite_differences() {
             assert!(rel(p.cost_at(&u), cost) < 1e-12, "{loss} {kind}: cost pass");
             // The gradient is that of the robust cost itself (central differences).
             for q in 0..p.dim() {
-                let hq = 1e-6 * u[q].abs().max(1.0);
-                let mut up = u.clone();
-                up[q] += hq;
-                let mut um = u.clone();
-                um[q] -= hq;
-                let fd = (p.cost_at(&up) - p.cost_at(&um)) / (2.0 * hq);
+                let fd = central_diff(&u, q, |v| p.cost_at(v));
                 assert!(
                     (fd - ne.jtr[q]).abs() <= 1e-5 * ne.jtr.amax(),
                     "{loss} {kind}: ∂F/∂u of {}: fd {fd} vs {}",

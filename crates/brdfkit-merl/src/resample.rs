@@ -7,7 +7,7 @@ use crate::grid::{
     theta_h_angle, theta_h_coord,
 };
 use crate::lookup::Lookup;
-use crate::table::{MerlTable, raw_valid};
+use crate::table::MerlTable;
 use brdfkit_core::{Brdf, GeometryBatch, HalfDiff, Rgb, Vec3, from_half_diff};
 use rayon::prelude::*;
 
@@ -112,64 +112,26 @@ impl MerlTable {
     /// exactly.
     pub fn resample(&self, dims: Dims, mode: Lookup) -> MerlTable {
         let src = self.dims;
-        let us: Vec<f64> = (0..dims.theta_h())
-            .map(|i| {
-                snap_coord(theta_h_coord(
-                    theta_h_angle(i as f64, dims.theta_h()),
-                    src.theta_h(),
-                ))
+        // Per axis: the source coordinate of each target cell's angle.
+        let axis =
+            |n: usize, n_src: usize, angle: fn(f64, usize) -> f64, coord: fn(f64, usize) -> f64| {
+                (0..n)
+                    .map(|i| snap_coord(coord(angle(i as f64, n), n_src)))
+                    .collect::<Vec<f64>>()
+            };
+        let us = axis(dims.theta_h(), src.theta_h(), theta_h_angle, theta_h_coord);
+        let vs = axis(dims.theta_d(), src.theta_d(), theta_d_angle, theta_d_coord);
+        let ws = axis(dims.phi_d(), src.phi_d(), phi_d_angle, phi_d_coord);
+        let Ok(table) = MerlTable::try_from_raw_fn(dims, |i, j, k| {
+            let coords = [us[i], vs[j], ws[k]];
+            Ok::<_, std::convert::Infallible>(match mode {
+                Lookup::Nearest => self.raw_at(self.nearest_node(coords)),
+                Lookup::Interpolated => self
+                    .interpolate_raw(coords)
+                    .unwrap_or([crate::table::MISSING_RAW; 3]),
             })
-            .collect();
-        let vs: Vec<f64> = (0..dims.theta_d())
-            .map(|j| {
-                snap_coord(theta_d_coord(
-                    theta_d_angle(j as f64, dims.theta_d()),
-                    src.theta_d(),
-                ))
-            })
-            .collect();
-        let ws: Vec<f64> = (0..dims.phi_d())
-            .map(|k| {
-                snap_coord(phi_d_coord(
-                    phi_d_angle(k as f64, dims.phi_d()),
-                    src.phi_d(),
-                ))
-            })
-            .collect();
-        let n = dims.cells();
-        let slab = dims.theta_d() * dims.phi_d();
-        let mut raw = crate::table::alloc_raw(n);
-        let mut valid = vec![false; n];
-        let (r, gb) = raw.split_at_mut(n);
-        let (g, b) = gb.split_at_mut(n);
-        r.par_chunks_mut(slab)
-            .zip(g.par_chunks_mut(slab))
-            .zip(b.par_chunks_mut(slab))
-            .zip(valid.par_chunks_mut(slab))
-            .enumerate()
-            .for_each(|(i, (((r, g), b), v))| {
-                for (j, &vj) in vs.iter().enumerate() {
-                    for (k, &wk) in ws.iter().enumerate() {
-                        let coords = [us[i], vj, wk];
-                        let x = match mode {
-                            Lookup::Nearest => self.raw_at(self.nearest_node(coords)),
-                            Lookup::Interpolated => self
-                                .interpolate_raw(coords)
-                                .unwrap_or([crate::table::MISSING_RAW; 3]),
-                        };
-                        let c = k + dims.phi_d() * j;
-                        (r[c], g[c], b[c]) = (x[0], x[1], x[2]);
-                        v[c] = raw_valid(x[0], x[1], x[2]);
-                    }
-                }
-            });
-        let n_valid = valid.iter().filter(|&&v| v).count();
-        MerlTable {
-            dims,
-            raw,
-            valid,
-            n_valid,
-        }
+        });
+        table
     }
 
     /// Flat index of the cell holding continuous coordinates: truncation, θh and θd

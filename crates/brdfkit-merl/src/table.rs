@@ -126,6 +126,17 @@ impl MerlTable {
     where
         F: Fn(usize, usize, usize) -> Option<Rgb> + Sync,
     {
+        Self::try_from_raw_fn(dims, |i, j, k| to_raw(f(i, j, k), i, j, k))
+    }
+
+    /// A table whose cell (i, j, k) holds the raw values `raw(i, j, k)` (R, G, B; a
+    /// negative one marks the cell missing), filled in parallel over θh slabs; the
+    /// first error ends it.
+    pub(crate) fn try_from_raw_fn<E, F>(dims: Dims, raw_of: F) -> Result<Self, E>
+    where
+        E: Send,
+        F: Fn(usize, usize, usize) -> Result<[f64; 3], E> + Sync,
+    {
         let n = dims.cells();
         let slab = dims.theta_d() * dims.phi_d();
         let mut raw = alloc_raw(n);
@@ -141,11 +152,9 @@ impl MerlTable {
                 for j in 0..dims.theta_d() {
                     for k in 0..dims.phi_d() {
                         let c = k + dims.phi_d() * j;
-                        let raw = to_raw(f(i, j, k), i, j, k)?;
-                        r[c] = raw[0];
-                        g[c] = raw[1];
-                        b[c] = raw[2];
-                        v[c] = raw_valid(raw[0], raw[1], raw[2]);
+                        let x = raw_of(i, j, k)?;
+                        (r[c], g[c], b[c]) = (x[0], x[1], x[2]);
+                        v[c] = raw_valid(x[0], x[1], x[2]);
                     }
                 }
                 Ok(())

@@ -3,10 +3,13 @@
 //! within an ulp of every bin edge, for wi = wo, h on the normal and grazing pairs; the
 //! interpolation over the same stencil to 1e-11.
 
+mod common;
+
 use brdfkit_core::direction::spherical;
-use brdfkit_core::{HalfDiff, Rgb, Vec3, from_half_diff, to_half_diff};
+use brdfkit_core::{Rgb, Vec3, to_half_diff};
 use brdfkit_merl::lookup::PairsError;
 use brdfkit_merl::*;
+use common::pair_at_coords;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -134,16 +137,9 @@ fn nearest_is_the_reference_cell_within_ulps_of_every_bin_edge() {
                     rng.random_range(0.5..d.phi_d() as f64 - 1.0),
                 ];
                 x[axis] = e as f64;
-                let c = HalfDiff::new(
-                    theta_h_angle(x[0], d.theta_h()),
-                    rng.random_range(-PI..PI),
-                    theta_d_angle(x[1], d.theta_d()),
-                    phi_d_angle(x[2], d.phi_d()),
-                );
-                let (wi, wo) = from_half_diff(&c);
-                if wi.z <= 0.0 || wo.z <= 0.0 {
+                let Some((wi, wo)) = pair_at_coords(d, x, rng.random_range(-PI..PI)) else {
                     continue;
-                }
+                };
                 for a in -2..=2 {
                     for b in -2..=2 {
                         let mut o = wo;

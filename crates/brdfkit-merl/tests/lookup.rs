@@ -1,9 +1,12 @@
 //! Interpolation: exact on multilinear data, the φd wrap, missing-cell renormalisation;
 //! batch lookups equal single ones.
 
+mod common;
+
 use brdfkit_core::direction::spherical;
-use brdfkit_core::{HalfDiff, Rgb, Vec3, from_half_diff, to_half_diff};
+use brdfkit_core::{HalfDiff, Rgb, Vec3, to_half_diff};
 use brdfkit_merl::*;
+use common::pair_at_coords;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
@@ -61,16 +64,9 @@ fn interpolation_is_exact_on_multilinear_data() {
                 rng.random_range(0.5..nv - 1.01),
                 rng.random_range(0.01..nw - 1.01),
             ];
-            let c = HalfDiff::new(
-                theta_h_angle(x[0], d.theta_h()),
-                rng.random_range(-PI..PI),
-                theta_d_angle(x[1], d.theta_d()),
-                phi_d_angle(x[2], d.phi_d()),
-            );
-            let (wi, wo) = from_half_diff(&c);
-            if wi.z <= 0.0 || wo.z <= 0.0 {
+            let Some((wi, wo)) = pair_at_coords(d, x, rng.random_range(-PI..PI)) else {
                 continue;
-            }
+            };
             let actual = d.coords(&to_half_diff(&wi, &wo));
             assert!((actual[2] - x[2]).abs() < 1e-6, "stayed away from the wrap");
             let got = t.interpolated(&wi, &wo).unwrap();

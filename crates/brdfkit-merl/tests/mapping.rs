@@ -82,15 +82,17 @@ fn theta_h_hand_computed() {
     assert_eq!(theta_h_bin(FRAC_PI_2, N), 89);
     assert_eq!(theta_h_bin(2.5, N), 89);
     // Probes at bin centres: coordinate i + 0.5 -> θh = ((i + 0.5)/90)² π/2.
-    for i in 0..N {
-        assert_eq!(
-            theta_h_bin(theta_h_angle(i as f64 + 0.5, N), N),
-            i,
-            "bin {i}"
-        );
-    }
+    assert_bin_centres(theta_h_bin, theta_h_angle, N);
     // The NaN case: the reference's cast is undefined; here bin 0.
     assert_eq!(theta_h_bin(f64::NAN, N), 0);
+}
+
+/// The angle at the centre of each of the `n` bins of an axis (coordinate i + 0.5)
+/// falls in bin i.
+fn assert_bin_centres(bin: fn(f64, usize) -> usize, angle: fn(f64, usize) -> f64, n: usize) {
+    for i in 0..n {
+        assert_eq!(bin(angle(i as f64 + 0.5, n), n), i, "bin {i}");
+    }
 }
 
 #[test]
@@ -101,13 +103,7 @@ fn theta_d_hand_computed() {
     assert_eq!(theta_d_bin(FRAC_PI_2, N), 89);
     assert_eq!(theta_d_coord(FRAC_PI_2, N), 90.0);
     assert_eq!(theta_d_bin(3.0, N), 89);
-    for j in 0..N {
-        assert_eq!(
-            theta_d_bin(theta_d_angle(j as f64 + 0.5, N), N),
-            j,
-            "bin {j}"
-        );
-    }
+    assert_bin_centres(theta_d_bin, theta_d_angle, N);
 }
 
 #[test]

@@ -40,7 +40,9 @@
 
 use crate::json;
 use crate::pair::{batch_pair, pair_geometry};
-use crate::params::{DiffuseSpecular, ShapedLayout, grad_batch_via, grad_via, shape_gradient};
+use crate::params::{
+    DiffuseSpecular, ShapedLayout, above_horizon, grad_batch_via, grad_via, shape_gradient,
+};
 use crate::shape::Shape;
 use brdfkit_core::model::Domain;
 use brdfkit_core::scattering::fresnel::schlick_weight;
@@ -99,56 +101,21 @@ impl AshikhminShirley {
         Self::default()
     }
 
-    /// Sets Rd (each channel in [0, 1]).
-    pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        self.rho_d = LAYOUT.rhos.check_d(rho_d)?;
-        Ok(self)
-    }
-
-    /// Sets Rs (each channel in [0, 1]).
-    pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
-        self.rho_s = LAYOUT.rhos.check_s(rho_s)?;
-        Ok(self)
-    }
-
-    /// An isotropic exponent n in [0, 1e6].
-    pub fn with_n(self, n: f64) -> Result<Self, ModelError> {
-        self.with_shape(Shape::Isotropic(n))
-    }
-
-    /// Anisotropic exponents (n_u along the tangent x, n_v), each in [0, 1e6].
-    pub fn with_n_uv(self, n_u: f64, n_v: f64) -> Result<Self, ModelError> {
-        self.with_shape(Shape::Anisotropic(n_u, n_v))
-    }
-
-    /// Sets the exponents.
-    pub fn with_shape(mut self, n: Shape) -> Result<Self, ModelError> {
-        self.n = LAYOUT.check(n)?;
-        Ok(self)
-    }
-
-    /// Rd.
-    pub fn rho_d(&self) -> Rgb {
-        self.rho_d
-    }
-    /// Rs.
-    pub fn rho_s(&self) -> Rgb {
-        self.rho_s
-    }
-    /// The exponents.
-    pub fn n(&self) -> Shape {
-        self.n
+    shaped_lobe_builders! {
+        done: std::convert::identity,
+        rho_d: "Sets Rd (each channel in [0, 1]).", "Rd.",
+        rho_s: "Sets Rs (each channel in [0, 1]).", "Rs.",
+        n: "Sets the exponents.", "The exponents.",
+        with_n(n): "An isotropic exponent n in [0, 1e6].",
+        with_n_uv(n_u, n_v): "Anisotropic exponents (n_u along the tangent x, n_v), each in [0, 1e6].",
     }
 
     /// From the `params` object of the JSON contract.
     pub fn from_params_json(params: &Value) -> Result<Self, ModelError> {
         const M: &str = "ashikhmin-shirley";
         let o = json::params_object(params, M)?;
-        json::deny_unknown(&o, &["rho_d", "rho_s", "n", "n_u", "n_v"], M)?;
-        AshikhminShirley::new()
-            .with_rho_d(LAYOUT.rhos.read_d(&o, M)?)?
-            .with_rho_s(LAYOUT.rhos.read_s(&o, M)?)?
-            .with_shape(LAYOUT.read_shape(&o, M)?)
+        json::deny_unknown(&o, &LAYOUT.json_keys(), M)?;
+        AshikhminShirley::new().with_lobes_from_json(&o, M)
     }
 
     /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
@@ -160,12 +127,9 @@ impl AshikhminShirley {
         h: [f64; 3],
         grad: Option<&mut [Rgb; MAXP]>,
     ) -> Rgb {
-        if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            if let Some(g) = grad {
-                *g = [Rgb::ZERO; MAXP];
-            }
+        let Some(grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
-        }
+        };
         let (nu, nv) = self.n.xy();
         let (hx2, hy2) = (h[0] * h[0], h[1] * h[1]);
         let s2 = hx2 + hy2;
@@ -214,8 +178,7 @@ impl Brdf for AshikhminShirley {
     }
 
     fn is_isotropic(&self) -> bool {
-        let (x, y) = self.n.xy();
-        x == y
+        self.n.is_symmetric()
     }
 }
 
@@ -224,23 +187,7 @@ impl Model for AshikhminShirley {
         "ashikhmin-shirley"
     }
 
-    fn param_specs(&self) -> Vec<ParamSpec> {
-        LAYOUT.specs(&self.n)
-    }
-
-    fn params(&self) -> Vec<f64> {
-        ShapedLayout::values(self.rho_d, self.rho_s, &self.n)
-    }
-
-    fn num_params(&self) -> usize {
-        ShapedLayout::count(&self.n)
-    }
-
-    fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        let (d, s, n) = ShapedLayout::from_values(p, &self.n)?;
-        *self = self.clone().with_rho_d(d)?.with_rho_s(s)?.with_shape(n)?;
-        Ok(())
-    }
+    shaped_lobe_params!(n);
 
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
         let (a, b, h, _) = pair_geometry(wi, wo);

@@ -63,7 +63,8 @@ use crate::json;
 use crate::lanes::Real;
 use crate::pair::{batch_pair, pair_geometry};
 use crate::params::{
-    DiffuseSpecular, ShapedLayout, check_count, check_rgb, grad_batch_via, grad_via, shape_gradient,
+    DiffuseSpecular, ShapedLayout, above_horizon, check_count, check_rgb, grad_batch_via, grad_via,
+    shape_gradient,
 };
 use brdfkit_core::UnknownName;
 use brdfkit_core::model::{Domain, check_param, eval_batch_f32_widened};
@@ -388,32 +389,13 @@ impl CookTorrance {
         Self::default()
     }
 
-    /// Sets ρd (each channel in [0, 1]).
-    pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        self.rho_d = LAYOUT.rhos.check_d(rho_d)?;
-        Ok(self.refreshed())
-    }
-
-    /// Sets ρs (each channel in [0, ∞)).
-    pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
-        self.rho_s = LAYOUT.rhos.check_s(rho_s)?;
-        Ok(self.refreshed())
-    }
-
-    /// An isotropic roughness α in [1e-6, 100].
-    pub fn with_alpha(self, alpha: f64) -> Result<Self, ModelError> {
-        self.with_shape(Shape::Isotropic(alpha))
-    }
-
-    /// An anisotropic roughness (αx along the tangent, αy), each in [1e-6, 100].
-    pub fn with_alpha_xy(self, alpha_x: f64, alpha_y: f64) -> Result<Self, ModelError> {
-        self.with_shape(Shape::Anisotropic(alpha_x, alpha_y))
-    }
-
-    /// Sets the roughness shape (isotropic or anisotropic).
-    pub fn with_shape(mut self, alpha: Shape) -> Result<Self, ModelError> {
-        self.alpha = LAYOUT.check(alpha)?;
-        Ok(self.refreshed())
+    shaped_lobe_builders! {
+        done: Self::refreshed,
+        rho_d: "Sets ρd (each channel in [0, 1]).", "ρd.",
+        rho_s: "Sets ρs (each channel in [0, ∞)).", "ρs.",
+        alpha: "Sets the roughness shape (isotropic or anisotropic).", "The roughness.",
+        with_alpha(alpha): "An isotropic roughness α in [1e-6, 100].",
+        with_alpha_xy(alpha_x, alpha_y): "An anisotropic roughness (αx along the tangent, αy), each in [1e-6, 100].",
     }
 
     /// The microfacet distribution.
@@ -446,18 +428,6 @@ impl CookTorrance {
         self
     }
 
-    /// ρd.
-    pub fn rho_d(&self) -> Rgb {
-        self.rho_d
-    }
-    /// ρs.
-    pub fn rho_s(&self) -> Rgb {
-        self.rho_s
-    }
-    /// The roughness.
-    pub fn alpha(&self) -> Shape {
-        self.alpha
-    }
     /// The distribution.
     pub fn distribution(&self) -> Distribution {
         self.distribution
@@ -479,21 +449,9 @@ impl CookTorrance {
     pub fn from_params_json(params: &Value) -> Result<Self, ModelError> {
         const M: &str = "cook-torrance";
         let o = json::params_object(params, M)?;
-        json::deny_unknown(
-            &o,
-            &[
-                "rho_d",
-                "rho_s",
-                "alpha",
-                "alpha_x",
-                "alpha_y",
-                "distribution",
-                "masking",
-                "beckmann_g1",
-                "fresnel",
-            ],
-            M,
-        )?;
+        let mut keys = LAYOUT.json_keys().to_vec();
+        keys.extend(["distribution", "masking", "beckmann_g1", "fresnel"]);
+        json::deny_unknown(&o, &keys, M)?;
         let d = CookTorrance::default();
         let distribution = json::choice_or(&o, "distribution", d.distribution, M)?;
         let masking = json::choice_or(&o, "masking", d.masking, M)?;
@@ -502,9 +460,7 @@ impl CookTorrance {
             None => d.fresnel,
             Some(v) => Fresnel::from_json(v)?,
         };
-        d.with_rho_d(LAYOUT.rhos.read_d(&o, M)?)?
-            .with_rho_s(LAYOUT.rhos.read_s(&o, M)?)?
-            .with_shape(LAYOUT.read_shape(&o, M)?)?
+        d.with_lobes_from_json(&o, M)?
             .with_distribution(distribution)
             .with_masking(masking)
             .with_beckmann_g1(beckmann_g1)
@@ -529,12 +485,9 @@ impl CookTorrance {
         cos_d: f64,
         grad: Option<&mut [Rgb; MAXP]>,
     ) -> Rgb {
-        if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            if let Some(g) = grad {
-                *g = [Rgb::ZERO; MAXP];
-            }
+        let Some(grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
-        }
+        };
         let (ax, ay) = self.alpha.xy();
         let d = self.distribution.d_grad(h[0], h[1], h[2], ax, ay);
         let g = self
@@ -692,8 +645,7 @@ impl Brdf for CookTorrance {
     }
 
     fn is_isotropic(&self) -> bool {
-        let (x, y) = self.alpha.xy();
-        x == y
+        self.alpha.is_symmetric()
     }
 }
 
@@ -724,9 +676,7 @@ impl Model for CookTorrance {
         let (d, s, alpha) = ShapedLayout::from_values(&p[..na], &self.alpha)?;
         *self = self
             .clone()
-            .with_rho_d(d)?
-            .with_rho_s(s)?
-            .with_shape(alpha)?
+            .with_lobes(d, s, alpha)?
             .with_fresnel(self.fresnel.with_values(&p[na..]))?;
         Ok(())
     }

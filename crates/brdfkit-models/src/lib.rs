@@ -12,6 +12,7 @@ pub mod json;
 mod lanes;
 mod pair;
 pub mod par;
+#[macro_use]
 mod params;
 pub mod raw;
 pub mod shape;

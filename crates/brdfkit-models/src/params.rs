@@ -150,6 +150,106 @@ impl DiffuseSpecular {
     }
 }
 
+/// The builders and getters of a model laid out by its module's `LAYOUT:`
+/// [`ShapedLayout`], with fields `rho_d`, `rho_s` and the shape `$field`: `with_rho_d`,
+/// `with_rho_s`, the isotropic and anisotropic shortcuts, `with_shape`, `with_lobes`
+/// (all three) and the three getters, with the docs given. `$done` finishes every
+/// builder (Cook-Torrance refreshes its derived constants there).
+macro_rules! shaped_lobe_builders {
+    (
+        done: $done:expr,
+        rho_d: $d_doc:literal, $d_get:literal,
+        rho_s: $s_doc:literal, $s_get:literal,
+        $field:ident: $shape_doc:literal, $shape_get:literal,
+        $iso_fn:ident($iso:ident): $iso_doc:literal,
+        $aniso_fn:ident($x:ident, $y:ident): $aniso_doc:literal $(,)?
+    ) => {
+        #[doc = $d_doc]
+        pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
+            self.rho_d = LAYOUT.rhos.check_d(rho_d)?;
+            Ok(($done)(self))
+        }
+
+        #[doc = $s_doc]
+        pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
+            self.rho_s = LAYOUT.rhos.check_s(rho_s)?;
+            Ok(($done)(self))
+        }
+
+        #[doc = $iso_doc]
+        pub fn $iso_fn(self, $iso: f64) -> Result<Self, ModelError> {
+            self.with_shape(Shape::Isotropic($iso))
+        }
+
+        #[doc = $aniso_doc]
+        pub fn $aniso_fn(self, $x: f64, $y: f64) -> Result<Self, ModelError> {
+            self.with_shape(Shape::Anisotropic($x, $y))
+        }
+
+        #[doc = $shape_doc]
+        pub fn with_shape(mut self, $field: Shape) -> Result<Self, ModelError> {
+            self.$field = LAYOUT.check($field)?;
+            Ok(($done)(self))
+        }
+
+        /// Sets the diffuse albedo, the specular scale and the shape at once (each
+        /// checked as by its own builder).
+        pub fn with_lobes(self, rho_d: Rgb, rho_s: Rgb, shape: Shape) -> Result<Self, ModelError> {
+            self.with_rho_d(rho_d)?.with_rho_s(rho_s)?.with_shape(shape)
+        }
+
+        /// ρd, ρs and the shape read from a params object (defaults where absent), each
+        /// checked as soon as it is read: the first bad one is the error.
+        fn with_lobes_from_json(
+            self,
+            o: &serde_json::Map<String, Value>,
+            model: &str,
+        ) -> Result<Self, ModelError> {
+            self.with_rho_d(LAYOUT.rhos.read_d(o, model)?)?
+                .with_rho_s(LAYOUT.rhos.read_s(o, model)?)?
+                .with_shape(LAYOUT.read_shape(o, model)?)
+        }
+
+        #[doc = $d_get]
+        pub fn rho_d(&self) -> Rgb {
+            self.rho_d
+        }
+        #[doc = $s_get]
+        pub fn rho_s(&self) -> Rgb {
+            self.rho_s
+        }
+        #[doc = $shape_get]
+        pub fn $field(&self) -> Shape {
+            self.$field
+        }
+    };
+}
+
+/// The parameter methods of [`Model`](brdfkit_core::Model) for a model that is
+/// exactly its module's `LAYOUT:` [`ShapedLayout`] over the fields `rho_d`, `rho_s`
+/// and the shape `$field` (its builders from [`shaped_lobe_builders`]).
+macro_rules! shaped_lobe_params {
+    ($field:ident) => {
+        fn param_specs(&self) -> Vec<ParamSpec> {
+            LAYOUT.specs(&self.$field)
+        }
+
+        fn params(&self) -> Vec<f64> {
+            ShapedLayout::values(self.rho_d, self.rho_s, &self.$field)
+        }
+
+        fn num_params(&self) -> usize {
+            ShapedLayout::count(&self.$field)
+        }
+
+        fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
+            let (d, s, shape) = ShapedLayout::from_values(p, &self.$field)?;
+            *self = self.clone().with_lobes(d, s, shape)?;
+            Ok(())
+        }
+    };
+}
+
 /// The layout of the models with a Lambertian base, a specular scale and a lobe shape
 /// that is one value or an x/y pair ([`Shape`]): `rho_d.{r,g,b}`, `rho_s.{r,g,b}`, then
 /// `iso` or `x`, `y` (`ward`'s α, `ashikhmin-shirley`'s n).
@@ -200,6 +300,13 @@ impl ShapedLayout {
         Ok((d, s, like.with_values(&p[6..])))
     }
 
+    /// Every JSON name of the layout: ρd, ρs, then the shape's (isotropic, x, y).
+    pub fn json_keys(&self) -> [&'static str; 5] {
+        let (d, s) = self.rhos.names;
+        let (iso, x, y) = self.keys;
+        [d, s, iso, x, y]
+    }
+
     /// The shape from a params object (see [`Shape`]'s `from_json`).
     pub fn read_shape(&self, o: &Map<String, Value>, model: &str) -> Result<Shape, ModelError> {
         Shape::from_json(o, self.keys, self.default, model)
@@ -224,6 +331,24 @@ pub fn shape_gradient(shape: &Shape, scale: Rgb, dx: f64, dy: f64, grad: &mut [R
             grad[7] = scale * dy;
         }
     }
+}
+
+/// The start of a kernel: `None` when either direction is at or below the horizon,
+/// after zeroing the gradient (f is 0 there, and so is every ∂f/∂p); else the gradient
+/// output to fill.
+#[inline(always)]
+pub fn above_horizon<'g, const M: usize>(
+    wi: &[f64; 3],
+    wo: &[f64; 3],
+    grad: Option<&'g mut [Rgb; M]>,
+) -> Option<Option<&'g mut [Rgb; M]>> {
+    if wi[2] <= 0.0 || wo[2] <= 0.0 {
+        if let Some(g) = grad {
+            *g = [Rgb::ZERO; M];
+        }
+        return None;
+    }
+    Some(grad)
 }
 
 /// `eval_grad` through a kernel that fills a fixed array of `M` gradient entries: the

@@ -29,6 +29,13 @@ impl Shape {
         }
     }
 
+    /// The same value along x and y (an anisotropic shape may have it too): the lobe is
+    /// then isotropic.
+    pub fn is_symmetric(&self) -> bool {
+        let (x, y) = self.xy();
+        x == y
+    }
+
     /// Entries in the parameter vector (1 or 2).
     pub fn len(&self) -> usize {
         match self {

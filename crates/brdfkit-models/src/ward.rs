@@ -41,7 +41,9 @@
 
 use crate::json;
 use crate::pair::{batch_pair, pair_geometry};
-use crate::params::{DiffuseSpecular, ShapedLayout, grad_batch_via, grad_via, shape_gradient};
+use crate::params::{
+    DiffuseSpecular, ShapedLayout, above_horizon, grad_batch_via, grad_via, shape_gradient,
+};
 use crate::shape::Shape;
 use brdfkit_core::model::Domain;
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
@@ -126,32 +128,13 @@ impl Ward {
         Self::default()
     }
 
-    /// Sets ρd (each channel in [0, 1]).
-    pub fn with_rho_d(mut self, rho_d: Rgb) -> Result<Self, ModelError> {
-        self.rho_d = LAYOUT.rhos.check_d(rho_d)?;
-        Ok(self)
-    }
-
-    /// Sets ρs (each channel in [0, ∞)).
-    pub fn with_rho_s(mut self, rho_s: Rgb) -> Result<Self, ModelError> {
-        self.rho_s = LAYOUT.rhos.check_s(rho_s)?;
-        Ok(self)
-    }
-
-    /// An isotropic α in [1e-6, 100].
-    pub fn with_alpha(self, alpha: f64) -> Result<Self, ModelError> {
-        self.with_shape(Shape::Isotropic(alpha))
-    }
-
-    /// An anisotropic (αx, αy), each in [1e-6, 100].
-    pub fn with_alpha_xy(self, alpha_x: f64, alpha_y: f64) -> Result<Self, ModelError> {
-        self.with_shape(Shape::Anisotropic(alpha_x, alpha_y))
-    }
-
-    /// Sets the roughness shape.
-    pub fn with_shape(mut self, alpha: Shape) -> Result<Self, ModelError> {
-        self.alpha = LAYOUT.check(alpha)?;
-        Ok(self)
+    shaped_lobe_builders! {
+        done: std::convert::identity,
+        rho_d: "Sets ρd (each channel in [0, 1]).", "ρd.",
+        rho_s: "Sets ρs (each channel in [0, ∞)).", "ρs.",
+        alpha: "Sets the roughness shape.", "The roughness.",
+        with_alpha(alpha): "An isotropic α in [1e-6, 100].",
+        with_alpha_xy(alpha_x, alpha_y): "An anisotropic (αx, αy), each in [1e-6, 100].",
     }
 
     /// The normalisation.
@@ -160,18 +143,6 @@ impl Ward {
         self
     }
 
-    /// ρd.
-    pub fn rho_d(&self) -> Rgb {
-        self.rho_d
-    }
-    /// ρs.
-    pub fn rho_s(&self) -> Rgb {
-        self.rho_s
-    }
-    /// The roughness.
-    pub fn alpha(&self) -> Shape {
-        self.alpha
-    }
     /// The normalisation.
     pub fn normalization(&self) -> Normalization {
         self.normalization
@@ -181,24 +152,12 @@ impl Ward {
     pub fn from_params_json(params: &Value) -> Result<Self, ModelError> {
         const M: &str = "ward";
         let o = json::params_object(params, M)?;
-        json::deny_unknown(
-            &o,
-            &[
-                "rho_d",
-                "rho_s",
-                "alpha",
-                "alpha_x",
-                "alpha_y",
-                "normalization",
-            ],
-            M,
-        )?;
+        let mut keys = LAYOUT.json_keys().to_vec();
+        keys.push("normalization");
+        json::deny_unknown(&o, &keys, M)?;
         let d = Ward::default();
         let n = json::choice_or(&o, "normalization", d.normalization, M)?;
-        Ok(d.with_rho_d(LAYOUT.rhos.read_d(&o, M)?)?
-            .with_rho_s(LAYOUT.rhos.read_s(&o, M)?)?
-            .with_shape(LAYOUT.read_shape(&o, M)?)?
-            .with_normalization(n))
+        Ok(d.with_lobes_from_json(&o, M)?.with_normalization(n))
     }
 
     /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
@@ -211,12 +170,9 @@ impl Ward {
         _cos_d: f64,
         grad: Option<&mut [Rgb; MAXP]>,
     ) -> Rgb {
-        if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            if let Some(g) = grad {
-                *g = [Rgb::ZERO; MAXP];
-            }
+        let Some(grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
-        }
+        };
         let (ax, ay) = self.alpha.xy();
         let hz2 = h[2] * h[2];
         let (ux, uy) = (h[0] * h[0] / (ax * ax), h[1] * h[1] / (ay * ay));
@@ -267,8 +223,7 @@ impl Brdf for Ward {
     }
 
     fn is_isotropic(&self) -> bool {
-        let (x, y) = self.alpha.xy();
-        x == y
+        self.alpha.is_symmetric()
     }
 }
 
@@ -277,27 +232,7 @@ impl Model for Ward {
         "ward"
     }
 
-    fn param_specs(&self) -> Vec<ParamSpec> {
-        LAYOUT.specs(&self.alpha)
-    }
-
-    fn params(&self) -> Vec<f64> {
-        ShapedLayout::values(self.rho_d, self.rho_s, &self.alpha)
-    }
-
-    fn num_params(&self) -> usize {
-        ShapedLayout::count(&self.alpha)
-    }
-
-    fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
-        let (d, s, alpha) = ShapedLayout::from_values(p, &self.alpha)?;
-        *self = self
-            .clone()
-            .with_rho_d(d)?
-            .with_rho_s(s)?
-            .with_shape(alpha)?;
-        Ok(())
-    }
+    shaped_lobe_params!(alpha);
 
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
         let (a, b, h, c) = pair_geometry(wi, wo);

@@ -15,11 +15,7 @@ use std::f64::consts::PI;
 
 fn model(shape: Shape) -> AshikhminShirley {
     AshikhminShirley::new()
-        .with_rho_d(Rgb::new(0.1, 0.4, 0.7))
-        .unwrap()
-        .with_rho_s(Rgb::new(0.6, 0.3, 0.05))
-        .unwrap()
-        .with_shape(shape)
+        .with_lobes(Rgb::new(0.1, 0.4, 0.7), Rgb::new(0.6, 0.3, 0.05), shape)
         .unwrap()
 }
 
@@ -36,13 +32,7 @@ fn shared_checks() {
         Shape::Anisotropic(0.0, 5.0),
     ] {
         let m = model(shape);
-        assert_paths_agree(&m, &pairs, 0.0);
-        assert_paths_agree(&m, &hard, 0.0);
-        assert_reciprocal(&m, &pairs, 1e-12);
-        assert_reciprocal(&m, &dense, 1e-12);
-        assert_nonnegative(&m, &dense);
-        assert_finite_everywhere(&m, &hard);
-        assert_zero_below_horizon(&m);
+        assert_properties_on(&m, &pairs, &hard, &dense);
         let (nu, nv) = shape.xy();
         if nu > 0.0 && nv > 0.0 {
             // Central differences need both probes inside [0, 1e6].
@@ -83,9 +73,8 @@ proptest! {
     ) {
         let shape = shape_from_log10(aniso, la, lb);
         let m = AshikhminShirley::new()
-            .with_rho_d(Rgb::new(p[0], p[1], p[2])).unwrap()
-            .with_rho_s(Rgb::new(p[3], p[4], p[5])).unwrap()
-            .with_shape(shape).unwrap();
+            .with_lobes(Rgb::new(p[0], p[1], p[2]), Rgb::new(p[3], p[4], p[5]), shape)
+            .unwrap();
         assert_gradient_matches_fd(&m, &random_pairs(seed, 4), 1e-6, 1e-6);
     }
 }
@@ -135,14 +124,9 @@ fn matches_the_paper() {
     }
 }
 
-/// 1024 azimuths: see `tests/cook_torrance.rs` (the default 128 are not enough for
-/// narrow lobes cut by the horizon).
+/// 1024 azimuths ([`azimuth_converged_rule`]) about `pole`.
 fn converged(pole: Pole) -> AlbedoQuadrature {
-    AlbedoQuadrature {
-        n_phi: 1024,
-        ..AlbedoQuadrature::default()
-    }
-    .with_pole(pole)
+    azimuth_converged_rule().with_pole(pole)
 }
 
 #[test]
@@ -150,11 +134,7 @@ fn diffuse_albedo_closed_form() {
     // ∫ 28/(23π) (1 − (1 − cos θ/2)⁵) cos θ dω = 1 (the reason for 28/23), so the
     // diffuse albedo is Rd (1 − Rs)(1 − (1 − cos θo/2)⁵).
     let m = AshikhminShirley::new()
-        .with_rho_d(Rgb::splat(1.0))
-        .unwrap()
-        .with_rho_s(Rgb::splat(0.0))
-        .unwrap()
-        .with_n(0.0)
+        .with_lobes(Rgb::splat(1.0), Rgb::splat(0.0), Shape::Isotropic(0.0))
         .unwrap();
     let q = converged(Pole::Normal);
     for &t in &[0.0f64, 0.5, 1.0, 1.4] {
@@ -198,11 +178,7 @@ fn corner_table() -> Vec<(f64, &'static str, f64, f64)> {
                 (1.0, 0.0, "Rd=1 Rs=0")
             };
             let m = AshikhminShirley::new()
-                .with_rho_d(Rgb::splat(rd))
-                .unwrap()
-                .with_rho_s(Rgb::splat(rs))
-                .unwrap()
-                .with_n(n)
+                .with_lobes(Rgb::splat(rd), Rgb::splat(rs), Shape::Isotropic(n))
                 .unwrap();
             let wo = spherical(t.to_radians(), 0.3);
             // Narrow lobes: pole at the mirror direction; n ≤ 1 is nearly diffuse.

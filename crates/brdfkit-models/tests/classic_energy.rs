@@ -67,6 +67,58 @@ fn albedo2(f: &dyn Brdf, wo: &Vec3, pole: Pole) -> (f64, f64) {
     (a, b)
 }
 
+/// Sweeps `make(p)` for each `p` of `params` over the outgoing angles THETAS_DEG with
+/// both rules (`albedo2` about `pole`); `check(p, model, fine albedos)` sees each
+/// parameter's row (in THETAS_DEG order). Prints `label: max albedo …` with where the
+/// rules differ most, asserts there the default rule within `tol.0` of the fine one and
+/// the fine one within `tol.1` of a 64 x 1024 rule, and returns the largest fine-rule
+/// albedo and its (parameter, θo).
+fn sweep<M: Brdf>(
+    label: &str,
+    params: &[f64],
+    pole: Pole,
+    make: impl Fn(f64) -> M,
+    mut check: impl FnMut(f64, &M, &[f64]),
+    tol: (f64, f64),
+) -> (f64, (f64, f64)) {
+    let (mut max_a, mut worst_at) = (0.0, (0.0, 0.0));
+    let (mut conv, mut conv_at) = (0.0f64, (0.0, 0.0));
+    for &p in params {
+        let m = make(p);
+        let mut row = Vec::with_capacity(THETAS_DEG.len());
+        for deg in THETAS_DEG {
+            let (a, b) = albedo2(&m, &wo_at(deg), pole);
+            if (a - b).abs() > conv {
+                (conv, conv_at) = ((a - b).abs(), (p, deg));
+            }
+            if b > max_a {
+                (max_a, worst_at) = (b, (p, deg));
+            }
+            row.push(b);
+        }
+        check(p, &m, &row);
+    }
+    let fine = fine_error(&make(conv_at.0), &wo_at(conv_at.1), pole);
+    eprintln!(
+        "{label}: max albedo {max_a:.12} at (parameter, θo) = {worst_at:?}; default vs fine \
+         rule differ by ≤ {conv:.1e} (at {conv_at:?}, where the fine rule is within \
+         {fine:.1e} of a 64 x 1024 rule)"
+    );
+    assert!(conv < tol.0, "{label}: quadrature not converged: {conv:e}");
+    assert!(fine < tol.1, "{label}: fine rule off by {fine:e}");
+    (max_a, worst_at)
+}
+
+/// [`sweep`] of a Phong-type lobe: the exponents EXPONENTS, about the mirror direction.
+fn phong_sweep<M: Brdf>(
+    label: &str,
+    make: impl Fn(f64) -> M,
+    check: impl FnMut(f64, &M, &[f64]),
+    tol: (f64, f64),
+) -> (f64, (f64, f64)) {
+    sweep(label, &EXPONENTS, Pole::Mirror, make, check, tol)
+}
+
 fn wo_at(deg: f64) -> Vec3 {
     spherical(deg.to_radians(), 0.4)
 }
@@ -100,35 +152,19 @@ fn plausible_phong_lobe_is_normalised() {
 fn plausible_phong_conserves_energy() {
     // ρd = 0, ρs = 1 is the worst case of ρd + ρs ≤ 1 (the diffuse albedo is exactly
     // ρd, so a(ρd, ρs) = ρd + ρs · lobe albedo).
-    let mut max_a: f64 = 0.0;
-    let (mut conv, mut conv_at) = (0.0f64, (0.0, 0.0));
-    let mut worst_at = (0.0, 0.0);
-    for n in EXPONENTS {
-        let m = PlausiblePhong::new(Rgb::ZERO, Rgb::splat(1.0), n).unwrap();
-        let mut prev = f64::INFINITY;
-        for deg in THETAS_DEG {
-            let (a, b) = albedo2(&m, &wo_at(deg), Pole::Mirror);
-            if (a - b).abs() > conv {
-                (conv, conv_at) = ((a - b).abs(), (n, deg));
-            }
-            if b > max_a {
-                max_a = b;
-                worst_at = (n, deg);
-            }
-            // The lobe's albedo falls monotonically from ρs at the normal.
-            assert!(b <= prev + 1e-9, "n={n} θo={deg}°: {b} after {prev}");
-            prev = b;
+    let make = |n| PlausiblePhong::new(Rgb::ZERO, Rgb::splat(1.0), n).unwrap();
+    let check = |n, _: &PlausiblePhong, row: &[f64]| {
+        // The lobe's albedo falls monotonically from ρs at the normal.
+        for (w, deg) in row.windows(2).zip(&THETAS_DEG[1..]) {
+            assert!(
+                w[1] <= w[0] + 1e-9,
+                "n={n} θo={deg}°: {} after {}",
+                w[1],
+                w[0]
+            );
         }
-    }
-    let m = PlausiblePhong::new(Rgb::ZERO, Rgb::splat(1.0), conv_at.0).unwrap();
-    let fine = fine_error(&m, &wo_at(conv_at.1), Pole::Mirror);
-    eprintln!(
-        "plausible-phong: max lobe albedo {max_a:.12} at (n, θo) = {worst_at:?}; \
-         default vs fine rule differ by ≤ {conv:.1e} (at {conv_at:?}, where the fine \
-         rule is within {fine:.1e} of a 64 x 1024 rule)"
-    );
-    assert!(conv < 5e-6, "quadrature not converged: {conv:e}");
-    assert!(fine < 1e-7, "fine rule off by {fine:e}");
+    };
+    let (max_a, _) = phong_sweep("plausible-phong", make, check, (5e-6, 1e-7));
     assert!(max_a <= 1.0 + 1e-9, "albedo {max_a}");
     // And a mixture at the limit ρd + ρs = 1, per channel.
     let m = PlausiblePhong::new(Rgb::new(0.3, 0.6, 0.0), Rgb::new(0.7, 0.4, 1.0), 10.0).unwrap();
@@ -176,33 +212,10 @@ fn blinn_phong_normalisation_against_the_closed_form() {
 
 #[test]
 fn blinn_phong_albedo_exceeds_one_as_documented() {
-    let mut max_a: f64 = 0.0;
-    let (mut conv, mut conv_at) = (0.0f64, (0.0, 0.0));
-    let mut worst_at = (0.0, 0.0);
-    for n in EXPONENTS {
-        let m = BlinnPhong::new(Rgb::ZERO, Rgb::splat(1.0), n).unwrap();
-        for deg in THETAS_DEG {
-            let (a, b) = albedo2(&m, &wo_at(deg), Pole::Mirror);
-            if (a - b).abs() > conv {
-                (conv, conv_at) = ((a - b).abs(), (n, deg));
-            }
-            if b > max_a {
-                max_a = b;
-                worst_at = (n, deg);
-            }
-        }
-    }
-    let m = BlinnPhong::new(Rgb::ZERO, Rgb::splat(1.0), conv_at.0).unwrap();
-    let fine = fine_error(&m, &wo_at(conv_at.1), Pole::Mirror);
-    eprintln!(
-        "blinn-phong: max lobe albedo {max_a:.6} at (n, θo) = {worst_at:?}; \
-         default vs fine rule differ by ≤ {conv:.1e} (at {conv_at:?}, where the fine \
-         rule is within {fine:.1e} of a 64 x 1024 rule)"
-    );
+    let make = |n| BlinnPhong::new(Rgb::ZERO, Rgb::splat(1.0), n).unwrap();
     // The lobe squeezed by cos θo at grazing (n = 10⁴, 89°) is the default rule's
     // hardest case; the fine rule still resolves it.
-    assert!(conv < 2e-5, "quadrature not converged: {conv:e}");
-    assert!(fine < 1e-7, "fine rule off by {fine:e}");
+    let (max_a, _) = phong_sweep("blinn-phong", make, |_, _, _| {}, (2e-5, 1e-7));
     // ρs = 1 overshoots: conserves_energy() is false, and ρd + 1.076 ρs ≤ 1 suffices.
     assert!(max_a > 1.05 && max_a < 1.076, "{max_a}");
     assert!(!BlinnPhong::default().conserves_energy());
@@ -213,47 +226,33 @@ fn oren_nayar_albedo() {
     // At normal incidence wi.x wo.x + wi.y wo.y = 0, so the albedo is exactly ρ A; it
     // rises towards ρ (A + B/2) at grazing.
     let sigmas = [0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.8, 1.2, FRAC_PI_2];
-    let mut max_a: f64 = 0.0;
-    let (mut conv, mut conv_at) = (0.0f64, (0.0, 0.0));
-    let mut worst_at = (0.0, 0.0);
-    for sigma in sigmas {
+    let make = |sigma| OrenNayar::new(Rgb::splat(1.0), sigma).unwrap();
+    let check = |sigma, m: &OrenNayar, row: &[f64]| {
         let (a_coef, b_coef, _, _) = coefficients(sigma);
-        let m = OrenNayar::new(Rgb::splat(1.0), sigma).unwrap();
-        let (a0, _) = albedo2(&m, &Vec3::new(0.0, 0.0, 1.0), Pole::Normal);
+        let (a0, _) = albedo2(m, &Vec3::new(0.0, 0.0, 1.0), Pole::Normal);
         assert!(
             (a0 - a_coef).abs() < 1e-12,
             "σ={sigma}: {a0} vs A = {a_coef}"
         );
         let mut prev = 0.0;
-        for deg in THETAS_DEG {
-            let (a, b) = albedo2(&m, &wo_at(deg), Pole::Normal);
-            if (a - b).abs() > conv {
-                (conv, conv_at) = ((a - b).abs(), (sigma, deg));
-            }
+        for (&b, deg) in row.iter().zip(THETAS_DEG) {
             assert!(b >= prev - 1e-9, "σ={sigma}: albedo falls at {deg}°");
             assert!(b <= a_coef + 0.5 * b_coef + 1e-6, "σ={sigma} {deg}°: {b}");
             prev = b;
-            if b > max_a {
-                max_a = b;
-                worst_at = (sigma, deg);
-            }
         }
-    }
+    };
+    let tol = (3e-5, 2e-6);
+    let (max_a, worst_at) = sweep("oren-nayar", &sigmas, Pole::Normal, make, check, tol);
     let bound = (0..=2000)
         .map(|k| {
             let (a, b, _, _) = coefficients(k as f64 * FRAC_PI_2 / 2000.0);
             a + 0.5 * b
         })
         .fold(0.0, f64::max);
-    let m = OrenNayar::new(Rgb::splat(1.0), conv_at.0).unwrap();
-    let fine = fine_error(&m, &wo_at(conv_at.1), Pole::Normal);
     eprintln!(
         "oren-nayar: max albedo/ρ {max_a:.6} at (σ, θo) = {worst_at:?} (θo ≤ 89°); \
-         limit max(A + B/2) = {bound:.6}; default vs fine rule differ by ≤ {conv:.1e} \
-         (at {conv_at:?}, where the fine rule is within {fine:.1e} of a 64 x 1024 rule)"
+         limit max(A + B/2) = {bound:.6}"
     );
-    assert!(conv < 3e-5, "quadrature not converged: {conv:e}");
-    assert!(fine < 2e-6, "fine rule off by {fine:e}");
     assert!(
         max_a > 1.0,
         "the qualitative model overshoots at grazing: {max_a}"

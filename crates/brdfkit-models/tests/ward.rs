@@ -9,7 +9,6 @@ use brdfkit_models::shape::Shape;
 use brdfkit_models::testing::*;
 use brdfkit_models::ward::{Normalization, Ward};
 use proptest::prelude::*;
-use rayon::prelude::*;
 use std::f64::consts::PI;
 
 const NORMS: [Normalization; 3] = [
@@ -20,11 +19,7 @@ const NORMS: [Normalization; 3] = [
 
 fn model(n: Normalization, shape: Shape) -> Ward {
     Ward::new()
-        .with_rho_d(Rgb::new(0.1, 0.2, 0.3))
-        .unwrap()
-        .with_rho_s(Rgb::new(0.6, 0.5, 0.4))
-        .unwrap()
-        .with_shape(shape)
+        .with_lobes(Rgb::new(0.1, 0.2, 0.3), Rgb::new(0.6, 0.5, 0.4), shape)
         .unwrap()
         .with_normalization(n)
 }
@@ -37,13 +32,7 @@ fn shared_checks() {
     for n in NORMS {
         for shape in [Shape::Isotropic(0.25), Shape::Anisotropic(0.1, 0.4)] {
             let m = model(n, shape);
-            assert_paths_agree(&m, &pairs, 0.0);
-            assert_paths_agree(&m, &hard, 0.0);
-            assert_reciprocal(&m, &pairs, 1e-12);
-            assert_reciprocal(&m, &dense, 1e-12);
-            assert_nonnegative(&m, &dense);
-            assert_finite_everywhere(&m, &hard);
-            assert_zero_below_horizon(&m);
+            assert_properties_on(&m, &pairs, &hard, &dense);
             assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
         }
     }
@@ -63,9 +52,8 @@ proptest! {
     ) {
         let shape = shape_from_log10(aniso, la, lb);
         let m = Ward::new()
-            .with_rho_d(Rgb::new(p[0], p[1], p[2])).unwrap()
-            .with_rho_s(Rgb::new(p[3], p[4], p[5])).unwrap()
-            .with_shape(shape).unwrap()
+            .with_lobes(Rgb::new(p[0], p[1], p[2]), Rgb::new(p[3], p[4], p[5]), shape)
+            .unwrap()
             .with_normalization(NORMS[ni]);
         assert_gradient_matches_fd(&m, &random_pairs(seed, 4), 1e-6, 1e-6);
     }
@@ -93,11 +81,7 @@ fn matches_the_papers_formulas() {
     for n in NORMS {
         for &(ax, ay) in &[(0.2, 0.2), (0.05, 0.3), (0.7, 0.1)] {
             let m = Ward::new()
-                .with_rho_d(Rgb::ZERO)
-                .unwrap()
-                .with_rho_s(Rgb::splat(1.0))
-                .unwrap()
-                .with_alpha_xy(ax, ay)
+                .with_lobes(Rgb::ZERO, Rgb::splat(1.0), Shape::Anisotropic(ax, ay))
                 .unwrap()
                 .with_normalization(n);
             for (wi, wo) in random_pairs(9, 300) {
@@ -116,16 +100,6 @@ fn matches_the_papers_formulas() {
     }
 }
 
-/// The albedo rule of the energy checks (see `tests/cook_torrance.rs`: 1024
-/// azimuths agree with 4096 at order 32 to 1e-8; the default 128 do not for α = 0.01 at
-/// the horizon).
-fn converged() -> AlbedoQuadrature {
-    AlbedoQuadrature {
-        n_phi: 1024,
-        ..AlbedoQuadrature::default()
-    }
-}
-
 const ALPHAS: [f64; 12] = [
     0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 5.0,
 ];
@@ -135,29 +109,14 @@ const THETAS_DEG: [f64; 14] = [
 
 fn spec_only(n: Normalization, a: f64) -> Ward {
     Ward::new()
-        .with_rho_d(Rgb::ZERO)
-        .unwrap()
-        .with_rho_s(Rgb::splat(1.0))
-        .unwrap()
-        .with_alpha(a)
+        .with_lobes(Rgb::ZERO, Rgb::splat(1.0), Shape::Isotropic(a))
         .unwrap()
         .with_normalization(n)
 }
 
 /// Albedo of the spec-only lobe over ALPHAS × THETAS_DEG: (albedo, α, θo) triples.
 fn albedo_table(n: Normalization) -> Vec<(f64, f64, f64)> {
-    let q = converged();
-    let cases: Vec<(f64, f64)> = ALPHAS
-        .iter()
-        .flat_map(|&a| THETAS_DEG.iter().map(move |&t| (a, t)))
-        .collect();
-    cases
-        .par_iter()
-        .map(|&(a, t)| {
-            let wo = spherical(t.to_radians(), 0.3);
-            (directional_albedo(&spec_only(n, a), &wo, &q).r(), a, t)
-        })
-        .collect()
+    albedo_grid(&ALPHAS, &THETAS_DEG, 0.3, |a| spec_only(n, a))
 }
 
 #[test]
@@ -199,29 +158,30 @@ fn which_normalisation_bounds_the_albedo() {
     assert!(!spec_only(Normalization::Ward, 0.1).conserves_energy());
 }
 
+/// The albedo of the spec-only lobe (normalisation `n`, roughness `a`) at θo = `deg`
+/// degrees.
+fn spec_albedo(n: Normalization, a: f64, deg: f64) -> f64 {
+    let wo = spherical(deg.to_radians(), 0.0);
+    directional_albedo(&spec_only(n, a), &wo, &azimuth_converged_rule()).r()
+}
+
 #[test]
 fn original_ward_loses_energy_then_diverges_at_the_horizon() {
     // Dür 2006's analysis: for narrow lobes Ward's 1/√(cos θi cos θo) gives an albedo
     // ≈ cos θo (too dark away from the normal), while at the horizon 1/√cos θo
     // diverges and the albedo exceeds 1.
-    let q = converged();
-    let wo = spherical(60f64.to_radians(), 0.0);
-    let a = directional_albedo(&spec_only(Normalization::Ward, 0.01), &wo, &q).r();
+    let a = spec_albedo(Normalization::Ward, 0.01, 60.0);
     assert!((a - 0.5).abs() < 1e-3, "{a}");
-    let wo = spherical(89.9f64.to_radians(), 0.0);
-    let a = directional_albedo(&spec_only(Normalization::Ward, 0.5), &wo, &q).r();
+    let a = spec_albedo(Normalization::Ward, 0.5, 89.9);
     assert!(a > 1.4, "{a}");
     // Dür's normalisation: ≈ 1 for the narrow lobe at 60°, above 1 at 85° for α = 0.3.
-    let wo = spherical(60f64.to_radians(), 0.0);
-    let a = directional_albedo(&spec_only(Normalization::Duer, 0.01), &wo, &q).r();
+    let a = spec_albedo(Normalization::Duer, 0.01, 60.0);
     assert!((a - 1.0).abs() < 1e-3, "{a}");
-    let wo = spherical(85f64.to_radians(), 0.0);
-    let a = directional_albedo(&spec_only(Normalization::Duer, 0.3), &wo, &q).r();
+    let a = spec_albedo(Normalization::Duer, 0.3, 85.0);
     assert!(a > 1.2, "{a}");
     // At normal incidence with a narrow lobe all three give ≈ ρs.
-    let z = Vec3::new(0.0, 0.0, 1.0);
     for n in NORMS {
-        let a = directional_albedo(&spec_only(n, 0.02), &z, &q).r();
+        let a = spec_albedo(n, 0.02, 0.0);
         assert!((a - 1.0).abs() < 2e-3, "{n:?}: {a}");
     }
 }
@@ -238,7 +198,7 @@ fn albedo_rule_converged_at_the_horizon() {
             for &t in &[89.0f64, 89.9] {
                 let wo = spherical(t.to_radians(), 0.3);
                 let m = spec_only(n, a);
-                let x = directional_albedo(&m, &wo, &converged()).r();
+                let x = directional_albedo(&m, &wo, &azimuth_converged_rule()).r();
                 let y = directional_albedo(&m, &wo, &reference).r();
                 assert!((x - y).abs() <= 1e-6 * y, "{n:?} α={a} θo={t}: {x} vs {y}");
             }

@@ -37,10 +37,6 @@ pub mod scene;
 pub mod stats;
 
 pub use error::{OutputError, RenderError, SceneError};
-/// The old name of [`SceneMaterial`], kept only until `brdfkit-validate`'s report
-/// renders move to the new one (the study's material is a different thing).
-#[doc(hidden)]
-pub use material::SceneMaterial as Material;
 pub use material::{SceneMaterial, TableBrdf};
 pub use output::RenderOutput;
 pub use render::render;

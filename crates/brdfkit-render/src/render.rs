@@ -197,6 +197,20 @@ impl Ctx<'_> {
         })
     }
 
+    /// Traces the shadow ray of each candidate: an unblocked one adds its value to
+    /// `out[target]`; the rays and the blocked ones are counted in `cost`.
+    fn resolve(&self, cands: &[Candidate], cost: &mut EffectCost, out: &mut [Rgb]) {
+        for cand in cands {
+            cost.samples += 1;
+            cost.rays += 1;
+            if self.occluded(cand) {
+                cost.occluded += 1;
+            } else {
+                out[cand.target as usize] += cand.value;
+            }
+        }
+    }
+
     /// Whether the segment from a point on object `from` is blocked by the other object.
     #[inline]
     fn occluded(&self, c: &Candidate) -> bool {
@@ -552,24 +566,8 @@ fn render_chunk(
     if fx.shadows {
         let t0 = Instant::now();
         let sc = &mut c.shadows;
-        for cand in &s.direct_cands {
-            sc.samples += 1;
-            sc.rays += 1;
-            if ctx.occluded(cand) {
-                sc.occluded += 1;
-            } else {
-                s.cam_value[cand.target as usize] += cand.value;
-            }
-        }
-        for cand in &s.env_cands {
-            sc.samples += 1;
-            sc.rays += 1;
-            if ctx.occluded(cand) {
-                sc.occluded += 1;
-            } else {
-                s.values[cand.target as usize] += cand.value;
-            }
-        }
+        ctx.resolve(&s.direct_cands, sc, &mut s.cam_value);
+        ctx.resolve(&s.env_cands, sc, &mut s.values);
         sc.time += t0.elapsed();
     }
 

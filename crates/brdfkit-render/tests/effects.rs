@@ -1,34 +1,36 @@
 //! Only what is asked for is computed; costs are reported per effect; the image does
 //! not depend on the thread count; images are written atomically and read back.
 
+mod common;
+
 use brdfkit_core::Rgb;
 use brdfkit_render::{Effect, OutputError, Scene, SceneError, render};
+use common::{Camera, film_camera_sphere};
 
-const BASE: &str = r#"
-[film]
-width = 40
-height = 30
-spp = 16
-[camera]
-position = [0, 2, 5]
-look_at = [0, -0.3, 0]
-fov = 45
-[sphere]
-center = [0, 0, 0]
-radius = 1
-[plane]
+/// A glossy sphere over a plane, 40 x 30 at 16 spp.
+fn base() -> String {
+    let cam = Camera {
+        position: [0.0, 2.0, 5.0],
+        look_at: [0.0, -0.3, 0.0],
+        fov: 45.0,
+    };
+    let blocks = film_camera_sphere((40, 30), "spp = 16", &cam, [0.0; 3], 1.0);
+    format!(
+        r#"{blocks}[plane]
 point = [0, -1, 0]
 normal = [0, 1, 0]
 [material]
-model = { model = "cook-torrance", params = { rho_d = 0.3, rho_s = 0.5, alpha = 0.2 } }
-"#;
+model = {{ model = "cook-torrance", params = {{ rho_d = 0.3, rho_s = 0.5, alpha = 0.2 }} }}
+"#
+    )
+}
 
 const POINT: &str = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2]\nintensity = 10\n";
 const ENV: &str = "[environment]\nconstant = [0.5, 0.6, 0.7]\n";
 
 fn scene(effects: &str, extra: &str) -> Result<Scene, SceneError> {
     Scene::from_toml_str(
-        &format!("effects = {effects}\n{BASE}{extra}"),
+        &format!("effects = {effects}\n{}{extra}", base()),
         "effects.toml",
     )
 }

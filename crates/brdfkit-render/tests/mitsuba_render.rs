@@ -2,9 +2,9 @@
 //! file rendered by brdfkit-render and by `python/mitsuba_render.py`, compared on the
 //! linear radiance.
 //!
-//! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`. With `CI` set,
-//! a missing Mitsuba fails the test; without it the test prints one loud line and
-//! returns.
+//! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`. Without Mitsuba
+//! the tests are ignored, with the reason (probed by build.rs, see
+//! build/external_tools.rs); with `CI` set a missing Mitsuba fails them.
 //!
 //! Error measure: per pixel and channel, |ours − mitsuba| / mitsuba, averaged over the
 //! pixels where **both** images exceed 1 % of the Mitsuba image's maximum in that
@@ -16,53 +16,15 @@
 //! no noise), ≤ 3 % for a constant environment at 256 spp (box filter, both renderers
 //! jittering inside the pixel).
 
+mod common;
+#[path = "../../../build/external_tools.rs"]
+#[macro_use]
+mod external_tools;
+
 use brdfkit_render::{Scene, render};
-use std::path::{Path, PathBuf};
+use common::{Camera, film_camera_sphere};
+use std::path::Path;
 use std::process::Command;
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// The Python with Mitsuba, or None (after the loud line) when it is missing outside CI.
-fn mitsuba_python() -> Option<PathBuf> {
-    let py = std::env::var_os("BRDFKIT_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| workspace().join(".venv/bin/python"));
-    let ok = Command::new(&py)
-        .args([
-            "-c",
-            "import mitsuba, drjit; mitsuba.set_variant('scalar_rgb')",
-        ])
-        .output()
-        .map(|o| o.status.success())
-        .unwrap_or(false);
-    if ok {
-        return Some(py);
-    }
-    if std::env::var_os("CI").is_some() {
-        panic!(
-            "CI is set but Mitsuba 3 is not importable from {} (set BRDFKIT_PYTHON, or \
-             `python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt`)",
-            py.display()
-        );
-    }
-    // Written to the process's stderr directly: the test harness captures `eprintln!`
-    // of passing tests, and this line must be seen.
-    // Once per test binary, not once per test.
-    static LOUD: std::sync::Once = std::sync::Once::new();
-    LOUD.call_once(|| {
-        use std::io::Write;
-        let _ = writeln!(
-            std::io::stderr(),
-            "!!!!! MITSUBA CROSS-CHECK DID NOT RUN: no Mitsuba 3 at {} -- enable it with \
-             `python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt` \
-             (or set BRDFKIT_PYTHON) !!!!!",
-            py.display()
-        );
-    });
-    None
-}
 
 struct Comparison {
     mean_rel: f64,
@@ -155,7 +117,7 @@ fn check_with(
     tol: f64,
     prepare: impl FnOnce(&Path),
 ) {
-    let Some(py) = mitsuba_python() else { return };
+    let py = external_tools::require_mitsuba();
     let dir = tempfile::tempdir().unwrap();
     prepare(dir.path());
     let path = dir.path().join(format!("{name}.toml"));
@@ -205,20 +167,15 @@ const LAMBERT: &str = r#"model = { model = "lambert", params = { rho_d = [0.8, 0
 /// An off-centre camera and an off-axis light, so a mirrored image or a swapped axis
 /// cannot pass.
 fn point_scene(material: &str) -> String {
+    let cam = Camera {
+        position: [0.4, 0.7, 4.5],
+        look_at: [0.1, 0.0, 0.0],
+        fov: 38.0,
+    };
+    let blocks = film_camera_sphere((96, 72), "filter = \"center\"", &cam, [0.1, 0.0, 0.0], 1.0);
     format!(
         r#"effects = ["direct"]
-[film]
-width = 96
-height = 72
-filter = "center"
-[camera]
-position = [0.4, 0.7, 4.5]
-look_at = [0.1, 0.0, 0.0]
-fov = 38
-[sphere]
-center = [0.1, 0.0, 0.0]
-radius = 1.0
-[material]
+{blocks}[material]
 {material}
 [[light]]
 type = "point"
@@ -229,20 +186,15 @@ intensity = [20.0, 15.0, 10.0]
 }
 
 fn directional_scene(material: &str) -> String {
+    let cam = Camera {
+        position: [-0.5, 0.3, 4.0],
+        look_at: [0.0; 3],
+        fov: 35.0,
+    };
+    let blocks = film_camera_sphere((80, 80), "filter = \"center\"", &cam, [0.0; 3], 1.0);
     format!(
         r#"effects = ["direct"]
-[film]
-width = 80
-height = 80
-filter = "center"
-[camera]
-position = [-0.5, 0.3, 4.0]
-look_at = [0.0, 0.0, 0.0]
-fov = 35
-[sphere]
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-[material]
+{blocks}[material]
 {material}
 [[light]]
 type = "directional"
@@ -253,23 +205,16 @@ irradiance = [2.0, 3.0, 4.0]
 }
 
 fn constant_env_scene(material: &str, spp: usize) -> String {
+    let cam = Camera {
+        position: [0.0, 0.4, 4.0],
+        look_at: [0.0; 3],
+        fov: 35.0,
+    };
+    let film = format!("filter = \"box\"\nspp = {spp}\nseed = 7\nshow_environment = false");
+    let blocks = film_camera_sphere((64, 64), &film, &cam, [0.0; 3], 1.0);
     format!(
         r#"effects = ["environment"]
-[film]
-width = 64
-height = 64
-filter = "box"
-spp = {spp}
-seed = 7
-show_environment = false
-[camera]
-position = [0.0, 0.4, 4.0]
-look_at = [0.0, 0.0, 0.0]
-fov = 35
-[sphere]
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-[material]
+{blocks}[material]
 {material}
 [environment]
 constant = [0.9, 1.0, 1.2]
@@ -277,94 +222,95 @@ constant = [0.9, 1.0, 1.2]
     )
 }
 
-#[test]
-fn point_light_ggx_conductor_matches_mitsuba() {
-    check("point-ggx", &point_scene(GGX_CONDUCTOR), None, 0.01);
+mitsuba_test! {
+    fn point_light_ggx_conductor_matches_mitsuba() {
+        check("point-ggx", &point_scene(GGX_CONDUCTOR), None, 0.01);
+    }
 }
 
-#[test]
-fn point_light_lambert_matches_mitsuba() {
-    check("point-lambert", &point_scene(LAMBERT), None, 0.01);
+mitsuba_test! {
+    fn point_light_lambert_matches_mitsuba() {
+        check("point-lambert", &point_scene(LAMBERT), None, 0.01);
+    }
 }
 
-#[test]
-fn directional_light_matches_mitsuba() {
-    check(
-        "directional-ggx",
-        &directional_scene(GGX_CONDUCTOR),
-        None,
-        0.01,
-    );
-    check(
-        "directional-lambert",
-        &directional_scene(LAMBERT),
-        None,
-        0.01,
-    );
+mitsuba_test! {
+    fn directional_light_matches_mitsuba() {
+        check(
+            "directional-ggx",
+            &directional_scene(GGX_CONDUCTOR),
+            None,
+            0.01,
+        );
+        check(
+            "directional-lambert",
+            &directional_scene(LAMBERT),
+            None,
+            0.01,
+        );
+    }
 }
 
-#[test]
-fn constant_environment_ggx_conductor_matches_mitsuba() {
-    check(
-        "env-ggx",
-        &constant_env_scene(GGX_CONDUCTOR, 256),
-        Some(256),
-        0.03,
-    );
+mitsuba_test! {
+    fn constant_environment_ggx_conductor_matches_mitsuba() {
+        check(
+            "env-ggx",
+            &constant_env_scene(GGX_CONDUCTOR, 256),
+            Some(256),
+            0.03,
+        );
+    }
 }
 
-#[test]
-fn constant_environment_lambert_matches_mitsuba() {
-    check(
-        "env-lambert",
-        &constant_env_scene(LAMBERT, 256),
-        Some(256),
-        0.03,
-    );
+mitsuba_test! {
+    fn constant_environment_lambert_matches_mitsuba() {
+        check(
+            "env-lambert",
+            &constant_env_scene(LAMBERT, 256),
+            Some(256),
+            0.03,
+        );
+    }
 }
 
-/// A lat-long EXR with a smooth, lopsided sky (a broad lobe towards +x, +y, +z over a
-/// dim base): any flip of u or v, or an offset of the azimuth, moves the lobe and fails.
-/// Mitsuba's `envmap` interpolates bilinearly, brdfkit reads texels as constant; on a
-/// smooth 128 x 64 image the difference integrates away on a Lambertian sphere.
-#[test]
-fn lat_long_environment_matches_mitsuba() {
-    let text = constant_env_scene(LAMBERT, 256).replace(
-        "constant = [0.9, 1.0, 1.2]",
-        "file = \"sky.exr\"\nscale = 1.5",
-    );
-    check_with("env-latlong-lambert", &text, Some(256), 0.03, |dir| {
-        let (w, h) = (128u32, 64u32);
-        let s = brdfkit_core::Vec3::new(0.6, 0.5, 0.6).normalize();
-        let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
-            let d = brdfkit_render::env::uv_to_direction(
-                (x as f64 + 0.5) / w as f64,
-                (y as f64 + 0.5) / h as f64,
-            );
-            let lobe = d.dot(&s).max(0.0).powi(3) as f32;
-            image::Rgb([0.1 + 2.0 * lobe, 0.15 + 1.5 * lobe, 0.2 + lobe])
+mitsuba_test! {
+    /// A lat-long EXR with a smooth, lopsided sky (a broad lobe towards +x, +y, +z over a
+    /// dim base): any flip of u or v, or an offset of the azimuth, moves the lobe and fails.
+    /// Mitsuba's `envmap` interpolates bilinearly, brdfkit reads texels as constant; on a
+    /// smooth 128 x 64 image the difference integrates away on a Lambertian sphere.
+    fn lat_long_environment_matches_mitsuba() {
+        let text = constant_env_scene(LAMBERT, 256).replace(
+            "constant = [0.9, 1.0, 1.2]",
+            "file = \"sky.exr\"\nscale = 1.5",
+        );
+        check_with("env-latlong-lambert", &text, Some(256), 0.03, |dir| {
+            let (w, h) = (128u32, 64u32);
+            let s = brdfkit_core::Vec3::new(0.6, 0.5, 0.6).normalize();
+            let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
+                let d = brdfkit_render::env::uv_to_direction(
+                    (x as f64 + 0.5) / w as f64,
+                    (y as f64 + 0.5) / h as f64,
+                );
+                let lobe = d.dot(&s).max(0.0).powi(3) as f32;
+                image::Rgb([0.1 + 2.0 * lobe, 0.15 + 1.5 * lobe, 0.2 + lobe])
+            });
+            img.save(dir.join("sky.exr")).unwrap();
         });
-        img.save(dir.join("sky.exr")).unwrap();
-    });
+    }
 }
 
 /// Sphere over a floor: the floor (a 2000 x 2000 `rectangle` in Mitsuba, the infinite
 /// plane here) with the sphere's shadow.
 fn floor_scene(effects: &str, film: &str, lights: &str) -> String {
+    let cam = Camera {
+        position: [0.5, 2.2, 5.0],
+        look_at: [0.0, -0.4, 0.0],
+        fov: 45.0,
+    };
+    let blocks = film_camera_sphere((96, 72), film, &cam, [0.0; 3], 1.0);
     format!(
         r#"effects = {effects}
-[film]
-width = 96
-height = 72
-{film}
-[camera]
-position = [0.5, 2.2, 5.0]
-look_at = [0.0, -0.4, 0.0]
-fov = 45
-[sphere]
-center = [0.0, 0.0, 0.0]
-radius = 1.0
-material = {{ {GGX_CONDUCTOR} }}
+{blocks}material = {{ {GGX_CONDUCTOR} }}
 [plane]
 point = [0.0, -1.2, 0.0]
 normal = [0.0, 1.0, 0.0]
@@ -374,22 +320,24 @@ material = {{ {LAMBERT} }}
     )
 }
 
-#[test]
-fn point_light_shadow_on_a_floor_matches_mitsuba() {
-    let text = floor_scene(
-        r#"["direct", "shadows"]"#,
-        "filter = \"center\"",
-        "[[light]]\ntype = \"point\"\nposition = [-1.5, 3.0, 1.0]\nintensity = [20.0, 18.0, 15.0]",
-    );
-    check("floor-point-shadow", &text, None, 0.01);
+mitsuba_test! {
+    fn point_light_shadow_on_a_floor_matches_mitsuba() {
+        let text = floor_scene(
+            r#"["direct", "shadows"]"#,
+            "filter = \"center\"",
+            "[[light]]\ntype = \"point\"\nposition = [-1.5, 3.0, 1.0]\nintensity = [20.0, 18.0, 15.0]",
+        );
+        check("floor-point-shadow", &text, None, 0.01);
+    }
 }
 
-#[test]
-fn environment_occlusion_on_a_floor_matches_mitsuba() {
-    let text = floor_scene(
-        r#"["environment", "shadows"]"#,
-        "filter = \"box\"\nspp = 256\nseed = 3\nshow_environment = false",
-        "[environment]\nconstant = [0.9, 1.0, 1.2]",
-    );
-    check("floor-env-shadow", &text, Some(256), 0.03);
+mitsuba_test! {
+    fn environment_occlusion_on_a_floor_matches_mitsuba() {
+        let text = floor_scene(
+            r#"["environment", "shadows"]"#,
+            "filter = \"box\"\nspp = 256\nseed = 3\nshow_environment = false",
+            "[environment]\nconstant = [0.9, 1.0, 1.2]",
+        );
+        check("floor-env-shadow", &text, Some(256), 0.03);
+    }
 }

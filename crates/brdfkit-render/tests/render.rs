@@ -2,11 +2,14 @@
 //! numbers (own camera rays, own ray-sphere algebra), quadrature, and a second
 //! rendering path (a MERL table of a model against the model itself).
 
+mod common;
+
 use brdfkit_core::quadrature::{AlbedoQuadrature, directional_albedo};
 use brdfkit_core::{Rgb, Vec3};
 use brdfkit_merl::{Dims, MerlTable};
 use brdfkit_models::lambert::Lambert;
 use brdfkit_render::{RenderOutput, Scene, render};
+use common::{Camera, film_camera_sphere};
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -45,6 +48,16 @@ struct View {
 }
 
 impl View {
+    /// `[film]`, `[camera]` and `[sphere]` for this view and film.
+    fn blocks(&self, film: &str, center: [f64; 3]) -> String {
+        let cam = Camera {
+            position: [self.pos.x, self.pos.y, self.pos.z],
+            look_at: [self.at.x, self.at.y, self.at.z],
+            fov: self.fov,
+        };
+        film_camera_sphere((self.w, self.h), film, &cam, center, 1.0)
+    }
+
     /// The documented camera model, written again here: the ray through the centre of
     /// pixel (x, y), horizontal field of view, up = +y.
     fn dir(&self, x: usize, y: usize) -> Vec3 {
@@ -68,26 +81,18 @@ const SPHERE_VIEW: View = View {
 };
 
 fn sphere_scene(effects: &str, material: &str, lights: &str, film_extra: &str) -> String {
-    let v = &SPHERE_VIEW;
-    format!(
-        r#"effects = {effects}
-[film]
-width = {}
-height = {}
-{film_extra}
-[camera]
-position = [{}, {}, {}]
-look_at = [0, 0, 0]
-fov = {}
-[sphere]
-center = [0, 0, 0]
-radius = 1
-[material]
-{material}
-{lights}
-"#,
-        v.w, v.h, v.pos.x, v.pos.y, v.pos.z, v.fov
-    )
+    let blocks = SPHERE_VIEW.blocks(film_extra, [0.0; 3]);
+    format!("effects = {effects}\n{blocks}[material]\n{material}\n{lights}\n")
+}
+
+/// The sphere view with `material` under `lights` (direct light only), written in `dir`
+/// (where the files it names are) and rendered.
+fn render_direct_in(dir: &Path, material: &str, lights: &str) -> RenderOutput {
+    render(&scene_in(
+        dir,
+        &sphere_scene(r#"["direct"]"#, material, lights, ""),
+    ))
+    .unwrap()
 }
 
 /// For each pixel of the sphere view: Some(normal) on the sphere, None off it, skipping
@@ -312,6 +317,16 @@ fn white_furnace_glossy_sphere_returns_its_directional_albedo() {
     );
 }
 
+/// A w x h image that is `bright` where `lit(x, y)`, `dark` elsewhere.
+fn two_tone<P: image::Pixel>(
+    (w, h): (u32, u32),
+    lit: impl Fn(u32, u32) -> bool,
+    bright: P,
+    dark: P,
+) -> image::ImageBuffer<P, Vec<P::Subpixel>> {
+    image::ImageBuffer::from_fn(w, h, |x, y| if lit(x, y) { bright } else { dark })
+}
+
 #[test]
 fn lat_long_images_light_a_lambert_sphere_as_half_skies() {
     // A sky that is L above the horizon (y > 0) and black below gives a Lambertian
@@ -320,23 +335,24 @@ fn lat_long_images_light_a_lambert_sphere_as_half_skies() {
     let dir = tempfile::tempdir().unwrap();
     let (w, h) = (64u32, 32u32);
     // EXR, linear: bright rows v < 1/2.
-    let exr = image::Rgb32FImage::from_fn(w, h, |_, y| {
-        if y < h / 2 {
-            image::Rgb([2.0, 1.0, 0.5])
-        } else {
-            image::Rgb([0.0; 3])
-        }
-    });
-    exr.save(dir.path().join("sky.exr")).unwrap();
+    let black = image::Rgb([0.0f32; 3]);
+    two_tone(
+        (w, h),
+        |_, y| y < h / 2,
+        image::Rgb([2.0f32, 1.0, 0.5]),
+        black,
+    )
+    .save(dir.path().join("sky.exr"))
+    .unwrap();
     // PNG, sRGB 8-bit: bright columns u < 1/2, value 188 → linear 0.5029.
-    let png = image::RgbImage::from_fn(w, h, |x, _| {
-        if x < w / 2 {
-            image::Rgb([255, 188, 0])
-        } else {
-            image::Rgb([0; 3])
-        }
-    });
-    png.save(dir.path().join("east.png")).unwrap();
+    two_tone(
+        (w, h),
+        |x, _| x < w / 2,
+        image::Rgb([255u8, 188, 0]),
+        image::Rgb([0; 3]),
+    )
+    .save(dir.path().join("east.png"))
+    .unwrap();
     let srgb188 = ((188.0 / 255.0 + 0.055) / 1.055f64).powf(2.4);
     let rho = 0.6;
     for (file, l, axis) in [
@@ -403,29 +419,30 @@ const SHADOW_VIEW: View = View {
 };
 
 fn shadow_scene(effects: &str, lights: &str, film_extra: &str, sphere_y: f64) -> String {
-    let v = &SHADOW_VIEW;
+    let blocks = SHADOW_VIEW.blocks(film_extra, [0.0, sphere_y, 0.0]);
     format!(
         r#"effects = {effects}
-[film]
-width = {}
-height = {}
-{film_extra}
-[camera]
-position = [{}, {}, {}]
-look_at = [{}, {}, {}]
-fov = {}
-[sphere]
-center = [0, {sphere_y}, 0]
-radius = 1
-[plane]
+{blocks}[plane]
 point = [0, -1, 0]
 normal = [0, 1, 0]
 [material]
 model = {{ model = "lambert", params = {{ rho_d = 0.5 }} }}
 {lights}
-"#,
-        v.w, v.h, v.pos.x, v.pos.y, v.pos.z, v.at.x, v.at.y, v.at.z, v.fov
+"#
     )
+}
+
+/// The shadow scene with `effects` and `lights`, the sphere on the plane, rendered.
+fn render_shadow_scene(effects: &str, lights: &str) -> RenderOutput {
+    render(&scene(&shadow_scene(effects, lights, "", 0.0))).unwrap()
+}
+
+/// The pixels of the shadow view that see the plane (the sphere's centre at height
+/// `sphere_y`), with the plane point each sees.
+fn plane_pixels(sphere_y: f64) -> impl Iterator<Item = ((usize, usize), Vec3)> {
+    (0..SHADOW_VIEW.h)
+        .flat_map(|y| (0..SHADOW_VIEW.w).map(move |x| (x, y)))
+        .filter_map(move |(x, y)| plane_point(x, y, sphere_y).map(|p| ((x, y), p)))
 }
 
 /// Plane hit point of pixel (x, y) when the ray misses the sphere (with a margin).
@@ -443,31 +460,20 @@ fn plane_point(x: usize, y: usize, sphere_y: f64) -> Option<Vec3> {
 #[test]
 fn a_sphere_shadows_the_plane_under_a_directional_light_only_with_shadows() {
     let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = 2.5";
-    let with = render(&scene(&shadow_scene(
-        r#"["direct", "shadows"]"#,
-        light,
-        "",
-        0.0,
-    )))
-    .unwrap();
-    let without = render(&scene(&shadow_scene(r#"["direct"]"#, light, "", 0.0))).unwrap();
+    let with = render_shadow_scene(r#"["direct", "shadows"]"#, light);
+    let without = render_shadow_scene(r#"["direct"]"#, light);
     let lit = 0.5 / PI * 2.5;
     let (mut shadowed, mut open) = (0, 0);
-    for y in 0..SHADOW_VIEW.h {
-        for x in 0..SHADOW_VIEW.w {
-            let Some(p) = plane_point(x, y, 0.0) else {
-                continue;
-            };
-            let r = p.x.hypot(p.z);
-            // Light from straight above: the shadow is the unit disc under the sphere.
-            assert!((without.pixel(x, y)[0] - lit).abs() < 1e-12);
-            if r < 0.98 {
-                assert_eq!(with.pixel(x, y), Rgb::ZERO, "({x}, {y}) r = {r}");
-                shadowed += 1;
-            } else if r > 1.02 {
-                assert!((with.pixel(x, y)[0] - lit).abs() < 1e-12);
-                open += 1;
-            }
+    for ((x, y), p) in plane_pixels(0.0) {
+        let r = p.x.hypot(p.z);
+        // Light from straight above: the shadow is the unit disc under the sphere.
+        assert!((without.pixel(x, y)[0] - lit).abs() < 1e-12);
+        if r < 0.98 {
+            assert_eq!(with.pixel(x, y), Rgb::ZERO, "({x}, {y}) r = {r}");
+            shadowed += 1;
+        } else if r > 1.02 {
+            assert!((with.pixel(x, y)[0] - lit).abs() < 1e-12);
+            open += 1;
         }
     }
     assert!(
@@ -482,41 +488,30 @@ fn a_sphere_shadows_the_plane_under_a_directional_light_only_with_shadows() {
 fn a_sphere_shadows_the_plane_under_a_point_light() {
     let lp = Vec3::new(1.5, 3.0, 0.5);
     let light = "[[light]]\ntype = \"point\"\nposition = [1.5, 3.0, 0.5]\nintensity = 10";
-    let out = render(&scene(&shadow_scene(
-        r#"["direct", "shadows"]"#,
-        light,
-        "",
-        0.0,
-    )))
-    .unwrap();
+    let out = render_shadow_scene(r#"["direct", "shadows"]"#, light);
     let (mut shadowed, mut open) = (0, 0);
-    for y in 0..SHADOW_VIEW.h {
-        for x in 0..SHADOW_VIEW.w {
-            let Some(p) = plane_point(x, y, 0.0) else {
-                continue;
-            };
-            let to = lp - p;
-            let dist = to.norm();
-            let d = to / dist;
-            // Blocked when the segment p → light crosses the sphere (margin: skip).
-            let oc = p;
-            let b = oc.dot(&d);
-            let disc = b * b - (oc.norm_squared() - 1.0);
-            if disc.abs() < 1e-2 {
-                continue;
-            }
-            let blocked = disc > 0.0 && {
-                let t = -b - disc.sqrt();
-                t > 0.0 && t < dist
-            };
-            let want = if blocked {
-                0.0
-            } else {
-                0.5 / PI * 10.0 * d.y / (dist * dist)
-            };
-            assert!((out.pixel(x, y)[0] - want).abs() < 1e-12, "({x},{y})");
-            if blocked { shadowed += 1 } else { open += 1 }
+    for ((x, y), p) in plane_pixels(0.0) {
+        let to = lp - p;
+        let dist = to.norm();
+        let d = to / dist;
+        // Blocked when the segment p → light crosses the sphere (margin: skip).
+        let oc = p;
+        let b = oc.dot(&d);
+        let disc = b * b - (oc.norm_squared() - 1.0);
+        if disc.abs() < 1e-2 {
+            continue;
         }
+        let blocked = disc > 0.0 && {
+            let t = -b - disc.sqrt();
+            t > 0.0 && t < dist
+        };
+        let want = if blocked {
+            0.0
+        } else {
+            0.5 / PI * 10.0 * d.y / (dist * dist)
+        };
+        assert!((out.pixel(x, y)[0] - want).abs() < 1e-12, "({x},{y})");
+        if blocked { shadowed += 1 } else { open += 1 }
     }
     assert!(
         shadowed > 20 && open > 500,
@@ -539,10 +534,7 @@ fn environment_occlusion_by_a_sphere_matches_the_form_factor() {
         cy,
     ));
     let out = render(&s).unwrap();
-    let pts: std::collections::HashMap<_, _> = (0..SHADOW_VIEW.h)
-        .flat_map(|y| (0..SHADOW_VIEW.w).map(move |x| (x, y)))
-        .filter_map(|(x, y)| plane_point(x, y, cy).map(|p| ((x, y), p)))
-        .collect();
+    let pts: std::collections::HashMap<_, _> = plane_pixels(cy).collect();
     check_mc(
         &out,
         |x, y| {
@@ -562,27 +554,17 @@ fn a_merl_table_of_lambert_renders_as_lambert() {
     let table = MerlTable::from_brdf(&lambert, Dims::MERL).unwrap();
     table.write(dir.path().join("lambert.binary")).unwrap();
     let light = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2.5]\nintensity = [10, 20, 30]";
-    let model = render(&scene_in(
+    let model = render_direct_in(
         dir.path(),
-        &sphere_scene(
-            r#"["direct"]"#,
-            r#"model = { model = "lambert", params = { rho_d = [0.8, 0.5, 0.3] } }"#,
-            light,
-            "",
-        ),
-    ))
-    .unwrap();
+        r#"model = { model = "lambert", params = { rho_d = [0.8, 0.5, 0.3] } }"#,
+        light,
+    );
     for lookup in ["nearest", "interpolated"] {
-        let tab = render(&scene_in(
+        let tab = render_direct_in(
             dir.path(),
-            &sphere_scene(
-                r#"["direct"]"#,
-                &format!("table = \"lambert.binary\"\nlookup = \"{lookup}\""),
-                light,
-                "",
-            ),
-        ))
-        .unwrap();
+            &format!("table = \"lambert.binary\"\nlookup = \"{lookup}\""),
+            light,
+        );
         // Every valid cell holds ρ/π exactly as the model (stored in raw units, so to
         // round-off); a lookup in a missing cell (near grazing) renders 0 and is counted.
         let mut zero_where_model_lit = 0;
@@ -619,21 +601,12 @@ fn a_merl_table_of_a_glossy_model_renders_close_to_the_model() {
         .unwrap();
     std::fs::write(dir.path().join("ct.json"), json).unwrap();
     let light = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2.5]\nintensity = 10";
-    let a = render(&scene_in(
+    let a = render_direct_in(dir.path(), "model = \"ct.json\"", light);
+    let b = render_direct_in(
         dir.path(),
-        &sphere_scene(r#"["direct"]"#, "model = \"ct.json\"", light, ""),
-    ))
-    .unwrap();
-    let b = render(&scene_in(
-        dir.path(),
-        &sphere_scene(
-            r#"["direct"]"#,
-            "table = \"ct.binary\"\nlookup = \"interpolated\"",
-            light,
-            "",
-        ),
-    ))
-    .unwrap();
+        "table = \"ct.binary\"\nlookup = \"interpolated\"",
+        light,
+    );
     let max = a
         .radiance
         .iter()
@@ -670,21 +643,12 @@ fn missing_table_cells_render_black_and_are_counted() {
         .write(dir.path().join("coarse.binary"))
         .unwrap();
     let light = "[[light]]\ntype = \"point\"\nposition = [2, 3, 2.5]\nintensity = 10";
-    let model = render(&scene_in(
+    let model = render_direct_in(
         dir.path(),
-        &sphere_scene(
-            r#"["direct"]"#,
-            r#"model = { model = "lambert", params = { rho_d = 0.5 } }"#,
-            light,
-            "",
-        ),
-    ))
-    .unwrap();
-    let tab = render(&scene_in(
-        dir.path(),
-        &sphere_scene(r#"["direct"]"#, "table = \"coarse.binary\"", light, ""),
-    ))
-    .unwrap();
+        r#"model = { model = "lambert", params = { rho_d = 0.5 } }"#,
+        light,
+    );
+    let tab = render_direct_in(dir.path(), "table = \"coarse.binary\"", light);
     let mut black = 0u64;
     for (a, b) in tab.radiance.iter().zip(&model.radiance) {
         if *a == Rgb::ZERO && b.max_channel() > 0.0 {

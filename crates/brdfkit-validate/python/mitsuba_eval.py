@@ -35,36 +35,12 @@ variant is not available (the caller treats 3 as "Mitsuba is missing").
 """
 
 import json
+import os
 import sys
 
-
-def fail(code, msg):
-    print(f"mitsuba_eval.py: {msg}", file=sys.stderr)
-    sys.exit(code)
-
-
-def load_mitsuba(variant):
-    try:
-        import drjit as dr
-        import mitsuba as mi
-    except Exception as e:  # ImportError, or a broken binary wheel
-        fail(3, f"cannot import mitsuba/drjit: {e!r} "
-                "(install: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt)")
-    try:
-        mi.set_variant(variant)
-    except Exception as e:
-        fail(3, f"mitsuba variant `{variant}` is not available: {e!r}")
-    return mi, dr
-
-
-def versions(mi, dr, variant):
-    return {"mitsuba": mi.__version__, "drjit": dr.__version__, "variant": variant}
-
-
-def f32(x):
-    """x rounded to float32, as nanobind converts a Python float for Mitsuba."""
-    import struct
-    return struct.unpack("f", struct.pack("f", x))[0]
+# The shared helpers live in <workspace>/python.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "python"))
+from brdfkit_mitsuba import eval_case, fail, load_mitsuba, read_json, versions, write_json  # noqa: E402
 
 
 def evaluate(mi, config):
@@ -79,15 +55,9 @@ def evaluate(mi, config):
     for n, case in enumerate(config["cases"]):
         if len(case) != 6 or not all(isinstance(v, (int, float)) for v in case):
             fail(2, f"config `{name}` case {n}: expected 6 numbers, got {case!r}")
-        wi = mi.Vector3f(case[0], case[1], case[2])
-        wo = mi.Vector3f(case[3], case[4], case[5])
-        # Mitsuba's viewer side is brdfkit's wo, its light side brdfkit's wi.
-        si.wi = wo
-        v = bsdf.eval(ctx, si, wi)
-        e = [float(v[0]), float(v[1]), float(v[2])]
-        cos = f32(case[2])
+        e, f = eval_case(mi, bsdf, ctx, si, case)
         evals.append(e)
-        fs.append([c / cos if cos > 0.0 else 0.0 for c in e])
+        fs.append(f)
     return {"name": name, "eval": evals, "f": fs}
 
 
@@ -98,22 +68,14 @@ def main(argv):
         return 0
     if len(argv) != 3:
         fail(2, "usage: mitsuba_eval.py IN.json OUT.json | --version")
-    try:
-        with open(argv[1], encoding="utf-8") as fh:
-            batch = json.load(fh)
-    except (OSError, ValueError) as e:
-        fail(2, f"{argv[1]}: {e}")
+    batch = read_json(argv[1])
     if not isinstance(batch, dict) or not isinstance(batch.get("configs"), list):
         fail(2, f"{argv[1]}: expected an object with a `configs` list")
     variant = batch.get("variant", "scalar_rgb")
     mi, dr = load_mitsuba(variant)
     out = versions(mi, dr, variant)
     out["configs"] = [evaluate(mi, c) for c in batch["configs"]]
-    tmp = argv[2] + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(out, fh)
-    import os
-    os.replace(tmp, argv[2])
+    write_json(argv[2], out)
     return 0
 
 

@@ -347,30 +347,11 @@ pub fn cases(seed: u64) -> Vec<(Vec3, Vec3)> {
     v
 }
 
-/// The Python that runs the cross-check: `$BRDFKIT_PYTHON` when set, else
-/// `<workspace>/.venv/bin/python` when it exists.
-pub fn find_python(workspace: &Path) -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("BRDFKIT_PYTHON").filter(|p| !p.is_empty()) {
-        return Some(PathBuf::from(p));
-    }
-    let venv = workspace.join(".venv").join("bin").join("python");
-    venv.exists().then_some(venv)
-}
-
 /// The script of this crate that evaluates Mitsuba (`python/mitsuba_eval.py`).
 pub fn script_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("python")
         .join("mitsuba_eval.py")
-}
-
-/// The workspace root (two levels above this crate).
-pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .ancestors()
-        .nth(2)
-        .expect("the crate sits at <workspace>/crates/brdfkit-validate")
-        .to_path_buf()
 }
 
 /// What the Python side reports.
@@ -807,15 +788,7 @@ mod tests {
         assert_eq!(cfg.mitsuba["alpha_v"], 0.5);
         let v = cases(9);
         let exact = ours(&cfg, &v);
-        let floored: Vec<Rgb> = v
-            .iter()
-            .zip(&exact)
-            .map(|((a, b), x)| {
-                let h = half_vector(a, b);
-                let dc = Distribution::Beckmann.d(h.x, h.y, h.z, 0.01, 0.5) * h.z;
-                if dc < 1e-20 { Rgb::ZERO } else { *x }
-            })
-            .collect();
+        let floored = beckmann_floored(&v, &exact, 0.01, 0.5);
         let c = compare(&cfg, &v, &floored).unwrap();
         assert!(c.passed && c.floor_cases > 0, "{c}");
     }
@@ -832,6 +805,20 @@ mod tests {
         assert!((t.at(&h) - (2e-6 + 1e-6 * tan2 / 0.01)).abs() < 1e-18);
         assert_eq!(t.at(&Vec3::new(0.0, 0.0, 1.0)), 2e-6);
         assert_eq!(Tolerance::Relative { rel: 1e-5 }.at(&h), 1e-5);
+    }
+
+    /// Mitsuba's behaviour on `values` at `cases`: zero where the Beckmann D cos θh
+    /// (roughness αx, αy) is below 1e-20.
+    fn beckmann_floored(cases: &[(Vec3, Vec3)], values: &[Rgb], ax: f64, ay: f64) -> Vec<Rgb> {
+        cases
+            .iter()
+            .zip(values)
+            .map(|((a, b), x)| {
+                let h = half_vector(a, b);
+                let dc = Distribution::Beckmann.d(h.x, h.y, h.z, ax, ay) * h.z;
+                if dc < 1e-20 { Rgb::ZERO } else { *x }
+            })
+            .collect()
     }
 
     fn lambert_config() -> CrossConfig {
@@ -878,16 +865,7 @@ mod tests {
             .unwrap();
         let v = cases(5);
         let exact = ours(&cfg, &v);
-        // Mitsuba's behaviour: zero where D cos θh < 1e-20.
-        let floored: Vec<Rgb> = v
-            .iter()
-            .zip(&exact)
-            .map(|((a, b), x)| {
-                let h = half_vector(a, b);
-                let dc = Distribution::Beckmann.d(h.x, h.y, h.z, 0.01, 0.01) * h.z;
-                if dc < 1e-20 { Rgb::ZERO } else { *x }
-            })
-            .collect();
+        let floored = beckmann_floored(&v, &exact, 0.01, 0.01);
         let c = compare(&cfg, &v, &floored).unwrap();
         assert!(c.passed, "{c}");
         assert!(c.floor_cases > 1_000, "{c}");

@@ -551,24 +551,38 @@ fn check_non_negativity(
     )
 }
 
-fn check_reciprocity(m: &dyn Model, pairs: &[(Vec3, Vec3)], t: &Thresholds) -> ReciprocityCheck {
-    let w = pairs
+/// The largest relative difference, over `pairs` and the channels, between f at a pair
+/// and f at each of its `n` images `image(wi, wo, k)`, with where it is. Non-finite
+/// values are skipped: they are the finiteness check's to count.
+fn worst_change(
+    m: &dyn Model,
+    pairs: &[(Vec3, Vec3)],
+    n: usize,
+    image: impl Fn(&Vec3, &Vec3, usize) -> (Vec3, Vec3) + Sync,
+) -> Worst {
+    pairs
         .par_iter()
         .fold(Worst::new, |mut acc, (wi, wo)| {
             let a = m.eval(wi, wo);
-            let b = m.eval(wo, wi);
-            for c in 0..3 {
-                // Non-finite values are the finiteness check's to count.
-                if !(a[c].is_finite() && b[c].is_finite()) {
-                    continue;
+            for k in 0..n {
+                let (ii, oo) = image(wi, wo, k);
+                let b = m.eval(&ii, &oo);
+                for c in 0..3 {
+                    if !(a[c].is_finite() && b[c].is_finite()) {
+                        continue;
+                    }
+                    acc.offer(rel_diff(a[c], b[c]), || {
+                        PairAt::new(wi, wo, vec![a[c], b[c]], c)
+                    });
                 }
-                acc.offer(rel_diff(a[c], b[c]), || {
-                    PairAt::new(wi, wo, vec![a[c], b[c]], c)
-                });
             }
             acc
         })
-        .reduce(Worst::new, Worst::merge);
+        .reduce(Worst::new, Worst::merge)
+}
+
+fn check_reciprocity(m: &dyn Model, pairs: &[(Vec3, Vec3)], t: &Thresholds) -> ReciprocityCheck {
+    let w = worst_change(m, pairs, 1, |wi, wo, _| (*wo, *wi));
     let e = w.score.max(0.0);
     ReciprocityCheck {
         verdict: Verdict::from_bool(e <= t.reciprocity),
@@ -585,24 +599,9 @@ fn check_isotropy(
     angles: &[f64],
     t: &Thresholds,
 ) -> IsotropyCheck {
-    let w = pairs
-        .par_iter()
-        .fold(Worst::new, |mut acc, (wi, wo)| {
-            let a = m.eval(wi, wo);
-            for &ang in angles {
-                let b = m.eval(&rotate_z(wi, ang), &rotate_z(wo, ang));
-                for c in 0..3 {
-                    if !(a[c].is_finite() && b[c].is_finite()) {
-                        continue;
-                    }
-                    acc.offer(rel_diff(a[c], b[c]), || {
-                        PairAt::new(wi, wo, vec![a[c], b[c]], c)
-                    });
-                }
-            }
-            acc
-        })
-        .reduce(Worst::new, Worst::merge);
+    let w = worst_change(m, pairs, angles.len(), |wi, wo, k| {
+        (rotate_z(wi, angles[k]), rotate_z(wo, angles[k]))
+    });
     let e = w.score.max(0.0);
     IsotropyCheck {
         verdict: Verdict::from_bool(e <= t.isotropy),

@@ -1,24 +1,23 @@
 //! The Mitsuba 3 cross-check (see `brdfkit_validate::mitsuba` and docs/validation.md).
 //!
-//! The Python is `$BRDFKIT_PYTHON` or `<workspace>/.venv/bin/python`. With `CI` set
-//! (to anything but "", "0" or "false") a missing Mitsuba fails the test; without it,
-//! the test prints one loud line saying the cross-check did not run and passes.
+//! The Python is `$BRDFKIT_PYTHON` or `<workspace>/.venv/bin/python`. Without Mitsuba the
+//! tests that need it are ignored, with the reason (probed by build.rs, see
+//! build/external_tools.rs); with `CI` set (to anything but "", "0" or "false") a
+//! missing Mitsuba fails them.
 //!
 //! The measured maxima are written to stderr directly (not through `eprintln!`, which
 //! the test harness captures), so they show in every `cargo test` run.
 
+#[path = "../../../build/external_tools.rs"]
+#[macro_use]
+mod external_tools;
+
 use brdfkit_validate::mitsuba::{
-    Comparison, DRJIT_VERSION, MITSUBA_VERSION, MitsubaError, cases, compare, find_python,
-    run_mitsuba, script_path, standard_configs, workspace_root,
+    Comparison, DRJIT_VERSION, MITSUBA_VERSION, MitsubaError, cases, compare, run_mitsuba,
+    script_path, standard_configs,
 };
+use external_tools::{require_mitsuba, under_ci};
 use std::io::Write;
-
-const ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
-                      (in the workspace root), or set BRDFKIT_PYTHON to a Python with mitsuba==3.9.1 and drjit==1.5.0";
-
-fn under_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| !matches!(v.as_str(), "" | "0" | "false"))
-}
 
 /// Uncaptured output: the harness captures `print!`/`eprint!`, not direct writes.
 fn say(s: &str) {
@@ -26,114 +25,92 @@ fn say(s: &str) {
     let _ = writeln!(e, "{s}");
 }
 
-/// Not available: a failure under CI, one loud line otherwise.
-fn unavailable(why: &str) {
-    if under_ci() {
-        panic!("the Mitsuba 3 cross-check could not run under CI: {why}. Install it: {ENABLE}");
-    }
-    say(&format!(
-        "!!! MITSUBA CROSS-CHECK DID NOT RUN: {why}. Enable it: {ENABLE}"
-    ));
-}
-
-#[test]
-fn mitsuba_cross_check() {
-    let root = workspace_root();
-    let Some(python) = find_python(&root) else {
-        unavailable(&format!(
-            "no Python (BRDFKIT_PYTHON unset and {} missing)",
-            root.join(".venv/bin/python").display()
-        ));
-        return;
-    };
-    let configs = standard_configs();
-    let cases = cases(0x4D49_5453);
-    let t = std::time::Instant::now();
-    let out = match run_mitsuba(&python, &script_path(), &configs, &cases) {
-        Ok(o) => o,
-        Err(MitsubaError::Missing(why)) => {
-            unavailable(&format!("{} ({})", why, python.display()));
-            return;
+mitsuba_test! {
+    fn mitsuba_cross_check() {
+        let python = require_mitsuba();
+        let configs = standard_configs();
+        let cases = cases(0x4D49_5453);
+        let t = std::time::Instant::now();
+        let out = run_mitsuba(&python, &script_path(), &configs, &cases)
+            .unwrap_or_else(|e| panic!("the Mitsuba side failed: {e}"));
+        let pinned = out.mitsuba == MITSUBA_VERSION && out.drjit == DRJIT_VERSION;
+        if !pinned {
+            let msg = format!(
+                "Mitsuba {} / Dr.Jit {} found, the tolerances were measured with the pins {MITSUBA_VERSION} / {DRJIT_VERSION}",
+                out.mitsuba, out.drjit
+            );
+            assert!(!under_ci(), "{msg}");
+            say(&format!("!!! {msg}"));
         }
-        Err(e) => panic!("the Mitsuba side failed: {e}"),
-    };
-    let pinned = out.mitsuba == MITSUBA_VERSION && out.drjit == DRJIT_VERSION;
-    if !pinned {
-        let msg = format!(
-            "Mitsuba {} / Dr.Jit {} found, the tolerances were measured with the pins {MITSUBA_VERSION} / {DRJIT_VERSION}",
-            out.mitsuba, out.drjit
-        );
-        assert!(!under_ci(), "{msg}");
-        say(&format!("!!! {msg}"));
-    }
-    say(&format!(
-        "Mitsuba {} (Dr.Jit {}, {}) via {}: {} configurations x {} cases in {:.1} s",
-        out.mitsuba,
-        out.drjit,
-        out.variant,
-        python.display(),
-        configs.len(),
-        cases.len(),
-        t.elapsed().as_secs_f64()
-    ));
-    let results: Vec<Comparison> = configs
-        .iter()
-        .zip(&out.values)
-        .map(|(c, v)| compare(c, &cases, v).unwrap_or_else(|e| panic!("{}: {e}", c.name)))
-        .collect();
-    for r in &results {
-        say(&format!("  {r}"));
-    }
-    // Maxima per family.
-    for prefix in ["diffuse", "roughconductor-ggx", "roughconductor-beckmann"] {
-        let fam: Vec<&Comparison> = results
+        say(&format!(
+            "Mitsuba {} (Dr.Jit {}, {}) via {}: {} configurations x {} cases in {:.1} s",
+            out.mitsuba,
+            out.drjit,
+            out.variant,
+            python.display(),
+            configs.len(),
+            cases.len(),
+            t.elapsed().as_secs_f64()
+        ));
+        let results: Vec<Comparison> = configs
             .iter()
-            .filter(|r| r.name.starts_with(prefix))
+            .zip(&out.values)
+            .map(|(c, v)| compare(c, &cases, v).unwrap_or_else(|e| panic!("{}: {e}", c.name)))
             .collect();
-        let max = |f: &dyn Fn(&Comparison) -> f64| fam.iter().map(|r| f(r)).fold(0.0, f64::max);
-        let mut line = format!(
-            "  max over {prefix}*: rel diff {:.3e}, net of the input ambiguity {:.3e}, input ambiguity {:.3e}, diff/allowance {:.3}",
-            max(&|r| r.max_rel_diff),
-            max(&|r| r.max_rel_diff_beyond_ambiguity),
-            max(&|r| r.max_input_ambiguity),
-            max(&|r| r.max_tolerance_ratio)
+        for r in &results {
+            say(&format!("  {r}"));
+        }
+        // Maxima per family.
+        for prefix in ["diffuse", "roughconductor-ggx", "roughconductor-beckmann"] {
+            let fam: Vec<&Comparison> = results
+                .iter()
+                .filter(|r| r.name.starts_with(prefix))
+                .collect();
+            let max = |f: &dyn Fn(&Comparison) -> f64| fam.iter().map(|r| f(r)).fold(0.0, f64::max);
+            let mut line = format!(
+                "  max over {prefix}*: rel diff {:.3e}, net of the input ambiguity {:.3e}, input ambiguity {:.3e}, diff/allowance {:.3}",
+                max(&|r| r.max_rel_diff),
+                max(&|r| r.max_rel_diff_beyond_ambiguity),
+                max(&|r| r.max_input_ambiguity),
+                max(&|r| r.max_tolerance_ratio)
+            );
+            if fam.iter().any(|r| r.reference_max_rel_diff.is_some()) {
+                line += &format!(
+                    "; exact-erf Beckmann vs Mitsuba {:.3e} (measured, not judged)",
+                    max(&|r| r.reference_max_rel_diff.unwrap_or(0.0))
+                );
+            }
+            say(&line);
+        }
+        if let Ok(path) = std::env::var("BRDFKIT_MITSUBA_REPORT") {
+            // Atomically: a temporary file beside the destination, then a rename.
+            let path = std::path::PathBuf::from(path);
+            let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+            let mut tmp = tempfile::NamedTempFile::new_in(dir.unwrap_or(std::path::Path::new(".")))
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            tmp.write_all(serde_json::to_string_pretty(&results).unwrap().as_bytes())
+                .and_then(|()| tmp.persist(&path).map(|_| ()).map_err(|e| e.error))
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        }
+        let failed: Vec<String> = results
+            .iter()
+            .filter(|r| !r.passed)
+            .map(|r| r.to_text())
+            .collect();
+        assert!(
+            failed.is_empty(),
+            "Mitsuba disagrees:\n{}",
+            failed.join("\n")
         );
-        if fam.iter().any(|r| r.reference_max_rel_diff.is_some()) {
-            line += &format!(
-                "; exact-erf Beckmann vs Mitsuba {:.3e} (measured, not judged)",
-                max(&|r| r.reference_max_rel_diff.unwrap_or(0.0))
+        // Every configuration compared real values: no configuration may pass vacuously.
+        for r in &results {
+            let compared = 3 * r.cases - r.both_zero - 3 * r.floor_cases;
+            assert!(
+                compared >= 3_000,
+                "{}: only {compared} channel values compared",
+                r.name
             );
         }
-        say(&line);
-    }
-    if let Ok(path) = std::env::var("BRDFKIT_MITSUBA_REPORT") {
-        // Atomically: a temporary file beside the destination, then a rename.
-        let path = std::path::PathBuf::from(path);
-        let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
-        let mut tmp = tempfile::NamedTempFile::new_in(dir.unwrap_or(std::path::Path::new(".")))
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        tmp.write_all(serde_json::to_string_pretty(&results).unwrap().as_bytes())
-            .and_then(|()| tmp.persist(&path).map(|_| ()).map_err(|e| e.error))
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    }
-    let failed: Vec<String> = results
-        .iter()
-        .filter(|r| !r.passed)
-        .map(|r| r.to_text())
-        .collect();
-    assert!(
-        failed.is_empty(),
-        "Mitsuba disagrees:\n{}",
-        failed.join("\n")
-    );
-    // Every configuration compared real values: no configuration may pass vacuously.
-    for r in &results {
-        let compared = 3 * r.cases - r.both_zero - 3 * r.floor_cases;
-        assert!(
-            compared >= 3_000,
-            "{}: only {compared} channel values compared",
-            r.name
-        );
     }
 }
 
@@ -151,31 +128,20 @@ fn a_missing_interpreter_is_reported_as_missing() {
     assert!(matches!(e, MitsubaError::Missing(_)), "{e}");
 }
 
-/// For the secondary tests: a failure under CI, silence otherwise (the main test
-/// prints the one loud line).
-fn quietly_unavailable(why: &str) {
-    if under_ci() {
-        unavailable(why);
-    }
-}
-
-#[test]
-fn mitsuba_rejects_a_bad_bsdf_with_a_named_error() {
-    let Some(python) = find_python(&workspace_root()) else {
-        quietly_unavailable("no Python");
-        return;
-    };
-    let mut cfg = standard_configs().remove(0);
-    cfg.name = "broken".into();
-    cfg.mitsuba = serde_json::json!({"type": "no-such-plugin"});
-    match run_mitsuba(&python, &script_path(), &[cfg], &cases(1)[..10]) {
-        Err(MitsubaError::Failed { stderr, .. }) => {
-            assert!(
-                stderr.contains("broken") && stderr.contains("no-such-plugin"),
-                "{stderr}"
-            )
+mitsuba_test! {
+    fn mitsuba_rejects_a_bad_bsdf_with_a_named_error() {
+        let python = require_mitsuba();
+        let mut cfg = standard_configs().remove(0);
+        cfg.name = "broken".into();
+        cfg.mitsuba = serde_json::json!({"type": "no-such-plugin"});
+        match run_mitsuba(&python, &script_path(), &[cfg], &cases(1)[..10]) {
+            Err(MitsubaError::Failed { stderr, .. }) => {
+                assert!(
+                    stderr.contains("broken") && stderr.contains("no-such-plugin"),
+                    "{stderr}"
+                )
+            }
+            other => panic!("expected a failure, got {other:?}"),
         }
-        Err(MitsubaError::Missing(why)) => quietly_unavailable(&why),
-        other => panic!("expected a failure, got {other:?}"),
     }
 }

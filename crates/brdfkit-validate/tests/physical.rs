@@ -314,15 +314,14 @@ fn faulty_models_are_flagged_by_the_right_check() {
     assert!(check_model_with(&ok, &quick()).passed);
 }
 
+/// The quick checks of a Lambertian ρ = 0.5 with `fault`.
+fn check_faulty(fault: Fault) -> PhysicalReport {
+    check_model_with(&Faulty { rho: 0.5, fault }, &quick())
+}
+
 #[test]
 fn faults_are_located() {
-    let r = check_model_with(
-        &Faulty {
-            rho: 0.5,
-            fault: Fault::Negative,
-        },
-        &quick(),
-    );
+    let r = check_faulty(Fault::Negative);
     let nn = &r.non_negativity;
     assert!(
         (nn.min_value - (0.5 / PI - 0.5)).abs() < 1e-12,
@@ -333,13 +332,7 @@ fn faults_are_located() {
     let [ti, _, to, _] = nn.worst.as_ref().unwrap().angles_deg();
     assert!(ti > 60.0 && to > 60.0);
 
-    let r = check_model_with(
-        &Faulty {
-            rho: 0.5,
-            fault: Fault::NanNearNormal,
-        },
-        &quick(),
-    );
+    let r = check_faulty(Fault::NanNearNormal);
     let f = &r.finiteness;
     assert!(
         f.nonfinite_values > 0 && f.first.as_ref().unwrap().contains("NaN"),
@@ -348,13 +341,7 @@ fn faults_are_located() {
     // Values are counted on four paths, gradients on two; the gradient f/ρ is NaN too.
     assert_eq!(2 * f.nonfinite_gradients, f.nonfinite_values);
 
-    let r = check_model_with(
-        &Faulty {
-            rho: 0.5,
-            fault: Fault::InfiniteGradient,
-        },
-        &quick(),
-    );
+    let r = check_faulty(Fault::InfiniteGradient);
     let f = &r.finiteness;
     assert_eq!(f.nonfinite_values, 0);
     assert!(f.nonfinite_gradients > 0);

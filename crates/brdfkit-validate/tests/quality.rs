@@ -23,10 +23,16 @@ fn shared(json: &str) -> Fitted {
     Fitted::Shared(from_json_str(json).unwrap())
 }
 
+/// The quality of the model `fit_json` (shared by the channels) on the table of the
+/// model `table_json`.
+fn quality_of(table_json: &str, fit_json: &str) -> QualityReport {
+    fit_quality(&table(table_json), &shared(fit_json)).unwrap()
+}
+
 #[test]
 fn a_perfect_fit_scores_zero() {
     let json = r#"{"model": "lambert", "params": {"rho_d": [0.2, 0.5, 0.8]}}"#;
-    let r = fit_quality(&table(json), &shared(json)).unwrap();
+    let r = quality_of(json, json);
     for l in Loss::ALL {
         // The table stores value / scale: one ulp of round-off at most.
         assert!(
@@ -114,12 +120,10 @@ fn percentiles_follow_the_nearest_rank_definition() {
     // 0.2, 0.5, 0 in equal numbers. Pooled, the 50th percentile is 0.2 (rank ⌈n/2⌉ of
     // 3m values sorted 0…0, 0.2…0.2, 0.5…0.5 falls in the middle third) and the
     // 90th and 99th are 0.5.
-    let t = table(r#"{"model": "lambert", "params": {"rho_d": [0.5, 0.8, 0.4]}}"#);
-    let r = fit_quality(
-        &t,
-        &shared(r#"{"model": "lambert", "params": {"rho_d": 0.4}}"#),
-    )
-    .unwrap();
+    let r = quality_of(
+        r#"{"model": "lambert", "params": {"rho_d": [0.5, 0.8, 0.4]}}"#,
+        r#"{"model": "lambert", "params": {"rho_d": 0.4}}"#,
+    );
     let p = r.relative_error.overall.unwrap();
     assert!(
         (p.p50 - 0.2).abs() < 1e-12 && (p.p90 - 0.5).abs() < 1e-12 && (p.p99 - 0.5).abs() < 1e-12,

@@ -32,57 +32,25 @@ cannot be imported or the variant is missing (the caller treats 3 as "Mitsuba is
 missing").
 """
 
-import json
 import os
-import struct
 import sys
 
-
-def fail(code, msg):
-    print(f"export_check.py: {msg}", file=sys.stderr)
-    sys.exit(code)
-
-
-def load_mitsuba(variant):
-    try:
-        import drjit as dr
-        import mitsuba as mi
-    except Exception as e:  # ImportError, or a broken binary wheel
-        fail(3, f"cannot import mitsuba/drjit: {e!r}")
-    try:
-        mi.set_variant(variant)
-    except Exception as e:
-        fail(3, f"mitsuba variant `{variant}` is not available: {e!r}")
-    return mi, dr
-
-
-def f32(x):
-    """x rounded to float32, as Mitsuba sees a Python float."""
-    return struct.unpack("f", struct.pack("f", x))[0]
+# The shared helpers live in <workspace>/python.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "python"))
+from brdfkit_mitsuba import eval_case, fail, load_mitsuba, read_json, versions, write_json  # noqa: E402
 
 
 def evaluate(mi, bsdf, cases):
+    """f_r of `bsdf` at each pair."""
     ctx = mi.BSDFContext()
     si = mi.SurfaceInteraction3f()
-    out = []
-    for case in cases:
-        wi = mi.Vector3f(case[0], case[1], case[2])
-        wo = mi.Vector3f(case[3], case[4], case[5])
-        si.wi = wo  # Mitsuba's viewer side is brdfkit's wo
-        v = bsdf.eval(ctx, si, wi)
-        cos = f32(case[2])
-        out.append([float(v[c]) / cos if cos > 0.0 else 0.0 for c in range(3)])
-    return out
+    return [eval_case(mi, bsdf, ctx, si, case)[1] for case in cases]
 
 
 def main(argv):
     if len(argv) != 3:
         fail(2, "usage: export_check.py IN.json OUT.json")
-    try:
-        with open(argv[1], encoding="utf-8") as fh:
-            batch = json.load(fh)
-    except (OSError, ValueError) as e:
-        fail(2, f"{argv[1]}: {e}")
+    batch = read_json(argv[1])
     cases = batch.get("cases")
     if not isinstance(cases, list) or not all(
         isinstance(c, list) and len(c) == 6 for c in cases
@@ -90,8 +58,8 @@ def main(argv):
         fail(2, f"{argv[1]}: `cases` must be a list of 6-number lists")
     variant = batch.get("variant", "scalar_rgb")
     mi, dr = load_mitsuba(variant)
-    result = {"mitsuba": mi.__version__, "drjit": dr.__version__, "variant": variant,
-              "exports": []}
+    result = versions(mi, dr, variant)
+    result["exports"] = []
     for e in batch.get("exports", []):
         name = e.get("name", "?")
         r = {"name": name}
@@ -106,10 +74,7 @@ def main(argv):
             r[form + "_type"] = str(bsdf).split("[")[0].strip()
             r[form] = evaluate(mi, bsdf, cases)
         result["exports"].append(r)
-    tmp = argv[2] + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(result, fh)
-    os.replace(tmp, argv[2])
+    write_json(argv[2], result)
     return 0
 
 

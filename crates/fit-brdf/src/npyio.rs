@@ -204,21 +204,14 @@ pub fn write_values(w: &mut impl std::io::Write, values: &[f64]) -> std::io::Res
 }
 
 #[cfg(test)]
+#[path = "../tests/common/npy.rs"]
+mod npy_file;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
-    fn npy(dtype: &str, shape: &str, body: &[u8]) -> Vec<u8> {
-        let mut h = format!("{{'descr': '{dtype}', 'fortran_order': False, 'shape': {shape}, }}");
-        while (10 + h.len() + 1) % 64 != 0 {
-            h.push(' ');
-        }
-        h.push('\n');
-        let mut v = b"\x93NUMPY\x01\x00".to_vec();
-        v.extend_from_slice(&(h.len() as u16).to_le_bytes());
-        v.extend_from_slice(h.as_bytes());
-        v.extend_from_slice(body);
-        v
-    }
+    use super::npy_file::npy_bytes as npy;
 
     fn f64s(x: &[f64]) -> Vec<u8> {
         x.iter().flat_map(|v| v.to_le_bytes()).collect()

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{bin, stderr, synth_to};
+use common::{assert_bad_input, bin, names, stderr, synth_to};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
@@ -76,16 +76,6 @@ fn batch(db: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
 
 fn mtime(p: &Path) -> SystemTime {
     std::fs::metadata(p).unwrap().modified().unwrap()
-}
-
-/// Names in `dir`.
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 /// Every output present is complete: each JSON parses with its fits, no temporary file,
@@ -338,8 +328,7 @@ fn shards_partition_the_tables_and_their_summaries_merge() {
             .arg(&out)
             .output()
             .unwrap();
-        assert_eq!(o.status.code(), Some(2), "--shard {bad}");
-        assert!(stderr(&o).contains("--shard"), "{}", stderr(&o));
+        assert_bad_input(&o, &["--shard"]);
     }
 }
 

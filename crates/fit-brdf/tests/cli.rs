@@ -2,20 +2,24 @@
 
 mod common;
 
-use common::{bin, stderr, synth_output, synth_spec};
+use common::{
+    assert_bad_input, bin, small_plastic_spec, spec_text, stderr, synth_output, synth_spec,
+};
 use std::path::{Path, PathBuf};
 
-const SMALL_LAMBERT: &str = r#"
-name = "small"
-dims = [16, 16, 32]
-[material]
-model = "lambert"
-params = { rho_d = [0.5, 0.25, 0.125] }
-"#;
+/// A small grey-ish Lambertian (16 × 16 × 32).
+fn small_lambert() -> String {
+    spec_text(
+        "small",
+        [16, 16, 32],
+        "lambert",
+        "rho_d = [0.5, 0.25, 0.125]",
+    )
+}
 
 /// Writes a spec and synthesises its table in `dir`; returns the table path.
 fn small_table(dir: &Path) -> PathBuf {
-    synth_spec(dir, "small", SMALL_LAMBERT)
+    synth_spec(dir, "small", &small_lambert())
 }
 
 #[test]
@@ -139,8 +143,7 @@ fn eval_rejects_bad_input_with_exit_2() {
         .arg(&dirs)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("bad.csv: line 2"), "{}", stderr(&o));
+    assert_bad_input(&o, &["bad.csv: line 2"]);
     let model = d.path().join("m.json");
     for (text, what) in [
         (r#"{"model": "lambert", "params": {"rho_d": 1.5}}"#, "rho_d"),
@@ -213,8 +216,7 @@ fn resample_table_and_model() {
             .arg(d.path().join("x.binary"))
             .output()
             .unwrap();
-        assert_eq!(o.status.code(), Some(2), "--dims {bad}");
-        assert!(stderr(&o).contains("--dims"), "{}", stderr(&o));
+        assert_bad_input(&o, &["--dims"]);
     }
 }
 
@@ -222,7 +224,7 @@ fn resample_table_and_model() {
 fn write_failure_is_exit_1_and_leaves_nothing_behind() {
     let d = tempfile::tempdir().unwrap();
     let spec = d.path().join("small.toml");
-    std::fs::write(&spec, SMALL_LAMBERT).unwrap();
+    std::fs::write(&spec, small_lambert()).unwrap();
     let o = synth_output(&spec, &d.path().join("no-such-dir").join("t.binary"));
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("t.binary"));
@@ -341,16 +343,12 @@ fn render_writes_png_and_exr_and_rejects_bad_scenes() {
         .arg(&png)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("bad.toml"), "{}", stderr(&o));
+    assert_bad_input(&o, &["bad.toml"]);
 }
 
 fn small_plastic(dir: &Path) -> PathBuf {
-    synth_spec(
-        dir,
-        "plastic",
-        &common::plastic_spec("small-plastic", [0.4, 0.2, 0.1], 0.15, ""),
-    )
+    let spec = small_plastic_spec("small-plastic", [0.4, 0.2, 0.1], 0.15);
+    synth_spec(dir, "plastic", &spec)
 }
 
 #[test]
@@ -464,7 +462,7 @@ fn fit_rejects_bad_options_with_exit_2() {
 fn quiet_and_json_options_where_results_are_printed() {
     let d = tempfile::tempdir().unwrap();
     let spec = d.path().join("small.toml");
-    std::fs::write(&spec, SMALL_LAMBERT).unwrap();
+    std::fs::write(&spec, small_lambert()).unwrap();
     let t = d.path().join("t.binary");
     let o = bin()
         .arg("synth")

@@ -3,18 +3,20 @@
 //! pbrt-v4's `ConductorBxDF::f`; unsupported configurations refused with exit 2.
 //!
 //! The Mitsuba check runs `python/export_check.py` under `$BRDFKIT_PYTHON` or
-//! `<workspace>/.venv/bin/python` (the discovery of brdfkit-validate's cross-check). With
-//! `CI` set (to anything but "", "0" or "false") a missing Mitsuba fails the test;
-//! without it the test prints one loud line and passes.
+//! `<workspace>/.venv/bin/python` (the discovery of brdfkit-validate's cross-check).
+//! Without Mitsuba that test is ignored, with the reason (probed by build.rs, see
+//! build/external_tools.rs); with `CI` set (to anything but "", "0" or "false") a missing
+//! Mitsuba fails it.
 
 mod common;
+#[path = "../../../build/external_tools.rs"]
+#[macro_use]
+mod external_tools;
 
 use brdfkit::core::{Rgb, Vec3};
 use brdfkit::models::cook_torrance::Shape;
-use brdfkit_validate::mitsuba::{
-    CrossConfig, Tolerance, cases, compare, find_python, workspace_root,
-};
-use common::{bin, stderr, synth_spec};
+use brdfkit_validate::mitsuba::{CrossConfig, Tolerance, cases, compare};
+use common::{assert_bad_input, bin, stderr, synth_spec};
 use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -23,28 +25,6 @@ use std::path::{Path, PathBuf};
 fn say(s: &str) {
     let _ = writeln!(std::io::stderr().lock(), "{s}");
 }
-
-fn under_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| !matches!(v.as_str(), "" | "0" | "false"))
-}
-
-fn unavailable(why: &str) {
-    if under_ci() {
-        panic!(
-            "the Mitsuba export check could not run under CI: {why}. Install it: python3 -m venv .venv \
-             && .venv/bin/pip install -r python/requirements.txt"
-        );
-    }
-    say(&format!(
-        "!!! MITSUBA EXPORT CHECK DID NOT RUN: {why}. Enable it: python3 -m venv .venv && \
-         .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)"
-    ));
-}
-
-const GOLD_ETA: [f64; 3] = [0.143, 0.374, 1.442];
-const GOLD_K: [f64; 3] = [3.983, 2.385, 1.603];
-const COPPER_ETA: [f64; 3] = [0.200, 0.924, 1.102];
-const COPPER_K: [f64; 3] = [3.912, 2.452, 2.142];
 
 fn conductor(eta: [f64; 3], k: [f64; 3]) -> Value {
     json!({"conductor": {"eta": eta, "k": k}})
@@ -138,123 +118,113 @@ fn cross(c: &Case, mitsuba: Value, model: Value) -> CrossConfig {
     }
 }
 
-#[test]
-fn mitsuba_export_loads_in_mitsuba_and_matches_the_model() {
-    let root = workspace_root();
-    let Some(python) = find_python(&root) else {
-        unavailable(&format!(
-            "no Python (BRDFKIT_PYTHON unset and {} missing)",
-            root.join(".venv/bin/python").display()
-        ));
-        return;
-    };
-    let d = tempfile::tempdir().unwrap();
-    // Every 8th case of the cross-check: 700 pairs with grazing, mirror and near-normal
-    // configurations, float32-exact so both sides see the same bits.
-    let pairs: Vec<(Vec3, Vec3)> = cases(0x4558_504f).into_iter().step_by(8).collect();
-    assert!(pairs.len() >= 500);
-    let configs = mitsuba_cases();
-    let mut exports = Vec::new();
-    for c in &configs {
-        let xml = export(d.path(), &c.model, &["--to", "mitsuba", "--quiet"]);
-        let dict = export(
-            d.path(),
-            &c.model,
-            &["--to", "mitsuba", "--format", "dict", "--quiet"],
-        );
-        let dict: Value = serde_json::from_str(&dict).expect("--format dict is JSON");
-        exports.push(json!({"name": c.name, "xml": xml, "dict": dict}));
-    }
-    let input = d.path().join("in.json");
-    let output = d.path().join("out.json");
-    let flat: Vec<[f64; 6]> = pairs
-        .iter()
-        .map(|(a, b)| [a.x, a.y, a.z, b.x, b.y, b.z])
-        .collect();
-    std::fs::write(
-        &input,
-        json!({"variant": "scalar_rgb", "cases": flat, "exports": exports}).to_string(),
-    )
-    .unwrap();
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/export_check.py");
-    let o = std::process::Command::new(&python)
-        .arg(&script)
-        .arg(&input)
-        .arg(&output)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
-    if o.status.code() == Some(3) {
-        unavailable(&format!("{} ({})", stderr(&o).trim(), python.display()));
-        return;
-    }
-    assert!(o.status.success(), "export_check.py failed: {}", stderr(&o));
-    let out: Value = serde_json::from_slice(&std::fs::read(&output).unwrap()).unwrap();
-    let values = |v: &Value| -> Vec<Rgb> {
-        v.as_array()
-            .unwrap()
+mitsuba_test! {
+    fn mitsuba_export_loads_in_mitsuba_and_matches_the_model() {
+        let python = external_tools::require_mitsuba();
+        let d = tempfile::tempdir().unwrap();
+        // Every 8th case of the cross-check: 700 pairs with grazing, mirror and near-normal
+        // configurations, float32-exact so both sides see the same bits.
+        let pairs: Vec<(Vec3, Vec3)> = cases(0x4558_504f).into_iter().step_by(8).collect();
+        assert!(pairs.len() >= 500);
+        let configs = mitsuba_cases();
+        let mut exports = Vec::new();
+        for c in &configs {
+            let xml = export(d.path(), &c.model, &["--to", "mitsuba", "--quiet"]);
+            let dict = export(
+                d.path(),
+                &c.model,
+                &["--to", "mitsuba", "--format", "dict", "--quiet"],
+            );
+            let dict: Value = serde_json::from_str(&dict).expect("--format dict is JSON");
+            exports.push(json!({"name": c.name, "xml": xml, "dict": dict}));
+        }
+        let input = d.path().join("in.json");
+        let output = d.path().join("out.json");
+        let flat: Vec<[f64; 6]> = pairs
             .iter()
-            .map(|x| {
-                Rgb::new(
-                    x[0].as_f64().unwrap(),
-                    x[1].as_f64().unwrap(),
-                    x[2].as_f64().unwrap(),
-                )
-            })
-            .collect()
-    };
-    for (c, r) in configs.iter().zip(out["exports"].as_array().unwrap()) {
-        assert_eq!(r["name"], c.name);
-        let (xml, dict) = (values(&r["xml"]), values(&r["dict"]));
-        assert_eq!(xml.len(), pairs.len());
-        assert_eq!(
-            xml, dict,
-            "{}: the XML and the dict are the same BSDF",
-            c.name
-        );
-        let plugin = if c.name == "lambert" {
-            "SmoothDiffuse"
-        } else if c.name.starts_with("rough-plastic") {
-            "RoughPlastic"
-        } else {
-            "RoughConductor"
-        };
-        assert_eq!(
-            (r["xml_type"].as_str(), r["dict_type"].as_str()),
-            (Some(plugin), Some(plugin))
-        );
-        let cfg = cross(c, Value::Null, c.model.clone());
-        let cmp = compare(&cfg, &pairs, &xml).unwrap();
-        say(&format!(
-            "export {} (Mitsuba {}, {plugin}): {}",
-            c.name,
-            out["mitsuba"].as_str().unwrap_or("?"),
-            cmp.to_text()
-        ));
-        assert!(cmp.passed, "{cmp}");
-        assert!(cmp.max_rel_diff > 0.0, "{}: float32 leaves a trace", c.name);
-    }
-    // The comparison can fail: the anisotropic export against the model with its axes
-    // swapped, and the scaled gold against the model without ρs.
-    let swapped = {
-        let mut m = configs[2].model.clone();
-        m["params"]["alpha_x"] = json!(0.45);
-        m["params"]["alpha_y"] = json!(0.12);
-        m
-    };
-    let unscaled = {
-        let mut m = configs[1].model.clone();
-        m["params"]["rho_s"] = json!(1.0);
-        m
-    };
-    for (k, wrong) in [(2usize, swapped), (1, unscaled)] {
-        let r = &out["exports"][k];
-        let cmp = compare(
-            &cross(&configs[k], Value::Null, wrong),
-            &pairs,
-            &values(&r["xml"]),
+            .map(|(a, b)| [a.x, a.y, a.z, b.x, b.y, b.z])
+            .collect();
+        std::fs::write(
+            &input,
+            json!({"variant": "scalar_rgb", "cases": flat, "exports": exports}).to_string(),
         )
         .unwrap();
-        assert!(!cmp.passed, "a wrong model must not match: {cmp}");
+        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/export_check.py");
+        let o = std::process::Command::new(&python)
+            .arg(&script)
+            .arg(&input)
+            .arg(&output)
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
+        assert!(o.status.success(), "export_check.py failed: {}", stderr(&o));
+        let out: Value = serde_json::from_slice(&std::fs::read(&output).unwrap()).unwrap();
+        let values = |v: &Value| -> Vec<Rgb> {
+            v.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| {
+                    Rgb::new(
+                        x[0].as_f64().unwrap(),
+                        x[1].as_f64().unwrap(),
+                        x[2].as_f64().unwrap(),
+                    )
+                })
+                .collect()
+        };
+        for (c, r) in configs.iter().zip(out["exports"].as_array().unwrap()) {
+            assert_eq!(r["name"], c.name);
+            let (xml, dict) = (values(&r["xml"]), values(&r["dict"]));
+            assert_eq!(xml.len(), pairs.len());
+            assert_eq!(
+                xml, dict,
+                "{}: the XML and the dict are the same BSDF",
+                c.name
+            );
+            let plugin = if c.name == "lambert" {
+                "SmoothDiffuse"
+            } else if c.name.starts_with("rough-plastic") {
+                "RoughPlastic"
+            } else {
+                "RoughConductor"
+            };
+            assert_eq!(
+                (r["xml_type"].as_str(), r["dict_type"].as_str()),
+                (Some(plugin), Some(plugin))
+            );
+            let cfg = cross(c, Value::Null, c.model.clone());
+            let cmp = compare(&cfg, &pairs, &xml).unwrap();
+            say(&format!(
+                "export {} (Mitsuba {}, {plugin}): {}",
+                c.name,
+                out["mitsuba"].as_str().unwrap_or("?"),
+                cmp.to_text()
+            ));
+            assert!(cmp.passed, "{cmp}");
+            assert!(cmp.max_rel_diff > 0.0, "{}: float32 leaves a trace", c.name);
+        }
+        // The comparison can fail: the anisotropic export against the model with its axes
+        // swapped, and the scaled gold against the model without ρs.
+        let swapped = {
+            let mut m = configs[2].model.clone();
+            m["params"]["alpha_x"] = json!(0.45);
+            m["params"]["alpha_y"] = json!(0.12);
+            m
+        };
+        let unscaled = {
+            let mut m = configs[1].model.clone();
+            m["params"]["rho_s"] = json!(1.0);
+            m
+        };
+        for (k, wrong) in [(2usize, swapped), (1, unscaled)] {
+            let r = &out["exports"][k];
+            let cmp = compare(
+                &cross(&configs[k], Value::Null, wrong),
+                &pairs,
+                &values(&r["xml"]),
+            )
+            .unwrap();
+            assert!(!cmp.passed, "a wrong model must not match: {cmp}");
+        }
     }
 }
 
@@ -427,8 +397,7 @@ fn refused(model: &Path, to: &str, needle: &str) {
         .args(["--to", to])
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains(needle), "{}", stderr(&o));
+    assert_bad_input(&o, &[needle]);
 }
 
 #[test]
@@ -631,7 +600,7 @@ fn a_conductor_fitted_with_rho_d_fixed_at_0_exports() {
 fn gltf_validator() -> Option<PathBuf> {
     let dir = std::env::var_os("BRDFKIT_GLTF_VALIDATOR")
         .map(PathBuf::from)
-        .unwrap_or_else(|| workspace_root().join("target/gltf-validator"));
+        .unwrap_or_else(|| external_tools::workspace().join("target/gltf-validator"));
     let ok = dir.join("node_modules/gltf-validator").is_dir()
         && std::process::Command::new("node")
             .arg("--version")
@@ -685,7 +654,7 @@ fn gltf_export_is_a_valid_gltf_material() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let Some(dir) = gltf_validator() else {
-        if under_ci() {
+        if external_tools::under_ci() {
             panic!(
                 "the glTF validator is missing under CI: npm install --prefix target/gltf-validator \
                  gltf-validator (or set BRDFKIT_GLTF_VALIDATOR)"

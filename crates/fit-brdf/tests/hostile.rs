@@ -6,7 +6,7 @@
 mod common;
 
 use brdfkit::merl::{MerlError, MerlTable};
-use common::bin;
+use common::{assert_bad_input, bin};
 use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
 
@@ -130,12 +130,7 @@ fn an_unreadable_file_is_bad_input_not_a_panic() {
     let e = MerlTable::read(&p).unwrap_err();
     assert!(matches!(e, MerlError::Io { .. }), "{e:?}");
     let o = bin().arg("info").arg(&p).output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("socket.binary") && !err.contains("panicked"),
-        "{err}"
-    );
+    assert_bad_input(&o, &["socket.binary"]);
 }
 
 #[test]
@@ -155,12 +150,7 @@ fn a_header_claiming_gigabytes_does_not_allocate_them() {
         .arg(&p)
         .output()
         .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("liar.binary") && err.contains("bytes"),
-        "{err}"
-    );
+    assert_bad_input(&o, &["liar.binary", "bytes"]);
 }
 
 #[test]
@@ -170,18 +160,31 @@ fn a_non_utf8_path_is_handled() {
     let p: PathBuf = d.path().join(name);
     std::fs::write(&p, vec![0u8; 5]).unwrap();
     let o = bin().arg("info").arg(&p).output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("caf") && err.contains(".binary") && !err.contains("panicked"),
-        "{err}"
-    );
+    assert_bad_input(&o, &["caf", ".binary"]);
     // A good table under such a name reads fine.
     let good = d
         .path()
         .join(std::ffi::OsStr::from_bytes(b"ok-\xff.binary"));
     std::fs::write(&good, table_bytes([2, 2, 2], 0.25)).unwrap();
     bin().arg("info").arg(&good).assert().success();
+}
+
+/// `fit-brdf <verb> FILE --out OUT` on FILE holding `text`: refused as by [`rejects`],
+/// and nothing written at OUT.
+fn rejects_writing(verb: &str, file: &Path, text: impl AsRef<[u8]>, out: &Path, what: &str) {
+    std::fs::write(file, text).unwrap();
+    let args = [
+        verb.as_ref(),
+        file.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    rejects(&args, file, what);
+    assert!(
+        !out.exists(),
+        "{}: no output from a bad input",
+        file.display()
+    );
 }
 
 /// `fit-brdf <cmd> FILE ...` on a bad file: exit 2, the file named, `what` said.
@@ -226,19 +229,7 @@ fn bad_specs_are_rejected() {
         ("syntax.toml", "name = \"x\n", "TOML"),
     ];
     for (file, text, what) in cases {
-        let p = d.path().join(file);
-        std::fs::write(&p, text).unwrap();
-        rejects(
-            &[
-                "synth".as_ref(),
-                p.as_os_str(),
-                "--out".as_ref(),
-                out.as_os_str(),
-            ],
-            &p,
-            what,
-        );
-        assert!(!out.exists(), "{file}: no output on a bad spec");
+        rejects_writing("synth", &d.path().join(file), text, &out, what);
     }
 }
 
@@ -330,18 +321,6 @@ fn bad_scenes_are_rejected() {
         ("syntax.toml", "effects = [\n".to_string(), "TOML"),
     ];
     for (file, text, what) in cases {
-        let p = d.path().join(file);
-        std::fs::write(&p, text).unwrap();
-        rejects(
-            &[
-                "render".as_ref(),
-                p.as_os_str(),
-                "--out".as_ref(),
-                out.as_os_str(),
-            ],
-            &p,
-            what,
-        );
-        assert!(!out.exists(), "{file}: no image on a bad scene");
+        rejects_writing("render", &d.path().join(file), text, &out, what);
     }
 }

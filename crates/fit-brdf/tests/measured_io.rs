@@ -1,12 +1,11 @@
 //! Neural BRDFs as a source (`--nbrdf`) and the `.npy` contract of `eval`, through the
 //! binary: the same values whatever the format, typed errors with exit 2 for bad files.
 
-use assert_cmd::Command;
-use std::path::{Path, PathBuf};
+mod common;
 
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
+use common::npy::npy_bytes;
+use common::{assert_bad_input, bin};
+use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -34,19 +33,6 @@ fn write_csv(dir: &Path) -> PathBuf {
     let p = dir.join("pairs.csv");
     std::fs::write(&p, s).unwrap();
     p
-}
-
-fn npy_bytes(descr: &str, shape: &str, body: &[u8]) -> Vec<u8> {
-    let mut h = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
-    while (10 + h.len() + 1) % 64 != 0 {
-        h.push(' ');
-    }
-    h.push('\n');
-    let mut v = b"\x93NUMPY\x01\x00".to_vec();
-    v.extend_from_slice(&(h.len() as u16).to_le_bytes());
-    v.extend_from_slice(h.as_bytes());
-    v.extend_from_slice(body);
-    v
 }
 
 fn write_npy(dir: &Path) -> PathBuf {
@@ -184,12 +170,7 @@ fn bad_npy_and_nbrdf_inputs_exit_2_naming_the_file() {
             .arg(&p)
             .output()
             .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{err}");
-        assert!(
-            err.contains(p.to_str().unwrap()) && err.contains(want),
-            "{err}"
-        );
+        assert_bad_input(&o, &[p.to_str().unwrap(), want]);
     }
     let missing = d.path().join("no-such-material");
     let o = bin()
@@ -200,11 +181,6 @@ fn bad_npy_and_nbrdf_inputs_exit_2_naming_the_file() {
         .arg(d.path().join("t.binary"))
         .output()
         .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("no-such-material_fc1.npy") && err.contains("missing"),
-        "{err}"
-    );
+    assert_bad_input(&o, &["no-such-material_fc1.npy", "missing"]);
     assert!(!d.path().join("t.binary").exists());
 }

@@ -4,27 +4,16 @@
 mod common;
 
 use assert_cmd::Command;
+use common::{assert_bad_input, bin, names, stderr, synth_spec};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-fn bin() -> Command {
-    Command::cargo_bin("fit-brdf").unwrap()
-}
-
 const FIVE: &str = "lambert,plausible-phong,ward,lafortune,cook-torrance";
 
+/// A small red plastic (the demo's material on a 24 × 24 × 48 grid): cook-torrance
+/// fits it exactly, the other families cannot.
 fn small_table(dir: &Path) -> PathBuf {
-    let spec = dir.join("small.toml");
-    std::fs::write(&spec, common::red_plastic()).unwrap();
-    let out = dir.join("small.binary");
-    bin()
-        .arg("synth")
-        .arg(&spec)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
-    out
+    synth_spec(dir, "small", &common::red_plastic())
 }
 
 /// The quick settings of these tests: the five families, one start, small renders.
@@ -40,19 +29,6 @@ fn report_of(table: &Path, out: &Path, models: &str) -> Command {
         .args(["--env-spp", "4", "--quiet", "--out"])
         .arg(out);
     c
-}
-
-fn stderr(o: &std::process::Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 #[test]
@@ -198,14 +174,12 @@ fn bad_input_exits_2_naming_the_file() {
     let out = d.path().join("rep");
     let missing = d.path().join("nope.binary");
     let o = report(&missing, &out).output().unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("nope.binary"), "{}", stderr(&o));
+    assert_bad_input(&o, &["nope.binary"]);
 
     let garbage = d.path().join("garbage.binary");
     std::fs::write(&garbage, b"not a table at all").unwrap();
     let o = report(&garbage, &out).output().unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("garbage.binary"), "{}", stderr(&o));
+    assert_bad_input(&o, &["garbage.binary"]);
     assert!(!out.exists(), "nothing written on bad input");
 
     let t = small_table(d.path());

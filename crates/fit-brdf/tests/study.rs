@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{bin, stderr};
+use common::{assert_bad_input, bin, stderr};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -191,6 +191,5 @@ fn bad_study_input_is_a_clear_error_and_writes_nothing() {
         .arg(dir.path().join("never-run"))
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("results.json"), "{}", stderr(&o));
+    assert_bad_input(&o, &["results.json"]);
 }

@@ -68,7 +68,7 @@ pub const FORMAT: &str = "fit-brdf-batch/1";
 
 /// Why a batch cannot start or had to stop. [`BatchError::is_bad_input`] tells the
 /// user's mistakes from failures at run time. A table that cannot be fitted is not an
-/// error of the batch: it is reported in [`BatchReport::failures`].
+/// error of the batch: it is reported in [`BatchOutcome::failures`].
 #[derive(Debug, thiserror::Error)]
 pub enum BatchError {
     /// An input is neither a file, a directory nor a glob pattern.
@@ -266,7 +266,7 @@ pub struct BatchJob {
 
 /// The result of a run.
 #[derive(Debug, Clone)]
-pub struct BatchReport {
+pub struct BatchOutcome {
     /// The output directory.
     pub out: PathBuf,
     /// The summary CSV.
@@ -352,7 +352,7 @@ impl BatchJob {
         force: bool,
         cancel: &Cancel,
         obs: &dyn BatchObserver,
-    ) -> Result<BatchReport, BatchError> {
+    ) -> Result<BatchOutcome, BatchError> {
         let t0 = Instant::now();
         std::fs::create_dir_all(&self.out).map_err(|source| BatchError::CreateDir {
             path: self.out.clone(),
@@ -428,7 +428,7 @@ impl BatchJob {
             obs.on_table_done(done, todo.len(), t, how);
         }
         let pending = self.tables.len() - resumed - fitted - failures.len();
-        Ok(BatchReport {
+        Ok(BatchOutcome {
             out: self.out.clone(),
             summary_csv: summary_path,
             shard: self.shard,
@@ -515,7 +515,7 @@ fn read_data(t: &Table) -> Result<(FitData, String), String> {
     Ok((data, hash))
 }
 
-impl BatchReport {
+impl BatchOutcome {
     /// The report as `fit-brdf batch --json` prints it.
     pub fn to_json(&self) -> Value {
         let results: Vec<Value> = self

@@ -82,7 +82,7 @@ impl BatchObserver for Log {
     }
 }
 
-fn counts(r: &BatchReport) -> (usize, usize, usize, usize) {
+fn counts(r: &BatchOutcome) -> (usize, usize, usize, usize) {
     (r.fitted, r.resumed, r.failures.len(), r.pending)
 }
 

@@ -3,7 +3,7 @@
 
 use brdfkit_core::Model;
 use brdfkit_fit::synth::{Coverage, synth_data};
-use brdfkit_fit::{FitData, FitResult};
+use brdfkit_fit::{FitConfig, FitData, FitResult, fit};
 use brdfkit_merl::Dims;
 use serde_json::Value;
 
@@ -54,4 +54,43 @@ pub fn show(res: &FitResult) -> String {
     let mut v: Value = serde_json::to_value(&res.record).unwrap();
     v.as_object_mut().unwrap().remove("starts");
     serde_json::to_string(&v).unwrap()
+}
+
+/// Fits `start` to `data` with the default configuration and asserts that it converged
+/// with every free parameter within `tol` (relative) of `truth`'s; returns the result,
+/// the worst relative error and that parameter's name.
+pub fn fit_recovers(
+    start: &dyn Model,
+    truth: &dyn Model,
+    data: &FitData,
+    tol: f64,
+) -> (FitResult, f64, String) {
+    let res = fit(start, data, &FitConfig::default(), None).unwrap();
+    let (err, name) = worst_param(&res, truth);
+    assert!(res.record.converged, "{}: {}", truth.name(), show(&res));
+    assert!(
+        err <= tol,
+        "{}: parameter {name} off by {err:e} relative: {}",
+        truth.name(),
+        show(&res)
+    );
+    (res, err, name)
+}
+
+/// The central difference of `f` along coordinate `q` of `u`, with the step
+/// 1e-6 · max(|u_q|, 1).
+pub fn central_diff<T>(
+    u: &nalgebra::DVector<f64>,
+    q: usize,
+    f: impl Fn(&nalgebra::DVector<f64>) -> T,
+) -> T
+where
+    T: std::ops::Sub<Output = T> + std::ops::Div<f64, Output = T>,
+{
+    let h = 1e-6 * u[q].abs().max(1.0);
+    let mut up = u.clone();
+    up[q] += h;
+    let mut um = u.clone();
+    um[q] -= h;
+    (f(&up) - f(&um)) / (2.0 * h)
 }

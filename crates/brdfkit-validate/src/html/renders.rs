@@ -10,7 +10,7 @@ use brdfkit_merl::{Lookup, MerlTable};
 use brdfkit_render::env::{Environment, LatLong, uv_to_direction};
 use brdfkit_render::material::MaterialSource;
 use brdfkit_render::output::tonemap_channel;
-use brdfkit_render::{Material, RenderOutput, Scene, TableBrdf, render};
+use brdfkit_render::{RenderOutput, Scene, SceneMaterial, TableBrdf, render};
 use image::{ImageFormat, RgbImage};
 use serde::{Deserialize, Serialize};
 use std::io::Cursor;
@@ -187,7 +187,7 @@ pub fn studio_environment() -> Environment {
     })
 }
 
-fn scene_for(l: Lighting, o: &RenderOptions, m: &Material) -> Result<Scene, ReportError> {
+fn scene_for(l: Lighting, o: &RenderOptions, m: &SceneMaterial) -> Result<Scene, ReportError> {
     let mut scene = Scene::from_toml_str(&scene_text(l, o), format!("report-{l:?}.toml"))
         .map_err(|e| ReportError::Render(e.to_string()))?;
     for slot in scene.materials.iter_mut() {
@@ -212,16 +212,14 @@ pub(crate) enum Shown<'a> {
     Table(&'a Arc<MerlTable>),
 }
 
-/// A render of what is shown: its radiance and the render's figures. A per-channel
-/// fit renders once per channel (channel c of image c).
 /// The material of channel `c` of `s` (a per-channel fit has one model per channel).
-fn shown_material(s: Shown, c: usize) -> Material {
-    let model = |m: &dyn brdfkit_core::Model| Material::Model {
+fn shown_material(s: Shown, c: usize) -> SceneMaterial {
+    let model = |m: &dyn brdfkit_core::Model| SceneMaterial::Model {
         model: Arc::from(m.clone_box()),
         source: MaterialSource::Inline,
     };
     match s {
-        Shown::Table(t) => Material::Table {
+        Shown::Table(t) => SceneMaterial::Table {
             brdf: TableBrdf::new(t.clone(), Lookup::Interpolated),
             source: MaterialSource::Inline,
         },
@@ -230,6 +228,8 @@ fn shown_material(s: Shown, c: usize) -> Material {
     }
 }
 
+/// A render of what is shown: its radiance and the render's figures. A per-channel
+/// fit renders once per channel (channel c of image c).
 fn render_shown(l: Lighting, o: &RenderOptions, s: Shown) -> Result<RenderOutput, ReportError> {
     let mut out = run(&scene_for(l, o, &shown_material(s, 0))?)?;
     if let Shown::Fitted(Fitted::PerChannel(_)) = s {

@@ -1,7 +1,9 @@
-//! Helpers shared by the CLI test files: the binary, its stderr, and a synthesised
-//! table from a spec text.
+//! Helpers shared by the CLI test files: the binary, its stderr, a synthesised table
+//! from a spec text, the spec of a small plastic, and hand-built `.npy` files.
 
 #![allow(dead_code)] // each test file uses its own subset
+
+pub mod npy;
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
@@ -52,12 +54,11 @@ pub fn synth_output(spec: &Path, out: &Path) -> std::process::Output {
 /// synthesise and to fit), ρs = 1 and Schlick F0 = 0.04, with `extra` further
 /// `[material.params]` lines.
 pub fn plastic_spec(name: &str, rho_d: [f64; 3], alpha: f64, extra: &str) -> String {
-    format!(
-        "name = \"{name}\"\ndims = [24, 24, 48]\n[material]\nmodel = \"cook-torrance\"\n\
-         [material.params]\nrho_d = [{}, {}, {}]\nrho_s = 1.0\nalpha = {alpha}\n{extra}\
-         fresnel = {{ schlick = {{ f0 = 0.04 }} }}\n",
-        rho_d[0], rho_d[1], rho_d[2]
-    )
+    let params = format!(
+        "rho_d = {rho_d:?}\nrho_s = 1.0\nalpha = {alpha:?}\n{extra}\
+         fresnel = {{ schlick = {{ f0 = 0.04 }} }}"
+    );
+    spec_text(name, [24, 24, 48], "cook-torrance", &params)
 }
 
 /// The red plastic of the report and score tests: GGX, separable Smith.
@@ -81,4 +82,40 @@ pub fn plastic_and_lambert(dir: &Path) -> (PathBuf, PathBuf) {
     )
     .unwrap();
     (t, m)
+}
+
+/// The text of a synth spec: `name`, grid `dims`, material `model` with the TOML
+/// `params` lines.
+pub fn spec_text(name: &str, dims: [usize; 3], model: &str, params: &str) -> String {
+    format!(
+        "name = \"{name}\"\ndims = {dims:?}\n[material]\nmodel = \"{model}\"\n\
+         [material.params]\n{params}\n"
+    )
+}
+
+/// The spec of a small (24 × 24 × 48) plastic named `name`: Cook-Torrance GGX with
+/// diffuse `rho_d`, ρs = 1, roughness `alpha` and Schlick f0 = 0.04.
+pub fn small_plastic_spec(name: &str, rho_d: [f64; 3], alpha: f64) -> String {
+    plastic_spec(name, rho_d, alpha, "distribution = \"ggx\"\n")
+}
+
+/// The names of the entries of `dir`, sorted.
+pub fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Asserts that a command was refused as bad input: exit code 2, a stderr that names
+/// every one of `needles`, and no panic.
+pub fn assert_bad_input(o: &std::process::Output, needles: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{n}` not in {err}");
+    }
 }

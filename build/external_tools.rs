@@ -1,0 +1,184 @@
+//! The external tools some tests check against: Mitsuba 3 (in a Python) and headless
+//! Chromium. One file, included with `#[path]` by the build scripts of brdfkit-render,
+//! brdfkit-validate and fit-brdf and by their tests:
+//!
+//! - a build script calls [`emit`], which probes the tools and sets the cfgs
+//!   `has_mitsuba` / `has_chromium`; the tests carry
+//!   `#[cfg_attr(not(has_mitsuba), ignore = "...")]`, so a check that cannot run is
+//!   counted as ignored, with the reason, never as passed;
+//! - under `CI` (set to anything but "", "0" or "false") the cfgs are always on: CI must
+//!   run the checks, and a missing tool fails them loudly;
+//! - a test calls [`require_mitsuba`] / [`require_chromium`], which return the tool or
+//!   panic saying how to install it (under CI, after a stale probe, or with
+//!   `--include-ignored`);
+//! - the tests are declared with `mitsuba_test!` / `chromium_test!` (`#[test]` plus the
+//!   `cfg_attr` and its reason, in one place); the including `mod` needs `#[macro_use]`.
+//!
+//! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`; Chromium is
+//! `$CHROMIUM`, else `chromium` or `chromium-browser` on the `PATH` or in `/usr/bin`.
+
+// Build scripts use the probes, tests the `require_*` functions and the macros: neither
+// uses all.
+#![allow(dead_code, unused_macros)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// `#[test]`, ignored with `$reason` unless the build script set `$cfg`.
+macro_rules! tool_test {
+    ($cfg:ident, $reason:literal, $(#[$m:meta])* fn $name:ident() $body:block) => {
+        $(#[$m])*
+        #[test]
+        #[cfg_attr(not($cfg), ignore = $reason)]
+        fn $name() $body
+    };
+}
+
+/// A test that needs Mitsuba 3 (see [`tool_test`]).
+macro_rules! mitsuba_test {
+    ($($t:tt)*) => {
+        tool_test! { has_mitsuba, "needs Mitsuba 3: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)", $($t)* }
+    };
+}
+
+/// A test that needs Chromium (see [`tool_test`]).
+macro_rules! chromium_test {
+    ($($t:tt)*) => {
+        tool_test! { has_chromium, "needs chromium: apt-get install chromium (or set CHROMIUM)", $($t)* }
+    };
+}
+
+/// How to get Mitsuba 3 for the cross-checks.
+pub const MITSUBA_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
+     (in the workspace root), or set BRDFKIT_PYTHON to a Python with mitsuba==3.9.1 and drjit==1.5.0";
+
+/// How to get Chromium for the browser check.
+pub const CHROMIUM_ENABLE: &str = "apt-get install chromium (Debian), or set CHROMIUM";
+
+/// A tool a crate's tests need.
+#[derive(Clone, Copy)]
+pub enum Tool {
+    /// Mitsuba 3 and Dr.Jit importable from the Python, `scalar_rgb` available.
+    Mitsuba,
+    /// A headless Chromium.
+    Chromium,
+}
+
+/// `CI` set to anything but "", "0" or "false".
+pub fn under_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.as_str(), "" | "0" | "false"))
+}
+
+/// The workspace root: every crate that includes this file sits at
+/// `<workspace>/crates/<name>`.
+pub fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The Python the cross-checks use (it may not exist).
+pub fn python() -> PathBuf {
+    std::env::var_os("BRDFKIT_PYTHON")
+        .filter(|p| !p.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join(".venv/bin/python"))
+}
+
+/// Whether `py` imports Mitsuba 3 and Dr.Jit with the `scalar_rgb` variant.
+pub fn mitsuba_importable(py: &Path) -> bool {
+    Command::new(py)
+        .args([
+            "-c",
+            "import mitsuba, drjit; mitsuba.set_variant('scalar_rgb')",
+        ])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// The Chromium executable, if there is one.
+pub fn chromium() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("CHROMIUM").map(PathBuf::from)
+        && p.is_file()
+    {
+        return Some(p);
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    ["chromium", "chromium-browser"].iter().find_map(|name| {
+        std::env::split_paths(&path)
+            .chain([PathBuf::from("/usr/bin")])
+            .map(|dir| dir.join(name))
+            .find(|p| p.is_file())
+    })
+}
+
+/// For tests: the Python with Mitsuba 3, or a panic that says how to get it.
+pub fn require_mitsuba() -> PathBuf {
+    let py = python();
+    assert!(
+        mitsuba_importable(&py),
+        "the Mitsuba 3 cross-check cannot run: no Mitsuba 3 at {}{}. Install it: {MITSUBA_ENABLE}",
+        py.display(),
+        if under_ci() {
+            " (CI is set: it must run)"
+        } else {
+            ""
+        }
+    );
+    py
+}
+
+/// For tests: the Chromium executable, or a panic that says how to get it.
+pub fn require_chromium() -> PathBuf {
+    chromium().unwrap_or_else(|| {
+        panic!(
+            "the browser check cannot run: no chromium{}. Install it: {CHROMIUM_ENABLE}",
+            if under_ci() {
+                " (CI is set: it must run)"
+            } else {
+                ""
+            }
+        )
+    })
+}
+
+/// For build scripts: probes `tools` and sets `has_mitsuba` / `has_chromium`, always
+/// under CI. The probe is redone when the environment variables change, when the tool
+/// found changes, or (Mitsuba) when packages are installed into the workspace's `.venv`.
+/// A tool installed where nothing was watched (a new `.venv`, a new browser) is seen
+/// after `cargo clean -p <crate>`; until then `cargo test -- --include-ignored` runs
+/// the checks anyway.
+pub fn emit(tools: &[Tool]) {
+    println!("cargo::rerun-if-changed=build.rs");
+    println!("cargo::rerun-if-changed=../../build/external_tools.rs");
+    println!("cargo::rerun-if-env-changed=CI");
+    let ci = under_ci();
+    for tool in tools {
+        let (cfg, present) = match tool {
+            Tool::Mitsuba => {
+                println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
+                let py = python();
+                let venv_lib = workspace().join(".venv/lib");
+                // Only paths that exist: a missing one would rerun this on every build
+                // and so rebuild the crate and all that depends on it.
+                for watched in [py.clone(), venv_lib] {
+                    if watched.exists() {
+                        println!("cargo::rerun-if-changed={}", watched.display());
+                    }
+                }
+                ("has_mitsuba", ci || mitsuba_importable(&py))
+            }
+            Tool::Chromium => {
+                println!("cargo::rerun-if-env-changed=CHROMIUM");
+                let found = chromium();
+                let watched = found.clone().unwrap_or_else(|| PathBuf::from("/usr/bin"));
+                if watched.exists() {
+                    println!("cargo::rerun-if-changed={}", watched.display());
+                }
+                ("has_chromium", ci || found.is_some())
+            }
+        };
+        println!("cargo::rustc-check-cfg=cfg({cfg})");
+        if present {
+            println!("cargo::rustc-cfg={cfg}");
+        }
+    }
+}
