@@ -26,6 +26,11 @@ fn say(s: &str) {
     let _ = writeln!(std::io::stderr().lock(), "{s}");
 }
 
+const GOLD_ETA: [f64; 3] = [0.143, 0.374, 1.442];
+const GOLD_K: [f64; 3] = [3.983, 2.385, 1.603];
+const COPPER_ETA: [f64; 3] = [0.200, 0.924, 1.102];
+const COPPER_K: [f64; 3] = [3.912, 2.452, 2.142];
+
 fn conductor(eta: [f64; 3], k: [f64; 3]) -> Value {
     json!({"conductor": {"eta": eta, "k": k}})
 }
