@@ -852,16 +852,16 @@ pub fn fit(
     let t0 = Instant::now();
     config.validate()?;
     let full_owned;
-    let full: &FitData = match config.theta_d_max {
-        Some(t) => {
-            full_owned = data.with_theta_d_max(t);
+    let full: &FitData = match config.angular_domain(data) {
+        Some(d) => {
+            full_owned = d;
             &full_owned
         }
         None => data,
     };
     if full.is_empty() {
         return Err(FitError::NoCells(format!(
-            "{} cells, none with θd ≤ the cutoff",
+            "{} cells, none within the angular cutoffs (θd, θi/θo)",
             data.len()
         )));
     }
@@ -1009,6 +1009,7 @@ pub fn fit(
         solver: config.solver,
         sharing: config.sharing,
         theta_d_max_deg: config.theta_d_max.map(f64::to_degrees),
+        theta_max_deg: config.theta_max.map(f64::to_degrees),
         subsample: config.subsample,
         seed: config.seed,
         starts_per_pass: config.starts,

@@ -26,6 +26,7 @@ pub mod lambert;
 pub mod oren_nayar;
 pub mod phong;
 pub mod plausible_phong;
+pub mod published;
 pub mod sum;
 pub mod ward;
 
@@ -90,10 +91,13 @@ pub fn from_name_and_params(name: &str, params: &Value) -> Result<Box<dyn Model>
         "ashikhmin-shirley" => boxed(ashikhmin_shirley::AshikhminShirley::from_params_json(
             params,
         )),
-        other => Err(ModelError::Invalid(format!(
-            "unknown model `{other}` (known: {})",
-            MODEL_NAMES.join(", ")
-        ))),
+        other => published::from_params_json(other, params).unwrap_or_else(|| {
+            Err(ModelError::Invalid(format!(
+                "unknown model `{other}` (known: {}; published parameterisations: {})",
+                MODEL_NAMES.join(", "),
+                published::PUBLISHED_NAMES.join(", ")
+            )))
+        }),
     }
 }
 

@@ -643,9 +643,9 @@ pub fn held_out(
         });
     }
     let cut;
-    let data = match config.get_theta_d_max() {
-        Some(t) => {
-            cut = data.with_theta_d_max(t);
+    let data = match config.angular_domain(data) {
+        Some(d) => {
+            cut = d;
             &cut
         }
         None => data,

@@ -61,6 +61,7 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         finish: o.finish,
         sample_fraction: o.sample_fraction,
         theta_d_max_deg: o.theta_d_max,
+        theta_max_deg: o.theta_max,
         per_channel: o.per_channel,
         seed: o.seed,
         fix: o.fix.clone(),
