@@ -605,7 +605,12 @@ mod tests {
         assert!(c.clone().theta_max_deg(0.0).is_err());
         assert!(c.clone().theta_max_deg(90.5).is_err());
         assert_eq!(c.clone().theta_max_deg(90.0).unwrap().get_theta_max(), None);
-        let t = c.clone().theta_max_deg(80.0).unwrap().get_theta_max().unwrap();
+        let t = c
+            .clone()
+            .theta_max_deg(80.0)
+            .unwrap()
+            .get_theta_max()
+            .unwrap();
         assert!((t - 80f64.to_radians()).abs() < 1e-15);
         assert!(c.clone().max_iters(0).is_err());
         assert!(c.clone().tolerances(1.0, 0.0, 0.0).is_err());

@@ -94,7 +94,6 @@ pub enum Loss {
     BieronLog,
 }
 
-
 /// θi and θo limit of Ngan et al. 2005 (they drop measurements beyond 80°).
 pub const NGAN_THETA_MAX_DEG: f64 = 80.0;
 
@@ -240,12 +239,15 @@ impl FromStr for Loss {
         if s == "bbm-log" {
             return Ok(Loss::Log);
         }
-        Loss::EVERY.into_iter().find(|l| l.name() == s).ok_or_else(|| {
-            format!(
-                "unknown loss `{s}` (known: {}, bbm-log)",
-                Loss::EVERY.map(|l| l.name()).join(", ")
-            )
-        })
+        Loss::EVERY
+            .into_iter()
+            .find(|l| l.name() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown loss `{s}` (known: {}, bbm-log)",
+                    Loss::EVERY.map(|l| l.name()).join(", ")
+                )
+            })
     }
 }
 

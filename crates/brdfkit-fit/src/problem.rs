@@ -579,7 +579,14 @@ impl<'a> FitProblem<'a> {
                     let len = e - s;
                     m.eval_batch(&g.slice(s..e), &mut out[..len]);
                     let cos_i = &g.wi_z[s..e];
-                    fill_scale(inn.data, inn.weighting, inn.loss, inn.inv_wsum, s, &mut sbuf[..len]);
+                    fill_scale(
+                        inn.data,
+                        inn.weighting,
+                        inn.loss,
+                        inn.inv_wsum,
+                        s,
+                        &mut sbuf[..len],
+                    );
                     let sc = &sbuf[..len];
                     for &c in &inn.channels {
                         let tg = &mut tbuf[..len];
@@ -668,7 +675,14 @@ impl<'a> FitProblem<'a> {
                         &mut sc.grad[..np * len],
                     );
                     let cos_i = &g.wi_z[s..e];
-                    fill_scale(inn.data, inn.weighting, inn.loss, inn.inv_wsum, s, &mut sc.s[..len]);
+                    fill_scale(
+                        inn.data,
+                        inn.weighting,
+                        inn.loss,
+                        inn.inv_wsum,
+                        s,
+                        &mut sc.s[..len],
+                    );
                     let scale = &sc.s[..len];
                     for &c in &inn.channels {
                         fill_target(inn.data, inn.loss, c, s, &mut sc.t[..len]);
@@ -784,7 +798,14 @@ impl<'a> FitProblem<'a> {
         let mut out = vec![Rgb::ZERO; n];
         m.eval_batch(&g.as_slice(), &mut out);
         let mut scale = vec![0.0; n];
-        fill_scale(inn.data, inn.weighting, inn.loss, inn.inv_wsum, 0, &mut scale);
+        fill_scale(
+            inn.data,
+            inn.weighting,
+            inn.loss,
+            inn.inv_wsum,
+            0,
+            &mut scale,
+        );
         let mut r = DVector::zeros(n * inn.channels.len());
         let mut tg = vec![0.0; n];
         for (ci, &c) in inn.channels.iter().enumerate() {
@@ -809,7 +830,14 @@ impl<'a> FitProblem<'a> {
         let mut grad = vec![Rgb::ZERO; np * n];
         m.eval_grad_batch(&g.as_slice(), &mut out, &mut grad);
         let mut scale = vec![0.0; n];
-        fill_scale(inn.data, inn.weighting, inn.loss, inn.inv_wsum, 0, &mut scale);
+        fill_scale(
+            inn.data,
+            inn.weighting,
+            inn.loss,
+            inn.inv_wsum,
+            0,
+            &mut scale,
+        );
         let mut j = DMatrix::zeros(n * inn.channels.len(), self.dim());
         for (ci, &c) in inn.channels.iter().enumerate() {
             for k in 0..n {

@@ -119,7 +119,11 @@ fn a_fit_under_each_published_metric_recovers_the_truth() {
         let res = fit(start.as_ref(), &data, &cfg, None).unwrap();
         assert_eq!(res.record.loss, loss);
         let (worst, name) = worst_param(&res, truth.as_ref());
-        assert!(worst < 1e-4, "{loss}: {name} off by {worst:e}\n{}", show(&res));
+        assert!(
+            worst < 1e-4,
+            "{loss}: {name} off by {worst:e}\n{}",
+            show(&res)
+        );
         assert!(res.record.losses_full.get(loss).overall < 1e-8, "{loss}");
     }
 }
@@ -130,9 +134,7 @@ fn theta_max_drops_cells_beyond_the_angle_and_is_recorded() {
     let cut = data.with_theta_max(60f64.to_radians());
     let g = data.geometry();
     let want = (0..data.len())
-        .filter(|&k| {
-            g.wi_z[k].acos().to_degrees() <= 60.0 && g.wo_z[k].acos().to_degrees() <= 60.0
-        })
+        .filter(|&k| g.wi_z[k].acos().to_degrees() <= 60.0 && g.wo_z[k].acos().to_degrees() <= 60.0)
         .count();
     assert_eq!(cut.len(), want);
     assert!(want > 0 && want < data.len());
@@ -196,7 +198,11 @@ fn numpy_transcription_agrees() {
             g.wo_z[k],
             data.measure()[k],
             [f[0], f[1], f[2]],
-            [data.values()[0][k], data.values()[1][k], data.values()[2][k]]
+            [
+                data.values()[0][k],
+                data.values()[1][k],
+                data.values()[2][k]
+            ]
         ]));
     }
     let dir = tempfile::tempdir().unwrap();
@@ -223,7 +229,11 @@ print(json.dumps([rms(w * ngan, cos_res), rms(w * low, cos_res), rms(w * low, lo
         .arg(&path)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: Vec<f64> = serde_json::from_slice(&out.stdout).unwrap();
     let rep = evaluate_losses([m.as_ref(); 3], &data, Weighting::SolidAngle);
     for (l, want) in [
@@ -236,6 +246,10 @@ print(json.dumps([rms(w * ngan, cos_res), rms(w * low, cos_res), rms(w * low, lo
     .into_iter()
     .zip(v)
     {
-        assert!(rel(rep.get(l).overall, want) < 1e-10, "{l}: {} vs numpy {want}", rep.get(l).overall);
+        assert!(
+            rel(rep.get(l).overall, want) < 1e-10,
+            "{l}: {} vs numpy {want}",
+            rep.get(l).overall
+        );
     }
 }

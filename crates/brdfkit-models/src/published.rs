@@ -208,10 +208,15 @@ mod tests {
             // Cook & Torrance 1982, eq. 9.
             let c = cd;
             let g = (eta * eta + c * c - 1.0).sqrt();
-            let f = 0.5 * ((g - c) / (g + c)).powi(2)
+            let f = 0.5
+                * ((g - c) / (g + c)).powi(2)
                 * (1.0 + ((c * (g + c) - 1.0) / (c * (g - c) + 1.0)).powi(2));
             let spec = d_unnormalised(ch, m) * g_ct(ci, co, ch, cd) * f / (PI * ci * co);
-            Rgb::new(rd[0] / PI + ks[0] * spec, rd[1] / PI + ks[1] * spec, rd[2] / PI + ks[2] * spec)
+            Rgb::new(
+                rd[0] / PI + ks[0] * spec,
+                rd[1] / PI + ks[1] * spec,
+                rd[2] / PI + ks[2] * spec,
+            )
         });
     }
 
@@ -227,7 +232,11 @@ mod tests {
             let (ci, co, ch, _) = angles(ti, pi, to, po);
             let t2 = (1.0 - ch * ch) / (ch * ch);
             let spec = (-t2 / (a * a)).exp() / (4.0 * PI * a * a * (ci * co).sqrt());
-            Rgb::new(rd[0] / PI + ks[0] * spec, rd[1] / PI + ks[1] * spec, rd[2] / PI + ks[2] * spec)
+            Rgb::new(
+                rd[0] / PI + ks[0] * spec,
+                rd[1] / PI + ks[1] * spec,
+                rd[2] / PI + ks[2] * spec,
+            )
         });
     }
 
@@ -237,20 +246,29 @@ mod tests {
             "rho_d": [0.1, 0.2, 0.3], "k_s": [0.05, 0.04, 0.03], "f0": 0.2, "m": 0.1
         });
         let m = from_params_json("ngan-cook-torrance", &v).unwrap().unwrap();
-        let direct =
-            ngan_cook_torrance(Rgb::new(0.1, 0.2, 0.3), Rgb::new(0.05, 0.04, 0.03), Rgb::splat(0.2), 0.1)
-                .unwrap();
+        let direct = ngan_cook_torrance(
+            Rgb::new(0.1, 0.2, 0.3),
+            Rgb::new(0.05, 0.04, 0.03),
+            Rgb::splat(0.2),
+            0.1,
+        )
+        .unwrap();
         assert_eq!(m.to_json(), direct.to_json());
         let rho_s = m.to_json()["params"]["rho_s"].clone();
         assert!((rho_s[0].as_f64().unwrap() - 0.2 / PI).abs() < 1e-15);
         let missing = serde_json::json!({"rho_d": 0.1, "k_s": 0.1, "m": 0.1});
-        let e = from_params_json("ngan-cook-torrance", &missing).unwrap().err().unwrap();
+        let e = from_params_json("ngan-cook-torrance", &missing)
+            .unwrap()
+            .err()
+            .unwrap();
         assert!(e.to_string().contains("`f0`"), "{e}");
         let extra = serde_json::json!({"rho_d": 0.1, "k_s": 0.1, "alpha": 0.1, "x": 1});
         assert!(from_params_json("ngan-ward", &extra).unwrap().is_err());
         assert!(from_params_json("cook-torrance", &v).is_none());
         let low = serde_json::json!({"rho_d": 0.1, "k_s": 0.02, "eta": 1.5, "m": 0.2});
-        let l = from_params_json("low-cook-torrance", &low).unwrap().unwrap();
+        let l = from_params_json("low-cook-torrance", &low)
+            .unwrap()
+            .unwrap();
         assert!((l.to_json()["params"]["rho_s"][0].as_f64().unwrap() - 0.08).abs() < 1e-15);
     }
 }
