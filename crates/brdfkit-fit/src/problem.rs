@@ -260,6 +260,16 @@ struct Scratch {
     cost: f64,
 }
 
+impl Inner<'_> {
+    /// s_k of every cell ([`fill_scale`]), for the dense residual and Jacobian.
+    fn scales(&self) -> Vec<f64> {
+        let mut scale = vec![0.0; self.data.len()];
+        let (w, l) = (self.weighting, self.loss);
+        fill_scale(self.data, w, l, self.inv_wsum, 0, &mut scale);
+        scale
+    }
+}
+
 impl<'a> FitProblem<'a> {
     /// A problem: `model` at its start parameters (fixed parameters keep these values),
     /// `free` the model-vector indices to fit, the active `channels`, the loss and the
@@ -797,15 +807,7 @@ impl<'a> FitProblem<'a> {
         let g = inn.data.geometry();
         let mut out = vec![Rgb::ZERO; n];
         m.eval_batch(&g.as_slice(), &mut out);
-        let mut scale = vec![0.0; n];
-        fill_scale(
-            inn.data,
-            inn.weighting,
-            inn.loss,
-            inn.inv_wsum,
-            0,
-            &mut scale,
-        );
+        let scale = inn.scales();
         let mut r = DVector::zeros(n * inn.channels.len());
         let mut tg = vec![0.0; n];
         for (ci, &c) in inn.channels.iter().enumerate() {
@@ -829,15 +831,7 @@ impl<'a> FitProblem<'a> {
         let mut out = vec![Rgb::ZERO; n];
         let mut grad = vec![Rgb::ZERO; np * n];
         m.eval_grad_batch(&g.as_slice(), &mut out, &mut grad);
-        let mut scale = vec![0.0; n];
-        fill_scale(
-            inn.data,
-            inn.weighting,
-            inn.loss,
-            inn.inv_wsum,
-            0,
-            &mut scale,
-        );
+        let scale = inn.scales();
         let mut j = DMatrix::zeros(n * inn.channels.len(), self.dim());
         for (ci, &c) in inn.channels.iter().enumerate() {
             for k in 0..n {

@@ -92,15 +92,8 @@ fn the_fitted_cost_is_the_reported_metric() {
     let free = resolve_free(m.as_ref(), &FitConfig::default()).unwrap();
     let rep = evaluate_losses([m.as_ref(); 3], &data, Weighting::SolidAngle);
     for loss in Loss::PUBLISHED {
-        let p = FitProblem::new(
-            &data,
-            m.as_ref(),
-            free.clone(),
-            vec![0, 1, 2],
-            loss,
-            Weighting::SolidAngle,
-        )
-        .unwrap();
+        let (ch, w) = (vec![0, 1, 2], Weighting::SolidAngle);
+        let p = FitProblem::new(&data, m.as_ref(), free.clone(), ch, loss, w).unwrap();
         let cost = p.cost_at(&p.start_u());
         let want = rep.get(loss).overall;
         assert!(rel((2.0 * cost).sqrt(), want) < 1e-12, "{loss}");

@@ -174,6 +174,15 @@ mod tests {
         (-t2 / (m * m)).exp() / (m * m * ch.powi(4))
     }
 
+    /// ρd/π + ks · spec per channel.
+    fn lambert_plus(rd: Rgb, ks: Rgb, spec: f64) -> Rgb {
+        Rgb::new(
+            rd[0] / PI + ks[0] * spec,
+            rd[1] / PI + ks[1] * spec,
+            rd[2] / PI + ks[2] * spec,
+        )
+    }
+
     #[test]
     fn ngan_cook_torrance_matches_the_papers_formula() {
         let (rd, ks, f0, m) = (
@@ -212,11 +221,7 @@ mod tests {
                 * ((g - c) / (g + c)).powi(2)
                 * (1.0 + ((c * (g + c) - 1.0) / (c * (g - c) + 1.0)).powi(2));
             let spec = d_unnormalised(ch, m) * g_ct(ci, co, ch, cd) * f / (PI * ci * co);
-            Rgb::new(
-                rd[0] / PI + ks[0] * spec,
-                rd[1] / PI + ks[1] * spec,
-                rd[2] / PI + ks[2] * spec,
-            )
+            lambert_plus(rd, ks, spec)
         });
     }
 
@@ -232,11 +237,7 @@ mod tests {
             let (ci, co, ch, _) = angles(ti, pi, to, po);
             let t2 = (1.0 - ch * ch) / (ch * ch);
             let spec = (-t2 / (a * a)).exp() / (4.0 * PI * a * a * (ci * co).sqrt());
-            Rgb::new(
-                rd[0] / PI + ks[0] * spec,
-                rd[1] / PI + ks[1] * spec,
-                rd[2] / PI + ks[2] * spec,
-            )
+            lambert_plus(rd, ks, spec)
         });
     }
 
