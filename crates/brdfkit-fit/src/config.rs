@@ -142,6 +142,9 @@ pub struct FitConfig {
     pub(crate) seed: u64,
     pub(crate) subsample: Option<f64>,
     pub(crate) theta_d_max: Option<f64>,
+    /// θi and θo cutoff (radians); absent from serialised configs when unset.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) theta_max: Option<f64>,
     pub(crate) max_iters: Option<u64>,
     pub(crate) ftol: f64,
     pub(crate) xtol: f64,
@@ -170,6 +173,7 @@ impl Default for FitConfig {
             seed: 0,
             subsample: None,
             theta_d_max: None,
+            theta_max: None,
             max_iters: None,
             ftol: t.ftol,
             xtol: t.xtol,
@@ -467,6 +471,27 @@ impl FitConfig {
         self.warm_up.filter(|&n| cells > 4 * n)
     }
 
+    /// Leave out cells whose θi or θo exceeds `deg` degrees (in (0, 90]): the angular
+    /// domain of the data as the fitting papers state it (Ngan et al. 2005: 80°). See
+    /// [`crate::FitData::with_theta_max`].
+    pub fn theta_max_deg(mut self, deg: f64) -> Result<Self, FitError> {
+        if !(deg > 0.0 && deg <= 90.0) {
+            return Err(bad("theta_max", deg, "must be in (0, 90] degrees"));
+        }
+        self.theta_max = (deg < 90.0).then_some(deg.to_radians());
+        Ok(self)
+    }
+
+    /// The cells a fit under this config uses: `data` with the θd cutoff
+    /// ([`theta_d_max_deg`](Self::theta_d_max_deg)) and the θi/θo cutoff
+    /// ([`theta_max_deg`](Self::theta_max_deg)) applied; `None` when neither is set
+    /// (use `data` itself, no copy).
+    pub fn angular_domain(&self, data: &crate::FitData) -> Option<crate::FitData> {
+        // One definition of the kept cells: the score's filter, which `fit` also uses.
+        let f = crate::score::CellFilter::of(self);
+        (!f.keeps_all()).then(|| data.filter(|m| f.keeps(data, m)))
+    }
+
     /// Checks every value as the builders do (for configs made by deserialisation).
     pub fn validate(&self) -> Result<(), FitError> {
         let c = FitConfig::default();
@@ -477,6 +502,9 @@ impl FitConfig {
         }
         if let Some(t) = self.theta_d_max {
             c.clone().theta_d_max_deg(t.to_degrees())?;
+        }
+        if let Some(t) = self.theta_max {
+            c.clone().theta_max_deg(t.to_degrees())?;
         }
         if let Some(n) = self.max_iters {
             c.clone().max_iters(n)?;
@@ -526,6 +554,10 @@ impl FitConfig {
     pub fn get_theta_d_max(&self) -> Option<f64> {
         self.theta_d_max
     }
+    /// θi / θo cutoff in radians, if any.
+    pub fn get_theta_max(&self) -> Option<f64> {
+        self.theta_max
+    }
     /// Effective iteration cap.
     pub fn get_max_iters(&self) -> u64 {
         self.max_iters.unwrap_or(self.solver.default_max_iters())
@@ -567,6 +599,16 @@ mod tests {
         assert!(c.clone().subsample(1.5, 1).is_err());
         assert!(c.clone().subsample(f64::NAN, 1).is_err());
         assert!(c.clone().theta_d_max_deg(95.0).is_err());
+        assert!(c.clone().theta_max_deg(0.0).is_err());
+        assert!(c.clone().theta_max_deg(90.5).is_err());
+        assert_eq!(c.clone().theta_max_deg(90.0).unwrap().get_theta_max(), None);
+        let t = c
+            .clone()
+            .theta_max_deg(80.0)
+            .unwrap()
+            .get_theta_max()
+            .unwrap();
+        assert!((t - 80f64.to_radians()).abs() < 1e-15);
         assert!(c.clone().max_iters(0).is_err());
         assert!(c.clone().tolerances(1.0, 0.0, 0.0).is_err());
         assert!(c.clone().lm_tau(-1.0).is_err());

@@ -334,6 +334,23 @@ impl FitData {
         (0..self.len()).map(|m| self.weight_at(w, m)).sum()
     }
 
+    /// The weight factor g(θi, θo) of a loss at cell m ([`crate::Loss::cell_factor`]).
+    #[inline]
+    pub(crate) fn loss_factor_at(&self, loss: crate::Loss, m: usize) -> f64 {
+        loss.cell_factor(self.geometry.wi_z[m], self.geometry.wo_z[m])
+    }
+
+    /// Σ of the cells' weights under a loss (weight × the loss's factor), in cell
+    /// order; the plain [`weight_sum`](Self::weight_sum) for brdfkit's own losses.
+    pub(crate) fn loss_weight_sum(&self, w: crate::Weighting, loss: crate::Loss) -> f64 {
+        if !loss.has_cell_factor() {
+            return self.weight_sum(w);
+        }
+        (0..self.len())
+            .map(|m| self.weight_at(w, m) * self.loss_factor_at(loss, m))
+            .sum()
+    }
+
     /// The cells' weights under a weighting: multiplicity × (measure or 1).
     pub fn weights(&self, w: crate::Weighting) -> Vec<f64> {
         (0..self.len()).map(|m| self.weight_at(w, m)).collect()
@@ -401,6 +418,17 @@ impl FitData {
     /// reliable measurements, are left out.
     pub fn with_theta_d_max(&self, max_theta_d: f64) -> FitData {
         self.filter(|m| self.theta_d_at(m) <= max_theta_d)
+    }
+
+    /// The cells whose incident and outgoing directions are both within `max_theta`
+    /// (radians) of the normal: θi ≤ max and θo ≤ max, the angular domain of a fit as
+    /// the papers state it (Ngan et al. 2005 drop θi or θo > 80°). The angles are those
+    /// of the cell's own direction pair (for a Rusinkiewicz cell, the (wi, wo) of its
+    /// (θh, θd, φd) centre), compared through their cosines.
+    pub fn with_theta_max(&self, max_theta: f64) -> FitData {
+        let c = max_theta.cos();
+        let g = &self.geometry;
+        self.filter(|m| g.wi_z[m] >= c && g.wo_z[m] >= c)
     }
 
     /// A stratified, seeded subsample of about `fraction` of the cells.

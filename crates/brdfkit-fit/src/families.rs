@@ -320,6 +320,9 @@ pub struct FitSettings {
     pub sample_fraction: f64,
     /// Cells with θd above this angle (degrees) are left out.
     pub theta_d_max_deg: Option<f64>,
+    /// Cells with θi or θo above this angle (degrees) are left out
+    /// ([`FitConfig::theta_max_deg`]).
+    pub theta_max_deg: Option<f64>,
     /// Every parameter per channel (default: shape shared).
     pub per_channel: bool,
     /// Seed of the starts and the subsample.
@@ -355,6 +358,7 @@ impl Default for FitSettings {
             finish: c.get_finish(),
             sample_fraction: 1.0,
             theta_d_max_deg: None,
+            theta_max_deg: None,
             per_channel: false,
             seed: c.get_seed(),
             fix: None,
@@ -416,6 +420,9 @@ impl FitSettings {
         }
         if let Some(deg) = self.theta_d_max_deg {
             c = c.theta_d_max_deg(deg).map_err(bad("theta-d-max"))?;
+        }
+        if let Some(deg) = self.theta_max_deg {
+            c = c.theta_max_deg(deg).map_err(bad("theta-max"))?;
         }
         c.robust(self.robust, self.robust_scale)
             .map_err(bad("robust-scale"))?
@@ -678,10 +685,12 @@ mod tests {
             sample_fraction: 0.5,
             fix: Some(vec!["rho_d".into()]),
             theta_d_max_deg: Some(80.0),
+            theta_max_deg: Some(80.0),
             ..FitSettings::default()
         };
         let c = ok.config().unwrap();
         assert_eq!(c.get_subsample(), Some(0.5));
+        assert_eq!(c.get_theta_max(), Some(80f64.to_radians()));
         assert_eq!(
             FitSettings::default().config().unwrap(),
             FitConfig::default()
@@ -715,6 +724,13 @@ mod tests {
                     ..FitSettings::default()
                 },
                 "robust-scale",
+            ),
+            (
+                FitSettings {
+                    theta_max_deg: Some(95.0),
+                    ..FitSettings::default()
+                },
+                "theta-max",
             ),
         ] {
             match s.config() {

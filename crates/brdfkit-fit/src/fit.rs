@@ -986,6 +986,7 @@ pub fn fit(
         solver: config.solver,
         sharing: config.sharing,
         theta_d_max_deg: config.theta_d_max.map(f64::to_degrees),
+        theta_max_deg: config.theta_max.map(f64::to_degrees),
         subsample: config.subsample,
         seed: config.seed,
         starts_per_pass: config.starts,

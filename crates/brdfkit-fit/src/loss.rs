@@ -65,23 +65,80 @@ pub fn cbrt(x: f64) -> f64 {
 }
 
 /// The comparison a fit minimises.
+///
+/// The first four are brdfkit's own; the last four are the published fitting metrics
+/// (see [`Loss::PUBLISHED`] and `docs/fitting.md`, "Published metrics"): each is one
+/// of the transforms t above with a per-cell weight factor g(θi, θo) multiplying the
+/// cell's measure, so every one is a weighted least-squares problem
+/// Σ w g (t(f) − t(f̂))², fitted by the same solvers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
 pub enum Loss {
     /// t = f.
     L2,
-    /// t = f cos θi (Ngan et al. 2005).
+    /// t = f cos θi (Ngan et al. 2005's transform, without their cutoff).
     Cosine,
     /// t = ∛(f cos θi); the default.
     #[default]
     Cbrt,
-    /// t = ln(1 + f cos θi) (Löw et al. 2012).
+    /// t = ln(1 + f cos θi) (Löw et al. 2012's transform, brdfkit's weighting); also
+    /// the BBM benchmark's `standardLog`, accepted as `bbm-log`.
     Log,
+    /// Ngan, Durand & Matusik 2005: t = f cos θi, cells with θi or θo > 80° dropped.
+    Ngan,
+    /// Löw, Kronander, Ynnerman & Unger 2012, E1: t = f cos θi over dωi dθo.
+    LowE1,
+    /// Löw et al. 2012, E2: t = ln(1 + f cos θi) over dωi dθo.
+    LowE2,
+    /// Bieron & Peers 2020: t = ln(1 + f cos θi), weighted by cos θo.
+    BieronLog,
 }
 
+/// θi and θo limit of Ngan et al. 2005 (they drop measurements beyond 80°).
+pub const NGAN_THETA_MAX_DEG: f64 = 80.0;
+
+/// Floor of sin θo in the Löw et al. weight 1 / sin θo: sin 0.5°, half the finest
+/// angular step of a 90 × 90 × 180 MERL grid (so a cell's weight never exceeds that of
+/// a cell half a step away from θo = 0).
+pub const LOW_SIN_FLOOR: f64 = 0.008_726_535_498_373_935;
+
 impl Loss {
-    /// Every loss, in record order.
+    /// brdfkit's own losses, in record order (the four of every [`LossReport`]'s first
+    /// block).
     pub const ALL: [Loss; 4] = [Loss::L2, Loss::Cosine, Loss::Cbrt, Loss::Log];
+
+    /// The published metrics: a transform and a weight factor on the cell measure.
+    ///
+    /// | metric | t(f, cos θi) | g(θi, θo) | source |
+    /// |--------|--------------|-----------|--------|
+    /// | `ngan` | f cos θi | 1 if θi, θo ≤ 80°, else 0 | Ngan, Durand & Matusik, "Experimental Analysis of BRDF Models", EGSR 2005, §4 |
+    /// | `low-e1` | f cos θi | 1 / sin θo | Löw, Kronander, Ynnerman & Unger, "BRDF Models for Accurate and Efficient Rendering of Glossy Surfaces", ACM TOG 31(1), 2012, §6 (E1) |
+    /// | `low-e2` | ln(1 + f cos θi) | 1 / sin θo | the same, E2 |
+    /// | `bieron-log` | ln(1 + f cos θi) | cos θo | Bieron & Peers, "An Adaptive BRDF Fitting Metric", CGF 39(4), 2020 |
+    ///
+    /// The cell measure w is that of dωi dωo (sin θi sin θo dθi dφi dθo dφo). Löw et al.
+    /// sample (θi, φi, θo) uniformly with φo fixed (their metric is an integral over
+    /// dωi dθo), so their weight is w / sin θo; sin θo is floored at [`LOW_SIN_FLOOR`]
+    /// (a cell with θo = 0 has an integrable but infinite density). Bieron & Peers sample
+    /// both hemispheres and weight by cos θo (the foreshortening of the viewer). The
+    /// transcriptions follow the BBM benchmark's `include/loss/cosine_weighted_{l2,log}.h`
+    /// (`nganL2_error`, `lowL2_error`, `lowLog_error`, `bieronLog_error`); the reading is
+    /// argued in `docs/fitting.md`.
+    ///
+    /// In record order.
+    pub const PUBLISHED: [Loss; 4] = [Loss::Ngan, Loss::LowE1, Loss::LowE2, Loss::BieronLog];
+
+    /// Every loss: [`ALL`](Self::ALL) then [`PUBLISHED`](Self::PUBLISHED).
+    pub const EVERY: [Loss; 8] = [
+        Loss::L2,
+        Loss::Cosine,
+        Loss::Cbrt,
+        Loss::Log,
+        Loss::Ngan,
+        Loss::LowE1,
+        Loss::LowE2,
+        Loss::BieronLog,
+    ];
 
     /// The name used on the command line and in records.
     pub fn name(&self) -> &'static str {
@@ -90,24 +147,63 @@ impl Loss {
             Loss::Cosine => "cosine",
             Loss::Cbrt => "cbrt",
             Loss::Log => "log",
+            Loss::Ngan => "ngan",
+            Loss::LowE1 => "low-e1",
+            Loss::LowE2 => "low-e2",
+            Loss::BieronLog => "bieron-log",
+        }
+    }
+
+    /// The transform of a published metric's residual: the brdfkit loss whose t it
+    /// uses (`self` for brdfkit's own).
+    #[inline]
+    pub fn base(&self) -> Loss {
+        match self {
+            Loss::Ngan | Loss::LowE1 => Loss::Cosine,
+            Loss::LowE2 | Loss::BieronLog => Loss::Log,
+            l => *l,
+        }
+    }
+
+    /// True when the loss multiplies the cell measure by a factor g(θi, θo) ≠ 1.
+    #[inline]
+    pub fn has_cell_factor(&self) -> bool {
+        self.base() != *self
+    }
+
+    /// The weight factor g of a cell with direction cosines `cos_i`, `cos_o` (see
+    /// [`Loss::PUBLISHED`]); 1 for brdfkit's own losses.
+    #[inline]
+    pub fn cell_factor(&self, cos_i: f64, cos_o: f64) -> f64 {
+        match self {
+            Loss::Ngan => {
+                let c = NGAN_THETA_MAX_DEG.to_radians().cos();
+                if cos_i >= c && cos_o >= c { 1.0 } else { 0.0 }
+            }
+            Loss::LowE1 | Loss::LowE2 => {
+                let s = (1.0 - cos_o * cos_o).max(0.0).sqrt();
+                1.0 / s.max(LOW_SIN_FLOOR)
+            }
+            Loss::BieronLog => cos_o.max(0.0),
+            _ => 1.0,
         }
     }
 
     /// t(f, c).
     #[inline]
     pub fn transform(&self, f: f64, cos_i: f64) -> f64 {
-        match self {
+        match self.base() {
             Loss::L2 => f,
             Loss::Cosine => f * cos_i,
             Loss::Cbrt => cbrt(f * cos_i),
-            Loss::Log => (f * cos_i).ln_1p(),
+            _ => (f * cos_i).ln_1p(),
         }
     }
 
     /// t(f, c) and ∂t/∂f (with the cube-root guard of the module doc).
     #[inline]
     pub fn transform_deriv(&self, f: f64, cos_i: f64) -> (f64, f64) {
-        match self {
+        match self.base() {
             Loss::L2 => (f, 1.0),
             Loss::Cosine => (f * cos_i, cos_i),
             Loss::Cbrt => {
@@ -121,7 +217,7 @@ impl Loss {
                 };
                 (t, cos_i / (3.0 * tf * tf))
             }
-            Loss::Log => {
+            _ => {
                 let x = f * cos_i;
                 // A model is ≥ 0, so 1 + x ≥ 1; no pole.
                 (x.ln_1p(), cos_i / (1.0 + x))
@@ -139,10 +235,19 @@ impl fmt::Display for Loss {
 impl FromStr for Loss {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Loss::ALL
+        // BBM's `standardLog` is brdfkit's `log` (see `docs/fitting.md`).
+        if s == "bbm-log" {
+            return Ok(Loss::Log);
+        }
+        Loss::EVERY
             .into_iter()
             .find(|l| l.name() == s)
-            .ok_or_else(|| format!("unknown loss `{s}` (known: l2, cosine, cbrt, log)"))
+            .ok_or_else(|| {
+                format!(
+                    "unknown loss `{s}` (known: {}, bbm-log)",
+                    Loss::EVERY.map(|l| l.name()).join(", ")
+                )
+            })
     }
 }
 
@@ -292,7 +397,7 @@ impl FromStr for Weighting {
 }
 
 /// One loss's weighted RMS per channel and overall.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
 pub struct ChannelLoss {
     /// Red, green, blue.
     pub channels: [f64; 3],
@@ -311,6 +416,18 @@ pub struct LossReport {
     pub cbrt: ChannelLoss,
     /// Squared error of ln(1 + f·cos θi).
     pub log: ChannelLoss,
+    /// Ngan et al. 2005 (`ngan`; over the cells with θi, θo ≤ 80°).
+    #[serde(default)]
+    pub ngan: ChannelLoss,
+    /// Löw et al. 2012, E1 (`low-e1`).
+    #[serde(default)]
+    pub low_e1: ChannelLoss,
+    /// Löw et al. 2012, E2 (`low-e2`).
+    #[serde(default)]
+    pub low_e2: ChannelLoss,
+    /// Bieron & Peers 2020 (`bieron-log`).
+    #[serde(default)]
+    pub bieron_log: ChannelLoss,
     /// Number of cells the losses were taken over.
     pub cells: usize,
 }
@@ -323,12 +440,23 @@ impl LossReport {
             Loss::Cosine => &self.cosine,
             Loss::Cbrt => &self.cbrt,
             Loss::Log => &self.log,
+            Loss::Ngan => &self.ngan,
+            Loss::LowE1 => &self.low_e1,
+            Loss::LowE2 => &self.low_e2,
+            Loss::BieronLog => &self.bieron_log,
         }
     }
 
-    /// From Σ w r² per loss and channel and Σ w.
-    pub(crate) fn from_sums(sums: [[f64; 3]; 4], wsum: f64, cells: usize) -> Self {
-        let mk = |s: [f64; 3]| {
+    /// From Σ w r² per loss and channel and Σ w, for brdfkit's own losses
+    /// ([`Loss::ALL`]) and the published ones ([`Loss::PUBLISHED`], each with its own
+    /// Σ w g).
+    pub(crate) fn from_sums(
+        sums: [[f64; 3]; 4],
+        wsum: f64,
+        published: ([[f64; 3]; 4], [f64; 4]),
+        cells: usize,
+    ) -> Self {
+        let mk = |s: [f64; 3], wsum: f64| {
             let ch = s.map(|v| if wsum > 0.0 { (v / wsum).sqrt() } else { 0.0 });
             let overall = ((ch[0] * ch[0] + ch[1] * ch[1] + ch[2] * ch[2]) / 3.0).sqrt();
             ChannelLoss {
@@ -336,11 +464,16 @@ impl LossReport {
                 overall,
             }
         };
+        let (ps, pw) = published;
         LossReport {
-            l2: mk(sums[0]),
-            cosine: mk(sums[1]),
-            cbrt: mk(sums[2]),
-            log: mk(sums[3]),
+            l2: mk(sums[0], wsum),
+            cosine: mk(sums[1], wsum),
+            cbrt: mk(sums[2], wsum),
+            log: mk(sums[3], wsum),
+            ngan: mk(ps[0], pw[0]),
+            low_e1: mk(ps[1], pw[1]),
+            low_e2: mk(ps[2], pw[2]),
+            bieron_log: mk(ps[3], pw[3]),
             cells,
         }
     }
@@ -352,7 +485,7 @@ mod tests {
 
     #[test]
     fn derivatives_match_finite_differences() {
-        for loss in Loss::ALL {
+        for loss in Loss::EVERY {
             for &(f, c) in &[(0.3, 0.8), (12.0, 0.1), (1e-3, 0.99)] {
                 let (t, d) = loss.transform_deriv(f, c);
                 assert_eq!(t, loss.transform(f, c));

@@ -183,9 +183,35 @@ fn min_len(nchunks: usize) -> usize {
 
 /// s_k = sqrt(w_k / (n_ch Σ w)) of the cells `start .. start + out.len()`. A set
 /// without stored multiplicities (all 1) skips the multiply by 1, which is exact, so
-/// the scales are the same bits either way.
+/// the scales are the same bits either way. A published metric's weight factor g
+/// ([`Loss::cell_factor`]) multiplies w_k (and `inv_wsum` is then 1/(n_ch Σ w g));
+/// brdfkit's own losses skip it, so their scales are unchanged.
 #[inline]
-fn fill_scale(data: &FitData, weighting: Weighting, inv_wsum: f64, start: usize, out: &mut [f64]) {
+fn fill_scale(
+    data: &FitData,
+    weighting: Weighting,
+    loss: Loss,
+    inv_wsum: f64,
+    start: usize,
+    out: &mut [f64],
+) {
+    fill_scale_plain(data, weighting, inv_wsum, start, out);
+    if loss.has_cell_factor() {
+        for (k, x) in out.iter_mut().enumerate() {
+            *x *= data.loss_factor_at(loss, start + k).sqrt();
+        }
+    }
+}
+
+/// [`fill_scale`] without a loss's factor.
+#[inline]
+fn fill_scale_plain(
+    data: &FitData,
+    weighting: Weighting,
+    inv_wsum: f64,
+    start: usize,
+    out: &mut [f64],
+) {
     let range = start..start + out.len();
     let meas = &data.measure()[range.clone()];
     match (data.multiplicity_if_any(), weighting) {
@@ -234,6 +260,16 @@ struct Scratch {
     cost: f64,
 }
 
+impl Inner<'_> {
+    /// s_k of every cell ([`fill_scale`]), for the dense residual and Jacobian.
+    fn scales(&self) -> Vec<f64> {
+        let mut scale = vec![0.0; self.data.len()];
+        let (w, l) = (self.weighting, self.loss);
+        fill_scale(self.data, w, l, self.inv_wsum, 0, &mut scale);
+        scale
+    }
+}
+
 impl<'a> FitProblem<'a> {
     /// A problem: `model` at its start parameters (fixed parameters keep these values),
     /// `free` the model-vector indices to fit, the active `channels`, the loss and the
@@ -272,7 +308,7 @@ impl<'a> FitProblem<'a> {
         let names = free.iter().map(|&p| specs[p].name.clone()).collect();
         let domains: Vec<Domain> = free.iter().map(|&p| specs[p].domain).collect();
         let transforms = domains.iter().map(Transform::for_domain).collect();
-        let wsum = data.weight_sum(weighting);
+        let wsum = data.loss_weight_sum(weighting, loss);
         let nch = channels.len() as f64;
         let inv_wsum = 1.0 / (nch * wsum);
         let mut cols: [Vec<usize>; 3] = Default::default();
@@ -291,7 +327,7 @@ impl<'a> FitProblem<'a> {
                         let s = ci * PASS_CHUNK_CELLS;
                         let len = (s + PASS_CHUNK_CELLS).min(n) - s;
                         let (sb, tb) = (&mut sbuf[..len], &mut tbuf[..len]);
-                        fill_scale(data, weighting, inv_wsum, s, sb);
+                        fill_scale(data, weighting, loss, inv_wsum, s, sb);
                         fill_target(data, loss, c, s, tb);
                         tb.iter()
                             .zip(sb.iter())
@@ -553,7 +589,14 @@ impl<'a> FitProblem<'a> {
                     let len = e - s;
                     m.eval_batch(&g.slice(s..e), &mut out[..len]);
                     let cos_i = &g.wi_z[s..e];
-                    fill_scale(inn.data, inn.weighting, inn.inv_wsum, s, &mut sbuf[..len]);
+                    fill_scale(
+                        inn.data,
+                        inn.weighting,
+                        inn.loss,
+                        inn.inv_wsum,
+                        s,
+                        &mut sbuf[..len],
+                    );
                     let sc = &sbuf[..len];
                     for &c in &inn.channels {
                         let tg = &mut tbuf[..len];
@@ -642,7 +685,14 @@ impl<'a> FitProblem<'a> {
                         &mut sc.grad[..np * len],
                     );
                     let cos_i = &g.wi_z[s..e];
-                    fill_scale(inn.data, inn.weighting, inn.inv_wsum, s, &mut sc.s[..len]);
+                    fill_scale(
+                        inn.data,
+                        inn.weighting,
+                        inn.loss,
+                        inn.inv_wsum,
+                        s,
+                        &mut sc.s[..len],
+                    );
                     let scale = &sc.s[..len];
                     for &c in &inn.channels {
                         fill_target(inn.data, inn.loss, c, s, &mut sc.t[..len]);
@@ -757,8 +807,7 @@ impl<'a> FitProblem<'a> {
         let g = inn.data.geometry();
         let mut out = vec![Rgb::ZERO; n];
         m.eval_batch(&g.as_slice(), &mut out);
-        let mut scale = vec![0.0; n];
-        fill_scale(inn.data, inn.weighting, inn.inv_wsum, 0, &mut scale);
+        let scale = inn.scales();
         let mut r = DVector::zeros(n * inn.channels.len());
         let mut tg = vec![0.0; n];
         for (ci, &c) in inn.channels.iter().enumerate() {
@@ -782,8 +831,7 @@ impl<'a> FitProblem<'a> {
         let mut out = vec![Rgb::ZERO; n];
         let mut grad = vec![Rgb::ZERO; np * n];
         m.eval_grad_batch(&g.as_slice(), &mut out, &mut grad);
-        let mut scale = vec![0.0; n];
-        fill_scale(inn.data, inn.weighting, inn.inv_wsum, 0, &mut scale);
+        let scale = inn.scales();
         let mut j = DMatrix::zeros(n * inn.channels.len(), self.dim());
         for (ci, &c) in inn.channels.iter().enumerate() {
             for k in 0..n {
@@ -864,7 +912,8 @@ pub fn evaluate_losses(
     let wsum = data.weight_sum(weighting);
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
     let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
-    let parts: Vec<[[f64; 3]; 4]> = (0..nchunks)
+    type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);
+    let parts: Vec<Sums> = (0..nchunks)
         .into_par_iter()
         .with_min_len(min_len(nchunks))
         .map_init(
@@ -879,16 +928,24 @@ pub fn evaluate_losses(
                         vec![0.0; PASS_CHUNK_CELLS],
                         vec![0.0; PASS_CHUNK_CELLS],
                     ),
+                    vec![[0.0; 4]; PASS_CHUNK_CELLS],
                 )
             },
-            |(out, (xm, xt, wb)), ci| {
+            |(out, (xm, xt, wb), gb), ci| {
                 let mut acc = [[0.0f64; 3]; 4];
+                // The published metrics: Σ w g r² per metric and channel, Σ w g.
+                let mut pacc = [[0.0f64; 3]; 4];
+                let mut pw = [0.0f64; 4];
                 let s = ci * PASS_CHUNK_CELLS;
                 let e = (s + PASS_CHUNK_CELLS).min(n);
                 let len = e - s;
                 let gs = g.slice(s..e);
                 for (k, x) in wb[..len].iter_mut().enumerate() {
                     *x = data.weight_at(weighting, s + k);
+                    for (l, loss) in crate::Loss::PUBLISHED.into_iter().enumerate() {
+                        gb[k][l] = *x * data.loss_factor_at(loss, s + k);
+                        pw[l] += gb[k][l];
+                    }
                 }
                 models[0].eval_batch(&gs, &mut out[0][..len]);
                 for c in 0..3 {
@@ -921,20 +978,32 @@ pub fn evaluate_losses(
                         // instead of two, and accurate when the two are close.
                         let d = ((xm[k] - xt[k]) / (1.0 + xt[k])).ln_1p();
                         acc[3][c] += ws[k] * d * d;
+                        // Ngan and Löw E1 on the cosine residual, Löw E2 and
+                        // Bieron-Peers on the log one (`Loss::base`).
+                        let e = xm[k] - xt[k];
+                        let [g0, g1, g2, g3] = gb[k];
+                        pacc[0][c] += g0 * e * e;
+                        pacc[1][c] += g1 * e * e;
+                        pacc[2][c] += g2 * d * d;
+                        pacc[3][c] += g3 * d * d;
                     }
                 }
-                acc
+                (acc, pacc, pw)
             },
         )
         .collect();
     // In chunk order: the same report whatever the threads.
     let mut sums = [[0.0f64; 3]; 4];
-    for p in &parts {
+    let mut psums = [[0.0f64; 3]; 4];
+    let mut pw = [0.0f64; 4];
+    for (p, q, w) in &parts {
         for l in 0..4 {
             for c in 0..3 {
                 sums[l][c] += p[l][c];
+                psums[l][c] += q[l][c];
             }
+            pw[l] += w[l];
         }
     }
-    crate::loss::LossReport::from_sums(sums, wsum, n)
+    crate::loss::LossReport::from_sums(sums, wsum, (psums, pw), n)
 }

@@ -149,6 +149,9 @@ pub struct FitRecord {
     pub sharing: Sharing,
     /// θd cutoff in degrees, if any.
     pub theta_d_max_deg: Option<f64>,
+    /// θi / θo cutoff in degrees, if any (absent from records without one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta_max_deg: Option<f64>,
     /// Subsample fraction, if any.
     pub subsample: Option<f64>,
     /// Seed of the starts and the subsample.

@@ -23,12 +23,14 @@ use serde_json::Value;
 use std::borrow::Cow;
 
 /// Which of a table's valid cells the losses are taken over: every filter of a
-/// [`FitConfig`] that removes cells (the θd cutoff). A fit's `cells_full` set and a
-/// score's are this filter applied to the table's valid cells.
+/// [`FitConfig`] that removes cells (the θd cutoff and the θi/θo cutoff). A fit's
+/// `cells_full` set and a score's are this filter applied to the table's valid cells.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct CellFilter {
     /// Cells with θd above this angle (radians) are left out.
     pub theta_d_max: Option<f64>,
+    /// Cells whose θi or θo exceeds this angle (radians) are left out.
+    pub theta_max: Option<f64>,
 }
 
 impl CellFilter {
@@ -36,6 +38,7 @@ impl CellFilter {
     pub fn of(config: &FitConfig) -> CellFilter {
         CellFilter {
             theta_d_max: config.theta_d_max,
+            theta_max: config.theta_max,
         }
     }
 
@@ -47,7 +50,12 @@ impl CellFilter {
     /// Whether cell `m` of `data` passes.
     #[inline]
     pub fn keeps(&self, data: &FitData, m: usize) -> bool {
+        let g = data.geometry();
         self.theta_d_max.is_none_or(|t| data.theta_d_at(m) <= t)
+            // Compared through the cosines, as `FitData::with_theta_max` does.
+            && self
+                .theta_max
+                .is_none_or(|t| g.wi_z[m] >= t.cos() && g.wo_z[m] >= t.cos())
     }
 
     /// The indices (into `data`) of the cells that pass, in order.
@@ -65,7 +73,7 @@ impl CellFilter {
         };
         if cells.is_empty() {
             return Err(FitError::NoCells(format!(
-                "{} cells, none with θd ≤ the cutoff",
+                "{} cells, none within the angular cutoffs (θd, θi/θo)",
                 data.len()
             )));
         }
@@ -196,32 +204,50 @@ pub fn losses_of_values(
     }
     let cos_i = &data.geometry().wi_z;
     let measured = data.values();
-    let sums = (0..n)
+    type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);
+    let zero = || -> Sums { ([[0.0; 3]; 4], [[0.0; 3]; 4], [0.0; 4]) };
+    let (sums, psums, pw) = (0..n)
         .into_par_iter()
-        .fold(
-            || [[0.0f64; 3]; 4],
-            |mut acc, m| {
-                let w = data.weight_at(weighting, m);
-                for (l, loss) in Loss::ALL.iter().enumerate() {
-                    for c in 0..3 {
-                        let d = loss.transform(values[c][m], cos_i[m])
-                            - loss.transform(measured[c][m], cos_i[m]);
-                        acc[l][c] += w * d * d;
-                    }
+        .fold(zero, |mut acc, m| {
+            let w = data.weight_at(weighting, m);
+            let residual = |loss: &Loss, c: usize| {
+                loss.transform(values[c][m], cos_i[m]) - loss.transform(measured[c][m], cos_i[m])
+            };
+            for (l, loss) in Loss::ALL.iter().enumerate() {
+                for c in 0..3 {
+                    let d = residual(loss, c);
+                    acc.0[l][c] += w * d * d;
                 }
-                acc
-            },
-        )
-        .reduce(
-            || [[0.0f64; 3]; 4],
-            |mut a, b| {
-                for (x, y) in a.iter_mut().flatten().zip(b.iter().flatten()) {
-                    *x += y;
+            }
+            // The published metrics: Σ w g r² per metric and channel, and Σ w g.
+            for (l, loss) in Loss::PUBLISHED.iter().enumerate() {
+                let g = w * data.loss_factor_at(*loss, m);
+                acc.2[l] += g;
+                for c in 0..3 {
+                    let d = residual(loss, c);
+                    acc.1[l][c] += g * d * d;
                 }
-                a
-            },
-        );
-    Ok(LossReport::from_sums(sums, data.weight_sum(weighting), n))
+            }
+            acc
+        })
+        .reduce(zero, |mut a, b| {
+            for (x, y) in a.0.iter_mut().flatten().zip(b.0.iter().flatten()) {
+                *x += y;
+            }
+            for (x, y) in a.1.iter_mut().flatten().zip(b.1.iter().flatten()) {
+                *x += y;
+            }
+            for (x, y) in a.2.iter_mut().zip(b.2.iter()) {
+                *x += y;
+            }
+            a
+        });
+    Ok(LossReport::from_sums(
+        sums,
+        data.weight_sum(weighting),
+        (psums, pw),
+        n,
+    ))
 }
 
 /// Published parameter conventions that differ from brdfkit's, converted to its model

@@ -28,6 +28,7 @@ pub mod lambert;
 pub mod oren_nayar;
 pub mod phong;
 pub mod plausible_phong;
+pub mod published;
 pub mod rough_plastic;
 pub mod sum;
 pub mod ward;
@@ -97,10 +98,13 @@ pub fn from_name_and_params(name: &str, params: &Value) -> Result<Box<dyn Model>
         )),
         "gltf-pbr" => boxed(gltf_pbr::GltfPbr::from_params_json(params)),
         "rough-plastic" => boxed(rough_plastic::RoughPlastic::from_params_json(params)),
-        other => Err(ModelError::Invalid(format!(
-            "unknown model `{other}` (known: {})",
-            MODEL_NAMES.join(", ")
-        ))),
+        other => published::from_params_json(other, params).unwrap_or_else(|| {
+            Err(ModelError::Invalid(format!(
+                "unknown model `{other}` (known: {}; published parameterisations: {})",
+                MODEL_NAMES.join(", "),
+                published::PUBLISHED_NAMES.join(", ")
+            )))
+        }),
     }
 }
 

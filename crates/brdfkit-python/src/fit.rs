@@ -127,7 +127,7 @@ fn families_of(model: &Bound<'_, PyAny>, s: &Structure) -> PyResult<Vec<Family>>
 #[pyfunction]
 #[pyo3(signature = (
     table, model, *, loss = "cbrt", weighting = "solid-angle", solver = "lm", starts = 8,
-    finish = DEFAULT_FINISH, sample_fraction = 1.0, theta_d_max = None, per_channel = false,
+    finish = DEFAULT_FINISH, sample_fraction = 1.0, theta_d_max = None, theta_max = None, per_channel = false,
     seed = 0, fix = None, robust = "none", robust_scale = None, energy_conserving = false,
     full_iters = Some(0), explore_cells = CLI_EXPLORE_CELLS, distribution = None,
     masking = None, fresnel = None, normalization = None, progress = None
@@ -144,6 +144,7 @@ pub fn fit(
     finish: usize,
     sample_fraction: f64,
     theta_d_max: Option<f64>,
+    theta_max: Option<f64>,
     per_channel: bool,
     seed: u64,
     fix: Option<Vec<String>>,
@@ -173,6 +174,7 @@ pub fn fit(
         finish,
         sample_fraction,
         theta_d_max_deg: theta_d_max,
+        theta_max_deg: theta_max,
         per_channel,
         seed,
         fix,

@@ -167,6 +167,7 @@ fn write_fit(table: &MerlTable, dir: &Path) {
         finish: DEFAULT_FINISH,
         sample_fraction: 1.0,
         theta_d_max_deg: None,
+        theta_max_deg: None,
         per_channel: false,
         seed: 0,
         fix: None,

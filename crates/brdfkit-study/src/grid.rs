@@ -97,6 +97,9 @@ pub fn fit_one(
     if fraction < 1.0 {
         fc = fc.subsample(fraction, 1).map_err(err)?;
     }
+    if let Some(t) = cfg.theta_max_deg {
+        fc = fc.theta_max_deg(t).map_err(err)?;
+    }
     let cap = if solver == SolverKind::NelderMead {
         cfg.nelder_mead_max_iters
     } else {

@@ -183,6 +183,9 @@ pub struct StudyConfig {
     pub fit_exe: Option<PathBuf>,
     /// Label of the grid in the report (`full`, `quick`, `custom`).
     pub grid_name: String,
+    /// The fit grid leaves out cells whose θi or θo exceeds this angle (degrees;
+    /// [`brdfkit_fit::FitConfig::theta_max_deg`]); None: every cell.
+    pub theta_max_deg: Option<f64>,
 }
 
 /// The six materials of the study, one per shape: diffuse, plastic, metal, near-mirror,
@@ -228,6 +231,7 @@ impl StudyConfig {
             batch_tables: 20,
             fit_exe: None,
             grid_name: "full".into(),
+            theta_max_deg: None,
         }
     }
 
@@ -270,6 +274,11 @@ impl StudyConfig {
         }
         if self.reps == 0 {
             return bad("reps", "at least one timed repetition");
+        }
+        if let Some(t) = self.theta_max_deg
+            && brdfkit_fit::FitConfig::default().theta_max_deg(t).is_err()
+        {
+            return bad("theta-max", "must be in (0, 90] degrees");
         }
         if self.choices && self.lookup_pairs == 0 {
             return bad("lookup-pairs", "at least one pair");

@@ -292,6 +292,10 @@ fn band_of(edges: &[f64], theta: f64) -> Option<usize> {
 struct LossSums {
     parts: [[f64; 3]; 4],
     cur: [[f64; 3]; 4],
+    /// The published metrics ([`Loss::PUBLISHED`]): Σ w g r² and Σ w g, chunked
+    /// like `parts`.
+    pub_parts: ([[f64; 3]; 4], [f64; 4]),
+    pub_cur: ([[f64; 3]; 4], [f64; 4]),
     in_chunk: usize,
     cells: usize,
     wsum: f64,
@@ -302,19 +306,32 @@ impl LossSums {
         LossSums {
             parts: [[0.0; 3]; 4],
             cur: [[0.0; 3]; 4],
+            pub_parts: ([[0.0; 3]; 4], [0.0; 4]),
+            pub_cur: ([[0.0; 3]; 4], [0.0; 4]),
             in_chunk: 0,
             cells: 0,
             wsum: 0.0,
         }
     }
 
-    /// Adds a cell of weight `w` with differences `d[loss][channel]`.
+    /// Adds a cell of weight `w` with differences `d[loss][channel]` and the
+    /// published metrics' factors `g` ([`Loss::cell_factor`]).
     #[inline]
-    fn add(&mut self, w: f64, d: &[f64]) {
+    fn add(&mut self, w: f64, d: &[f64], g: [f64; 4]) {
         for l in 0..4 {
             for c in 0..3 {
                 let x = d[l * 3 + c];
                 self.cur[l][c] += w * x * x;
+            }
+        }
+        for (l, loss) in Loss::PUBLISHED.into_iter().enumerate() {
+            let gw = w * g[l];
+            self.pub_cur.1[l] += gw;
+            // The published metrics use the residual of their base transform.
+            let base = if loss.base() == Loss::Cosine { 1 } else { 3 };
+            for c in 0..3 {
+                let x = d[base * 3 + c];
+                self.pub_cur.0[l][c] += gw * x * x;
             }
         }
         self.wsum += w;
@@ -329,9 +346,12 @@ impl LossSums {
         for l in 0..4 {
             for c in 0..3 {
                 self.parts[l][c] += self.cur[l][c];
+                self.pub_parts.0[l][c] += self.pub_cur.0[l][c];
             }
+            self.pub_parts.1[l] += self.pub_cur.1[l];
         }
         self.cur = [[0.0; 3]; 4];
+        self.pub_cur = ([[0.0; 3]; 4], [0.0; 4]);
         self.in_chunk = 0;
     }
 
@@ -344,7 +364,7 @@ impl LossSums {
             self.close_chunk();
         }
         let wsum = self.wsum;
-        let mk = |s: [f64; 3]| {
+        let mk = |s: [f64; 3], wsum: f64| {
             let ch = s.map(|v| if wsum > 0.0 { (v / wsum).sqrt() } else { 0.0 });
             let overall = ((ch[0] * ch[0] + ch[1] * ch[1] + ch[2] * ch[2]) / 3.0).sqrt();
             ChannelLoss {
@@ -352,11 +372,16 @@ impl LossSums {
                 overall,
             }
         };
+        let (ps, pw) = self.pub_parts;
         Some(LossReport {
-            l2: mk(self.parts[0]),
-            cosine: mk(self.parts[1]),
-            cbrt: mk(self.parts[2]),
-            log: mk(self.parts[3]),
+            l2: mk(self.parts[0], wsum),
+            cosine: mk(self.parts[1], wsum),
+            cbrt: mk(self.parts[2], wsum),
+            log: mk(self.parts[3], wsum),
+            ngan: mk(ps[0], pw[0]),
+            low_e1: mk(ps[1], pw[1]),
+            low_e2: mk(ps[2], pw[2]),
+            bieron_log: mk(ps[3], pw[3]),
             cells: self.cells,
         })
     }
@@ -512,14 +537,15 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
         for (s, d, bands) in diffs {
             for (k, (dk, [bh, bd])) in d.chunks_exact(12).zip(bands).enumerate() {
                 let w = weight(s + k);
+                let gk = Loss::PUBLISHED.map(|l| l.cell_factor(g.wi_z[s + k], g.wo_z[s + k]));
                 if let Some(b) = bh {
-                    hs[b].add(w, dk);
+                    hs[b].add(w, dk, gk);
                 }
                 if let Some(b) = bd {
-                    ds[b].add(w, dk);
+                    ds[b].add(w, dk, gk);
                 }
                 if all {
-                    full.add(w, dk);
+                    full.add(w, dk, gk);
                 }
             }
         }
@@ -636,9 +662,9 @@ pub fn held_out(
         });
     }
     let cut;
-    let data = match config.get_theta_d_max() {
-        Some(t) => {
-            cut = data.with_theta_d_max(t);
+    let data = match config.angular_domain(data) {
+        Some(d) => {
+            cut = d;
             &cut
         }
         None => data,

@@ -333,8 +333,9 @@ pub struct FitOptions {
     /// Normalisation of ward.
     #[arg(long, value_parser = choice::<Normalization>(Normalization::ALL.map(|v| v.name())))]
     pub normalization: Option<Normalization>,
-    /// Loss optimised (every loss is reported).
-    #[arg(long, default_value = "cbrt", value_parser = choice::<Loss>(Loss::ALL.map(|v| v.name())))]
+    /// Loss optimised (every loss is reported): brdfkit's l2, cosine, cbrt, log, or a
+    /// published metric, ngan, low-e1, low-e2, bieron-log (bbm-log is log; docs/fitting.md).
+    #[arg(long, default_value = "cbrt", value_parser = choice::<Loss>(Loss::EVERY.map(|v| v.name()).into_iter().chain(["bbm-log"])))]
     pub loss: Loss,
     #[command(flatten)]
     pub cells: CellOptions,
@@ -397,6 +398,9 @@ pub struct CellOptions {
     /// Ignore cells with θd above this angle (degrees): grazing data is the least reliable.
     #[arg(long, value_name = "DEG")]
     pub theta_d_max: Option<f64>,
+    /// Ignore cells whose θi or θo exceeds this angle (degrees); Ngan et al. 2005 used 80.
+    #[arg(long, value_name = "DEG")]
+    pub theta_max: Option<f64>,
 }
 
 /// `--full-iters`: a cap, or `all` (None: to convergence).
@@ -710,6 +714,9 @@ pub struct StudyArgs {
     /// Keep the fits of an interrupted run (OUT/grid-partial.json) and run only the rest.
     #[arg(long)]
     pub resume: bool,
+    /// The fit grid ignores cells whose θi or θo exceeds this angle (degrees).
+    #[arg(long, value_name = "DEG")]
+    pub theta_max: Option<f64>,
     /// Timed repetitions of each evaluation figure.
     #[arg(long)]
     pub reps: Option<usize>,

@@ -73,7 +73,7 @@ def fit(
     (then a list of results, one per family), a :class:`Model` or its JSON dict (the
     start). ``choices`` are the other settings of ``fit-brdf fit`` with underscores
     for dashes: ``weighting``, ``solver``, ``finish``, ``sample_fraction``,
-    ``theta_d_max`` (degrees), ``per_channel``, ``seed``, ``fix`` (names),
+    ``theta_d_max`` and ``theta_max`` (θi/θo cutoff) (degrees), ``per_channel``, ``seed``, ``fix`` (names),
     ``robust``, ``robust_scale``, ``energy_conserving``, ``full_iters`` (a count or
     ``"all"``), ``explore_cells``, and the structural choices ``distribution``,
     ``masking``, ``fresnel``, ``normalization``. ``progress`` is called with one dict

@@ -35,6 +35,7 @@ def fit(
     finish: int = ...,
     sample_fraction: float = ...,
     theta_d_max: float | None = ...,
+    theta_max: float | None = ...,
     per_channel: bool = ...,
     seed: int = ...,
     fix: str | list[str] | None = ...,

@@ -95,6 +95,7 @@ def fit(
     finish: int = 1,
     sample_fraction: float = 1.0,
     theta_d_max: float | None = None,
+    theta_max: float | None = None,
     per_channel: bool = False,
     seed: int = 0,
     fix: list[str] | None = None,

@@ -85,6 +85,7 @@ pub fn cell_settings(c: &CellOptions) -> FitSettings {
     FitSettings {
         weighting: c.weighting,
         theta_d_max_deg: c.theta_d_max,
+        theta_max_deg: c.theta_max,
         ..FitSettings::default()
     }
 }

@@ -56,6 +56,7 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
         c.starts_budget = (b > 0.0).then_some(b);
     }
     c.resume = a.resume;
+    c.theta_max_deg = a.theta_max;
     if let Some(r) = a.reps {
         c.reps = r;
     }
