@@ -37,12 +37,6 @@ fn usable3(w: &[f64; 3]) -> bool {
     w[2] > 0.0 && w[0].is_finite() && w[1].is_finite() && w[2].is_finite()
 }
 
-/// [`usable3`] without short-circuits, for vectorised loops.
-#[inline(always)]
-fn usable3_nb(w: &[f64; 3]) -> bool {
-    (w[2] > 0.0) & w[0].is_finite() & w[1].is_finite() & w[2].is_finite()
-}
-
 /// Interpolation stencil along θh or θd: lower node, upper node, fraction.
 ///
 /// The nodes are the cells' angles (coordinate i for cell i). Past the last node
@@ -383,11 +377,7 @@ impl MerlTable {
                     }
                 }
                 let d = self.dims;
-                let quick = (mode == Lookup::Nearest && edges.exact).then_some(&*edges);
-                run.compute_dispatch(
-                    [d.theta_h() as f64, d.theta_d() as f64, d.phi_d() as f64],
-                    quick,
-                );
+                run.compute_dispatch([d.theta_h() as f64, d.theta_d() as f64, d.phi_d() as f64]);
                 match mode {
                     Lookup::Nearest => self.nearest_run(&edges, &run, out, &conv),
                     Lookup::Interpolated => self.interpolated_run(&edges, &run, out, &conv),
@@ -407,22 +397,15 @@ impl MerlTable {
         let n = self.cells();
         let mut idx = [usize::MAX; FAST_RUN];
         for (k, x) in idx[..out.len()].iter_mut().enumerate() {
-            // The vectorised checks of `PrepRun::quick` settled most pairs; the rest
-            // (unusable, or near an edge, or away from the estimated bracket) here.
-            let i = match run.quick[k] {
-                QUICK_NONE => {
-                    let (wi, wo) = run.pair(k);
-                    if !(usable3(&wi) && usable3(&wo)) {
-                        continue;
-                    }
-                    match edges.finish(&wi, &wo, &run.prep(k)) {
-                        Some(f) => self.dims.index(f.i, f.j, f.k),
-                        None => self
-                            .dims
-                            .bin_index(&to_half_diff(&Vec3::from(wi), &Vec3::from(wo))),
-                    }
-                }
-                q => q as usize,
+            let (wi, wo) = run.pair(k);
+            if !(usable3(&wi) && usable3(&wo)) {
+                continue;
+            }
+            let i = match edges.finish(&wi, &wo, &run.prep(k)) {
+                Some(f) => self.dims.index(f.i, f.j, f.k),
+                None => self
+                    .dims
+                    .bin_index(&to_half_diff(&Vec3::from(wi), &Vec3::from(wo))),
             };
             self.prefetch(i);
             self.prefetch(n + i);
@@ -852,20 +835,13 @@ fn prep(wi: [f64; 3], wo: [f64; 3], n: [f64; 3]) -> Prep {
 struct PrepRun {
     w: [[f64; FAST_RUN]; 6],
     out: [[f64; FAST_RUN]; 9],
-    /// Each pair's flat cell index when [`PrepRun::quick`] vouched for it, else
-    /// [`QUICK_NONE`].
-    quick: [u64; FAST_RUN],
 }
-
-/// No index from the vectorised checks: the pair goes through [`Edges::finish`].
-const QUICK_NONE: u64 = u64::MAX;
 
 impl PrepRun {
     fn new() -> Self {
         PrepRun {
             w: [[0.0; FAST_RUN]; 6],
             out: [[0.0; FAST_RUN]; 9],
-            quick: [QUICK_NONE; FAST_RUN],
         }
     }
 
@@ -893,10 +869,9 @@ impl PrepRun {
         }
     }
 
-    /// [`prep`] over the whole run (every lane, so the loop has no remainder), then, for
-    /// nearest lookups on a grid with exact thresholds, [`quick`](Self::quick).
+    /// [`prep`] over the whole run (every lane, so the loop has no remainder).
     #[inline(always)]
-    fn compute(&mut self, n: [f64; 3], edges: Option<&Edges>) {
+    fn compute(&mut self, n: [f64; 3]) {
         for k in 0..FAST_RUN {
             let (wi, wo) = self.pair(k);
             let p = prep(wi, wo, n);
@@ -911,63 +886,6 @@ impl PrepRun {
             o[7][k] = p.dy;
             o[8][k] = p.w;
         }
-        match edges {
-            Some(e) => self.quick(e),
-            None => self.quick = [QUICK_NONE; FAST_RUN],
-        }
-    }
-
-    /// The cell index of every pair that [`Edges::finish`] would place in the brackets
-    /// its estimates start from, on its first step (the usual case: the estimates are
-    /// within 2.2e-8 rad), without a branch, so the loop vectorises (thresholds and edge
-    /// directions gathered per lane). Every check of `finish` is made, with the same
-    /// margins, so where this gives an index, `finish` gives the same bins; the other
-    /// pairs get [`QUICK_NONE`]. `edges.exact` must hold (the threshold tables exist).
-    #[inline(always)]
-    fn quick(&mut self, e: &Edges) {
-        let (nh, nd, np) = (e.dims.theta_h(), e.dims.theta_d(), e.dims.phi_d());
-        let (th, td, pd) = (&e.th[..], &e.td[..], &e.pd[..]);
-        debug_assert!(e.exact && th.len() == nh + 1 && td.len() == nd + 1);
-        // The start of `bracket` and `sector`, min(x as usize, last), through i32 (a
-        // packed conversion): `as` saturates, NaN → 0.
-        let bin = |x: f64, last: usize| x.clamp(0.0, last as f64) as i32 as usize;
-        for k in 0..FAST_RUN {
-            let (wi, wo) = self.pair(k);
-            let p = self.prep(k);
-            let i = bin(p.u, nh - 1);
-            let j = bin(p.v, nd - 1);
-            let kk = bin(p.w, np - 1);
-            // SAFETY: i ≤ nθh − 1 and j ≤ nθd − 1, so i + 1 and j + 1 index the nθh + 1
-            // and nθd + 1 thresholds; kk + 1 ≤ nφd indexes the nφd + 1 edge directions.
-            let (t0, t1, d0, d1, e0, e1) = unsafe {
-                (
-                    *th.get_unchecked(i),
-                    *th.get_unchecked(i + 1),
-                    *td.get_unchecked(j),
-                    *td.get_unchecked(j + 1),
-                    *pd.get_unchecked(kk),
-                    *pd.get_unchecked(kk + 1),
-                )
-            };
-            let m = MARGIN_PHI * p.r;
-            let c0 = e0[0] * p.dy - e0[1] * p.dx;
-            let c1 = p.dx * e1[1] - p.dy * e1[0];
-            let distinct = (wi[0] != wo[0]) | (wi[1] != wo[1]) | (wi[2] != wo[2]);
-            // Non-short-circuiting, and comparisons that NaN fails.
-            let ok = usable3_nb(&wi)
-                & usable3_nb(&wo)
-                & distinct
-                & (p.hz - t1 > MARGIN_H)
-                & (t0 - p.hz > MARGIN_H)
-                & (p.r > 0.0)
-                & (p.cos_d - d1 > MARGIN_D)
-                & (d0 - p.cos_d > MARGIN_D)
-                & (p.dy > m)
-                & (c0 > m)
-                & (c1 > m);
-            let index = (kk + np * (j + nd * i)) as u64;
-            self.quick[k] = if ok { index } else { QUICK_NONE };
-        }
     }
 
     /// [`compute`](Self::compute) in a copy compiled for AVX-512 or AVX2 when the
@@ -975,31 +893,31 @@ impl PrepRun {
     /// a multiply and an add, and division and square root are correctly rounded in
     /// every instruction set, so every copy computes the same bits (h.z included, which
     /// must equal the reference's).
-    fn compute_dispatch(&mut self, n: [f64; 3], edges: Option<&Edges>) {
+    fn compute_dispatch(&mut self, n: [f64; 3]) {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx512f") {
                 // SAFETY: the instruction set the copy is compiled for is present.
-                return unsafe { self.compute_avx512(n, edges) };
+                return unsafe { self.compute_avx512(n) };
             }
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: as above.
-                return unsafe { self.compute_avx2(n, edges) };
+                return unsafe { self.compute_avx2(n) };
             }
         }
-        self.compute(n, edges)
+        self.compute(n)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx2")]
-    fn compute_avx512(&mut self, n: [f64; 3], edges: Option<&Edges>) {
-        self.compute(n, edges)
+    fn compute_avx512(&mut self, n: [f64; 3]) {
+        self.compute(n)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn compute_avx2(&mut self, n: [f64; 3], edges: Option<&Edges>) {
-        self.compute(n, edges)
+    fn compute_avx2(&mut self, n: [f64; 3]) {
+        self.compute(n)
     }
 }
 

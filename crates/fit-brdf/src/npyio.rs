@@ -296,7 +296,9 @@ pub fn write_values_with(
         let written = std::thread::scope(|s| {
             let h = s.spawn(|| write_body(&mut *w, &cur));
             let filled = fill((c + 1) * WRITE_CHUNK_ROWS, &mut next);
-            let written = h.join().unwrap_or_else(|_| Err(std::io::Error::other("writer thread panicked")));
+            let written = h
+                .join()
+                .unwrap_or_else(|_| Err(std::io::Error::other("writer thread panicked")));
             written.and(filled)
         });
         written?;
