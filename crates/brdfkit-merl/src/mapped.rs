@@ -7,6 +7,7 @@
 
 /// A read-only private mapping of a whole file whose native-endian f64 values start at
 /// byte `at` (a multiple of 8): for bulk lookups over pairs stored in a file.
+#[derive(Debug)]
 pub struct MappedF64 {
     ptr: *mut libc::c_void,
     bytes: usize,

@@ -79,6 +79,7 @@ pub fn is_npy(path: &Path) -> bool {
 }
 
 /// N rows of six values: the body of a `.npy` file mapped into memory, or an array.
+#[derive(Debug)]
 pub enum Pairs {
     /// A C-order little-endian body, read in place from the page cache.
     #[cfg(unix)]
