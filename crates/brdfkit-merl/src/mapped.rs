@@ -28,7 +28,7 @@ impl MappedF64 {
     /// caller then reads the file.
     pub fn new(file: &std::fs::File, bytes: usize, at: usize) -> Option<MappedF64> {
         use std::os::unix::io::AsRawFd;
-        if bytes == 0 || at % 8 != 0 || at > bytes {
+        if bytes == 0 || !at.is_multiple_of(8) || at > bytes {
             return None;
         }
         #[cfg(target_os = "linux")]
