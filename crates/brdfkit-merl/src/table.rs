@@ -298,7 +298,7 @@ pub(crate) fn alloc_raw(n: usize) -> Vec<f64> {
 }
 
 /// A zeroed buffer of `len` values, on transparent huge pages where the system allows
-/// (from 1 MiB up; see [`advise_huge_pages`]), for the large arrays of bulk lookups:
+/// (from 1 MiB up, with `MADV_HUGEPAGE`), for the large arrays of bulk lookups:
 /// the N × 6 pairs read from a file and the N × 3 values written back. With 4 KiB pages
 /// their first-touch faults (17,000 for the 70 MB of 1.46 M pairs) cost more CPU than
 /// the lookups themselves (`fit-brdf eval`, docs/performance.md).
