@@ -4,8 +4,11 @@ timed as a whole process (start-up, reading the table and the pairs, the lookup,
 the values), interleaved A/B over REPS rounds; prints the medians, the per-round ratios
 and checks that both wrote the same values (bit for bit, NaN where missing).
 
-Usage: eval_process.py FIT_BRDF TABLE [N] [REPS]   (documented in docs/performance.md)
+Usage: eval_process.py FIT_BRDF TABLE [N] [REPS] [OUT.json]   (docs/performance.md)
+With OUT.json (benches/peers/run) the medians, the ratios and the check are also written
+there as JSON.
 """
+import json
 import statistics
 import subprocess
 import sys
@@ -63,6 +66,11 @@ def main():
         print(f"ratio numpy / fit-brdf per round: median {statistics.median(ratios):.2f}, "
               f"min {ratios[0]:.2f}, max {ratios[-1]:.2f}")
         print(f"same values: {same} ({int(np.isnan(x[:, 0]).sum())} missing)")
+        if len(sys.argv) > 5:
+            with open(sys.argv[5], "w") as f:
+                json.dump({"pairs": n, "rounds": reps, "fit_brdf_s": statistics.median(ta),
+                           "numpy_s": statistics.median(tb),
+                           "ratio_median": statistics.median(ratios), "same": bool(same)}, f)
         if not same:
             sys.exit(1)
 

@@ -26,7 +26,8 @@ def main():
     work, out, l0, l1 = sys.argv[1:5]
     r = load(work, "rust.json")
     peers = {k: load(work, f"{k}.json") for k in
-             ["eval_numpy", "eval_mitsuba", "read_numpy", "lookup_numpy", "fit_scipy"]}
+             ["eval_numpy", "eval_mitsuba", "read_numpy", "lookup_numpy", "fit_scipy",
+              "eval_process"]}
     rows = []  # (what, ours label, ours s, peer label, peer s, target)
 
     def row(what, ours_label, ours, peer_label, peer, target=""):
@@ -96,6 +97,14 @@ def main():
                            "(within 0.01 %)",
                            abs(ip["found"] - p["interp_found"]) <= 1e-4 * ip["pairs"]))
             checks.append(("interpolated sums (1e-4)", close(ip["sum"], p["interp_sum"], 1e-4)))
+    if peers["eval_process"]:
+        p = peers["eval_process"]
+        row("fit-brdf eval --table T --dirs P.npy --out V.npy, whole process",
+            "fit-brdf eval", p["fit_brdf_s"], "numpy script eval_npy.py", p["numpy_s"],
+            "ratio >= 10")
+        notes.append(f"eval process: median of per-round ratios {p['ratio_median']:.2f}")
+        checks.append(("fit-brdf eval and the numpy script wrote the same values (bits)",
+                       p["same"]))
     if "fit" in r and peers["fit_scipy"]:
         p = peers["fit_scipy"]
         f = r["fit"]

@@ -3,7 +3,7 @@
 use crate::error::FitError;
 use brdfkit_core::geometry::{pair_columns, split_runs};
 use brdfkit_core::{GeometryBatch, Model, Rgb};
-use brdfkit_merl::{CellBatch, Dims, MerlTable, cell_directions, cell_weight};
+use brdfkit_merl::{CellBatch, CellDirections, Dims, MerlTable, cell_weight};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -186,12 +186,17 @@ impl FitData {
             .enumerate()
             .for_each(|(i, [r, g, b, w])| {
                 let mut m = 0;
+                // The weight is one per (i, j) row (four sines): computed per row.
+                let mut row = (usize::MAX, 0.0);
                 for x in i * slab..(i + 1) * slab {
                     // `get_flat` is `Some` exactly for valid cells.
                     if let Some(v) = t.get_flat(x) {
                         let (_, j, _) = dims.unflatten(x);
+                        if row.0 != j {
+                            row = (j, cell_weight(dims, i, j));
+                        }
                         (r[m], g[m], b[m]) = (v[0], v[1], v[2]);
-                        w[m] = cell_weight(dims, i, j);
+                        w[m] = row.1;
                         m += 1;
                     }
                 }
@@ -200,15 +205,18 @@ impl FitData {
     }
 
     /// Geometry of the valid cells (`mask`), as [`GeometryBatch::push`] computes it
-    /// for the directions of [`cell_directions`], one θh slab per parallel task.
+    /// for the directions of [`brdfkit_merl::cell_directions`], one θh slab per parallel
+    /// task.
     fn fill_geometry(&mut self, dims: Dims, mask: &[bool], counts: &[usize]) {
         let slab = dims.theta_d() * dims.phi_d();
         let runs = split_runs(self.geometry.columns_mut(), counts);
+        // cell_directions' values from per-axis sines and cosines (no trig per cell).
+        let cells = CellDirections::new(dims);
         runs.into_par_iter().enumerate().for_each(|(i, mut c)| {
             let mut m = 0;
             for x in (i * slab..(i + 1) * slab).filter(|&x| mask[x]) {
                 let (_, j, k) = dims.unflatten(x);
-                let (_, wi, wo, _) = cell_directions(dims, i, j, k);
+                let (wi, wo) = cells.get(i, j, k);
                 for (col, v) in c.iter_mut().zip(pair_columns(&wi, &wo)) {
                     col[m] = v;
                 }

@@ -21,14 +21,18 @@
 
 #![warn(missing_docs)]
 
+pub mod cells;
 pub mod error;
 pub mod grid;
 mod io;
 pub mod lookup;
+#[cfg(unix)]
+pub mod mapped;
 pub mod resample;
 pub mod stats;
 pub mod table;
 
+pub use cells::CellDirections;
 pub use error::{Channel, MerlError, TableError};
 pub use grid::{
     Dims, DimsError, cell_weight, phi_d_angle, phi_d_bin, phi_d_coord, snap_coord, theta_d_angle,
@@ -36,6 +40,8 @@ pub use grid::{
 };
 pub use io::{IO_CHUNK_CELLS, atomic_write};
 pub use lookup::{BATCH_RUN, Lookup, PairsError};
+#[cfg(unix)]
+pub use mapped::MappedF64;
 pub use resample::{Cell, CellBatch, cell_directions};
 pub use stats::{AlbedoSample, ChannelStats, Quadrature, TableStats, gauss_legendre_01};
-pub use table::{MAX_ABS_RAW, MISSING_RAW, MerlTable, SCALES};
+pub use table::{MAX_ABS_RAW, MISSING_RAW, MerlTable, SCALES, zeroed_f64};

@@ -303,12 +303,21 @@ pub(crate) fn spread<T: Send>(items: Vec<T>, f: impl Fn(usize, T) + Sync) {
 /// A zeroed buffer for the 3 raw planes of `n` cells, on transparent huge pages where
 /// the system allows (see [`huge_capacity`]).
 pub(crate) fn alloc_raw(n: usize) -> Vec<f64> {
+    zeroed_f64(3 * n)
+}
+
+/// A zeroed buffer of `len` values, on transparent huge pages where the system allows
+/// (from 1 MiB up, with `MADV_HUGEPAGE`), for the large arrays of bulk lookups:
+/// the N × 6 pairs read from a file and the N × 3 values written back. With 4 KiB pages
+/// their first-touch faults (17,000 for the 70 MB of 1.46 M pairs) cost more CPU than
+/// the lookups themselves (`fit-brdf eval`, docs/performance.md).
+pub fn zeroed_f64(len: usize) -> Vec<f64> {
     // `vec![0.0; _]` is a `calloc`: fresh pages the kernel zeroes on first touch, not a
     // zeroing pass here, so the advice below still applies to every page but the first.
-    let mut raw = vec![0.0f64; huge_capacity(3 * n * 8) / 8];
-    raw.truncate(3 * n);
-    advise_huge_pages(raw.as_ptr().cast(), raw.capacity() * 8);
-    raw
+    let mut v = vec![0.0f64; huge_capacity(len * 8) / 8];
+    v.truncate(len);
+    advise_huge_pages(v.as_ptr().cast(), v.capacity() * 8);
+    v
 }
 
 /// An all-false validity mask of `n` cells, on a huge page where possible: the MERL

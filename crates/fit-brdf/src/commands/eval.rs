@@ -5,7 +5,7 @@ use super::{lookup_mode, read_model, read_nbrdf, read_table};
 use crate::cli::EvalArgs;
 use crate::csvio::{UNIT_TOLERANCE, format_rgb, read_pairs};
 use crate::error::{CliResult, bad_input, runtime};
-use crate::npyio::{self, is_npy};
+use crate::npyio::{self, Pairs, is_npy};
 use crate::output::{write_file, write_text};
 use brdfkit::core::{Rgb, Vec3};
 use brdfkit::models::raw::eval_dirs_flat;
@@ -13,15 +13,33 @@ use rayon::prelude::*;
 
 pub fn run(a: EvalArgs) -> CliResult<()> {
     // Both sides as flat rows: N×6 directions in, N×3 values out, NaN for no sample.
-    let dirs: Vec<f64> = if is_npy(&a.dirs) {
+    let dirs = if is_npy(&a.dirs) {
         npyio::read_pairs(&a.dirs, UNIT_TOLERANCE).map_err(bad_input)?
     } else {
-        read_pairs(&a.dirs)?
-            .iter()
-            .flat_map(|(wi, wo)| [wi.x, wi.y, wi.z, wo.x, wo.y, wo.z])
-            .collect()
+        Pairs::Owned(
+            read_pairs(&a.dirs)?
+                .iter()
+                .flat_map(|(wi, wo)| [wi.x, wi.y, wi.z, wo.x, wo.y, wo.z])
+                .collect(),
+        )
     };
-    let mut values = vec![0.0; dirs.len() / 2];
+    if let (Some(t), Some(p)) = (&a.source.table, &a.out)
+        && is_npy(p)
+    {
+        // Table to .npy: looked up chunk by chunk while the previous chunk is written.
+        let (table, mode) = (read_table(t)?, lookup_mode(a.interp));
+        return write_file(p, |f| {
+            npyio::write_values_with(f, dirs.len() / 6, |first, out| {
+                let rows = &dirs[6 * first..6 * first + 2 * out.len()];
+                table
+                    .lookup_flat(mode, rows, out)
+                    .map_err(std::io::Error::other)
+            })
+        });
+    }
+    // On huge pages: 35 MB of 4 KiB first-touch faults for 1.46 M pairs cost about as
+    // much CPU as the lookups.
+    let mut values = brdfkit::merl::zeroed_f64(dirs.len() / 2);
     if let Some(t) = &a.source.table {
         read_table(t)?
             .lookup_flat(lookup_mode(a.interp), &dirs, &mut values)
