@@ -267,6 +267,20 @@ struct Starts {
     best: f64,
 }
 
+/// [`check_starts`] of the Cook-Torrance family ([`CT_START`]) with the default
+/// configuration.
+fn check_ct_starts(name: &str, truth: &dyn Model, data: &FitData, seed: u64, min_reached: usize) {
+    check_starts(
+        name,
+        CT_START,
+        truth,
+        data,
+        &FitConfig::default(),
+        seed,
+        min_reached,
+    );
+}
+
 /// The bound on the starts of one table, precisely:
 ///
 /// Let L_k be the final loss of start k (k = 1 … 20, the optimised loss over the
@@ -403,15 +417,7 @@ fn near_mirror_from_random_starts() {
 fn pure_lambert_from_random_starts() {
     let truth = model(r#"{"model":"lambert","params":{"rho_d":[0.2,0.5,0.8]}}"#);
     let data = table(truth.as_ref());
-    check_starts(
-        "pure Lambert",
-        CT_START,
-        truth.as_ref(),
-        &data,
-        &FitConfig::default(),
-        2,
-        16,
-    );
+    check_ct_starts("pure Lambert", truth.as_ref(), &data, 2, 16);
 }
 
 #[test]
@@ -419,15 +425,7 @@ fn sixty_percent_missing_from_random_starts() {
     let truth = model(CT_TRUTH);
     let full = synth_data(truth.as_ref(), dims(45, 45, 90), Coverage::AboveHorizon).unwrap();
     let data = drop_cells(&full, 0.6, 5).stratified_subsample(0.35, 1);
-    check_starts(
-        "60 % missing",
-        CT_START,
-        truth.as_ref(),
-        &data,
-        &FitConfig::default(),
-        3,
-        14,
-    );
+    check_ct_starts("60 % missing", truth.as_ref(), &data, 3, 14);
 }
 
 #[test]
@@ -435,15 +433,7 @@ fn twenty_percent_noise_from_random_starts() {
     let truth = model(CT_TRUTH);
     let mut data = table(truth.as_ref());
     add_lognormal_noise(&mut data, 0.2, 7);
-    check_starts(
-        "20 % noise",
-        CT_START,
-        truth.as_ref(),
-        &data,
-        &FitConfig::default(),
-        4,
-        16,
-    );
+    check_ct_starts("20 % noise", truth.as_ref(), &data, 4, 16);
 }
 
 #[test]
@@ -453,15 +443,7 @@ fn one_channel_all_zero_from_random_starts() {
     );
     let data = table(truth.as_ref());
     assert!(data.values()[2].iter().all(|&v| v == 0.0));
-    check_starts(
-        "one channel zero",
-        CT_START,
-        truth.as_ref(),
-        &data,
-        &FitConfig::default(),
-        5,
-        16,
-    );
+    check_ct_starts("one channel zero", truth.as_ref(), &data, 5, 16);
 }
 
 #[test]

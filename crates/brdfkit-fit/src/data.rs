@@ -439,6 +439,15 @@ impl FitData {
         self.filter(|m| g.wi_z[m] >= c && g.wo_z[m] >= c)
     }
 
+    /// The stratum of cell `m`: its bin on the [`STRATA`] × [`STRATA`] grid over
+    /// (√(θh/(π/2)), θd/(π/2)), as `a · STRATA + b`.
+    pub fn stratum_at(&self, m: usize) -> usize {
+        // θ > π/2 (below-horizon geometry) and round-off clamp into the last bin.
+        let a = ((self.theta_h_at(m).max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
+        let b = ((self.theta_d_at(m).max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
+        a.min(STRATA - 1) * STRATA + b.min(STRATA - 1)
+    }
+
     /// A stratified, seeded subsample of about `fraction` of the cells.
     ///
     /// Cells are binned on a [`STRATA`] × [`STRATA`] grid over (√(θh/(π/2)), θd/(π/2));
@@ -450,12 +459,6 @@ impl FitData {
         if fraction >= 1.0 {
             return self.clone();
         }
-        let bin = |m: usize| {
-            // θ > π/2 (below-horizon geometry) and round-off clamp into the last bin.
-            let a = ((self.theta_h_at(m).max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
-            let b = ((self.theta_d_at(m).max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
-            a.min(STRATA - 1) * STRATA + b.min(STRATA - 1)
-        };
         // The bins' members as one counting-sorted array of u32 (4 bytes a cell, plus
         // a one-byte bin id: STRATA² = 256 bins), not a Vec<usize> per bin (≥ 8 bytes
         // a cell plus growth slack, 17 MB for a MERL table). Members stay in cell order
@@ -465,7 +468,7 @@ impl FitData {
         const _: () = assert!(STRATA * STRATA <= 256);
         let ids: Vec<u8> = (0..self.len())
             .into_par_iter()
-            .map(|m| bin(m) as u8)
+            .map(|m| self.stratum_at(m) as u8)
             .collect();
         let mut start = vec![0usize; STRATA * STRATA + 1];
         for &b in &ids {

@@ -450,7 +450,7 @@ impl LossReport {
     /// From Σ w r² per loss and channel and Σ w, for brdfkit's own losses
     /// ([`Loss::ALL`]) and the published ones ([`Loss::PUBLISHED`], each with its own
     /// Σ w g).
-    pub(crate) fn from_sums(
+    pub fn from_sums(
         sums: [[f64; 3]; 4],
         wsum: f64,
         published: ([[f64; 3]; 4], [f64; 4]),

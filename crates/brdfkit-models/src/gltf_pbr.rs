@@ -52,11 +52,10 @@
 //! model, kept as written: a fit reproduces what glTF viewers render.
 
 use crate::json;
-use crate::pair::{batch_by_pairs, pair_geometry};
 use crate::params::{channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::scattering::Masking;
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use brdfkit_core::{Model, ModelError, ParamSpec, Rgb};
 use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
 
@@ -143,7 +142,7 @@ impl GltfPbr {
         .with_masking(json::choice_or(&o, "masking", Masking::SmithCorrelated, M)?)
     }
 
-    /// f_r of one pair (arrays as [`pair_geometry`] gives them) and, with `grad`, its
+    /// f_r of one pair (arrays as [`pair_geometry`](crate::pair::pair_geometry) gives them) and, with `grad`, its
     /// gradient in the order base_color.{r,g,b}, metallic, roughness.
     #[inline(always)]
     fn kernel(
@@ -210,12 +209,7 @@ impl GltfPbr {
     }
 }
 
-impl Brdf for GltfPbr {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        let (i, o, h, cd) = pair_geometry(wi, wo);
-        self.kernel(i, o, h, cd, None)
-    }
-}
+crate::pair::pair_kernel_brdf!(GltfPbr);
 
 impl Model for GltfPbr {
     fn name(&self) -> &'static str {
@@ -244,20 +238,7 @@ impl Model for GltfPbr {
         Ok(())
     }
 
-    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let (i, o, h, cd) = pair_geometry(wi, wo);
-        self.kernel(i, o, h, cd, Some(grad))
-    }
-
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        batch_by_pairs::<5>(g, out, None, |i, w, h, cd, gr| self.kernel(i, w, h, cd, gr));
-    }
-
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        batch_by_pairs::<5>(g, out, Some(grad), |i, w, h, cd, gr| {
-            self.kernel(i, w, h, cd, gr)
-        });
-    }
+    crate::pair::pair_kernel_evals!(5);
 
     fn to_json(&self) -> Value {
         json!({"model": M, "params": {
@@ -282,6 +263,7 @@ impl Model for GltfPbr {
 mod tests {
     use super::*;
     use crate::testing::*;
+    use brdfkit_core::Brdf;
     use brdfkit_core::direction::spherical;
     use brdfkit_core::quadrature::{AlbedoQuadrature, directional_albedo};
     use std::f64::consts::PI;

@@ -54,3 +54,53 @@ pub(crate) fn batch_by_pairs<const P: usize>(
         }
     }
 }
+
+/// The three evaluation methods of a [`Model`](brdfkit_core::Model) whose value and
+/// gradient come from one `self.kernel(i, o, h, cos_d, grad)` per pair, with `$p`
+/// parameters: the single pair through [`pair_geometry`], the batches through
+/// [`batch_by_pairs`].
+macro_rules! pair_kernel_evals {
+    ($p:literal) => {
+        fn eval_grad(
+            &self,
+            wi: &brdfkit_core::Vec3,
+            wo: &brdfkit_core::Vec3,
+            grad: &mut [brdfkit_core::Rgb],
+        ) -> brdfkit_core::Rgb {
+            let (i, o, h, cd) = $crate::pair::pair_geometry(wi, wo);
+            self.kernel(i, o, h, cd, Some(grad))
+        }
+
+        fn eval_batch(&self, g: &brdfkit_core::GeomSlice<'_>, out: &mut [brdfkit_core::Rgb]) {
+            $crate::pair::batch_by_pairs::<$p>(g, out, None, |i, w, h, cd, gr| {
+                self.kernel(i, w, h, cd, gr)
+            });
+        }
+
+        fn eval_grad_batch(
+            &self,
+            g: &brdfkit_core::GeomSlice<'_>,
+            out: &mut [brdfkit_core::Rgb],
+            grad: &mut [brdfkit_core::Rgb],
+        ) {
+            $crate::pair::batch_by_pairs::<$p>(g, out, Some(grad), |i, w, h, cd, gr| {
+                self.kernel(i, w, h, cd, gr)
+            });
+        }
+    };
+}
+pub(crate) use pair_kernel_evals;
+
+/// `impl Brdf for $t`: `eval` through the model's pair kernel (see
+/// [`pair_kernel_evals`]).
+macro_rules! pair_kernel_brdf {
+    ($t:ty) => {
+        impl brdfkit_core::Brdf for $t {
+            fn eval(&self, wi: &brdfkit_core::Vec3, wo: &brdfkit_core::Vec3) -> brdfkit_core::Rgb {
+                let (i, o, h, cd) = $crate::pair::pair_geometry(wi, wo);
+                self.kernel(i, o, h, cd, None)
+            }
+        }
+    };
+}
+pub(crate) use pair_kernel_brdf;

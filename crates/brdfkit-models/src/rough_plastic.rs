@@ -56,12 +56,11 @@
 //! directions depend on η).
 
 use crate::json;
-use crate::pair::{batch_by_pairs, pair_geometry};
 use crate::params::{RHO_DOMAIN, RHO_S_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::quadrature::gauss_legendre;
 use brdfkit_core::scattering::fresnel::dielectric_grad;
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use brdfkit_core::{Model, ModelError, ParamSpec, Rgb};
 use serde_json::{Value, json};
 use std::f64::consts::{FRAC_1_PI, PI};
 use std::sync::{Arc, OnceLock};
@@ -440,12 +439,7 @@ impl RoughPlastic {
     }
 }
 
-impl Brdf for RoughPlastic {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        let (i, o, h, cd) = pair_geometry(wi, wo);
-        self.kernel(i, o, h, cd, None)
-    }
-}
+crate::pair::pair_kernel_brdf!(RoughPlastic);
 
 impl Model for RoughPlastic {
     fn name(&self) -> &'static str {
@@ -484,20 +478,7 @@ impl Model for RoughPlastic {
         Ok(())
     }
 
-    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let (i, o, h, cd) = pair_geometry(wi, wo);
-        self.kernel(i, o, h, cd, Some(grad))
-    }
-
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        batch_by_pairs::<8>(g, out, None, |i, w, h, cd, gr| self.kernel(i, w, h, cd, gr));
-    }
-
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        batch_by_pairs::<8>(g, out, Some(grad), |i, w, h, cd, gr| {
-            self.kernel(i, w, h, cd, gr)
-        });
-    }
+    crate::pair::pair_kernel_evals!(8);
 
     fn to_json(&self) -> Value {
         json!({"model": M, "params": {
@@ -518,6 +499,7 @@ impl Model for RoughPlastic {
 mod tests {
     use super::*;
     use crate::testing::*;
+    use brdfkit_core::Vec3;
     use brdfkit_core::direction::spherical;
     use brdfkit_core::quadrature::{AlbedoQuadrature, directional_albedo};
 

@@ -23,7 +23,7 @@ use brdfkit_core::direction::spherical;
 use brdfkit_core::{Model, ModelError, Rgb};
 use brdfkit_fit::data::STRATA;
 use brdfkit_fit::{
-    ChannelLoss, FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting,
+    FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting,
     evaluate_losses, fit,
 };
 use brdfkit_merl::{Lookup, MerlTable};
@@ -363,27 +363,12 @@ impl LossSums {
         if self.in_chunk > 0 {
             self.close_chunk();
         }
-        let wsum = self.wsum;
-        let mk = |s: [f64; 3], wsum: f64| {
-            let ch = s.map(|v| if wsum > 0.0 { (v / wsum).sqrt() } else { 0.0 });
-            let overall = ((ch[0] * ch[0] + ch[1] * ch[1] + ch[2] * ch[2]) / 3.0).sqrt();
-            ChannelLoss {
-                channels: ch,
-                overall,
-            }
-        };
-        let (ps, pw) = self.pub_parts;
-        Some(LossReport {
-            l2: mk(self.parts[0], wsum),
-            cosine: mk(self.parts[1], wsum),
-            cbrt: mk(self.parts[2], wsum),
-            log: mk(self.parts[3], wsum),
-            ngan: mk(ps[0], pw[0]),
-            low_e1: mk(ps[1], pw[1]),
-            low_e2: mk(ps[2], pw[2]),
-            bieron_log: mk(ps[3], pw[3]),
-            cells: self.cells,
-        })
+        Some(LossReport::from_sums(
+            self.parts,
+            self.wsum,
+            self.pub_parts,
+            self.cells,
+        ))
     }
 }
 
@@ -615,12 +600,9 @@ fn albedo_comparison(
 /// (at least one, and one fewer than n when n > 1) go to training, chosen by a seeded
 /// Fisher-Yates shuffle.
 pub fn stratified_split(data: &FitData, fraction: f64, seed: u64) -> (FitData, FitData) {
-    let (th, td) = (data.theta_h(), data.theta_d());
     let mut bins: Vec<Vec<usize>> = vec![Vec::new(); STRATA * STRATA];
     for m in 0..data.len() {
-        let a = ((th[m].max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
-        let b = ((td[m].max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
-        bins[a.min(STRATA - 1) * STRATA + b.min(STRATA - 1)].push(m);
+        bins[data.stratum_at(m)].push(m);
     }
     let mut train = vec![false; data.len()];
     for (b, cells) in bins.iter_mut().enumerate() {

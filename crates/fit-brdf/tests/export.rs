@@ -36,10 +36,26 @@ fn conductor(eta: [f64; 3], k: [f64; 3]) -> Value {
 }
 
 /// Runs `fit-brdf export` on `model`; returns stdout.
+/// A small gold conductor table (Cook-Torrance, no diffuse term) in `dir`, with the
+/// further `[material.params]` lines `params`.
+fn gold_table(dir: &Path, params: &str) -> PathBuf {
+    let spec = format!(
+        "name = \"gold\"\ndims = [16, 16, 32]\n[material]\nmodel = \"cook-torrance\"\n\
+         [material.params]\nrho_d = 0.0\n{params}\
+         fresnel = {{ conductor = {{ eta = {GOLD_ETA:?}, k = {GOLD_K:?} }} }}\n"
+    );
+    synth_spec(dir, "gold", &spec)
+}
+
+/// `fit-brdf export MODEL ARGS...`, whatever its status.
+fn run_export(model: &Path, args: &[&str]) -> std::process::Output {
+    bin().arg("export").arg(model).args(args).output().unwrap()
+}
+
 fn export(dir: &Path, model: &Value, args: &[&str]) -> String {
     let p = dir.join("model.json");
     std::fs::write(&p, model.to_string()).unwrap();
-    let o = bin().arg("export").arg(&p).args(args).output().unwrap();
+    let o = run_export(&p, args);
     assert!(o.status.success(), "{model}: {}", stderr(&o));
     String::from_utf8(o.stdout).unwrap()
 }
@@ -396,12 +412,7 @@ fn pbrt_export_matches_pbrts_conductor_formula() {
 
 /// `fit-brdf export MODEL --to TO` exits 2 with `needle` in its stderr.
 fn refused(model: &Path, to: &str, needle: &str) {
-    let o = bin()
-        .arg("export")
-        .arg(model)
-        .args(["--to", to])
-        .output()
-        .unwrap();
+    let o = run_export(model, &["--to", to]);
     assert_bad_input(&o, &[needle]);
 }
 
@@ -539,15 +550,7 @@ fn export_writes_the_file_atomically_and_notes_on_stderr() {
 #[test]
 fn a_conductor_fitted_with_rho_d_fixed_at_0_exports() {
     let d = tempfile::tempdir().unwrap();
-    let table = synth_spec(
-        d.path(),
-        "gold",
-        &format!(
-            "name = \"gold\"\ndims = [16, 16, 32]\n[material]\nmodel = \"cook-torrance\"\n\
-             [material.params]\nrho_d = 0.0\nrho_s = 0.7\nalpha = 0.15\n\
-             fresnel = {{ conductor = {{ eta = {GOLD_ETA:?}, k = {GOLD_K:?} }} }}\n"
-        ),
-    );
+    let table = gold_table(d.path(), "rho_s = 0.7\nalpha = 0.15\n");
     let start = d.path().join("start.json");
     std::fs::write(
         &start,
@@ -572,12 +575,7 @@ fn a_conductor_fitted_with_rho_d_fixed_at_0_exports() {
         (p["params"]["alpha"].as_f64().unwrap() - 0.15).abs() < 1e-6,
         "{p}"
     );
-    let xml = bin()
-        .arg("export")
-        .arg(&params)
-        .args(["--to", "mitsuba", "--quiet"])
-        .output()
-        .unwrap();
+    let xml = run_export(&params, &["--to", "mitsuba", "--quiet"]);
     assert!(xml.status.success(), "{}", stderr(&xml));
     assert!(String::from_utf8_lossy(&xml.stdout).contains("roughconductor"));
     // Unknown names, an empty list, or nothing left free: bad input.
@@ -651,12 +649,7 @@ fn gltf_export_is_a_valid_gltf_material() {
     let p = d.path().join("ct.json");
     std::fs::write(&p, json!({"model": "lambert"}).to_string()).unwrap();
     refused(&p, "gltf", "--approximate");
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "gltf", "--format", "xml"])
-        .output()
-        .unwrap();
+    let o = run_export(&p, &["--to", "gltf", "--format", "xml"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let Some(dir) = gltf_validator() else {
         if external_tools::under_ci() {
@@ -729,12 +722,7 @@ fn approximate_fits_the_nearest_material_and_states_the_error() {
         json!({"model": "lambert", "params": {"rho_d": 0.4}}).to_string(),
     )
     .unwrap();
-    let o = bin()
-        .arg("export")
-        .arg(&l)
-        .args(["--to", "pbrt", "--approximate"])
-        .output()
-        .unwrap();
+    let o = run_export(&l, &["--to", "pbrt", "--approximate"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("approximation:"), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("Material \"diffuse\""));
@@ -744,26 +732,16 @@ fn approximate_fits_the_nearest_material_and_states_the_error() {
         json!({"model": "lambert", "params": {"rho_d": 2}}).to_string(),
     )
     .unwrap();
-    let o = bin()
-        .arg("export")
-        .arg(&l)
-        .args(["--to", "gltf", "--approximate"])
-        .output()
-        .unwrap();
+    let o = run_export(&l, &["--to", "gltf", "--approximate"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
 
 #[test]
 fn fit_for_a_renderer_writes_a_model_export_takes() {
     let d = tempfile::tempdir().unwrap();
-    let table = synth_spec(
+    let table = gold_table(
         d.path(),
-        "gold",
-        &format!(
-            "name = \"gold\"\ndims = [16, 16, 32]\n[material]\nmodel = \"cook-torrance\"\n\
-             [material.params]\nrho_d = 0.0\nrho_s = 1.0\nalpha = 0.2\nmasking = \"smith-correlated\"\n\
-             fresnel = {{ conductor = {{ eta = {GOLD_ETA:?}, k = {GOLD_K:?} }} }}\n"
-        ),
+        "rho_s = 1.0\nalpha = 0.2\nmasking = \"smith-correlated\"\n",
     );
     for (to, best, form) in [
         ("pbrt", "conductor", "Material \"conductor\""),
@@ -786,12 +764,7 @@ fn fit_for_a_renderer_writes_a_model_export_takes() {
             let eta = &p["params"]["fresnel"]["conductor"]["eta"];
             assert!((eta[2].as_f64().unwrap() - 0.2).abs() > 0.1, "{p}");
         }
-        let o = bin()
-            .arg("export")
-            .arg(&params)
-            .args(["--to", to, "--quiet"])
-            .output()
-            .unwrap();
+        let o = run_export(&params, &["--to", to, "--quiet"]);
         assert!(o.status.success(), "{}", stderr(&o));
         assert!(String::from_utf8_lossy(&o.stdout).contains(form));
     }
