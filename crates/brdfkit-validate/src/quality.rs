@@ -23,8 +23,7 @@ use brdfkit_core::direction::spherical;
 use brdfkit_core::{Model, ModelError, Rgb};
 use brdfkit_fit::data::STRATA;
 use brdfkit_fit::{
-    FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting,
-    evaluate_losses, fit,
+    FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting, evaluate_losses, fit,
 };
 use brdfkit_merl::{Lookup, MerlTable};
 use brdfkit_models::testing::SplitMix64;
