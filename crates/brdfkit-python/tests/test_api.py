@@ -138,7 +138,9 @@ def test_fit_is_the_rust_fit(refs, gold):
     assert r.model.to_json() == brdfkit.Model.from_json(expect["params"]).to_json()
     assert strip_times(r.record) == strip_times(expect["record"])
     assert r.losses["cbrt"] == expect["record"]["losses_full"]["cbrt"]["overall"]
-    assert set(r.losses) == {"cbrt", "l2", "cosine", "log"}
+    assert set(r.losses) == {
+        "cbrt", "l2", "cosine", "log", "ngan", "low_e1", "low_e2", "bieron_log"
+    }
     assert "cook-torrance" in repr(r)
 
 
