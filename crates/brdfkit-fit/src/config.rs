@@ -489,7 +489,7 @@ impl FitConfig {
     pub fn angular_domain(&self, data: &crate::FitData) -> Option<crate::FitData> {
         // One definition of the kept cells: the score's filter, which `fit` also uses.
         let f = crate::score::CellFilter::of(self);
-        (!f.keeps_all()).then(|| data.filter(|m| f.keeps(data, m)))
+        (!f.keeps_all()).then(|| data.filter(f.predicate(data)))
     }
 
     /// Checks every value as the builders do (for configs made by deserialisation).

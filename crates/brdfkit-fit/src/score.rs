@@ -50,17 +50,25 @@ impl CellFilter {
     /// Whether cell `m` of `data` passes.
     #[inline]
     pub fn keeps(&self, data: &FitData, m: usize) -> bool {
+        self.predicate(data)(m)
+    }
+
+    /// The pass test of `data`'s cells, with the cutoff's cosine taken once rather than
+    /// per cell.
+    pub fn predicate<'a>(&self, data: &'a FitData) -> impl Fn(usize) -> bool + 'a {
+        let (td, cos_max) = (self.theta_d_max, self.theta_max.map(f64::cos));
         let g = data.geometry();
-        self.theta_d_max.is_none_or(|t| data.theta_d_at(m) <= t)
-            // Compared through the cosines, as `FitData::with_theta_max` does.
-            && self
-                .theta_max
-                .is_none_or(|t| g.wi_z[m] >= t.cos() && g.wo_z[m] >= t.cos())
+        move |m| {
+            td.is_none_or(|t| data.theta_d_at(m) <= t)
+                // Compared through the cosines, as `FitData::with_theta_max` does.
+                && cos_max.is_none_or(|c| g.wi_z[m] >= c && g.wo_z[m] >= c)
+        }
     }
 
     /// The indices (into `data`) of the cells that pass, in order.
     pub fn indices(&self, data: &FitData) -> Vec<usize> {
-        (0..data.len()).filter(|&m| self.keeps(data, m)).collect()
+        let keep = self.predicate(data);
+        (0..data.len()).filter(|&m| keep(m)).collect()
     }
 
     /// The cells that pass (borrowed when the filter keeps all); an error when none
@@ -69,7 +77,7 @@ impl CellFilter {
         let cells = if self.keeps_all() {
             Cow::Borrowed(data)
         } else {
-            Cow::Owned(data.filter(|m| self.keeps(data, m)))
+            Cow::Owned(data.filter(self.predicate(data)))
         };
         if cells.is_empty() {
             return Err(FitError::NoCells(format!(
