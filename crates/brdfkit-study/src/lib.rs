@@ -18,7 +18,8 @@
 //!
 //! A fourth part, [`measured`], reads a whole-database `fit-brdf batch --nbrdf` run of
 //! the measured-material proxies and writes `docs/measured.md`'s ranking of every model
-//! family (`fit-brdf study --parts measured`).
+//! family (`fit-brdf study --parts measured`). A fifth, [`losses`], fits measured proxies
+//! with each loss and scores the rendered spheres of table and fit (`--parts losses`).
 //!
 //! [`run`] performs the parts a [`StudyConfig`] asks for and writes, below `out`, the
 //! raw measurements (CSV and JSON, [`files`]) and PNG plots ([`plot`]), and `out` + `.md`
@@ -30,6 +31,7 @@
 pub mod choices;
 pub mod files;
 pub mod grid;
+pub mod losses;
 pub mod markdown;
 pub mod measured;
 pub mod plot;

@@ -230,11 +230,45 @@ pub fn figure(
         }
         root.present().map_err(|e| err(e.to_string()))?;
     }
+    write_png(path, buf, (w, h))
+}
+
+/// Encodes an RGB buffer of `w × h` pixels as PNG and writes it atomically.
+fn write_png(path: &Path, buf: Vec<u8>, (w, h): (u32, u32)) -> Result<(), StudyError> {
+    let err = |msg: String| StudyError::Plot {
+        path: path.to_path_buf(),
+        msg,
+    };
     let img = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| err("buffer size".into()))?;
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .map_err(|e| err(e.to_string()))?;
     crate::files::write(path, &png)
+}
+
+/// Writes the RGB buffer `buf` (`w × h` pixels, e.g. a contact sheet of renders) as a
+/// PNG with each text of `labels` drawn in black at its (x, y) pixel position.
+pub fn label_png(
+    path: &Path,
+    mut buf: Vec<u8>,
+    (w, h): (u32, u32),
+    labels: &[(String, (i32, i32))],
+) -> Result<(), StudyError> {
+    register_font();
+    let err = |msg: String| StudyError::Plot {
+        path: path.to_path_buf(),
+        msg,
+    };
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let font = ("sans-serif", 14).into_font().color(&BLACK);
+        for (text, at) in labels {
+            root.draw_text(text, &font, *at)
+                .map_err(|e| err(e.to_string()))?;
+        }
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    write_png(path, buf, (w, h))
 }
 
 #[cfg(test)]

@@ -660,6 +660,9 @@ pub enum StudyPart {
     /// The whole measured database fitted and ranked, from a `batch --nbrdf` run
     /// (`--fits`): docs/measured.md, its CSV files, ranking figure and thumbnails.
     Measured,
+    /// Measured proxies fitted with each loss, table and fits rendered and scored
+    /// (ΔE2000, RMSE): docs/losses.md, its CSV and contact sheet.
+    Losses,
 }
 
 #[derive(Args, Debug)]
@@ -744,6 +747,30 @@ pub struct StudyArgs {
     /// The measured part: thumbnails of this many best and worst fitted materials.
     #[arg(long, value_name = "N", default_value_t = 3)]
     pub thumbnails: usize,
+    /// The losses part: root of the proxies (`<root>/<database>/<name>`).
+    #[arg(long, value_name = "DIR", default_value = "../shared/measured-proxies")]
+    pub proxies: PathBuf,
+    /// The losses part: proxies (comma-separated names; default: 25 across databases and
+    /// categories).
+    #[arg(long, value_name = "NAMES")]
+    pub loss_materials: Option<String>,
+    /// The losses part: model families (comma-separated `--model` names).
+    #[arg(long, value_name = "MODELS", default_value = "cook-torrance")]
+    pub loss_models: String,
+    /// The losses part: the document (its data and images go to the directory of the
+    /// same name without `.md`).
+    #[arg(long, value_name = "MD", default_value = "docs/losses.md")]
+    pub losses_doc: PathBuf,
+    /// The losses part: the grid the proxies are resampled onto.
+    #[arg(long, value_name = "A,B,C", default_value = "90,90,180")]
+    pub loss_dims: String,
+    /// The losses part: render size (pixels) and samples per pixel under the
+    /// environment (the report's: 128, 16).
+    #[arg(long, value_name = "PX,SPP", default_value = "128,16")]
+    pub loss_render: String,
+    /// The losses part: starts per fit.
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    pub loss_starts: usize,
     /// No progress lines on stderr.
     #[arg(long, short)]
     pub quiet: bool,

@@ -3,6 +3,7 @@
 
 use crate::cli::{StudyArgs, StudyPart};
 use crate::error::{CliResult, bad_msg, runtime};
+use brdfkit_study::losses::LossesConfig;
 use brdfkit_study::{ModelChoice, StudyConfig, StudyError};
 
 fn list<T>(opt: &str, s: &str, parse: impl Fn(&str) -> Option<T>) -> CliResult<Vec<T>> {
@@ -74,6 +75,27 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
     Ok(c)
 }
 
+/// The loss comparison the options ask for.
+fn losses_config(a: &StudyArgs) -> CliResult<LossesConfig> {
+    let mut c = LossesConfig::new(&a.proxies, &a.categories);
+    if let Some(m) = &a.loss_materials {
+        c.materials = list("loss-materials", m, |x| Some(x.to_string()))?;
+    }
+    c.models = list("loss-models", &a.loss_models, |x| Some(x.to_string()))?;
+    c.dims = super::parse_dims(&a.loss_dims)?;
+    match list("loss-render", &a.loss_render, |x| x.parse::<usize>().ok())?[..] {
+        [size, spp] if size > 0 && spp > 0 => (c.render.size, c.render.env_spp) = (size, spp),
+        _ => return Err(bad_msg("--loss-render: expected PX,SPP, both positive")),
+    }
+    if a.loss_starts == 0 {
+        return Err(bad_msg("--loss-starts: at least 1"));
+    }
+    c.starts = a.loss_starts;
+    c.report = a.losses_doc.clone();
+    c.out = a.losses_doc.with_extension("");
+    Ok(c)
+}
+
 pub fn run(a: StudyArgs) -> CliResult<()> {
     let quiet = a.quiet;
     let progress = move |s: &str| {
@@ -100,9 +122,16 @@ pub fn run(a: StudyArgs) -> CliResult<()> {
             thumb_size: 96,
         };
         brdfkit_study::measured::run(&m, &progress).map_err(study_error)?;
-        if a.parts.iter().all(|p| *p == StudyPart::Measured) {
-            return Ok(());
-        }
+    }
+    if a.parts.contains(&StudyPart::Losses) {
+        brdfkit_study::losses::run(&losses_config(&a)?, &progress).map_err(study_error)?;
+    }
+    if a
+        .parts
+        .iter()
+        .all(|p| matches!(p, StudyPart::Measured | StudyPart::Losses))
+    {
+        return Ok(());
     }
     let cfg = config(&a)?;
     brdfkit_study::run(&cfg, &progress).map_err(study_error)?;
