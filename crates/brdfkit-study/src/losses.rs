@@ -23,7 +23,7 @@
 use crate::StudyError;
 use crate::files::{write, write_csv, write_json};
 use crate::markdown::{loss as fmt_loss, replace_section, secs};
-use crate::measured::read_categories;
+use crate::measured::{median, read_categories};
 use brdfkit_fit::families::{FitSettings, Structure, families};
 use brdfkit_fit::{FitData, Loss, fit};
 use brdfkit_merl::Dims;
@@ -281,8 +281,8 @@ fn measure(
         }
         let fitted: Vec<&brdfkit_fit::Fitted> = fits.iter().map(|r| &r.fitted).collect();
         for lighting in Lighting::ALL {
-            let set =
-                render_set(lighting, &cfg.render, &table, &fitted).map_err(|e| err(e.to_string()))?;
+            let set = render_set(lighting, &cfg.render, &table, &fitted)
+                .map_err(|e| err(e.to_string()))?;
             let timg = decode(&set.table_png, name)?;
             let mut strip = vec![timg.clone()];
             for ((l, r), m) in LOSSES.iter().zip(&fits).zip(&set.models) {
@@ -456,20 +456,6 @@ fn contact_sheet(path: &Path, sheet: &[(String, Vec<Strip>)]) -> Result<(), Stud
     crate::plot::label_png(path, buf, (w, h), &labels)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_unstable_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
@@ -526,12 +512,12 @@ pub fn wins(rows: &[&LossRow], metric: &Metric) -> BTreeMap<String, usize> {
                 .find(|r| r.loss == l.name())
                 .map(|r| (l.name(), (metric.get)(r)))
         });
-        if let Some((name, _)) = best
-            .filter(|(_, v)| v.is_finite())
-            .fold(None::<(&str, f64)>, |acc, (n, v)| match acc {
-                Some((_, b)) if b <= v => acc,
-                _ => Some((n, v)),
-            })
+        if let Some((name, _)) =
+            best.filter(|(_, v)| v.is_finite())
+                .fold(None::<(&str, f64)>, |acc, (n, v)| match acc {
+                    Some((_, b)) if b <= v => acc,
+                    _ => Some((n, v)),
+                })
         {
             *out.entry(name.to_string()).or_default() += 1;
         }
@@ -545,9 +531,8 @@ fn metric_table(rows: &[&LossRow], metric: &Metric) -> String {
         "**{}** (lower is better)\n\n| loss | wins, point | wins, environment | mean, point | median, point | mean, environment | median, environment |\n|---|---:|---:|---:|---:|---:|---:|\n",
         metric.title
     );
-    let by_light = |l: &str| -> Vec<&LossRow> {
-        rows.iter().copied().filter(|r| r.lighting == l).collect()
-    };
+    let by_light =
+        |l: &str| -> Vec<&LossRow> { rows.iter().copied().filter(|r| r.lighting == l).collect() };
     let (pt, env) = (by_light("point"), by_light("environment"));
     let (wp, we) = (wins(&pt, metric), wins(&env, metric));
     let d = metric.digits;
@@ -690,7 +675,12 @@ pub fn sections(cfg: &LossesConfig, run: &LossesRun) -> Vec<(String, String)> {
         }
         v
     };
-    let fit_times: Vec<f64> = run.rows.iter().filter(|r| r.lighting == "point").map(|r| r.fit_time_s).collect();
+    let fit_times: Vec<f64> = run
+        .rows
+        .iter()
+        .filter(|r| r.lighting == "point")
+        .map(|r| r.fit_time_s)
+        .collect();
     let load = |x: Option<f64>| x.map_or("?".into(), |v| format!("{v:.1}"));
     let runtext = format!(
         "{} proxies ({}), model{} {}, losses {}; {} fits, median fit {}. Proxies resampled \
@@ -881,10 +871,19 @@ mod tests {
         assert_eq!((w["l2"], w["cosine"], w["cbrt"], w["log"]), (1, 0, 0, 2));
         let t = metric_table(&r, &METRICS[0]);
         // cbrt under the point light: one value, 1.00; l2: mean and median of {3}.
-        assert!(t.contains("| cbrt | 1 | 0 | 1.00 | 1.00 | 1.00 | 1.00 |"), "{t}");
-        assert!(t.contains("| l2 | 0 | 1 | 3.00 | 3.00 | 1.00 | 1.00 |"), "{t}");
+        assert!(
+            t.contains("| cbrt | 1 | 0 | 1.00 | 1.00 | 1.00 | 1.00 |"),
+            "{t}"
+        );
+        assert!(
+            t.contains("| l2 | 0 | 1 | 3.00 | 3.00 | 1.00 | 1.00 |"),
+            "{t}"
+        );
         let m = material_table(&r);
-        assert!(m.contains("| a | merl | metal | point | 3.00 | — | **1.00** | 2.00 |"), "{m}");
+        assert!(
+            m.contains("| a | merl | metal | point | 3.00 | — | **1.00** | 2.00 |"),
+            "{m}"
+        );
     }
 
     /// Two vendored proxies on a coarse grid, one start, small renders: the whole part
@@ -913,7 +912,10 @@ mod tests {
         for r in &rows {
             assert!(r.pixels > 100, "{r:?}");
             assert!(r.delta_e_mean.is_finite() && r.delta_e_mean >= 0.0, "{r:?}");
-            assert!(r.rel_rms_linear.is_finite() && r.rel_rms_linear > 0.0, "{r:?}");
+            assert!(
+                r.rel_rms_linear.is_finite() && r.rel_rms_linear > 0.0,
+                "{r:?}"
+            );
             assert!(r.fit_cbrt.is_finite() && r.fit_cbrt > 0.0, "{r:?}");
         }
         // Each fit is the lowest of the four on its own loss (or within round-off of a
@@ -924,9 +926,15 @@ mod tests {
                     .find(|r| r.material == m && r.loss == l.name())
                     .unwrap()
             };
-            let best = LOSSES.iter().map(|l| of(*l).fit_cbrt).fold(f64::INFINITY, f64::min);
+            let best = LOSSES
+                .iter()
+                .map(|l| of(*l).fit_cbrt)
+                .fold(f64::INFINITY, f64::min);
             assert!(of(Loss::Cbrt).fit_cbrt <= best * 1.01, "{m}");
-            let best = LOSSES.iter().map(|l| of(*l).fit_l2).fold(f64::INFINITY, f64::min);
+            let best = LOSSES
+                .iter()
+                .map(|l| of(*l).fit_l2)
+                .fold(f64::INFINITY, f64::min);
             assert!(of(Loss::L2).fit_l2 <= best * 1.01, "{m}");
         }
         let csv = std::fs::read_to_string(cfg.out.join("scores.csv")).unwrap();
@@ -934,8 +942,14 @@ mod tests {
         let sheet = image::open(cfg.out.join("sheet.png")).unwrap();
         assert_eq!(sheet.height(), 28 + 2 * 24);
         let doc = std::fs::read_to_string(&report).unwrap();
-        assert!(doc.starts_with("# Losses\n\nHand-written reading."), "{doc}");
-        assert!(doc.contains("<!-- study:losses-cook-torrance-overall -->"), "{doc}");
+        assert!(
+            doc.starts_with("# Losses\n\nHand-written reading."),
+            "{doc}"
+        );
+        assert!(
+            doc.contains("<!-- study:losses-cook-torrance-overall -->"),
+            "{doc}"
+        );
         assert!(doc.contains("2 proxies (2 merl)"), "{doc}");
         // An unknown name is refused before any work.
         let bad = LossesConfig {

@@ -177,7 +177,8 @@ fn models(mats: &[MeasuredMaterial]) -> Vec<String> {
         .unwrap_or_default()
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median of the finite values (NaN when there is none).
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.retain(|x| x.is_finite());
     if v.is_empty() {
         return f64::NAN;

@@ -174,7 +174,7 @@ pub enum Command {
                             Writes OUT/*.csv, OUT/*.json, OUT/*.png and OUT.md (only the generated sections between \
                             <!-- study:NAME --> markers are replaced; the rest of OUT.md is kept). Details: docs/accuracy-vs-time.md."
     )]
-    Study(StudyArgs),
+    Study(Box<StudyArgs>),
     /// Score given models against a table without fitting: every loss (l2, cosine,
     /// cbrt, log) per channel and overall, on the cells and with the weights of `fit`.
     #[command(

@@ -40,7 +40,7 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Batch(a) => batch::run(a),
         Command::Export(a) => export::run(a),
         Command::Completions(a) => completions::run(a),
-        Command::Study(a) => study::run(a),
+        Command::Study(a) => study::run(*a),
         Command::Score(a) => score::run(a),
         Command::Compare(a) => compare::run(a),
     }

@@ -126,8 +126,7 @@ pub fn run(a: StudyArgs) -> CliResult<()> {
     if a.parts.contains(&StudyPart::Losses) {
         brdfkit_study::losses::run(&losses_config(&a)?, &progress).map_err(study_error)?;
     }
-    if a
-        .parts
+    if a.parts
         .iter()
         .all(|p| matches!(p, StudyPart::Measured | StudyPart::Losses))
     {
