@@ -83,11 +83,13 @@ pub struct LossesConfig {
     /// Root of the proxies: `<root>/<database>/<name>_fc1.npy`, … (the layout of
     /// `../shared/measured-proxies` and `data-measured/`).
     pub proxies: PathBuf,
-    /// `name,database,category` per proxy (`data-measured/categories.csv`).
+    /// `name,database,category` per proxy (`data-measured/categories.csv`): where
+    /// each name's folder is, and its category in the tables.
     pub categories: PathBuf,
     /// The proxies (names).
     pub materials: Vec<String>,
-    /// Model families fitted (`fit-brdf fit --model` names).
+    /// Model families fitted (`fit-brdf fit --model` names); the contact sheet shows
+    /// the first.
     pub models: Vec<String>,
     /// Starts per fit (the command line's default: 8).
     pub starts: usize,
@@ -237,18 +239,12 @@ fn decode(png: &[u8], what: &str) -> Result<image::RgbImage, StudyError> {
 /// (the first model's fits), for the contact sheet.
 type Strip = Vec<image::RgbImage>;
 
-/// One material measured: its rows and, per lighting, its strip of images.
-struct Measured {
-    rows: Vec<LossRow>,
-    strips: Vec<Strip>,
-}
-
+/// Fits, renders and scores one material: its rows and, per lighting, its strip of
+/// images.
 fn measure(
     cfg: &LossesConfig,
-    name: &str,
-    database: &str,
-    category: &str,
-) -> Result<Measured, StudyError> {
+    (name, database, category): (&str, &str, &str),
+) -> Result<(Vec<LossRow>, Vec<Strip>), StudyError> {
     let err = |msg: String| StudyError::Model {
         what: name.to_string(),
         msg,
@@ -315,7 +311,7 @@ fn measure(
             }
         }
     }
-    Ok(Measured { rows, strips })
+    Ok((rows, strips))
 }
 
 fn lighting_name(l: Lighting) -> &'static str {
@@ -380,9 +376,9 @@ pub fn run(cfg: &LossesConfig, progress: &dyn Fn(&str)) -> Result<Vec<LossRow>, 
             k + 1,
             picks.len()
         ));
-        let m = measure(cfg, name, db, cat)?;
-        rows.extend(m.rows);
-        sheet.push((name.to_string(), m.strips));
+        let (r, strips) = measure(cfg, (name, db, cat))?;
+        rows.extend(r);
+        sheet.push((name.to_string(), strips));
     }
     let run = LossesRun {
         size: cfg.render.size,
@@ -471,28 +467,17 @@ pub struct Metric {
     pub get: fn(&LossRow) -> f64,
 }
 
+/// A metric of the tables.
+const fn metric(title: &'static str, digits: usize, get: fn(&LossRow) -> f64) -> Metric {
+    Metric { title, digits, get }
+}
+
 /// The metrics of the tables, perceptual first.
 pub const METRICS: [Metric; 4] = [
-    Metric {
-        title: "mean ΔE2000",
-        digits: 2,
-        get: |r| r.delta_e_mean,
-    },
-    Metric {
-        title: "95th-percentile ΔE2000",
-        digits: 2,
-        get: |r| r.delta_e_p95,
-    },
-    Metric {
-        title: "display RMSE (sRGB 0..1)",
-        digits: 4,
-        get: |r| r.rmse_display,
-    },
-    Metric {
-        title: "linear relative RMS",
-        digits: 3,
-        get: |r| r.rel_rms_linear,
-    },
+    metric("mean ΔE2000", 2, |r| r.delta_e_mean),
+    metric("95th-percentile ΔE2000", 2, |r| r.delta_e_p95),
+    metric("display RMSE (sRGB 0..1)", 4, |r| r.rmse_display),
+    metric("linear relative RMS", 3, |r| r.rel_rms_linear),
 ];
 
 /// For each (material, model, lighting), the loss with the lowest score (the first in
