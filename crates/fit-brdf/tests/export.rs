@@ -110,8 +110,8 @@ fn mitsuba_cases() -> Vec<Case> {
             name: "rough-plastic",
             model: json!({"model": "rough-plastic", "params": {"rho_d": [0.6, 0.3, 0.1],
                 "rho_s": 1, "alpha": 0.2, "eta": 1.5}}),
-            // The diffuse term's tables: brdfkit's visible-normal rule (Heitz 2018, 32² and
-            // 64² nodes) against Mitsuba's (its own sampling routine, 32² and 128²).
+            // The diffuse term's tables: Mitsuba's quadrature against brdfkit's (32² nodes
+            // on Heitz 2018's mapping for T, a converged rule for R_int; docs/export.md).
             tolerance: Tolerance::Relative { rel: PLASTIC_REL },
             microfacet: None,
         },
