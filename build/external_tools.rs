@@ -1,6 +1,7 @@
-//! The external tools some tests check against: Mitsuba 3 (in a Python) and headless
-//! Chromium. One file, included with `#[path]` by the build scripts of brdfkit-render,
-//! brdfkit-validate and fit-brdf and by their tests:
+//! The external tools some tests check against: Mitsuba 3 (in a Python), the brdfkit
+//! Python package (with pytest) and headless Chromium. One file, included with `#[path]`
+//! by the build scripts of brdfkit-render, brdfkit-validate, brdfkit-python and fit-brdf
+//! and by their tests:
 //!
 //! - a build script calls [`emit`], which probes the tools and sets the cfgs
 //!   `has_mitsuba` / `has_chromium`; the tests carry
@@ -8,10 +9,12 @@
 //!   counted as ignored, with the reason, never as passed;
 //! - under `CI` (set to anything but "", "0" or "false") the cfgs are always on: CI must
 //!   run the checks, and a missing tool fails them loudly;
-//! - a test calls [`require_mitsuba`] / [`require_chromium`], which return the tool or
+//! - a test calls [`require_mitsuba`] / [`require_python_package`] / [`require_chromium`],
+//!   which return the tool or
 //!   panic saying how to install it (under CI, after a stale probe, or with
 //!   `--include-ignored`);
-//! - the tests are declared with `mitsuba_test!` / `chromium_test!` (`#[test]` plus the
+//! - the tests are declared with `mitsuba_test!` / `python_package_test!` /
+//!   `chromium_test!` (`#[test]` plus the
 //!   `cfg_attr` and its reason, in one place); the including `mod` needs `#[macro_use]`.
 //!
 //! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`; Chromium is
@@ -41,6 +44,13 @@ macro_rules! mitsuba_test {
     };
 }
 
+/// A test that needs the brdfkit Python package and pytest (see [`tool_test`]).
+macro_rules! python_package_test {
+    ($($t:tt)*) => {
+        tool_test! { has_brdfkit_python, "needs the brdfkit Python package and pytest: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt && .venv/bin/pip install ./crates/brdfkit-python (or set BRDFKIT_PYTHON)", $($t)* }
+    };
+}
+
 /// A test that needs Chromium (see [`tool_test`]).
 macro_rules! chromium_test {
     ($($t:tt)*) => {
@@ -52,6 +62,10 @@ macro_rules! chromium_test {
 pub const MITSUBA_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
      (in the workspace root), or set BRDFKIT_PYTHON to a Python with mitsuba==3.9.1 and drjit==1.5.0";
 
+/// How to get the brdfkit Python package for its pytest suite (`.ci/run` does this).
+pub const PYTHON_PACKAGE_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
+     && .venv/bin/pip install ./crates/brdfkit-python (in the workspace root), or set BRDFKIT_PYTHON";
+
 /// How to get Chromium for the browser check.
 pub const CHROMIUM_ENABLE: &str = "apt-get install chromium (Debian), or set CHROMIUM";
 
@@ -60,6 +74,8 @@ pub const CHROMIUM_ENABLE: &str = "apt-get install chromium (Debian), or set CHR
 pub enum Tool {
     /// Mitsuba 3 and Dr.Jit importable from the Python, `scalar_rgb` available.
     Mitsuba,
+    /// The brdfkit Python package and pytest importable from the Python.
+    PythonPackage,
     /// A headless Chromium.
     Chromium,
 }
@@ -83,15 +99,25 @@ pub fn python() -> PathBuf {
         .unwrap_or_else(|| workspace().join(".venv/bin/python"))
 }
 
-/// Whether `py` imports Mitsuba 3 and Dr.Jit with the `scalar_rgb` variant.
-pub fn mitsuba_importable(py: &Path) -> bool {
+/// Whether `py` runs `code` without an error.
+fn python_runs(py: &Path, code: &str) -> bool {
     Command::new(py)
-        .args([
-            "-c",
-            "import mitsuba, drjit; mitsuba.set_variant('scalar_rgb')",
-        ])
+        .args(["-c", code])
         .output()
         .is_ok_and(|o| o.status.success())
+}
+
+/// Whether `py` imports Mitsuba 3 and Dr.Jit with the `scalar_rgb` variant.
+pub fn mitsuba_importable(py: &Path) -> bool {
+    python_runs(
+        py,
+        "import mitsuba, drjit; mitsuba.set_variant('scalar_rgb')",
+    )
+}
+
+/// Whether `py` imports the brdfkit package and pytest.
+pub fn python_package_importable(py: &Path) -> bool {
+    python_runs(py, "import brdfkit, pytest")
 }
 
 /// The Chromium executable, if there is one.
@@ -126,6 +152,23 @@ pub fn require_mitsuba() -> PathBuf {
     py
 }
 
+/// For tests: the Python with the brdfkit package and pytest, or a panic that says how
+/// to get them.
+pub fn require_python_package() -> PathBuf {
+    let py = python();
+    assert!(
+        python_package_importable(&py),
+        "the Python package tests cannot run: {} cannot import brdfkit and pytest{}. Install them: {PYTHON_PACKAGE_ENABLE}",
+        py.display(),
+        if under_ci() {
+            " (CI is set: they must run)"
+        } else {
+            ""
+        }
+    );
+    py
+}
+
 /// For tests: the Chromium executable, or a panic that says how to get it.
 pub fn require_chromium() -> PathBuf {
     chromium().unwrap_or_else(|| {
@@ -140,9 +183,25 @@ pub fn require_chromium() -> PathBuf {
     })
 }
 
-/// For build scripts: probes `tools` and sets `has_mitsuba` / `has_chromium`, always
-/// under CI. The probe is redone when the environment variables change, when the tool
-/// found changes, or (Mitsuba) when packages are installed into the workspace's `.venv`.
+/// For build scripts: the Python, with the paths whose change redoes its probe.
+fn watch_python() -> PathBuf {
+    println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
+    let py = python();
+    let venv_lib = workspace().join(".venv/lib");
+    // Only paths that exist: a missing one would rerun this on every build and so
+    // rebuild the crate and all that depends on it.
+    for watched in [py.clone(), venv_lib] {
+        if watched.exists() {
+            println!("cargo::rerun-if-changed={}", watched.display());
+        }
+    }
+    py
+}
+
+/// For build scripts: probes `tools` and sets `has_mitsuba` / `has_brdfkit_python` /
+/// `has_chromium`, always under CI. The probe is redone when the environment variables change, when the tool
+/// found changes, or (the Python tools) when packages are installed into the workspace's
+/// `.venv`.
 /// A tool installed where nothing was watched (a new `.venv`, a new browser) is seen
 /// after `cargo clean -p <crate>`; until then `cargo test -- --include-ignored` runs
 /// the checks anyway.
@@ -153,19 +212,11 @@ pub fn emit(tools: &[Tool]) {
     let ci = under_ci();
     for tool in tools {
         let (cfg, present) = match tool {
-            Tool::Mitsuba => {
-                println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
-                let py = python();
-                let venv_lib = workspace().join(".venv/lib");
-                // Only paths that exist: a missing one would rerun this on every build
-                // and so rebuild the crate and all that depends on it.
-                for watched in [py.clone(), venv_lib] {
-                    if watched.exists() {
-                        println!("cargo::rerun-if-changed={}", watched.display());
-                    }
-                }
-                ("has_mitsuba", ci || mitsuba_importable(&py))
-            }
+            Tool::Mitsuba => ("has_mitsuba", ci || mitsuba_importable(&watch_python())),
+            Tool::PythonPackage => (
+                "has_brdfkit_python",
+                ci || python_package_importable(&watch_python()),
+            ),
             Tool::Chromium => {
                 println!("cargo::rerun-if-env-changed=CHROMIUM");
                 let found = chromium();
