@@ -1,24 +1,25 @@
 //! The external tools some tests check against: Mitsuba 3 (in a Python), the brdfkit
-//! Python package (with pytest) and headless Chromium. One file, included with `#[path]`
-//! by the build scripts of brdfkit-render, brdfkit-validate, brdfkit-python and fit-brdf
-//! and by their tests:
+//! Python package (with pytest), headless Chromium and the Khronos glTF validator. One
+//! file, included with `#[path]` by the build scripts of brdfkit-render,
+//! brdfkit-validate, brdfkit-python and fit-brdf and by their tests:
 //!
 //! - a build script calls [`emit`], which probes the tools and sets the cfgs
-//!   `has_mitsuba` / `has_chromium`; the tests carry
-//!   `#[cfg_attr(not(has_mitsuba), ignore = "...")]`, so a check that cannot run is
-//!   counted as ignored, with the reason, never as passed;
+//!   `has_mitsuba` / `has_brdfkit_python` / `has_chromium` / `has_gltf_validator`; the
+//!   tests carry `#[cfg_attr(not(has_mitsuba), ignore = "...")]`, so a check that cannot
+//!   run is counted as ignored, with the reason, never as passed;
 //! - under `CI` (set to anything but "", "0" or "false") the cfgs are always on: CI must
 //!   run the checks, and a missing tool fails them loudly;
-//! - a test calls [`require_mitsuba`] / [`require_python_package`] / [`require_chromium`],
-//!   which return the tool or
-//!   panic saying how to install it (under CI, after a stale probe, or with
-//!   `--include-ignored`);
+//! - a test calls [`require_mitsuba`] / [`require_python_package`] / [`require_chromium`]
+//!   / [`require_gltf_validator`], which return the tool or panic saying how to install
+//!   it (under CI, after a stale probe, or with `--include-ignored`);
 //! - the tests are declared with `mitsuba_test!` / `python_package_test!` /
-//!   `chromium_test!` (`#[test]` plus the
-//!   `cfg_attr` and its reason, in one place); the including `mod` needs `#[macro_use]`.
+//!   `chromium_test!` / `gltf_validator_test!` (`#[test]` plus the `cfg_attr` and its
+//!   reason, in one place); the including `mod` needs `#[macro_use]`.
 //!
 //! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`; Chromium is
-//! `$CHROMIUM`, else `chromium` or `chromium-browser` on the `PATH` or in `/usr/bin`.
+//! `$CHROMIUM`, else `chromium` or `chromium-browser` on the `PATH` or in `/usr/bin`; the
+//! glTF validator is npm's `gltf-validator` in `$BRDFKIT_GLTF_VALIDATOR`, else in
+//! `<workspace>/target/gltf-validator` (where `.ci/run` installs it), run by `node`.
 
 // Build scripts use the probes, tests the `require_*` functions and the macros: neither
 // uses all.
@@ -66,6 +67,18 @@ pub const MITSUBA_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install
 pub const PYTHON_PACKAGE_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
      && .venv/bin/pip install ./crates/brdfkit-python (in the workspace root), or set BRDFKIT_PYTHON";
 
+/// A test that needs the Khronos glTF validator (see [`tool_test`]).
+macro_rules! gltf_validator_test {
+    ($($t:tt)*) => {
+        tool_test! { has_gltf_validator, "needs the glTF validator: npm install --prefix target/gltf-validator gltf-validator (or set BRDFKIT_GLTF_VALIDATOR), and node", $($t)* }
+    };
+}
+
+/// How to get the glTF validator for the export check.
+pub const GLTF_VALIDATOR_ENABLE: &str = "npm install --prefix target/gltf-validator gltf-validator \
+     (in the workspace root; needs node), or set BRDFKIT_GLTF_VALIDATOR to a directory holding \
+     node_modules/gltf-validator";
+
 /// How to get Chromium for the browser check.
 pub const CHROMIUM_ENABLE: &str = "apt-get install chromium (Debian), or set CHROMIUM";
 
@@ -78,6 +91,8 @@ pub enum Tool {
     PythonPackage,
     /// A headless Chromium.
     Chromium,
+    /// npm's `gltf-validator` and `node`.
+    GltfValidator,
 }
 
 /// `CI` set to anything but "", "0" or "false".
@@ -136,6 +151,26 @@ pub fn chromium() -> Option<PathBuf> {
     })
 }
 
+/// The directory holding `node_modules/gltf-validator` (it may not exist).
+fn gltf_validator_dir() -> PathBuf {
+    std::env::var_os("BRDFKIT_GLTF_VALIDATOR")
+        .filter(|p| !p.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join("target/gltf-validator"))
+}
+
+/// The glTF validator's directory (`node` run there loads it), if it and `node` are
+/// there.
+pub fn gltf_validator() -> Option<PathBuf> {
+    let dir = gltf_validator_dir();
+    let ok = dir.join("node_modules/gltf-validator").is_dir()
+        && Command::new("node")
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success());
+    ok.then_some(dir)
+}
+
 /// For tests: the Python with Mitsuba 3, or a panic that says how to get it.
 pub fn require_mitsuba() -> PathBuf {
     let py = python();
@@ -183,6 +218,22 @@ pub fn require_chromium() -> PathBuf {
     })
 }
 
+/// For tests: the glTF validator's directory, or a panic that says how to get it.
+pub fn require_gltf_validator() -> PathBuf {
+    gltf_validator().unwrap_or_else(|| {
+        panic!(
+            "the glTF validator check cannot run: no node_modules/gltf-validator in {} or no \
+             node{}. Install it: {GLTF_VALIDATOR_ENABLE}",
+            gltf_validator_dir().display(),
+            if under_ci() {
+                " (CI is set: it must run)"
+            } else {
+                ""
+            }
+        )
+    })
+}
+
 /// For build scripts: the Python, with the paths whose change redoes its probe.
 fn watch_python() -> PathBuf {
     println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
@@ -199,7 +250,7 @@ fn watch_python() -> PathBuf {
 }
 
 /// For build scripts: probes `tools` and sets `has_mitsuba` / `has_brdfkit_python` /
-/// `has_chromium`, always under CI. The probe is redone when the environment variables change, when the tool
+/// `has_chromium` / `has_gltf_validator`, always under CI. The probe is redone when the environment variables change, when the tool
 /// found changes, or (the Python tools) when packages are installed into the workspace's
 /// `.venv`.
 /// A tool installed where nothing was watched (a new `.venv`, a new browser) is seen
@@ -225,6 +276,14 @@ pub fn emit(tools: &[Tool]) {
                     println!("cargo::rerun-if-changed={}", watched.display());
                 }
                 ("has_chromium", ci || found.is_some())
+            }
+            Tool::GltfValidator => {
+                println!("cargo::rerun-if-env-changed=BRDFKIT_GLTF_VALIDATOR");
+                let dir = gltf_validator_dir();
+                if dir.exists() {
+                    println!("cargo::rerun-if-changed={}", dir.display());
+                }
+                ("has_gltf_validator", ci || gltf_validator().is_some())
             }
         };
         println!("cargo::rustc-check-cfg=cfg({cfg})");
