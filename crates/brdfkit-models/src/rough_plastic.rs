@@ -10,7 +10,7 @@
 //! with
 //! - D: GGX (Walter et al. 2007 eq. 33), isotropic α; G1 the exact GGX Smith
 //!   2/(1 + √(1 + α² tan²θ)) (Walter et al. 2007 eq. 34); F the exact dielectric
-//!   Fresnel of the real relative index η ([`dielectric`](brdfkit_core::scattering::fresnel::dielectric));
+//!   Fresnel of the real relative index η ([`dielectric`]);
 //! - T(μ): the rough interface's transmittance at incidence cos θ = μ, the mean over
 //!   visible normals m of (1 − F(wi·m; η)) G1(wt, m) (wt the refracted direction),
 //!   tabulated at Mitsuba's 64 points μ_j = max(1e-6, j/63) and interpolated linearly
