@@ -171,37 +171,41 @@ pub fn gltf_validator() -> Option<PathBuf> {
     ok.then_some(dir)
 }
 
-/// For tests: the Python with Mitsuba 3, or a panic that says how to get it.
-pub fn require_mitsuba() -> PathBuf {
+/// What a failing `require_*` adds under CI.
+fn ci_note() -> &'static str {
+    if under_ci() {
+        " (CI is set: the check must run)"
+    } else {
+        ""
+    }
+}
+
+/// For tests: the Python if `importable` says it has `what`, or a panic that says how
+/// to get it (`enable`).
+fn require_python(importable: fn(&Path) -> bool, what: &str, enable: &str) -> PathBuf {
     let py = python();
     assert!(
-        mitsuba_importable(&py),
-        "the Mitsuba 3 cross-check cannot run: no Mitsuba 3 at {}{}. Install it: {MITSUBA_ENABLE}",
+        importable(&py),
+        "the check cannot run: no {what} in {}{}. Install it: {enable}",
         py.display(),
-        if under_ci() {
-            " (CI is set: it must run)"
-        } else {
-            ""
-        }
+        ci_note()
     );
     py
+}
+
+/// For tests: the Python with Mitsuba 3, or a panic that says how to get it.
+pub fn require_mitsuba() -> PathBuf {
+    require_python(mitsuba_importable, "Mitsuba 3", MITSUBA_ENABLE)
 }
 
 /// For tests: the Python with the brdfkit package and pytest, or a panic that says how
 /// to get them.
 pub fn require_python_package() -> PathBuf {
-    let py = python();
-    assert!(
-        python_package_importable(&py),
-        "the Python package tests cannot run: {} cannot import brdfkit and pytest{}. Install them: {PYTHON_PACKAGE_ENABLE}",
-        py.display(),
-        if under_ci() {
-            " (CI is set: they must run)"
-        } else {
-            ""
-        }
-    );
-    py
+    require_python(
+        python_package_importable,
+        "brdfkit package and pytest",
+        PYTHON_PACKAGE_ENABLE,
+    )
 }
 
 /// For tests: the Chromium executable, or a panic that says how to get it.
@@ -209,11 +213,7 @@ pub fn require_chromium() -> PathBuf {
     chromium().unwrap_or_else(|| {
         panic!(
             "the browser check cannot run: no chromium{}. Install it: {CHROMIUM_ENABLE}",
-            if under_ci() {
-                " (CI is set: it must run)"
-            } else {
-                ""
-            }
+            ci_note()
         )
     })
 }
@@ -225,11 +225,7 @@ pub fn require_gltf_validator() -> PathBuf {
             "the glTF validator check cannot run: no node_modules/gltf-validator in {} or no \
              node{}. Install it: {GLTF_VALIDATOR_ENABLE}",
             gltf_validator_dir().display(),
-            if under_ci() {
-                " (CI is set: it must run)"
-            } else {
-                ""
-            }
+            ci_note()
         )
     })
 }
