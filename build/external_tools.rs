@@ -1,21 +1,25 @@
-//! The external tools some tests check against: Mitsuba 3 (in a Python) and headless
-//! Chromium. One file, included with `#[path]` by the build scripts of brdfkit-render,
-//! brdfkit-validate and fit-brdf and by their tests:
+//! The external tools some tests check against: Mitsuba 3 (in a Python), the brdfkit
+//! Python package (with pytest), headless Chromium and the Khronos glTF validator. One
+//! file, included with `#[path]` by the build scripts of brdfkit-render,
+//! brdfkit-validate, brdfkit-python and fit-brdf and by their tests:
 //!
 //! - a build script calls [`emit`], which probes the tools and sets the cfgs
-//!   `has_mitsuba` / `has_chromium`; the tests carry
-//!   `#[cfg_attr(not(has_mitsuba), ignore = "...")]`, so a check that cannot run is
-//!   counted as ignored, with the reason, never as passed;
+//!   `has_mitsuba` / `has_brdfkit_python` / `has_chromium` / `has_gltf_validator`; the
+//!   tests carry `#[cfg_attr(not(has_mitsuba), ignore = "...")]`, so a check that cannot
+//!   run is counted as ignored, with the reason, never as passed;
 //! - under `CI` (set to anything but "", "0" or "false") the cfgs are always on: CI must
 //!   run the checks, and a missing tool fails them loudly;
-//! - a test calls [`require_mitsuba`] / [`require_chromium`], which return the tool or
-//!   panic saying how to install it (under CI, after a stale probe, or with
-//!   `--include-ignored`);
-//! - the tests are declared with `mitsuba_test!` / `chromium_test!` (`#[test]` plus the
-//!   `cfg_attr` and its reason, in one place); the including `mod` needs `#[macro_use]`.
+//! - a test calls [`require_mitsuba`] / [`require_python_package`] / [`require_chromium`]
+//!   / [`require_gltf_validator`], which return the tool or panic saying how to install
+//!   it (under CI, after a stale probe, or with `--include-ignored`);
+//! - the tests are declared with `mitsuba_test!` / `python_package_test!` /
+//!   `chromium_test!` / `gltf_validator_test!` (`#[test]` plus the `cfg_attr` and its
+//!   reason, in one place); the including `mod` needs `#[macro_use]`.
 //!
 //! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`; Chromium is
-//! `$CHROMIUM`, else `chromium` or `chromium-browser` on the `PATH` or in `/usr/bin`.
+//! `$CHROMIUM`, else `chromium` or `chromium-browser` on the `PATH` or in `/usr/bin`; the
+//! glTF validator is npm's `gltf-validator` in `$BRDFKIT_GLTF_VALIDATOR`, else in
+//! `<workspace>/target/gltf-validator` (where `.ci/run` installs it), run by `node`.
 
 // Build scripts use the probes, tests the `require_*` functions and the macros: neither
 // uses all.
@@ -41,6 +45,13 @@ macro_rules! mitsuba_test {
     };
 }
 
+/// A test that needs the brdfkit Python package and pytest (see [`tool_test`]).
+macro_rules! python_package_test {
+    ($($t:tt)*) => {
+        tool_test! { has_brdfkit_python, "needs the brdfkit Python package and pytest: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt && .venv/bin/pip install ./crates/brdfkit-python (or set BRDFKIT_PYTHON)", $($t)* }
+    };
+}
+
 /// A test that needs Chromium (see [`tool_test`]).
 macro_rules! chromium_test {
     ($($t:tt)*) => {
@@ -52,6 +63,22 @@ macro_rules! chromium_test {
 pub const MITSUBA_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
      (in the workspace root), or set BRDFKIT_PYTHON to a Python with mitsuba==3.9.1 and drjit==1.5.0";
 
+/// How to get the brdfkit Python package for its pytest suite (`.ci/run` does this).
+pub const PYTHON_PACKAGE_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
+     && .venv/bin/pip install ./crates/brdfkit-python (in the workspace root), or set BRDFKIT_PYTHON";
+
+/// A test that needs the Khronos glTF validator (see [`tool_test`]).
+macro_rules! gltf_validator_test {
+    ($($t:tt)*) => {
+        tool_test! { has_gltf_validator, "needs the glTF validator: npm install --prefix target/gltf-validator gltf-validator (or set BRDFKIT_GLTF_VALIDATOR), and node", $($t)* }
+    };
+}
+
+/// How to get the glTF validator for the export check.
+pub const GLTF_VALIDATOR_ENABLE: &str = "npm install --prefix target/gltf-validator gltf-validator \
+     (in the workspace root; needs node), or set BRDFKIT_GLTF_VALIDATOR to a directory holding \
+     node_modules/gltf-validator";
+
 /// How to get Chromium for the browser check.
 pub const CHROMIUM_ENABLE: &str = "apt-get install chromium (Debian), or set CHROMIUM";
 
@@ -60,8 +87,12 @@ pub const CHROMIUM_ENABLE: &str = "apt-get install chromium (Debian), or set CHR
 pub enum Tool {
     /// Mitsuba 3 and Dr.Jit importable from the Python, `scalar_rgb` available.
     Mitsuba,
+    /// The brdfkit Python package and pytest importable from the Python.
+    PythonPackage,
     /// A headless Chromium.
     Chromium,
+    /// npm's `gltf-validator` and `node`.
+    GltfValidator,
 }
 
 /// `CI` set to anything but "", "0" or "false".
@@ -83,15 +114,25 @@ pub fn python() -> PathBuf {
         .unwrap_or_else(|| workspace().join(".venv/bin/python"))
 }
 
-/// Whether `py` imports Mitsuba 3 and Dr.Jit with the `scalar_rgb` variant.
-pub fn mitsuba_importable(py: &Path) -> bool {
+/// Whether `py` runs `code` without an error.
+fn python_runs(py: &Path, code: &str) -> bool {
     Command::new(py)
-        .args([
-            "-c",
-            "import mitsuba, drjit; mitsuba.set_variant('scalar_rgb')",
-        ])
+        .args(["-c", code])
         .output()
         .is_ok_and(|o| o.status.success())
+}
+
+/// Whether `py` imports Mitsuba 3 and Dr.Jit with the `scalar_rgb` variant.
+pub fn mitsuba_importable(py: &Path) -> bool {
+    python_runs(
+        py,
+        "import mitsuba, drjit; mitsuba.set_variant('scalar_rgb')",
+    )
+}
+
+/// Whether `py` imports the brdfkit package and pytest.
+pub fn python_package_importable(py: &Path) -> bool {
+    python_runs(py, "import brdfkit, pytest")
 }
 
 /// The Chromium executable, if there is one.
@@ -110,20 +151,61 @@ pub fn chromium() -> Option<PathBuf> {
     })
 }
 
-/// For tests: the Python with Mitsuba 3, or a panic that says how to get it.
-pub fn require_mitsuba() -> PathBuf {
+/// The directory holding `node_modules/gltf-validator` (it may not exist).
+fn gltf_validator_dir() -> PathBuf {
+    std::env::var_os("BRDFKIT_GLTF_VALIDATOR")
+        .filter(|p| !p.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join("target/gltf-validator"))
+}
+
+/// The glTF validator's directory (`node` run there loads it), if it and `node` are
+/// there.
+pub fn gltf_validator() -> Option<PathBuf> {
+    let dir = gltf_validator_dir();
+    let ok = dir.join("node_modules/gltf-validator").is_dir()
+        && Command::new("node")
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success());
+    ok.then_some(dir)
+}
+
+/// What a failing `require_*` adds under CI.
+fn ci_note() -> &'static str {
+    if under_ci() {
+        " (CI is set: the check must run)"
+    } else {
+        ""
+    }
+}
+
+/// For tests: the Python if `importable` says it has `what`, or a panic that says how
+/// to get it (`enable`).
+fn require_python(importable: fn(&Path) -> bool, what: &str, enable: &str) -> PathBuf {
     let py = python();
     assert!(
-        mitsuba_importable(&py),
-        "the Mitsuba 3 cross-check cannot run: no Mitsuba 3 at {}{}. Install it: {MITSUBA_ENABLE}",
+        importable(&py),
+        "the check cannot run: no {what} in {}{}. Install it: {enable}",
         py.display(),
-        if under_ci() {
-            " (CI is set: it must run)"
-        } else {
-            ""
-        }
+        ci_note()
     );
     py
+}
+
+/// For tests: the Python with Mitsuba 3, or a panic that says how to get it.
+pub fn require_mitsuba() -> PathBuf {
+    require_python(mitsuba_importable, "Mitsuba 3", MITSUBA_ENABLE)
+}
+
+/// For tests: the Python with the brdfkit package and pytest, or a panic that says how
+/// to get them.
+pub fn require_python_package() -> PathBuf {
+    require_python(
+        python_package_importable,
+        "brdfkit package and pytest",
+        PYTHON_PACKAGE_ENABLE,
+    )
 }
 
 /// For tests: the Chromium executable, or a panic that says how to get it.
@@ -131,18 +213,42 @@ pub fn require_chromium() -> PathBuf {
     chromium().unwrap_or_else(|| {
         panic!(
             "the browser check cannot run: no chromium{}. Install it: {CHROMIUM_ENABLE}",
-            if under_ci() {
-                " (CI is set: it must run)"
-            } else {
-                ""
-            }
+            ci_note()
         )
     })
 }
 
-/// For build scripts: probes `tools` and sets `has_mitsuba` / `has_chromium`, always
-/// under CI. The probe is redone when the environment variables change, when the tool
-/// found changes, or (Mitsuba) when packages are installed into the workspace's `.venv`.
+/// For tests: the glTF validator's directory, or a panic that says how to get it.
+pub fn require_gltf_validator() -> PathBuf {
+    gltf_validator().unwrap_or_else(|| {
+        panic!(
+            "the glTF validator check cannot run: no node_modules/gltf-validator in {} or no \
+             node{}. Install it: {GLTF_VALIDATOR_ENABLE}",
+            gltf_validator_dir().display(),
+            ci_note()
+        )
+    })
+}
+
+/// For build scripts: the Python, with the paths whose change redoes its probe.
+fn watch_python() -> PathBuf {
+    println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
+    let py = python();
+    let venv_lib = workspace().join(".venv/lib");
+    // Only paths that exist: a missing one would rerun this on every build and so
+    // rebuild the crate and all that depends on it.
+    for watched in [py.clone(), venv_lib] {
+        if watched.exists() {
+            println!("cargo::rerun-if-changed={}", watched.display());
+        }
+    }
+    py
+}
+
+/// For build scripts: probes `tools` and sets `has_mitsuba` / `has_brdfkit_python` /
+/// `has_chromium` / `has_gltf_validator`, always under CI. The probe is redone when the environment variables change, when the tool
+/// found changes, or (the Python tools) when packages are installed into the workspace's
+/// `.venv`.
 /// A tool installed where nothing was watched (a new `.venv`, a new browser) is seen
 /// after `cargo clean -p <crate>`; until then `cargo test -- --include-ignored` runs
 /// the checks anyway.
@@ -153,19 +259,11 @@ pub fn emit(tools: &[Tool]) {
     let ci = under_ci();
     for tool in tools {
         let (cfg, present) = match tool {
-            Tool::Mitsuba => {
-                println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
-                let py = python();
-                let venv_lib = workspace().join(".venv/lib");
-                // Only paths that exist: a missing one would rerun this on every build
-                // and so rebuild the crate and all that depends on it.
-                for watched in [py.clone(), venv_lib] {
-                    if watched.exists() {
-                        println!("cargo::rerun-if-changed={}", watched.display());
-                    }
-                }
-                ("has_mitsuba", ci || mitsuba_importable(&py))
-            }
+            Tool::Mitsuba => ("has_mitsuba", ci || mitsuba_importable(&watch_python())),
+            Tool::PythonPackage => (
+                "has_brdfkit_python",
+                ci || python_package_importable(&watch_python()),
+            ),
             Tool::Chromium => {
                 println!("cargo::rerun-if-env-changed=CHROMIUM");
                 let found = chromium();
@@ -174,6 +272,14 @@ pub fn emit(tools: &[Tool]) {
                     println!("cargo::rerun-if-changed={}", watched.display());
                 }
                 ("has_chromium", ci || found.is_some())
+            }
+            Tool::GltfValidator => {
+                println!("cargo::rerun-if-env-changed=BRDFKIT_GLTF_VALIDATOR");
+                let dir = gltf_validator_dir();
+                if dir.exists() {
+                    println!("cargo::rerun-if-changed={}", dir.display());
+                }
+                ("has_gltf_validator", ci || gltf_validator().is_some())
             }
         };
         println!("cargo::rustc-check-cfg=cfg({cfg})");

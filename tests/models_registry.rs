@@ -48,18 +48,7 @@ fn every_model_passes_the_shared_checks_at_its_default_start() {
         if m.is_reciprocal() {
             assert_reciprocal(m, &pairs, 1e-12);
         }
-        // rough-plastic's α and η enter through tabulated integrals over visible normals
-        // whose Fresnel term has a square-root kink at the critical angle, crossing the
-        // fixed quadrature nodes as α or η move: f is only piecewise smooth in them, so
-        // a 1e-6 difference quotient is no reference (off by 2e-4 for α, up to ~10 %
-        // for η at some pairs). The model's own unit tests check both with the
-        // tolerance that kink allows; η is fixed by default.
-        let skip: &[&str] = if *name == "rough-plastic" {
-            &["alpha", "eta"]
-        } else {
-            &[]
-        };
-        assert_gradient_matches_fd_except(m, &pairs[..60], 1e-6, 1e-5, skip);
+        assert_gradient_matches_fd(m, &pairs[..60], 1e-6, 1e-5);
     }
 }
 

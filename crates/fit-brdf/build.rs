@@ -1,10 +1,11 @@
-//! Sets `has_mitsuba` / `has_chromium` when the export's Mitsuba check and the report's
-//! browser check can run (see build/external_tools.rs).
+//! Sets `has_mitsuba` / `has_chromium` / `has_gltf_validator` when the export's Mitsuba
+//! check, the report's browser check and the glTF validator check can run (see
+//! build/external_tools.rs).
 
 #[path = "../../build/external_tools.rs"]
 mod external_tools;
 
 fn main() {
     use external_tools::Tool;
-    external_tools::emit(&[Tool::Mitsuba, Tool::Chromium]);
+    external_tools::emit(&[Tool::Mitsuba, Tool::Chromium, Tool::GltfValidator]);
 }

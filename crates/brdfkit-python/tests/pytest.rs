@@ -5,10 +5,10 @@
 //!
 //! The Python is `$BRDFKIT_PYTHON` or `<workspace>/.venv/bin/python`, with the package
 //! installed (`.venv/bin/pip install ./crates/brdfkit-python`, as `.ci/run` does).
-//! With `CI` set (to anything but "", "0" or "false") a missing Python or package fails
-//! the test; without it, the test prints one loud line saying the Python tests did not
-//! run, and passes. The package is not rebuilt here: after changing the Rust side,
-//! reinstall it.
+//! Without it the test is ignored, with the reason (probed by build.rs, see
+//! build/external_tools.rs); with `CI` set (to anything but "", "0" or "false") a
+//! missing Python or package fails it. The package is not rebuilt here: after changing
+//! the Rust side, reinstall it.
 
 use brdfkit_core::Model;
 use brdfkit_fit::config::{CLI_EXPLORE_CELLS, DEFAULT_FINISH};
@@ -19,8 +19,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
-                      && .venv/bin/pip install ./crates/brdfkit-python (in the workspace root)";
+#[path = "../../../build/external_tools.rs"]
+#[macro_use]
+mod external_tools;
 
 /// The grid of the test table: small, so that the debug-build fit here is quick.
 const DIMS: (i64, i64, i64) = (24, 24, 48);
@@ -31,20 +32,9 @@ const PAIRS: usize = 20_000;
 /// Seed and starts of the reference fit (the Python test fits with the same).
 const FIT_STARTS: usize = 2;
 
-fn under_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| !matches!(v.as_str(), "" | "0" | "false"))
-}
-
 /// Uncaptured output: the harness captures `print!`/`eprint!`, not direct writes.
 fn say(s: &str) {
     let _ = writeln!(std::io::stderr().lock(), "{s}");
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .expect("the workspace root")
 }
 
 /// SplitMix64 (Steele, Lea & Flood, OOPSLA 2014): a seeded stream with no dependency.
@@ -101,7 +91,7 @@ environment = {{ constant = [1.0, 1.0, 1.0] }}
 /// Writes every reference the Python tests compare against into `dir`.
 fn write_references(dir: &Path) {
     let dims = Dims::new(DIMS.0, DIMS.1, DIMS.2).expect("dims");
-    let nbrdf_path = root().join("data-measured/merl/gold-paint");
+    let nbrdf_path = external_tools::workspace().join("data-measured/merl/gold-paint");
     let nbrdf = brdfkit_nbrdf::Nbrdf::load(&nbrdf_path).expect("the gold-paint NBRDF");
     let (table, _) = nbrdf.to_table(dims).expect("tabulate");
     let table_path = dir.join("gold.binary");
@@ -184,56 +174,32 @@ fn write_fit(table: &MerlTable, dir: &Path) {
     write_json(&dir.join("fit.json"), &o[0].to_json());
 }
 
-#[test]
-fn python_package_tests() {
-    let root = root();
-    let python = std::env::var_os("BRDFKIT_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root.join(".venv/bin/python"));
-    let missing = |why: String| {
-        assert!(
-            !under_ci(),
-            "the Python tests could not run under CI: {why}. Install: {ENABLE}"
-        );
+python_package_test! {
+    fn python_package_tests() {
+        let root = external_tools::workspace();
+        let python = external_tools::require_python_package();
+        // BRDFKIT_REFS_DIR keeps the references (to rerun pytest by hand against them).
+        let refs = tempfile::tempdir().expect("a temporary directory");
+        let refs = std::env::var_os("BRDFKIT_REFS_DIR").map_or(refs.path().to_path_buf(), |d| {
+            std::fs::create_dir_all(&d).expect("create BRDFKIT_REFS_DIR");
+            PathBuf::from(d)
+        });
+        let t = std::time::Instant::now();
+        write_references(&refs);
         say(&format!(
-            "!!! PYTHON PACKAGE TESTS DID NOT RUN: {why}. Enable them: {ENABLE}"
+            "brdfkit-python: references computed in {:.1} s",
+            t.elapsed().as_secs_f64()
         ));
-    };
-    if !python.exists() {
-        return missing(format!("no Python at {}", python.display()));
+        let mut cmd = Command::new(&python);
+        cmd.args(["-m", "pytest", "-q", "-rs", "crates/brdfkit-python/tests"])
+            .current_dir(&root)
+            .env("BRDFKIT_REFS", &refs);
+        // Mitsuba's LLVM backend needs LLVM 19 (docs/python.md).
+        let llvm = Path::new("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1");
+        if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() && llvm.exists() {
+            cmd.env("DRJIT_LIBLLVM_PATH", llvm);
+        }
+        let status = cmd.status().expect("run pytest");
+        assert!(status.success(), "pytest failed: {status}");
     }
-    let probe = Command::new(&python)
-        .args(["-c", "import brdfkit, pytest"])
-        .output()
-        .expect("run Python");
-    if !probe.status.success() {
-        return missing(format!(
-            "{} cannot import brdfkit and pytest ({})",
-            python.display(),
-            String::from_utf8_lossy(&probe.stderr).trim()
-        ));
-    }
-    // BRDFKIT_REFS_DIR keeps the references (to rerun pytest by hand against them).
-    let refs = tempfile::tempdir().expect("a temporary directory");
-    let refs = std::env::var_os("BRDFKIT_REFS_DIR").map_or(refs.path().to_path_buf(), |d| {
-        std::fs::create_dir_all(&d).expect("create BRDFKIT_REFS_DIR");
-        PathBuf::from(d)
-    });
-    let t = std::time::Instant::now();
-    write_references(&refs);
-    say(&format!(
-        "brdfkit-python: references computed in {:.1} s",
-        t.elapsed().as_secs_f64()
-    ));
-    let mut cmd = Command::new(&python);
-    cmd.args(["-m", "pytest", "-q", "-rs", "crates/brdfkit-python/tests"])
-        .current_dir(&root)
-        .env("BRDFKIT_REFS", &refs);
-    // Mitsuba's LLVM backend needs LLVM 19 (docs/python.md).
-    let llvm = Path::new("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1");
-    if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() && llvm.exists() {
-        cmd.env("DRJIT_LIBLLVM_PATH", llvm);
-    }
-    let status = cmd.status().expect("run pytest");
-    assert!(status.success(), "pytest failed: {status}");
 }
