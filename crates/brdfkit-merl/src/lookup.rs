@@ -178,6 +178,17 @@ impl MerlTable {
         }
     }
 
+    /// Readies the table for about `pairs` lookups in `mode` to come, in batches of any
+    /// size: with [`Lookup::Nearest`] and a large enough total, the interleaved copy of
+    /// the values that large batches read (one cache line per lookup instead of three)
+    /// is built now rather than by the first large batch, so that the batches of a
+    /// chunked lookup use it too. Results are the same with or without it.
+    pub fn prepare_lookups(&self, mode: Lookup, pairs: usize) {
+        if mode == Lookup::Nearest {
+            self.cells_for(pairs);
+        }
+    }
+
     /// [`nearest`](Self::nearest) or [`interpolated`](Self::interpolated).
     #[inline]
     pub fn lookup(&self, mode: Lookup, wi: &Vec3, wo: &Vec3) -> Option<Rgb> {
@@ -383,31 +394,20 @@ impl MerlTable {
                 run.compute_dispatch(pair, start + s * FAST_RUN, out.len(), &edges, quick);
                 match mode {
                     Lookup::Nearest => {
-                        let found = self.nearest_cells(&edges, &run, out.len(), cells);
-                        if let Some((o, c)) = pending.replace((out, found)) {
-                            self.read_cells(&c, o, cells, &conv);
-                        }
+                        let found = self.nearest_cells(&edges, &run, out.len());
+                        self.ask_and_read(&found[..out.len()], pending.take(), cells, &conv);
+                        pending = Some((out, found));
                     }
                     Lookup::Interpolated => self.interpolated_run(&edges, &run, out, &conv),
                 }
             }
-            if let Some((o, c)) = pending {
-                self.read_cells(&c, o, cells, &conv);
-            }
+            self.ask_and_read(&[], pending, cells, &conv);
         });
     }
 
     /// The cells of the first `len` pairs of `run`, its arithmetic and quick pass done,
-    /// their table lines asked for (of `values` when given, the interleaved cells, else
-    /// of the planes); [`NO_CELL`] for a pair with no lookup.
-    fn nearest_cells(
-        &self,
-        edges: &Edges,
-        run: &PrepRun,
-        len: usize,
-        values: Option<&[f64]>,
-    ) -> [usize; FAST_RUN] {
-        let n = self.cells();
+    /// [`NO_CELL`] for a pair with no lookup.
+    fn nearest_cells(&self, edges: &Edges, run: &PrepRun, len: usize) -> [usize; FAST_RUN] {
         let mut cells = [NO_CELL; FAST_RUN];
         for (k, x) in cells[..len].iter_mut().enumerate() {
             let mut i = run.cell[k];
@@ -423,37 +423,54 @@ impl MerlTable {
                         .bin_index(&to_half_diff(&Vec3::from(wi), &Vec3::from(wo))),
                 };
             }
-            match values {
-                Some(v) => prefetch(v, CELL_STRIDE * i),
-                None => {
-                    prefetch(&self.raw, i);
-                    prefetch(&self.raw, n + i);
-                    prefetch(&self.raw, 2 * n + i);
-                }
-            }
             *x = i;
         }
         cells
     }
 
-    /// The values of `cells` ([`NO_CELL`]: none) into `out`, from the interleaved
-    /// `values` when given (the same bits: `get_flat`'s products, NaN for missing).
-    fn read_cells<T>(
+    /// Asks for the table lines of cells `next` while reading the values of the
+    /// previous run's cells (`prev`: its outputs and cells) into its outputs, one of each
+    /// per step: the reads of a run whose lines were asked for a run earlier, and new
+    /// requests spread between them rather than in a burst, which would stall on the
+    /// processor's limit of misses in flight. The values come from the interleaved
+    /// `values` when given (the same bits: `get_flat`'s products, NaN for missing), else
+    /// from the planes. [`NO_CELL`]: no value.
+    fn ask_and_read<T>(
         &self,
-        cells: &[usize],
-        out: &mut [T],
+        next: &[usize],
+        prev: Option<(&mut [T], [usize; FAST_RUN])>,
         values: Option<&[f64]>,
         conv: &impl Fn(Option<Rgb>) -> T,
     ) {
-        for (o, &x) in out.iter_mut().zip(cells) {
-            *o = conv(if x == NO_CELL {
-                None
-            } else if let Some(v) = values {
-                let c = &v[CELL_STRIDE * x..CELL_STRIDE * x + 3];
-                (!c[0].is_nan()).then(|| Rgb::new(c[0], c[1], c[2]))
-            } else {
-                self.get_flat(x)
-            });
+        let n = self.cells();
+        let (out, cells) = match prev {
+            Some((o, c)) => (o, c),
+            None => (&mut [][..], [NO_CELL; FAST_RUN]),
+        };
+        for k in 0..next.len().max(out.len()) {
+            if let Some(&i) = next.get(k)
+                && i != NO_CELL
+            {
+                match values {
+                    Some(v) => prefetch(v, CELL_STRIDE * i),
+                    None => {
+                        prefetch(&self.raw, i);
+                        prefetch(&self.raw, n + i);
+                        prefetch(&self.raw, 2 * n + i);
+                    }
+                }
+            }
+            if let Some(o) = out.get_mut(k) {
+                let x = cells[k];
+                *o = conv(if x == NO_CELL {
+                    None
+                } else if let Some(v) = values {
+                    let c = &v[CELL_STRIDE * x..CELL_STRIDE * x + 3];
+                    (!c[0].is_nan()).then(|| Rgb::new(c[0], c[1], c[2]))
+                } else {
+                    self.get_flat(x)
+                });
+            }
         }
     }
 
@@ -1252,6 +1269,44 @@ mod tests {
                 assert_eq!(e.quick_cell(&wi, &wo, &prep(wi, wo, e.n)), SLOW, "{wi:?} {wo:?}");
             }
         }
+    }
+
+    /// Large batches read the interleaved copy, small ones the planes until it exists:
+    /// the same bits either way, missing cells included; a change to the table drops
+    /// the copy and a clone starts without it.
+    #[test]
+    fn cell_copy_reads_the_same_bits_as_the_planes() {
+        let d = Dims::new(30, 30, 60).unwrap();
+        let mut t = MerlTable::from_fn(d, |i, j, k| {
+            ((i + 2 * j + 3 * k) % 7 != 0).then(|| Rgb::new(0.1 * i as f64, j as f64 / 3.0, k as f64 + 0.7))
+        })
+        .unwrap();
+        let mut dir = directions(9);
+        let rows: Vec<f64> = (0..d.cells()).flat_map(|_| [dir(), dir()].concat()).collect();
+        let small = &rows[..6 * (d.cells() / 16)];
+        let mut planes = vec![0.0; small.len() / 2];
+        t.nearest_flat(small, &mut planes).unwrap();
+        assert!(t.cells.0.get().is_none(), "a small batch built the copy");
+        let mut all = vec![0.0; rows.len() / 2];
+        t.nearest_flat(&rows, &mut all).unwrap();
+        assert!(t.cells.0.get().is_some(), "a large batch did not build the copy");
+        let mut copy = vec![0.0; small.len() / 2];
+        t.nearest_flat(small, &mut copy).unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&planes), bits(&copy));
+        assert_eq!(bits(&planes), bits(&all[..planes.len()]));
+        assert!(planes.iter().any(|x| x.is_nan()) && planes.iter().any(|x| !x.is_nan()));
+        assert!(t.clone().cells.0.get().is_none());
+        // A changed cell is seen at once.
+        let (wi, wo) = (&rows[..3], &rows[3..6]);
+        let (wi, wo) = (Vec3::new(wi[0], wi[1], wi[2]), Vec3::new(wo[0], wo[1], wo[2]));
+        let (i, j, k) = d.unflatten(d.bin_index(&to_half_diff(&wi, &wo)));
+        t.set(i, j, k, Some(Rgb::new(42.0, 43.0, 44.0))).unwrap();
+        assert!(t.cells.0.get().is_none());
+        t.prepare_lookups(Lookup::Nearest, d.cells());
+        t.nearest_flat(&rows[..6], &mut copy[..3]).unwrap();
+        assert_eq!(bits(&copy[..3]), bits(&rgb_or_nan(t.nearest(&wi, &wo))));
+        assert_eq!(copy[0], 42.0);
     }
 
     /// The approximations pick brackets only, but their stated errors hold.

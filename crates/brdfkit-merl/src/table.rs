@@ -72,7 +72,7 @@ pub(crate) const CELL_STRIDE: usize = 4;
 /// (a fit, a report) holds no copy; dropped by any change to the table. A clone starts
 /// without it; equality ignores it (it is a function of the raw values).
 #[derive(Debug, Default)]
-pub(crate) struct CellCache(OnceLock<(Vec<f64>, usize)>);
+pub(crate) struct CellCache(pub(crate) OnceLock<(Vec<f64>, usize)>);
 
 impl Clone for CellCache {
     fn clone(&self) -> Self {
