@@ -289,8 +289,16 @@ impl MerlTable {
     /// Work goes to the pool's threads in runs of 4096 pairs ([`rayon::broadcast`], so
     /// a short job uses both threads of a small pool). Within a run, 128 pairs at a time:
     /// the arithmetic above, branch-free and vectorised (an AVX-512 or AVX2 copy chosen
-    /// at run time), then the comparisons and the prefetch of each pair's table lines,
-    /// then the reads.
+    /// at run time); for the nearest lookup the cells too, in the same loop, for every
+    /// pair that lies inside its approximate bins by a margin (`Edges::quick_cell`; the
+    /// others, a few in 10⁵ random pairs, take the comparisons above); then the reads of
+    /// the previous 128 pairs, each followed by the prefetch of a line of this run.
+    ///
+    /// A nearest batch of at least an eighth as many pairs as the table has cells (or
+    /// any batch after [`prepare_lookups`](Self::prepare_lookups)) reads an interleaved
+    /// copy of the values that the table builds once and keeps: one cache line per
+    /// pair instead of one in each of the three channel planes (same values, bit for
+    /// bit; 32 bytes per cell, 47 MB for a MERL table).
     pub fn lookup_flat(
         &self,
         mode: Lookup,
@@ -391,7 +399,13 @@ impl MerlTable {
             // overlap the arithmetic of the next.
             let mut pending: Option<(&mut [T], [usize; FAST_RUN])> = None;
             for (s, out) in out.chunks_mut(FAST_RUN).enumerate() {
-                run.compute_dispatch(pair, start + s * FAST_RUN, out.len(), &edges, quick);
+                run.compute_dispatch(&Job {
+                    pair,
+                    first: start + s * FAST_RUN,
+                    len: out.len(),
+                    edges: &edges,
+                    quick,
+                });
                 match mode {
                     Lookup::Nearest => {
                         let found = self.nearest_cells(&edges, &run, out.len());
@@ -1010,14 +1024,14 @@ impl PrepRun {
     /// `len` hold stale pairs, never read), and with `quick` the cells of the quick pass
     /// ([`Edges::quick_cell`]) in the same loop.
     #[inline(always)]
-    fn compute(
-        &mut self,
-        pair: &impl Fn(usize) -> ([f64; 3], [f64; 3]),
-        first: usize,
-        len: usize,
-        edges: &Edges,
-        quick: bool,
-    ) {
+    fn compute<P: Fn(usize) -> ([f64; 3], [f64; 3])>(&mut self, job: &Job<P>) {
+        let &Job {
+            pair,
+            first,
+            len,
+            edges,
+            quick,
+        } = job;
         for k in 0..len {
             let (wi, wo) = pair(first + k);
             for c in 0..3 {
@@ -1051,55 +1065,44 @@ impl PrepRun {
     /// a multiply and an add, and division and square root are correctly rounded in
     /// every instruction set, so every copy computes the same bits (h.z included, which
     /// must equal the reference's).
-    fn compute_dispatch<P: Fn(usize) -> ([f64; 3], [f64; 3])>(
-        &mut self,
-        pair: &P,
-        first: usize,
-        len: usize,
-        edges: &Edges,
-        quick: bool,
-    ) {
+    fn compute_dispatch<P: Fn(usize) -> ([f64; 3], [f64; 3])>(&mut self, job: &Job<P>) {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx512f")
                 && std::arch::is_x86_feature_detected!("avx512dq")
             {
                 // SAFETY: the instruction sets the copy is compiled for are present.
-                return unsafe { self.compute_avx512(pair, first, len, edges, quick) };
+                return unsafe { self.compute_avx512(job) };
             }
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: as above.
-                return unsafe { self.compute_avx2(pair, first, len, edges, quick) };
+                return unsafe { self.compute_avx2(job) };
             }
         }
-        self.compute(pair, first, len, edges, quick)
+        self.compute(job)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512dq,avx2")]
-    fn compute_avx512<P: Fn(usize) -> ([f64; 3], [f64; 3])>(
-        &mut self,
-        pair: &P,
-        first: usize,
-        len: usize,
-        edges: &Edges,
-        quick: bool,
-    ) {
-        self.compute(pair, first, len, edges, quick)
+    fn compute_avx512<P: Fn(usize) -> ([f64; 3], [f64; 3])>(&mut self, job: &Job<P>) {
+        self.compute(job)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn compute_avx2<P: Fn(usize) -> ([f64; 3], [f64; 3])>(
-        &mut self,
-        pair: &P,
-        first: usize,
-        len: usize,
-        edges: &Edges,
-        quick: bool,
-    ) {
-        self.compute(pair, first, len, edges, quick)
+    fn compute_avx2<P: Fn(usize) -> ([f64; 3], [f64; 3])>(&mut self, job: &Job<P>) {
+        self.compute(job)
     }
+}
+
+/// What [`PrepRun::compute`] works on: pairs `first .. first + len` of `pair`, the
+/// grid's edges, and whether to run the quick pass.
+struct Job<'a, P> {
+    pair: &'a P,
+    first: usize,
+    len: usize,
+    edges: &'a Edges,
+    quick: bool,
 }
 
 /// The bracket b with `t[b + 1] < x ≤ t[b]` of non-increasing thresholds `t`, starting
@@ -1258,15 +1261,31 @@ mod tests {
                 }
                 let (vi, vo) = (Vec3::from(wi), Vec3::from(wo));
                 assert!(usable(&vi) && usable(&vo));
-                assert_eq!(q, d.bin_index(&to_half_diff(&vi, &vo)), "{d}: {wi:?} {wo:?}");
+                assert_eq!(
+                    q,
+                    d.bin_index(&to_half_diff(&vi, &vo)),
+                    "{d}: {wi:?} {wo:?}"
+                );
                 let f = e.locate(&wi, &wo).expect("finish vouches where quick does");
                 assert_eq!(q, d.index(f.i, f.j, f.k));
             }
-            assert!(slow * 2000 <= n, "{d}: {slow} of {n} pairs left to the slow path");
+            assert!(
+                slow * 2000 <= n,
+                "{d}: {slow} of {n} pairs left to the slow path"
+            );
             let w = dir();
             let mirror = [-w[0], -w[1], w[2]];
-            for (wi, wo) in [(w, w), (w, mirror), (w, [w[0], w[1], -w[2]]), (w, [f64::NAN, 0.0, 1.0])] {
-                assert_eq!(e.quick_cell(&wi, &wo, &prep(wi, wo, e.n)), SLOW, "{wi:?} {wo:?}");
+            for (wi, wo) in [
+                (w, w),
+                (w, mirror),
+                (w, [w[0], w[1], -w[2]]),
+                (w, [f64::NAN, 0.0, 1.0]),
+            ] {
+                assert_eq!(
+                    e.quick_cell(&wi, &wo, &prep(wi, wo, e.n)),
+                    SLOW,
+                    "{wi:?} {wo:?}"
+                );
             }
         }
     }
@@ -1278,18 +1297,24 @@ mod tests {
     fn cell_copy_reads_the_same_bits_as_the_planes() {
         let d = Dims::new(30, 30, 60).unwrap();
         let mut t = MerlTable::from_fn(d, |i, j, k| {
-            ((i + 2 * j + 3 * k) % 7 != 0).then(|| Rgb::new(0.1 * i as f64, j as f64 / 3.0, k as f64 + 0.7))
+            ((i + 2 * j + 3 * k) % 7 != 0)
+                .then(|| Rgb::new(0.1 * i as f64, j as f64 / 3.0, k as f64 + 0.7))
         })
         .unwrap();
         let mut dir = directions(9);
-        let rows: Vec<f64> = (0..d.cells()).flat_map(|_| [dir(), dir()].concat()).collect();
+        let rows: Vec<f64> = (0..d.cells())
+            .flat_map(|_| [dir(), dir()].concat())
+            .collect();
         let small = &rows[..6 * (d.cells() / 16)];
         let mut planes = vec![0.0; small.len() / 2];
         t.nearest_flat(small, &mut planes).unwrap();
         assert!(t.cells.0.get().is_none(), "a small batch built the copy");
         let mut all = vec![0.0; rows.len() / 2];
         t.nearest_flat(&rows, &mut all).unwrap();
-        assert!(t.cells.0.get().is_some(), "a large batch did not build the copy");
+        assert!(
+            t.cells.0.get().is_some(),
+            "a large batch did not build the copy"
+        );
         let mut copy = vec![0.0; small.len() / 2];
         t.nearest_flat(small, &mut copy).unwrap();
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -1299,7 +1324,10 @@ mod tests {
         assert!(t.clone().cells.0.get().is_none());
         // A changed cell is seen at once.
         let (wi, wo) = (&rows[..3], &rows[3..6]);
-        let (wi, wo) = (Vec3::new(wi[0], wi[1], wi[2]), Vec3::new(wo[0], wo[1], wo[2]));
+        let (wi, wo) = (
+            Vec3::new(wi[0], wi[1], wi[2]),
+            Vec3::new(wo[0], wo[1], wo[2]),
+        );
         let (i, j, k) = d.unflatten(d.bin_index(&to_half_diff(&wi, &wo)));
         t.set(i, j, k, Some(Rgb::new(42.0, 43.0, 44.0))).unwrap();
         assert!(t.cells.0.get().is_none());

@@ -5,8 +5,8 @@ use crate::error::{Channel, TableError};
 use crate::grid::Dims;
 use brdfkit_core::Rgb;
 use rayon::prelude::*;
-use std::sync::{Mutex, OnceLock};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, OnceLock};
 
 /// Scale factors from raw file values to physical reflectance (1/sr), R, G, B:
 /// 1/1500, 1.15/1500, 1.66/1500 (`RED_SCALE`, `GREEN_SCALE`, `BLUE_SCALE` of the
