@@ -461,7 +461,7 @@ impl MerlTable {
             Some((o, c)) => (o, c),
             None => (&mut [][..], [NO_CELL; FAST_RUN]),
         };
-        for k in 0..next.len().max(out.len()) {
+        for (k, &x) in cells.iter().enumerate().take(next.len().max(out.len())) {
             if let Some(&i) = next.get(k)
                 && i != NO_CELL
             {
@@ -475,7 +475,6 @@ impl MerlTable {
                 }
             }
             if let Some(o) = out.get_mut(k) {
-                let x = cells[k];
                 *o = conv(if x == NO_CELL {
                     None
                 } else if let Some(v) = values {
