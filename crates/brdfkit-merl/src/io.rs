@@ -354,6 +354,7 @@ fn read_body(
         raw,
         valid,
         n_valid,
+        cells: Default::default(),
     })
 }
 

@@ -1,7 +1,7 @@
 //! Lookups: the reference nearest-bin lookup and multilinear interpolation.
 
 use crate::grid::{Dims, theta_d_bin, theta_h_bin, theta_h_coord};
-use crate::table::{MerlTable, SCALES, raw_valid};
+use crate::table::{CELL_STRIDE, MerlTable, SCALES, raw_valid};
 use brdfkit_core::{HalfDiff, Rgb, Vec3, to_half_diff};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI, FRAC_PI_2, PI};
@@ -31,10 +31,11 @@ fn usable(w: &Vec3) -> bool {
 /// A stencil along one axis: lower node, upper node, fraction towards the upper one.
 type Axis = (usize, usize, f64);
 
-/// Finite and strictly above the horizon, as [`usable`].
-#[inline]
+/// Finite and strictly above the horizon, as [`usable`]; without branches (`&`), so
+/// that it vectorises.
+#[inline(always)]
 fn usable3(w: &[f64; 3]) -> bool {
-    w[2] > 0.0 && w[0].is_finite() && w[1].is_finite() && w[2].is_finite()
+    (w[2] > 0.0) & w[0].is_finite() & w[1].is_finite() & w[2].is_finite()
 }
 
 /// Interpolation stencil along θh or θd: lower node, upper node, fraction.
@@ -177,6 +178,17 @@ impl MerlTable {
         }
     }
 
+    /// Readies the table for about `pairs` lookups in `mode` to come, in batches of any
+    /// size: with [`Lookup::Nearest`] and a large enough total, the interleaved copy of
+    /// the values that large batches read (one cache line per lookup instead of three)
+    /// is built now rather than by the first large batch, so that the batches of a
+    /// chunked lookup use it too. Results are the same with or without it.
+    pub fn prepare_lookups(&self, mode: Lookup, pairs: usize) {
+        if mode == Lookup::Nearest {
+            self.cells_for(pairs);
+        }
+    }
+
     /// [`nearest`](Self::nearest) or [`interpolated`](Self::interpolated).
     #[inline]
     pub fn lookup(&self, mode: Lookup, wi: &Vec3, wo: &Vec3) -> Option<Rgb> {
@@ -277,8 +289,16 @@ impl MerlTable {
     /// Work goes to the pool's threads in runs of 4096 pairs ([`rayon::broadcast`], so
     /// a short job uses both threads of a small pool). Within a run, 128 pairs at a time:
     /// the arithmetic above, branch-free and vectorised (an AVX-512 or AVX2 copy chosen
-    /// at run time), then the comparisons and the prefetch of each pair's table lines,
-    /// then the reads.
+    /// at run time); for the nearest lookup the cells too, in the same loop, for every
+    /// pair that lies inside its approximate bins by a margin (`Edges::quick_cell`; the
+    /// others, a few in 10⁵ random pairs, take the comparisons above); then the reads of
+    /// the previous 128 pairs, each followed by the prefetch of a line of this run.
+    ///
+    /// A nearest batch of at least an eighth as many pairs as the table has cells (or
+    /// any batch after [`prepare_lookups`](Self::prepare_lookups)) reads an interleaved
+    /// copy of the values that the table builds once and keeps: one cache line per
+    /// pair instead of one in each of the three channel planes (same values, bit for
+    /// bit; 32 bytes per cell, 47 MB for a MERL table).
     pub fn lookup_flat(
         &self,
         mode: Lookup,
@@ -365,59 +385,105 @@ impl MerlTable {
         conv: impl Fn(Option<Rgb>) -> T + Sync,
     ) {
         let edges = edges(self.dims);
+        // Nearest: the cells of all pairs of a run are found by one branch-free pass
+        // when the grid's thresholds are exact.
+        let quick = mode == Lookup::Nearest && edges.exact;
+        let cells = match mode {
+            Lookup::Nearest => self.cells_for(out.len()),
+            Lookup::Interpolated => None,
+        };
         spread_chunks(out, FLAT_RUN, |start, out| {
             let mut run = PrepRun::new();
+            // The previous run of a nearest lookup: its outputs and cells, whose lines
+            // were asked for (prefetched) one run ago, so that the misses of one run
+            // overlap the arithmetic of the next.
+            let mut pending: Option<(&mut [T], [usize; FAST_RUN])> = None;
             for (s, out) in out.chunks_mut(FAST_RUN).enumerate() {
-                let first = start + s * FAST_RUN;
-                for k in 0..out.len() {
-                    let (wi, wo) = pair(first + k);
-                    for c in 0..3 {
-                        run.w[c][k] = wi[c];
-                        run.w[3 + c][k] = wo[c];
-                    }
-                }
-                let d = self.dims;
-                run.compute_dispatch([d.theta_h() as f64, d.theta_d() as f64, d.phi_d() as f64]);
+                run.compute_dispatch(&Job {
+                    pair,
+                    first: start + s * FAST_RUN,
+                    len: out.len(),
+                    edges: &edges,
+                    quick,
+                });
                 match mode {
-                    Lookup::Nearest => self.nearest_run(&edges, &run, out, &conv),
+                    Lookup::Nearest => {
+                        let found = self.nearest_cells(&edges, &run, out.len());
+                        self.ask_and_read(&found[..out.len()], pending.take(), cells, &conv);
+                        pending = Some((out, found));
+                    }
                     Lookup::Interpolated => self.interpolated_run(&edges, &run, out, &conv),
                 }
             }
+            self.ask_and_read(&[], pending, cells, &conv);
         });
     }
 
-    /// Nearest lookups of the pairs of `run` (the first `out.len()`), its arithmetic done.
-    fn nearest_run<T>(
+    /// The cells of the first `len` pairs of `run`, its arithmetic and quick pass done,
+    /// [`NO_CELL`] for a pair with no lookup.
+    fn nearest_cells(&self, edges: &Edges, run: &PrepRun, len: usize) -> [usize; FAST_RUN] {
+        let mut cells = [NO_CELL; FAST_RUN];
+        for (k, x) in cells[..len].iter_mut().enumerate() {
+            let mut i = run.cell[k];
+            if i == SLOW {
+                let (wi, wo) = run.pair(k);
+                if !(usable3(&wi) && usable3(&wo)) {
+                    continue;
+                }
+                i = match edges.finish(&wi, &wo, &run.prep(k)) {
+                    Some(f) => self.dims.index(f.i, f.j, f.k),
+                    None => self
+                        .dims
+                        .bin_index(&to_half_diff(&Vec3::from(wi), &Vec3::from(wo))),
+                };
+            }
+            *x = i;
+        }
+        cells
+    }
+
+    /// Asks for the table lines of cells `next` while reading the values of the
+    /// previous run's cells (`prev`: its outputs and cells) into its outputs, one of each
+    /// per step: the reads of a run whose lines were asked for a run earlier, and new
+    /// requests spread between them rather than in a burst, which would stall on the
+    /// processor's limit of misses in flight. The values come from the interleaved
+    /// `values` when given (the same bits: `get_flat`'s products, NaN for missing), else
+    /// from the planes. [`NO_CELL`]: no value.
+    fn ask_and_read<T>(
         &self,
-        edges: &Edges,
-        run: &PrepRun,
-        out: &mut [T],
+        next: &[usize],
+        prev: Option<(&mut [T], [usize; FAST_RUN])>,
+        values: Option<&[f64]>,
         conv: &impl Fn(Option<Rgb>) -> T,
     ) {
         let n = self.cells();
-        let mut idx = [usize::MAX; FAST_RUN];
-        for (k, x) in idx[..out.len()].iter_mut().enumerate() {
-            let (wi, wo) = run.pair(k);
-            if !(usable3(&wi) && usable3(&wo)) {
-                continue;
+        let (out, cells) = match prev {
+            Some((o, c)) => (o, c),
+            None => (&mut [][..], [NO_CELL; FAST_RUN]),
+        };
+        for (k, &x) in cells.iter().enumerate().take(next.len().max(out.len())) {
+            if let Some(&i) = next.get(k)
+                && i != NO_CELL
+            {
+                match values {
+                    Some(v) => prefetch(v, CELL_STRIDE * i),
+                    None => {
+                        prefetch(&self.raw, i);
+                        prefetch(&self.raw, n + i);
+                        prefetch(&self.raw, 2 * n + i);
+                    }
+                }
             }
-            let i = match edges.finish(&wi, &wo, &run.prep(k)) {
-                Some(f) => self.dims.index(f.i, f.j, f.k),
-                None => self
-                    .dims
-                    .bin_index(&to_half_diff(&Vec3::from(wi), &Vec3::from(wo))),
-            };
-            self.prefetch(i);
-            self.prefetch(n + i);
-            self.prefetch(2 * n + i);
-            *x = i;
-        }
-        for (o, &x) in out.iter_mut().zip(idx.iter()) {
-            *o = conv(if x == usize::MAX {
-                None
-            } else {
-                self.get_flat(x)
-            });
+            if let Some(o) = out.get_mut(k) {
+                *o = conv(if x == NO_CELL {
+                    None
+                } else if let Some(v) = values {
+                    let c = &v[CELL_STRIDE * x..CELL_STRIDE * x + 3];
+                    (!c[0].is_nan()).then(|| Rgb::new(c[0], c[1], c[2]))
+                } else {
+                    self.get_flat(x)
+                });
+            }
         }
     }
 
@@ -455,7 +521,7 @@ impl MerlTable {
                 for j in [s[1].0, s[1].1] {
                     let row = d.index(i, j, s[2].0);
                     for p in 0..3 {
-                        self.prefetch(p * n + row);
+                        prefetch(&self.raw, p * n + row);
                     }
                 }
             }
@@ -467,21 +533,6 @@ impl MerlTable {
                     .map(|r| Rgb::new(r[0] * SCALES[0], r[1] * SCALES[1], r[2] * SCALES[2]))
             }));
         }
-    }
-
-    /// Asks for the cache line of raw value `i` (a hint: no effect on results).
-    #[inline(always)]
-    fn prefetch(&self, i: usize) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            let p = self.raw.as_ptr().wrapping_add(i);
-            // SAFETY: a prefetch never faults and never changes memory, whatever the
-            // address; `i` is in range anyway.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.cast()) };
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = i;
     }
 
     /// [`lookup_batch`](Self::lookup_batch) with [`Lookup::Nearest`].
@@ -499,6 +550,23 @@ impl MerlTable {
 
 /// Pairs per unit of work a thread takes in the fast batch lookups.
 const FLAT_RUN: usize = 4096;
+
+/// Margin in radians around a bin edge within which [`Edges::quick_cell`] leaves a pair
+/// to [`Edges::finish`]: about ten times the approximations' error (2.2e-8 rad) and the
+/// round-off it adds to. Pairs that close to an edge, or with sin θd below
+/// [`QUICK_SIN_D`], are few: 17 of 300,000 random pairs on the MERL grid (unit test).
+const QUICK_MARGIN: f64 = 2.5e-7;
+
+/// Smallest sin θd (|(d.x, d.y)| of the rotated wi) for which [`Edges::quick_cell`]
+/// vouches for φd: round-off δ of r · (d.x, d.y) turns its direction by at most
+/// δ / (r sin θd) ≤ 1e-14 / 1e-5 = 1e-9 rad, far within [`QUICK_MARGIN`].
+const QUICK_SIN_D: f64 = 1e-5;
+
+/// A pair whose cell the quick pass could not vouch for ([`Edges::quick_cell`]).
+const SLOW: usize = usize::MAX;
+
+/// A pair with no lookup (below the horizon, not finite).
+const NO_CELL: usize = usize::MAX - 1;
 
 /// Margin on cos θh around a θh threshold within which a pair goes through the reference
 /// conversion. The fast path's h.z is the reference's bit for bit and the thresholds are
@@ -558,6 +626,21 @@ fn rgb_or_nan(v: Option<Rgb>) -> [f64; 3] {
     v.map_or([f64::NAN; 3], |v| [v[0], v[1], v[2]])
 }
 
+/// Asks for the cache line of `v[i]` (a hint: no effect on results).
+#[inline(always)]
+fn prefetch(v: &[f64], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let p = v.as_ptr().wrapping_add(i);
+        // SAFETY: a prefetch never faults and never changes memory, whatever the
+        // address; `i` is in range anyway.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(p.cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (v, i);
+}
+
 /// Runs `f(first index, chunk)` over `out` in chunks of `run` on every thread of the
 /// current rayon pool ([`spread`](crate::table::spread)); on the calling thread when
 /// there is one chunk.
@@ -575,6 +658,11 @@ fn spread_chunks<T: Send>(out: &mut [T], run: usize, f: impl Fn(usize, &mut [T])
 #[derive(Debug)]
 struct Edges {
     dims: Dims,
+    /// The grid sizes (θh, θd, φd) as f64.
+    n: [f64; 3],
+    /// [`QUICK_MARGIN`] in the units [`Edges::quick_cell`] compares in: on u² for θh
+    /// (2 n² / π per radian), on the θd and φd coordinates (2 n / π and n / π).
+    quick_margin: [f64; 3],
     /// False when a threshold was not found: every pair takes the reference conversion.
     exact: bool,
     /// θh thresholds on h.z, `nθh + 1` of them: bin ≥ i ⇔ h.z ≤ `th[i]` (the largest
@@ -682,8 +770,15 @@ impl Edges {
             })
             .collect();
         let exact = th.is_some() && td.is_some();
+        let n = [nh as f64, nd as f64, np as f64];
         Edges {
             dims,
+            n,
+            quick_margin: [
+                QUICK_MARGIN * 2.0 * n[0] * n[0] / PI,
+                QUICK_MARGIN * 2.0 * n[1] / PI,
+                QUICK_MARGIN * n[2] / PI,
+            ],
             exact,
             th: th.unwrap_or_default(),
             td: td.unwrap_or_default(),
@@ -734,6 +829,57 @@ impl Edges {
             dy: p.dy,
             r: p.r,
         })
+    }
+
+    /// The cell of a pair without walks, tables or branches, so that a loop over a run
+    /// vectorises; [`SLOW`] where it cannot vouch for the reference's bins, and for
+    /// everything [`finish`](Self::finish) turns away (wi = wo, h on the normal,
+    /// unusable directions): those pairs go through `finish` and the reference.
+    ///
+    /// Each bin is the approximate coordinate truncated (and clamped, as the reference
+    /// clamps), kept when the approximate angle lies inside the bin by more than
+    /// [`QUICK_MARGIN`] radians from each edge (an edge at the end of the axis needs no
+    /// test: the reference clamps there). The approximations are within 2.2e-8 rad of
+    /// the angles of this pair's cos θh (bit-identical to the reference's h.z), cos θd
+    /// and r · (d.x, d.y); those differ from the reference's by round-off of a few
+    /// 1e-16, which moves θd by at most that over sin θd (≤ 1e-12 rad at any θd edge,
+    /// sin θd ≥ sin(π / (2 nθd))), and φd by at most that over |(d.x, d.y)| = sin θd,
+    /// bounded here by asking sin θd > [`QUICK_SIN_D`]. The reference's own angles and
+    /// bins are correctly rounded to a few ulps (≤ 1e-15 rad). So a pair inside by the
+    /// margin lies in the same bin for the reference. The tests compare millions of
+    /// random pairs and pairs within an ulp of every edge with the reference.
+    ///
+    /// The margins in coordinate units: θd and φd coordinates are linear in the angle
+    /// (n / (π/2), n / π per radian); θh's square, u² = θh / (π/2) · n², is linear in
+    /// θh, so θh is tested on u² against the squared edges i² and (i + 1)².
+    #[inline(always)]
+    fn quick_cell(&self, wi: &[f64; 3], wo: &[f64; 3], p: &Prep) -> usize {
+        let [nh, nd, np] = self.n;
+        let [mh, md, mp] = self.quick_margin;
+        let inside = |x: f64, b: f64, lo: f64, hi: f64, last: f64, m: f64| {
+            ((x - lo > m) | (b == 0.0)) & ((hi - x > m) | (b == last))
+        };
+        // `max` and `min`, not `clamp` (whose assertion would keep the loop scalar). A
+        // NaN coordinate becomes bin 0, and fails the upper edge's test.
+        let bin = |x: f64, n: f64| x.floor().max(0.0).min(n - 1.0);
+        let (i, j, k) = (bin(p.u, nh), bin(p.v, nd), bin(p.w, np));
+        let u2 = p.u * p.u;
+        let m = MARGIN_PHI * p.r;
+        let sin_d_r2 = p.dx * p.dx + p.dy * p.dy;
+        let same = (wi[0] == wo[0]) & (wi[1] == wo[1]) & (wi[2] == wo[2]);
+        let ok = usable3(wi)
+            & usable3(wo)
+            & !same
+            & (p.r > 0.0)
+            & (p.dy > m)
+            & (sin_d_r2 > QUICK_SIN_D * QUICK_SIN_D * p.r * p.r)
+            & inside(u2, i, i * i, (i + 1.0) * (i + 1.0), nh - 1.0, mh)
+            & inside(p.v, j, j, j + 1.0, nd - 1.0, md)
+            & inside(p.w, k, k, k + 1.0, np - 1.0, mp);
+        // Integers below 2⁵³ in f64: the index is exact. Through i64, which converts as
+        // a vector (AVX-512 DQ); usize does not.
+        let idx = (k + np * (j + nd * i)) as i64 as usize;
+        if ok { idx } else { SLOW }
     }
 
     /// The interpolation stencil of a located pair: the bins found as lower nodes (the
@@ -831,10 +977,12 @@ fn prep(wi: [f64; 3], wo: [f64; 3], n: [f64; 3]) -> Prep {
     }
 }
 
-/// A run of pairs in columns and their [`Prep`]s in columns.
+/// A run of pairs in columns, their [`Prep`]s in columns, and (nearest) their cells
+/// from the quick pass.
 struct PrepRun {
     w: [[f64; FAST_RUN]; 6],
     out: [[f64; FAST_RUN]; 9],
+    cell: [usize; FAST_RUN],
 }
 
 impl PrepRun {
@@ -842,6 +990,7 @@ impl PrepRun {
         PrepRun {
             w: [[0.0; FAST_RUN]; 6],
             out: [[0.0; FAST_RUN]; 9],
+            cell: [SLOW; FAST_RUN],
         }
     }
 
@@ -869,12 +1018,34 @@ impl PrepRun {
         }
     }
 
-    /// [`prep`] over the whole run (every lane, so the loop has no remainder).
+    /// Loads pairs `first .. first + len` (`len` ≤ [`FAST_RUN`]) into the columns, then
+    /// [`prep`] over the whole run (every lane, so the loop has no remainder; lanes past
+    /// `len` hold stale pairs, never read), and with `quick` the cells of the quick pass
+    /// ([`Edges::quick_cell`]) in the same loop.
     #[inline(always)]
-    fn compute(&mut self, n: [f64; 3]) {
+    fn compute<P: Fn(usize) -> ([f64; 3], [f64; 3])>(&mut self, job: &Job<P>) {
+        let &Job {
+            pair,
+            first,
+            len,
+            edges,
+            quick,
+        } = job;
+        for k in 0..len {
+            let (wi, wo) = pair(first + k);
+            for c in 0..3 {
+                self.w[c][k] = wi[c];
+                self.w[3 + c][k] = wo[c];
+            }
+        }
         for k in 0..FAST_RUN {
             let (wi, wo) = self.pair(k);
-            let p = prep(wi, wo, n);
+            let p = prep(wi, wo, edges.n);
+            self.cell[k] = if quick {
+                edges.quick_cell(&wi, &wo, &p)
+            } else {
+                SLOW
+            };
             let o = &mut self.out;
             o[0][k] = p.hz;
             o[1][k] = p.u;
@@ -893,32 +1064,44 @@ impl PrepRun {
     /// a multiply and an add, and division and square root are correctly rounded in
     /// every instruction set, so every copy computes the same bits (h.z included, which
     /// must equal the reference's).
-    fn compute_dispatch(&mut self, n: [f64; 3]) {
+    fn compute_dispatch<P: Fn(usize) -> ([f64; 3], [f64; 3])>(&mut self, job: &Job<P>) {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the instruction set the copy is compiled for is present.
-                return unsafe { self.compute_avx512(n) };
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512dq")
+            {
+                // SAFETY: the instruction sets the copy is compiled for are present.
+                return unsafe { self.compute_avx512(job) };
             }
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: as above.
-                return unsafe { self.compute_avx2(n) };
+                return unsafe { self.compute_avx2(job) };
             }
         }
-        self.compute(n)
+        self.compute(job)
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx2")]
-    fn compute_avx512(&mut self, n: [f64; 3]) {
-        self.compute(n)
+    #[target_feature(enable = "avx512f,avx512dq,avx2")]
+    fn compute_avx512<P: Fn(usize) -> ([f64; 3], [f64; 3])>(&mut self, job: &Job<P>) {
+        self.compute(job)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn compute_avx2(&mut self, n: [f64; 3]) {
-        self.compute(n)
+    fn compute_avx2<P: Fn(usize) -> ([f64; 3], [f64; 3])>(&mut self, job: &Job<P>) {
+        self.compute(job)
     }
+}
+
+/// What [`PrepRun::compute`] works on: pairs `first .. first + len` of `pair`, the
+/// grid's edges, and whether to run the quick pass.
+struct Job<'a, P> {
+    pair: &'a P,
+    first: usize,
+    len: usize,
+    edges: &'a Edges,
+    quick: bool,
 }
 
 /// The bracket b with `t[b + 1] < x ≤ t[b]` of non-increasing thresholds `t`, starting
@@ -1036,6 +1219,123 @@ mod tests {
         assert_eq!(wrapped_axis(-0.5, 4), (3, 0, 0.5));
     }
 
+    /// Uniform directions on the upper hemisphere (z in [0, 1), so a few at the horizon)
+    /// from a small deterministic generator (xorshift; no dev-dependency needed).
+    fn directions(seed: u64) -> impl FnMut() -> [f64; 3] {
+        let mut state = seed;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        move || {
+            let z: f64 = uniform();
+            let p = (2.0 * uniform() - 1.0) * PI;
+            let s = (1.0 - z * z).sqrt();
+            [s * p.cos(), s * p.sin(), z]
+        }
+    }
+
+    /// Where the quick pass vouches for a cell, it is the reference's (and `finish`
+    /// vouches for it too); it leaves next to no random pair to the slow path; and it
+    /// turns away wi = wo, h on the normal and unusable pairs.
+    #[test]
+    fn quick_cells_are_the_reference_cells() {
+        for (d, seed) in [
+            (Dims::MERL, 3u64),
+            (Dims::new(13, 17, 11).unwrap(), 4),
+            (Dims::new(200, 7, 360).unwrap(), 5),
+        ] {
+            let e = Edges::new(d);
+            assert!(e.exact);
+            let mut dir = directions(seed);
+            let (n, mut slow) = (300_000, 0);
+            for _ in 0..n {
+                let (wi, wo) = (dir(), dir());
+                let q = e.quick_cell(&wi, &wo, &prep(wi, wo, e.n));
+                if q == SLOW {
+                    slow += 1;
+                    continue;
+                }
+                let (vi, vo) = (Vec3::from(wi), Vec3::from(wo));
+                assert!(usable(&vi) && usable(&vo));
+                assert_eq!(
+                    q,
+                    d.bin_index(&to_half_diff(&vi, &vo)),
+                    "{d}: {wi:?} {wo:?}"
+                );
+                let f = e.locate(&wi, &wo).expect("finish vouches where quick does");
+                assert_eq!(q, d.index(f.i, f.j, f.k));
+            }
+            assert!(
+                slow * 2000 <= n,
+                "{d}: {slow} of {n} pairs left to the slow path"
+            );
+            let w = dir();
+            let mirror = [-w[0], -w[1], w[2]];
+            for (wi, wo) in [
+                (w, w),
+                (w, mirror),
+                (w, [w[0], w[1], -w[2]]),
+                (w, [f64::NAN, 0.0, 1.0]),
+            ] {
+                assert_eq!(
+                    e.quick_cell(&wi, &wo, &prep(wi, wo, e.n)),
+                    SLOW,
+                    "{wi:?} {wo:?}"
+                );
+            }
+        }
+    }
+
+    /// Large batches read the interleaved copy, small ones the planes until it exists:
+    /// the same bits either way, missing cells included; a change to the table drops
+    /// the copy and a clone starts without it.
+    #[test]
+    fn cell_copy_reads_the_same_bits_as_the_planes() {
+        let d = Dims::new(30, 30, 60).unwrap();
+        let mut t = MerlTable::from_fn(d, |i, j, k| {
+            ((i + 2 * j + 3 * k) % 7 != 0)
+                .then(|| Rgb::new(0.1 * i as f64, j as f64 / 3.0, k as f64 + 0.7))
+        })
+        .unwrap();
+        let mut dir = directions(9);
+        let rows: Vec<f64> = (0..d.cells())
+            .flat_map(|_| [dir(), dir()].concat())
+            .collect();
+        let small = &rows[..6 * (d.cells() / 16)];
+        let mut planes = vec![0.0; small.len() / 2];
+        t.nearest_flat(small, &mut planes).unwrap();
+        assert!(t.cells.0.get().is_none(), "a small batch built the copy");
+        let mut all = vec![0.0; rows.len() / 2];
+        t.nearest_flat(&rows, &mut all).unwrap();
+        assert!(
+            t.cells.0.get().is_some(),
+            "a large batch did not build the copy"
+        );
+        let mut copy = vec![0.0; small.len() / 2];
+        t.nearest_flat(small, &mut copy).unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&planes), bits(&copy));
+        assert_eq!(bits(&planes), bits(&all[..planes.len()]));
+        assert!(planes.iter().any(|x| x.is_nan()) && planes.iter().any(|x| !x.is_nan()));
+        assert!(t.clone().cells.0.get().is_none());
+        // A changed cell is seen at once.
+        let (wi, wo) = (&rows[..3], &rows[3..6]);
+        let (wi, wo) = (
+            Vec3::new(wi[0], wi[1], wi[2]),
+            Vec3::new(wo[0], wo[1], wo[2]),
+        );
+        let (i, j, k) = d.unflatten(d.bin_index(&to_half_diff(&wi, &wo)));
+        t.set(i, j, k, Some(Rgb::new(42.0, 43.0, 44.0))).unwrap();
+        assert!(t.cells.0.get().is_none());
+        t.prepare_lookups(Lookup::Nearest, d.cells());
+        t.nearest_flat(&rows[..6], &mut copy[..3]).unwrap();
+        assert_eq!(bits(&copy[..3]), bits(&rgb_or_nan(t.nearest(&wi, &wo))));
+        assert_eq!(copy[0], 42.0);
+    }
+
     /// The approximations pick brackets only, but their stated errors hold.
     #[test]
     fn approximations_within_their_bounds() {
@@ -1089,23 +1389,10 @@ mod tests {
     fn margins_cover_the_measured_round_off() {
         use brdfkit_core::direction::{BINORMAL, NORMAL, rotate};
         let e = Edges::new(Dims::MERL);
-        // A small deterministic generator (no dev-dependency in unit tests needed).
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut dir = directions(0x9e37_79b9_7f4a_7c15);
         let (mut max_d, mut max_xy, mut fallbacks) = (0.0f64, 0.0f64, 0);
         let n = 1_000_000;
         for _ in 0..n {
-            let mut dir = || {
-                let z: f64 = uniform();
-                let p = (2.0 * uniform() - 1.0) * PI;
-                let s = (1.0 - z * z).sqrt();
-                [s * p.cos(), s * p.sin(), z]
-            };
             let (wi, wo) = (dir(), dir());
             if !(usable3(&wi) && usable3(&wo)) {
                 continue;

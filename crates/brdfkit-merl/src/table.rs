@@ -5,8 +5,8 @@ use crate::error::{Channel, TableError};
 use crate::grid::Dims;
 use brdfkit_core::Rgb;
 use rayon::prelude::*;
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, OnceLock};
 
 /// Scale factors from raw file values to physical reflectance (1/sr), R, G, B:
 /// 1/1500, 1.15/1500, 1.66/1500 (`RED_SCALE`, `GREEN_SCALE`, `BLUE_SCALE` of the
@@ -54,6 +54,36 @@ pub struct MerlTable {
     /// Per cell: true when all three raw values are ≥ 0 (or −0.0).
     pub(crate) valid: Vec<bool>,
     pub(crate) n_valid: usize,
+    /// The physical values cell by cell, built by the first large nearest lookup.
+    pub(crate) cells: CellCache,
+}
+
+/// Values per cell in a [`CellCache`]: R, G, B and a pad, so that a cell is 32 bytes
+/// aligned to 32 and never straddles two cache lines.
+pub(crate) const CELL_STRIDE: usize = 4;
+
+/// The table's physical values interleaved per cell (R, G, B, pad; NaN in all four for a
+/// missing cell), for random lookups: one cache line per lookup instead of one per
+/// channel plane. Random nearest lookups of a MERL table read three lines of three
+/// 11.7 MB planes per pair, and the processor can only have so many misses in flight,
+/// so the reads cost more than the arithmetic once that was vectorised
+/// (docs/performance.md). Built on demand by the first batch large enough to pay for it
+/// ([`MerlTable::cells_for`]) and kept, so that a table that is never looked up in bulk
+/// (a fit, a report) holds no copy; dropped by any change to the table. A clone starts
+/// without it; equality ignores it (it is a function of the raw values).
+#[derive(Debug, Default)]
+pub(crate) struct CellCache(pub(crate) OnceLock<(Vec<f64>, usize)>);
+
+impl Clone for CellCache {
+    fn clone(&self) -> Self {
+        CellCache::default()
+    }
+}
+
+impl PartialEq for CellCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// Validity of a cell from its raw values: all three non-negative. A comparison with
@@ -75,6 +105,7 @@ impl MerlTable {
             },
             valid: vec![false; dims.cells()],
             n_valid: 0,
+            cells: CellCache::default(),
         }
     }
 
@@ -117,6 +148,7 @@ impl MerlTable {
             raw,
             valid,
             n_valid,
+            cells: CellCache::default(),
         })
     }
 
@@ -165,6 +197,7 @@ impl MerlTable {
             raw,
             valid,
             n_valid,
+            cells: CellCache::default(),
         })
     }
 
@@ -233,6 +266,40 @@ impl MerlTable {
             .then(|| Rgb::new(r[0] * SCALES[0], r[1] * SCALES[1], r[2] * SCALES[2]))
     }
 
+    /// The interleaved cell values ([`CellCache`], [`CELL_STRIDE`] per cell) for a batch
+    /// of `pairs` lookups: built when the batch has at least an eighth as many pairs as
+    /// the table has cells (building them reads every cell once; a smaller batch reads
+    /// the planes), or kept from an earlier batch. `None`: read the planes.
+    pub(crate) fn cells_for(&self, pairs: usize) -> Option<&[f64]> {
+        let c = match self.cells.0.get() {
+            Some(c) => c,
+            None if pairs < self.cells() / 8 => return None,
+            None => self.cells.0.get_or_init(|| self.interleave()),
+        };
+        Some(&c.0[c.1..c.1 + CELL_STRIDE * self.cells()])
+    }
+
+    /// The physical values per cell, in parallel, and the offset of the first cell: a
+    /// multiple of 64 bytes from the buffer's start; see [`CellCache`].
+    fn interleave(&self) -> (Vec<f64>, usize) {
+        let n = self.cells();
+        let mut buf = zeroed_f64(CELL_STRIDE * n + 8);
+        let at = (buf.as_ptr() as usize).next_multiple_of(64) - buf.as_ptr() as usize;
+        let at = at / 8;
+        let out = &mut buf[at..at + CELL_STRIDE * n];
+        let run = crate::io::IO_CHUNK_CELLS;
+        spread(out.chunks_mut(CELL_STRIDE * run).collect(), |q, out| {
+            let (out, _) = out.as_chunks_mut::<CELL_STRIDE>();
+            for (x, o) in (q * run..).zip(out) {
+                *o = match self.get_flat(x) {
+                    Some(v) => [v[0], v[1], v[2], 0.0],
+                    None => [f64::NAN; CELL_STRIDE],
+                };
+            }
+        });
+        (buf, at)
+    }
+
     /// Physical value of cell (i, j, k), `None` when missing or out of range.
     pub fn get(&self, i: usize, j: usize, k: usize) -> Option<Rgb> {
         if i >= self.dims.theta_h() || j >= self.dims.theta_d() || k >= self.dims.phi_d() {
@@ -267,6 +334,7 @@ impl MerlTable {
     /// by the caller).
     pub(crate) fn set_raw_flat(&mut self, index: usize, raw: [f64; 3]) {
         let n = self.cells();
+        self.cells = CellCache::default();
         let was = self.valid[index];
         self.raw[index] = raw[0];
         self.raw[n + index] = raw[1];
