@@ -228,7 +228,11 @@ pub fn run_grid(
     let jobs: Vec<(&str, &MerlTable, &ModelChoice)> = cfg
         .models
         .iter()
-        .flat_map(|mc| materials.iter().map(move |m| (m.spec.name.as_str(), &m.table, mc)))
+        .flat_map(|mc| {
+            materials
+                .iter()
+                .map(move |m| (m.spec.name.as_str(), &m.table, mc))
+        })
         .collect();
     run_jobs(cfg, &jobs, "grid-partial.json", false, progress)
 }
@@ -283,7 +287,8 @@ fn run_jobs(
             what: mc.label.clone(),
             msg: e.to_string(),
         })?;
-        let mut todo: Vec<Option<(SolverKind, f64, usize)>> = confs.iter().copied().map(Some).collect();
+        let mut todo: Vec<Option<(SolverKind, f64, usize)>> =
+            confs.iter().copied().map(Some).collect();
         if cli_default {
             todo.push(None);
         }
@@ -462,14 +467,17 @@ pub fn read_references(path: &Path, cfg: &StudyConfig) -> Result<Vec<Reference>,
     let fits = doc["fits"]
         .as_array()
         .ok_or_else(|| bad("no `fits` array".into()))?;
-    let merl = [Dims::MERL.theta_h(), Dims::MERL.theta_d(), Dims::MERL.phi_d()];
+    let merl = [
+        Dims::MERL.theta_h(),
+        Dims::MERL.theta_d(),
+        Dims::MERL.phi_d(),
+    ];
     if cfg.theta_max_deg.is_some() || cfg.measured_dims != merl {
         return Ok(Vec::new());
     }
     let mut out = Vec::new();
     for f in fits {
-        let (Some(material), Some(loss)) = (f["material"].as_str(), f["best_loss"].as_f64())
-        else {
+        let (Some(material), Some(loss)) = (f["material"].as_str(), f["best_loss"].as_f64()) else {
             return Err(bad("a fit without `material` or `best_loss`".into()));
         };
         if f["loss"] != "cbrt" || f["weighting"] != "solid-angle" {
@@ -729,7 +737,11 @@ mod tests {
         assert!(read_references(&p, &cfg).unwrap().is_empty());
         cfg.theta_max_deg = None;
         // No file: no reference; a broken one: an error naming it.
-        assert!(read_references(&dir.path().join("none.json"), &cfg).unwrap().is_empty());
+        assert!(
+            read_references(&dir.path().join("none.json"), &cfg)
+                .unwrap()
+                .is_empty()
+        );
         std::fs::write(&p, "{").unwrap();
         let e = read_references(&p, &cfg).unwrap_err().to_string();
         assert!(e.contains("reference-fits.json"), "{e}");

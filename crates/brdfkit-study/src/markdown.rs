@@ -294,7 +294,11 @@ fn measured_sections(res: &StudyResults) -> (String, String, String) {
         let best = rs
             .iter()
             .filter(|r| r.cbrt.is_finite())
-            .min_by(|x, y| x.cbrt.total_cmp(&y.cbrt).then(x.wall_s.total_cmp(&y.wall_s)))
+            .min_by(|x, y| {
+                x.cbrt
+                    .total_cmp(&y.cbrt)
+                    .then(x.wall_s.total_cmp(&y.wall_s))
+            })
             .copied();
         let default = rs.iter().find(|r| r.solver == CLI_DEFAULT).copied();
         let _ = writeln!(
@@ -314,7 +318,11 @@ fn measured_sections(res: &StudyResults) -> (String, String, String) {
         );
         front_table(
             &mut fronts,
-            &format!("{model} on {material}, baseline {} ({})", loss(b.loss), b.name()),
+            &format!(
+                "{model} on {material}, baseline {} ({})",
+                loss(b.loss),
+                b.name()
+            ),
             rs,
             Some(b.loss),
         );
@@ -425,7 +433,11 @@ fn measured_run_section(res: &StudyResults) -> String {
         if refs.is_empty() {
             "no pair".to_string()
         } else {
-            format!("{} pairs", refs.len())
+            format!(
+                "{} pair{}",
+                refs.len(),
+                if refs.len() == 1 { "" } else { "s" }
+            )
         },
         if refs.is_empty() {
             "none applies".to_string()
@@ -897,7 +909,9 @@ pub fn write_all(
             .iter()
             .filter(|n| n.starts_with("pareto-measured-"))
             .map(|n| {
-                let model = n.trim_start_matches("pareto-measured-").trim_end_matches(".png");
+                let model = n
+                    .trim_start_matches("pareto-measured-")
+                    .trim_end_matches(".png");
                 format!("![{model} on measured proxies](./{dir}/{n})\n")
             })
             .collect();

@@ -27,7 +27,10 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
             .transpose()
     };
     // One set named alone is the whole grid; neither: the grid's own.
-    match (names("materials", &a.materials)?, names("measured", &a.measured)?) {
+    match (
+        names("materials", &a.materials)?,
+        names("measured", &a.measured)?,
+    ) {
         (None, None) => {}
         (syn, meas) => {
             c.materials = syn.unwrap_or_default();
