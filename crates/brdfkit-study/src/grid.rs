@@ -361,19 +361,7 @@ pub fn run_measured(
     res: &mut crate::StudyResults,
     progress: &dyn Fn(&str),
 ) -> Result<(), StudyError> {
-    let mut info = crate::RunInfo {
-        started_unix: std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_secs())
-            .unwrap_or(0),
-        load_start: crate::load_average(),
-        load_end: None,
-        threads: rayon::current_num_threads(),
-        grid_s: None,
-        choices_s: None,
-        scale_s: None,
-        config: cfg.clone(),
-    };
+    let mut info = crate::RunInfo::start(cfg);
     // The references first: a bad file must not waste the grid.
     let refs = read_references(&cfg.measured_dir.join("reference-fits.json"), cfg)?;
     let t = Instant::now();
@@ -813,16 +801,13 @@ mod tests {
         assert!(excesses.contains(&0.0), "{excesses:?}");
         // The report: the measured sections and plot, no synthetic run section.
         let md = std::fs::read_to_string(dir.path().join("avt.md")).unwrap();
-        for m in [
-            "<!-- study:measured-run -->",
-            "<!-- study:measured-summary -->",
-            "<!-- study:measured-solvers -->",
-            "<!-- study:measured-fronts -->",
-            "pareto-measured-cook-torrance.png",
-            "fit-brdf default",
-        ] {
-            assert!(md.contains(m), "{m} missing:\n{md}");
-        }
+        let sections = ["run", "summary", "solvers", "plots", "fronts"];
+        let missing: Vec<&str> = sections
+            .into_iter()
+            .filter(|m| !md.contains(&format!("<!-- study:measured-{m} -->")))
+            .collect();
+        assert!(missing.is_empty(), "{missing:?} missing:\n{md}");
+        assert!(md.contains("pareto-measured-cook-torrance.png") && md.contains(CLI_DEFAULT));
         assert!(!md.contains("<!-- study:run -->"), "{md}");
         assert!(image::open(out.join("pareto-measured-cook-torrance.png")).is_ok());
         // A proxy that does not exist is a configuration error naming it.

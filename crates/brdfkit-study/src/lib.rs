@@ -382,6 +382,25 @@ pub struct RunInfo {
     pub config: StudyConfig,
 }
 
+impl RunInfo {
+    /// The record of a run of `cfg` starting now: the time, the load, the threads.
+    pub fn start(cfg: &StudyConfig) -> RunInfo {
+        RunInfo {
+            started_unix: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_secs())
+                .unwrap_or(0),
+            load_start: load_average(),
+            load_end: None,
+            threads: rayon::current_num_threads(),
+            grid_s: None,
+            choices_s: None,
+            scale_s: None,
+            config: cfg.clone(),
+        }
+    }
+}
+
 /// CPU time (user + system, all threads) this process has used, seconds
 /// (`getrusage(RUSAGE_SELF)`, microsecond resolution). On a machine shared with other
 /// jobs the wall time of a fit stretches while its CPU time stays near what it needs.
@@ -486,19 +505,7 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
         }
     }
     std::fs::create_dir_all(&cfg.out).map_err(|e| StudyError::io(&cfg.out, e))?;
-    let mut info = RunInfo {
-        started_unix: std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_secs())
-            .unwrap_or(0),
-        load_start: load_average(),
-        load_end: None,
-        threads: rayon::current_num_threads(),
-        grid_s: None,
-        choices_s: None,
-        scale_s: None,
-        config: cfg.clone(),
-    };
+    let mut info = RunInfo::start(cfg);
     progress(&format!(
         "study: {} threads, load {:.2}",
         info.threads,

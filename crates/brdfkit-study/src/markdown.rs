@@ -187,6 +187,34 @@ fn untally_key(key: &str) -> (String, String) {
     )
 }
 
+/// The per-configuration table: solver, fraction, starts, runs, the `head` columns
+/// (`cols` of each tally), then the wall and CPU times.
+fn tally_table(
+    head: &str,
+    tallies: &BTreeMap<(String, String), Tally>,
+    cols: &dyn Fn(&Tally) -> Vec<String>,
+) -> String {
+    let n = head.matches('|').count();
+    let mut out = format!(
+        "| solver | fraction | starts | runs | {head} median wall | max wall | median CPU |\n\
+         |---|---:|---:|---:|{}---:|---:|---:|\n",
+        "---:|".repeat(n)
+    );
+    for ((solver, key), t) in tallies {
+        let (f, s) = untally_key(key);
+        let _ = writeln!(
+            out,
+            "| {solver} | {f} | {s} | {} | {} | {} | {} | {} |",
+            t.runs,
+            cols(t).join(" | "),
+            secs(median(&t.wall)),
+            secs(max(&t.wall)),
+            secs(median(&t.cpu))
+        );
+    }
+    out
+}
+
 fn grid_sections(rows: &[GridRow]) -> (String, String, String) {
     let mut summary = String::from(
         "| model | material | best cbrt loss | found by | cheapest within 1 % (+1e-4) of it | \
@@ -227,22 +255,11 @@ fn grid_sections(rows: &[GridRow]) -> (String, String, String) {
                 .add(r, [hit, hit], f64::NAN);
         }
     }
-    let mut solvers = String::from(
-        "| solver | fraction | starts | runs | reach the best (within 1 % + 1e-4) | median wall | max wall | median CPU |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|\n",
+    let solvers = tally_table(
+        "reach the best (within 1 % + 1e-4) |",
+        &tallies,
+        &|t: &Tally| vec![t.share(0)],
     );
-    for ((solver, key), t) in tallies {
-        let (f, s) = untally_key(&key);
-        let _ = writeln!(
-            solvers,
-            "| {solver} | {f} | {s} | {} | {} | {} | {} | {} |",
-            t.runs,
-            t.share(0),
-            secs(median(&t.wall)),
-            secs(max(&t.wall)),
-            secs(median(&t.cpu))
-        );
-    }
     (summary, solvers, fronts)
 }
 
@@ -334,26 +351,18 @@ fn measured_sections(res: &StudyResults) -> (String, String, String) {
             );
         }
     }
-    let mut solvers = String::from(
-        "| solver | fraction | starts | runs | within 0.5 % | within 2 % | median excess | \
-         worst excess | median wall | max wall | median CPU |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    let solvers = tally_table(
+        "within 0.5 % | within 2 % | median excess | worst excess |",
+        &tallies,
+        &|t: &Tally| {
+            vec![
+                t.share(0),
+                t.share(1),
+                excess(median(&t.excess)),
+                excess(max(&t.excess)),
+            ]
+        },
     );
-    for ((solver, key), t) in tallies {
-        let (f, s) = untally_key(&key);
-        let _ = writeln!(
-            solvers,
-            "| {solver} | {f} | {s} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            t.runs,
-            t.share(0),
-            t.share(1),
-            excess(median(&t.excess)),
-            excess(max(&t.excess)),
-            secs(median(&t.wall)),
-            secs(max(&t.wall)),
-            secs(median(&t.cpu))
-        );
-    }
     (summary, solvers, fronts)
 }
 
