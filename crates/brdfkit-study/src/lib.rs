@@ -5,7 +5,9 @@
 //!
 //! - [`grid`]: every model × solver × sample fraction × number of starts is fitted;
 //!   wall time and every loss on the full table are recorded, and the Pareto front of
-//!   loss against time is drawn per model;
+//!   loss against time is drawn per model; the grid also runs on measured materials
+//!   (NBRDF proxies of `data-measured/`), each loss relative to an exhaustive reference
+//!   fit or to the best the grid reached;
 //! - [`choices`]: evaluation choices — nearest vs interpolated table lookup (error
 //!   against the analytic truth at random directions vs time per lookup), Schlick vs
 //!   exact conductor Fresnel, exact-erf vs rational Beckmann G1, separable vs
@@ -145,6 +147,17 @@ pub struct StudyConfig {
     pub specs_dir: PathBuf,
     /// Spec names (file stems) of the materials.
     pub materials: Vec<String>,
+    /// Measured materials of the fit grid: names of NBRDF proxies in `measured_dir`
+    /// ([`grid::load_measured`]).
+    #[serde(default)]
+    pub measured: Vec<String>,
+    /// Directory of the proxies (`data-measured/`, searched with its subfolders) and of
+    /// `reference-fits.json`.
+    #[serde(default = "default_measured_dir")]
+    pub measured_dir: PathBuf,
+    /// Grid the proxies are resampled onto, (θh, θd, φd) bins: the MERL grid.
+    #[serde(default = "default_measured_dims")]
+    pub measured_dims: [usize; 3],
     /// Model families fitted.
     pub models: Vec<ModelChoice>,
     /// Solvers.
@@ -190,6 +203,24 @@ pub struct StudyConfig {
     pub theta_max_deg: Option<f64>,
 }
 
+fn default_measured_dir() -> PathBuf {
+    PathBuf::from("data-measured")
+}
+
+fn default_measured_dims() -> [usize; 3] {
+    [90, 90, 180]
+}
+
+/// The measured materials of the full grid, one per kind: a metal, a metallic paint, a
+/// fabric, a phenolic (plastic) and the RGL felt.
+pub const DEFAULT_MEASURED: [&str; 5] = [
+    "chrome-steel",
+    "gold-paint",
+    "pink-fabric",
+    "specular-red-phenolic",
+    "acrylic_felt_green_rgb",
+];
+
 /// The six materials of the study, one per shape: diffuse, plastic, metal, near-mirror,
 /// Ward-like satin, multi-lobe.
 pub const DEFAULT_MATERIALS: [&str; 6] = [
@@ -213,6 +244,9 @@ impl StudyConfig {
             out: out.into(),
             specs_dir: specs_dir.into(),
             materials: DEFAULT_MATERIALS.iter().map(|s| s.to_string()).collect(),
+            measured: DEFAULT_MEASURED.iter().map(|s| s.to_string()).collect(),
+            measured_dir: default_measured_dir(),
+            measured_dims: default_measured_dims(),
             models: ["cook-torrance", "ward", "plausible-phong"]
                 .iter()
                 .map(|m| ModelChoice::by_label(m).expect("a known label"))
@@ -237,11 +271,13 @@ impl StudyConfig {
         }
     }
 
-    /// A CI-sized run: 2 materials, Cook-Torrance only, LM and L-BFGS, 2 % and 100 %,
-    /// 1 and 4 starts; small lookup and batch figures.
+    /// A CI-sized run: 2 synthetic materials and 1 measured one, Cook-Torrance only, LM,
+    /// L-BFGS and Nelder-Mead, 2 % and 100 %, 1 and 4 starts; small lookup and batch
+    /// figures.
     pub fn quick(out: impl Into<PathBuf>, specs_dir: impl Into<PathBuf>) -> Self {
         StudyConfig {
             materials: vec!["demo-plastic".into(), "gold-ggx".into()],
+            measured: vec!["gold-paint".into()],
             models: vec![ModelChoice::by_label("cook-torrance").expect("known")],
             solvers: vec![SolverKind::Lm, SolverKind::Lbfgs, SolverKind::NelderMead],
             fractions: vec![0.02, 1.0],
@@ -262,10 +298,19 @@ impl StudyConfig {
                 msg: msg.to_string(),
             })
         };
-        if self.grid && (self.materials.is_empty() || self.models.is_empty()) {
+        if self.grid
+            && ((self.materials.is_empty() && self.measured.is_empty()) || self.models.is_empty())
+        {
             return bad(
                 "materials/models",
                 "the fit grid needs at least one of each",
+            );
+        }
+        if (self.choices || self.scale) && self.materials.is_empty() {
+            return bad(
+                "materials",
+                "the evaluation choices and the scaling run on synthetic materials: name some, \
+                 or run only the grid",
             );
         }
         if self.fractions.iter().any(|f| !(*f > 0.0 && *f <= 1.0)) {
@@ -339,6 +384,25 @@ pub struct RunInfo {
     pub config: StudyConfig,
 }
 
+impl RunInfo {
+    /// The record of a run of `cfg` starting now: the time, the load, the threads.
+    pub fn start(cfg: &StudyConfig) -> RunInfo {
+        RunInfo {
+            started_unix: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_secs())
+                .unwrap_or(0),
+            load_start: load_average(),
+            load_end: None,
+            threads: rayon::current_num_threads(),
+            grid_s: None,
+            choices_s: None,
+            scale_s: None,
+            config: cfg.clone(),
+        }
+    }
+}
+
 /// CPU time (user + system, all threads) this process has used, seconds
 /// (`getrusage(RUSAGE_SELF)`, microsecond resolution). On a machine shared with other
 /// jobs the wall time of a fit stretches while its CPU time stays near what it needs.
@@ -384,7 +448,11 @@ pub fn rewrite(out: &Path, progress: &dyn Fn(&str)) -> Result<(), StudyError> {
     if res.grid.is_empty() {
         res.grid = read_json(&out.join("grid-partial.json")).unwrap_or_default();
     }
-    if res.grid.is_empty() && res.lookups.is_empty() && res.scale.is_none() {
+    if res.grid.is_empty()
+        && res.measured_grid.is_empty()
+        && res.lookups.is_empty()
+        && res.scale.is_none()
+    {
         return Err(missing("results.json"));
     }
     let info: RunInfo = read_json(&out.join("run.json")).unwrap_or_else(|| RunInfo {
@@ -413,28 +481,33 @@ pub struct StudyResults {
     pub variants: Vec<choices::VariantRow>,
     /// The scaling measurements.
     pub scale: Option<scale::ScaleResults>,
+    /// The fit grid on measured materials, one row per fit.
+    #[serde(default)]
+    pub measured_grid: Vec<grid::GridRow>,
+    /// The reference fits the measured rows are compared with.
+    #[serde(default)]
+    pub measured_references: Vec<grid::Reference>,
+    /// When and how the measured grid ran (its own run: the grid on measured materials
+    /// can run alone).
+    #[serde(default)]
+    pub measured_run: Option<RunInfo>,
 }
 
 /// Runs the study and writes the data, the plots and the report. `progress` receives
 /// one line per step.
 pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, StudyError> {
     cfg.validate()?;
-    // Specs first: a bad one must not leave an empty output directory behind.
+    // Specs and proxies first: a bad one must not leave an empty output directory behind.
     let materials = load_materials(cfg)?;
+    if cfg.grid {
+        for name in &cfg.measured {
+            if grid::proxy_stem(&cfg.measured_dir, name).is_none() {
+                return Err(grid::no_proxy(cfg, name));
+            }
+        }
+    }
     std::fs::create_dir_all(&cfg.out).map_err(|e| StudyError::io(&cfg.out, e))?;
-    let mut info = RunInfo {
-        started_unix: std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_secs())
-            .unwrap_or(0),
-        load_start: load_average(),
-        load_end: None,
-        threads: rayon::current_num_threads(),
-        grid_s: None,
-        choices_s: None,
-        scale_s: None,
-        config: cfg.clone(),
-    };
+    let mut info = RunInfo::start(cfg);
     progress(&format!(
         "study: {} threads, load {:.2}",
         info.threads,
@@ -457,11 +530,15 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
             info.scale_s = old.scale_s;
         }
     }
-    if cfg.grid {
+    let synthetic_grid = cfg.grid && !cfg.materials.is_empty();
+    if synthetic_grid {
         let t = Instant::now();
         res.grid = grid::run_grid(cfg, &materials, progress)?;
         info.grid_s = Some(t.elapsed().as_secs_f64());
         files::write_csv(&cfg.out.join("grid.csv"), &res.grid)?;
+    }
+    if cfg.grid && !cfg.measured.is_empty() {
+        grid::run_measured(cfg, &mut res, progress)?;
     }
     if cfg.choices {
         let t = Instant::now();
@@ -477,8 +554,16 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
         info.scale_s = Some(t.elapsed().as_secs_f64());
     }
     info.load_end = load_average();
+    // A run of the measured grid alone keeps the record of the last synthetic run.
+    let info = match read_json::<RunInfo>(&cfg.out.join("run.json")) {
+        Some(mut old) if !(synthetic_grid || cfg.choices || cfg.scale) => {
+            old.config.out = cfg.out.clone();
+            old
+        }
+        _ => info,
+    };
     files::write_json(&cfg.out.join("run.json"), &info)?;
     files::write_json(&cfg.out.join("results.json"), &res)?;
-    markdown::write_all(cfg, &info, &res, progress)?;
+    markdown::write_all(&info.config, &info, &res, progress)?;
     Ok(res)
 }

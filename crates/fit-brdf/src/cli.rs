@@ -170,7 +170,8 @@ pub enum Command {
         after_help = "Examples:\n  fit-brdf study --out docs/accuracy-vs-time            # the full grid (long)\n  \
                             fit-brdf study --quick --out /tmp/study                # a CI-sized grid\n  \
                             fit-brdf study --parts measured --fits target/measured-fits   # docs/measured.md from a batch run\n  \
-                            fit-brdf study --parts grid --models cook-torrance --solvers lm,lbfgs --fractions 0.02,1 --starts 1,4\n\n\
+                            fit-brdf study --parts grid --models cook-torrance --solvers lm,lbfgs --fractions 0.02,1 --starts 1,4\n  \
+                            fit-brdf study --parts grid --measured chrome-steel,pink-fabric   # the grid on measured proxies only\n\n\
                             Writes OUT/*.csv, OUT/*.json, OUT/*.png and OUT.md (only the generated sections between \
                             <!-- study:NAME --> markers are replaced; the rest of OUT.md is kept). Details: docs/accuracy-vs-time.md."
     )]
@@ -685,9 +686,19 @@ pub struct StudyArgs {
         default_value = "grid,choices,scale"
     )]
     pub parts: Vec<StudyPart>,
-    /// Materials (spec file stems), comma-separated; default: the grid's.
+    /// Synthetic materials (spec file stems), comma-separated; default: the grid's
+    /// (given alone, without --measured: no measured material in the grid).
     #[arg(long)]
     pub materials: Option<String>,
+    /// Measured materials of the grid: names of NBRDF proxies in --measured-dir,
+    /// comma-separated; default: the grid's (given alone, without --materials: no
+    /// synthetic material in the grid).
+    #[arg(long)]
+    pub measured: Option<String>,
+    /// Directory of the proxies (searched with its subfolders) and of their
+    /// reference-fits.json.
+    #[arg(long, value_name = "DIR", default_value = "data-measured")]
+    pub measured_dir: PathBuf,
     /// Models: cook-torrance, ward, plausible-phong, lambert, blinn-phong, lafortune.
     #[arg(long)]
     pub models: Option<String>,

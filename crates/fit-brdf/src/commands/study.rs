@@ -22,10 +22,24 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
         StudyConfig::full(&a.out, &a.specs)
     };
     let mut custom = false;
-    if let Some(m) = &a.materials {
-        c.materials = list("materials", m, |x| Some(x.to_string()))?;
-        custom = true;
+    let names = |opt, m: &Option<String>| {
+        m.as_deref()
+            .map(|m| list(opt, m, |x| Some(x.to_string())))
+            .transpose()
+    };
+    // One set named alone is the whole grid; neither: the grid's own.
+    match (
+        names("materials", &a.materials)?,
+        names("measured", &a.measured)?,
+    ) {
+        (None, None) => {}
+        (syn, meas) => {
+            c.materials = syn.unwrap_or_default();
+            c.measured = meas.unwrap_or_default();
+            custom = true;
+        }
     }
+    c.measured_dir = a.measured_dir.clone();
     if let Some(m) = &a.models {
         c.models = list("models", m, ModelChoice::by_label)?;
         custom = true;
