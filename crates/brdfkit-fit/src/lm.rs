@@ -69,10 +69,42 @@ fn scaling(a: &DMatrix<f64>) -> DVector<f64> {
 /// move for a log parameter, and 0.05 → 0.5 for a logit one.
 pub const MAX_STEP: f64 = 3.0;
 
-/// Scales a step so no coordinate changes by more than [`MAX_STEP`].
-fn clip_step(h: DVector<f64>) -> DVector<f64> {
-    let m = h.amax();
-    if m > MAX_STEP { h * (MAX_STEP / m) } else { h }
+/// Scales a step so no coordinate changes by more than [`MAX_STEP`]; returns the step
+/// and whether it was cut.
+///
+/// A coordinate at a bound of its domain ([`NormalEquations::at_bound`]) that the step
+/// moves further out is limited to ±[`MAX_STEP`] on its own and does not set the
+/// scale: its Newton step grows like e^|u| (dx/du ≈ e^−|u|) while the cost is flat
+/// along it, so scaling the whole step by it cut every other coordinate, and the step
+/// counted as cut (the ftol rules ignore cut steps) however flat the cost was. On a
+/// metal (ρd → 0, f0 → 1) LM then crept outward 3 units of u per iteration for up to
+/// 200 iterations without ever stopping on ftol.
+fn clip_step(h: DVector<f64>, outward_at_bound: impl Fn(usize) -> bool) -> (DVector<f64>, bool) {
+    let sat: Vec<bool> = (0..h.len()).map(&outward_at_bound).collect();
+    let m = (0..h.len())
+        .filter(|&q| !sat[q])
+        .map(|q| h[q].abs())
+        .fold(0.0, f64::max);
+    let cut = m > MAX_STEP;
+    let mut h = if cut { h * (MAX_STEP / m) } else { h };
+    for q in (0..h.len()).filter(|&q| sat[q]) {
+        h[q] = h[q].clamp(-MAX_STEP, MAX_STEP);
+    }
+    (h, cut)
+}
+
+/// Whether coordinate q of u is at a bound of its domain and `h` moves it further out.
+fn outward<O: NormalEquations>(
+    problem: &Problem<O>,
+    u: &DVector<f64>,
+    h: &DVector<f64>,
+    q: usize,
+) -> bool {
+    h[q] * u[q] > 0.0
+        && problem
+            .problem
+            .as_ref()
+            .is_some_and(|p| p.at_bound(q, u[q]))
 }
 
 /// Solves (A + μ D) h = −g by Cholesky; `None` when the matrix is not numerically
@@ -297,13 +329,11 @@ impl LevenbergMarquardt {
                 rejected += 1;
                 continue;
             };
-            let full = h.amax();
-            let h = clip_step(h);
             // A clipped step is a cut-down step: a small predicted or actual decrease
             // along it says the step was cut, not that the cost is flat there (a
             // Lafortune start with f ~ 1e99 "converged" at a loss of 5e33 on this
             // before the guard), so the ftol rules only judge unclipped steps.
-            let clipped = full > MAX_STEP;
+            let (h, clipped) = clip_step(h.clone(), |q| outward(problem, &u, &h, q));
             let small = h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol);
             // Predicted decrease of the quadratic model, −hᵀg − ½ hᵀ(JᵀJ)h: valid for
             // the clipped step too (the closed form ½ hᵀ(μDh − g) is not).
@@ -439,7 +469,7 @@ impl GaussNewtonLs {
             self.failed = Some("the Gauss-Newton system is not positive definite");
             return Ok((settle(&mut self.ne, state, u, ne, false), None));
         };
-        let h = clip_step(h);
+        let (h, _) = clip_step(h.clone(), |q| outward(problem, &u, &h, q));
         if h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol) {
             self.criterion = Some("step below xtol");
             return Ok((settle(&mut self.ne, state, u, ne, false), None));
