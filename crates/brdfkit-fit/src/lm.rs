@@ -602,14 +602,17 @@ mod tests {
             (r, j)
         }
     }
+    /// The normal equations of a dense residual vector and Jacobian.
+    fn dense_normal_eq((r, j): (DVector<f64>, DMatrix<f64>)) -> NormalEq {
+        NormalEq {
+            jtj: j.transpose() * &j,
+            jtr: j.transpose() * &r,
+            cost: 0.5 * r.norm_squared(),
+        }
+    }
     impl NormalEquations for Rosen {
         fn normal_equations(&self, u: &DVector<f64>) -> Result<NormalEq, Error> {
-            let (r, j) = Rosen::rj(u);
-            Ok(NormalEq {
-                jtj: j.transpose() * &j,
-                jtr: j.transpose() * &r,
-                cost: 0.5 * r.norm_squared(),
-            })
+            Ok(dense_normal_eq(Rosen::rj(u)))
         }
     }
     impl CostFunction for Rosen {
@@ -656,5 +659,64 @@ mod tests {
     #[test]
     fn gauss_newton_solves_rosenbrock() {
         solves_rosenbrock(GaussNewtonLs::new(Tolerances::default()));
+    }
+
+    /// An optimum on a domain bound: x = σ(u₀) ∈ (0, 1) with r₀ = 1.5 − x (cost falls
+    /// all the way to x = 1, where r₀ = 0.5) and r₁ = u₁ − 2. From u₀ = 21 (already at
+    /// the bound, |u₀| > 20) u₀'s Newton step is ≈ 0.5 e^u₀; with it setting the clip's
+    /// scale, every step was cut to 3 along u₀ and ~1e-8 along u₁, and no ftol rule
+    /// ever judged a step.
+    struct AtBound;
+    impl AtBound {
+        fn rj(u: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+            let (x, dx) = crate::reparam::Transform::Logit { lo: 0.0, hi: 1.0 }.forward(u[0]);
+            let r = DVector::from_vec(vec![1.5 - x, u[1] - 2.0]);
+            let j = DMatrix::from_row_slice(2, 2, &[-dx, 0.0, 0.0, 1.0]);
+            (r, j)
+        }
+    }
+    impl NormalEquations for AtBound {
+        fn normal_equations(&self, u: &DVector<f64>) -> Result<NormalEq, Error> {
+            Ok(dense_normal_eq(AtBound::rj(u)))
+        }
+        fn at_bound(&self, q: usize, u: f64) -> bool {
+            q == 0 && u.abs() > crate::reparam::U_ACTIVE
+        }
+    }
+    impl CostFunction for AtBound {
+        type Param = DVector<f64>;
+        type Output = f64;
+        fn cost(&self, u: &DVector<f64>) -> Result<f64, Error> {
+            Ok(0.5 * AtBound::rj(u).0.norm_squared())
+        }
+    }
+
+    #[test]
+    fn lm_stops_on_ftol_with_a_coordinate_at_its_bound() {
+        let res = Executor::new(
+            AtBound,
+            LevenbergMarquardt::new(1e-3, Tolerances::default()),
+        )
+        .configure(|s: LsState| s.param(DVector::from_vec(vec![21.0, 0.0])).max_iters(200))
+        .run()
+        .unwrap();
+        let st = &res.state;
+        let u = st.get_best_param().unwrap();
+        assert_eq!(
+            st.get_termination_reason(),
+            Some(&TerminationReason::SolverConverged)
+        );
+        // u₁ takes (nearly, with LM's damping) its whole step at once, where it got
+        // ~1e-8 of it per iteration before; u₀ moves out 3 a step until the cost is
+        // flat to ftol (e^-u₀ below ~1e-10 of the cost): a handful of iterations.
+        assert!((u[1] - 2.0).abs() < 1e-5, "{u}");
+        assert!(u[0] > 21.0, "{u}");
+        assert!(st.get_iter() <= 10, "{} iterations", st.get_iter());
+        // The cost at the bound, 0.125, to round-off.
+        assert!(
+            (st.get_best_cost() - 0.125).abs() < 1e-9,
+            "{}",
+            st.get_best_cost()
+        );
     }
 }

@@ -288,9 +288,14 @@ struct Scratch {
 impl Inner<'_> {
     /// s_k of every cell ([`fill_scale`]), for the dense residual and Jacobian.
     fn scales(&self) -> Vec<f64> {
-        let mut scale = vec![0.0; self.data.len()];
-        self.scale_of(0, &mut scale);
-        scale
+        match &self.stored {
+            Some(st) => st.s.clone(),
+            None => {
+                let mut scale = vec![0.0; self.data.len()];
+                self.scale_of(0, &mut scale);
+                scale
+            }
+        }
     }
 
     /// s_k of the cells `start .. start + buf.len()`: the stored ones, or formed in
