@@ -385,6 +385,12 @@ struct PassResult {
     /// The robust scale of the pass and, with an automatic scale, the plain stage's
     /// best loss.
     robust: Option<(f64, Option<f64>)>,
+    /// The pass's channel (a per-channel pass) or `None` (all three).
+    channel: Option<usize>,
+    /// The kept start's cost over the fitted cells is left to [`fit`]'s loss report
+    /// (see `defer` in `run_pass`): `best.cost` and its record's `final_loss` are
+    /// filled in there.
+    deferred: bool,
 }
 
 /// Floor of the automatic robust scale, relative to the targets' RMS: a plain fit that
@@ -612,6 +618,15 @@ fn run_pass(
     // A start that warmed up takes at most `full_iters` iterations here (see
     // `FitConfig::full_iters`); 0: its warm-up optimum is only evaluated.
     let full_iters = config.full_iters;
+    // One finisher whose warm-up optimum is only evaluated (full_iters 0) under the
+    // plain loss: its cost over the fitted cells, ½ loss², is what `fit`'s loss report
+    // sums anyway (the same terms in another order), so that pass over all cells is
+    // not paid twice: `fit` takes the cost from the report.
+    let defer = full_iters == Some(0)
+        && finishers.len() == 1
+        && given.is_none()
+        && !auto
+        && penalty.is_none();
     let capped_cfg = match full_iters {
         Some(n) if n > 0 => config
             .clone()
@@ -630,12 +645,13 @@ fn run_pass(
             let o = if let (Some(w), Some(0)) = (&e.warm, full_iters) {
                 // The warm-up optimum, evaluated on all fitted cells (one cost pass).
                 let probe = stage1.clone();
-                let cost = probe.cost_at(&e.u);
+                let cost = if defer { f64::NAN } else { probe.cost_at(&e.u) };
                 Ok(Outcome {
                     u: e.u.clone(),
                     cost,
                     iterations: 0,
-                    cost_evals: probe.cost_evals(),
+                    // Deferred: the loss report's pass is this start's cost pass.
+                    cost_evals: if defer { 1 } else { probe.cost_evals() },
                     jac_evals: 0,
                     termination: format!(
                         "{} on the warm-up set; evaluated on all fitted cells (full_iters 0)",
@@ -667,7 +683,7 @@ fn run_pass(
                 o.cost_evals += u64::from(e.rank_cost.is_some() && !rank_on_warm);
                 o
             });
-            if !auto {
+            if !auto && !defer {
                 done(k, &o);
             }
             (k, o)
@@ -754,7 +770,7 @@ fn run_pass(
                 failed(e, true, x.warm.clone())
             }
             (Ok(_), Some(Ok(o))) => {
-                if o.cost.is_finite() && best.is_none_or(|(_, c)| o.cost < c) {
+                if (o.cost.is_finite() || defer) && best.is_none_or(|(_, c)| o.cost < c) {
                     best = Some((k, o.cost));
                 }
                 StartRecord {
@@ -821,6 +837,8 @@ fn run_pass(
         starts: records,
         best,
         robust: robust_info,
+        channel,
+        deferred: defer,
     })
 }
 
@@ -885,7 +903,7 @@ pub fn fit(
             cells: fitset.len(),
         });
     }
-    let results: Vec<PassResult> = passes
+    let mut results: Vec<PassResult> = passes
         .into_iter()
         .map(|(f, ch)| run_pass(fitset, model, f, ch, config, observer.as_ref()))
         .collect::<Result<_, _>>()?;
@@ -910,6 +928,32 @@ pub fn fit(
     } else {
         evaluate_losses(ms, full, config.weighting)
     };
+    // Deferred costs (see `run_pass`): the report's value of the optimised loss over
+    // the fitted cells, overall or of the pass's channel.
+    for r in results.iter_mut().filter(|r| r.deferred) {
+        let l = losses_fit.get(config.loss);
+        let v = r.channel.map_or(l.overall, |c| l.channels[c]);
+        if !v.is_finite() {
+            return Err(FitError::Solver {
+                solver: config.solver.name().into(),
+                start: 0,
+                reason: "no start reached a finite loss (every cost was infinite or NaN)".into(),
+            });
+        }
+        r.best.cost = 0.5 * v * v;
+        if let Some(s) = r.starts.iter_mut().find(|s| s.kept) {
+            s.final_loss = Some(v);
+            if let Some(o) = &observer {
+                o.on_start_done(&StartDone {
+                    start: s.index,
+                    channel: r.channel,
+                    loss: v,
+                    iterations: r.best.iterations,
+                    termination: r.best.termination.clone(),
+                });
+            }
+        }
+    }
 
     let x0 = model.params();
     let params: Vec<ParamRecord> = specs

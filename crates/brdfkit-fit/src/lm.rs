@@ -69,10 +69,42 @@ fn scaling(a: &DMatrix<f64>) -> DVector<f64> {
 /// move for a log parameter, and 0.05 → 0.5 for a logit one.
 pub const MAX_STEP: f64 = 3.0;
 
-/// Scales a step so no coordinate changes by more than [`MAX_STEP`].
-fn clip_step(h: DVector<f64>) -> DVector<f64> {
-    let m = h.amax();
-    if m > MAX_STEP { h * (MAX_STEP / m) } else { h }
+/// Scales a step so no coordinate changes by more than [`MAX_STEP`]; returns the step
+/// and whether it was cut.
+///
+/// A coordinate at a bound of its domain ([`NormalEquations::at_bound`]) that the step
+/// moves further out is limited to ±[`MAX_STEP`] on its own and does not set the
+/// scale: its Newton step grows like e^|u| (dx/du ≈ e^−|u|) while the cost is flat
+/// along it, so scaling the whole step by it cut every other coordinate, and the step
+/// counted as cut (the ftol rules ignore cut steps) however flat the cost was. On a
+/// metal (ρd → 0, f0 → 1) LM then crept outward 3 units of u per iteration for up to
+/// 200 iterations without ever stopping on ftol.
+fn clip_step(h: DVector<f64>, outward_at_bound: impl Fn(usize) -> bool) -> (DVector<f64>, bool) {
+    let sat: Vec<bool> = (0..h.len()).map(&outward_at_bound).collect();
+    let m = (0..h.len())
+        .filter(|&q| !sat[q])
+        .map(|q| h[q].abs())
+        .fold(0.0, f64::max);
+    let cut = m > MAX_STEP;
+    let mut h = if cut { h * (MAX_STEP / m) } else { h };
+    for q in (0..h.len()).filter(|&q| sat[q]) {
+        h[q] = h[q].clamp(-MAX_STEP, MAX_STEP);
+    }
+    (h, cut)
+}
+
+/// Whether coordinate q of u is at a bound of its domain and `h` moves it further out.
+fn outward<O: NormalEquations>(
+    problem: &Problem<O>,
+    u: &DVector<f64>,
+    h: &DVector<f64>,
+    q: usize,
+) -> bool {
+    h[q] * u[q] > 0.0
+        && problem
+            .problem
+            .as_ref()
+            .is_some_and(|p| p.at_bound(q, u[q]))
 }
 
 /// Solves (A + μ D) h = −g by Cholesky; `None` when the matrix is not numerically
@@ -297,13 +329,11 @@ impl LevenbergMarquardt {
                 rejected += 1;
                 continue;
             };
-            let full = h.amax();
-            let h = clip_step(h);
             // A clipped step is a cut-down step: a small predicted or actual decrease
             // along it says the step was cut, not that the cost is flat there (a
             // Lafortune start with f ~ 1e99 "converged" at a loss of 5e33 on this
             // before the guard), so the ftol rules only judge unclipped steps.
-            let clipped = full > MAX_STEP;
+            let (h, clipped) = clip_step(h.clone(), |q| outward(problem, &u, &h, q));
             let small = h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol);
             // Predicted decrease of the quadratic model, −hᵀg − ½ hᵀ(JᵀJ)h: valid for
             // the clipped step too (the closed form ½ hᵀ(μDh − g) is not).
@@ -439,7 +469,7 @@ impl GaussNewtonLs {
             self.failed = Some("the Gauss-Newton system is not positive definite");
             return Ok((settle(&mut self.ne, state, u, ne, false), None));
         };
-        let h = clip_step(h);
+        let (h, _) = clip_step(h.clone(), |q| outward(problem, &u, &h, q));
         if h.norm() <= self.tol.xtol * (u.norm() + self.tol.xtol) {
             self.criterion = Some("step below xtol");
             return Ok((settle(&mut self.ne, state, u, ne, false), None));
@@ -572,14 +602,17 @@ mod tests {
             (r, j)
         }
     }
+    /// The normal equations of a dense residual vector and Jacobian.
+    fn dense_normal_eq((r, j): (DVector<f64>, DMatrix<f64>)) -> NormalEq {
+        NormalEq {
+            jtj: j.transpose() * &j,
+            jtr: j.transpose() * &r,
+            cost: 0.5 * r.norm_squared(),
+        }
+    }
     impl NormalEquations for Rosen {
         fn normal_equations(&self, u: &DVector<f64>) -> Result<NormalEq, Error> {
-            let (r, j) = Rosen::rj(u);
-            Ok(NormalEq {
-                jtj: j.transpose() * &j,
-                jtr: j.transpose() * &r,
-                cost: 0.5 * r.norm_squared(),
-            })
+            Ok(dense_normal_eq(Rosen::rj(u)))
         }
     }
     impl CostFunction for Rosen {
@@ -626,5 +659,64 @@ mod tests {
     #[test]
     fn gauss_newton_solves_rosenbrock() {
         solves_rosenbrock(GaussNewtonLs::new(Tolerances::default()));
+    }
+
+    /// An optimum on a domain bound: x = σ(u₀) ∈ (0, 1) with r₀ = 1.5 − x (cost falls
+    /// all the way to x = 1, where r₀ = 0.5) and r₁ = u₁ − 2. From u₀ = 21 (already at
+    /// the bound, |u₀| > 20) u₀'s Newton step is ≈ 0.5 e^u₀; with it setting the clip's
+    /// scale, every step was cut to 3 along u₀ and ~1e-8 along u₁, and no ftol rule
+    /// ever judged a step.
+    struct AtBound;
+    impl AtBound {
+        fn rj(u: &DVector<f64>) -> (DVector<f64>, DMatrix<f64>) {
+            let (x, dx) = crate::reparam::Transform::Logit { lo: 0.0, hi: 1.0 }.forward(u[0]);
+            let r = DVector::from_vec(vec![1.5 - x, u[1] - 2.0]);
+            let j = DMatrix::from_row_slice(2, 2, &[-dx, 0.0, 0.0, 1.0]);
+            (r, j)
+        }
+    }
+    impl NormalEquations for AtBound {
+        fn normal_equations(&self, u: &DVector<f64>) -> Result<NormalEq, Error> {
+            Ok(dense_normal_eq(AtBound::rj(u)))
+        }
+        fn at_bound(&self, q: usize, u: f64) -> bool {
+            q == 0 && u.abs() > crate::reparam::U_ACTIVE
+        }
+    }
+    impl CostFunction for AtBound {
+        type Param = DVector<f64>;
+        type Output = f64;
+        fn cost(&self, u: &DVector<f64>) -> Result<f64, Error> {
+            Ok(0.5 * AtBound::rj(u).0.norm_squared())
+        }
+    }
+
+    #[test]
+    fn lm_stops_on_ftol_with_a_coordinate_at_its_bound() {
+        let res = Executor::new(
+            AtBound,
+            LevenbergMarquardt::new(1e-3, Tolerances::default()),
+        )
+        .configure(|s: LsState| s.param(DVector::from_vec(vec![21.0, 0.0])).max_iters(200))
+        .run()
+        .unwrap();
+        let st = &res.state;
+        let u = st.get_best_param().unwrap();
+        assert_eq!(
+            st.get_termination_reason(),
+            Some(&TerminationReason::SolverConverged)
+        );
+        // u₁ takes (nearly, with LM's damping) its whole step at once, where it got
+        // ~1e-8 of it per iteration before; u₀ moves out 3 a step until the cost is
+        // flat to ftol (e^-u₀ below ~1e-10 of the cost): a handful of iterations.
+        assert!((u[1] - 2.0).abs() < 1e-5, "{u}");
+        assert!(u[0] > 21.0, "{u}");
+        assert!(st.get_iter() <= 10, "{} iterations", st.get_iter());
+        // The cost at the bound, 0.125, to round-off.
+        assert!(
+            (st.get_best_cost() - 0.125).abs() < 1e-9,
+            "{}",
+            st.get_best_cost()
+        );
     }
 }

@@ -56,7 +56,7 @@ use brdfkit_core::{Model, ParamRole, Rgb};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// JᵀJ, Jᵀr and the cost at one point.
 #[derive(Debug, Clone)]
@@ -79,6 +79,13 @@ pub trait NormalEquations {
     /// stop there. 0 disables the test.
     fn cost_floor(&self) -> f64 {
         0.0
+    }
+
+    /// Whether coordinate `q` at the value `u` sits at a bound of its parameter's
+    /// domain, where the cost is flat along it (a saturated logit or log: see
+    /// [`crate::reparam::Transform::end_at`]). The default: never.
+    fn at_bound(&self, _q: usize, _u: f64) -> bool {
+        false
     }
 }
 
@@ -105,9 +112,27 @@ struct Inner<'a> {
     inv_wsum: f64,
     /// Per channel: positions q (into the free vector) of the parameters acting on it.
     cols: [Vec<usize>; 3],
-    floor: f64,
     /// Σ s² t(f̂)² over the active channels: the weighted mean square of the targets.
-    target_ms: f64,
+    /// Formed on first use (a pass over the cells; the full set of a fit whose
+    /// solvers run only on subsamples never needs it).
+    target_ms: OnceLock<f64>,
+    /// The scales and targets of a small set ([`STORE_MAX_CELLS`]), formed once.
+    stored: Option<Stored>,
+}
+
+/// Largest cell set whose scales s and targets t(f̂) a problem stores rather than
+/// forming per chunk and pass: 2 MB for 65,536 cells (the warm-up set), against one
+/// transform per cell and channel on every pass of every start (on the exploration
+/// and warm-up sets, where LM takes nearly all of its passes, `fill_target` was 15 %
+/// of a default fit's CPU time). A full table keeps the per-chunk forming (35 MB saved).
+const STORE_MAX_CELLS: usize = 1 << 18;
+
+/// Stored s and t(f̂) of a small set: the same functions of the same numbers as the
+/// per-chunk forming, so the same bits.
+struct Stored {
+    s: Vec<f64>,
+    /// Per channel; empty for an inactive one.
+    t: [Vec<f64>; 3],
 }
 
 /// The least-squares problem of one model family against a cell set.
@@ -263,10 +288,73 @@ struct Scratch {
 impl Inner<'_> {
     /// s_k of every cell ([`fill_scale`]), for the dense residual and Jacobian.
     fn scales(&self) -> Vec<f64> {
-        let mut scale = vec![0.0; self.data.len()];
-        let (w, l) = (self.weighting, self.loss);
-        fill_scale(self.data, w, l, self.inv_wsum, 0, &mut scale);
-        scale
+        match &self.stored {
+            Some(st) => st.s.clone(),
+            None => {
+                let mut scale = vec![0.0; self.data.len()];
+                self.scale_of(0, &mut scale);
+                scale
+            }
+        }
+    }
+
+    /// s_k of the cells `start .. start + buf.len()`: the stored ones, or formed in
+    /// `buf`.
+    fn scale_of<'b>(&'b self, start: usize, buf: &'b mut [f64]) -> &'b [f64] {
+        match &self.stored {
+            Some(st) => &st.s[start..start + buf.len()],
+            None => {
+                let (w, l) = (self.weighting, self.loss);
+                fill_scale(self.data, w, l, self.inv_wsum, start, buf);
+                buf
+            }
+        }
+    }
+
+    /// The targets t(f̂) of channel c for the cells `start .. start + buf.len()`: the
+    /// stored ones, or formed in `buf`.
+    fn target_of<'b>(&'b self, c: usize, start: usize, buf: &'b mut [f64]) -> &'b [f64] {
+        match &self.stored {
+            Some(st) => &st.t[c][start..start + buf.len()],
+            None => {
+                fill_target(self.data, self.loss, c, start, buf);
+                buf
+            }
+        }
+    }
+
+    /// Σ s² t² over the active channels (see `target_ms`), chunk by chunk; per-chunk
+    /// sums in parallel, added in chunk order (deterministic).
+    fn target_ms(&self) -> f64 {
+        *self.target_ms.get_or_init(|| {
+            let n = self.data.len();
+            let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
+            let cap = PASS_CHUNK_CELLS.min(n);
+            let mut ms = 0.0;
+            for &c in &self.channels {
+                let parts: Vec<f64> = (0..nchunks)
+                    .into_par_iter()
+                    .with_min_len(min_len(nchunks))
+                    .map_init(
+                        || (vec![0.0; cap], vec![0.0; cap]),
+                        |(sbuf, tbuf), ci| {
+                            let s = ci * PASS_CHUNK_CELLS;
+                            let len = (s + PASS_CHUNK_CELLS).min(n) - s;
+                            let sb = self.scale_of(s, &mut sbuf[..len]);
+                            let tb = self.target_of(c, s, &mut tbuf[..len]);
+                            tb.iter()
+                                .zip(sb.iter())
+                                .map(|(t, s)| (t * s) * (t * s))
+                                .sum::<f64>()
+                        },
+                    )
+                    .collect();
+                for p in parts {
+                    ms += p;
+                }
+            }
+            ms
+        })
     }
 }
 
@@ -313,32 +401,19 @@ impl<'a> FitProblem<'a> {
         let inv_wsum = 1.0 / (nch * wsum);
         let mut cols: [Vec<usize>; 3] = Default::default();
         let n = data.len();
-        let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
-        let mut ms = 0.0;
-        for &c in &channels {
-            // Σ s² t², chunk by chunk (no full-length array of s or t); per-chunk sums
-            // in parallel, added in chunk order (deterministic).
-            let parts: Vec<f64> = (0..nchunks)
-                .into_par_iter()
-                .with_min_len(min_len(nchunks))
-                .map_init(
-                    || (vec![0.0; PASS_CHUNK_CELLS], vec![0.0; PASS_CHUNK_CELLS]),
-                    |(sbuf, tbuf), ci| {
-                        let s = ci * PASS_CHUNK_CELLS;
-                        let len = (s + PASS_CHUNK_CELLS).min(n) - s;
-                        let (sb, tb) = (&mut sbuf[..len], &mut tbuf[..len]);
-                        fill_scale(data, weighting, loss, inv_wsum, s, sb);
-                        fill_target(data, loss, c, s, tb);
-                        tb.iter()
-                            .zip(sb.iter())
-                            .map(|(t, s)| (t * s) * (t * s))
-                            .sum::<f64>()
-                    },
-                )
-                .collect();
-            for p in parts {
-                ms += p;
+        let stored = (n <= STORE_MAX_CELLS).then(|| {
+            let mut st = Stored {
+                s: vec![0.0; n],
+                t: Default::default(),
+            };
+            fill_scale(data, weighting, loss, inv_wsum, 0, &mut st.s);
+            for &c in &channels {
+                st.t[c] = vec![0.0; n];
+                fill_target(data, loss, c, 0, &mut st.t[c]);
             }
+            st
+        });
+        for &c in &channels {
             cols[c] = free
                 .iter()
                 .enumerate()
@@ -349,9 +424,6 @@ impl<'a> FitProblem<'a> {
                 .map(|(q, _)| q)
                 .collect();
         }
-        // A perfect fit leaves residuals of the order of the round-off of t itself,
-        // ~1e-16 of the targets' RMS; the floor is (1e-14 · RMS)², a hundred times that.
-        let floor = 0.5 * ms * 1e-28;
         Ok(FitProblem {
             inner: Arc::new(Inner {
                 data,
@@ -366,8 +438,8 @@ impl<'a> FitProblem<'a> {
                 weighting,
                 inv_wsum,
                 cols,
-                floor,
-                target_ms: ms,
+                target_ms: OnceLock::new(),
+                stored,
             }),
             robust: None,
             penalty: None,
@@ -412,7 +484,7 @@ impl<'a> FitProblem<'a> {
     /// The root-mean-square of the targets t(f̂) with the cells' weights (the scale of
     /// the residuals of a fit that explains nothing).
     pub fn target_rms(&self) -> f64 {
-        self.inner.target_ms.sqrt()
+        self.inner.target_ms().sqrt()
     }
 
     /// Median of |e| = |t(f) − t(f̂)| over every cell and active channel at u (unweighted;
@@ -431,8 +503,8 @@ impl<'a> FitProblem<'a> {
             .fold(
                 || {
                     (
-                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
-                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
+                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
                         Vec::new(),
                     )
                 },
@@ -441,8 +513,7 @@ impl<'a> FitProblem<'a> {
                     let e = (s + PASS_CHUNK_CELLS).min(n);
                     m.eval_batch(&g.slice(s..e), &mut out[..e - s]);
                     for &c in &inn.channels {
-                        let tg = &mut tbuf[..e - s];
-                        fill_target(inn.data, inn.loss, c, s, tg);
+                        let tg = inn.target_of(c, s, &mut tbuf[..e - s]);
                         for k in 0..e - s {
                             let t = inn.loss.transform(out[k][c], g.wi_z[s + k]);
                             acc.push((t - tg[k]).abs());
@@ -577,9 +648,9 @@ impl<'a> FitProblem<'a> {
             .map_init(
                 || {
                     (
-                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
-                        vec![0.0; PASS_CHUNK_CELLS],
-                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
+                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
                     )
                 },
                 |(out, sbuf, tbuf), ci| {
@@ -589,18 +660,9 @@ impl<'a> FitProblem<'a> {
                     let len = e - s;
                     m.eval_batch(&g.slice(s..e), &mut out[..len]);
                     let cos_i = &g.wi_z[s..e];
-                    fill_scale(
-                        inn.data,
-                        inn.weighting,
-                        inn.loss,
-                        inn.inv_wsum,
-                        s,
-                        &mut sbuf[..len],
-                    );
-                    let sc = &sbuf[..len];
+                    let sc = inn.scale_of(s, &mut sbuf[..len]);
                     for &c in &inn.channels {
-                        let tg = &mut tbuf[..len];
-                        fill_target(inn.data, inn.loss, c, s, tg);
+                        let tg = inn.target_of(c, s, &mut tbuf[..len]);
                         let mut part = 0.0;
                         match robust {
                             None => {
@@ -660,13 +722,13 @@ impl<'a> FitProblem<'a> {
             .with_min_len(min_len(nchunks))
             .map_init(
                 || Scratch {
-                    s: vec![0.0; PASS_CHUNK_CELLS],
-                    t: vec![0.0; PASS_CHUNK_CELLS],
-                    out: vec![Rgb::ZERO; PASS_CHUNK_CELLS],
-                    grad: vec![Rgb::ZERO; np * PASS_CHUNK_CELLS],
-                    jcol: vec![0.0; maxcols * PASS_CHUNK_CELLS],
-                    r: vec![0.0; PASS_CHUNK_CELLS],
-                    d: vec![0.0; PASS_CHUNK_CELLS],
+                    s: vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                    t: vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                    out: vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
+                    grad: vec![Rgb::ZERO; np * PASS_CHUNK_CELLS.min(n)],
+                    jcol: vec![0.0; maxcols * PASS_CHUNK_CELLS.min(n)],
+                    r: vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                    d: vec![0.0; PASS_CHUNK_CELLS.min(n)],
                     jtj: vec![0.0; mdim * mdim],
                     jtr: vec![0.0; mdim],
                     cost: 0.0,
@@ -685,18 +747,9 @@ impl<'a> FitProblem<'a> {
                         &mut sc.grad[..np * len],
                     );
                     let cos_i = &g.wi_z[s..e];
-                    fill_scale(
-                        inn.data,
-                        inn.weighting,
-                        inn.loss,
-                        inn.inv_wsum,
-                        s,
-                        &mut sc.s[..len],
-                    );
-                    let scale = &sc.s[..len];
+                    let scale = inn.scale_of(s, &mut sc.s[..len]);
                     for &c in &inn.channels {
-                        fill_target(inn.data, inn.loss, c, s, &mut sc.t[..len]);
-                        let tg = &sc.t[..len];
+                        let tg = inn.target_of(c, s, &mut sc.t[..len]);
                         match robust {
                             None => {
                                 for k in 0..len {
@@ -811,7 +864,7 @@ impl<'a> FitProblem<'a> {
         let mut r = DVector::zeros(n * inn.channels.len());
         let mut tg = vec![0.0; n];
         for (ci, &c) in inn.channels.iter().enumerate() {
-            fill_target(inn.data, inn.loss, c, 0, &mut tg);
+            let tg = inn.target_of(c, 0, &mut tg);
             for k in 0..n {
                 r[ci * n + k] = scale[k] * (inn.loss.transform(out[k][c], g.wi_z[k]) - tg[k]);
             }
@@ -851,7 +904,15 @@ impl NormalEquations for FitProblem<'_> {
         Ok(self.normal_eq(u))
     }
     fn cost_floor(&self) -> f64 {
-        self.inner.floor
+        // A perfect fit leaves residuals of the order of the round-off of t itself,
+        // ~1e-16 of the targets' RMS; the floor is (1e-14 · RMS)², a hundred times that.
+        0.5 * self.inner.target_ms() * 1e-28
+    }
+    fn at_bound(&self, q: usize, u: f64) -> bool {
+        self.inner
+            .transforms
+            .get(q)
+            .is_some_and(|t| t.end_at(u).is_some())
     }
 }
 
@@ -920,15 +981,15 @@ pub fn evaluate_losses(
             || {
                 (
                     [
-                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
-                        vec![Rgb::ZERO; PASS_CHUNK_CELLS],
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
+                        vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
                     ],
                     (
-                        vec![0.0; PASS_CHUNK_CELLS],
-                        vec![0.0; PASS_CHUNK_CELLS],
-                        vec![0.0; PASS_CHUNK_CELLS],
+                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
                     ),
-                    vec![[0.0; 4]; PASS_CHUNK_CELLS],
+                    vec![[0.0; 4]; PASS_CHUNK_CELLS.min(n)],
                 )
             },
             |(out, (xm, xt, wb), gb), ci| {

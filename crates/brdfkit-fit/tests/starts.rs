@@ -12,8 +12,14 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 const TRUTH: &str = r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.15}}"#;
-/// Roughness 8 (a nearly flat lobe): from here alone LM ends at a cbrt loss of 5.9e-4.
+/// Roughness 8 (a nearly flat lobe).
 const FAR: &str = r#"{"model":"cook-torrance","params":{"fresnel":"schlick","alpha":8}}"#;
+/// Roughness 80: since LM's step clip ignores coordinates at a bound moving outward
+/// (2026-11-25), a start from roughness 8 alone reaches the truth; from 80 alone it
+/// still ends at 5.9e-4, and of 4 starts finished, three end there (measured).
+const FAR_ALONE: &str = r#"{"model":"cook-torrance","params":{"fresnel":"schlick","alpha":80}}"#;
+/// A start's loss above this is in another basin than the truth's (< 1e-12 here).
+const OTHER_BASIN: f64 = 1e-4;
 
 /// 21,821 cells: above 4 × the 1000-cell warm-up, so the warm-up (and ranking) apply.
 fn data() -> FitData {
@@ -43,11 +49,11 @@ fn ranking_finishes_the_start_that_leads_to_the_global_optimum() {
     let data = data();
     let truth = model(TRUTH);
     // Precondition: the given start alone fails (a local minimum well above round-off).
-    let one = fit(model(FAR).as_ref(), &data, &cfg(1, 1), None).unwrap();
+    let one = fit(model(FAR_ALONE).as_ref(), &data, &cfg(1, 1), None).unwrap();
     let l1 = one.record.losses_full.cbrt.overall;
     assert!(l1 > 1e-4, "start 0 alone should fail here: {}", show(&one));
 
-    let res = fit(model(FAR).as_ref(), &data, &cfg(4, 1), None).unwrap();
+    let res = fit(model(FAR_ALONE).as_ref(), &data, &cfg(4, 1), None).unwrap();
     let r = &res.record;
     assert_eq!(r.finish, Some(1));
     assert!(
@@ -69,12 +75,12 @@ fn ranking_finishes_the_start_that_leads_to_the_global_optimum() {
     assert_eq!(fin[0].rank_loss, Some(best_rank));
     // The other starts were ranked no better and stopped after their warm-up: no
     // iteration on the fitted cells, one cost pass (the ranking). At least two of them
-    // are in other basins (finished, they end at 2.7e-3 and 8.6e-2: see the test
+    // are in other basins (finished, they end at 5.9e-4: see the test
     // below), so a ranking that finished one of those would fail the loss check above.
     let far = r
         .starts
         .iter()
-        .filter(|s| s.rank_loss.unwrap() > 1e-3)
+        .filter(|s| s.rank_loss.unwrap() > OTHER_BASIN)
         .count();
     assert!(far >= 2, "{}", serde_json::to_string(&r.starts).unwrap());
     for s in r.starts.iter().filter(|s| !s.finished) {
@@ -93,7 +99,7 @@ fn ranking_finishes_the_start_that_leads_to_the_global_optimum() {
 
     // Finishing every start (the behaviour before ranking) reaches the same optimum
     // with more work on the fitted cells.
-    let all = fit(model(FAR).as_ref(), &data, &cfg(4, 4), None).unwrap();
+    let all = fit(model(FAR_ALONE).as_ref(), &data, &cfg(4, 4), None).unwrap();
     assert!(
         all.record
             .starts
@@ -103,9 +109,13 @@ fn ranking_finishes_the_start_that_leads_to_the_global_optimum() {
     assert!(all.record.losses_full.cbrt.overall < 1e-12);
     // Those other basins: finished on all cells, the starts ranked out end far above
     // the optimum (so the ranking's choice matters).
-    for s in r.starts.iter().filter(|s| s.rank_loss.unwrap() > 1e-3) {
+    for s in r
+        .starts
+        .iter()
+        .filter(|s| s.rank_loss.unwrap() > OTHER_BASIN)
+    {
         let l = all.record.starts[s.index].final_loss.unwrap();
-        assert!(l > 1e-3, "start {} finished at {l:e}", s.index);
+        assert!(l > OTHER_BASIN, "start {} finished at {l:e}", s.index);
     }
     assert!(
         full_set_jacobians(&all.record) > 2 * full_set_jacobians(r),
