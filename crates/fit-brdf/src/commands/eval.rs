@@ -28,8 +28,6 @@ pub fn run(a: EvalArgs) -> CliResult<()> {
     {
         // Table to .npy: looked up chunk by chunk while the previous chunk is written.
         let (table, mode) = (read_table(t)?, lookup_mode(a.interp));
-        // Every chunk then reads the interleaved copy (one cache line per pair).
-        table.prepare_lookups(mode, dirs.len() / 6);
         return write_file(p, |f| {
             npyio::write_values_with(f, dirs.len() / 6, |first, out| {
                 let rows = &dirs[6 * first..6 * first + 2 * out.len()];
