@@ -21,9 +21,11 @@
 //!   the dielectric (Born & Wolf) as F = (r∥² + r⊥²)/2 over one common denominator;
 //! - f_r = ρd/π + ρs D V F, and exactly 0 unless cos θi > 0 and cos θo > 0.
 //!
-//! Four divisions and eight square roots per pair for the conductor (the per-pair model
-//! code has nine divisions). The same function serves one pair (`eval`) and the loops
-//! over a batch, so all paths give the same bits.
+//! The conductor in `f64` is evaluated from the directions' squares with one division
+//! for D·V and all three channels' F (`conductor_value`: eight square roots and two
+//! divisions per pair, against nine and seven in the form above); in `f32` as above.
+//! The same function serves one pair (`eval`) and the loops over a batch, so all paths
+//! give the same bits.
 
 use super::{CookTorrance, Fresnel, Shape};
 use crate::lanes::{Real, Run, clamp01, dispatch, max, select};
@@ -62,6 +64,7 @@ pub(super) struct Consts<T> {
     d_norm: T,
     diff: [T; 3],
     spec: [T; 3],
+    spec_d: [T; 3],
     /// Schlick: f0. Conductor: η² − k². Dielectric: η in `[0]`.
     fa: [T; 3],
     /// Conductor: 4η²k². Dielectric: 1/η² in `[0]`.
@@ -141,6 +144,7 @@ impl CookTorrance {
             d_norm: T::of(FRAC_1_PI / (ax * ay)),
             diff: r(self.rho_d.0.map(|v| v * FRAC_1_PI)),
             spec: r(self.rho_s.0),
+            spec_d: r(self.rho_s.0.map(|v| v * (FRAC_1_PI / (ax * ay)))),
             fa: r(fa),
             fb: r(fb),
         }
@@ -213,15 +217,16 @@ struct Lobe<T> {
     dv: T,
 }
 
-/// D·V of one pair (module doc), shared by the value and the gradient kernels so both
-/// give the same bits.
+/// hx², hy², s, the lobe's denominator L = s² vden (so D·V = d_norm/L, module doc),
+/// S(wi) and S(wo) of one pair; `h` is the half vector or, for
+/// [`conductor_value`], wi + wo.
 #[inline(always)]
-fn lobe<T: Real, const A: bool, const C: bool>(
+fn lobe_den<T: Real, const A: bool, const C: bool>(
     k: &Consts<T>,
     wi: [T; 3],
     wo: [T; 3],
     h: [T; 3],
-) -> Lobe<T> {
+) -> (T, T, T, T, T, T) {
     let (zi, zo) = (wi[2], wo[2]);
     let (hx2, hy2, hz2) = (h[0] * h[0], h[1] * h[1], h[2] * h[2]);
     let (s, si, so) = if A {
@@ -242,9 +247,22 @@ fn lobe<T: Real, const A: bool, const C: bool>(
     } else {
         (zi + si) * (zo + so)
     };
+    (hx2, hy2, s, s * s * vden, si, so)
+}
+
+/// D·V of one pair (module doc), shared by the value and the gradient kernels so both
+/// give the same bits.
+#[inline(always)]
+fn lobe<T: Real, const A: bool, const C: bool>(
+    k: &Consts<T>,
+    wi: [T; 3],
+    wo: [T; 3],
+    h: [T; 3],
+) -> Lobe<T> {
+    let (hx2, hy2, s, l, si, so) = lobe_den::<T, A, C>(k, wi, wo, h);
     // D·V in one division; s² ≤ 1e24 and vden ≤ 4e4 over the roughness domain, so the
     // product stays finite even in f32.
-    let dv = k.d_norm / (s * s * vden);
+    let dv = k.d_norm / l;
     Lobe {
         hx2,
         hy2,
@@ -265,11 +283,77 @@ pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8>(
     cd: T,
 ) -> [T; 3] {
     let (zi, zo) = (wi[2], wo[2]);
-    let Lobe { dv, .. } = lobe::<T, A, C>(k, wi, wo, h);
-    let f = fresnel::<T, F>(k, cd);
     // Below the horizon exactly 0 (a select, so the loop has no branch).
     let up = zi > T::ZERO && zo > T::ZERO;
+    if F == F_CONDUCTOR && T::FOLD_DIVISIONS {
+        return conductor_value::<T, A, C>(k, wi, wo, up);
+    }
+    let Lobe { dv, .. } = lobe::<T, A, C>(k, wi, wo, h);
+    let f = fresnel::<T, F>(k, cd);
     std::array::from_fn(|c| select(up, k.diff[c] + k.spec[c] * dv * f[c], T::ZERO))
+}
+
+/// f_r of one pair with the conductor's F in `f64`, from the directions alone (the
+/// caller's half vector and cos θd are not used). The f64 loop is bound by the divider
+/// and square-root unit (docs/performance.md, "Raw directions in f64"), and this form
+/// needs neither |wi + wo| nor cos θd itself, only their squares, and folds the
+/// quotients of D·V and of the three channels' F into one division:
+///
+/// - with s = wi + wo (not normalised) and n² = s·s, h = s/n, so the lobe's s of the
+///   module doc is s̃/n² with s̃ the same sum taken on s, and cos²θd = (wi·h)² =
+///   (wi·s)²/n²: one reciprocal of n² serves both. (wi·s is formed from the components
+///   of s, not as 1 + wi·wo, which cancels near wi = −wo.)
+/// - Möller's t2 = 2 c a (a² = (p + t)/2) is √(2 c² (p + t)), so c is never needed.
+/// - ρs D V F_c = (ρs/π αx αy) n_c q_c′ / (u² vden q_r q_g q_b), with n_c/q_c the
+///   channel's F and q_c′ the product of the other two denominators.
+///
+/// Eight square roots and two divisions per pair, where the half-vector form has nine
+/// and seven. Every f64 path (`eval`, the geometry batches, raw directions) comes here,
+/// so they all give the same bits.
+#[inline(always)]
+fn conductor_value<T: Real, const A: bool, const C: bool>(
+    k: &Consts<T>,
+    wi: [T; 3],
+    wo: [T; 3],
+    up: bool,
+) -> [T; 3] {
+    let s = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+    let n2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2];
+    let ws = wi[0] * s[0] + wi[1] * s[1] + wi[2] * s[2];
+    // Where n² is 0 or below the normal range (|wi + wo| < 1e-154: wi = −wo, or
+    // grazing pairs that close) the half vector is the normal, as in
+    // `half_and_cos_d`: s(h) = 1, cos θd = wi_z.
+    let ok = n2 >= T::TINY;
+    let r = T::ONE / n2;
+    let (_, _, st, _, si, so) = lobe_den::<T, A, C>(k, wi, wo, s);
+    let u = select(ok, st * r, T::ONE);
+    let vden = if C {
+        T::TWO * (wo[2] * si + wi[2] * so)
+    } else {
+        (wi[2] + si) * (wo[2] + so)
+    };
+    // Round-off can take (wi·s)²/n² a hair past 1, as it can wi·h.
+    let c2 = clamp01(select(ok, ws * ws * r, wi[2] * wi[2]));
+    let s2 = T::ONE - c2;
+    let s4 = s2 * s2;
+    let [(nr, qr), (ng, qg), (nb, qb)]: [(T, T); 3] = std::array::from_fn(|ch| {
+        let t = k.fa[ch] - s2;
+        let p = (t * t + k.fb[ch]).sqrt();
+        // p + t = 2a² ≥ 0 exactly; round-off can make it a hair negative.
+        let t2 = (T::TWO * c2 * max(p + t, T::ZERO)).sqrt();
+        let t1 = p + c2;
+        let t3 = p * c2 + s4;
+        let t4 = t2 * s2;
+        // q = 0 only at c = 0 with p = 0 (k = 0, η = 1: no interface), where the
+        // numerator is 0 as well and F = 0 is the limit; the floor keeps the product
+        // below nonzero. Above the horizon u² vden ≥ 1e-40 (u ≥ hz², vden ≥ α²), u²
+        // vden ≤ 4e28 and q ≤ 1e5 over the parameter domain, so the product of the
+        // denominators stays inside f64's range.
+        ((t1 - t2) * t3, max((t1 + t2) * (t3 + t4), T::of(1e-30)))
+    });
+    let rr = T::ONE / (u * u * vden * (qr * qg * qb));
+    let m = [nr * (qg * qb), ng * (qr * qb), nb * (qr * qg)];
+    std::array::from_fn(|c| select(up, k.diff[c] + k.spec_d[c] * m[c] * rr, T::ZERO))
 }
 
 /// Largest parameter count of the gradient kernel: 3 ρd + 3 ρs + 2 α + 3 f0.

@@ -37,6 +37,12 @@ pub(crate) trait Real:
     /// the x and y components: true where the precision's own round-off exceeds what a
     /// direction's length error costs (f32).
     const SIN2_FROM_Z: bool;
+    /// Whether the Cook-Torrance conductor kernel works from the directions' squares and
+    /// folds its quotients into one division (`cook_torrance_ggx::conductor_value`):
+    /// f64. f32 keeps the half-vector form: its given h and cos θd carry less round-off
+    /// than float32 directions near wi = −wo, and its denominators' product could
+    /// overflow.
+    const FOLD_DIVISIONS: bool;
     /// `x` rounded to this precision.
     fn of(x: f64) -> Self;
     /// Correctly rounded square root.
@@ -44,9 +50,10 @@ pub(crate) trait Real:
 }
 
 macro_rules! real {
-    ($t:ident, $sin2_from_z:literal) => {
+    ($t:ident, $sin2_from_z:literal, $fold_divisions:literal) => {
         impl Real for $t {
             const SIN2_FROM_Z: bool = $sin2_from_z;
+            const FOLD_DIVISIONS: bool = $fold_divisions;
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const HALF: Self = 0.5;
@@ -63,8 +70,8 @@ macro_rules! real {
         }
     };
 }
-real!(f64, false);
-real!(f32, true);
+real!(f64, false, true);
+real!(f32, true, false);
 
 /// `c ? a : b`, written so that LLVM emits a blend rather than a branch.
 #[inline(always)]
