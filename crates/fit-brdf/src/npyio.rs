@@ -4,9 +4,10 @@
 //! converted in bulk, since a million pairs are 48 MB that a per-element reader would
 //! spend most of the command's time on.
 
-#[cfg(unix)]
 use brdfkit::merl::MappedF64;
 use npyz::{DType, NpyHeader, Order, TypeChar, TypeStr, WriteOptions, WriterBuilder};
+#[cfg(unix)]
+use rayon::prelude::*;
 use std::io::Seek;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -218,13 +219,19 @@ fn check_rows(v: &[f64], tol: f64) -> Result<(), (usize, String)> {
         let no = r[3] * r[3] + r[4] * r[4] + r[5] * r[5];
         (ni.sqrt() - 1.0).abs() <= tol && (no.sqrt() - 1.0).abs() <= tol
     };
-    // Blocks of rows tested without an early exit (a loop that vectorises), the first
-    // bad row searched for only in a failing block.
+    // Blocks of rows tested without an early exit (a loop that vectorises), on every
+    // thread (a pass over 70 MB for 1.46 M rows), the first bad row searched for only
+    // in the first failing block.
     const BLOCK: usize = 6 * 256;
-    let bad = v.chunks(BLOCK).enumerate().find_map(|(b, block)| {
-        let all = block.chunks_exact(6).fold(true, |ok, r| ok & good(r));
-        (!all).then(|| b * BLOCK / 6 + block.chunks_exact(6).position(|r| !good(r)).unwrap_or(0))
-    });
+    let bad = v
+        .par_chunks(BLOCK)
+        .enumerate()
+        .with_min_len(64)
+        .find_map_first(|(b, block)| {
+            let all = block.chunks_exact(6).fold(true, |ok, r| ok & good(r));
+            (!all)
+                .then(|| b * BLOCK / 6 + block.chunks_exact(6).position(|r| !good(r)).unwrap_or(0))
+        });
     match bad {
         None => Ok(()),
         Some(k) => {
@@ -249,15 +256,47 @@ pub fn write_values(w: &mut impl std::io::Write, values: &[f64]) -> std::io::Res
     write_body(w, values)
 }
 
-/// The header of an N×3 float64 array.
-fn write_header(w: &mut impl std::io::Write, rows: usize) -> std::io::Result<()> {
+/// Where [`write_values_with`] writes: any writer; a file also starts writing each chunk
+/// back to its disk once it is written, so that the sync before the file is renamed
+/// into place (`brdfkit::core::atomic`) waits for the last chunk only instead of the
+/// whole 35 MB of 1.46 M rows.
+pub trait Sink: std::io::Write + Send {
+    /// Starts writing bytes `from .. from + len` back to the disk, without waiting (a
+    /// hint: nothing happens where the system has no such call).
+    fn start_writeback(&mut self, from: u64, len: u64) {
+        let _ = (from, len);
+    }
+}
+
+impl Sink for Vec<u8> {}
+
+impl Sink for std::fs::File {
+    #[cfg(target_os = "linux")]
+    fn start_writeback(&mut self, from: u64, len: u64) {
+        use std::os::fd::AsRawFd;
+        // SAFETY: a plain system call on an open descriptor; its failure only means
+        // the writeback starts at the sync instead, so the result is not needed.
+        unsafe {
+            libc::sync_file_range(
+                self.as_raw_fd(),
+                from as libc::off64_t,
+                len as libc::off64_t,
+                libc::SYNC_FILE_RANGE_WRITE,
+            );
+        }
+    }
+}
+
+/// The header of an N×3 float64 array; returns its length in bytes.
+fn write_header(w: &mut impl std::io::Write, rows: usize) -> std::io::Result<usize> {
     let f8: TypeStr = "<f8".parse().expect("a valid type string");
     let header = WriteOptions::new_header_only()
         .dtype(DType::Plain(f8))
         .shape(&[rows as u64, 3])
         .writer(Vec::new())
         .write_header_only()?;
-    w.write_all(&header)
+    w.write_all(&header)?;
+    Ok(header.len())
 }
 
 /// Values as little-endian bytes.
@@ -279,11 +318,11 @@ const WRITE_CHUNK_ROWS: usize = 1 << 16;
 /// the next one is computed, so no N×3 array is allocated (35 MB of fresh pages for
 /// 1.46 M rows, zeroed by the kernel) and the writing overlaps the computation.
 pub fn write_values_with(
-    w: &mut (impl std::io::Write + Send),
+    w: &mut impl Sink,
     rows: usize,
     fill: impl Fn(usize, &mut [f64]) -> std::io::Result<()>,
 ) -> std::io::Result<()> {
-    write_header(w, rows)?;
+    let mut at = write_header(w, rows)? as u64;
     let len = |c: usize| 3 * (rows - c * WRITE_CHUNK_ROWS).min(WRITE_CHUNK_ROWS);
     let chunks = rows.div_ceil(WRITE_CHUNK_ROWS);
     let mut cur = vec![0.0; len(0)];
@@ -294,8 +333,13 @@ pub fn write_values_with(
             return write_body(w, &cur);
         }
         next.resize(len(c + 1), 0.0);
+        let bytes = 8 * cur.len() as u64;
         let written = std::thread::scope(|s| {
-            let h = s.spawn(|| write_body(&mut *w, &cur));
+            let h = s.spawn(|| {
+                write_body(&mut *w, &cur)?;
+                w.start_writeback(at, bytes);
+                Ok(())
+            });
             let filled = fill((c + 1) * WRITE_CHUNK_ROWS, &mut next);
             let written = h
                 .join()
@@ -303,6 +347,7 @@ pub fn write_values_with(
             written.and(filled)
         });
         written?;
+        at += bytes;
         std::mem::swap(&mut cur, &mut next);
     }
     Ok(())
