@@ -18,24 +18,14 @@
 use brdfkit::merl::{Dims, MerlTable};
 use rayon::prelude::*;
 use std::hint::black_box;
-use std::time::Instant;
+
+#[path = "common/cases.rs"]
+mod cases;
+use cases::{Case, time_cases};
 
 const GOLD: &str = r#"{"model":"cook-torrance","params":{"rho_d":0.0,"rho_s":1.0,"alpha":0.2,
     "distribution":"ggx","masking":"smith-separable",
     "fresnel":{"conductor":{"eta":[0.143,0.374,1.442],"k":[3.983,2.385,1.603]}}}}"#;
-
-/// CPU time of all this process's threads in seconds (0 where /proc is missing).
-fn cpu_seconds() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    let ns: u64 = tasks
-        .flatten()
-        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    ns as f64 * 1e-9
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -65,7 +55,6 @@ fn run(reps: usize, only: Option<usize>) {
     table.nearest_flat(&rows, &mut out).expect("shapes");
     let found = out.chunks_exact(3).filter(|r| !r[0].is_nan()).count();
 
-    type Case<'a> = (&'static str, Box<dyn FnMut() + 'a>);
     let threads = rayon::current_num_threads();
     let cases: Vec<Case> = vec![
         ("nearest (interleaved copy)", {
@@ -113,37 +102,13 @@ fn run(reps: usize, only: Option<usize>) {
         }),
     ];
     // `--only K`: case K alone (for profiling one of them).
-    let mut cases: Vec<Case> = match only {
+    let cases: Vec<Case> = match only {
         Some(k) => cases.into_iter().skip(k).take(1).collect(),
         None => cases,
     };
-    let mut times: Vec<[Vec<f64>; 2]> = vec![[Vec::new(), Vec::new()]; cases.len()];
-    for rep in 0..=reps {
-        for (k, (_, f)) in cases.iter_mut().enumerate() {
-            let (t, c) = (Instant::now(), cpu_seconds());
-            f();
-            let (dt, dc) = (t.elapsed().as_secs_f64(), cpu_seconds() - c);
-            if rep > 0 {
-                times[k][0].push(dt);
-                times[k][1].push(dc);
-            }
-        }
-    }
-    println!(
-        "lookup bench: {n} random pairs ({found} found), {threads} threads, {reps} reps, load {}",
-        std::fs::read_to_string("/proc/loadavg")
-            .unwrap_or_default()
-            .trim()
+    time_cases(
+        &format!("lookup bench: {n} random pairs ({found} found), {threads} threads"),
+        cases,
+        reps,
     );
-    println!(
-        "{:<44} {:>20} {:>20}",
-        "", "wall median (min)", "CPU median (min)"
-    );
-    for ((name, _), t) in cases.iter().zip(&mut times) {
-        let [w, c] = t.each_mut().map(|t| {
-            t.sort_by(|a, b| a.total_cmp(b));
-            format!("{:.3} ({:.3}) ms", t[t.len() / 2] * 1e3, t[0] * 1e3)
-        });
-        println!("{name:<44} {w:>20} {c:>20}");
-    }
 }

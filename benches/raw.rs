@@ -27,10 +27,12 @@ use brdfkit::models::raw::{eval_dirs, eval_dirs_f32};
 use brdfkit::models::testing::random_pairs;
 use rayon::prelude::*;
 use std::hint::black_box;
-use std::time::Instant;
 
+#[path = "common/cases.rs"]
+mod cases;
 #[path = "common/pairs.rs"]
 mod pairs;
+use cases::{Case, time_cases};
 use pairs::merl_pairs;
 
 const GOLD: &str = r#"{"model":"cook-torrance","params":{"rho_d":0.0,"rho_s":1.0,"alpha":0.2,
@@ -47,19 +49,6 @@ fn arrays(p: &[(brdfkit::core::Vec3, brdfkit::core::Vec3)]) -> Dirs {
     p.iter()
         .map(|(a, b)| ([a.x, a.y, a.z], [b.x, b.y, b.z]))
         .unzip()
-}
-
-/// CPU time of all this process's threads in seconds (0 where /proc is missing).
-fn cpu_seconds() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    let ns: u64 = tasks
-        .flatten()
-        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum();
-    ns as f64 * 1e-9
 }
 
 fn main() {
@@ -98,7 +87,6 @@ fn run(reps: usize) {
     assert_eq!(differ, 0, "eval_dirs must give eval's values");
     let zero = out.iter().filter(|v| v.max_channel() == 0.0).count();
 
-    type Case<'a> = (&'static str, Box<dyn FnMut() + 'a>);
     let threads = rayon::current_num_threads();
     let cases: Vec<Case> = vec![
         (
@@ -153,34 +141,9 @@ fn run(reps: usize) {
             })
         }),
     ];
-    let mut cases = cases;
-    let mut times: Vec<[Vec<f64>; 2]> = vec![[Vec::new(), Vec::new()]; cases.len()];
-    for rep in 0..=reps {
-        for (k, (_, f)) in cases.iter_mut().enumerate() {
-            let (t, c) = (Instant::now(), cpu_seconds());
-            f();
-            let (dt, dc) = (t.elapsed().as_secs_f64(), cpu_seconds() - c);
-            if rep > 0 {
-                times[k][0].push(dt);
-                times[k][1].push(dc);
-            }
-        }
-    }
-    println!(
-        "raw bench: {n} MERL grid pairs ({zero} exactly 0), {threads} threads, {reps} reps, load {}",
-        std::fs::read_to_string("/proc/loadavg")
-            .unwrap_or_default()
-            .trim()
+    time_cases(
+        &format!("raw bench: {n} MERL grid pairs ({zero} exactly 0), {threads} threads"),
+        cases,
+        reps,
     );
-    println!(
-        "{:<44} {:>20} {:>20}",
-        "", "wall median (min)", "CPU median (min)"
-    );
-    for ((name, _), t) in cases.iter().zip(&mut times) {
-        let [w, c] = t.each_mut().map(|t| {
-            t.sort_by(|a, b| a.total_cmp(b));
-            format!("{:.3} ({:.3}) ms", t[t.len() / 2] * 1e3, t[0] * 1e3)
-        });
-        println!("{name:<44} {w:>20} {c:>20}");
-    }
 }
