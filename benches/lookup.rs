@@ -13,7 +13,8 @@
 //! Prints the median and the minimum of `--reps N` runs (default 21) after a warm-up,
 //! interleaved run by run, in wall time and in CPU time of all the process's threads
 //! (`/proc/self/task/*/schedstat`; see `benches/raw.rs`). `--threads N` runs on a pool
-//! of N threads; `--only K` runs the K-th case alone (from 0). Run with `cargo bench --bench lookup [-- --reps N --threads N --only K]`.
+//! of N threads; `--only K` runs the K-th case alone (from 0). Run with
+//! `cargo bench --bench lookup [-- --reps N --threads N --only K]`.
 
 use brdfkit::merl::{Dims, MerlTable};
 use rayon::prelude::*;
@@ -21,29 +22,17 @@ use std::hint::black_box;
 
 #[path = "common/cases.rs"]
 mod cases;
-use cases::{Case, time_cases};
+use cases::{Case, Opts, main_with, time_cases};
 
 const GOLD: &str = r#"{"model":"cook-torrance","params":{"rho_d":0.0,"rho_s":1.0,"alpha":0.2,
     "distribution":"ggx","masking":"smith-separable",
     "fresnel":{"conductor":{"eta":[0.143,0.374,1.442],"k":[3.983,2.385,1.603]}}}}"#;
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let opt = |name: &str| -> Option<usize> {
-        let i = args.iter().position(|a| a == name)?;
-        args.get(i + 1)?.parse().ok()
-    };
-    let reps = opt("--reps").unwrap_or(21);
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(t) = opt("--threads") {
-        pool = pool.num_threads(t);
-    }
-    let pool = pool.build().expect("a rayon pool");
-    let only = opt("--only");
-    pool.install(|| run(reps, only));
+    main_with(run);
 }
 
-fn run(reps: usize, only: Option<usize>) {
+fn run(opts: &Opts) {
     let model = brdfkit::models::from_json_str(GOLD).expect("the gold model");
     let table = MerlTable::from_brdf(model.as_ref(), Dims::MERL).expect("the gold table");
     let n = Dims::MERL.cells();
@@ -101,14 +90,9 @@ fn run(reps: usize, only: Option<usize>) {
             Box::new(move || t.interpolated_flat(black_box(r), &mut o).expect("shapes"))
         }),
     ];
-    // `--only K`: case K alone (for profiling one of them).
-    let cases: Vec<Case> = match only {
-        Some(k) => cases.into_iter().skip(k).take(1).collect(),
-        None => cases,
-    };
     time_cases(
         &format!("lookup bench: {n} random pairs ({found} found), {threads} threads"),
         cases,
-        reps,
+        opts,
     );
 }

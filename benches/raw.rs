@@ -19,7 +19,8 @@
 //! in nanoseconds): on a loaded machine the wall time stretches with the other jobs
 //! while the CPU time stays near what the work needs. `--threads N` runs on a pool of N
 //! threads (default: the global pool); with 1 thread the CPU time has no idle spinning
-//! of other workers in it. Run with `cargo bench --bench raw [-- --reps N --threads N]`.
+//! of other workers in it; `--only K` runs the K-th case alone (from 0). Run with
+//! `cargo bench --bench raw [-- --reps N --threads N --only K]`.
 
 use brdfkit::core::{Brdf, Model, Rgb};
 use brdfkit::models::par::RUN;
@@ -32,7 +33,7 @@ use std::hint::black_box;
 mod cases;
 #[path = "common/pairs.rs"]
 mod pairs;
-use cases::{Case, time_cases};
+use cases::{Case, Opts, main_with, time_cases};
 use pairs::merl_pairs;
 
 const GOLD: &str = r#"{"model":"cook-torrance","params":{"rho_d":0.0,"rho_s":1.0,"alpha":0.2,
@@ -52,21 +53,10 @@ fn arrays(p: &[(brdfkit::core::Vec3, brdfkit::core::Vec3)]) -> Dirs {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let opt = |name: &str| -> Option<usize> {
-        let i = args.iter().position(|a| a == name)?;
-        args.get(i + 1)?.parse().ok()
-    };
-    let reps = opt("--reps").unwrap_or(21);
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(t) = opt("--threads") {
-        pool = pool.num_threads(t);
-    }
-    let pool = pool.build().expect("a rayon pool");
-    pool.install(|| run(reps));
+    main_with(run);
 }
 
-fn run(reps: usize) {
+fn run(opts: &Opts) {
     let model = brdfkit::models::from_json_str(GOLD).expect("the gold model");
     let m: &dyn Model = model.as_ref();
     let grid = merl_pairs();
@@ -144,6 +134,6 @@ fn run(reps: usize) {
     time_cases(
         &format!("raw bench: {n} MERL grid pairs ({zero} exactly 0), {threads} threads"),
         cases,
-        reps,
+        opts,
     );
 }

@@ -21,10 +21,42 @@ pub fn task_cpu_seconds() -> f64 {
     ns as f64 * 1e-9
 }
 
+/// The options both benches take: `--reps N` rounds (default 21), `--threads N` (a
+/// pool of N threads; default the global pool's size), `--only K` (case K alone,
+/// counted from 0, for profiling one of them).
+pub struct Opts {
+    pub reps: usize,
+    pub only: Option<usize>,
+}
+
+/// Parses the options and runs `run` on the pool they ask for.
+pub fn main_with(run: impl FnOnce(&Opts) + Send) {
+    let args: Vec<String> = std::env::args().collect();
+    let opt = |name: &str| -> Option<usize> {
+        let i = args.iter().position(|a| a == name)?;
+        args.get(i + 1)?.parse().ok()
+    };
+    let opts = Opts {
+        reps: opt("--reps").unwrap_or(21),
+        only: opt("--only"),
+    };
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = opt("--threads") {
+        pool = pool.num_threads(t);
+    }
+    let pool = pool.build().expect("a rayon pool");
+    pool.install(|| run(&opts));
+}
+
 /// Runs every case once per round, `reps` rounds after one warm-up round (the cases
 /// interleaved, so that a change of load hits all alike), then prints `title` with the
 /// load average and, per case, the median and minimum of its wall and CPU times.
-pub fn time_cases(title: &str, mut cases: Vec<Case>, reps: usize) {
+pub fn time_cases(title: &str, cases: Vec<Case>, opts: &Opts) {
+    let reps = opts.reps;
+    let mut cases: Vec<Case> = match opts.only {
+        Some(k) => cases.into_iter().skip(k).take(1).collect(),
+        None => cases,
+    };
     let mut times: Vec<[Vec<f64>; 2]> = vec![[Vec::new(), Vec::new()]; cases.len()];
     for rep in 0..=reps {
         for (k, (_, f)) in cases.iter_mut().enumerate() {
