@@ -290,10 +290,13 @@ impl MerlTable {
     /// Work goes to the pool's threads in runs of 4096 pairs ([`rayon::broadcast`], so
     /// a short job uses both threads of a small pool). Within a run, 128 pairs at a time:
     /// the arithmetic above, branch-free and vectorised (an AVX-512 or AVX2 copy chosen
-    /// at run time); for the nearest lookup the cells too, in the same loop, for every
-    /// pair that lies inside its approximate bins by a margin (`Edges::quick_cell`; the
-    /// others, a few in 10⁵ random pairs, take the comparisons above); then the reads of
-    /// the previous 128 pairs, each followed by the prefetch of a line of this run.
+    /// at run time). The nearest lookup finds the cells in that loop instead, from
+    /// wi + wo unnormalised with cheaper arithmetic, for every pair that lies inside its
+    /// approximate bins by a margin (`Edges::quick_cell`; the others, a few in 10⁵
+    /// random pairs, take the exact arithmetic and the comparisons above); after each
+    /// block of 16 pairs it asks for (prefetches) their cells' lines and some of the
+    /// input lines of the run two runs ahead; then it reads the previous 128 pairs'
+    /// values, whose lines were asked for a run earlier.
     ///
     /// A nearest batch of at least an eighth as many pairs as the table has cells (or
     /// any batch after [`prepare_lookups`](Self::prepare_lookups)) reads an interleaved
