@@ -217,8 +217,9 @@ struct Lobe<T> {
     dv: T,
 }
 
-/// hx², hy², s, vden (so D·V = d_norm/(s² vden), module doc), S(wi) and S(wo) of one
-/// pair; `h` is the half vector or, for [`conductor_value`], wi + wo.
+/// hx², hy², s, the lobe's denominator L = s² vden (so D·V = d_norm/L, module doc),
+/// S(wi) and S(wo) of one pair; `h` is the half vector or, for
+/// [`conductor_value`], wi + wo.
 #[inline(always)]
 fn lobe_den<T: Real, const A: bool, const C: bool>(
     k: &Consts<T>,
@@ -246,7 +247,7 @@ fn lobe_den<T: Real, const A: bool, const C: bool>(
     } else {
         (zi + si) * (zo + so)
     };
-    (hx2, hy2, s, vden, si, so)
+    (hx2, hy2, s, s * s * vden, si, so)
 }
 
 /// D·V of one pair (module doc), shared by the value and the gradient kernels so both
@@ -258,10 +259,10 @@ fn lobe<T: Real, const A: bool, const C: bool>(
     wo: [T; 3],
     h: [T; 3],
 ) -> Lobe<T> {
-    let (hx2, hy2, s, vden, si, so) = lobe_den::<T, A, C>(k, wi, wo, h);
+    let (hx2, hy2, s, l, si, so) = lobe_den::<T, A, C>(k, wi, wo, h);
     // D·V in one division; s² ≤ 1e24 and vden ≤ 4e4 over the roughness domain, so the
     // product stays finite even in f32.
-    let dv = k.d_norm / (s * s * vden);
+    let dv = k.d_norm / l;
     Lobe {
         hx2,
         hy2,
@@ -324,8 +325,16 @@ fn conductor_value<T: Real, const A: bool, const C: bool>(
     // `half_and_cos_d`: s(h) = 1, cos θd = wi_z.
     let ok = n2 >= T::TINY;
     let r = T::ONE / n2;
-    let (_, _, st, vden, _, _) = lobe_den::<T, A, C>(k, wi, wo, s);
+    let (_, _, st, _, si, so) = lobe_den::<T, A, C>(k, wi, wo, s);
     let u = select(ok, st * r, T::ONE);
+    // vden again rather than from `lobe_den` (which would return it instead of s² vden):
+    // the same arithmetic, but that form compiled to a loop 10 % slower here
+    // (benches/raw.rs, alternated builds, 2026-11-25).
+    let vden = if C {
+        T::TWO * (wo[2] * si + wi[2] * so)
+    } else {
+        (wi[2] + si) * (wo[2] + so)
+    };
     // Round-off can take (wi·s)²/n² a hair past 1, as it can wi·h.
     let c2 = clamp01(select(ok, ws * ws * r, wi[2] * wi[2]));
     let s2 = T::ONE - c2;
