@@ -651,16 +651,7 @@ fn rgb_or_nan(v: Option<Rgb>) -> [f64; 3] {
 /// Asks for the cache line of `v[i]` (a hint: no effect on results).
 #[inline(always)]
 fn prefetch(v: &[f64], i: usize) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let p = v.as_ptr().wrapping_add(i);
-        // SAFETY: a prefetch never faults and never changes memory, whatever the
-        // address; `i` is in range anyway.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>(p.cast()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (v, i);
+    prefetch_addr(v.as_ptr().wrapping_add(i) as usize);
 }
 
 /// Runs ahead of the current one whose input lines a batch asks for (prefetches) while
@@ -712,7 +703,7 @@ fn prefetch_addr(a: usize) {
     {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
         // SAFETY: a prefetch never faults and never changes memory, whatever the
-        // address; this one lies inside the caller's input.
+        // address; the callers' lie inside their arrays anyway.
         unsafe { _mm_prefetch::<_MM_HINT_T0>(std::ptr::without_provenance::<i8>(a)) };
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -918,14 +909,15 @@ impl Edges {
     /// clamps), kept when the approximate angle lies inside the bin by more than
     /// [`QUICK_MARGIN`] radians from each edge (an edge at the end of the axis needs no
     /// test: the reference clamps there). The approximations are within 2.2e-8 rad of
-    /// the angles of this pair's cos θh (bit-identical to the reference's h.z), cos θd
-    /// and r · (d.x, d.y); those differ from the reference's by round-off of a few
-    /// 1e-16, which moves θd by at most that over sin θd (≤ 1e-12 rad at any θd edge,
-    /// sin θd ≥ sin(π / (2 nθd))), and φd by at most that over |(d.x, d.y)| = sin θd,
-    /// bounded here by asking sin θd > [`QUICK_SIN_D`]. The reference's own angles and
-    /// bins are correctly rounded to a few ulps (≤ 1e-15 rad). So a pair inside by the
-    /// margin lies in the same bin for the reference. The tests compare millions of
-    /// random pairs and pairs within an ulp of every edge with the reference.
+    /// the angles of this pair's cos θh, cos θd and q (d.x, d.y) (formed as below, not
+    /// as `prep` forms them); those differ from the reference's by round-off of a few
+    /// 1e-16, which moves θh by at most that over sin θh (≤ 1e-11 rad at any θh edge
+    /// of grids up to 200 θh bins), θd by at most that over sin θd (≤ 1e-12 rad at any
+    /// θd edge, sin θd ≥ sin(π / (2 nθd))), and φd by at most that over |(d.x, d.y)| =
+    /// sin θd, bounded here by asking sin θd > [`QUICK_SIN_D`]. The reference's own
+    /// angles and bins are correctly rounded to a few ulps (≤ 1e-15 rad). So a pair
+    /// inside by the margin lies in the same bin for the reference. The tests compare
+    /// millions of random pairs and pairs within an ulp of every edge with the reference.
     ///
     /// The margins in coordinate units: θd and φd coordinates are linear in the angle
     /// (n / (π/2), n / π per radian); θh's square, u² = θh / (π/2) · n², is linear in
@@ -1156,6 +1148,7 @@ impl PrepRun {
             }
             return;
         }
+        // Interpolated: no cells yet; the input lines of the run ahead only.
         for b in 0..FAST_RUN / ASK_BLOCK {
             ask(&[], b);
         }
