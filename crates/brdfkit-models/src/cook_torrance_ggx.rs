@@ -64,6 +64,8 @@ pub(super) struct Consts<T> {
     d_norm: T,
     diff: [T; 3],
     spec: [T; 3],
+    /// ρs/(π αx αy) per channel: ρs times D's normalisation, the specular numerator of
+    /// [`conductor_value`].
     spec_d: [T; 3],
     /// Schlick: f0. Conductor: η² − k². Dielectric: η in `[0]`.
     fa: [T; 3],
@@ -349,9 +351,10 @@ fn conductor_value<T: Real, const A: bool, const C: bool>(
         let t4 = t2 * s2;
         // q = 0 only at c = 0 with p = 0 (k = 0, η = 1: no interface), where the
         // numerator is 0 as well and F = 0 is the limit; the floor keeps the product
-        // below nonzero. Above the horizon u² vden ≥ 1e-40 (u ≥ hz², vden ≥ α²), u²
-        // vden ≤ 4e28 and q ≤ 1e5 over the parameter domain, so the product of the
-        // denominators stays inside f64's range.
+        // of the denominators nonzero. Over the parameter domain (α in [1e-6, 100],
+        // η and k ≤ 1000) u = s(h) lies in [1e-4, 1e12], vden ≤ 1e4 and q ≤ 5e12, so
+        // the product stays below 1e67; it nears 0 only as vden does, with both
+        // directions at grazing, where D·V overflows in any form.
         ((t1 - t2) * t3, max((t1 + t2) * (t3 + t4), T::of(1e-30)))
     });
     let rr = T::ONE / (u * u * vden * (qr * qg * qb));
