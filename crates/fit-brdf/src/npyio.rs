@@ -4,9 +4,9 @@
 //! converted in bulk, since a million pairs are 48 MB that a per-element reader would
 //! spend most of the command's time on.
 
+#[cfg(unix)]
 use brdfkit::merl::MappedF64;
 use npyz::{DType, NpyHeader, Order, TypeChar, TypeStr, WriteOptions, WriterBuilder};
-#[cfg(unix)]
 use rayon::prelude::*;
 use std::io::Seek;
 use std::path::{Path, PathBuf};
