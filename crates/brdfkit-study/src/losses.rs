@@ -292,7 +292,7 @@ fn measure(
                     category: category.to_string(),
                     model: label.clone(),
                     loss: l.name().to_string(),
-                    lighting: lighting_name(lighting).to_string(),
+                    lighting: lighting.key().to_string(),
                     delta_e_mean: s.delta_e_mean,
                     delta_e_p95: s.delta_e_p95,
                     rmse_display: s.rmse_display,
@@ -312,13 +312,6 @@ fn measure(
         }
     }
     Ok((rows, strips))
-}
-
-fn lighting_name(l: Lighting) -> &'static str {
-    match l {
-        Lighting::Point => "point",
-        Lighting::Environment => "environment",
-    }
 }
 
 /// The facts of a run, kept beside the scores.
@@ -518,7 +511,10 @@ fn metric_table(rows: &[&LossRow], metric: &Metric) -> String {
     );
     let by_light =
         |l: &str| -> Vec<&LossRow> { rows.iter().copied().filter(|r| r.lighting == l).collect() };
-    let (pt, env) = (by_light("point"), by_light("environment"));
+    let (pt, env) = (
+        by_light(Lighting::Point.key()),
+        by_light(Lighting::Environment.key()),
+    );
     let (wp, we) = (wins(&pt, metric), wins(&env, metric));
     let d = metric.digits;
     for l in LOSSES {
@@ -663,7 +659,7 @@ pub fn sections(cfg: &LossesConfig, run: &LossesRun) -> Vec<(String, String)> {
     let fit_times: Vec<f64> = run
         .rows
         .iter()
-        .filter(|r| r.lighting == "point")
+        .filter(|r| r.lighting == Lighting::Point.key())
         .map(|r| r.fit_time_s)
         .collect();
     let load = |x: Option<f64>| x.map_or("?".into(), |v| format!("{v:.1}"));
@@ -711,7 +707,7 @@ pub fn sections(cfg: &LossesConfig, run: &LossesRun) -> Vec<(String, String)> {
             let pick = |f: fn(&LossRow) -> f64| {
                 median(
                     rows.iter()
-                        .filter(|r| r.loss == l.name() && r.lighting == "point")
+                        .filter(|r| r.loss == l.name() && r.lighting == Lighting::Point.key())
                         .map(|r| f(r))
                         .collect(),
                 )

@@ -65,6 +65,14 @@ impl Lighting {
             Lighting::Environment => "environment",
         }
     }
+
+    /// Its key in JSON (serde's name) and in the tables that list lightings.
+    pub fn key(self) -> &'static str {
+        match self {
+            Lighting::Point => "point",
+            Lighting::Environment => "environment",
+        }
+    }
 }
 
 /// How far a model's render is from the table's.
@@ -427,6 +435,13 @@ pub(crate) fn render_set_of(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_lightings_key_is_its_json_name() {
+        for l in Lighting::ALL {
+            assert_eq!(serde_json::to_value(l).unwrap(), l.key());
+        }
+    }
 
     /// The pixels of a PNG.
     fn pixels(png: &[u8]) -> image::RgbImage {
