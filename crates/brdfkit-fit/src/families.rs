@@ -11,8 +11,8 @@
 //! they are what a user of `fit-brdf` reads.
 
 use crate::{
-    FitConfig, FitData, FitError, FitObserver, FitRecord, Loss, RobustKind, Sharing, SolverKind,
-    Weighting, fit, resolve_free,
+    FitConfig, FitData, FitError, FitObserver, FitRecord, FullIters, Loss, RobustKind, Sharing,
+    SolverKind, Weighting, fit, resolve_free,
 };
 use brdfkit_core::scattering::{Distribution, Masking};
 use brdfkit_core::{Model, ModelError};
@@ -337,9 +337,8 @@ pub struct FitSettings {
     /// Energy conservation: the bound on the directional albedo (None: unconstrained;
     /// see [`FitConfig::albedo_max`]).
     pub albedo_max: Option<f64>,
-    /// Cap on the iterations over all cells after a warm-up (see
-    /// [`FitConfig::full_iters`]; None: to convergence).
-    pub full_iters: Option<u64>,
+    /// Iterations over all cells after a warm-up (see [`FitConfig::full_iters`]).
+    pub full_iters: FullIters,
     /// Size of the exploration set of a ranked fit (see [`FitConfig::explore_cells`];
     /// None: the library's rule).
     pub explore_cells: Option<usize>,

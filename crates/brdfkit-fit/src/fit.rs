@@ -617,7 +617,7 @@ fn run_pass(
     // Stage 2b: the finishers continue on all fitted cells, in parallel.
     // A start that warmed up takes at most `full_iters` iterations here (see
     // `FitConfig::full_iters`); 0: its warm-up optimum is only evaluated.
-    let full_iters = config.full_iters;
+    let full_iters = config.full_iters.cap_for(model);
     // One finisher whose warm-up optimum is only evaluated (full_iters 0) under the
     // plain loss: its cost over the fitted cells, ½ loss², is what `fit`'s loss report
     // sums anyway (the same terms in another order), so that pass over all cells is
@@ -1040,6 +1040,9 @@ pub fn fit(
         cells_fit: fitset.len(),
         cells_full: full.len(),
         warm_up_cells: config.warm_up_cells_for(fitset.len()),
+        full_iters: config
+            .warm_up_cells_for(fitset.len())
+            .map(|_| config.full_iters.for_model(model)),
         losses_fit,
         losses_full,
         iterations: results.iter().map(|r| r.best.iterations).sum(),

@@ -61,7 +61,7 @@ pub mod starts;
 pub mod synth;
 pub mod target;
 
-pub use config::{FitConfig, Sharing, SolverKind};
+pub use config::{FitConfig, FullIters, Sharing, SolverKind};
 pub use data::FitData;
 pub use error::FitError;
 pub use fit::{FitResult, Fitted, fit, fit_table, resolve_free};

@@ -173,6 +173,12 @@ pub struct FitRecord {
     pub cells_full: usize,
     /// Size of the warm-up subsample each start converged on first, if any.
     pub warm_up_cells: Option<usize>,
+    /// After a warm-up, the iterations the finishers took on all fitted cells as the
+    /// model resolved the rule ([`crate::FitConfig::full_iters`]): `"0"` (the warm-up
+    /// optimum evaluated), a cap, or `"all"`; absent without a warm-up and in older
+    /// records.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub full_iters: Option<crate::config::FullIters>,
     /// Every loss over the fitted cells.
     pub losses_fit: LossReport,
     /// Every loss over all valid cells (after the cutoff), the figure to compare.

@@ -280,6 +280,11 @@ impl Model for Sum {
     fn conserves_energy(&self) -> bool {
         self.terms.iter().all(|t| t.conserves_energy())
     }
+
+    /// True iff it holds for every term.
+    fn subsample_optimum_holds(&self) -> bool {
+        self.terms.iter().all(|t| t.subsample_optimum_holds())
+    }
 }
 
 #[cfg(test)]

@@ -129,7 +129,7 @@ fn families_of(model: &Bound<'_, PyAny>, s: &Structure) -> PyResult<Vec<Family>>
     table, model, *, loss = "cbrt", weighting = "solid-angle", solver = "lm", starts = 8,
     finish = DEFAULT_FINISH, sample_fraction = 1.0, theta_d_max = None, theta_max = None, per_channel = false,
     seed = 0, fix = None, robust = "none", robust_scale = None, energy_conserving = false,
-    full_iters = Some(0), explore_cells = CLI_EXPLORE_CELLS, distribution = None,
+    full_iters = "auto", explore_cells = CLI_EXPLORE_CELLS, distribution = None,
     masking = None, fresnel = None, normalization = None, progress = None
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -151,7 +151,7 @@ pub fn fit(
     robust: &str,
     robust_scale: Option<f64>,
     energy_conserving: bool,
-    full_iters: Option<u64>,
+    full_iters: &str,
     explore_cells: usize,
     distribution: Option<&str>,
     masking: Option<&str>,
@@ -181,7 +181,9 @@ pub fn fit(
         robust: choice(robust)?,
         robust_scale,
         albedo_max: energy_conserving.then_some(1.0),
-        full_iters,
+        full_iters: full_iters
+            .parse()
+            .map_err(|e: String| errors::value(format!("full_iters: {e}")))?,
         explore_cells: Some(explore_cells),
     };
     let cfg = settings.config().map_err(errors::input)?;

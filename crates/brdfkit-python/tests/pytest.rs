@@ -164,7 +164,7 @@ fn write_fit(table: &MerlTable, dir: &Path) {
         robust: RobustKind::None,
         robust_scale: None,
         albedo_max: None,
-        full_iters: Some(0),
+        full_iters: brdfkit_fit::config::CLI_FULL_ITERS,
         explore_cells: Some(CLI_EXPLORE_CELLS),
     }
     .config()

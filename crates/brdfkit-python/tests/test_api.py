@@ -168,6 +168,8 @@ def test_fit_choices_and_lists(gold):
     assert fixed.model.params["rho_s"] != brdfkit.Model.default("cook-torrance").params["rho_s"]
     per = brdfkit.fit(gold, "lambert", starts=1, per_channel=True)
     assert isinstance(per.model, tuple) and len(per.model) == 3
+    for rule in (0, 3, "all", "auto"):
+        assert brdfkit.fit(gold, "lambert", starts=1, full_iters=rule).label == "lambert"
 
 
 def test_errors_are_python_exceptions_with_the_rust_messages(tmp_path, gold):
@@ -197,6 +199,11 @@ def test_errors_are_python_exceptions_with_the_rust_messages(tmp_path, gold):
         brdfkit.fit(gold, "lambert", loss="l3")
     with pytest.raises(ValueError, match="--starts"):
         brdfkit.fit(gold, "lambert", starts=0)
+    for rule in ("some", -1):
+        with pytest.raises(
+            ValueError, match=rf"full_iters: '{rule}': expected a number of iterations, 'all' or 'auto'"
+        ):
+            brdfkit.fit(gold, "lambert", full_iters=rule)
     with pytest.raises(ValueError, match="dims"):
         brdfkit.resample(gold, (0, 1, 1))
 

@@ -3,7 +3,7 @@
 use brdfkit::core::scattering::{Distribution, Masking};
 use brdfkit::fit::batch::Shard;
 use brdfkit::fit::families::REPORT_MODELS;
-use brdfkit::fit::{Loss, RobustKind, SolverKind, Weighting};
+use brdfkit::fit::{FullIters, Loss, RobustKind, SolverKind, Weighting};
 use brdfkit::models::cook_torrance::FresnelKind;
 use brdfkit::models::ward::Normalization;
 use clap::builder::{ArgPredicate, PossibleValuesParser, TypedValueParser};
@@ -379,10 +379,10 @@ pub struct FitOptions {
     /// LM iterations over all cells after a start's warm-up on a 65 536-cell stratified
     /// subsample (tables above 262 144 cells): 0 evaluates the warm-up optimum on all
     /// cells (Cook-Torrance: within 0.004 % of converging there on 15 measured tables;
-    /// every default family within 0.14 % on the 7 vendored ones; Ward with Dür's
-    /// normalisation up to 4.6 % above: use `all`; docs/fitting.md); `all` iterates to
-    /// convergence.
-    #[arg(long, default_value = "0", value_name = "N|all")]
+    /// every default family within 0.14 % on the 7 vendored ones); `all` iterates to
+    /// convergence; `auto` is 0, except `all` for Ward with Dür's normalisation, whose
+    /// warm-up optimum lies up to 4.6 % above (docs/fitting.md).
+    #[arg(long, default_value_t = brdfkit::fit::config::CLI_FULL_ITERS, value_name = "N|all|auto")]
     pub full_iters: FullIters,
     /// Cells of the subsample every start explores before the starts are ranked (when
     /// there are more starts than --finish and the table is large enough for a warm-up).
@@ -404,22 +404,6 @@ pub struct CellOptions {
     /// Ignore cells whose θi or θo exceeds this angle (degrees); Ngan et al. 2005 used 80.
     #[arg(long, value_name = "DEG")]
     pub theta_max: Option<f64>,
-}
-
-/// `--full-iters`: a cap, or `all` (None: to convergence).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FullIters(pub Option<u64>);
-
-impl std::str::FromStr for FullIters {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        if s == "all" {
-            return Ok(FullIters(None));
-        }
-        s.parse()
-            .map(|n| FullIters(Some(n)))
-            .map_err(|_| format!("`{s}`: a number of iterations or `all`"))
-    }
 }
 
 #[derive(Args, Debug)]

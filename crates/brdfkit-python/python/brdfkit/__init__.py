@@ -74,8 +74,8 @@ def fit(
     start). ``choices`` are the other settings of ``fit-brdf fit`` with underscores
     for dashes: ``weighting``, ``solver``, ``finish``, ``sample_fraction``,
     ``theta_d_max`` and ``theta_max`` (θi/θo cutoff) (degrees), ``per_channel``, ``seed``, ``fix`` (names),
-    ``robust``, ``robust_scale``, ``energy_conserving``, ``full_iters`` (a count or
-    ``"all"``), ``explore_cells``, and the structural choices ``distribution``,
+    ``robust``, ``robust_scale``, ``energy_conserving``, ``full_iters`` (a count,
+    ``"all"`` or ``"auto"``), ``explore_cells``, and the structural choices ``distribution``,
     ``masking``, ``fresnel``, ``normalization``. ``progress`` is called with one dict
     per event (``event`` is ``plan``, ``iter`` or ``start_done``), from the fitting
     threads; an exception it raises is raised when the fit returns.
@@ -87,8 +87,8 @@ def fit(
     fix = choices.pop("fix", None)
     if isinstance(fix, str):
         fix = fix.split(",")
-    if choices.get("full_iters") == "all":
-        choices["full_iters"] = None
+    if isinstance(choices.get("full_iters"), int) and not isinstance(choices["full_iters"], bool):
+        choices["full_iters"] = str(choices["full_iters"])
     out = _fit(table, model, loss=loss, starts=starts, fix=fix, progress=progress, **choices)
     results = [
         FitResult(label, _fitted(json.loads(params)), json.loads(record))

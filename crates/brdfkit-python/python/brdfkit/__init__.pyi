@@ -42,7 +42,7 @@ def fit(
     robust: str = ...,
     robust_scale: float | None = ...,
     energy_conserving: bool = ...,
-    full_iters: int | Literal["all"] = ...,
+    full_iters: int | Literal["all", "auto"] = ...,
     explore_cells: int = ...,
     distribution: str | None = ...,
     masking: str | None = ...,

@@ -102,7 +102,7 @@ def fit(
     robust: str = "none",
     robust_scale: float | None = None,
     energy_conserving: bool = False,
-    full_iters: int | None = 0,
+    full_iters: str = "auto",
     explore_cells: int = 1024,
     distribution: str | None = None,
     masking: str | None = None,

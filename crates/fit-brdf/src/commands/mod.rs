@@ -69,7 +69,7 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         robust: o.robust,
         robust_scale: o.robust_scale,
         albedo_max: o.energy_conserving.then_some(1.0),
-        full_iters: o.full_iters.0,
+        full_iters: o.full_iters,
         explore_cells: Some(o.explore_cells),
         ..cell_settings(&o.cells)
     };
