@@ -307,9 +307,9 @@ pub trait Model: Brdf + fmt::Debug {
     /// A fit's optimum on a stratified subsample of a measured table is (measured to
     /// be) its optimum on every cell, so a fit may evaluate it there instead of
     /// iterating on all cells (`brdfkit_fit`'s `FullIters::Auto`). Ward with Dür's
-    /// normalisation does not: its 1/(cos θi cos θo) weighs grazing pairs, which the
-    /// subsample holds thinly, and its subsample optimum lies 2–5 % above on measured
-    /// materials (docs/fitting.md).
+    /// normalisation does not: its subsample optimum lies 2.3–4.6 % above on three of
+    /// seven measured materials (docs/fitting.md; likely because its 1/(cos θi cos θo)
+    /// weighs grazing pairs, which the subsample holds thinly).
     fn subsample_optimum_holds(&self) -> bool {
         true
     }

@@ -1022,6 +1022,7 @@ pub fn fit(
             results.iter().all(|r| r.best.converged),
         )
     };
+    let warm_up_cells = config.warm_up_cells_for(fitset.len());
     let record = FitRecord {
         model: fitted.to_json(),
         family: model.name().into(),
@@ -1039,10 +1040,8 @@ pub fn fit(
         params,
         cells_fit: fitset.len(),
         cells_full: full.len(),
-        warm_up_cells: config.warm_up_cells_for(fitset.len()),
-        full_iters: config
-            .warm_up_cells_for(fitset.len())
-            .map(|_| config.full_iters.for_model(model)),
+        warm_up_cells,
+        full_iters: warm_up_cells.map(|_| config.full_iters.for_model(model)),
         losses_fit,
         losses_full,
         iterations: results.iter().map(|r| r.best.iterations).sum(),
