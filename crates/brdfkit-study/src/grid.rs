@@ -342,13 +342,50 @@ pub fn proxy_stem(dir: &Path, name: &str) -> Option<PathBuf> {
     subs.into_iter().find(|d| has(d)).map(|d| d.join(name))
 }
 
-/// The error of a name in `cfg.measured` with no proxy.
+/// The environment variable naming the proxies' folder when `--measured-dir` is not
+/// given ([`find_measured_dir`]).
+pub const MEASURED_DIR_ENV: &str = "BRDFKIT_MEASURED_DIR";
+
+/// The folder of the vendored proxies when none is given, in the order a user of a
+/// checkout expects: `$BRDFKIT_MEASURED_DIR`; else `data-measured/` in `cwd` or the
+/// nearest folder above it that has one (so the study works from `tour/`, `docs/` or
+/// any other folder of the checkout; the path stays relative, as the report prints
+/// it); else the `data-measured/` of the checkout this crate was built from, while it
+/// exists (an installed `fit-brdf` run outside the checkout). `None`: none of these.
+pub fn find_measured_dir(cwd: &Path) -> Option<PathBuf> {
+    if let Some(d) = std::env::var_os(MEASURED_DIR_ENV).filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(d));
+    }
+    let mut rel = PathBuf::new();
+    for dir in cwd.ancestors() {
+        if dir.join("data-measured").is_dir() {
+            return Some(rel.join("data-measured"));
+        }
+        rel.push("..");
+    }
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data-measured");
+    built.is_dir().then_some(built)
+}
+
+/// The error of a name in `cfg.measured` with no proxy: a missing folder names the
+/// options that set it, a folder without the proxy the name.
 pub fn no_proxy(cfg: &StudyConfig, name: &str) -> StudyError {
+    let dir = cfg.measured_dir.display();
+    if !cfg.measured_dir.is_dir() {
+        return StudyError::Config {
+            option: "measured-dir",
+            msg: format!(
+                "`{dir}` is not a folder: the proxies of --measured (here `{name}`) are read \
+                 from --measured-dir DIR (or ${MEASURED_DIR_ENV}; by default `data-measured/` \
+                 of the checkout, found from the current folder upwards)"
+            ),
+        };
+    }
     StudyError::Config {
         option: "measured",
         msg: format!(
-            "{}: no proxy `{name}` ({name}_fc1.npy …) there or in a subfolder",
-            cfg.measured_dir.display()
+            "no proxy `{name}` ({name}_fc1.npy …) in `{dir}` or a subfolder (--measured-dir \
+             sets the folder)"
         ),
     }
 }
@@ -738,6 +775,33 @@ mod tests {
     /// The committed proxies' directory.
     fn data_measured() -> PathBuf {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data-measured")
+    }
+
+    /// From a folder below the checkout's root (the README's `tour/`), the proxies'
+    /// folder is the nearest `data-measured/` above, as a relative path.
+    #[test]
+    fn the_measured_folder_is_found_from_below() {
+        if std::env::var_os(MEASURED_DIR_ENV).is_some() {
+            return; // the variable wins, by design; covered by the CLI test
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("checkout");
+        std::fs::create_dir_all(root.join("data-measured")).unwrap();
+        std::fs::create_dir_all(root.join("tour/deeper")).unwrap();
+        let found = |cwd: &Path| find_measured_dir(cwd).unwrap();
+        assert_eq!(found(&root), PathBuf::from("data-measured"));
+        assert_eq!(found(&root.join("tour")), Path::new("..").join("data-measured"));
+        assert_eq!(
+            found(&root.join("tour/deeper")),
+            Path::new("../..").join("data-measured")
+        );
+        // Outside any checkout: the one this crate was built from.
+        let outside = dir.path().join("elsewhere");
+        std::fs::create_dir_all(&outside).unwrap();
+        assert_eq!(
+            found(&outside).canonicalize().unwrap(),
+            data_measured().canonicalize().unwrap()
+        );
     }
 
     #[test]

@@ -682,9 +682,11 @@ pub struct StudyArgs {
     #[arg(long)]
     pub measured: Option<String>,
     /// Directory of the proxies (searched with its subfolders) and of their
-    /// reference-fits.json.
-    #[arg(long, value_name = "DIR", default_value = "data-measured")]
-    pub measured_dir: PathBuf,
+    /// reference-fits.json; default: $BRDFKIT_MEASURED_DIR, else `data-measured/` in the
+    /// current folder or the nearest one above it, else the checkout fit-brdf was built
+    /// from.
+    #[arg(long, value_name = "DIR")]
+    pub measured_dir: Option<PathBuf>,
     /// Models: cook-torrance, ward, plausible-phong, lambert, blinn-phong, lafortune.
     #[arg(long)]
     pub models: Option<String>,

@@ -3,6 +3,7 @@
 
 use crate::cli::{StudyArgs, StudyPart};
 use crate::error::{CliResult, bad_msg, runtime};
+use brdfkit_study::grid::find_measured_dir;
 use brdfkit_study::losses::LossesConfig;
 use brdfkit_study::{ModelChoice, StudyConfig, StudyError};
 
@@ -39,7 +40,15 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
             custom = true;
         }
     }
-    c.measured_dir = a.measured_dir.clone();
+    // Not given: found from the current folder (the README's tour runs in `tour/`);
+    // none found: the default stays, and a measured material names --measured-dir.
+    if let Some(d) = a.measured_dir.clone().or_else(|| {
+        std::env::current_dir()
+            .ok()
+            .and_then(|cwd| find_measured_dir(&cwd))
+    }) {
+        c.measured_dir = d;
+    }
     if let Some(m) = &a.models {
         c.models = list("models", m, ModelChoice::by_label)?;
         custom = true;
