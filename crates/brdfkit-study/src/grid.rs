@@ -790,7 +790,10 @@ mod tests {
         std::fs::create_dir_all(root.join("tour/deeper")).unwrap();
         let found = |cwd: &Path| find_measured_dir(cwd).unwrap();
         assert_eq!(found(&root), PathBuf::from("data-measured"));
-        assert_eq!(found(&root.join("tour")), Path::new("..").join("data-measured"));
+        assert_eq!(
+            found(&root.join("tour")),
+            Path::new("..").join("data-measured")
+        );
         assert_eq!(
             found(&root.join("tour/deeper")),
             Path::new("../..").join("data-measured")

@@ -227,7 +227,11 @@ fn run_session(root: &Path, cmds: &[Cmd]) -> Vec<Ran> {
         std::fs::create_dir_all(d).unwrap();
     }
     std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_fit-brdf"), bin.join("fit-brdf")).unwrap();
-    let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap_or_default());
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
     // The exit status says nothing: the script ends with 0 after a failed command, and a
     // line bash cannot parse shows as the session stopping early.
     Command::new("bash")
@@ -271,10 +275,9 @@ enum Tok {
 /// A quoted line's pieces. Digits right after a letter (`l2`, `fc1`, `summary-2`) are
 /// text, not numbers.
 fn tokens(q: &str) -> Vec<Tok> {
-    let token = Regex::new(
-        r"(\.\.\.|…)|([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)|(\s+)|([^\s.\d+-]+|.)",
-    )
-    .unwrap();
+    let token =
+        Regex::new(r"(\.\.\.|…)|([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)|(\s+)|([^\s.\d+-]+|.)")
+            .unwrap();
     let unit = Regex::new(r"^\s*(s|ms|µs)\b").unwrap();
     let mut out = Vec::new();
     let mut after_word = false;
@@ -352,7 +355,10 @@ fn line_matches(quoted: &str, got: &str, header: Option<&str>) -> Result<(), Str
     });
     for (k, (want, unit)) in nums.enumerate() {
         let m = c.get(k + 1).unwrap();
-        let (a, b) = (got[..m.start()].chars().count(), got[..m.end()].chars().count());
+        let (a, b) = (
+            got[..m.start()].chars().count(),
+            got[..m.end()].chars().count(),
+        );
         if !unit && !is_timing(header, a, b) && !same_number(want, m.as_str()) {
             return Err(format!(
                 "{want} printed as {}:\n  quoted: {quoted}\n  output: {got}",
@@ -434,7 +440,10 @@ fn check_page(name: &str, page: &str, root: &Path) -> (Vec<String>, usize, usize
             )),
             Some(r) => {
                 if let Err(e) = matches_quote(&q.lines, &r.output) {
-                    fails.push(format!("{name}:{}: the output of `{}` is not the quote: {e}", q.line, q.cmd));
+                    fails.push(format!(
+                        "{name}:{}: the output of `{}` is not the quote: {e}",
+                        q.line, q.cmd
+                    ));
                 }
             }
         }
@@ -457,7 +466,10 @@ fn the_readme_runs_as_written() {
     assert!(fails.is_empty(), "{}", fails.join("\n\n"));
     // Not vacuous: the tour and the glTF example ran, and their quotes were compared.
     assert!(ncmds >= 20, "only {ncmds} commands found in README.md");
-    assert!(nquotes >= 4, "only {nquotes} quoted outputs found in README.md");
+    assert!(
+        nquotes >= 4,
+        "only {nquotes} quoted outputs found in README.md"
+    );
 }
 
 /// The harness on pages written to fail: each way a README line can break is caught.
@@ -475,14 +487,23 @@ mod harness {
     #[test]
     fn a_verb_that_changed_fails_the_page() {
         // An option the verb no longer has: exit 2.
-        let f = fails("fit-brdf synth ../data-synthetic/gold-ggx.toml --no-such-option x", "");
-        assert!(f.len() == 1 && f[0].contains("t.md:4") && f[0].contains("exited with 2"), "{f:?}");
+        let f = fails(
+            "fit-brdf synth ../data-synthetic/gold-ggx.toml --no-such-option x",
+            "",
+        );
+        assert!(
+            f.len() == 1 && f[0].contains("t.md:4") && f[0].contains("exited with 2"),
+            "{f:?}"
+        );
         // A missing input: the verb's own error.
         let f = fails("fit-brdf info no-such.binary", "");
         assert!(f.len() == 1 && f[0].contains("exited with 2"), "{f:?}");
         // The session stops at the first failure: later lines are not blamed.
         let f = fails("false\nfit-brdf info no-such.binary", "");
-        assert!(f.len() == 1 && f[0].contains("`false` exited with 1"), "{f:?}");
+        assert!(
+            f.len() == 1 && f[0].contains("`false` exited with 1"),
+            "{f:?}"
+        );
     }
 
     #[test]
@@ -506,17 +527,32 @@ mod harness {
     fn stale_quotes_fail_and_timings_do_not() {
         let sh = "printf 'model   loss   time s\\nct   1.5e-3   0.91\\nfitted in 2.0 s\\n'";
         // The same output, other timings, other column widths: it matches.
-        assert!(fails(sh, &format!("$ {}\nmodel  loss  time s\nct  1.5e-3  7.25\nfitted in 9.9 s", sh.trim())).is_empty());
+        assert!(
+            fails(
+                sh,
+                &format!(
+                    "$ {}\nmodel  loss  time s\nct  1.5e-3  7.25\nfitted in 9.9 s",
+                    sh.trim()
+                )
+            )
+            .is_empty()
+        );
         // A loss that changed, a line that went, a line that came, a command not run.
         let q = |body: &str| fails(sh, &format!("$ {sh}\n{body}"));
         let f = q("model loss time s\nct 1.6e-3 0.91\n...");
-        assert!(f.len() == 1 && f[0].contains("1.6e-3 printed as 1.5e-3"), "{f:?}");
+        assert!(
+            f.len() == 1 && f[0].contains("1.6e-3 printed as 1.5e-3"),
+            "{f:?}"
+        );
         let f = q("model loss time s\nct 1.5e-3 0.91\nconverged\nfitted in 2.0 s");
         assert!(f.len() == 1 && f[0].contains("text differs"), "{f:?}");
         let f = q("model loss time s");
         assert!(f.len() == 1 && f[0].contains("goes on after"), "{f:?}");
         let f = fails(sh, "$ fit-brdf info x.binary\nx");
-        assert!(f.len() == 1 && f[0].contains("not a command the page runs"), "{f:?}");
+        assert!(
+            f.len() == 1 && f[0].contains("not a command the page runs"),
+            "{f:?}"
+        );
         // `...` lines and `...` inside a line.
         assert!(q("...\nfitted in ... s").is_empty());
     }
@@ -525,7 +561,13 @@ mod harness {
     fn numbers_after_letters_are_text() {
         assert_eq!(
             tokens("l2 fc1"),
-            vec![Tok::Text("l".into()), Tok::Text("2".into()), Tok::Space, Tok::Text("fc".into()), Tok::Text("1".into())]
+            vec![
+                Tok::Text("l".into()),
+                Tok::Text("2".into()),
+                Tok::Space,
+                Tok::Text("fc".into()),
+                Tok::Text("1".into())
+            ]
         );
         assert!(matches!(tokens("0.00 s")[0], Tok::Num(_, true)));
         assert!(line_matches("shard 2/4 of 3", "shard 3/4 of 3", None).is_err());
