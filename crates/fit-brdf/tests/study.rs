@@ -193,3 +193,47 @@ fn bad_study_input_is_a_clear_error_and_writes_nothing() {
         .unwrap();
     assert_bad_input(&o, &["results.json"]);
 }
+
+/// The proxies' folder (issue 30): found from a folder below the checkout (the README's
+/// `tour/`), named by `$BRDFKIT_MEASURED_DIR` or `--measured-dir`; a folder that is not
+/// there is an error naming both, before any work.
+#[test]
+fn the_measured_folder_is_found_or_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let specs = small_specs(dir.path());
+    let out = dir.path().join("avt");
+    let mut args = tiny_args(&specs, &out);
+    let m = args.iter().position(|a| a == "lambert-white").unwrap();
+    args.splice(
+        m - 1..=m,
+        ["--measured".to_string(), "no-such-proxy".into()],
+    );
+    let p = args.iter().position(|a| a == "grid,choices").unwrap();
+    args[p] = "grid".into();
+    let missing = dir.path().join("nowhere");
+    let run = |extra: &[&str], env: Option<&Path>| {
+        let mut c = bin();
+        c.args(&args).args(extra).env_remove("BRDFKIT_MEASURED_DIR");
+        if let Some(e) = env {
+            c.env("BRDFKIT_MEASURED_DIR", e);
+        }
+        c.output().unwrap()
+    };
+    for o in [
+        run(&["--measured-dir", missing.to_str().unwrap()], None),
+        run(&[], Some(&missing)),
+    ] {
+        assert_bad_input(&o, &["nowhere", "--measured-dir", "BRDFKIT_MEASURED_DIR"]);
+        assert!(!out.exists(), "no output directory for a failed run");
+    }
+    // From a folder of the checkout without the option: its data-measured/ is found,
+    // and the name missing from it is the error.
+    let tour = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let o = bin()
+        .current_dir(&tour)
+        .args(&args)
+        .env_remove("BRDFKIT_MEASURED_DIR")
+        .output()
+        .unwrap();
+    assert_bad_input(&o, &["no proxy `no-such-proxy`", "../../../data-measured"]);
+}
