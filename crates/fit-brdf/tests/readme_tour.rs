@@ -31,17 +31,25 @@
 //! Pages covered: README.md (the tour, the glTF example and whatever sh blocks are
 //! added to it). docs/python.md's worked example is run as written by
 //! `crates/brdfkit-python/tests/test_docs.py` (pytest, under `cargo test -p
-//! brdfkit-python`). The other docs pages show commands on placeholder files
-//! (`table.binary`, `merl/`, `a.json`) or maintainer runs of hours, not a sequence to
-//! paste.
+//! brdfkit-python`). Not covered: docs/scoring.md's worked example (its input
+//! `published.json` is a JSON block, one line is meant to exit 2, its outputs are quoted
+//! without `$ ` lines: rules this harness does not have) and the loose examples of the
+//! other pages, on placeholder files (`table.binary`, `merl/`, `a.json`) or maintainer
+//! runs of hours.
 //!
 //! The test build's `fit-brdf` is the dev profile (opt-level 1, dependencies at 3),
 //! so the tour takes a few minutes in CI (docs/performance.md, "The README's tour").
 
 use regex::Regex;
 use std::fmt::Write as _;
+use std::os::unix::process::CommandExt as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// How long one page's session may run: the README's takes about 4 minutes in the
+/// test build on a loaded 2-core machine (docs/performance.md).
+const SESSION_LIMIT: Duration = Duration::from_secs(20 * 60);
 
 /// The workspace root.
 fn workspace() -> PathBuf {
@@ -57,12 +65,16 @@ struct Block {
     line: usize,
     /// The lines between the fences.
     lines: Vec<String>,
+    /// The last line of prose between the previous block and this one ("" when only
+    /// blank lines separate them).
+    before: String,
 }
 
 /// Every fenced block (```` ``` ```` or `~~~`, not indented) of a page.
 fn blocks(page: &str) -> Vec<Block> {
     let mut out = Vec::new();
     let mut open: Option<(String, Block)> = None;
+    let mut before = String::new();
     for (k, line) in page.lines().enumerate() {
         let fence = ["```", "~~~"].into_iter().find(|f| line.starts_with(f));
         match (&mut open, fence) {
@@ -78,9 +90,11 @@ fn blocks(page: &str) -> Vec<Block> {
                         lang: lang.to_string(),
                         line: k + 1,
                         lines: Vec::new(),
+                        before: std::mem::take(&mut before),
                     },
                 ));
             }
+            (None, None) if !line.trim().is_empty() => before = line.trim().to_string(),
             (None, None) => {}
         }
     }
@@ -92,11 +106,14 @@ fn blocks(page: &str) -> Vec<Block> {
 struct Cmd {
     line: usize,
     text: String,
+    /// The exit status the page says it has (`# exit N` after it), else 0.
+    exit: i32,
 }
 
 /// The commands of a shell block (see the module's rules).
 fn commands(b: &Block) -> Vec<Cmd> {
     let heredoc = Regex::new(r#"<<-?\s*['"]?([A-Za-z_][A-Za-z0-9_]*)['"]?"#).unwrap();
+    let exit = Regex::new(r"\s#\s*exit\s+(\d+)\b").unwrap();
     let mut out: Vec<Cmd> = Vec::new();
     let mut lines = b.lines.iter().enumerate();
     while let Some((k, first)) = lines.next() {
@@ -120,9 +137,11 @@ fn commands(b: &Block) -> Vec<Cmd> {
                 }
             }
         }
+        let exit = exit.captures(first).map_or(0, |c| c[1].parse().unwrap());
         out.push(Cmd {
             line: b.line + 1 + k,
             text,
+            exit,
         });
     }
     out
@@ -131,8 +150,28 @@ fn commands(b: &Block) -> Vec<Cmd> {
 /// Whether a block runs (see the module's rules): a shell block that runs no `cargo`.
 fn runs(b: &Block, cmds: &[Cmd]) -> bool {
     let cargo = Regex::new(r"(^|[;&|(]\s*)cargo\s").unwrap();
+    shell(b) && !cmds.iter().any(|c| cargo.is_match(c.text.trim_start()))
+}
+
+/// The command that writes a file the page shows as a block: one (not a shell block)
+/// whose introducing sentence ends with the file's name, `` `NAME`: `` (docs/scoring.md:
+/// "… gives `published.json`:").
+fn file_command(b: &Block) -> Option<Cmd> {
+    let name = Regex::new(r"`([\w.-]+\.\w+)`:$").unwrap();
+    let file = name.captures(&b.before)?[1].to_string();
+    (!shell(b)).then(|| Cmd {
+        line: b.line,
+        text: format!(
+            "cat > '{file}' <<'PAGE_FILE_END'\n{}\nPAGE_FILE_END",
+            b.lines.join("\n")
+        ),
+        exit: 0,
+    })
+}
+
+/// Whether a block is a shell block.
+fn shell(b: &Block) -> bool {
     matches!(b.lang.as_str(), "sh" | "bash" | "shell")
-        && !cmds.iter().any(|c| cargo.is_match(c.text.trim_start()))
 }
 
 /// A quoted output: the command after `$ ` and the lines quoted under it.
@@ -140,20 +179,34 @@ fn runs(b: &Block, cmds: &[Cmd]) -> bool {
 struct Quote {
     line: usize,
     cmd: String,
+    /// The page line of the command quoted, when the quote follows its block.
+    at: Option<usize>,
     lines: Vec<String>,
 }
 
-/// The quotes of a page's ```` ```text ```` blocks.
+/// The quotes of a page's ```` ```text ```` blocks: `$ ` lines, or a whole block right
+/// after a shell block that runs, quoting that block's last command.
 fn quotes(page: &[Block]) -> Vec<Quote> {
     let mut out: Vec<Quote> = Vec::new();
-    for b in page.iter().filter(|b| b.lang == "text") {
-        let mut current: Option<Quote> = None;
+    for (i, b) in page.iter().enumerate().filter(|(_, b)| b.lang == "text") {
+        let last = match i.checked_sub(1).map(|p| (&page[p], commands(&page[p]))) {
+            Some((p, c)) if b.before.is_empty() && runs(p, &c) => c.last().cloned(),
+            _ => None,
+        };
+        let whole = !b.lines.iter().any(|l| l.starts_with("$ "));
+        let mut current = last.filter(|_| whole).map(|c| Quote {
+            line: b.line,
+            cmd: c.text,
+            at: Some(c.line),
+            lines: Vec::new(),
+        });
         for (k, l) in b.lines.iter().enumerate() {
             if let Some(cmd) = l.strip_prefix("$ ") {
                 out.extend(current.take());
                 current = Some(Quote {
                     line: b.line + 1 + k,
                     cmd: cmd.trim().to_string(),
+                    at: None,
                     lines: Vec::new(),
                 });
             } else if let Some(q) = &mut current {
@@ -196,8 +249,8 @@ fn script(cmds: &[Cmd], logs: &Path) -> String {
         writeln!(
             s,
             "{{\n{}\n}} >'{log}.out' 2>&1 </dev/null\nrc=$?\necho $rc >'{log}.rc'\n\
-             [ $rc -eq 0 ] || exit 0",
-            c.text
+             [ $rc -eq {} ] || exit 0",
+            c.text, c.exit
         )
         .unwrap();
     }
@@ -233,8 +286,9 @@ fn run_session(root: &Path, cmds: &[Cmd]) -> Vec<Ran> {
         std::env::var("PATH").unwrap_or_default()
     );
     // The exit status says nothing: the script ends with 0 after a failed command, and a
-    // line bash cannot parse shows as the session stopping early.
-    Command::new("bash")
+    // line bash cannot parse shows as the session stopping early. A command that waits
+    // (a server, a prompt) is stopped at the limit, with everything it started.
+    let mut child = Command::new("bash")
         .arg("-c")
         .arg(script(cmds, &logs))
         .current_dir(root)
@@ -243,8 +297,19 @@ fn run_session(root: &Path, cmds: &[Cmd]) -> Vec<Ran> {
         .env_remove("XDG_DATA_HOME")
         .env_remove("XDG_CONFIG_HOME")
         .env_remove("BRDFKIT_MEASURED_DIR")
-        .status()
+        .process_group(0)
+        .spawn()
         .expect("bash runs");
+    let start = Instant::now();
+    while child.try_wait().expect("bash runs").is_none() {
+        if start.elapsed() > SESSION_LIMIT {
+            // SAFETY: kill(2) on the process group this test made; no memory involved.
+            unsafe { libc::kill(-(child.id() as i32), libc::SIGKILL) };
+            let _ = child.wait();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
     let mut out = Vec::new();
     for (n, c) in cmds.iter().enumerate() {
         let Ok(rc) = std::fs::read_to_string(logs.join(format!("{n}.rc"))) else {
@@ -376,7 +441,7 @@ fn matches_quote(quoted: &[String], output: &str) -> Result<(), String> {
     let got: Vec<&str> = output.lines().collect();
     let (mut j, mut skip, mut header) = (0, false, None::<&str>);
     for q in quoted {
-        if matches!(q.trim(), "..." | "…") {
+        if q.trim_start().starts_with("...") || q.trim_start().starts_with('…') {
             skip = true;
             continue;
         }
@@ -405,35 +470,48 @@ fn matches_quote(quoted: &[String], output: &str) -> Result<(), String> {
 }
 
 /// What failed in a page's run, one paragraph per failure (empty: it runs as written).
-fn check_page(name: &str, page: &str, root: &Path) -> (Vec<String>, usize, usize) {
-    let all = blocks(page);
+fn check_page(name: &str, all: &[Block], root: &Path) -> (Vec<String>, usize, usize) {
     let cmds: Vec<Cmd> = all
         .iter()
-        .map(|b| (b, commands(b)))
-        .filter(|(b, c)| runs(b, c))
-        .flat_map(|(_, c)| c)
+        .flat_map(|b| {
+            let c = commands(b);
+            match file_command(b) {
+                Some(f) => vec![f],
+                None if runs(b, &c) => c,
+                None => Vec::new(),
+            }
+        })
         .collect();
     let ran = run_session(root, &cmds);
     let mut fails = Vec::new();
     for r in &ran {
         let at = format!("{name}:{}: `{}`", r.cmd.line, r.cmd.text);
-        if r.status != 0 {
+        if r.status != r.cmd.exit {
             fails.push(format!("{at} exited with {}:\n{}", r.status, r.output));
-        } else if let Some(l) = r.output.lines().find(|l| error_line(l)) {
+        } else if let Some(l) = r.output.lines().find(|l| r.cmd.exit == 0 && error_line(l)) {
             fails.push(format!("{at} printed an error: {l}\n{}", r.output));
         }
     }
     if ran.len() < cmds.len() && fails.is_empty() {
         fails.push(format!(
-            "{name}: the session stopped after {} of {} commands (a line bash cannot parse?)",
+            "{name}:{}: the session stopped at `{}` ({} of {} commands run): it ran over \
+             {} s, or bash could not parse it",
+            cmds[ran.len()].line,
+            cmds[ran.len()].text,
             ran.len(),
-            cmds.len()
+            cmds.len(),
+            SESSION_LIMIT.as_secs()
         ));
     }
-    let quoted = quotes(&all);
+    let quoted = quotes(all);
     for q in &quoted {
         let norm = |s: &str| s.split_whitespace().collect::<Vec<_>>().join(" ");
-        match ran.iter().find(|r| norm(&r.cmd.text) == norm(&q.cmd)) {
+        let same = |r: &&Ran| {
+            q.at.map_or(norm(&r.cmd.text) == norm(&q.cmd), |l| r.cmd.line == l)
+        };
+        match ran.iter().find(same) {
+            // A session that stopped early has said so.
+            None if ran.len() < cmds.len() => {}
             None => fails.push(format!(
                 "{name}:{}: the quoted `{}` is not a command the page runs",
                 q.line, q.cmd
@@ -452,23 +530,48 @@ fn check_page(name: &str, page: &str, root: &Path) -> (Vec<String>, usize, usize
 }
 
 /// Runs `page` (Markdown text) in a scratch checkout; returns the failures and the
-/// numbers of commands and quotes.
-fn run_page(name: &str, page: &str) -> (Vec<String>, usize, usize) {
+/// numbers of commands and quotes. `from`: the heading the page's runnable part starts
+/// at (None: the whole page).
+fn run_page(name: &str, page: &str, from: Option<&str>) -> (Vec<String>, usize, usize) {
+    let start = from.map_or(0, |h| {
+        1 + page
+            .lines()
+            .position(|l| l.trim() == h)
+            .unwrap_or_else(|| panic!("{name} has no heading `{h}`"))
+    });
+    let all: Vec<Block> = blocks(page)
+        .into_iter()
+        .filter(|b| b.line > start)
+        .collect();
     let dir = tempfile::tempdir().unwrap();
     scratch_checkout(dir.path());
-    check_page(name, page, dir.path())
+    check_page(name, &all, dir.path())
 }
 
 #[test]
 fn the_readme_runs_as_written() {
     let page = std::fs::read_to_string(workspace().join("README.md")).unwrap();
-    let (fails, ncmds, nquotes) = run_page("README.md", &page);
+    let (fails, ncmds, nquotes) = run_page("README.md", &page, None);
     assert!(fails.is_empty(), "{}", fails.join("\n\n"));
     // Not vacuous: the tour and the glTF example ran, and their quotes were compared.
     assert!(ncmds >= 20, "only {ncmds} commands found in README.md");
     assert!(
         nquotes >= 4,
         "only {nquotes} quoted outputs found in README.md"
+    );
+}
+
+/// docs/scoring.md's worked example, from its heading on: a file the page shows
+/// (`published.json`), a line meant to exit 2, outputs quoted under their blocks.
+#[test]
+fn the_scoring_worked_example_runs_as_written() {
+    let page = std::fs::read_to_string(workspace().join("docs/scoring.md")).unwrap();
+    let heading = "## Worked example: published metallic-roughness parameters";
+    let (fails, ncmds, nquotes) = run_page("docs/scoring.md", &page, Some(heading));
+    assert!(fails.is_empty(), "{}", fails.join("\n\n"));
+    assert!(
+        ncmds >= 9 && nquotes >= 4,
+        "{ncmds} commands, {nquotes} quotes"
     );
 }
 
@@ -481,7 +584,7 @@ mod harness {
     }
 
     fn fails(sh: &str, text: &str) -> Vec<String> {
-        run_page("t.md", &page(sh, text)).0
+        run_page("t.md", &page(sh, text), None).0
     }
 
     #[test]
@@ -498,6 +601,9 @@ mod harness {
         // A missing input: the verb's own error.
         let f = fails("fit-brdf info no-such.binary", "");
         assert!(f.len() == 1 && f[0].contains("exited with 2"), "{f:?}");
+        // A line bash cannot parse stops the session, and says where.
+        let f = fails("true\nfi", "");
+        assert!(f.len() == 1 && f[0].contains("stopped at `fi`"), "{f:?}");
         // The session stops at the first failure: later lines are not blamed.
         let f = fails("false\nfit-brdf info no-such.binary", "");
         assert!(
@@ -519,7 +625,7 @@ mod harness {
         let md = "```sh\nmkdir -p tour && cd tour\n# false\nprintf 'a\\n' > x.txt\n```\n\n\
                   ```sh\ncargo build --release\nfalse   # or an alternative\n```\n\n\
                   ```sh\ncat x.txt && test \"$(basename \"$PWD\")\" = tour\n```\n";
-        let (f, n, _) = run_page("t.md", md);
+        let (f, n, _) = run_page("t.md", md, None);
         assert!(f.is_empty() && n == 3, "{f:?} {n}");
     }
 
@@ -555,6 +661,23 @@ mod harness {
         );
         // `...` lines and `...` inside a line.
         assert!(q("...\nfitted in ... s").is_empty());
+    }
+
+    #[test]
+    fn files_expected_exits_and_quotes_under_a_block() {
+        let md = "Some text gives `a.json`:\n\n```json\n{\"x\": 1}\n```\n\n\
+                  ```sh\ncat a.json\nfalse   # exit 1: on purpose\nprintf 'one\\ntwo 2.0\\n'\n```\n\n\
+                  ```text\n... (a remark)\ntwo 2.0\n```\n";
+        let (f, n, q) = run_page("t.md", md, None);
+        assert!(f.is_empty() && n == 4 && q == 1, "{f:?} {n} {q}");
+        // The same quote with another number, or the purposeful failure gone: caught.
+        let f = run_page("t.md", &md.replace("two 2.0\n```", "two 3.0\n```"), None).0;
+        assert!(f.len() == 1 && f[0].contains("3.0 printed as 2.0"), "{f:?}");
+        let f = run_page("t.md", &md.replace("false   #", "true   #"), None).0;
+        assert!(f.len() == 1 && f[0].contains("exited with 0"), "{f:?}");
+        // Only the part from the heading on runs.
+        let md = format!("```sh\nfalse\n```\n\n## Part\n\n{md}");
+        assert!(run_page("t.md", &md, Some("## Part")).0.is_empty());
     }
 
     #[test]
