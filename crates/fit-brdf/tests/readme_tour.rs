@@ -297,6 +297,7 @@ fn run_session(root: &Path, cmds: &[Cmd]) -> Vec<Ran> {
         .env_remove("XDG_DATA_HOME")
         .env_remove("XDG_CONFIG_HOME")
         .env_remove("BRDFKIT_MEASURED_DIR")
+        .stderr(std::fs::File::create(logs.join("bash.err")).unwrap())
         .process_group(0)
         .spawn()
         .expect("bash runs");
@@ -483,6 +484,7 @@ fn check_page(name: &str, all: &[Block], root: &Path) -> (Vec<String>, usize, us
         })
         .collect();
     let ran = run_session(root, &cmds);
+    let bash_err = std::fs::read_to_string(root.join(".tour-logs/bash.err")).unwrap_or_default();
     let mut fails = Vec::new();
     for r in &ran {
         let at = format!("{name}:{}: `{}`", r.cmd.line, r.cmd.text);
@@ -495,7 +497,7 @@ fn check_page(name: &str, all: &[Block], root: &Path) -> (Vec<String>, usize, us
     if ran.len() < cmds.len() && fails.is_empty() {
         fails.push(format!(
             "{name}:{}: the session stopped at `{}` ({} of {} commands run): it ran over \
-             {} s, or bash could not parse it",
+             {} s, or bash could not parse it: {bash_err}",
             cmds[ran.len()].line,
             cmds[ran.len()].text,
             ran.len(),
