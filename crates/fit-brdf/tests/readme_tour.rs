@@ -1,44 +1,51 @@
 //! The README runs as written (issue 30): its shell examples are extracted, run
 //! verbatim by bash in a scratch copy of the checkout with `fit-brdf` (this build's) on
 //! the `PATH`, and the outputs it quotes are compared with what the commands print.
+//! The same for docs/scoring.md's worked example.
 //!
 //! The rules, the whole of them (no list of exceptions):
 //!
-//! - **Which blocks run.** Every fenced block of the page whose info string is `sh`,
-//!   `bash` or `shell`, in the page's order, in one bash session, as a reader pasting
-//!   them one after the other does (a `cd` in one block holds for the next), starting at
-//!   the checkout's root. A block that runs `cargo` is skipped: it builds, installs or
-//!   tests brdfkit, which is what this test is (cargo built the `fit-brdf` under test
-//!   and the harness puts it on the `PATH`, which is what the README's install block
-//!   does); its alternative lines (`alias fit-brdf=…   # or …`) go with it.
+//! - **Which blocks run.** Every fenced block of the page (from a given heading on, for
+//!   a page whose first part is loose examples) whose info string is `sh`, `bash` or
+//!   `shell`, in the page's order, in one bash session, as a reader pasting them one
+//!   after the other does (a `cd` in one block holds for the next), starting at the
+//!   checkout's root. A block that runs `cargo` is skipped: it builds, installs or tests
+//!   brdfkit, which is what this test is (cargo built the `fit-brdf` under test and the
+//!   harness puts it on the `PATH`, which is what the README's install block does); its
+//!   alternative lines (`alias fit-brdf=…   # or …`) go with it.
+//! - **Files the page shows.** Another block whose introducing sentence ends with a file
+//!   name, `` `NAME`: ``, is that file: written where the session is, at that point.
 //! - **Which lines are commands.** Every line but blank ones and comments (`#` first:
 //!   bash skips them too, so commented alternatives such as `#   fit-brdf eval … .npy`
 //!   stay as they are); a line ending in `\` continues on the next, a here-document
 //!   (`<<WORD`) up to its `WORD` line. Each command runs verbatim, its output (stdout and
 //!   stderr, interleaved as on a terminal) captured; the run stops at the first command
 //!   that fails.
-//! - **What fails.** A command's non-zero exit, or an output line that reports an error
-//!   ([`error_line`]).
+//! - **What fails.** A command's exit status other than 0, or than N when the page says
+//!   `# exit N` after it; an output line that reports an error ([`error_line`]) from a
+//!   command meant to succeed; a session that stops early (a line bash cannot parse, or
+//!   over [`SESSION_LIMIT`]).
 //! - **Quoted outputs.** In a ```` ```text ```` block, a line `$ COMMAND` quotes what
-//!   `COMMAND` prints, up to the next `$ ` line or the block's end. `COMMAND` must be one
-//!   the page ran (the quote of a line that left the tour fails), and its output must
-//!   match ([`matches_quote`]): `...` alone on a line stands for any number of lines,
-//!   `...` inside a line for any text; runs of spaces match any run (column widths move
-//!   with the numbers); numbers agree to a relative 1e-3 (round-off below 1e-12 is
-//!   zero), apart from timings: a number followed by a unit of time (`s`, `ms`) or
-//!   printed under a column heading one ([`is_timing`]).
+//!   `COMMAND` prints, up to the next `$ ` line or the block's end; a text block without
+//!   `$ ` lines right after a shell block that runs (nothing but blank lines between)
+//!   quotes that block's last command. The command must be one the page ran (the quote
+//!   of a line that left the tour fails), and its output must match
+//!   ([`matches_quote`]): a line starting with `...` (a remark may follow) stands for any
+//!   number of lines, `...` inside a line for any text; runs of spaces match any run
+//!   (column widths move with the numbers); numbers agree to a relative 1e-3 (round-off
+//!   below 1e-12 is zero), apart from timings: a number followed by a unit of time (`s`,
+//!   `ms`) or printed under a column heading one ([`is_timing`]).
 //!
-//! Pages covered: README.md (the tour, the glTF example and whatever sh blocks are
-//! added to it). docs/python.md's worked example is run as written by
-//! `crates/brdfkit-python/tests/test_docs.py` (pytest, under `cargo test -p
-//! brdfkit-python`). Not covered: docs/scoring.md's worked example (its input
-//! `published.json` is a JSON block, one line is meant to exit 2, its outputs are quoted
-//! without `$ ` lines: rules this harness does not have) and the loose examples of the
-//! other pages, on placeholder files (`table.binary`, `merl/`, `a.json`) or maintainer
-//! runs of hours.
+//! Pages covered: README.md, whole (the tour, the glTF example, and whatever shell
+//! blocks are added to it); docs/scoring.md from its worked example on. docs/python.md's
+//! worked example is run as written by `crates/brdfkit-python/tests/test_docs.py`
+//! (pytest, under `cargo test -p brdfkit-python`, a `python_package_test!`). Not
+//! covered: the loose examples of the other pages, on placeholder files
+//! (`table.binary`, `merl/`, `a.json`), and maintainer runs of hours.
 //!
-//! The test build's `fit-brdf` is the dev profile (opt-level 1, dependencies at 3),
-//! so the tour takes a few minutes in CI (docs/performance.md, "The README's tour").
+//! The test build's `fit-brdf` is the dev profile (opt-level 1, dependencies at 3):
+//! the tour takes about two minutes of CPU (docs/performance.md, "The README's
+//! figures, and its tour").
 
 use regex::Regex;
 use std::fmt::Write as _;
