@@ -8,5 +8,10 @@ mod external_tools;
 
 fn main() {
     use external_tools::Tool;
-    external_tools::emit(&[Tool::Mitsuba, Tool::Chromium, Tool::GltfValidator, Tool::BrowserDriver]);
+    external_tools::emit(&[
+        Tool::Mitsuba,
+        Tool::Chromium,
+        Tool::GltfValidator,
+        Tool::BrowserDriver,
+    ]);
 }

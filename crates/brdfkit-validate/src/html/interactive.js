@@ -5,6 +5,7 @@
 (function () {
   'use strict';
   var PI = Math.PI, HALF_PI = PI / 2;
+  var tStart = performance.now();
   var D = JSON.parse(document.getElementById('view-data').textContent);
   var NH = D.dims[0], ND = D.dims[1], NP = D.dims[2];
   var SRC = D.sources;
@@ -27,8 +28,15 @@
     return out;
   }
   var GRIDS = SRC.map(decode);
+  hook.timings.script_start = tStart;
+  hook.timings.decode = performance.now() - tStart;
 
-  // Rusinkiewicz angles of (wi, wo), in brdfkit_core::rusinkiewicz::to_half_diff's order.
+  // Rusinkiewicz angles (θh, θd, φd) of (wi, wo), as brdfkit_core::rusinkiewicz::to_half_diff:
+  // wi rotated by −φh about the normal, then by −θh about the binormal (y), gives the
+  // difference vector. The rotations' cosines and sines are h's own components (cos φh =
+  // hx / r, sin φh = hy / r, cos θh = hz, sin θh = r with r = |(hx, hy)|), so the only
+  // trigonometry is the three angles themselves; the result differs from brdfkit's by
+  // rounding alone.
   function halfDiff(wi, wo, out) {
     if (wi[0] === wo[0] && wi[1] === wo[1] && wi[2] === wo[2]) {
       out[0] = Math.acos(Math.max(-1, Math.min(1, wi[2]))); out[1] = 0; out[2] = 0; return out;
@@ -36,14 +44,11 @@
     var hx = wi[0] + wo[0], hy = wi[1] + wo[1], hz = wi[2] + wo[2];
     var norm = Math.sqrt(hx * hx + hy * hy + hz * hz);
     if (norm === 0) { hx = 0; hy = 0; hz = 1; } else { hx /= norm; hy /= norm; hz /= norm; }
-    var th = Math.acos(Math.max(-1, Math.min(1, hz)));
-    var ph = (hx === 0 && hy === 0) ? 0 : Math.atan2(hy, hx);
-    // wi rotated by −φh about the normal, then by −θh about the binormal (y).
-    var c = Math.cos(-ph), s = Math.sin(-ph);
+    var r = Math.sqrt(hx * hx + hy * hy), c = 1, s = 0;
+    if (r > 0) { c = hx / r; s = -hy / r; }
     var x1 = wi[0] * c - wi[1] * s, y1 = wi[1] * c + wi[0] * s, z1 = wi[2];
-    c = Math.cos(-th); s = Math.sin(-th);
-    var x2 = x1 * c + z1 * s, z2 = z1 * c - x1 * s;
-    out[0] = th;
+    var x2 = x1 * hz - z1 * r, z2 = z1 * hz + x1 * r;
+    out[0] = Math.acos(Math.max(-1, Math.min(1, hz)));
     out[1] = Math.acos(Math.max(-1, Math.min(1, z2)));
     out[2] = (x2 === 0 && y1 === 0) ? 0 : Math.atan2(y1, x2);
     return out;
@@ -200,11 +205,20 @@
     var h = [s, 0, c], dot = 2 * (wi[0] * h[0] + wi[2] * h[2]);
     return [wi, [dot * h[0] - wi[0], -wi[1], dot * h[2] - wi[2]]];
   }
+  // The value at pixel (x, y) of the slice: looked up at the cell's angles directly
+  // (no round trip through the directions), below the horizon left out as lookup does.
+  var SHD = [0, 0, 0];
+  function byAngles(k, w, o) {
+    if (!(w[0][2] > 0 && w[1][2] > 0)) return false;
+    coordsOf(SHD, UVW);
+    return interpolate(GRIDS[k], UVW[0], UVW[1], UVW[2], o);
+  }
   function sliceAt(x, y, pd, s, ch, ratio, o, r) {
     var th = Math.pow((x + 0.5) / SW, 2) * HALF_PI, td = (y + 0.5) / SW * HALF_PI;
     var w = fromHalfDiff(th, td, pd);
-    var ok = lookup(s, w[0], w[1], o);
-    var ref = ratio ? lookup(0, w[0], w[1], r) : true;
+    SHD[0] = th; SHD[1] = td; SHD[2] = pd;
+    var ok = byAngles(s, w, o);
+    var ref = ratio ? byAngles(0, w, r) : true;
     return { th: th, td: td, wi: w[0], wo: w[1], ok: ok && ref, v: ok ? o[ch] : null, ref: ratio && ref ? r[ch] : null };
   }
   var drawSlice = timed('slice', function () {
@@ -339,7 +353,7 @@
     $('albedo-theta-out').textContent = t + '°';
     if (!albedoCurve) {
       albedoCurve = { theta: [], values: SRC.map(function () { return []; }) };
-      for (var d = 0; d <= 85; d += 5) {
+      for (var d = 0; d <= 85; d += d < 80 ? 10 : 5) {
         albedoCurve.theta.push(d);
         for (var s = 0; s < SRC.length; s++) albedoCurve.values[s].push(albedo(s, rad(d)));
       }

@@ -146,7 +146,9 @@ fn encode(v: f64, (lo, hi): (f64, f64)) -> u16 {
     if !(v > 0.0) || hi <= lo || v.ln() < lo {
         return BELOW;
     }
-    2 + (((v.ln() - lo) / (hi - lo)) * STEPS).round().clamp(0.0, STEPS) as u16
+    2 + (((v.ln() - lo) / (hi - lo)) * STEPS)
+        .round()
+        .clamp(0.0, STEPS) as u16
 }
 
 /// The value of a code (the page's decoding).
@@ -176,7 +178,9 @@ fn quantise(t: &MerlTable, range: &[(f64, f64); 3]) -> Vec<u8> {
 /// The grid the page holds: the codes decoded.
 fn dequantised(codes: &[u8], range: &[(f64, f64); 3]) -> Result<MerlTable, CompareError> {
     let dims = view_dims();
-    let q = |idx: usize, c: usize| u16::from_le_bytes([codes[6 * idx + 2 * c], codes[6 * idx + 2 * c + 1]]);
+    let q = |idx: usize, c: usize| {
+        u16::from_le_bytes([codes[6 * idx + 2 * c], codes[6 * idx + 2 * c + 1]])
+    };
     MerlTable::from_fn(dims, |i, j, k| {
         let idx = dims.index(i, j, k);
         let v = [0, 1, 2].map(|c| decode(q(idx, c), range[c]));
@@ -226,17 +230,30 @@ pub fn exact(r: &Representation, pairs: &[(Vec3, Vec3)]) -> Vec<Option<Rgb>> {
 
 /// The precision of one embedding: `page` (the decoded grid) against `r` at
 /// [`check_pairs`].
-fn precision(label: &str, r: &Representation, page: &MerlTable, range: &[(f64, f64); 3]) -> SourcePrecision {
+fn precision(
+    label: &str,
+    r: &Representation,
+    page: &MerlTable,
+    range: &[(f64, f64); 3],
+) -> SourcePrecision {
     let pairs = check_pairs();
     let truth = exact(r, &pairs);
     let mut rel: Vec<f64> = pairs
         .iter()
         .zip(&truth)
         .filter_map(|((i, o), t)| Some((page.interpolated(i, o)?, (*t)?)))
-        .flat_map(|(p, t)| (0..3).filter(move |&c| t[c] > 0.0).map(move |c| (p[c] - t[c]).abs() / t[c]))
+        .flat_map(|(p, t)| {
+            (0..3)
+                .filter(move |&c| t[c] > 0.0)
+                .map(move |c| (p[c] - t[c]).abs() / t[c])
+        })
         .collect();
     rel.sort_unstable_by(f64::total_cmp);
-    let at = |q: f64| rel.get(((rel.len() as f64 * q) as usize).min(rel.len().saturating_sub(1))).copied().unwrap_or(0.0);
+    let at = |q: f64| {
+        rel.get(((rel.len() as f64 * q) as usize).min(rel.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(0.0)
+    };
     let quantisation = range
         .iter()
         .map(|(lo, hi)| ((hi - lo) / STEPS / 2.0).exp_m1())
@@ -299,7 +316,10 @@ pub fn panels(sources: &[PanelSource<'_>]) -> Result<Panels, CompareError> {
     });
     // `</` cannot end the script element early: JSON escapes it as `<\/`.
     let json = json.to_string().replace("</", "<\\/");
-    let precision = embedded.into_iter().map(|e| e.precision).collect::<Vec<_>>();
+    let precision = embedded
+        .into_iter()
+        .map(|e| e.precision)
+        .collect::<Vec<_>>();
     let markup = markup(&json, &precision).into_string();
     Ok(Panels {
         markup,
@@ -384,7 +404,7 @@ fn markup(json: &str, p: &[SourcePrecision]) -> Markup {
             }
             canvas #albedo-canvas width="720" height="300" {}
             table id="albedo-table" {}
-            p.note { "a(θo) = ∫ f_r(wi, wo) cos θi dωi over the hemisphere, by a midpoint rule in cos²θi (40 steps) and φi (96 steps) on the embedded values: the fraction of a uniform white sky's light reflected towards θo. The table gives R, G, B at the chosen θo." }
+            p.note { "a(θo) = ∫ f_r(wi, wo) cos θi dωi over the hemisphere, by a midpoint rule in cos²θi (40 steps) and φi (96 steps) on the embedded values (the curve at θo = 0, 10, …, 80, 85°): the fraction of a uniform white sky's light reflected towards θo. The table gives R, G, B at the chosen θo." }
         }
         details {
             summary { "Test hook" }

@@ -70,6 +70,8 @@ async function main() {
   await move('panel-slice', 'slice mode', () => set('slice-mode', 'ratio'));
   await move('panel-slice', 'slice channel', () => set('slice-channel', 2));
   out.timings.slice = await hook(() => window.brdfkitView.timings.slice);
+  // Mouse events go to viewport coordinates: the canvas must be in view.
+  await page.locator('#slice-canvas').scrollIntoViewIfNeeded();
   const box = await page.locator('#slice-canvas').boundingBox();
   out.cursors = [];
   for (const [fx, fy] of [[0.05, 0.1], [0.2, 0.3], [0.5, 0.5], [0.35, 0.7], [0.8, 0.2], [0.1, 0.85]]) {
@@ -80,6 +82,7 @@ async function main() {
   await keep('panel-slice');
 
   // Lit sphere.
+  await page.locator('#sphere-a').scrollIntoViewIfNeeded();
   const sb = await page.locator('#sphere-a').boundingBox();
   await move('panel-sphere', 'sphere light', async () => {
     await page.mouse.move(sb.x + 0.5 * sb.width, sb.y + 0.5 * sb.height);
