@@ -209,9 +209,12 @@ fn eval(
         .collect()
 }
 
+/// A direction pair and the value a panel plotted there (`None`: none).
+type Plotted = ([f64; 3], [f64; 3], Option<[f64; 3]>);
+
 /// Every (wi, wo, value) a panel plotted for source `k`: the incidence planes, the slice
 /// cursor (for the slice's source) and the sphere's probes.
-fn plotted(v: &Value, k: usize) -> Vec<([f64; 3], [f64; 3], Option<[f64; 3]>)> {
+fn plotted(v: &Value, k: usize) -> Vec<Plotted> {
     let mut out = Vec::new();
     for inc in [&v["incidence_mirror"], &v["incidence"]] {
         for (p, val) in inc["points"]
