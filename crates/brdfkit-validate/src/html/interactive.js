@@ -13,23 +13,31 @@
   window.brdfkitView = hook;
   function $(id) { return document.getElementById(id); }
 
-  // Decoding: code 0 missing (NaN), 1 below the floor (0), else exp(lo + (q-2)/65533 (hi-lo)).
-  function decode(s) {
-    var bin = atob(s.data), n = bin.length >> 1, out = new Float32Array(n);
-    var luts = [0, 1, 2].map(function (c) {
+  // Decoding (interactive.rs, `pack`): base64, zlib (the browser's DecompressionStream),
+  // low bytes then high bytes of each plane's differences from the previous cell; a code
+  // q is 0 missing (NaN), 1 below the floor (0), else exp(lo + (q − 2)/65533 · (hi − lo)).
+  function inflate(b64) {
+    var bin = atob(b64), bytes = new Uint8Array(bin.length);
+    for (var i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+    var stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream('deflate'));
+    return new Response(stream).arrayBuffer().then(function (b) { return new Uint8Array(b); });
+  }
+  function decode(s, bytes) {
+    var n3 = bytes.length >> 1, n = n3 / 3, out = new Float32Array(n3);
+    for (var c = 0; c < 3; c++) {
       var lut = new Float32Array(65536), lo = s.lo[c], span = s.hi[c] - s.lo[c];
       lut[0] = NaN; lut[1] = 0;
       for (var q = 2; q < 65536; q++) lut[q] = Math.exp(lo + (q - 2) / 65533 * span);
-      return lut;
-    });
-    for (var i = 0; i < n; i++) {
-      out[i] = luts[i % 3][bin.charCodeAt(2 * i) | (bin.charCodeAt(2 * i + 1) << 8)];
+      var prev = 0;
+      for (var i = 0; i < n; i++) {
+        var j = c * n + i;
+        prev = (prev + (bytes[j] | (bytes[n3 + j] << 8))) & 0xffff;
+        out[3 * i + c] = lut[prev];
+      }
     }
     return out;
   }
-  var GRIDS = SRC.map(decode);
-  hook.timings.script_start = tStart;
-  hook.timings.decode = performance.now() - tStart;
+  var GRIDS = null;
 
   // Rusinkiewicz angles (θh, θd, φd) of (wi, wo), as brdfkit_core::rusinkiewicz::to_half_diff:
   // wi rotated by −φh about the normal, then by −θh about the binormal (y), gives the
@@ -401,8 +409,15 @@
     $(id).addEventListener('pointerdown', dragLight); $(id).addEventListener('pointermove', dragLight);
   });
   legend($('inc-legend'));
-  drawIncidence(); drawSlice(); drawSphere(); drawAlbedo();
-  hook.timings.load = performance.now();
-  hook.ready = true;
-  document.documentElement.setAttribute('data-view-ready', 'true');
+  hook.timings.script_start = tStart;
+  Promise.all(SRC.map(function (s) { return inflate(s.data); })).then(function (all) {
+    GRIDS = all.map(function (bytes, k) { return decode(SRC[k], bytes); });
+    hook.timings.decode = performance.now() - tStart;
+    drawIncidence(); drawSlice(); drawSphere(); drawAlbedo();
+    hook.timings.load = performance.now();
+    hook.ready = true;
+    document.documentElement.setAttribute('data-view-ready', 'true');
+  }).catch(function (e) {
+    console.error('brdfkit view: the embedded values cannot be read: ' + e);
+  });
 })();

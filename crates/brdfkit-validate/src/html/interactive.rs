@@ -161,27 +161,47 @@ fn decode(q: u16, (lo, hi): (f64, f64)) -> Option<f64> {
     }
 }
 
-/// The codes, cell-major (cell × 3 channels), little-endian.
-fn quantise(t: &MerlTable, range: &[(f64, f64); 3]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(t.dims().cells() * 6);
-    for idx in 0..t.dims().cells() {
-        let codes = match t.get_flat(idx) {
-            Some(v) => [0, 1, 2].map(|c| encode(v[c], range[c])),
-            None => [MISSING; 3],
-        };
-        for q in codes {
-            out.extend_from_slice(&q.to_le_bytes());
+/// The codes, channel-major (plane R, then G, then B, each in the table's cell order).
+fn quantise(t: &MerlTable, range: &[(f64, f64); 3]) -> Vec<u16> {
+    let n = t.dims().cells();
+    let mut out = vec![MISSING; 3 * n];
+    for idx in 0..n {
+        if let Some(v) = t.get_flat(idx) {
+            for c in 0..3 {
+                out[c * n + idx] = encode(v[c], range[c]);
+            }
         }
     }
     out
 }
 
+/// The bytes the page carries: each plane's codes as differences from the previous cell
+/// (mod 2¹⁶; neighbours along φd are close, so the differences are small), all low bytes
+/// then all high bytes, zlib-compressed.
+fn pack(codes: &[u16]) -> Vec<u8> {
+    use std::io::Write;
+    let n = codes.len() / 3;
+    let mut delta = vec![0u16; codes.len()];
+    for c in 0..3 {
+        let plane = &codes[c * n..(c + 1) * n];
+        let mut prev = 0u16;
+        for (d, q) in delta[c * n..(c + 1) * n].iter_mut().zip(plane) {
+            *d = q.wrapping_sub(prev);
+            prev = *q;
+        }
+    }
+    let mut bytes: Vec<u8> = delta.iter().map(|d| d.to_le_bytes()[0]).collect();
+    bytes.extend(delta.iter().map(|d| d.to_le_bytes()[1]));
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    z.write_all(&bytes).expect("writing to memory");
+    z.finish().expect("writing to memory")
+}
+
 /// The grid the page holds: the codes decoded.
-fn dequantised(codes: &[u8], range: &[(f64, f64); 3]) -> Result<MerlTable, CompareError> {
+fn dequantised(codes: &[u16], range: &[(f64, f64); 3]) -> Result<MerlTable, CompareError> {
     let dims = view_dims();
-    let q = |idx: usize, c: usize| {
-        u16::from_le_bytes([codes[6 * idx + 2 * c], codes[6 * idx + 2 * c + 1]])
-    };
+    let n = dims.cells();
+    let q = |idx: usize, c: usize| codes[c * n + idx];
     MerlTable::from_fn(dims, |i, j, k| {
         let idx = dims.index(i, j, k);
         let v = [0, 1, 2].map(|c| decode(q(idx, c), range[c]));
@@ -303,7 +323,7 @@ pub fn panels(sources: &[PanelSource<'_>]) -> Result<Panels, CompareError> {
                 },
                 lo: range.map(|r| r.0),
                 hi: range.map(|r| r.1),
-                data: base64::engine::general_purpose::STANDARD.encode(&codes),
+                data: base64::engine::general_purpose::STANDARD.encode(pack(&codes)),
                 precision: precision(&s.label, s.source, &page, &range),
             })
         })
@@ -459,5 +479,40 @@ mod tests {
         assert_eq!(decode(encode(0.0, range), range), Some(0.0));
         assert_eq!(decode(encode(1e-7, range), range), Some(0.0));
         assert_eq!(decode(MISSING, range), None);
+    }
+
+    /// What the page's script undoes: zlib, then the byte split, then the differences.
+    fn unpack(z: &[u8]) -> Vec<u16> {
+        use std::io::Read;
+        let mut bytes = Vec::new();
+        flate2::read::ZlibDecoder::new(z)
+            .read_to_end(&mut bytes)
+            .unwrap();
+        let (lo, hi) = bytes.split_at(bytes.len() / 2);
+        let n = lo.len() / 3;
+        let mut out = Vec::with_capacity(lo.len());
+        for c in 0..3 {
+            let mut prev = 0u16;
+            for j in c * n..(c + 1) * n {
+                prev = prev.wrapping_add(u16::from_le_bytes([lo[j], hi[j]]));
+                out.push(prev);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn packed_codes_unpack_to_themselves_and_shrink() {
+        let model: brdfkit_fit::Fitted = brdfkit_fit::Fitted::from_json(&serde_json::json!({
+            "model": "cook-torrance",
+            "params": {"rho_d": [0.4, 0.1, 0.05], "rho_s": 1.0, "alpha": 0.1}
+        }))
+        .unwrap();
+        let grid = on_view_grid("ct", &Representation::Model(model)).unwrap();
+        let range = log_range(&grid);
+        let codes = quantise(&grid, &range);
+        let z = pack(&codes);
+        assert_eq!(unpack(&z), codes);
+        assert!(z.len() * 5 < codes.len() * 2, "{} bytes packed", z.len());
     }
 }
