@@ -108,8 +108,8 @@ pub enum Command {
     )]
     Demo(DemoArgs),
     /// Fit models to a table and write the fit-quality report: DIR/index.html (one
-    /// self-contained page: summary, θh slices, residual maps, rendered spheres, albedo,
-    /// physical checks) and DIR/report.json.
+    /// self-contained page: summary, interactive views, θh slices, residual maps, rendered
+    /// spheres, albedo, physical checks) and DIR/report.json.
     #[command(
         after_help = "Examples:\n  fit-brdf report gold.binary --out gold-report\n  \
                             fit-brdf report gold.binary --models lambert,cook-torrance --fresnel conductor --starts 4 --out r\n  \

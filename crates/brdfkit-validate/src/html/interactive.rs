@@ -16,11 +16,13 @@
 //! looks the grid up with the multilinear interpolation of [`MerlTable::interpolated`]
 //! (θh, θd held at their last node, φd wrapped, missing corners left out): on the
 //! grid's nodes it returns `fit-brdf eval --interp linear` of the grid. The grid's
-//! coarseness costs more than the quantisation; [`precision`] measures the whole cost
+//! coarseness costs more than the quantisation; [`SourcePrecision`] is the whole cost
 //! against the source's own evaluation (`fit-brdf eval`, a table with `--interp
 //! linear`) on the incidence planes, and the page states it per source.
-//! A five-model report embeds 6 × 45·45·90 cells × 3 channels × 2 bytes = 6.6 MB
-//! (8.7 MB in base64).
+//! A five-model report's 6 × 45·45·90 cells × 3 channels × 2 bytes = 6.6 MB of codes are
+//! packed (`pack`: differences along the grid, bytes split, zlib) to 0.42 MB (0.57 MB in
+//! base64) on the demo's material; the page inflates them with the browser's
+//! `DecompressionStream` (docs/report.md).
 
 use super::charts::model_colour_hex;
 use crate::compare::{CompareError, Kind, Representation};
@@ -217,7 +219,7 @@ fn dequantised(codes: &[u16], range: &[(f64, f64); 3]) -> Result<MerlTable, Comp
     })
 }
 
-/// The check pairs of [`precision`]: the incidence planes at θi = 0, 10, …, 80° and
+/// The check pairs of [`SourcePrecision`]: the incidence planes at θi = 0, 10, …, 80° and
 /// plane azimuths 0, 45 and 90° (the panel's geometry), θo from −85 to 85° in 5° steps.
 pub fn check_pairs() -> Vec<(Vec3, Vec3)> {
     let mut pairs = Vec::new();
