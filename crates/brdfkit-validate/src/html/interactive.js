@@ -206,7 +206,7 @@
   });
 
   // --- θh–θd slice ---
-  var SW = 180, sliceImg = null;
+  var SW = 180, sliceImg = null, SLICE_BOX = { x: 52, y: 10, w: 360, h: 360 };
   function fromHalfDiff(th, td, pd) {
     var d = sph(td, pd), c = Math.cos(th), s = Math.sin(th);
     var wi = [d[0] * c + d[2] * s, d[1], d[2] * c - d[0] * s];
@@ -250,14 +250,31 @@
     }
     var off = document.createElement('canvas'); off.width = SW; off.height = SW;
     off.getContext('2d').putImageData(img, 0, 0);
-    var cv = $('slice-canvas'), ctx = cv.getContext('2d');
-    ctx.imageSmoothingEnabled = false; ctx.drawImage(off, 0, 0, cv.width, cv.height);
+    var cv = $('slice-canvas'), ctx = cv.getContext('2d'), B = SLICE_BOX;
+    ctx.clearRect(0, 0, cv.width, cv.height);
+    ctx.imageSmoothingEnabled = false; ctx.drawImage(off, B.x, B.y, B.w, B.h);
+    // Axes: θh on MERL's √ axis, θd linear; the colour bar on the right.
+    var xt = [0, 1, 5, 10, 20, 45, 90].map(function (d) { return [B.x + Math.sqrt(d / 90) * B.w, d + '°']; });
+    var yt = [0, 30, 60, 90].map(function (d) { return [B.y + d / 90 * B.h, d + '°']; });
+    axes(ctx, B, xt, yt, 'θh (√ axis)', 'θd');
+    var bx = B.x + B.w + 14, bar = ctx.createImageData(1, 1);
+    for (var k = 0; k < B.h; k++) {
+      var t = 1 - k / (B.h - 1);
+      if (ratio) ramp(DIVERGING, t, bar.data, 0); else ramp(VIRIDIS, t, bar.data, 0);
+      ctx.fillStyle = 'rgb(' + bar.data[0] + ',' + bar.data[1] + ',' + bar.data[2] + ')';
+      ctx.fillRect(bx, B.y + k, 14, 1);
+    }
+    ctx.fillStyle = '#333'; ctx.textAlign = 'left';
+    var top = ratio ? '+1 (×10)' : fmt(Math.pow(10, vmax)), mid = ratio ? '0' : fmt(Math.pow(10, vmax - 2));
+    var bottom = ratio ? '−1 (÷10)' : fmt(Math.pow(10, vmax - 4));
+    ctx.fillText(top, bx + 18, B.y + 8); ctx.fillText(mid, bx + 18, B.y + B.h / 2 + 4); ctx.fillText(bottom, bx + 18, B.y + B.h);
     sliceImg = { vmax: vmax, pd: pd };
     hook.plotted.slice = { phi_d: pdDeg, source: s, channel: ch, mode: ratio ? 'ratio' : 'value', log10_max: vmax, cursor: hook.plotted.slice ? hook.plotted.slice.cursor : null };
   });
   function sliceCursor(ev) {
-    var cv = $('slice-canvas'), b = cv.getBoundingClientRect();
-    var x = Math.floor((ev.clientX - b.left) / b.width * SW), y = Math.floor((ev.clientY - b.top) / b.height * SW);
+    var cv = $('slice-canvas'), b = cv.getBoundingClientRect(), B = SLICE_BOX;
+    var cx = (ev.clientX - b.left) * cv.width / b.width, cy = (ev.clientY - b.top) * cv.height / b.height;
+    var x = Math.floor((cx - B.x) / B.w * SW), y = Math.floor((cy - B.y) / B.h * SW);
     if (x < 0 || y < 0 || x >= SW || y >= SW || !sliceImg) return;
     var s = +$('slice-source').value, ch = +$('slice-channel').value, o = [0, 0, 0], r = [0, 0, 0];
     var c = sliceAt(x, y, sliceImg.pd, s, ch, true, o, r);

@@ -403,7 +403,7 @@ fn markup(json: &str, p: &[SourcePrecision]) -> Markup {
                 label { "show " select #slice-mode { option value="value" { "log10 f_r" } option value="ratio" { "log10(source / first source)" } } }
                 label { "channel " (channel_select("slice-channel")) }
             }
-            canvas #slice-canvas width="360" height="360" {}
+            canvas #slice-canvas width="520" height="414" {}
             div.readout #slice-readout { "move the cursor over the image" }
             p.note { "θh (x, 0 to 90°, √ axis as MERL's bins) and θd (y, 0 at the top, 90° at the bottom) at the chosen φd. The ratio is against the first source (the measured table in a report): red, the source is brighter; blue, darker; ±1 (a factor 10) saturates. Grey: no value (below the horizon)." }
         }

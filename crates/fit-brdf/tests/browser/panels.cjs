@@ -74,7 +74,7 @@ async function main() {
   await page.locator('#slice-canvas').scrollIntoViewIfNeeded();
   const box = await page.locator('#slice-canvas').boundingBox();
   out.cursors = [];
-  for (const [fx, fy] of [[0.05, 0.1], [0.2, 0.3], [0.5, 0.5], [0.35, 0.7], [0.8, 0.2], [0.1, 0.85]]) {
+  for (const [fx, fy] of [[0.12, 0.05], [0.25, 0.3], [0.5, 0.5], [0.4, 0.7], [0.75, 0.2], [0.15, 0.85]]) {
     await page.mouse.move(box.x + fx * box.width, box.y + fy * box.height);
     out.cursors.push(await hook(() => Object.assign({ readout: document.getElementById('slice-readout').textContent },
       window.brdfkitView.plotted.slice.cursor)));
