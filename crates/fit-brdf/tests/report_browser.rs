@@ -160,7 +160,7 @@ fn drive(page: &Path, dir: &Path) -> Value {
     }
     assert_eq!(
         v["changed"].as_object().unwrap().len(),
-        14,
+        15,
         "every control moved"
     );
     v

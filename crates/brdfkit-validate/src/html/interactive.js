@@ -143,10 +143,17 @@
     ctx.textAlign = 'center'; ctx.fillText(xlab, box.x + box.w / 2, box.y + box.h + 30);
     ctx.save(); ctx.translate(12, box.y + box.h / 2); ctx.rotate(-HALF_PI); ctx.fillText(ylab, 0, 0); ctx.restore();
   }
+  // Sources hidden from the incidence plot (click a legend entry to hide or show it).
+  var hidden = SRC.map(function () { return false; });
   function legend(el) {
     el.innerHTML = '';
-    SRC.forEach(function (s) {
+    SRC.forEach(function (s, k) {
       var sp = document.createElement('span');
+      sp.style.cursor = 'pointer';
+      sp.title = 'click to hide or show';
+      sp.addEventListener('click', function () {
+        hidden[k] = !hidden[k]; sp.style.opacity = hidden[k] ? 0.35 : 1; drawIncidence();
+      });
       sp.innerHTML = '<i class="swatch" style="background:' + s.colour + '"></i>';
       sp.appendChild(document.createTextNode(s.label));
       el.appendChild(sp);
@@ -167,7 +174,7 @@
       for (var s = 0; s < SRC.length; s++) {
         var v = lookup(s, wi, wo, o) ? [o[0], o[1], o[2]] : null;
         vals[s].push(v);
-        if (v && v[ch] > vmax) vmax = v[ch];
+        if (v && !hidden[s] && v[ch] > vmax) vmax = v[ch];
       }
     }
     var cv = $('inc-canvas'), ctx = cv.getContext('2d');
@@ -191,6 +198,7 @@
     ctx.setLineDash([]);
     ctx.save(); ctx.beginPath(); ctx.rect(box.x, box.y, box.w, box.h); ctx.clip();
     for (s = 0; s < SRC.length; s++) {
+      if (hidden[s]) continue;
       ctx.strokeStyle = SRC[s].colour; ctx.lineWidth = s === 0 ? 2.5 : 1.5;
       ctx.beginPath(); var pen = false;
       for (var p = 0; p < pts.length; p++) {
@@ -202,7 +210,7 @@
       ctx.stroke();
     }
     ctx.restore();
-    hook.plotted.incidence = { theta_i: ti, phi: phi, channel: ch, scale: log ? 'log' : 'linear', points: pts, values: vals };
+    hook.plotted.incidence = { theta_i: ti, phi: phi, channel: ch, scale: log ? 'log' : 'linear', hidden: hidden.slice(), points: pts, values: vals };
   });
 
   // --- θh–θd slice ---

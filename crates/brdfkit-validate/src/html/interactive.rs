@@ -393,7 +393,7 @@ fn markup(json: &str, p: &[SourcePrecision]) -> Markup {
             }
             canvas #inc-canvas width="720" height="360" {}
             div.legend #inc-legend {}
-            p.note { "f_r (no cosine) along the plane at azimuth φ from the incidence plane: wi at (θi, 180°), wo at (θo, φ) for θo ≥ 0 and (|θo|, φ + 180°) for θo < 0. At φ = 0 the mirror direction is at θo = θi; the dashed line marks it." }
+            p.note { "f_r (no cosine) along the plane at azimuth φ from the incidence plane: wi at (θi, 180°), wo at (θo, φ) for θo ≥ 0 and (|θo|, φ + 180°) for θo < 0. At φ = 0 the mirror direction is at θo = θi; the dashed line marks it. Click a legend entry to hide or show that source." }
         }
         div.panel id="panel-slice" {
             h3 { "θh–θd slice" }

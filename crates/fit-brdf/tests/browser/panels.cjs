@@ -58,6 +58,9 @@ async function main() {
   await move('panel-incidence', 'incidence φ', () => set('inc-phi', 30));
   await move('panel-incidence', 'incidence scale', () => set('inc-scale', 'linear'));
   await move('panel-incidence', 'incidence channel', () => set('inc-channel', 0));
+  // Hiding the table's curve (a click on its legend entry) and showing it again.
+  await move('panel-incidence', 'incidence legend', () => page.locator('#inc-legend span').first().click());
+  await page.locator('#inc-legend span').first().click();
   out.incidence = await hook(() => window.brdfkitView.plotted.incidence);
   out.timings.incidence = await hook(() => window.brdfkitView.timings.incidence);
   await set('inc-scale', 'log'); await set('inc-phi', 0);
