@@ -434,7 +434,7 @@ fn markup(json: &str, p: &[SourcePrecision], bytes: usize) -> Markup {
         }
         details {
             summary { "Test hook" }
-            p.note { "window.brdfkitView: ready (true once drawn), sources (labels), eval(source, wi, wo) → [r, g, b] or null (the embedded lookup), plotted.incidence / .slice / .sphere / .albedo (the values each panel drew last, with their directions), timings (ms of the last draw of each panel; load: ms from navigation to ready). Used by the browser test (crates/fit-brdf/tests/report_browser.rs)." }
+            p.note { "window.brdfkitView: ready (true once drawn), sources (labels), eval(source, wi, wo) → [r, g, b] or null (the embedded lookup), plotted.incidence / .slice / .sphere / .albedo (the values each panel drew last, with their directions), albedoCurveReady, timings (ms of the last draw of each panel; script_start, inflated, decode, load: ms from navigation to each step, load = ready). docs/report.md describes each. Used by the browser test (crates/fit-brdf/tests/report_browser.rs)." }
         }
         script id="view-data" type="application/json" { (PreEscaped(json)) }
         script { (PreEscaped(SCRIPT)) }

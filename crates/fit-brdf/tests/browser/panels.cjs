@@ -105,7 +105,8 @@ async function main() {
   await keep('panel-sphere');
   await move('panel-sphere', 'sphere difference', () => set('sphere-mode', 'diff'));
 
-  // Directional albedo.
+  // Directional albedo (its curve is computed just after the first draw).
+  await page.waitForFunction(() => window.brdfkitView.albedoCurveReady, null, { timeout: 30000 });
   await move('panel-albedo', 'albedo θo', () => set('albedo-theta', 60));
   await move('panel-albedo', 'albedo channel', () => set('albedo-channel', 0));
   out.albedo = await hook(() => window.brdfkitView.plotted.albedo);
