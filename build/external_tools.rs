@@ -1,25 +1,29 @@
 //! The external tools some tests check against: Mitsuba 3 (in a Python), the brdfkit
-//! Python package (with pytest), headless Chromium and the Khronos glTF validator. One
+//! Python package (with pytest), headless Chromium, npm's playwright-core (driving that
+//! Chromium) and the Khronos glTF validator. One
 //! file, included with `#[path]` by the build scripts of brdfkit-render,
 //! brdfkit-validate, brdfkit-python and fit-brdf and by their tests:
 //!
 //! - a build script calls [`emit`], which probes the tools and sets the cfgs
-//!   `has_mitsuba` / `has_brdfkit_python` / `has_chromium` / `has_gltf_validator`; the
+//!   `has_mitsuba` / `has_brdfkit_python` / `has_chromium` / `has_gltf_validator` /
+//!   `has_browser_driver`; the
 //!   tests carry `#[cfg_attr(not(has_mitsuba), ignore = "...")]`, so a check that cannot
 //!   run is counted as ignored, with the reason, never as passed;
 //! - under `CI` (set to anything but "", "0" or "false") the cfgs are always on: CI must
 //!   run the checks, and a missing tool fails them loudly;
 //! - a test calls [`require_mitsuba`] / [`require_python_package`] / [`require_chromium`]
-//!   / [`require_gltf_validator`], which return the tool or panic saying how to install
+//!   / [`require_gltf_validator`] / [`require_browser_driver`], which return the tool or panic saying how to install
 //!   it (under CI, after a stale probe, or with `--include-ignored`);
 //! - the tests are declared with `mitsuba_test!` / `python_package_test!` /
-//!   `chromium_test!` / `gltf_validator_test!` (`#[test]` plus the `cfg_attr` and its
+//!   `chromium_test!` / `gltf_validator_test!` / `browser_driver_test!` (`#[test]` plus the `cfg_attr` and its
 //!   reason, in one place); the including `mod` needs `#[macro_use]`.
 //!
 //! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`; Chromium is
 //! `$CHROMIUM`, else `chromium` or `chromium-browser` on the `PATH` or in `/usr/bin`; the
 //! glTF validator is npm's `gltf-validator` in `$BRDFKIT_GLTF_VALIDATOR`, else in
-//! `<workspace>/target/gltf-validator` (where `.ci/run` installs it), run by `node`.
+//! `<workspace>/target/gltf-validator` (where `.ci/run` installs it), run by `node`; the
+//! browser driver is npm's `playwright-core` in `$BRDFKIT_BROWSER_TEST`, else in
+//! `<workspace>/target/browser-test` (where `.ci/run` installs it), run by `node`.
 
 // Build scripts use the probes, tests the `require_*` functions and the macros: neither
 // uses all.
@@ -74,6 +78,18 @@ macro_rules! gltf_validator_test {
     };
 }
 
+/// A test that drives Chromium through npm's `playwright-core` (see [`tool_test`]).
+macro_rules! browser_driver_test {
+    ($($t:tt)*) => {
+        tool_test! { has_browser_driver, "needs chromium, node and npm's playwright-core: apt-get install chromium nodejs npm && npm install --prefix target/browser-test playwright-core@1.65.1 (or set BRDFKIT_BROWSER_TEST)", $($t)* }
+    };
+}
+
+/// How to get the browser driver for the interactive panels' check.
+pub const BROWSER_DRIVER_ENABLE: &str = "apt-get install chromium nodejs npm, then npm install --prefix \
+     target/browser-test playwright-core@1.65.1 (in the workspace root), or set BRDFKIT_BROWSER_TEST \
+     to a directory holding node_modules/playwright-core";
+
 /// How to get the glTF validator for the export check.
 pub const GLTF_VALIDATOR_ENABLE: &str = "npm install --prefix target/gltf-validator gltf-validator \
      (in the workspace root; needs node), or set BRDFKIT_GLTF_VALIDATOR to a directory holding \
@@ -93,6 +109,9 @@ pub enum Tool {
     Chromium,
     /// npm's `gltf-validator` and `node`.
     GltfValidator,
+    /// npm's `playwright-core`, `node` and a Chromium (it drives the browser; it never
+    /// downloads one).
+    BrowserDriver,
 }
 
 /// `CI` set to anything but "", "0" or "false".
@@ -171,6 +190,30 @@ pub fn gltf_validator() -> Option<PathBuf> {
     ok.then_some(dir)
 }
 
+/// The directory holding `node_modules/playwright-core` (it may not exist).
+fn browser_driver_dir() -> PathBuf {
+    std::env::var_os("BRDFKIT_BROWSER_TEST")
+        .filter(|p| !p.is_empty())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join("target/browser-test"))
+}
+
+/// Whether `node --version` runs.
+fn node_runs() -> bool {
+    Command::new("node")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// The driver's directory (`node` run there loads `playwright-core`) and the Chromium it
+/// drives, if both and `node` are there.
+pub fn browser_driver() -> Option<(PathBuf, PathBuf)> {
+    let dir = browser_driver_dir();
+    let ok = dir.join("node_modules/playwright-core").is_dir() && node_runs();
+    ok.then_some(dir).zip(chromium())
+}
+
 /// What a failing `require_*` adds under CI.
 fn ci_note() -> &'static str {
     if under_ci() {
@@ -230,6 +273,19 @@ pub fn require_gltf_validator() -> PathBuf {
     })
 }
 
+/// For tests: the driver's directory and the Chromium, or a panic that says how to get
+/// them.
+pub fn require_browser_driver() -> (PathBuf, PathBuf) {
+    browser_driver().unwrap_or_else(|| {
+        panic!(
+            "the browser check cannot run: no node_modules/playwright-core in {}, no node or no \
+             chromium{}. Install them: {BROWSER_DRIVER_ENABLE}",
+            browser_driver_dir().display(),
+            ci_note()
+        )
+    })
+}
+
 /// For build scripts: the Python, with the paths whose change redoes its probe.
 fn watch_python() -> PathBuf {
     println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
@@ -280,6 +336,15 @@ pub fn emit(tools: &[Tool]) {
                     println!("cargo::rerun-if-changed={}", dir.display());
                 }
                 ("has_gltf_validator", ci || gltf_validator().is_some())
+            }
+            Tool::BrowserDriver => {
+                println!("cargo::rerun-if-env-changed=BRDFKIT_BROWSER_TEST");
+                println!("cargo::rerun-if-env-changed=CHROMIUM");
+                let dir = browser_driver_dir();
+                if dir.exists() {
+                    println!("cargo::rerun-if-changed={}", dir.display());
+                }
+                ("has_browser_driver", ci || browser_driver().is_some())
             }
         };
         println!("cargo::rustc-check-cfg=cfg({cfg})");

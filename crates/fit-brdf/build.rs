@@ -1,5 +1,6 @@
-//! Sets `has_mitsuba` / `has_chromium` / `has_gltf_validator` when the export's Mitsuba
-//! check, the report's browser check and the glTF validator check can run (see
+//! Sets `has_mitsuba` / `has_chromium` / `has_gltf_validator` / `has_browser_driver`
+//! when the export's Mitsuba check, the report's browser checks and the glTF validator
+//! check can run (see
 //! build/external_tools.rs).
 
 #[path = "../../build/external_tools.rs"]
@@ -7,5 +8,10 @@ mod external_tools;
 
 fn main() {
     use external_tools::Tool;
-    external_tools::emit(&[Tool::Mitsuba, Tool::Chromium, Tool::GltfValidator]);
+    external_tools::emit(&[
+        Tool::Mitsuba,
+        Tool::Chromium,
+        Tool::GltfValidator,
+        Tool::BrowserDriver,
+    ]);
 }

@@ -208,7 +208,7 @@ impl Representation {
 
     /// The representation on a grid: a table as it is (its own dims), a model or an
     /// NBRDF sampled at the cells' angles.
-    fn tabulate(&self, path: &Path, dims: Dims) -> Result<Arc<MerlTable>, CompareError> {
+    pub(crate) fn tabulate(&self, path: &Path, dims: Dims) -> Result<Arc<MerlTable>, CompareError> {
         let err = |source| CompareError::Tabulate {
             path: path.into(),
             dims,

@@ -108,8 +108,8 @@ pub enum Command {
     )]
     Demo(DemoArgs),
     /// Fit models to a table and write the fit-quality report: DIR/index.html (one
-    /// self-contained page: summary, θh slices, residual maps, rendered spheres, albedo,
-    /// physical checks) and DIR/report.json.
+    /// self-contained page: summary, interactive views, θh slices, residual maps, rendered
+    /// spheres, albedo, physical checks) and DIR/report.json.
     #[command(
         after_help = "Examples:\n  fit-brdf report gold.binary --out gold-report\n  \
                             fit-brdf report gold.binary --models lambert,cook-torrance --fresnel conductor --starts 4 --out r\n  \
@@ -201,6 +201,37 @@ pub enum Command {
                             grids are refused (exit 2) unless --resample says how to bring B onto A's grid."
     )]
     Compare(CompareArgs),
+    /// The report's interactive panels for any sources, overlaid, nothing fitted: one
+    /// self-contained page (DIR/index.html) with the incidence plane, the θh–θd slice,
+    /// the lit sphere and the directional albedo.
+    #[command(
+        after_help = "Examples:\n  fit-brdf view gold.binary --out gold-view\n  \
+                            fit-brdf view gold.binary published.json fit.json --out cmp-view\n  \
+                            fit-brdf view data-measured/merl/red-fabric cook-torrance.json --out v\n\n\
+                            SOURCE is recognised by its name as in `compare`: *.binary a MERL table, *.json a model \
+                            (or a per-channel fit, or a fit record), anything else DIR/NAME, the stem of an NBRDF's \
+                            six .npy files. The first source is the reference of the slice's ratio and the sphere's \
+                            difference. The page opens from disk (no server); what each panel shows and the \
+                            precision of its embedded values: docs/report.md."
+    )]
+    View(ViewArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// The sources: tables (.binary), models (.json), NBRDFs (DIR/NAME); the first is
+    /// the reference.
+    #[arg(required = true, value_name = "SOURCE")]
+    pub sources: Vec<PathBuf>,
+    /// Output directory (created if needed); index.html is replaced atomically.
+    #[arg(long, value_name = "DIR", default_value = "brdf-view")]
+    pub out: PathBuf,
+    /// The page's title.
+    #[arg(long)]
+    pub title: Option<String>,
+    /// Print nothing.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug)]

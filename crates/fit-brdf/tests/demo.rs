@@ -40,6 +40,18 @@ fn demo(dir: &Path, extra: &[&str]) -> (String, Value) {
         serde_json::from_str(&std::fs::read_to_string(out.join("report/report.json")).unwrap())
             .unwrap();
     assert_eq!(json["summary"]["models"].as_array().unwrap().len(), 5);
+    // The interactive panels, with the table and the five models embedded, well under
+    // the 15 MB a five-model report may take.
+    for panel in [
+        "panel-incidence",
+        "panel-slice",
+        "panel-sphere",
+        "panel-albedo",
+    ] {
+        assert!(html.contains(panel), "no {panel}");
+    }
+    assert_eq!(json["view_precision"].as_array().unwrap().len(), 6);
+    assert!(html.len() < 15_000_000, "{} bytes", html.len());
     assert_eq!(
         json["summary"]["table"]["dims"],
         serde_json::json!([90, 90, 180])

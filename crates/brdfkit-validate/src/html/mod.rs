@@ -13,7 +13,10 @@
 //!   studio environment, same seed, and their difference ([`renders`]);
 //! - the albedo a(θo) of the model and of the table ([`analysis::AlbedoCurves`]);
 //! - the physical checks of the model ([`check_model_with`], with bounded options:
-//!   [`ReportOptions::checks`]).
+//!   [`ReportOptions::checks`]);
+//! - the interactive panels (incidence plane, θh–θd slice, lit sphere, albedo at a chosen
+//!   θo), drawn in the page from the table and every model embedded on a grid
+//!   ([`interactive`]), with what the embedding costs against `fit-brdf eval`.
 //!
 //! The caller fits (the CLI's `fit-brdf report` and `demo` use `brdfkit_fit::fit`) and
 //! writes the files; this module only computes and formats. Models can also be given
@@ -23,6 +26,7 @@
 
 pub mod analysis;
 pub mod charts;
+pub mod interactive;
 mod page;
 pub mod renders;
 
@@ -54,6 +58,9 @@ pub enum ReportError {
     /// A sphere could not be rendered.
     #[error("render: {0}")]
     Render(String),
+    /// The interactive panels could not be built (a model that cannot be tabulated).
+    #[error("interactive panels: {0}")]
+    Panels(String),
     /// An option out of range.
     #[error("report option `{option}`: {reason}")]
     Option {
@@ -226,6 +233,9 @@ pub struct Timings {
     pub checks_s: f64,
     /// Sphere renders.
     pub renders_s: f64,
+    /// The interactive panels' embedded grids and their precision.
+    #[serde(default)]
+    pub panels_s: f64,
     /// Building the HTML page.
     pub page_s: f64,
     /// The whole report.
@@ -249,6 +259,9 @@ pub struct ReportData {
     pub albedo: AlbedoCurves,
     /// The sphere renders, one set per lighting.
     pub renders: Vec<RenderSet>,
+    /// What the interactive panels' embedding costs, per source (the table first).
+    #[serde(default)]
+    pub view_precision: Vec<interactive::SourcePrecision>,
     /// Wall times of the parts.
     pub timings: Timings,
 }
@@ -443,6 +456,11 @@ pub fn build_report_from(
     }
     timings.renders_s = t.elapsed().as_secs_f64();
 
+    progress("interactive panels: embedded grids");
+    let t = Instant::now();
+    let panels = report_panels(&table, table_name, fits)?;
+    timings.panels_s = t.elapsed().as_secs_f64();
+
     let d = table.dims();
     let summary = ReportSummary {
         table: TableInfo {
@@ -496,14 +514,34 @@ pub fn build_report_from(
         slices,
         albedo,
         renders: render_sets,
+        view_precision: panels.precision,
         timings,
     };
     progress("charts and page");
     let t = Instant::now();
-    let html = page::page(&data, table.dims().theta_h())?;
+    let html = page::page(&data, table.dims().theta_h(), &panels.markup)?;
     data.timings.page_s = t.elapsed().as_secs_f64();
     data.timings.total_s = t_all.elapsed().as_secs_f64();
     Ok(FitReport { data, html })
+}
+
+/// The interactive panels of a report: the table first (the reference of ratios and
+/// differences), then every model.
+fn report_panels(
+    table: &Arc<MerlTable>,
+    table_name: &str,
+    fits: &[ModelFit],
+) -> Result<interactive::Panels, ReportError> {
+    use crate::compare::Representation;
+    let mut reps = vec![Representation::Table(table.clone())];
+    reps.extend(fits.iter().map(|f| Representation::Model(f.fitted.clone())));
+    let labels = std::iter::once(format!("{table_name} (measured)"))
+        .chain(fits.iter().map(|f| f.label.clone()));
+    let sources: Vec<interactive::PanelSource> = labels
+        .zip(&reps)
+        .map(|(label, source)| interactive::PanelSource { label, source })
+        .collect();
+    interactive::panels(&sources).map_err(|e| ReportError::Panels(e.to_string()))
 }
 
 impl FitReport {

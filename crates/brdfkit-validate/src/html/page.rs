@@ -9,7 +9,7 @@ use brdfkit_fit::{Loss, LossReport};
 use maud::{DOCTYPE, Markup, PreEscaped, html};
 use serde_json::Value;
 
-const CSS: &str = r#"
+pub(crate) const CSS: &str = r#"
 body { font-family: system-ui, sans-serif; margin: 0 auto; max-width: 1320px; padding: 0 18px 40px; color: #222; }
 h1 { margin-bottom: 4px; }
 h2 { border-bottom: 2px solid #ddd; padding-bottom: 4px; margin-top: 36px; }
@@ -126,7 +126,11 @@ fn swatch(m: usize) -> Markup {
 }
 
 /// The page.
-pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, ReportError> {
+pub(crate) fn page(
+    d: &ReportData,
+    theta_h_bins: usize,
+    panels: &str,
+) -> Result<String, ReportError> {
     let labels: Vec<String> = d.summary.models.iter().map(|m| m.label.clone()).collect();
     let t = &d.summary.table;
     let mut best = [f64::INFINITY; 4];
@@ -189,7 +193,7 @@ pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, Report
                 meta charset="utf-8";
                 meta name="viewport" content="width=device-width, initial-scale=1";
                 title { (d.options.title) " · " (t.name) }
-                style { (PreEscaped(CSS)) }
+                style { (PreEscaped(CSS)) (PreEscaped(super::interactive::CSS)) }
             }
             body {
                 h1 { (d.options.title) }
@@ -207,7 +211,7 @@ pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, Report
                     (d.summary.weighting.name()) " weights); how to read each section: docs/report.md."
                 }
                 nav {
-                    a href="#summary" { "Summary" } a href="#slices" { "θh slices" } a href="#residuals" { "Residual maps" }
+                    a href="#summary" { "Summary" } a href="#interactive" { "Interactive views" } a href="#slices" { "θh slices" } a href="#residuals" { "Residual maps" }
                     a href="#renders" { "Renders" } a href="#albedo" { "Albedo" } a href="#checks" { "Physical checks" } a href="#details" { "Details" }
                 }
 
@@ -240,6 +244,9 @@ pub(crate) fn page(d: &ReportData, theta_h_bins: usize) -> Result<String, Report
                         }
                     }
                 }
+
+                h2 id="interactive" { "Interactive views" }
+                (PreEscaped(panels))
 
                 h2 id="slices" { "θh slices: measured vs fitted" }
                 p.note {

@@ -16,6 +16,7 @@ mod resample;
 mod score;
 mod study;
 mod synth;
+mod view;
 
 use crate::cli::{CellOptions, Cli, Command, FitOptions, Interp};
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
@@ -43,6 +44,7 @@ pub fn run(cli: Cli) -> CliResult<()> {
         Command::Study(a) => study::run(*a),
         Command::Score(a) => score::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::View(a) => view::run(a),
     }
 }
 
