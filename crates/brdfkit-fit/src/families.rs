@@ -69,7 +69,7 @@ pub enum FamilyError {
     /// A structural choice of a model that is not in the list.
     ChoiceWithoutModel {
         /// The settings given, e.g. `["distribution", "masking"]`.
-        options: &'static [&'static str],
+        options: Vec<&'static str>,
         /// The model they belong to.
         model: &'static str,
     },
@@ -265,14 +265,19 @@ pub fn families(list: &str, s: &Structure) -> Result<Vec<Family>, FamilyError> {
         return Err(FamilyError::NoModel);
     }
     if !ct_used && s.any_cook_torrance() {
+        let given = [
+            ("distribution", s.distribution.is_some()),
+            ("masking", s.masking.is_some()),
+            ("fresnel", s.fresnel.is_some()),
+        ];
         return Err(FamilyError::ChoiceWithoutModel {
-            options: &["distribution", "masking", "fresnel"],
+            options: given.iter().filter(|g| g.1).map(|g| g.0).collect(),
             model: "cook-torrance",
         });
     }
     if !ward_used && s.normalization.is_some() {
         return Err(FamilyError::ChoiceWithoutModel {
-            options: &["normalization"],
+            options: vec!["normalization"],
             model: "ward",
         });
     }

@@ -117,7 +117,7 @@ mod tests {
             "error: --sample-fraction: 0: must lie in (0, 1]\n"
         );
         let e = FamilyError::ChoiceWithoutModel {
-            options: &["distribution", "masking", "fresnel"],
+            options: vec!["distribution", "masking", "fresnel"],
             model: "cook-torrance",
         };
         assert_eq!(
