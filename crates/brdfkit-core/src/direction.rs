@@ -151,7 +151,8 @@ mod tests {
         let tilted = [0.6, 0.0, 0.8];
         assert!(check_unit_pairs(&[up, tilted], &[tilted, up]).is_ok());
         assert!(is_unit([0.0, 0.0, 1.0 + 0.9e-6]) && !is_unit([0.0, 0.0, 1.0 + 1.1e-6]));
-        let e = check_unit_pairs(&[up, up, [0.0, 0.0, 0.5]], &[up, [0.0, 0.0, 2.0], up]).unwrap_err();
+        let e =
+            check_unit_pairs(&[up, up, [0.0, 0.0, 0.5]], &[up, [0.0, 0.0, 2.0], up]).unwrap_err();
         assert_eq!((e.row, e.wi_len, e.wo_len), (1, 1.0, 2.0));
         assert_eq!(
             e.to_string(),

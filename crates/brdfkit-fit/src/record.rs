@@ -131,11 +131,13 @@ impl StageIterations {
     /// The sums over `starts`.
     pub fn of_starts(starts: &[StartRecord]) -> Self {
         let stage = |s: &Option<WarmUpRecord>| s.as_ref().map_or(0, |w| w.iterations);
-        starts.iter().fold(Self::default(), |acc, s| StageIterations {
-            explore: acc.explore + stage(&s.explore),
-            warm_up: acc.warm_up + stage(&s.warm_up),
-            finish: acc.finish + s.iterations,
-        })
+        starts
+            .iter()
+            .fold(Self::default(), |acc, s| StageIterations {
+                explore: acc.explore + stage(&s.explore),
+                warm_up: acc.warm_up + stage(&s.warm_up),
+                finish: acc.finish + s.iterations,
+            })
     }
 
     /// Every iteration of every stage.

@@ -66,7 +66,10 @@ fn auto_finishes_ward_duer_on_all_cells_and_keeps_the_shortcut_elsewhere() {
     let stages = gm.stage_iterations();
     assert_eq!(gm.iterations_run, Some(stages));
     assert!(stages.warm_up > 0 && stages.total() > 0, "{stages:?}");
-    assert_eq!(stages.finish, 0, "full_iters 0: no start iterates on all cells");
+    assert_eq!(
+        stages.finish, 0,
+        "full_iters 0: no start iterates on all cells"
+    );
     let older = FitRecord {
         iterations_run: None,
         ..gm.clone()

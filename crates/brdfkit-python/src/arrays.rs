@@ -21,7 +21,10 @@ pub(crate) fn shape_text(s: &[usize]) -> String {
         [n] => format!("({n},)"),
         _ => format!(
             "({})",
-            s.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
+            s.iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
         ),
     }
 }
@@ -97,6 +100,9 @@ pub(crate) fn dims_of(obj: &Bound<'_, PyAny>) -> PyResult<Dims> {
         .map_err(|e: PyErr| errors::type_error(format!("dims: {WANT} ({})", e.value(obj.py()))))?;
     match v[..] {
         [a, b, c] => Dims::new(a, b, c).map_err(|e| errors::value(format!("dims: {e}"))),
-        _ => Err(errors::value(format!("dims: {WANT}, got {} values", v.len()))),
+        _ => Err(errors::value(format!(
+            "dims: {WANT}, got {} values",
+            v.len()
+        ))),
     }
 }

@@ -49,10 +49,7 @@ fn json_text(obj: &Bound<'_, PyAny>) -> PyResult<String> {
             "{}: no such model file ({FROM_JSON_TAKES}; JSON text starts with `{{`)",
             path.display()
         ))),
-        Err(e) => Err(errors::input(FileError {
-            path,
-            source: e,
-        })),
+        Err(e) => Err(errors::input(FileError { path, source: e })),
     }
 }
 
