@@ -5,6 +5,7 @@ use crate::arrays::{check_pairs, dims_of, directions, rows3};
 use crate::table::{PyTable, lookup_mode, rows_array};
 use crate::{errors, json_to_py};
 use brdfkit_core::{Model, Rgb};
+use brdfkit_fit::families::FamilyError;
 use brdfkit_merl::{Dims, MerlTable};
 use brdfkit_nbrdf::Nbrdf;
 use numpy::PyArray1;
@@ -49,17 +50,8 @@ fn json_text(obj: &Bound<'_, PyAny>) -> PyResult<String> {
             "{}: no such model file ({FROM_JSON_TAKES}; JSON text starts with `{{`)",
             path.display()
         ))),
-        Err(e) => Err(errors::input(FileError { path, source: e })),
+        Err(source) => Err(errors::input(FamilyError::Read { path, source })),
     }
-}
-
-/// A model file that cannot be read.
-#[derive(Debug, thiserror::Error)]
-#[error("{}: cannot read the model description", path.display())]
-struct FileError {
-    path: PathBuf,
-    #[source]
-    source: std::io::Error,
 }
 
 impl PyModel {
