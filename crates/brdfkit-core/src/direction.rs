@@ -60,6 +60,54 @@ pub fn rotate(v: &Vec3, axis: &Vec3, angle: f64) -> Vec3 {
     out
 }
 
+/// How far from 1 the length of a given direction may be: directions are taken as they
+/// are, never renormalised behind the caller's back (a direction twice too long would
+/// otherwise give a silently wrong value), and the float64 rounding of a unit vector
+/// is ~1e-16, of a float32 one ~1e-7.
+pub const UNIT_TOLERANCE: f64 = 1e-6;
+
+/// True when `w` is finite and of unit length within [`UNIT_TOLERANCE`] (written as the
+/// "good" test so that NaN is not unit).
+#[inline]
+pub fn is_unit(w: [f64; 3]) -> bool {
+    ((w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt() - 1.0).abs() <= UNIT_TOLERANCE
+}
+
+/// A pair of directions that are not both unit vectors ([`check_unit_pairs`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "row {row}: |wi| = {wi_len}, |wo| = {wo_len}: directions must be unit vectors (within {})",
+    UNIT_TOLERANCE
+)]
+pub struct NotUnit {
+    /// The first offending row (0-based).
+    pub row: usize,
+    /// |wi| of that row (NaN for a non-finite direction).
+    pub wi_len: f64,
+    /// |wo| of that row.
+    pub wo_len: f64,
+}
+
+/// Checks that every `wi[k]` and `wo[k]` is a unit vector (the rule of every entry point
+/// that takes directions: the command line's pair files and the Python bindings);
+/// the error names the first row that is not. Below-horizon directions (z ≤ 0) are
+/// valid here: each caller states what it returns for them.
+pub fn check_unit_pairs(wi: &[[f64; 3]], wo: &[[f64; 3]]) -> Result<(), NotUnit> {
+    let norm = |w: [f64; 3]| (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+    match wi
+        .iter()
+        .zip(wo)
+        .position(|(&a, &b)| !(is_unit(a) && is_unit(b)))
+    {
+        None => Ok(()),
+        Some(row) => Err(NotUnit {
+            row,
+            wi_len: norm(wi[row]),
+            wo_len: norm(wo[row]),
+        }),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,5 +143,23 @@ mod tests {
         assert_eq!(r.z, w.z);
         assert_relative_eq!(r.x, -w.x);
         assert_relative_eq!(r.y, -w.y);
+    }
+
+    #[test]
+    fn unit_pairs_name_the_first_bad_row() {
+        let up = [0.0, 0.0, 1.0];
+        let tilted = [0.6, 0.0, 0.8];
+        assert!(check_unit_pairs(&[up, tilted], &[tilted, up]).is_ok());
+        assert!(is_unit([0.0, 0.0, 1.0 + 0.9e-6]) && !is_unit([0.0, 0.0, 1.0 + 1.1e-6]));
+        let e =
+            check_unit_pairs(&[up, up, [0.0, 0.0, 0.5]], &[up, [0.0, 0.0, 2.0], up]).unwrap_err();
+        assert_eq!((e.row, e.wi_len, e.wo_len), (1, 1.0, 2.0));
+        assert_eq!(
+            e.to_string(),
+            "row 1: |wi| = 1, |wo| = 2: directions must be unit vectors (within 0.000001)"
+        );
+        let e = check_unit_pairs(&[[f64::NAN, 0.0, 1.0]], &[up]).unwrap_err();
+        assert!(e.wi_len.is_nan() && e.row == 0);
+        assert!(!is_unit([0.0; 3]) && !is_unit([f64::INFINITY, 0.0, 0.0]));
     }
 }

@@ -7,8 +7,10 @@
 //! (`CookTorrance::with_distribution`, `Ward::with_normalization`, ...), so a choice is
 //! checked by the type system and never written into JSON by hand.
 //!
-//! Error messages name the command-line option concerned (`--model`, `--fix`, ...):
-//! they are what a user of `fit-brdf` reads.
+//! Error messages name the setting concerned by its own name (`model`, `fix`,
+//! `sample_fraction`: the Python bindings' argument names);
+//! [`FamilyError::message_with`] names it otherwise (the command line: `--fix`,
+//! `--sample-fraction`).
 
 use crate::{
     FitConfig, FitData, FitError, FitObserver, FitRecord, FullIters, Loss, RobustKind, Sharing,
@@ -19,6 +21,7 @@ use brdfkit_core::{Model, ModelError};
 use brdfkit_models::cook_torrance::{CookTorrance, FresnelKind};
 use brdfkit_models::ward::{Normalization, Ward};
 use serde_json::Value;
+use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -26,10 +29,13 @@ use std::sync::Arc;
 pub const REPORT_MODELS: &str = "lambert,plausible-phong,ward,lafortune,cook-torrance";
 
 /// Why the model list or the settings cannot be used: always the user's input.
+///
+/// Settings are named as [`FitSettings`] states them to a user, in snake case
+/// (`model`, `starts`, `sample_fraction`, `theta_d_max`, `energy_conserving`): the
+/// `Display` text; [`message_with`](Self::message_with) renames them.
 #[derive(Debug, thiserror::Error)]
 pub enum FamilyError {
     /// A model file could not be read.
-    #[error("{}: cannot read the model description", path.display())]
     Read {
         /// The file.
         path: PathBuf,
@@ -38,7 +44,6 @@ pub enum FamilyError {
         source: std::io::Error,
     },
     /// A model file is not JSON.
-    #[error("{}: not valid JSON: {source}", path.display())]
     Json {
         /// The file.
         path: PathBuf,
@@ -47,41 +52,35 @@ pub enum FamilyError {
         source: serde_json::Error,
     },
     /// A model file's `params` is neither an object nor null.
-    #[error("{item}: `params` must be an object")]
     ParamsNotObject {
-        /// The `--model` item (a file).
+        /// The `model` item (a file).
         item: String,
     },
     /// The model rejected its name, a parameter or a structural choice.
-    #[error("--model {item}: {source}")]
     Model {
-        /// The `--model` item.
+        /// The `model` item.
         item: String,
         /// The model's message.
         #[source]
         source: ModelError,
     },
-    /// `--model` named nothing.
-    #[error("--model: no model given")]
+    /// `model` named nothing.
     NoModel,
     /// A structural choice of a model that is not in the list.
-    #[error("{options} apply to {model}, which is not among the models")]
     ChoiceWithoutModel {
-        /// The options given, e.g. `--distribution, --masking and --fresnel`.
-        options: &'static str,
+        /// The settings given, e.g. `["distribution", "masking"]`.
+        options: Vec<&'static str>,
         /// The model they belong to.
         model: &'static str,
     },
     /// A fit setting out of range.
-    #[error("--{option}: {reason}")]
     Setting {
-        /// The option, as on the command line without its dashes (`starts`).
+        /// The setting, in snake case (`starts`, `sample_fraction`).
         option: &'static str,
         /// Why.
         reason: String,
     },
-    /// `--fix` names a parameter a family lacks.
-    #[error("--fix: {label}: {source}")]
+    /// `fix` names a parameter a family lacks.
     Free {
         /// The family.
         label: String,
@@ -89,12 +88,54 @@ pub enum FamilyError {
         #[source]
         source: FitError,
     },
-    /// `--fix` leaves a family nothing to fit.
-    #[error("--fix: {label}: every parameter is fixed, nothing is left to fit")]
+    /// `fix` leaves a family nothing to fit.
     AllFixed {
         /// The family.
         label: String,
     },
+}
+
+impl FamilyError {
+    /// The message with every setting named by `name(setting)` (`setting` in snake
+    /// case, as [`FamilyError`]'s `Display` prints it): the command line passes its
+    /// flag spelling, so that one error reads `fix: …` in Python and `--fix: …` there.
+    pub fn message_with(&self, name: &dyn Fn(&str) -> String) -> String {
+        match self {
+            FamilyError::Read { path, .. } => {
+                format!("{}: cannot read the model description", path.display())
+            }
+            FamilyError::Json { path, source } => {
+                format!("{}: not valid JSON: {source}", path.display())
+            }
+            FamilyError::ParamsNotObject { item } => format!("{item}: `params` must be an object"),
+            FamilyError::Model { item, source } => format!("{} {item}: {source}", name("model")),
+            FamilyError::NoModel => format!("{}: no model given", name("model")),
+            FamilyError::ChoiceWithoutModel { options, model } => {
+                let names: Vec<String> = options.iter().map(|o| name(o)).collect();
+                let list = match names.as_slice() {
+                    [] => String::new(),
+                    [one] => one.clone(),
+                    [init @ .., last] => format!("{} and {last}", init.join(", ")),
+                };
+                let verb = if names.len() == 1 { "applies" } else { "apply" };
+                format!("{list} {verb} to {model}, which is not among the models")
+            }
+            FamilyError::Setting { option, reason } => format!("{}: {reason}", name(option)),
+            FamilyError::Free { label, source } => {
+                format!("{}: {label}: {source}", name("fix"))
+            }
+            FamilyError::AllFixed { label } => format!(
+                "{}: {label}: every parameter is fixed, nothing is left to fit",
+                name("fix")
+            ),
+        }
+    }
+}
+
+impl fmt::Display for FamilyError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message_with(&|s| s.to_string()))
+    }
 }
 
 /// Structural choices given once for the whole model list; each applies to the model
@@ -224,14 +265,19 @@ pub fn families(list: &str, s: &Structure) -> Result<Vec<Family>, FamilyError> {
         return Err(FamilyError::NoModel);
     }
     if !ct_used && s.any_cook_torrance() {
+        let given = [
+            ("distribution", s.distribution.is_some()),
+            ("masking", s.masking.is_some()),
+            ("fresnel", s.fresnel.is_some()),
+        ];
         return Err(FamilyError::ChoiceWithoutModel {
-            options: "--distribution, --masking and --fresnel",
+            options: given.iter().filter(|g| g.1).map(|g| g.0).collect(),
             model: "cook-torrance",
         });
     }
     if !ward_used && s.normalization.is_some() {
         return Err(FamilyError::ChoiceWithoutModel {
-            options: "--normalization",
+            options: vec!["normalization"],
             model: "ward",
         });
     }
@@ -396,12 +442,12 @@ impl FitSettings {
         let f = self.sample_fraction;
         if !(f > 0.0 && f <= 1.0) {
             return Err(FamilyError::Setting {
-                option: "sample-fraction",
+                option: "sample_fraction",
                 reason: format!("{f}: must lie in (0, 1]"),
             });
         }
         if f < 1.0 {
-            c = c.subsample(f, self.seed).map_err(bad("sample-fraction"))?;
+            c = c.subsample(f, self.seed).map_err(bad("sample_fraction"))?;
         }
         if let Some(names) = &self.fix {
             let names: Vec<&str> = names
@@ -418,18 +464,18 @@ impl FitSettings {
             c = c.fix_params(names);
         }
         if let Some(deg) = self.theta_d_max_deg {
-            c = c.theta_d_max_deg(deg).map_err(bad("theta-d-max"))?;
+            c = c.theta_d_max_deg(deg).map_err(bad("theta_d_max"))?;
         }
         if let Some(deg) = self.theta_max_deg {
-            c = c.theta_max_deg(deg).map_err(bad("theta-max"))?;
+            c = c.theta_max_deg(deg).map_err(bad("theta_max"))?;
         }
         c.robust(self.robust, self.robust_scale)
-            .map_err(bad("robust-scale"))?
+            .map_err(bad("robust_scale"))?
             .albedo_max(self.albedo_max)
-            .map_err(bad("energy-conserving"))
+            .map_err(bad("energy_conserving"))
             .map(|c| c.full_iters(self.full_iters))?
             .explore_cells(self.explore_cells)
-            .map_err(bad("explore-cells"))
+            .map_err(bad("explore_cells"))
     }
 }
 
@@ -466,6 +512,21 @@ impl Outcome {
     pub fn to_json(&self) -> Value {
         serde_json::json!({"label": self.label, "params": self.params, "record": self.record})
     }
+
+    /// The text of the fitted model's file (`fit --out`): pretty JSON and a newline.
+    pub fn params_file(&self) -> Result<String, serde_json::Error> {
+        pretty_file(&self.params)
+    }
+
+    /// The text of the fit record's file (`fit --record`): pretty JSON and a newline.
+    pub fn record_file(&self) -> Result<String, serde_json::Error> {
+        pretty_file(&self.record)
+    }
+}
+
+/// Pretty JSON with a final newline: how every JSON file of a fit is written.
+pub fn pretty_file(v: &impl serde::Serialize) -> Result<String, serde_json::Error> {
+    serde_json::to_string_pretty(v).map(|s| s + "\n")
 }
 
 /// A family's fit failed.
@@ -526,23 +587,29 @@ pub fn fit_each(
     Ok(out)
 }
 
-/// The comparison table: every loss on the full table, time, iterations, termination.
+/// The comparison table: every loss on the full table, time, iterations by stage
+/// ([`FitRecord::stage_iterations`]: never a bare 0 for a fit that iterated only on its
+/// subsamples), termination.
 pub fn comparison_text(outcomes: &[Outcome], optimised: Loss) -> String {
+    let iters: Vec<String> = outcomes
+        .iter()
+        .map(|o| o.record.stage_iterations().summary())
+        .collect();
+    let w = iters.iter().map(String::len).max().unwrap_or(0).max(10);
     let mut s = format!(
-        "{:<28} {:>11} {:>11} {:>11} {:>11} {:>8} {:>6}  {}\n",
-        "model", "cbrt", "l2", "cosine", "log", "time s", "iters", "termination"
+        "{:<28} {:>11} {:>11} {:>11} {:>11} {:>8}  {:<w$}  {}\n",
+        "model", "cbrt", "l2", "cosine", "log", "time s", "iterations", "termination"
     );
-    for o in outcomes {
+    for (o, it) in outcomes.iter().zip(&iters) {
         let l = &o.record.losses_full;
         s += &format!(
-            "{:<28} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.3} {:>6}  {}{}\n",
+            "{:<28} {:>11.4e} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.3}  {it:<w$}  {}{}\n",
             o.label,
             l.cbrt.overall,
             l.l2.overall,
             l.cosine.overall,
             l.log.overall,
             o.record.wall_time_s,
-            o.record.iterations,
             o.record.termination,
             if o.record.converged {
                 ""
@@ -552,7 +619,9 @@ pub fn comparison_text(outcomes: &[Outcome], optimised: Loss) -> String {
         );
     }
     s += &format!(
-        "losses: weighted RMS over all valid cells ({} cells); optimised: {optimised}\n",
+        "losses: weighted RMS over all valid cells ({} cells); optimised: {optimised}\n\
+         iterations: of every start: on its exploration subsample, the warm-up subsample, \
+         and all fitted cells (the finish)\n",
         outcomes.first().map_or(0, |o| o.record.cells_full)
     );
     for o in outcomes {
@@ -707,7 +776,7 @@ mod tests {
                     sample_fraction: 0.0,
                     ..FitSettings::default()
                 },
-                "sample-fraction",
+                "sample_fraction",
             ),
             (
                 FitSettings {
@@ -722,14 +791,14 @@ mod tests {
                     robust: RobustKind::Huber,
                     ..FitSettings::default()
                 },
-                "robust-scale",
+                "robust_scale",
             ),
             (
                 FitSettings {
                     theta_max_deg: Some(95.0),
                     ..FitSettings::default()
                 },
-                "theta-max",
+                "theta_max",
             ),
         ] {
             match s.config() {

@@ -8,7 +8,9 @@ use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
 use crate::loss::{Robust, RobustKind};
 use crate::observer::{Bridge, FitObserver, FitPlan, StartDone};
 use crate::problem::{FitProblem, NormalEquations, evaluate_losses};
-use crate::record::{FitRecord, ParamRecord, RobustRecord, StartRecord, WarmUpRecord};
+use crate::record::{
+    FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,
+};
 use crate::score::CellFilter;
 use crate::starts::start_points;
 use argmin::core::observers::ObserverMode;
@@ -1045,6 +1047,7 @@ pub fn fit(
         losses_fit,
         losses_full,
         iterations: results.iter().map(|r| r.best.iterations).sum(),
+        iterations_run: Some(StageIterations::of_starts(&starts)),
         cost_evals: starts.iter().map(|s| s.cost_evals).sum(),
         jacobian_evals: starts.iter().map(|s| s.jacobian_evals).sum(),
         wall_time_s: t0.elapsed().as_secs_f64(),

@@ -69,5 +69,7 @@ pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
 pub use loss::{ChannelLoss, Loss, LossReport, Robust, RobustKind, Weighting};
 pub use observer::{FitObserver, FitPlan, IterEvent, OnIter, StartDone};
 pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses};
-pub use record::{FitRecord, ParamRecord, RobustRecord, StartRecord, WarmUpRecord};
+pub use record::{
+    FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,
+};
 pub use score::{CellFilter, Score, ScoreError, losses_of_values, score};

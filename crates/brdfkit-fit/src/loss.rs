@@ -87,10 +87,13 @@ pub enum Loss {
     /// Ngan, Durand & Matusik 2005: t = f cos θi, cells with θi or θo > 80° dropped.
     Ngan,
     /// Löw, Kronander, Ynnerman & Unger 2012, E1: t = f cos θi over dωi dθo.
+    #[serde(alias = "low_e1")]
     LowE1,
     /// Löw et al. 2012, E2: t = ln(1 + f cos θi) over dωi dθo.
+    #[serde(alias = "low_e2")]
     LowE2,
     /// Bieron & Peers 2020: t = ln(1 + f cos θi), weighted by cos θo.
+    #[serde(alias = "bieron_log")]
     BieronLog,
 }
 
@@ -151,6 +154,17 @@ impl Loss {
             Loss::LowE1 => "low-e1",
             Loss::LowE2 => "low-e2",
             Loss::BieronLog => "bieron-log",
+        }
+    }
+
+    /// The name with underscores for dashes (`low_e1`: how a Python keyword or key
+    /// spells it), accepted wherever the name is.
+    pub fn underscored(&self) -> &'static str {
+        match self {
+            Loss::LowE1 => "low_e1",
+            Loss::LowE2 => "low_e2",
+            Loss::BieronLog => "bieron_log",
+            l => l.name(),
         }
     }
 
@@ -232,16 +246,19 @@ impl fmt::Display for Loss {
     }
 }
 
+/// A loss name is accepted with dashes or underscores (`low-e1`, `low_e1`: the
+/// second is how Python spells a key), and printed with dashes ([`Loss::name`]).
 impl FromStr for Loss {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let name = s.replace('_', "-");
         // BBM's `standardLog` is brdfkit's `log` (see `docs/fitting.md`).
-        if s == "bbm-log" {
+        if name == "bbm-log" {
             return Ok(Loss::Log);
         }
         Loss::EVERY
             .into_iter()
-            .find(|l| l.name() == s)
+            .find(|l| l.name() == name)
             .ok_or_else(|| {
                 format!(
                     "unknown loss `{s}` (known: {}, bbm-log)",
@@ -420,13 +437,13 @@ pub struct LossReport {
     #[serde(default)]
     pub ngan: ChannelLoss,
     /// Löw et al. 2012, E1 (`low-e1`).
-    #[serde(default)]
+    #[serde(default, rename = "low-e1", alias = "low_e1")]
     pub low_e1: ChannelLoss,
     /// Löw et al. 2012, E2 (`low-e2`).
-    #[serde(default)]
+    #[serde(default, rename = "low-e2", alias = "low_e2")]
     pub low_e2: ChannelLoss,
     /// Bieron & Peers 2020 (`bieron-log`).
-    #[serde(default)]
+    #[serde(default, rename = "bieron-log", alias = "bieron_log")]
     pub bieron_log: ChannelLoss,
     /// Number of cells the losses were taken over.
     pub cells: usize,
@@ -482,6 +499,37 @@ impl LossReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One vocabulary: a loss is printed with dashes everywhere (its name, the record's
+    /// `loss`, the keys of `losses_full`) and read in either spelling.
+    #[test]
+    fn loss_names_print_one_way_and_read_both() {
+        for l in Loss::EVERY {
+            assert_eq!(l.name().parse::<Loss>(), Ok(l));
+            assert_eq!(l.underscored().parse::<Loss>(), Ok(l));
+            assert_eq!(l.underscored(), l.name().replace('-', "_"));
+            let json = serde_json::to_value(l).unwrap();
+            assert_eq!(json, l.name());
+            let snake: Loss = serde_json::from_value(l.underscored().into()).unwrap();
+            assert_eq!(snake, l);
+        }
+        let r = LossReport::from_sums([[1.0; 3]; 4], 1.0, ([[1.0; 3]; 4], [1.0; 4]), 1);
+        let v = serde_json::to_value(r).unwrap();
+        let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+        for l in Loss::EVERY {
+            assert!(keys.contains(&l.name()), "{keys:?}");
+            assert_eq!(v[l.name()]["overall"], r.get(l).overall);
+        }
+        // Records written before the keys were spelt with dashes still read.
+        let mut old = v.clone();
+        let o = old.as_object_mut().unwrap();
+        for l in Loss::PUBLISHED {
+            let x = o.remove(l.name()).unwrap();
+            o.insert(l.underscored().into(), x);
+        }
+        assert_eq!(serde_json::from_value::<LossReport>(old).unwrap(), r);
+        assert!("low_e3".parse::<Loss>().is_err());
+    }
 
     #[test]
     fn derivatives_match_finite_differences() {

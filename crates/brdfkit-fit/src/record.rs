@@ -113,6 +113,51 @@ fn yes() -> bool {
     true
 }
 
+/// Iterations run, by stage, summed over every start of every pass: where a fit's
+/// work went. A ranked fit explores each start on a small subsample, warms the
+/// finishers up on a larger one and finishes on all fitted cells (see
+/// [`crate::FitConfig::finish`]); a fit without a warm-up has only the finish.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct StageIterations {
+    /// On the starts' exploration subsamples ([`StartRecord::explore`]).
+    pub explore: u64,
+    /// On the warm-up subsample ([`StartRecord::warm_up`]).
+    pub warm_up: u64,
+    /// On all fitted cells ([`StartRecord::iterations`]).
+    pub finish: u64,
+}
+
+impl StageIterations {
+    /// The sums over `starts`.
+    pub fn of_starts(starts: &[StartRecord]) -> Self {
+        let stage = |s: &Option<WarmUpRecord>| s.as_ref().map_or(0, |w| w.iterations);
+        starts
+            .iter()
+            .fold(Self::default(), |acc, s| StageIterations {
+                explore: acc.explore + stage(&s.explore),
+                warm_up: acc.warm_up + stage(&s.warm_up),
+                finish: acc.finish + s.iterations,
+            })
+    }
+
+    /// Every iteration of every stage.
+    pub fn total(&self) -> u64 {
+        self.explore + self.warm_up + self.finish
+    }
+
+    /// `172 (explore 120 + warm-up 52 + finish 0)`: the total and where it was spent,
+    /// as the command line's fit table and Python's `FitResult` print it.
+    pub fn summary(&self) -> String {
+        format!(
+            "{} (explore {} + warm-up {} + finish {})",
+            self.total(),
+            self.explore,
+            self.warm_up,
+            self.finish
+        )
+    }
+}
+
 /// The robust stage of a fit (see [`crate::FitConfig::robust`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobustRecord {
@@ -184,8 +229,13 @@ pub struct FitRecord {
     /// Every loss over all valid cells (after the cutoff), the figure to compare.
     pub losses_full: LossReport,
     /// Iterations of the kept start(s) on the fitted cells, after any warm-up (summed
-    /// over channel passes).
+    /// over channel passes): 0 when the warm-up optimum was kept as it was (see
+    /// `full_iters`); `iterations_run` has every stage.
     pub iterations: u64,
+    /// Iterations of every start by stage (absent in older records: see
+    /// [`FitRecord::stage_iterations`], which sums the starts then).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iterations_run: Option<StageIterations>,
     /// Cost evaluations over the fitted cells, of every start and pass (warm-up passes
     /// are in each start's `warm_up`).
     pub cost_evals: u64,
@@ -216,4 +266,76 @@ pub struct FitRecord {
     /// the three channel models); absent in older records.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_albedo: Option<f64>,
+}
+
+impl FitRecord {
+    /// Iterations of every start by stage: the record's `iterations_run`, or the sums
+    /// over its starts for a record written before that field existed.
+    pub fn stage_iterations(&self) -> StageIterations {
+        self.iterations_run
+            .unwrap_or_else(|| StageIterations::of_starts(&self.starts))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stage(iterations: u64) -> WarmUpRecord {
+        WarmUpRecord {
+            cells: 100,
+            iterations,
+            cost_evals: 0,
+            jacobian_evals: 0,
+            final_loss: 0.0,
+            termination: String::new(),
+            rounds: 1,
+        }
+    }
+
+    fn start(explore: Option<u64>, warm_up: Option<u64>, finish: u64) -> StartRecord {
+        StartRecord {
+            index: 0,
+            channel: None,
+            start: vec![],
+            final_loss: Some(0.0),
+            iterations: finish,
+            cost_evals: 0,
+            jacobian_evals: 0,
+            termination: String::new(),
+            converged: true,
+            kept: false,
+            warm_up: warm_up.map(stage),
+            finished: true,
+            rank_loss: None,
+            explore: explore.map(stage),
+        }
+    }
+
+    /// Every stage of every start is counted, so a fit whose kept start took 0
+    /// iterations on all cells (the warm-up optimum kept) does not read as idle.
+    #[test]
+    fn stage_iterations_sum_every_start() {
+        let starts = [
+            start(Some(30), Some(12), 0),
+            start(Some(25), None, 0),
+            start(None, Some(7), 3),
+        ];
+        let s = StageIterations::of_starts(&starts);
+        assert_eq!(
+            s,
+            StageIterations {
+                explore: 55,
+                warm_up: 19,
+                finish: 3
+            }
+        );
+        assert_eq!(s.total(), 77);
+        assert_eq!(s.summary(), "77 (explore 55 + warm-up 19 + finish 3)");
+        let json = serde_json::to_value(s).unwrap();
+        assert_eq!(
+            json,
+            serde_json::json!({"explore": 55, "warm_up": 19, "finish": 3})
+        );
+    }
 }

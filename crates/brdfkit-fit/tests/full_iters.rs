@@ -60,4 +60,27 @@ fn auto_finishes_ward_duer_on_all_cells_and_keeps_the_shortcut_elsewhere() {
     let gm = fit_with(&data, &Ward::default(), FullIters::Auto);
     assert_eq!(gm.full_iters, Some(FullIters::Cap(0)));
     assert_eq!(gm.iterations, 0, "{}", gm.termination);
+
+    // Issue 29: that 0 is the finish only; the record and the fit table count every
+    // stage, so the fit does not read as one that did nothing.
+    let stages = gm.stage_iterations();
+    assert_eq!(gm.iterations_run, Some(stages));
+    assert!(stages.warm_up > 0 && stages.total() > 0, "{stages:?}");
+    assert_eq!(
+        stages.finish, 0,
+        "full_iters 0: no start iterates on all cells"
+    );
+    let older = FitRecord {
+        iterations_run: None,
+        ..gm.clone()
+    };
+    assert_eq!(older.stage_iterations(), stages, "summed from the starts");
+    let outcome = brdfkit_fit::families::Outcome {
+        label: "ward".into(),
+        params: gm.model.clone(),
+        record: gm,
+    };
+    let table = brdfkit_fit::families::comparison_text(&[outcome], brdfkit_fit::Loss::Cbrt);
+    let row = table.lines().nth(1).expect("a row");
+    assert!(row.contains(&stages.summary()), "{table}");
 }

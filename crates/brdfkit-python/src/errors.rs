@@ -2,7 +2,9 @@
 //!
 //! An error with an `std::io::Error` anywhere in its cause chain is an `OSError` (the
 //! subclass Python itself raises for that kind: `FileNotFoundError`,
-//! `PermissionError`, `IsADirectoryError`); any other error of the input (a malformed
+//! `PermissionError`, `IsADirectoryError`), unless the I/O error says the bytes read
+//! are wrong (`InvalidData`, `UnexpectedEof`: a malformed file, a `ValueError`); any
+//! other error of the input (a malformed
 //! table, an unknown model or parameter, a bad setting, mismatched arrays) is a
 //! `ValueError`; a failure of the computation itself is a `RuntimeError`. The message
 //! is the error's `Display` followed by each cause it does not already contain, as the
@@ -11,7 +13,7 @@
 use pyo3::PyErr;
 use pyo3::exceptions::{
     PyFileNotFoundError, PyIsADirectoryError, PyOSError, PyPermissionError, PyRuntimeError,
-    PyValueError,
+    PyTypeError, PyValueError,
 };
 use std::error::Error;
 use std::io::ErrorKind;
@@ -31,12 +33,16 @@ pub(crate) fn message(e: &(dyn Error + 'static)) -> String {
     s
 }
 
-/// The kind of the first I/O error in the chain.
+/// The kind of the first I/O error in the chain, unless it is about the content read
+/// (a malformed file is the caller's bad input, not a failure of the system).
 fn io_kind(e: &(dyn Error + 'static)) -> Option<ErrorKind> {
     let mut cur = Some(e);
     while let Some(c) = cur {
         if let Some(io) = c.downcast_ref::<std::io::Error>() {
-            return Some(io.kind());
+            return match io.kind() {
+                ErrorKind::InvalidData | ErrorKind::UnexpectedEof => None,
+                k => Some(k),
+            };
         }
         cur = c.source();
     }
@@ -85,6 +91,25 @@ pub(crate) fn value(msg: impl Into<String>) -> PyErr {
     PyValueError::new_err(msg.into())
 }
 
+/// A `TypeError`: an argument of a kind the call does not take.
+pub(crate) fn type_error(msg: impl Into<String>) -> PyErr {
+    PyTypeError::new_err(msg.into())
+}
+
+/// A missing input file: `FileNotFoundError` with the message.
+pub(crate) fn not_found(msg: impl Into<String>) -> PyErr {
+    PyFileNotFoundError::new_err(msg.into())
+}
+
+/// A neural BRDF's load error: a missing weight file is `FileNotFoundError` (the
+/// library checks existence itself, so there is no I/O error in the chain).
+pub(crate) fn nbrdf(e: brdfkit_nbrdf::NbrdfError) -> PyErr {
+    if matches!(e, brdfkit_nbrdf::NbrdfError::Missing { .. }) {
+        return not_found(message(&e));
+    }
+    input(e)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -111,5 +136,11 @@ mod tests {
         assert_eq!(io_kind(&fam), Some(ErrorKind::PermissionDenied));
         let bad = brdfkit_core::ModelError::Invalid("unknown model `x`".into());
         assert_eq!(io_kind(&bad), None);
+        // A malformed file is bad input (ValueError), not a failure of the system.
+        let npy = brdfkit_nbrdf::NbrdfError::Format {
+            path: "w_fc1.npy".into(),
+            source: std::io::Error::new(ErrorKind::InvalidData, "bad magic"),
+        };
+        assert_eq!(io_kind(&npy), None);
     }
 }

@@ -11,20 +11,25 @@ use brdfkit_fit::families::{
 };
 use brdfkit_fit::{FitData, FitObserver, FitPlan, IterEvent, StartDone};
 use pyo3::prelude::*;
+use pyo3::types::PyString;
 use serde_json::json;
+use std::path::PathBuf;
 use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-/// A named choice (`loss = "cbrt"`, ...) parsed by the library's own `FromStr`, whose
-/// message names the choice and the accepted names.
-fn choice<T: FromStr<Err = E>, E: std::fmt::Display>(s: &str) -> PyResult<T> {
-    T::from_str(s).map_err(|e| errors::value(e.to_string()))
+/// The argument `arg` (`loss = "cbrt"`, ...) parsed by the library's own `FromStr`,
+/// whose message names the value and the accepted names; the argument's name leads.
+fn choice<T: FromStr<Err = E>, E: std::fmt::Display>(arg: &str, s: &str) -> PyResult<T> {
+    T::from_str(s).map_err(|e| errors::value(format!("{arg}: {e}")))
 }
 
 /// An optional named choice.
-fn opt_choice<T: FromStr<Err = E>, E: std::fmt::Display>(s: Option<&str>) -> PyResult<Option<T>> {
-    s.map(choice).transpose()
+fn opt_choice<T: FromStr<Err = E>, E: std::fmt::Display>(
+    arg: &str,
+    s: Option<&str>,
+) -> PyResult<Option<T>> {
+    s.map(|s| choice(arg, s)).transpose()
 }
 
 /// Forwards fit progress to a Python callable, one dict per event, from whichever
@@ -100,30 +105,81 @@ impl FamilyObserver for Families {
     }
 }
 
-/// The families to fit: a `Model`, or a comma-separated list of model names and model
-/// JSON files (as `fit-brdf fit --model`) with the structural choices applied.
-fn families_of(model: &Bound<'_, PyAny>, s: &Structure) -> PyResult<Vec<Family>> {
-    if let Ok(m) = model.cast::<PyModel>() {
-        if *s != Structure::default() {
-            return Err(errors::value(
-                "distribution, masking, fresnel and normalization apply to model names; \
-                 a Model carries its own choices",
-            ));
-        }
+/// What `model` takes, in its errors.
+const MODEL_TAKES: &str = "model: expected a model name or model JSON file (a str or os.PathLike), \
+     a comma-separated str of them, a brdfkit.Model, or a sequence (list, tuple) of these";
+
+/// One item of a model sequence: a `Model`, or the text of a name or a file path.
+enum Item {
+    Model(Family),
+    Text(String),
+}
+
+/// A `Model`, or a name or path (a `str` or `os.PathLike`).
+fn item_of(obj: &Bound<'_, PyAny>) -> PyResult<Option<Item>> {
+    if let Ok(m) = obj.cast::<PyModel>() {
         let m = m.get();
-        return Ok(vec![Family {
+        return Ok(Some(Item::Model(Family {
             label: m.inner.name().to_string(),
             model: m.inner.clone_box(),
-        }]);
+        })));
     }
-    let list: String = model.extract().map_err(|_| {
-        errors::value("model: expected a model name, a list of names, a JSON file or a Model")
-    })?;
-    families(&list, s).map_err(errors::input)
+    if obj.cast::<PyString>().is_ok()
+        || obj.is_instance(&obj.py().import("os")?.getattr("PathLike")?)?
+    {
+        let path: PathBuf = obj.extract()?;
+        return Ok(Some(Item::Text(path.to_string_lossy().into_owned())));
+    }
+    Ok(None)
+}
+
+/// The families to fit, in order: from a `Model`, a name or a path, a comma-separated
+/// list of names and model JSON files (as `fit-brdf fit --model`), or any sequence of
+/// these, with the structural choices applied to the names and files.
+fn families_of(model: &Bound<'_, PyAny>, s: &Structure) -> PyResult<Vec<Family>> {
+    let items = match item_of(model)? {
+        Some(item) => vec![item],
+        None => {
+            let seq: Vec<Bound<'_, PyAny>> = model
+                .extract()
+                .map_err(|_| errors::type_error(MODEL_TAKES))?;
+            seq.iter()
+                .map(|x| item_of(x)?.ok_or_else(|| errors::type_error(MODEL_TAKES)))
+                .collect::<PyResult<_>>()?
+        }
+    };
+    let texts: Vec<&str> = items
+        .iter()
+        .filter_map(|i| match i {
+            Item::Text(t) => Some(t.as_str()),
+            Item::Model(_) => None,
+        })
+        .collect();
+    if texts.len() == items.len() {
+        // Names and files only: one list, so a structural choice needs its model
+        // somewhere in it (as on the command line).
+        return families(&texts.join(","), s).map_err(errors::input);
+    }
+    if *s != Structure::default() {
+        return Err(errors::value(
+            "distribution, masking, fresnel and normalization apply to model names; \
+             a Model carries its own choices",
+        ));
+    }
+    let mut out = Vec::with_capacity(items.len());
+    for item in items {
+        match item {
+            Item::Model(f) => out.push(f),
+            Item::Text(t) => out.extend(families(&t, s).map_err(errors::input)?),
+        }
+    }
+    Ok(out)
 }
 
 /// Fits each model family to the table as `fit-brdf fit` does (same defaults); returns
-/// (label, fitted model JSON, fit record JSON) per family.
+/// (label, fitted model file text, fit record file text, iterations by stage) per
+/// family: the bytes `fit-brdf fit --out` and `--record` write, and the iterations as
+/// the command line's fit table prints them.
 #[pyfunction]
 #[pyo3(signature = (
     table, model, *, loss = "cbrt", weighting = "solid-angle", solver = "lm", starts = 8,
@@ -158,18 +214,18 @@ pub fn fit(
     fresnel: Option<&str>,
     normalization: Option<&str>,
     progress: Option<Py<PyAny>>,
-) -> PyResult<Vec<(String, String, String)>> {
+) -> PyResult<Vec<(String, String, String, String)>> {
     let structure = Structure {
-        distribution: opt_choice(distribution)?,
-        masking: opt_choice(masking)?,
-        fresnel: opt_choice(fresnel)?,
-        normalization: opt_choice(normalization)?,
+        distribution: opt_choice("distribution", distribution)?,
+        masking: opt_choice("masking", masking)?,
+        fresnel: opt_choice("fresnel", fresnel)?,
+        normalization: opt_choice("normalization", normalization)?,
     };
     let fams = families_of(model, &structure)?;
     let settings = FitSettings {
-        loss: choice(loss)?,
-        weighting: choice(weighting)?,
-        solver: choice(solver)?,
+        loss: choice("loss", loss)?,
+        weighting: choice("weighting", weighting)?,
+        solver: choice("solver", solver)?,
         starts,
         finish,
         sample_fraction,
@@ -178,7 +234,7 @@ pub fn fit(
         per_channel,
         seed,
         fix,
-        robust: choice(robust)?,
+        robust: choice("robust", robust)?,
         robust_scale,
         albedo_max: energy_conserving.then_some(1.0),
         full_iters: full_iters
@@ -211,9 +267,10 @@ pub fn fit(
     outcomes
         .into_iter()
         .map(|o| {
-            let params = serde_json::to_string(&o.params).map_err(errors::runtime)?;
-            let record = serde_json::to_string(&o.record).map_err(errors::runtime)?;
-            Ok((o.label, params, record))
+            let params = o.params_file().map_err(errors::runtime)?;
+            let record = o.record_file().map_err(errors::runtime)?;
+            let iterations = o.record.stage_iterations().summary();
+            Ok((o.label, params, record, iterations))
         })
         .collect()
 }

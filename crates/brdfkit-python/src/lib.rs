@@ -3,8 +3,8 @@
 //! Thin glue over the library crates: every value comes from the Rust API
 //! (`brdfkit_merl`, `brdfkit_models`, `brdfkit_fit`, `brdfkit_validate`,
 //! `brdfkit_nbrdf`), so Python gets the same numbers, to the bit. Arrays cross as
-//! NumPy arrays: inputs are borrowed without a copy when they are C-contiguous float64
-//! (the Python layer makes them so), outputs are built in Rust and handed to NumPy
+//! NumPy arrays: any input NumPy converts to float64 is taken (one rule, the `arrays`
+//! module), borrowed without a copy when it is C-contiguous float64 already, outputs are built in Rust and handed to NumPy
 //! without a copy. The GIL is released around reads, writes, lookups, evaluations,
 //! fits, checks and resampling. Errors are Python exceptions with the Rust messages
 //! (see the `errors` module). The Python API, its stubs and docs are in `python/brdfkit`, the
@@ -12,6 +12,7 @@
 
 #![warn(missing_docs)]
 
+mod arrays;
 mod errors;
 mod fit;
 mod model;
@@ -30,9 +31,19 @@ pub(crate) fn json_to_py<'py>(
     py.import("json")?.call_method1("loads", (text,))
 }
 
+/// Writes `text` to `path` through the library's atomic writer (whole, or not at
+/// all): how the Python layer saves what it writes (`FitResult.save`).
+#[pyfunction(name = "_write_text")]
+fn write_text(py: Python<'_>, path: std::path::PathBuf, text: &str) -> PyResult<()> {
+    py.detach(|| brdfkit_core::atomic::write_bytes(&path, text.as_bytes()))
+        .map_err(errors::runtime)
+}
+
 /// The extension module.
 #[pymodule]
 fn _brdfkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(write_text, m)?)?;
     m.add_class::<table::PyTable>()?;
     m.add_class::<model::PyModel>()?;
     m.add_class::<model::PyNbrdf>()?;

@@ -1,10 +1,12 @@
 //! `brdfkit.Model` (an analytic model of `brdfkit_models`), `brdfkit.Nbrdf` (a neural
 //! BRDF of `brdfkit_nbrdf`), `check` (`brdfkit_validate`) and `resample`.
 
-use crate::table::{PyTable, dims_of, directions, lookup_mode, rows_array, rows3};
+use crate::arrays::{check_pairs, dims_of, directions, rows3};
+use crate::table::{PyTable, lookup_mode, rows_array};
 use crate::{errors, json_to_py};
 use brdfkit_core::{Model, Rgb};
-use brdfkit_merl::MerlTable;
+use brdfkit_fit::families::FamilyError;
+use brdfkit_merl::{Dims, MerlTable};
 use brdfkit_nbrdf::Nbrdf;
 use numpy::PyArray1;
 use pyo3::prelude::*;
@@ -18,25 +20,78 @@ pub struct PyModel {
     pub(crate) inner: Box<dyn Model>,
 }
 
-/// JSON text of a `str` or of any object `json.dumps` takes (a dict).
+/// What `Model.from_json` says it takes, in its errors.
+const FROM_JSON_TAKES: &str =
+    "Model.from_json takes JSON text, a dict or the path of a model JSON file";
+
+/// The JSON text of a description: a `str` that starts with `{` is the text itself,
+/// any other `str` or an `os.PathLike` is the path of a model file (read here), and any
+/// other object is given to `json.dumps` (a dict).
 fn json_text(obj: &Bound<'_, PyAny>) -> PyResult<String> {
-    if let Ok(s) = obj.cast::<PyString>() {
-        return Ok(s.to_string());
+    let py = obj.py();
+    let path: PathBuf = if let Ok(s) = obj.cast::<PyString>() {
+        let s = s.to_string();
+        if s.trim_start().starts_with('{') {
+            return Ok(s);
+        }
+        PathBuf::from(s)
+    } else if obj.is_instance(&py.import("os")?.getattr("PathLike")?)? {
+        obj.extract()?
+    } else {
+        return py
+            .import("json")?
+            .call_method1("dumps", (obj,))
+            .map_err(|e| errors::type_error(format!("{FROM_JSON_TAKES} ({})", e.value(py))))?
+            .extract();
+    };
+    match std::fs::read_to_string(&path) {
+        Ok(text) => Ok(text),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(errors::not_found(format!(
+            "{}: no such model file ({FROM_JSON_TAKES}; JSON text starts with `{{`)",
+            path.display()
+        ))),
+        Err(source) => Err(errors::input(FamilyError::Read { path, source })),
     }
-    obj.py()
-        .import("json")?
-        .call_method1("dumps", (obj,))?
-        .extract()
+}
+
+impl PyModel {
+    /// The compact JSON description, the identity of a model.
+    fn text(&self) -> PyResult<String> {
+        serde_json::to_string(&self.inner.to_json()).map_err(errors::runtime)
+    }
 }
 
 #[pymethods]
 impl PyModel {
-    /// A model from its JSON description: the text, or the dict.
+    /// A model from its JSON description: the text (a `str` starting with `{`), the
+    /// dict, or the path of a model JSON file (a `str` or `os.PathLike`).
     #[staticmethod]
     fn from_json(description: &Bound<'_, PyAny>) -> PyResult<Self> {
         let text = json_text(description)?;
         let inner = brdfkit_models::from_json_str(&text).map_err(errors::input)?;
         Ok(PyModel { inner })
+    }
+
+    /// Equal when the JSON descriptions are (the same model, choices and parameters,
+    /// to the bit).
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+        let py = other.py();
+        Ok(match other.cast::<PyModel>() {
+            Ok(o) => (self.text()? == o.get().text()?)
+                .into_pyobject(py)?
+                .to_owned()
+                .into_any()
+                .unbind(),
+            Err(_) => py.NotImplemented(),
+        })
+    }
+
+    /// The hash of the JSON description (equal models hash alike).
+    fn __hash__(&self) -> PyResult<u64> {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        self.text()?.hash(&mut h);
+        Ok(h.finish())
     }
 
     /// The model `name` at its default start.
@@ -88,8 +143,9 @@ impl PyModel {
         PyArray1::from_vec(py, self.inner.params())
     }
 
-    /// f_r (1/sr, no cosine) at each pair (wi[k], wo[k]): (N, 3) in, (N, 3) out; 0 below
-    /// the horizon.
+    /// f_r (1/sr, no cosine) at each pair (wi[k], wo[k]): (N, 3) unit directions in (any
+    /// array NumPy converts to float64; a (3,) direction is one row), (N, 3) float64
+    /// out; 0 where either direction is below the horizon (z ≤ 0).
     fn eval<'py>(
         &self,
         py: Python<'py>,
@@ -98,13 +154,13 @@ impl PyModel {
     ) -> PyResult<Bound<'py, PyAny>> {
         let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
         let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
-        let out = py
-            .detach(|| {
-                let mut rgb = vec![Rgb([0.0; 3]); wi.len()];
-                brdfkit_models::raw::eval_dirs(&*self.inner, wi, wo, &mut rgb)
-                    .map(|()| rgb.iter().flat_map(|c| c.0).collect::<Vec<f64>>())
-            })
-            .map_err(errors::input)?;
+        let out = py.detach(|| {
+            check_pairs(wi, wo)?;
+            let mut rgb = vec![Rgb([0.0; 3]); wi.len()];
+            brdfkit_models::raw::eval_dirs(&*self.inner, wi, wo, &mut rgb)
+                .map(|()| rgb.iter().flat_map(|c| c.0).collect::<Vec<f64>>())
+                .map_err(errors::input)
+        })?;
         rows_array(py, out)
     }
 
@@ -126,7 +182,7 @@ impl PyNbrdf {
     /// Loads `DIR/NAME` (the stem of the six weight files).
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let inner = py.detach(|| Nbrdf::load(&path)).map_err(errors::input)?;
+        let inner = py.detach(|| Nbrdf::load(&path)).map_err(errors::nbrdf)?;
         Ok(PyNbrdf { inner })
     }
 
@@ -160,20 +216,24 @@ pub fn check<'py>(py: Python<'py>, source: &Bound<'py, PyAny>) -> PyResult<Bound
     json_to_py(py, &report.map_err(errors::runtime)?)
 }
 
-/// A table on the grid `dims` from a model (evaluated at each cell), a table
-/// (resampled with `interp`) or a neural BRDF, as `fit-brdf resample` makes it.
+/// A table on the grid `dims` (any sequence of three sizes; default the MERL grid)
+/// from a model (evaluated at each cell), a table (resampled with `interp`) or a
+/// neural BRDF, as `fit-brdf resample` makes it.
 #[pyfunction]
 #[pyo3(
-    signature = (source, dims = (90, 90, 180), interp = "nearest"),
+    signature = (source, dims = None, interp = "nearest"),
     text_signature = "(source, dims=(90, 90, 180), interp='nearest')"
 )]
 pub fn resample(
     py: Python<'_>,
     source: &Bound<'_, PyAny>,
-    dims: (i64, i64, i64),
+    dims: Option<&Bound<'_, PyAny>>,
     interp: &str,
 ) -> PyResult<PyTable> {
-    let dims = dims_of(dims)?;
+    let dims = match dims {
+        Some(d) => dims_of(d)?,
+        None => Dims::MERL,
+    };
     let mode = lookup_mode(interp)?;
     let table = if let Ok(m) = source.cast::<PyModel>() {
         let m = m.get();

@@ -1,13 +1,11 @@
 //! `brdfkit.MerlTable`: a MERL binary table (`brdfkit_merl::MerlTable`).
 
+use crate::arrays::{check_pairs, directions, float64, rows3, shape_text};
 use crate::errors;
 use brdfkit_core::Rgb;
 use brdfkit_merl::{Dims, Lookup, MerlTable};
-use numpy::{
-    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray4, PyUntypedArrayMethods,
-};
+use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -51,41 +49,6 @@ pub(crate) fn lookup_mode(interp: &str) -> PyResult<Lookup> {
     }
 }
 
-/// Grid dims from a Python triple.
-pub(crate) fn dims_of(d: (i64, i64, i64)) -> PyResult<Dims> {
-    Dims::new(d.0, d.1, d.2).map_err(errors::input)
-}
-
-/// Directions as a C-contiguous float64 (N, 3) array: the array itself when it is one
-/// already (no copy), else NumPy's conversion of it (a list, float32, a strided view;
-/// one direction (3,) is one row).
-pub(crate) fn directions<'py>(
-    obj: &Bound<'py, PyAny>,
-    name: &str,
-) -> PyResult<PyReadonlyArray2<'py, f64>> {
-    let np = obj.py().import("numpy")?;
-    let kw = PyDict::new(obj.py());
-    kw.set_item("dtype", "float64")?;
-    let a = np.getattr("ascontiguousarray")?.call((obj,), Some(&kw))?;
-    let a = np.call_method1("atleast_2d", (a,))?;
-    let a = a
-        .cast_into::<PyArray2<f64>>()
-        .map_err(|_| errors::value(format!("{name}: expected an (N, 3) array of directions")))?;
-    if a.shape()[1] != 3 {
-        return Err(errors::value(format!(
-            "{name}: shape {:?}, expected (N, 3)",
-            a.shape()
-        )));
-    }
-    Ok(a.readonly())
-}
-
-/// Rows of three of an array from [`directions`].
-pub(crate) fn rows3<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a [[f64; 3]]> {
-    let (rows, _) = a.as_slice()?.as_chunks::<3>();
-    Ok(rows)
-}
-
 /// An (N, 3) float64 array that takes over `v` (3N values) without a copy.
 pub(crate) fn rows_array<'py>(py: Python<'py>, v: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
     let n = v.len() / 3;
@@ -104,17 +67,23 @@ impl PyTable {
         })
     }
 
-    /// A table from a (3, nθh, nθd, nφd) array of f_r in 1/sr; NaN marks a missing
-    /// cell (in any channel: the whole cell).
+    /// A table from a (3, nθh, nθd, nφd) array of f_r in 1/sr (anything
+    /// `numpy.asarray(values, dtype=float64)` takes); NaN marks a missing cell (in any
+    /// channel: the whole cell).
     #[staticmethod]
-    fn from_values(py: Python<'_>, values: PyReadonlyArray4<'_, f64>) -> PyResult<Self> {
+    fn from_values(py: Python<'_>, values: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let values = float64(values, "values")?;
         let s = values.shape();
-        if s[0] != 3 {
-            return Err(errors::value(format!(
-                "values: shape {s:?}, expected (3, n_theta_h, n_theta_d, n_phi_d)"
-            )));
-        }
-        let dims = dims_of((s[1] as i64, s[2] as i64, s[3] as i64))?;
+        let dims = match *s {
+            [3, a, b, c] => Dims::new(a as i64, b as i64, c as i64)
+                .map_err(|e| errors::value(format!("values: {e}")))?,
+            _ => {
+                return Err(errors::value(format!(
+                    "values: shape {}, expected (3, n_theta_h, n_theta_d, n_phi_d)",
+                    shape_text(s)
+                )));
+            }
+        };
         let v = values.as_slice()?;
         let n = dims.cells();
         let slab = dims.theta_d() * dims.phi_d();
@@ -182,8 +151,9 @@ impl PyTable {
             .into_any())
     }
 
-    /// f_r at each pair (wi[k], wo[k]): (N, 3) float64 arrays in, (N, 3) out, NaN
-    /// where there is no sample (below the horizon or a missing cell).
+    /// f_r at each pair (wi[k], wo[k]): (N, 3) unit directions in (any array NumPy
+    /// converts to float64; a (3,) direction is one row), (N, 3) float64 out, NaN where
+    /// there is no sample (below the horizon or a missing cell).
     #[pyo3(signature = (wi, wo, interp = "nearest"))]
     fn lookup<'py>(
         &self,
@@ -197,10 +167,12 @@ impl PyTable {
         let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
         let mut out = vec![0.0; 3 * wi.len()];
         py.detach(|| {
+            check_pairs(wi, wo)?;
             let (rows, _) = out.as_chunks_mut::<3>();
-            self.inner.lookup_split(mode, wi, wo, rows)
-        })
-        .map_err(errors::input)?;
+            self.inner
+                .lookup_split(mode, wi, wo, rows)
+                .map_err(errors::input)
+        })?;
         rows_array(py, out)
     }
 
@@ -232,6 +204,7 @@ pub fn lookup_seconds(
     let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
     let mut out = vec![[0.0; 3]; wi.len()];
     let t = table.get();
+    check_pairs(wi, wo)?;
     py.detach(|| {
         let start = std::time::Instant::now();
         t.inner

@@ -12,7 +12,7 @@
 
 use brdfkit_core::Model;
 use brdfkit_fit::config::{CLI_EXPLORE_CELLS, DEFAULT_FINISH};
-use brdfkit_fit::families::{FitSettings, Structure, families, fit_each};
+use brdfkit_fit::families::{FitSettings, Structure, comparison_text, families, fit_each};
 use brdfkit_fit::{FitData, Loss, RobustKind, SolverKind, Weighting};
 use brdfkit_merl::{Dims, Lookup, MerlTable};
 use std::io::Write;
@@ -172,6 +172,12 @@ fn write_fit(table: &MerlTable, dir: &Path) {
     let data = FitData::from_table(table).expect("cells");
     let o = fit_each(&data, &fams, &cfg, &()).expect("fit");
     write_json(&dir.join("fit.json"), &o[0].to_json());
+    // The files `fit-brdf fit --out` and `--record` write, and the table it prints.
+    let text = |s: Result<String, serde_json::Error>| s.expect("JSON");
+    std::fs::write(dir.join("fit_params.json"), text(o[0].params_file())).expect("write");
+    std::fs::write(dir.join("fit_record.json"), text(o[0].record_file())).expect("write");
+    let table_text = comparison_text(&o, Loss::Cbrt);
+    std::fs::write(dir.join("fit_table.txt"), table_text).expect("write");
 }
 
 python_package_test! {

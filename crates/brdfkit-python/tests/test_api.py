@@ -139,7 +139,7 @@ def test_fit_is_the_rust_fit(refs, gold):
     assert strip_times(r.record) == strip_times(expect["record"])
     assert r.losses["cbrt"] == expect["record"]["losses_full"]["cbrt"]["overall"]
     assert set(r.losses) == {
-        "cbrt", "l2", "cosine", "log", "ngan", "low_e1", "low_e2", "bieron_log"
+        "cbrt", "l2", "cosine", "log", "ngan", "low-e1", "low-e2", "bieron-log"
     }
     assert "cook-torrance" in repr(r)
 
@@ -191,13 +191,13 @@ def test_errors_are_python_exceptions_with_the_rust_messages(tmp_path, gold):
         brdfkit.Model.from_json({"model": "cook-torrance", "params": {"alpha": -1}})
     with pytest.raises(ValueError, match="interp `cubic`"):
         gold.lookup(np.zeros((1, 3)), np.zeros((1, 3)), interp="cubic")
-    with pytest.raises(ValueError, match=r"wo: shape \[4, 2\], expected \(N, 3\)"):
+    with pytest.raises(ValueError, match=r"wo: shape \(4, 2\), expected \(N, 3\)"):
         gold.lookup(np.zeros((4, 3)), np.zeros((4, 2)))
     with pytest.raises(ValueError, match="4 wi directions, 5 wo directions"):
         gold.lookup(np.zeros((4, 3)), np.zeros((5, 3)))
     with pytest.raises(ValueError, match="unknown loss `l3`"):
         brdfkit.fit(gold, "lambert", loss="l3")
-    with pytest.raises(ValueError, match="--starts"):
+    with pytest.raises(ValueError, match="^starts: "):
         brdfkit.fit(gold, "lambert", starts=0)
     for rule in ("some", -1):
         with pytest.raises(

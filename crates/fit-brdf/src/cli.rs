@@ -6,7 +6,7 @@ use brdfkit::fit::families::REPORT_MODELS;
 use brdfkit::fit::{FullIters, Loss, RobustKind, SolverKind, Weighting};
 use brdfkit::models::cook_torrance::FresnelKind;
 use brdfkit::models::ward::Normalization;
-use clap::builder::{ArgPredicate, PossibleValuesParser, TypedValueParser};
+use clap::builder::{ArgPredicate, PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use std::str::FromStr;
@@ -20,6 +20,21 @@ where
     T::Err: Into<Box<dyn std::error::Error + Send + Sync + 'static>>,
 {
     PossibleValuesParser::new(names).try_map(|s| s.parse::<T>())
+}
+
+/// The loss names, each also accepted with underscores (`low_e1`, as the records'
+/// Python keys were once spelt; [`Loss::underscored`]), and `bbm-log`.
+fn loss_choice() -> impl TypedValueParser<Value = Loss> {
+    let values = Loss::EVERY.map(|l| {
+        let v = PossibleValue::new(l.name());
+        if l.underscored() == l.name() {
+            v
+        } else {
+            v.alias(l.underscored())
+        }
+    });
+    PossibleValuesParser::new(values.into_iter().chain([PossibleValue::new("bbm-log")]))
+        .try_map(|s| s.parse::<Loss>())
 }
 
 /// The names of [`Weighting`] (which has no list of its variants).
@@ -367,7 +382,7 @@ pub struct FitOptions {
     pub normalization: Option<Normalization>,
     /// Loss optimised (every loss is reported): brdfkit's l2, cosine, cbrt, log, or a
     /// published metric, ngan, low-e1, low-e2, bieron-log (bbm-log is log; docs/fitting.md).
-    #[arg(long, default_value = "cbrt", value_parser = choice::<Loss>(Loss::EVERY.map(|v| v.name()).into_iter().chain(["bbm-log"])))]
+    #[arg(long, default_value = "cbrt", value_parser = loss_choice())]
     pub loss: Loss,
     #[command(flatten)]
     pub cells: CellOptions,

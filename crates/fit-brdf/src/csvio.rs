@@ -14,8 +14,9 @@ use std::path::Path;
 
 const HEADER: [&str; 6] = ["wi_x", "wi_y", "wi_z", "wo_x", "wo_y", "wo_z"];
 
-/// Tolerance on |w| − 1 for an input direction.
-pub const UNIT_TOLERANCE: f64 = 1e-6;
+/// Tolerance on |w| − 1 for an input direction: the library's, so that the command
+/// line and the Python bindings apply one rule.
+pub use brdfkit::core::direction::UNIT_TOLERANCE;
 
 /// Reads the direction pairs of a CSV file.
 pub fn read_pairs(path: &Path) -> CliResult<Vec<(Vec3, Vec3)>> {

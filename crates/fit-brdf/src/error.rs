@@ -71,9 +71,60 @@ pub fn bad_msg(msg: impl Display) -> CliError {
 
 pub type CliResult<T> = Result<T, CliError>;
 
+/// The command-line spelling of a library setting: `sample_fraction` is
+/// `--sample-fraction`.
+pub fn flag(setting: &str) -> String {
+    format!("--{}", setting.replace('_', "-"))
+}
+
+/// A model-list or settings error of the library, its settings named by their flags
+/// (the library names them as settings: `fix`, `sample_fraction`); the causes are the
+/// library error's own.
+#[derive(Debug)]
+pub struct Flagged(pub brdfkit::fit::families::FamilyError);
+
+impl std::fmt::Display for Flagged {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0.message_with(&flag))
+    }
+}
+
+impl std::error::Error for Flagged {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
+}
+
+/// A model-list or settings error as bad input (exit 2), named by flags.
+pub fn bad_settings(e: brdfkit::fit::families::FamilyError) -> CliError {
+    bad_input(Flagged(e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn settings_errors_name_flags() {
+        use brdfkit::fit::families::FamilyError;
+        let e = FamilyError::Setting {
+            option: "sample_fraction",
+            reason: "0: must lie in (0, 1]".into(),
+        };
+        assert_eq!(e.to_string(), "sample_fraction: 0: must lie in (0, 1]");
+        assert_eq!(
+            bad_settings(e).render(),
+            "error: --sample-fraction: 0: must lie in (0, 1]\n"
+        );
+        let e = FamilyError::ChoiceWithoutModel {
+            options: vec!["distribution", "masking", "fresnel"],
+            model: "cook-torrance",
+        };
+        assert_eq!(
+            Flagged(e).to_string(),
+            "--distribution, --masking and --fresnel apply to cook-torrance, which is not among the models"
+        );
+    }
 
     #[test]
     fn causes_already_quoted_are_not_repeated() {

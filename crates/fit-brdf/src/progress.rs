@@ -123,7 +123,7 @@ impl FamilyObserver for Families {
                 "      {loss} loss {:.4e} in {:.2} s ({} iterations{})",
                 o.record.losses_full.get(loss).overall,
                 o.record.wall_time_s,
-                o.record.iterations,
+                o.record.stage_iterations().summary(),
                 if o.record.converged {
                     ""
                 } else {

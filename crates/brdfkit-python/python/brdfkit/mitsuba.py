@@ -82,11 +82,18 @@ def _class(mi, dr):
     """The BSDF class for the current variant."""
 
     def rows(v) -> np.ndarray:
-        """A Mitsuba vector (one, or a wavefront of them) as an (N, 3) float64 array."""
-        return np.stack(
+        """A Mitsuba vector (one, or a wavefront of them) as an (N, 3) float64 array of
+        unit vectors: brdfkit takes unit directions only (within 1e-6), and Mitsuba's
+        are float32, so each is renormalised in float64; a lane that is not a
+        direction (zero or non-finite: an inactive lane) becomes the normal, and its
+        value is masked out by the caller's ``active``."""
+        a = np.stack(
             [np.atleast_1d(np.asarray(c, dtype=np.float64)) for c in (v.x, v.y, v.z)],
             axis=1,
         )
+        n = np.linalg.norm(a, axis=1, keepdims=True)
+        ok = np.isfinite(n) & (n > 0)
+        return np.where(ok, a / np.where(ok, n, 1.0), np.array([0.0, 0.0, 1.0]))
 
     class BrdfkitBSDF(mi.BSDF):
         """A brdfkit table or model as a Mitsuba BSDF (module docstring)."""

@@ -39,6 +39,9 @@ fn install_handler() -> CliResult<()> {
 }
 
 fn batch_error(e: BatchError) -> crate::error::CliError {
+    if let BatchError::Family(f) = e {
+        return crate::error::bad_settings(f);
+    }
     if e.is_bad_input() {
         bad_input(e)
     } else {

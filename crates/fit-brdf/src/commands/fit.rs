@@ -9,15 +9,14 @@ use crate::output::{write_atomic, write_text};
 use crate::progress;
 use anyhow::Context;
 use brdfkit::fit::FitData;
-use brdfkit::fit::families::{Outcome, comparison_text, fit_each};
+use brdfkit::fit::families::{Outcome, comparison_text, fit_each, pretty_file};
 use brdfkit::fit::target::fit_for;
 use serde_json::Value;
 
-/// Pretty JSON with a final newline.
+/// Pretty JSON with a final newline (the library's, which Python's `FitResult.save`
+/// writes too).
 fn pretty(v: &impl serde::Serialize) -> CliResult<String> {
-    serde_json::to_string_pretty(v)
-        .map(|s| s + "\n")
-        .map_err(runtime)
+    pretty_file(v).map_err(runtime)
 }
 
 pub fn run(a: FitArgs) -> CliResult<()> {

@@ -19,7 +19,7 @@ mod synth;
 mod view;
 
 use crate::cli::{CellOptions, Cli, Command, FitOptions, Interp};
-use crate::error::{CliResult, bad_input, bad_msg, runtime};
+use crate::error::{CliResult, bad_input, bad_msg, bad_settings, runtime};
 use anyhow::Context;
 use brdfkit::core::Model;
 use brdfkit::fit::families::{Family, FitSettings, Structure, check_free, families};
@@ -58,7 +58,7 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         fresnel: o.fresnel,
         normalization: o.normalization,
     };
-    let fams = families(&o.model, &structure).map_err(bad_input)?;
+    let fams = families(&o.model, &structure).map_err(bad_settings)?;
     let settings = FitSettings {
         loss: o.loss,
         solver: o.solver,
@@ -75,8 +75,8 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         explore_cells: Some(o.explore_cells),
         ..cell_settings(&o.cells)
     };
-    let cfg = settings.config().map_err(bad_input)?;
-    check_free(&fams, &cfg).map_err(bad_input)?;
+    let cfg = settings.config().map_err(bad_settings)?;
+    check_free(&fams, &cfg).map_err(bad_settings)?;
     Ok((fams, cfg))
 }
 
@@ -95,7 +95,7 @@ pub fn cell_settings(c: &CellOptions) -> FitSettings {
 /// The validated configuration of the cell options alone (what `score` and `compare`
 /// need); an error is bad input (exit 2).
 pub fn cell_config(c: &CellOptions) -> CliResult<FitConfig> {
-    cell_settings(c).config().map_err(bad_input)
+    cell_settings(c).config().map_err(bad_settings)
 }
 
 /// Reads a table; every read failure is the user's input (exit 2).
