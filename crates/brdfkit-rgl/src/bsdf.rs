@@ -53,7 +53,7 @@ pub struct RglBsdf {
     values: Values,
     isotropic: bool,
     jacobian: bool,
-    /// 0 (isotropic or full φ range), 2 or 4: how much of φi the file stores.
+    /// 2 or 4 (or 1, a full φ range): the fold of wi into the stored φi range.
     reduction: i32,
     /// What `info` reports.
     summary: Summary,
@@ -131,8 +131,12 @@ impl RglBsdf {
         summary: Summary,
     ) -> RglBsdf {
         let isotropic = phi_i.len() <= 2;
+        // Isotropic files: Mitsuba 3.9.1 folds wi into y ≤ 0 as for a 2-fold reduction
+        // (measured.cpp leaves `m_reduction` unset for them; measured against Mitsuba in
+        // tests/mitsuba.rs). Everything but σ depends on φm − φi only, which a rotation
+        // by π leaves alone; σ is looked up at the folded φi.
         let reduction = if isotropic {
-            0
+            2
         } else {
             let span = f64::from(phi_i[phi_i.len() - 1]) - f64::from(phi_i[0]);
             (2.0 * PI / span).round() as i32

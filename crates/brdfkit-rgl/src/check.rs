@@ -22,7 +22,15 @@ fn float_field<'a>(tf: &'a TensorFile, name: &str, ndim: usize) -> Result<&'a Fi
     let f = tf.field(name)?;
     want_dtype(tf, f, Dtype::F32)?;
     if f.shape.len() != ndim {
-        return Err(shape_err(tf, name, format!("{} dimensions {:?}, expected {ndim}", f.shape.len(), f.shape)));
+        return Err(shape_err(
+            tf,
+            name,
+            format!(
+                "{} dimensions {:?}, expected {ndim}",
+                f.shape.len(),
+                f.shape
+            ),
+        ));
     }
     Ok(f)
 }
@@ -37,7 +45,11 @@ fn grid(tf: &TensorFile, name: &str) -> Result<Vec<f32>, RglError> {
         problem,
     };
     if v.is_empty() {
-        return Err(shape_err(tf, name, format!("shape {:?}: no value", f.shape)));
+        return Err(shape_err(
+            tf,
+            name,
+            format!("shape {:?}: no value", f.shape),
+        ));
     }
     if let Some(k) = v.iter().position(|x| !x.is_finite()) {
         return Err(bad(format!("value #{k} is {}", v[k])));
@@ -55,12 +67,21 @@ fn grid(tf: &TensorFile, name: &str) -> Result<Vec<f32>, RglError> {
 }
 
 /// Fails unless dimension `axis` of `f` is `want`, saying which field it must agree with.
-fn agree(tf: &TensorFile, f: &FieldInfo, axis: usize, want: usize, with: &str) -> Result<(), RglError> {
+fn agree(
+    tf: &TensorFile,
+    f: &FieldInfo,
+    axis: usize,
+    want: usize,
+    with: &str,
+) -> Result<(), RglError> {
     if f.shape[axis] as usize != want {
         return Err(shape_err(
             tf,
             &f.name,
-            format!("shape {:?}: axis {axis} is {}, but `{with}` has {want}", f.shape, f.shape[axis]),
+            format!(
+                "shape {:?}: axis {axis} is {}, but `{with}` has {want}",
+                f.shape, f.shape[axis]
+            ),
         ));
     }
     Ok(())
@@ -71,16 +92,32 @@ fn grid2(tf: &TensorFile, f: &FieldInfo) -> Result<(usize, usize), RglError> {
     let n = f.shape.len();
     let (h, w) = (f.shape[n - 2] as usize, f.shape[n - 1] as usize);
     if h < 2 || w < 2 {
-        return Err(shape_err(tf, &f.name, format!("shape {:?}: the 2-D grid must be at least 2 × 2", f.shape)));
+        return Err(shape_err(
+            tf,
+            &f.name,
+            format!("shape {:?}: the 2-D grid must be at least 2 × 2", f.shape),
+        ));
     }
     Ok((h, w))
 }
 
 /// The interpolant of a float field of shape (params…, h, w).
-fn warp(tf: &TensorFile, f: &FieldInfo, params: Vec<Vec<f32>>, normalize: bool, sampling: bool) -> Result<Warp2D, RglError> {
+fn warp(
+    tf: &TensorFile,
+    f: &FieldInfo,
+    params: Vec<Vec<f32>>,
+    normalize: bool,
+    sampling: bool,
+) -> Result<Warp2D, RglError> {
     let (h, w) = grid2(tf, f)?;
     for (axis, p) in params.iter().enumerate() {
-        agree(tf, f, axis, p.len(), ["phi_i", "theta_i", "the third parameter"][axis])?;
+        agree(
+            tf,
+            f,
+            axis,
+            p.len(),
+            ["phi_i", "theta_i", "the third parameter"][axis],
+        )?;
     }
     let data = tf.f32s(&f.name)?;
     Ok(Warp2D::new(&data, w, h, params, normalize, sampling))
@@ -96,7 +133,11 @@ pub(crate) fn build(tf: &TensorFile) -> Result<RglBsdf, RglError> {
     let jac = tf.field("jacobian")?;
     want_dtype(tf, jac, Dtype::U8)?;
     if jac.len != 1 {
-        return Err(shape_err(tf, "jacobian", format!("shape {:?}, expected (1,)", jac.shape)));
+        return Err(shape_err(
+            tf,
+            "jacobian",
+            format!("shape {:?}, expected (1,)", jac.shape),
+        ));
     }
     let jacobian = tf.data(jac)[0] != 0;
     let ndf = float_field(tf, "ndf", 2)?;
@@ -112,11 +153,19 @@ pub(crate) fn build(tf: &TensorFile) -> Result<RglBsdf, RglError> {
     let (n, m) = grid2(tf, vals_field)?;
     let (lh, lw) = grid2(tf, lum)?;
     if (lh, lw) != (n, m) {
-        return Err(shape_err(tf, "luminance", format!("grid {lh} × {lw}, but `{}` has {n} × {m}", vals_field.name)));
+        return Err(shape_err(
+            tf,
+            "luminance",
+            format!("grid {lh} × {lw}, but `{}` has {n} × {m}", vals_field.name),
+        ));
     }
     let stored = tf.f32s(&vals_field.name)?;
     let summary = Summary {
-        fields: tf.fields().iter().map(|f| (f.name.clone(), f.dtype.name(), f.shape.clone())).collect(),
+        fields: tf
+            .fields()
+            .iter()
+            .map(|f| (f.name.clone(), f.dtype.name(), f.shape.clone()))
+            .collect(),
         n_phi_i: phi_i.len(),
         n_theta_i: theta_i.len(),
         theta_i: theta_i.iter().map(|&t| f64::from(t)).collect(),
@@ -128,7 +177,18 @@ pub(crate) fn build(tf: &TensorFile) -> Result<RglBsdf, RglError> {
         measured_points: valid_bits(tf, phi_i.len() * theta_i.len() * n * m)?,
         jacobian,
     };
-    Ok(RglBsdf::from_parts(tf, description, phi_i, theta_i, ndf_w, sigma_w, vndf_w, values, jacobian, summary))
+    Ok(RglBsdf::from_parts(
+        tf,
+        description,
+        phi_i,
+        theta_i,
+        ndf_w,
+        sigma_w,
+        vndf_w,
+        values,
+        jacobian,
+        summary,
+    ))
 }
 
 /// The luminance table's parameter axes agree with φi, θi (it is not evaluated: it only
@@ -141,7 +201,10 @@ fn warp_dims_only(tf: &TensorFile, f: &FieldInfo, pt: &[Vec<f32>]) -> Result<(),
 
 /// The value tables: `rgb` (φi, θi, 3, n, n) or `spectra` (φi, θi, λ, n, n) with
 /// `wavelengths`.
-fn values<'a>(tf: &'a TensorFile, pt: &[Vec<f32>]) -> Result<(Values, &'a FieldInfo, Option<Vec<f64>>), RglError> {
+fn values<'a>(
+    tf: &'a TensorFile,
+    pt: &[Vec<f32>],
+) -> Result<(Values, &'a FieldInfo, Option<Vec<f64>>), RglError> {
     if tf.get("spectra").is_some() {
         let wl = grid(tf, "wavelengths")?;
         let f = float_field(tf, "spectra", 5)?;
@@ -150,7 +213,15 @@ fn values<'a>(tf: &'a TensorFile, pt: &[Vec<f32>]) -> Result<(Values, &'a FieldI
         let w = warp(tf, f, params, false, false)?;
         let to_srgb = cie::srgb_weights(&wl);
         let nm = wl.iter().map(|&l| f64::from(l)).collect();
-        return Ok((Values::Spectral { warp: w, wavelengths: wl, to_srgb }, f, Some(nm)));
+        return Ok((
+            Values::Spectral {
+                warp: w,
+                wavelengths: wl,
+                to_srgb,
+            },
+            f,
+            Some(nm),
+        ));
     }
     let f = tf.get("rgb").ok_or_else(|| RglError::Missing {
         path: tf.path().to_path_buf(),
@@ -158,7 +229,11 @@ fn values<'a>(tf: &'a TensorFile, pt: &[Vec<f32>]) -> Result<(Values, &'a FieldI
     })?;
     float_field(tf, "rgb", 5)?;
     if f.shape[2] != 3 {
-        return Err(shape_err(tf, "rgb", format!("shape {:?}: axis 2 must be 3 (R, G, B)", f.shape)));
+        return Err(shape_err(
+            tf,
+            "rgb",
+            format!("shape {:?}: axis 2 must be 3 (R, G, B)", f.shape),
+        ));
     }
     let mut params = pt.to_vec();
     params.push(vec![0.0, 1.0, 2.0]);
@@ -177,7 +252,10 @@ fn valid_bits(tf: &TensorFile, bits: usize) -> Result<Option<(usize, usize)>, Rg
         return Err(shape_err(
             tf,
             "valid",
-            format!("shape {:?}, expected ({want},): one bit per sample over (phi_i, theta_i, n, n) = {bits} bits", f.shape),
+            format!(
+                "shape {:?}, expected ({want},): one bit per sample over (phi_i, theta_i, n, n) = {bits} bits",
+                f.shape
+            ),
         ));
     }
     let set = tf.data(f).iter().map(|b| b.count_ones() as usize).sum();

@@ -70,7 +70,11 @@ mod tests {
         let w = srgb_weights(&wl);
         let s = vec![1.0; wl.len()];
         for c in 0..3 {
-            assert!((dot(&w[c], &s) - 1.0).abs() < 2e-3, "{c}: {}", dot(&w[c], &s));
+            assert!(
+                (dot(&w[c], &s) - 1.0).abs() < 2e-3,
+                "{c}: {}",
+                dot(&w[c], &s)
+            );
         }
     }
 

@@ -49,7 +49,10 @@ impl RglBsdf {
         let slabs: Vec<(Vec<Option<Rgb>>, TableStats)> = (0..dims.theta_h())
             .into_par_iter()
             .map(|i| {
-                let mut st = TableStats { cells: slab, ..Default::default() };
+                let mut st = TableStats {
+                    cells: slab,
+                    ..Default::default()
+                };
                 let mut vals = Vec::with_capacity(slab);
                 for j in 0..dims.theta_d() {
                     for k in 0..dims.phi_d() {
@@ -72,12 +75,14 @@ impl RglBsdf {
                 (vals, st)
             })
             .collect();
-        let stats = slabs.iter().fold(TableStats::default(), |a, (_, s)| TableStats {
-            cells: a.cells + s.cells,
-            missing: a.missing + s.missing,
-            clamped_values: a.clamped_values + s.clamped_values,
-            most_negative: a.most_negative.min(s.most_negative),
-        });
+        let stats = slabs
+            .iter()
+            .fold(TableStats::default(), |a, (_, s)| TableStats {
+                cells: a.cells + s.cells,
+                missing: a.missing + s.missing,
+                clamped_values: a.clamped_values + s.clamped_values,
+                most_negative: a.most_negative.min(s.most_negative),
+            });
         let table = MerlTable::from_fn(dims, |i, j, k| slabs[i].0[k + dims.phi_d() * j])?;
         Ok((table, stats))
     }
@@ -112,7 +117,13 @@ impl RglBsdf {
             .collect();
         let mut r: Vec<f64> = rel.iter().flatten().copied().collect();
         r.sort_by(f64::total_cmp);
-        let q = |p: f64| if r.is_empty() { f64::NAN } else { r[((r.len() - 1) as f64 * p).round() as usize] };
+        let q = |p: f64| {
+            if r.is_empty() {
+                f64::NAN
+            } else {
+                r[((r.len() - 1) as f64 * p).round() as usize]
+            }
+        };
         Asymmetry {
             pairs,
             skipped: pairs - r.len(),

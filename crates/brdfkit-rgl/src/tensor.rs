@@ -454,16 +454,22 @@ pub fn encode(fields: &[Tensor], path: &Path) -> Result<Vec<u8>, RglError> {
     for f in fields {
         let n = f.shape.iter().try_fold(1u64, |a, &d| a.checked_mul(d));
         if n != Some(f.data.len() as u64) {
-            return Err(bad(f, format!("shape {:?} but {} values", f.shape, f.data.len())));
+            return Err(bad(
+                f,
+                format!("shape {:?} but {} values", f.shape, f.data.len()),
+            ));
         }
         let name_len = u16::try_from(f.name.len()).map_err(|_| bad(f, "name too long".into()))?;
-        let ndim = u16::try_from(f.shape.len()).map_err(|_| bad(f, "too many dimensions".into()))?;
+        let ndim =
+            u16::try_from(f.shape.len()).map_err(|_| bad(f, "too many dimensions".into()))?;
         header.extend_from_slice(&name_len.to_le_bytes());
         header.extend_from_slice(f.name.as_bytes());
         header.extend_from_slice(&ndim.to_le_bytes());
         header.push(f.data.dtype() as u8);
         header.extend_from_slice(&[0; 8]); // the offset, filled below
-        f.shape.iter().for_each(|d| header.extend_from_slice(&d.to_le_bytes()));
+        f.shape
+            .iter()
+            .for_each(|d| header.extend_from_slice(&d.to_le_bytes()));
     }
     // Second pass: place the data and patch each offset (its slot follows the dtype).
     let mut out = header;

@@ -57,7 +57,10 @@ impl Warp2D {
         normalize: bool,
         sampling: bool,
     ) -> Warp2D {
-        assert!(w >= 2 && h >= 2 && params.len() <= 3, "checked by the reader");
+        assert!(
+            w >= 2 && h >= 2 && params.len() <= 3,
+            "checked by the reader"
+        );
         let mut strides = vec![0; params.len()];
         let mut slices = 1;
         for (d, p) in params.iter().enumerate().rev() {
@@ -109,8 +112,10 @@ impl Warp2D {
             }
             let n = f64::from(norm);
             // Mitsuba rounds each CDF value to f32, then scales it in f32.
-            self.cond.extend(cond.iter().map(|&c| ((c as f32) as f64 * n) as f32));
-            self.marg.extend(marg.iter().map(|&c| ((c as f32) as f64 * n) as f32));
+            self.cond
+                .extend(cond.iter().map(|&c| ((c as f32) as f64 * n) as f32));
+            self.marg
+                .extend(marg.iter().map(|&c| ((c as f32) as f64 * n) as f32));
         } else if normalize {
             let mut sum = 0.0f64;
             for y in 0..h - 1 {
