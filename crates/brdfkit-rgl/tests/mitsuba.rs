@@ -217,3 +217,50 @@ mitsuba_test! {
         }
     }
 }
+
+mitsuba_test! {
+    /// brdfkit's writer against Mitsuba's own tensor reader (`mitsuba.tensor_io.read`),
+    /// every dtype; and Mitsuba's writer (`tensor_io.write`) against brdfkit's reader.
+    fn tensor_files_cross_read_with_mitsubas_tensor_io() {
+        use brdfkit_rgl::{Tensor, TensorData, TensorFile};
+        let py = external_tools::require_mitsuba();
+        let dir = tempfile::tempdir().unwrap();
+        let fields = vec![
+            Tensor::new("u8", &[2], TensorData::U8(vec![0, 255])),
+            Tensor::new("i8", &[2], TensorData::I8(vec![-128, 127])),
+            Tensor::new("u16", &[2], TensorData::U16(vec![1, 65535])),
+            Tensor::new("i16", &[2], TensorData::I16(vec![-32768, 5])),
+            Tensor::new("u32", &[2], TensorData::U32(vec![7, u32::MAX])),
+            Tensor::new("i32", &[2], TensorData::I32(vec![-7, i32::MIN])),
+            Tensor::new("u64", &[2], TensorData::U64(vec![1 << 40, 3])),
+            Tensor::new("i64", &[2], TensorData::I64(vec![-(1 << 40), 3])),
+            Tensor::new("f16", &[2], TensorData::F16(vec![half::f16::from_f32(1.5), half::f16::from_f32(-0.25)])),
+            Tensor::new("f32", &[1, 2], TensorData::F32(vec![1.25, -3.5])),
+            Tensor::new("f64", &[2, 1], TensorData::F64(vec![1e300, -2.5])),
+        ];
+        let ours = dir.path().join("ours.tensor");
+        brdfkit_rgl::tensor::write(&fields, &ours).unwrap();
+        let script = r#"
+import sys, numpy as np
+from mitsuba.python import tensor_io
+d = tensor_io.read(sys.argv[1])
+want = {'u8': [0, 255], 'i8': [-128, 127], 'u16': [1, 65535], 'i16': [-32768, 5],
+        'u32': [7, 2**32 - 1], 'i32': [-7, -2**31], 'u64': [2**40, 3], 'i64': [-2**40, 3],
+        'f16': [1.5, -0.25], 'f32': [1.25, -3.5], 'f64': [1e300, -2.5]}
+for k, v in want.items():
+    name = {'f': 'float', 'u': 'uint', 'i': 'int'}[k[0]] + k[1:]
+    assert d[k].dtype.name == name, (k, d[k].dtype)
+    assert d[k].ravel().tolist() == v, (k, d[k])
+assert d['f32'].shape == (1, 2) and d['f64'].shape == (2, 1)
+tensor_io.write(sys.argv[2], a=np.arange(6, dtype=np.int16).reshape(2, 3), b=np.array([0.5, -1.0], dtype=np.float64), c='text')
+"#;
+        let theirs = dir.path().join("theirs.tensor");
+        let status = Command::new(&py).args(["-c", script]).arg(&ours).arg(&theirs).status().unwrap();
+        assert!(status.success(), "Mitsuba's tensor_io disagrees with brdfkit's writer");
+        let tf = TensorFile::read(&theirs).unwrap();
+        assert_eq!(tf.to_f64("a").unwrap(), [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert_eq!(tf.get("a").unwrap().shape, [2, 3]);
+        assert_eq!(tf.to_f64("b").unwrap(), [0.5, -1.0]);
+        assert_eq!(tf.u8s("c").unwrap(), b"text");
+    }
+}
