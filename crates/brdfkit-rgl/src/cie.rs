@@ -45,10 +45,10 @@ pub fn srgb_weights(wavelengths: &[f32]) -> [Vec<f64>; 3] {
         let xyz = [r[0] * r[3] / norm, r[1] * r[3] / norm, r[2] * r[3] / norm];
         let rgb = XYZ_TO_SRGB.map(|m| m[0] * xyz[0] + m[1] * xyz[1] + m[2] * xyz[2]);
         let (i, t) = hat(wavelengths, lambda);
-        for c in 0..3 {
-            w[c][i] += (1.0 - t) * rgb[c];
+        for (wc, v) in w.iter_mut().zip(rgb) {
+            wc[i] += (1.0 - t) * v;
             if t > 0.0 {
-                w[c][i + 1] += t * rgb[c];
+                wc[i + 1] += t * v;
             }
         }
     }
@@ -69,12 +69,8 @@ mod tests {
         let wl: Vec<f32> = (0..=64).map(|k| 360.0 + 10.0 * k as f32).collect();
         let w = srgb_weights(&wl);
         let s = vec![1.0; wl.len()];
-        for c in 0..3 {
-            assert!(
-                (dot(&w[c], &s) - 1.0).abs() < 2e-3,
-                "{c}: {}",
-                dot(&w[c], &s)
-            );
+        for wc in &w {
+            assert!((dot(wc, &s) - 1.0).abs() < 2e-3, "{}", dot(wc, &s));
         }
     }
 
@@ -83,8 +79,8 @@ mod tests {
         // One wavelength: the value is constant over λ, so the weights are the white.
         let w = srgb_weights(&[550.0]);
         let w2 = srgb_weights(&[400.0, 700.0]);
-        for c in 0..3 {
-            assert!((w[c][0] - (w2[c][0] + w2[c][1])).abs() < 1e-12);
+        for (a, b) in w.iter().zip(&w2) {
+            assert!((a[0] - (b[0] + b[1])).abs() < 1e-12);
         }
     }
 }

@@ -6,7 +6,6 @@
 
 #[path = "../../../build/external_tools.rs"]
 #[macro_use]
-#[allow(unused_macros)]
 mod external_tools;
 
 mod common;
@@ -132,8 +131,8 @@ fn check_rgb(spec: Spec, count: usize) {
     for (p, m) in ps.iter().zip(out.chunks_exact(3)) {
         let (wi, wo) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
         let ours = bsdf.eval(&wi, &wo);
-        for c in 0..3 {
-            t.add(ours.0[c], m[c]);
+        for (o, m) in ours.0.iter().zip(m) {
+            t.add(*o, *m);
         }
     }
     t.check(&format!("{spec:?}"));
@@ -210,9 +209,9 @@ mitsuba_test! {
         let bsdf = RglBsdf::read(&file).unwrap();
         for (p, m) in ps.iter().zip(read_f64(&dir.path().join("out.bin")).chunks_exact(3)) {
             let ours = bsdf.eval(&Vec3::new(p[0], p[1], p[2]), &Vec3::new(p[3], p[4], p[5]));
-            for c in 0..3 {
-                assert!((m[c] - 0.25).abs() < 1e-6, "Mitsuba {}", m[c]);
-                assert!((ours.0[c] - 0.25).abs() < 1e-12, "brdfkit {}", ours.0[c]);
+            for (o, m) in ours.0.iter().zip(m) {
+                assert!((m - 0.25).abs() < 1e-6, "Mitsuba {m}");
+                assert!((o - 0.25).abs() < 1e-12, "brdfkit {o}");
             }
         }
     }
