@@ -17,7 +17,7 @@
 mod bsdf;
 mod check;
 pub mod cie;
-mod cie_table;
+pub mod cie_table;
 mod error;
 mod resample;
 pub mod tensor;
