@@ -249,20 +249,12 @@ impl RglBsdf {
             out.fill(0.0);
             return;
         };
-        match &self.values {
-            Values::Rgb(warp) => {
-                for (c, o) in out.iter_mut().enumerate() {
-                    *o = warp.eval(s, &[p[0], p[1], c as f64]) * jac;
-                }
-            }
-            Values::Spectral {
-                warp, wavelengths, ..
-            } => {
-                for (l, o) in wavelengths.iter().zip(out.iter_mut()) {
-                    *o = warp.eval(s, &[p[0], p[1], f64::from(*l)]) * jac;
-                }
-            }
-        }
+        let warp = match &self.values {
+            Values::Rgb(w) => w,
+            Values::Spectral { warp, .. } => warp,
+        };
+        warp.eval_nodes(s, &p, out);
+        out.iter_mut().for_each(|o| *o *= jac);
     }
 
     /// Number of values [`eval_stored`](Self::eval_stored) writes.

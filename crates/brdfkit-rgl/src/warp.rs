@@ -145,7 +145,9 @@ impl Warp2D {
             if vals.len() == 1 {
                 continue;
             }
-            let x = p[d];
+            let Some(&x) = p.get(d) else {
+                break; // eval_nodes: the last parameter is walked by the caller
+            };
             // The largest i ≤ n − 2 with vals[i] < x (0 if none): find_interval.
             let i = vals[1..vals.len() - 1].partition_point(|&v| f64::from(v) < x);
             let (p0, p1) = (f64::from(vals[i]), f64::from(vals[i + 1]));
@@ -204,6 +206,23 @@ impl Warp2D {
         let (c, t) = self.cell(pos);
         let [v00, v10, v01, v11] = self.corners(c, &wt);
         lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1])
+    }
+
+    /// The density at `pos` at every grid value of the last parameter into `out` (one
+    /// per value), the other parameters at `p`: the same numbers as [`eval`](Self::eval)
+    /// at each grid value (whose weights are exactly 1 and 0), with the weights and the
+    /// cell found once.
+    pub fn eval_nodes(&self, pos: [f64; 2], p: &[f64], out: &mut [f64]) {
+        let last = self.params.len() - 1;
+        let mut wt = self.weights(p);
+        wt.dims = last;
+        let (c, t) = self.cell(pos);
+        let base = wt.offset;
+        for (k, o) in out.iter_mut().enumerate() {
+            wt.offset = base + self.strides[last] * k;
+            let [v00, v10, v01, v11] = self.corners(c, &wt);
+            *o = lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1]);
+        }
     }
 
     /// The inverse of the warp: the uniform sample that `sample()` would map to `pos`
