@@ -32,11 +32,13 @@ pub struct Warp2D {
     normalized: bool,
 }
 
-/// Up to 3 parameters: the first slice offset and the two weights of each.
+/// The parameter interpolation at one point: the first slice and, for each of the up to
+/// 2³ corner slices with a non-zero weight, its slice offset from the first and its
+/// weight (the product of the parameters' linear weights).
 struct Weights {
     offset: usize,
-    w: [[f64; 2]; 3],
-    dims: usize,
+    corners: [(usize, f64); 8],
+    n: usize,
 }
 
 #[inline]
@@ -132,50 +134,55 @@ impl Warp2D {
         self.data.extend(d.iter().map(|&v| v * norm));
     }
 
-    /// The slice offset and the linear weights of each parameter at `p` (`find_interval`
-    /// then a clamped weight, as `Distribution2D::interpolate_weights`).
+    /// The slice offset and the corner weights of the first `dims` parameters at `p`
+    /// (`find_interval` then a clamped weight per parameter, as
+    /// `Distribution2D::interpolate_weights`; the corner slices combine them
+    /// multilinearly as its recursive `lookup`).
     #[inline]
-    fn weights(&self, p: &[f64]) -> Weights {
-        let mut out = Weights {
-            offset: 0,
-            w: [[1.0, 0.0]; 3],
-            dims: self.params.len(),
-        };
-        for (d, vals) in self.params.iter().enumerate() {
+    fn weights(&self, p: &[f64], dims: usize) -> Weights {
+        let mut offset = 0;
+        let mut w = [[1.0, 0.0]; 3];
+        for (d, vals) in self.params.iter().enumerate().take(dims) {
             if vals.len() == 1 {
                 continue;
             }
-            let Some(&x) = p.get(d) else {
-                break; // eval_nodes: the last parameter is walked by the caller
-            };
+            let x = p[d];
             // The largest i ≤ n − 2 with vals[i] < x (0 if none): find_interval.
             let i = vals[1..vals.len() - 1].partition_point(|&v| f64::from(v) < x);
             let (p0, p1) = (f64::from(vals[i]), f64::from(vals[i + 1]));
             let t = ((x - p0) / (p1 - p0)).clamp(0.0, 1.0);
-            out.w[d] = [1.0 - t, t];
-            out.offset += self.strides[d] * i;
+            w[d] = [1.0 - t, t];
+            offset += self.strides[d] * i;
+        }
+        let mut out = Weights {
+            offset,
+            corners: [(0, 0.0); 8],
+            n: 0,
+        };
+        for mask in 0..1usize << dims {
+            let (mut at, mut weight) = (0, 1.0);
+            for (d, wd) in w.iter().enumerate().take(dims) {
+                let bit = (mask >> d) & 1;
+                weight *= wd[bit];
+                at += bit * self.strides[d];
+            }
+            if weight != 0.0 {
+                out.corners[out.n] = (at, weight);
+                out.n += 1;
+            }
         }
         out
     }
 
-    /// `table[i]` interpolated over the parameters: Σ over the 2^dims corner slices of
-    /// the product of their weights (each slice `size` long).
+    /// `table[i]` interpolated over the parameters: Σ over the corner slices of weight ×
+    /// value (each slice `size` long).
     #[inline]
     fn lookup(&self, table: &[f32], i: usize, size: usize, wt: &Weights) -> f64 {
-        self.lookup_dim(table, i + wt.offset * size, size, wt, wt.dims)
-    }
-
-    fn lookup_dim(&self, table: &[f32], i: usize, size: usize, wt: &Weights, dim: usize) -> f64 {
-        if dim == 0 {
-            return f64::from(table[i]);
-        }
-        let [w0, w1] = wt.w[dim - 1];
-        let v0 = self.lookup_dim(table, i, size, wt, dim - 1);
-        if w1 == 0.0 {
-            return v0 * w0;
-        }
-        let i1 = i + self.strides[dim - 1] * size;
-        v0 * w0 + self.lookup_dim(table, i1, size, wt, dim - 1) * w1
+        let base = i + wt.offset * size;
+        wt.corners[..wt.n]
+            .iter()
+            .map(|&(at, w)| w * f64::from(table[base + at * size]))
+            .sum()
     }
 
     /// Cell of `pos` (clamped to the unit square) and the position inside it.
@@ -202,7 +209,7 @@ impl Warp2D {
 
     /// The bilinearly interpolated density at `pos` under parameters `p`.
     pub fn eval(&self, pos: [f64; 2], p: &[f64]) -> f64 {
-        let wt = self.weights(p);
+        let wt = self.weights(p, self.params.len());
         let (c, t) = self.cell(pos);
         let [v00, v10, v01, v11] = self.corners(c, &wt);
         lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1])
@@ -214,8 +221,7 @@ impl Warp2D {
     /// cell found once.
     pub fn eval_nodes(&self, pos: [f64; 2], p: &[f64], out: &mut [f64]) {
         let last = self.params.len() - 1;
-        let mut wt = self.weights(p);
-        wt.dims = last;
+        let mut wt = self.weights(p, last);
         let (c, t) = self.cell(pos);
         let base = wt.offset;
         for (k, o) in out.iter_mut().enumerate() {
@@ -233,7 +239,7 @@ impl Warp2D {
     /// CDF of the cells before adds to it and the row total at y divides it. y is
     /// handled the same way with the row totals r0 → r1 and the marginal CDF.
     pub fn invert(&self, pos: [f64; 2], p: &[f64]) -> ([f64; 2], f64) {
-        let wt = self.weights(p);
+        let wt = self.weights(p, self.params.len());
         let (c, t) = self.cell(pos);
         let [v00, v10, v01, v11] = self.corners(c, &wt);
         let (c0, c1) = (lerp(v00, v01, t[1]), lerp(v10, v11, t[1]));
