@@ -56,17 +56,23 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Print a table's dims, valid fraction, per-channel statistics and albedo.
+    /// Print a table's dims, valid fraction, per-channel statistics and albedo; or a
+    /// `.bsdf` file's description, grids, negative values, measured points and asymmetry.
     #[command(
-        after_help = "Examples:\n  fit-brdf info gold-metallic-paint.binary\n  fit-brdf info table.binary --json"
+        after_help = "Examples:\n  fit-brdf info gold-metallic-paint.binary\n  fit-brdf info table.binary --json\n  \
+                            fit-brdf info chm_mint_rgb.bsdf\n\n\
+                            Every command that reads a table also reads an RGL-EPFL .bsdf file (recognised by its \
+                            first bytes, not its name), resampled in memory to a 90x90x180 MERL table (docs/rgl.md)."
     )]
     Info(InfoArgs),
-    /// Evaluate a table, a model or a neural BRDF at direction pairs (CSV or .npy).
+    /// Evaluate a table, a model, a neural BRDF or a `.bsdf` file at direction pairs (CSV
+    /// or .npy).
     #[command(
         after_help = "Examples:\n  fit-brdf eval --table t.binary --dirs pairs.csv --interp linear --out values.csv\n  \
                             fit-brdf eval --model params.json --dirs pairs.csv\n  \
                             fit-brdf eval --table t.binary --dirs pairs.npy --out values.npy\n  \
-                            fit-brdf eval --nbrdf data-measured/merl/red-fabric --dirs pairs.csv\n\n\
+                            fit-brdf eval --nbrdf data-measured/merl/red-fabric --dirs pairs.csv\n  \
+                            fit-brdf eval --bsdf chm_mint_rgb.bsdf --dirs pairs.npy --out values.npy\n\n\
                             IN.csv: header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z then one unit-vector pair per line \
                             (local frame, z = normal, both pointing away from the surface). \
                             IN.npy: the same six columns as an N×6 float64 array.\n\
@@ -74,11 +80,15 @@ pub enum Command {
                             OUT.npy: an N×3 float64 array, NaN where the table has no valid sample."
     )]
     Eval(EvalArgs),
-    /// Resample a table onto another grid, or write a model or a neural BRDF as a table.
+    /// Resample a table onto another grid, or write a model, a neural BRDF or a `.bsdf`
+    /// file as a table.
     #[command(
         after_help = "Examples:\n  fit-brdf resample --table t.binary --dims 45,45,90 --out small.binary\n  \
                             fit-brdf resample --model params.json --dims 90,90,180 --out model.binary\n  \
-                            fit-brdf resample --nbrdf data-measured/merl/red-fabric --dims 90,90,180 --out red-fabric.binary"
+                            fit-brdf resample --nbrdf data-measured/merl/red-fabric --dims 90,90,180 --out red-fabric.binary\n  \
+                            fit-brdf resample --bsdf chm_mint_rgb.bsdf --dims 90,90,180 --out mint.binary\n\n\
+                            A .bsdf cell holds the mean of f(wi, wo) and f(wo, wi) (the data are not reciprocal; the \
+                            asymmetry is reported); negative means are stored as 0 and counted."
     )]
     Resample(ResampleArgs),
     /// Generate the table of a synthetic material spec (data-synthetic/*.toml).
@@ -251,7 +261,8 @@ pub struct ViewArgs {
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
-    /// The MERL binary table.
+    /// A MERL binary table, or an RGL-EPFL `.bsdf` file (recognised by its first bytes,
+    /// `tensor_file`, whatever its name).
     pub table: PathBuf,
     /// Print machine-readable JSON instead of text.
     #[arg(long)]
@@ -272,6 +283,10 @@ pub struct Source {
     /// NAME_{fc1,b1,fc2,b2,fc3,b3}.npy (docs/measured.md).
     #[arg(long, value_name = "DIR/NAME")]
     pub nbrdf: Option<PathBuf>,
+    /// An RGL-EPFL measured BSDF (`.bsdf`, a Mitsuba tensor file; docs/rgl.md),
+    /// evaluated as Mitsuba 3's `measured` plugin does.
+    #[arg(long, value_name = "F.bsdf")]
+    pub bsdf: Option<PathBuf>,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

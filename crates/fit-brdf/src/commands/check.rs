@@ -1,27 +1,10 @@
 //! `fit-brdf check PARAMS.json|TABLE`: the physical checks of brdfkit-validate.
 
-use super::{read_model, read_table};
+use super::{InputKind, input_kind, read_model, read_table};
 use crate::cli::CheckArgs;
 use crate::error::{CliResult, bad_input, runtime};
 use crate::output::write_text;
-use anyhow::{Context, anyhow};
-use std::io::Read;
-
-/// True when the file's first non-blank byte is `{`: a model description.
-fn looks_like_json(path: &std::path::Path) -> CliResult<bool> {
-    let mut f = std::fs::File::open(path)
-        .with_context(|| format!("{}: cannot open", path.display()))
-        .map_err(bad_input)?;
-    let mut head = [0u8; 256];
-    let n = f
-        .read(&mut head)
-        .with_context(|| format!("{}: cannot read", path.display()))
-        .map_err(bad_input)?;
-    Ok(head[..n]
-        .iter()
-        .find(|b| !b.is_ascii_whitespace())
-        .is_some_and(|&b| b == b'{'))
-}
+use anyhow::anyhow;
 
 pub fn run(a: CheckArgs) -> CliResult<()> {
     if a.input.is_dir() {
@@ -30,7 +13,7 @@ pub fn run(a: CheckArgs) -> CliResult<()> {
             a.input.display()
         )));
     }
-    let (text, passed) = if looks_like_json(&a.input)? {
+    let (text, passed) = if input_kind(&a.input)? == InputKind::Json {
         let model = read_model(&a.input)?;
         let r = brdfkit_validate::check_model(&*model);
         let text = if a.json {

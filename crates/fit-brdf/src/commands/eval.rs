@@ -1,7 +1,7 @@
-//! `fit-brdf eval`: a table, a model or a neural BRDF at direction pairs, CSV or `.npy`
-//! in and out (chosen by extension).
+//! `fit-brdf eval`: a table, a model, a neural BRDF or a `.bsdf` file at direction pairs,
+//! CSV or `.npy` in and out (chosen by extension).
 
-use super::{lookup_mode, read_model, read_nbrdf, read_table};
+use super::{lookup_mode, read_bsdf, read_model, read_nbrdf, read_table};
 use crate::cli::EvalArgs;
 use crate::csvio::{UNIT_TOLERANCE, format_rgb, read_pairs};
 use crate::error::{CliResult, bad_input, runtime};
@@ -49,6 +49,8 @@ pub fn run(a: EvalArgs) -> CliResult<()> {
         read_table(t)?
             .lookup_flat(lookup_mode(a.interp), &dirs, &mut values)
             .map_err(runtime)?;
+    } else if let Some(b) = &a.source.bsdf {
+        eval_bsdf(&read_bsdf(b)?, &dirs, &mut values);
     } else if let Some(n) = &a.source.nbrdf {
         let pairs: Vec<(Vec3, Vec3)> = dirs
             .par_chunks_exact(6)
@@ -74,4 +76,19 @@ pub fn run(a: EvalArgs) -> CliResult<()> {
             write_text(out.as_deref(), &format_rgb(&rows))
         }
     }
+}
+
+/// A `.bsdf` file at flat pairs (6 per row) into flat RGB (3 per row), in parallel: f_r
+/// without the cosine, 0 below the horizon, negative values as stored.
+fn eval_bsdf(bsdf: &brdfkit::rgl::RglBsdf, dirs: &[f64], values: &mut [f64]) {
+    use brdfkit::core::Brdf;
+    values
+        .par_chunks_mut(3 * 4096)
+        .zip(dirs.par_chunks(6 * 4096))
+        .for_each(|(out, rows)| {
+            for (o, r) in out.chunks_exact_mut(3).zip(rows.chunks_exact(6)) {
+                let v = bsdf.eval(&Vec3::new(r[0], r[1], r[2]), &Vec3::new(r[3], r[4], r[5]));
+                o.copy_from_slice(&v.0);
+            }
+        });
 }

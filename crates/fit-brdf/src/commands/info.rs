@@ -1,6 +1,7 @@
-//! `fit-brdf info TABLE`: what a table holds.
+//! `fit-brdf info TABLE|F.bsdf`: what a table (or a `.bsdf` file, [`super::info_rgl`])
+//! holds.
 
-use super::read_table;
+use super::{InputKind, info_rgl, input_kind, read_bsdf, read_table};
 use crate::cli::InfoArgs;
 use crate::error::CliResult;
 use crate::output::write_text;
@@ -9,6 +10,18 @@ use serde_json::json;
 use std::fmt::Write as _;
 
 pub fn run(a: InfoArgs) -> CliResult<()> {
+    if input_kind(&a.table)? == InputKind::Rgl {
+        let (name, b) = (a.table.display().to_string(), read_bsdf(&a.table)?);
+        let asym = b.asymmetry(info_rgl::ASYMMETRY_PAIRS, 5.0, 1);
+        let text = if a.json {
+            serde_json::to_string_pretty(&info_rgl::to_json(&name, &b, &asym))
+                .expect("JSON of numbers")
+                + "\n"
+        } else {
+            info_rgl::to_text(&name, &b, &asym)
+        };
+        return write_text(None, &text);
+    }
     let table = read_table(&a.table)?;
     let stats = table.stats();
     let text = if a.json {

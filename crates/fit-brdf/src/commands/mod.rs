@@ -10,6 +10,7 @@ mod eval;
 mod export;
 mod fit;
 mod info;
+mod info_rgl;
 mod render;
 mod report;
 mod resample;
@@ -98,9 +99,72 @@ pub fn cell_config(c: &CellOptions) -> CliResult<FitConfig> {
     cell_settings(c).config().map_err(bad_settings)
 }
 
-/// Reads a table; every read failure is the user's input (exit 2).
+/// What a file given where a table goes holds, told by its first bytes (not its name).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputKind {
+    /// A model description: the first non-blank byte is `{`.
+    Json,
+    /// An RGL-EPFL `.bsdf` (a Mitsuba tensor file): it starts with `tensor_file\0`.
+    Rgl,
+    /// Anything else is read as a MERL table (whose reader says if it is not one).
+    Table,
+}
+
+/// The input-kind rule of every command that takes a table (or a model): the first 256
+/// bytes decide.
+pub fn input_kind(path: &Path) -> CliResult<InputKind> {
+    use std::io::Read;
+    if path.is_dir() {
+        return Ok(InputKind::Table); // the table reader names the problem
+    }
+    let mut f = std::fs::File::open(path)
+        .with_context(|| format!("{}: cannot open", path.display()))
+        .map_err(bad_input)?;
+    let mut head = [0u8; 256];
+    let mut n = 0;
+    while n < head.len() {
+        match f.read(&mut head[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => {
+                return Err(bad_input(
+                    anyhow::Error::new(e).context(format!("{}: cannot read", path.display())),
+                ));
+            }
+        }
+    }
+    let head = &head[..n];
+    Ok(if brdfkit::rgl::is_tensor_file(head) {
+        InputKind::Rgl
+    } else if head.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{') {
+        InputKind::Json
+    } else {
+        InputKind::Table
+    })
+}
+
+/// Reads a table; every read failure is the user's input (exit 2). A `.bsdf` file (by
+/// [`input_kind`]) is resampled in memory to a 90 × 90 × 180 MERL table, as `resample
+/// --bsdf` would write it, with a note on standard error.
 pub fn read_table(path: &Path) -> CliResult<MerlTable> {
+    if input_kind(path)? == InputKind::Rgl {
+        let bsdf = read_bsdf(path)?;
+        let (table, stats) = bsdf.to_table(Dims::MERL).map_err(runtime)?;
+        eprintln!(
+            "{}: an RGL-EPFL .bsdf file, resampled to a 90x90x180 MERL table (mean of both orders of \
+             each pair; {} negative values stored as 0); docs/rgl.md",
+            path.display(),
+            stats.clamped_values
+        );
+        return Ok(table);
+    }
     MerlTable::read(path).map_err(bad_input)
+}
+
+/// Reads an RGL-EPFL `.bsdf` file; every failure is the user's input (exit 2).
+pub fn read_bsdf(path: &Path) -> CliResult<brdfkit::rgl::RglBsdf> {
+    brdfkit::rgl::RglBsdf::read(path).map_err(bad_input)
 }
 
 /// Writes a table atomically; a failure is a runtime failure (exit 1).

@@ -1,0 +1,292 @@
+//! The RGL-EPFL `.bsdf` model (Dupuy & Jakob 2018, "An Adaptive Parameterization for
+//! Efficient Material Acquisition and Rendering"), evaluated as Mitsuba 3's `measured`
+//! plugin (`src/bsdfs/measured.cpp`) and `powitacq` (rgl-epfl/brdf-loader) evaluate it.
+//!
+//! For a pair (wi, wo) above the horizon, with the half vector m = (wi + wo)/|wi + wo|
+//! and the angles θ, φ of each (θ by the stable 2·asin(|w − z|/2)):
+//! 1. anisotropic files store a 1/2 or 1/4 of the φi range (`reduction` = 2π / span of
+//!    φi): wi and wo are mirrored by wi's signs so wi lands in the stored range;
+//! 2. the grid coordinates are u(θ) = √(2θ/π) and u(φ) = (φ + π)/2π, with φm taken
+//!    relative to φi for isotropic files (wrapped to [0, 1));
+//! 3. the half vector's coordinates go through the *inverse* of the VNDF warp at
+//!    (φi, θi): that gives the sample position s in the unit square where the data were
+//!    measured (the parameterisation of the paper, §4);
+//! 4. the value is the `rgb` (or `spectra`) interpolant at s under (φi, θi[, λ]),
+//!    multiplied, when the `jacobian` flag is set, by D(m) / (4 σ(wi)) (the `ndf` and
+//!    `sigma` interpolants at u(m) and u(wi)): the Jacobian of the half-vector warp.
+//!
+//! The result is f_r without the cosine (brdfkit's convention), with the file's θi being
+//! brdfkit's wi; negative stored values are kept, as Mitsuba keeps them.
+
+use crate::cie;
+use crate::error::RglError;
+use crate::tensor::{Dtype, FieldInfo, TensorFile};
+use crate::warp::Warp2D;
+use brdfkit_core::{Brdf, Rgb, Vec3};
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// What the file stores per sample: three colour channels or a spectrum.
+#[derive(Clone, Debug)]
+pub enum Values {
+    /// `rgb`: (φi, θi, 3, n, n), linear RGB.
+    Rgb(Warp2D),
+    /// `spectra`: (φi, θi, λ, n, n) at `wavelengths` (nm); `to_srgb[c][k]` turns the
+    /// values at the wavelengths into linear sRGB ([`cie`]).
+    Spectral {
+        warp: Warp2D,
+        wavelengths: Vec<f32>,
+        to_srgb: [Vec<f64>; 3],
+    },
+}
+
+/// A `.bsdf` file, ready to evaluate.
+#[derive(Clone, Debug)]
+pub struct RglBsdf {
+    name: String,
+    description: String,
+    phi_i: Vec<f32>,
+    theta_i: Vec<f32>,
+    ndf: Warp2D,
+    sigma: Warp2D,
+    vndf: Warp2D,
+    values: Values,
+    isotropic: bool,
+    jacobian: bool,
+    /// 2 or 4 (or 1, a full φ range): the fold of wi into the stored φi range.
+    reduction: i32,
+    /// What `info` reports.
+    summary: Summary,
+}
+
+/// The facts of a file that `info` reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    /// The fields, as (name, dtype, shape).
+    pub fields: Vec<(String, &'static str, Vec<u64>)>,
+    /// Number of φi and θi slices.
+    pub n_phi_i: usize,
+    pub n_theta_i: usize,
+    /// θi grid in radians.
+    pub theta_i: Vec<f64>,
+    /// VNDF grid (rows × columns) and value grid (n × n).
+    pub vndf_grid: [usize; 2],
+    pub value_grid: [usize; 2],
+    /// Wavelengths (nm) of a spectral file.
+    pub wavelengths: Option<Vec<f64>>,
+    /// Stored values (rgb or spectra) and how many are negative.
+    pub values: usize,
+    pub negative: usize,
+    /// Set bits of `valid` (the measured points) and its bit count, if the file has it.
+    pub measured_points: Option<(usize, usize)>,
+    pub jacobian: bool,
+}
+
+/// Elevation of a unit vector, stable near the pole (`measured.cpp`'s `elevation`).
+#[inline]
+fn elevation(d: &Vec3) -> f64 {
+    let dist = (d.x * d.x + d.y * d.y + (d.z - 1.0) * (d.z - 1.0)).sqrt();
+    2.0 * (0.5 * dist).clamp(-1.0, 1.0).asin()
+}
+
+#[inline]
+fn theta2u(theta: f64) -> f64 {
+    (theta * (2.0 / PI)).sqrt()
+}
+
+#[inline]
+fn phi2u(phi: f64) -> f64 {
+    (phi + PI) * (0.5 / PI)
+}
+
+/// `x` with its sign flipped unless `s`'s sign bit is set (Dr.Jit's `mulsign_neg`).
+#[inline]
+fn mulsign_neg(x: f64, s: f64) -> f64 {
+    if s.is_sign_negative() { x } else { -x }
+}
+
+impl RglBsdf {
+    /// Reads and checks a `.bsdf` file.
+    pub fn read(path: &Path) -> Result<RglBsdf, RglError> {
+        RglBsdf::from_tensor(&TensorFile::read(path)?)
+    }
+
+    /// The model of a parsed tensor file; every structural problem is an error naming the
+    /// file and the field.
+    pub fn from_tensor(tf: &TensorFile) -> Result<RglBsdf, RglError> {
+        crate::check::build(tf)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn from_parts(
+        tf: &TensorFile,
+        description: String,
+        phi_i: Vec<f32>,
+        theta_i: Vec<f32>,
+        ndf: Warp2D,
+        sigma: Warp2D,
+        vndf: Warp2D,
+        values: Values,
+        jacobian: bool,
+        summary: Summary,
+    ) -> RglBsdf {
+        let isotropic = phi_i.len() <= 2;
+        // Isotropic files: Mitsuba 3.9.1 folds wi into y ≤ 0 as for a 2-fold reduction
+        // (measured.cpp leaves `m_reduction` unset for them; measured against Mitsuba in
+        // tests/mitsuba.rs). Everything but σ depends on φm − φi only, which a rotation
+        // by π leaves alone; σ is looked up at the folded φi.
+        let reduction = if isotropic {
+            2
+        } else {
+            let span = f64::from(phi_i[phi_i.len() - 1]) - f64::from(phi_i[0]);
+            (2.0 * PI / span).round() as i32
+        };
+        RglBsdf {
+            name: tf.path().display().to_string(),
+            description,
+            phi_i,
+            theta_i,
+            ndf,
+            sigma,
+            vndf,
+            values,
+            isotropic,
+            jacobian,
+            reduction,
+            summary,
+        }
+    }
+
+    /// The file name it was read from.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The `description` field.
+    pub fn description(&self) -> &str {
+        &self.description
+    }
+
+    /// Whether the file is spectral.
+    pub fn is_spectral(&self) -> bool {
+        matches!(self.values, Values::Spectral { .. })
+    }
+
+    /// Whether f depends on φi (more than two φi slices).
+    pub fn is_anisotropic(&self) -> bool {
+        !self.isotropic
+    }
+
+    /// The wavelengths (nm) of a spectral file.
+    pub fn wavelengths(&self) -> Option<&[f32]> {
+        match &self.values {
+            Values::Spectral { wavelengths, .. } => Some(wavelengths),
+            Values::Rgb(_) => None,
+        }
+    }
+
+    /// What `info` reports.
+    pub fn summary(&self) -> &Summary {
+        &self.summary
+    }
+
+    /// The θi grid (radians) and the φi grid.
+    pub fn grids(&self) -> (&[f32], &[f32]) {
+        (&self.theta_i, &self.phi_i)
+    }
+
+    /// Steps 1 to 3: the parameters (φi, θi), the sample position of the value tables,
+    /// and the Jacobian factor; `None` below the horizon.
+    #[inline]
+    fn locate(&self, wi: &Vec3, wo: &Vec3) -> Option<([f64; 2], [f64; 2], f64)> {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return None;
+        }
+        let (mut wi, mut wo) = (*wi, *wo);
+        if self.reduction >= 2 {
+            let sy = wi.y;
+            let sx = if self.reduction == 4 { wi.x } else { sy };
+            wi.x = mulsign_neg(wi.x, sx);
+            wi.y = mulsign_neg(wi.y, sy);
+            wo.x = mulsign_neg(wo.x, sx);
+            wo.y = mulsign_neg(wo.y, sy);
+        }
+        let m = (wi + wo).normalize();
+        let (theta_i, phi_i) = (elevation(&wi), wi.y.atan2(wi.x));
+        let (theta_m, phi_m) = (elevation(&m), m.y.atan2(m.x));
+        let u_wi = [theta2u(theta_i), phi2u(phi_i)];
+        let mut u_m = [
+            theta2u(theta_m),
+            phi2u(if self.isotropic { phi_m - phi_i } else { phi_m }),
+        ];
+        u_m[1] -= u_m[1].floor();
+        let params = [phi_i, theta_i];
+        let (sample, _) = self.vndf.invert(u_m, &params);
+        let jac = if self.jacobian {
+            self.ndf.eval(u_m, &[]) / (4.0 * self.sigma.eval(u_wi, &[]))
+        } else {
+            1.0
+        };
+        Some((params, sample, jac))
+    }
+
+    /// The spectral value at wavelength `lambda` (nm), f_r without the cosine; `None`
+    /// for an RGB file. Below the horizon, 0.
+    pub fn eval_spectral(&self, wi: &Vec3, wo: &Vec3, lambda: f64) -> Option<f64> {
+        let Values::Spectral { warp, .. } = &self.values else {
+            return None;
+        };
+        Some(match self.locate(wi, wo) {
+            None => 0.0,
+            Some((p, s, jac)) => warp.eval(s, &[p[0], p[1], lambda]) * jac,
+        })
+    }
+
+    /// The values at every stored wavelength (spectral) or channel (RGB) into `out`
+    /// (its length: 3 or the number of wavelengths); all 0 below the horizon.
+    pub fn eval_stored(&self, wi: &Vec3, wo: &Vec3, out: &mut [f64]) {
+        let Some((p, s, jac)) = self.locate(wi, wo) else {
+            out.fill(0.0);
+            return;
+        };
+        let warp = match &self.values {
+            Values::Rgb(w) => w,
+            Values::Spectral { warp, .. } => warp,
+        };
+        warp.eval_nodes(s, &p, out);
+        out.iter_mut().for_each(|o| *o *= jac);
+    }
+
+    /// Number of values [`eval_stored`](Self::eval_stored) writes.
+    pub fn stored_len(&self) -> usize {
+        self.wavelengths().map_or(3, <[f32]>::len)
+    }
+}
+
+impl Brdf for RglBsdf {
+    /// f_r(wi, wo) in linear RGB: the stored channels of an RGB file, or a spectral
+    /// file's spectrum converted to linear sRGB ([`cie`]).
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        match &self.values {
+            Values::Rgb(_) => {
+                let mut v = [0.0; 3];
+                self.eval_stored(wi, wo, &mut v);
+                Rgb(v)
+            }
+            Values::Spectral { to_srgb, .. } => {
+                let mut s = vec![0.0; to_srgb[0].len()];
+                self.eval_stored(wi, wo, &mut s);
+                Rgb(to_srgb.each_ref().map(|w| cie::dot(w, &s)))
+            }
+        }
+    }
+
+    fn is_isotropic(&self) -> bool {
+        self.isotropic
+    }
+}
+
+/// Whether `f` has the dtype `want`, else the error naming file and field.
+pub(crate) fn want_dtype(tf: &TensorFile, f: &FieldInfo, want: Dtype) -> Result<(), RglError> {
+    tf.expect_dtype(&f.name, want).map(|_| ())
+}

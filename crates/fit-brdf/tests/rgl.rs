@@ -1,0 +1,271 @@
+//! RGL-EPFL `.bsdf` files through the binary: recognised by their first bytes whatever
+//! their name, `info`, `eval --bsdf` and `resample --bsdf` agree with the library, and a
+//! broken file is exit 2 naming the file and the field.
+
+mod common;
+
+use brdfkit::core::{Brdf, Vec3};
+use brdfkit::merl::{Dims, MerlTable, cell_directions};
+use brdfkit::rgl::{RglBsdf, Tensor, TensorData, tensor};
+use common::npy::npy_bytes;
+use common::{assert_bad_input, bin, stderr};
+use std::path::{Path, PathBuf};
+
+/// A small isotropic RGB file: 8 θi slices, 16 × 16 smooth values with negatives, and
+/// 22 of its 2048 `valid` bits set.
+fn fields() -> Vec<Tensor> {
+    let theta: Vec<f32> = (0..8).map(|k| (k as f32 * 11.0).to_radians()).collect();
+    let n = 16usize;
+    let mut rgb = Vec::new();
+    for t in 0..8 {
+        for c in 0..3 {
+            for y in 0..n {
+                for x in 0..n {
+                    let (u, v) = (x as f32 / 15.0, y as f32 / 15.0);
+                    rgb.push(
+                        0.3 + 0.4
+                            * (3.0 * u + c as f32 + t as f32).sin()
+                            * (2.0 * v + c as f32).sin(),
+                    );
+                }
+            }
+        }
+    }
+    let smooth = |len: usize, k: f32| -> Vec<f32> {
+        (0..len)
+            .map(|i| 1.0 + 0.3 * (k * i as f32 / len as f32).sin())
+            .collect()
+    };
+    let mut valid = vec![0u8; 8 * n * n / 8];
+    valid[0] = 0xff;
+    valid[9] = 0b1010_1010;
+    valid[100] = 0xff;
+    valid[255] = 0b0000_0011;
+    vec![
+        Tensor::new("version", &[2], TensorData::U32(vec![1, 0])),
+        Tensor::new("description", &[9], TensorData::U8(b"test felt".to_vec())),
+        Tensor::new("phi_i", &[1], TensorData::F32(vec![0.0])),
+        Tensor::new("theta_i", &[8], TensorData::F32(theta)),
+        Tensor::new("sigma", &[2, 32], TensorData::F32(smooth(64, 3.0))),
+        Tensor::new("ndf", &[2, 32], TensorData::F32(smooth(64, 5.0))),
+        Tensor::new("vndf", &[1, 8, 16, 16], TensorData::F32(smooth(2048, 40.0))),
+        Tensor::new(
+            "luminance",
+            &[1, 8, 16, 16],
+            TensorData::F32(smooth(2048, 20.0)),
+        ),
+        Tensor::new("rgb", &[1, 8, 3, 16, 16], TensorData::F32(rgb)),
+        Tensor::new("jacobian", &[1], TensorData::U8(vec![1])),
+        Tensor::new("valid", &[256], TensorData::U8(valid)),
+    ]
+}
+
+/// The file, under a name that says nothing of its kind.
+fn file(dir: &Path) -> PathBuf {
+    let p = dir.join("material.binary");
+    tensor::write(&fields(), &p).unwrap();
+    p
+}
+
+const PAIRS: [[f64; 6]; 4] = [
+    [0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+    [0.6, 0.0, 0.8, -0.6, 0.0, 0.8],
+    [0.8, 0.0, 0.6, 0.0, 0.8, 0.6],
+    [0.0, 0.0, -1.0, 0.0, 0.0, 1.0],
+];
+
+fn library(p: &Path) -> Vec<f64> {
+    let b = RglBsdf::read(p).unwrap();
+    PAIRS
+        .iter()
+        .flat_map(|r| {
+            b.eval(&Vec3::new(r[0], r[1], r[2]), &Vec3::new(r[3], r[4], r[5]))
+                .0
+        })
+        .collect()
+}
+
+#[test]
+fn info_recognises_the_file_by_its_bytes_and_reports_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = file(dir.path());
+    let o = bin().arg("info").arg(&p).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    for needle in [
+        "test felt",
+        "RGB, isotropic",
+        "8 θi slices",
+        "measured:       22 of 2048",
+        "asymmetry:",
+    ] {
+        assert!(text.contains(needle), "`{needle}` not in {text}");
+    }
+    let o = bin().arg("info").arg(&p).arg("--json").output().unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let b = RglBsdf::read(&p).unwrap();
+    let s = b.summary();
+    assert_eq!(v["negative_values"], s.negative);
+    assert!(s.negative > 0);
+    assert_eq!(v["measured_points"], 22);
+    let asym = b.asymmetry(200_000, 5.0, 1);
+    assert_eq!(v["asymmetry"]["median"].as_f64().unwrap(), asym.median);
+    assert!(asym.median > 0.0);
+}
+
+#[test]
+fn eval_bsdf_gives_the_library_values_in_csv_and_npy() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = file(dir.path());
+    let want = library(&p);
+    assert_eq!(&want[9..], &[0.0; 3], "below the horizon");
+    // .npy in and out.
+    let body: Vec<u8> = PAIRS
+        .iter()
+        .flatten()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    let dirs = dir.path().join("pairs.npy");
+    std::fs::write(&dirs, npy_bytes("<f8", "(4, 6)", &body)).unwrap();
+    let out = dir.path().join("v.npy");
+    let o = bin()
+        .args(["eval", "--bsdf"])
+        .arg(&p)
+        .arg("--dirs")
+        .arg(&dirs)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let b = std::fs::read(&out).unwrap();
+    let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
+    let got: Vec<f64> = b[10 + hl..]
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    assert_eq!(got, want);
+    // CSV in and out.
+    let mut csv = String::from("wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n");
+    for r in PAIRS {
+        csv += &(r.map(|x| x.to_string()).join(",") + "\n");
+    }
+    std::fs::write(dir.path().join("pairs.csv"), csv).unwrap();
+    let o = bin()
+        .args(["eval", "--bsdf"])
+        .arg(&p)
+        .arg("--dirs")
+        .arg(dir.path().join("pairs.csv"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    let vals: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .flat_map(|l| {
+            l.split(',')
+                .map(|x| x.parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    for (a, b) in vals.iter().zip(&want) {
+        assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{a} vs {b}");
+    }
+}
+
+#[test]
+fn resample_bsdf_writes_the_two_order_mean_and_says_what_it_clamped() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = file(dir.path());
+    let out = dir.path().join("t.binary");
+    let o = bin()
+        .args(["resample", "--bsdf"])
+        .arg(&p)
+        .args(["--dims", "12,12,24", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dims = Dims::new(12, 12, 24).unwrap();
+    let (lib_table, stats) = RglBsdf::read(&p).unwrap().to_table(dims).unwrap();
+    assert!(stats.clamped_values > 0);
+    let err = stderr(&o);
+    assert!(
+        err.contains(&format!(
+            "{} negative channel values stored as 0",
+            stats.clamped_values
+        )),
+        "{err}"
+    );
+    assert!(
+        err.contains("not reciprocal") && err.contains("median"),
+        "{err}"
+    );
+    let t = MerlTable::read(&out).unwrap();
+    assert_eq!(t.valid_count(), lib_table.valid_count());
+    // One cell by hand: the mean of both orders, clamped at 0.
+    let b = RglBsdf::read(&p).unwrap();
+    let (_, wi, wo, _) = cell_directions(dims, 6, 5, 7);
+    let m = b
+        .eval(&wi, &wo)
+        .zip(b.eval(&wo, &wi), |x, y| (0.5 * (x + y)).max(0.0));
+    let cell = t.get(6, 5, 7).unwrap();
+    for c in 0..3 {
+        assert!(
+            (cell.0[c] - m.0[c]).abs() <= 1e-6 * m.0[c].abs().max(1e-3),
+            "{cell:?} vs {m:?}"
+        );
+    }
+}
+
+#[test]
+fn table_verbs_take_a_bsdf_through_the_same_rule() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = file(dir.path());
+    let o = bin().arg("check").arg(&p).output().unwrap();
+    assert!(
+        o.status.code() == Some(0) || o.status.code() == Some(1),
+        "{}",
+        stderr(&o)
+    );
+    assert!(
+        stderr(&o).contains("resampled to a 90x90x180 MERL table"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(String::from_utf8_lossy(&o.stdout).contains("table checks"));
+}
+
+#[test]
+fn a_broken_bsdf_is_exit_2_naming_the_file_and_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = std::fs::read(file(dir.path())).unwrap();
+    let cut = dir.path().join("cut.bsdf");
+    std::fs::write(&cut, &good[..good.len() - 100]).unwrap();
+    let o = bin().arg("info").arg(&cut).output().unwrap();
+    assert_bad_input(&o, &["cut.bsdf", "`valid`", "past the end"]);
+    let o = bin()
+        .args(["resample", "--bsdf"])
+        .arg(&cut)
+        .args(["--dims", "4,4,8", "--out"])
+        .arg(dir.path().join("x.binary"))
+        .output()
+        .unwrap();
+    assert_bad_input(&o, &["cut.bsdf", "`valid`"]);
+    assert!(!dir.path().join("x.binary").exists());
+    let mut f = fields();
+    f.retain(|t| t.name != "ndf");
+    let missing = dir.path().join("missing.bsdf");
+    tensor::write(&f, &missing).unwrap();
+    let o = bin()
+        .args(["eval", "--bsdf"])
+        .arg(&missing)
+        .arg("--dirs")
+        .arg(&missing)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = bin().arg("fit").arg(&missing).output().unwrap();
+    assert_bad_input(&o, &["missing.bsdf", "`ndf` is missing"]);
+}
