@@ -192,16 +192,28 @@ pub struct FitRecord {
     pub solver: SolverKind,
     /// Shared shape parameters or per-channel fits.
     pub sharing: Sharing,
-    /// θd cutoff in degrees, if any.
+    /// θd cutoff in degrees, if any. Written `theta_d_max`, the name of the setting in
+    /// Python and the CLI (`--theta-d-max`, also degrees); older records' `theta_d_max_deg`
+    /// still reads.
+    #[serde(rename = "theta_d_max", alias = "theta_d_max_deg")]
     pub theta_d_max_deg: Option<f64>,
-    /// θi / θo cutoff in degrees, if any (absent from records without one).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// θi / θo cutoff in degrees, if any (absent from records without one); written
+    /// `theta_max` (older: `theta_max_deg`).
+    #[serde(
+        rename = "theta_max",
+        alias = "theta_max_deg",
+        default,
+        skip_serializing_if = "Option::is_none"
+    )]
     pub theta_max_deg: Option<f64>,
-    /// Subsample fraction, if any.
+    /// Subsample fraction, if any; written `sample_fraction`, the setting's name (older:
+    /// `subsample`).
+    #[serde(rename = "sample_fraction", alias = "subsample")]
     pub subsample: Option<f64>,
     /// Seed of the starts and the subsample.
     pub seed: u64,
-    /// Number of starts per pass.
+    /// Number of starts per pass: the `starts` setting (the record's `starts` is the
+    /// list of those starts' records).
     pub starts_per_pass: usize,
     /// How many starts per pass were to be finished on all fitted cells after the
     /// warm-up ranking ([`crate::FitConfig::finish`]); absent in records written before

@@ -146,7 +146,9 @@ pub struct Score {
     pub losses: LossReport,
     /// The cell weights.
     pub weighting: Weighting,
-    /// The θd cutoff (degrees), if any.
+    /// The θd cutoff (degrees), if any; written `theta_d_max`, the setting's name
+    /// (older: `theta_d_max_deg`).
+    #[serde(rename = "theta_d_max", alias = "theta_d_max_deg")]
     pub theta_d_max_deg: Option<f64>,
     /// Valid cells of the table before the cutoff.
     pub cells_valid: usize,

@@ -67,6 +67,19 @@ fn record_has_every_loss_and_round_trips_through_json() {
     }
     let back: FitRecord = serde_json::from_str(&text).unwrap();
     assert_eq!(&back, r);
+    // The settings are named as the Python arguments and CLI flags are; a record
+    // written with the older names still reads.
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let o = v.as_object_mut().unwrap();
+    for (new, old) in [
+        ("theta_d_max", "theta_d_max_deg"),
+        ("sample_fraction", "subsample"),
+    ] {
+        let x = o.remove(new).unwrap_or_else(|| panic!("{new} missing"));
+        o.insert(old.to_string(), x);
+    }
+    let older: FitRecord = serde_json::from_value(v).unwrap();
+    assert_eq!(&older, r);
     // The fitted model's JSON is the contract: it builds the same model.
     let m = brdfkit_models::from_json(&r.model).unwrap();
     assert_eq!(m.params(), res.fitted.channel_model(0).params());

@@ -138,7 +138,7 @@ fn theta_max_drops_cells_beyond_the_angle_and_is_recorded() {
     // The record of a fit without the cutoff does not carry the field.
     let plain = fit(model(OTHER).as_ref(), &data, &FitConfig::default(), None).unwrap();
     let json = serde_json::to_value(&plain.record).unwrap();
-    assert!(json.get("theta_max_deg").is_none());
+    assert!(json.get("theta_max").is_none());
     // θd and θi/θo cutoffs combine.
     let both = FitConfig::default()
         .theta_max_deg(60.0)

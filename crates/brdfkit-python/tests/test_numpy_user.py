@@ -260,6 +260,18 @@ def test_loss_names_are_one_vocabulary(gold):
     assert a.model == b.model
 
 
+def test_the_record_names_settings_as_the_arguments_do(gold):
+    """One vocabulary for settings too: each setting in force is in the record under
+    the name of the `fit` argument that set it, with the argument's value (degrees);
+    `starts` is `starts_per_pass`, the record's `starts` being the list of starts."""
+    args = dict(sample_fraction=0.5, theta_d_max=75.0, theta_max=80.0, seed=3)
+    r = brdfkit.fit(gold, "lambert", starts=2, **args)
+    for name, value in args.items():
+        assert r.record[name] == pytest.approx(value), name
+    assert r.record["starts_per_pass"] == 2 == len(r.record["starts"])
+    assert set(args) <= set(inspect.signature(brdfkit.fit).parameters)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "start"),
     [

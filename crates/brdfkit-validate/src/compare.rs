@@ -307,7 +307,9 @@ pub struct Comparison {
     pub losses: LossReport,
     /// The cell weights.
     pub weighting: Weighting,
-    /// The θd cutoff (degrees), if any.
+    /// The θd cutoff (degrees), if any; written `theta_d_max`, the setting's name
+    /// (older: `theta_d_max_deg`).
+    #[serde(rename = "theta_d_max", alias = "theta_d_max_deg")]
     pub theta_d_max_deg: Option<f64>,
     /// A's valid cells after the cutoff.
     pub cells_a: usize,

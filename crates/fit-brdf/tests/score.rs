@@ -120,7 +120,7 @@ fn score_reports_every_loss_and_the_settings() {
     let (a, c) = (&all["models"][0], &cut["models"][0]);
     assert_eq!(a["weighting"], "solid-angle");
     assert_eq!(c["weighting"], "uniform");
-    assert_eq!(c["theta_d_max_deg"].as_f64(), Some(45.0));
+    assert_eq!(c["theta_d_max"].as_f64(), Some(45.0));
     assert_eq!(a["cells_valid"], c["cells_valid"]);
     assert_eq!(a["losses"]["cells"], a["cells_valid"]);
     assert!(c["losses"]["cells"].as_u64() < a["losses"]["cells"].as_u64());
