@@ -483,8 +483,8 @@ impl GltfPbrExt {
             let keep = 1.0 - c.factor * fc;
             if let Some(g) = grad.as_deref_mut() {
                 if let Some(os) = o_sheen {
-                    for p in os..os + 4 {
-                        g[p] = g[p] * keep;
+                    for gp in &mut g[os..os + 4] {
+                        *gp *= keep;
                     }
                 }
                 g[oc] = Rgb(std::array::from_fn(|k| fc * (cdv - out[k])));
