@@ -242,7 +242,10 @@ pub fn fit_for(
 /// glTF's choice (module doc): outcome 0 is the core; `lowest` the lowest loss.
 fn gltf_choice(outcomes: &[Outcome], lowest: usize, core: f64, low: f64) -> (usize, String) {
     if lowest == 0 {
-        return (0, format!("the core material has the lowest loss ({core:.4e})"));
+        return (
+            0,
+            format!("the core material has the lowest loss ({core:.4e})"),
+        );
     }
     let gain = if core > 0.0 { (core - low) / core } else { 0.0 };
     let label = &outcomes[lowest].label;
