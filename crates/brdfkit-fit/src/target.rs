@@ -375,4 +375,57 @@ mod tests {
         }
         assert!(r.outcomes[0].record.losses_full.cbrt.overall > 10.0 * loss);
     }
+
+    /// `fit --for gltf` on tables of a known glTF material: the extension the table has
+    /// is picked (with its reason), and a core material keeps the core.
+    #[test]
+    fn gltf_picks_the_extension_the_material_has() {
+        use brdfkit_models::gltf_pbr_ext::{Clearcoat, GltfPbrExt, Sheen};
+        let base = GltfPbr::new(Rgb::new(0.3, 0.05, 0.05), 0.0, 0.6).unwrap();
+        let cases: [(Box<dyn Model>, &str); 3] = [
+            (
+                Box::new(
+                    GltfPbrExt::new(base.clone())
+                        .with_sheen(Sheen {
+                            color: Rgb::new(0.9, 0.6, 0.5),
+                            roughness: 0.4,
+                        })
+                        .unwrap(),
+                ),
+                "gltf-sheen",
+            ),
+            (
+                Box::new(
+                    GltfPbrExt::new(base.clone())
+                        .with_clearcoat(Clearcoat {
+                            factor: 1.0,
+                            roughness: 0.08,
+                        })
+                        .unwrap(),
+                ),
+                "gltf-clearcoat",
+            ),
+            (Box::new(base.clone()), "gltf-pbr"),
+        ];
+        for (truth, want) in cases {
+            let data = synth_data(
+                &*truth,
+                Dims::new(24, 24, 48).unwrap(),
+                Coverage::AboveHorizon,
+            )
+            .unwrap();
+            let cfg = FitConfig::default().loss(Loss::Cbrt).starts(2).unwrap();
+            let r = fit_for(&data, Target::Gltf, &cfg, &()).unwrap();
+            assert_eq!(r.best().label, want, "{}", r.why);
+            if want == "gltf-pbr" {
+                assert!(r.why.contains("core"), "{}", r.why);
+            } else {
+                assert!(
+                    r.why.contains(want) && r.why.contains("lowers"),
+                    "{}",
+                    r.why
+                );
+            }
+        }
+    }
 }
