@@ -182,6 +182,10 @@ pub fn target_families(t: Target) -> Vec<TargetFamily> {
     }
 }
 
+/// A core loss at or below this is a reproduction of the table to round-off: no extension
+/// can improve on it, whatever the relative figures of two round-off losses say.
+pub const GLTF_EXACT_LOSS: f64 = 1e-9;
+
 /// The least relative loss reduction for which `--for gltf` keeps an extension over the
 /// core material (module doc).
 pub const GLTF_MIN_GAIN: f64 = 0.01;
@@ -247,7 +251,13 @@ fn gltf_choice(outcomes: &[Outcome], lowest: usize, core: f64, low: f64) -> (usi
             format!("the core material has the lowest loss ({core:.4e})"),
         );
     }
-    let gain = if core > 0.0 { (core - low) / core } else { 0.0 };
+    if core <= GLTF_EXACT_LOSS {
+        return (
+            0,
+            format!("the core material reproduces the table (loss {core:.4e}): the core is kept"),
+        );
+    }
+    let gain = (core - low) / core;
     let label = &outcomes[lowest].label;
     if gain >= GLTF_MIN_GAIN {
         (
