@@ -13,9 +13,9 @@
 //! | pbrt-v4 | `conductor` | `cook-torrance` GGX, smith-correlated, conductor | α, η, k | ρd = 0, ρs = 1 |
 //! | pbrt-v4 | `coateddiffuse` (approximately, docs/export.md) | `rough-plastic` (GGX) | ρd, α, η | ρs = 1 |
 //! | glTF 2.0 | metallic-roughness | `gltf-pbr` | baseColor, metallic, roughness | |
-//! | glTF 2.0 | + `KHR_materials_sheen` (`gltf-sheen`) | `gltf-pbr-ext` [sheen] | core, sheenColor, sheenRoughness | |
-//! | glTF 2.0 | + `KHR_materials_clearcoat` (`gltf-clearcoat`) | `gltf-pbr-ext` [clearcoat] | core, clearcoat, clearcoatRoughness | |
-//! | glTF 2.0 | + `KHR_materials_specular` (`gltf-specular`) | `gltf-pbr-ext` [specular] | core, specular, specularColor | ior = 1.5 |
+//! | glTF 2.0 | + `KHR_materials_sheen` (`gltf-sheen`) | `gltf-pbr-ext` (sheen) | core, sheenColor, sheenRoughness | |
+//! | glTF 2.0 | + `KHR_materials_clearcoat` (`gltf-clearcoat`) | `gltf-pbr-ext` (clearcoat) | core, clearcoat, clearcoatRoughness | |
+//! | glTF 2.0 | + `KHR_materials_specular` (`gltf-specular`) | `gltf-pbr-ext` (specular) | core, specular, specularColor | ior = 1.5 |
 //!
 //! glTF's extension configurations each contain the core (sheenColor 0, clearcoat 0 and
 //! specular 1 with specularColor 1 are the core), so on the optimised loss one of them is
