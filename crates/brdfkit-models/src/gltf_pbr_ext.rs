@@ -996,3 +996,36 @@ mod tests {
         }
     }
 }
+#[cfg(test)]
+mod grid {
+    use super::*;
+    use brdfkit_core::Brdf;
+    use brdfkit_core::rusinkiewicz::{HalfDiff, from_half_diff};
+
+    /// A MERL grid's cells give unit vectors whose z rounds above 1 (1 + 4e-16 at θh = 0);
+    /// the sheen's Λ(1 − μ) must not take a negative power there.
+    #[test]
+    fn merl_grid_directions_stay_finite() {
+        let m = GltfPbrExt::default()
+            .with_sheen(Sheen::default())
+            .unwrap()
+            .with_clearcoat(Clearcoat::default())
+            .unwrap();
+        let mut grad = vec![Rgb::ZERO; m.num_params()];
+        for i in 0..16 {
+            for j in 0..16 {
+                for k in 0..32 {
+                    let th = (i as f64 / 16.0).powi(2) * std::f64::consts::FRAC_PI_2;
+                    let td = j as f64 / 16.0 * std::f64::consts::FRAC_PI_2;
+                    let pd = k as f64 / 32.0 * std::f64::consts::PI;
+                    let (wi, wo) = from_half_diff(&HalfDiff::new(th, 0.0, td, pd));
+                    let f = m.eval_grad(&wi, &wo, &mut grad);
+                    let ok =
+                        (0..3).all(|c| f[c].is_finite() && grad.iter().all(|g| g[c].is_finite()));
+                    assert!(ok, "{wi:?} {wo:?} {f:?} {grad:?}");
+                    assert_eq!(f, m.eval(&wi, &wo));
+                }
+            }
+        }
+    }
+}

@@ -105,7 +105,8 @@ fn lambda_and_da(mu: f64, alpha: f64) -> (f64, f64) {
         (v, v * dl)
     } else {
         let (lh, dlh) = l_and_da(0.5, alpha);
-        let (l1, dl1) = l_and_da(1.0 - mu, alpha);
+        // A unit vector's z can round to just above 1 (1 + 4e-16 from a MERL cell).
+        let (l1, dl1) = l_and_da((1.0 - mu).max(0.0), alpha);
         let v = (2.0 * lh - l1).exp();
         (v, v * (2.0 * dlh - dl1))
     }
