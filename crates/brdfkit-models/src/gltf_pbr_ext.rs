@@ -27,7 +27,7 @@
 //! Kulla 2017; the lobe and E in [`crate::sheen`]):
 //!
 //! ```text
-//! f_sheen = sheenColor · D_charlie · V_sheen
+//! f_sheen = sheenColor · D_charlie · min(V_sheen, 1)   (the reference renderers' clamp)
 //! scaling = min(1 − max(sheenColor) · E(cos θo), 1 − max(sheenColor) · E(cos θi))
 //! sheened = f_sheen + core · scaling
 //! ```
@@ -803,9 +803,9 @@ mod tests {
             };
             let vis = match m.sheen_visibility {
                 SheenVisibility::Charlie => {
-                    1.0 / ((1.0 + lambda(nv) + lambda(nl)) * (4.0 * nv * nl))
+                    (1.0 / ((1.0 + lambda(nv) + lambda(nl)) * (4.0 * nv * nl))).min(1.0)
                 }
-                SheenVisibility::Ashikhmin => 1.0 / (4.0 * (nl + nv - nl * nv)),
+                SheenVisibility::Ashikhmin => (1.0 / (4.0 * (nl + nv - nl * nv))).min(1.0),
             };
             let max3 = s.color[0].max(s.color[1]).max(s.color[2]);
             let e = |x: f64| sheen_albedo(m.sheen_visibility, s.roughness, x).0;

@@ -15,6 +15,11 @@
 //! l(x)  = a / (1 + b x^c) + d x + e,  (a..e) = mix(P0, P1, (1 − α)²)
 //! ```
 //!
+//! Both visibilities are clamped to at most 1, as the reference implementations do (the
+//! Khronos glTF Sample Viewer's `V_Sheen` and three.js's `V_Neubelt` saturate them): the
+//! formulas diverge at the horizon (Charlie's V reaches ~1e4 at cos θ = 1e-12, where a
+//! measured table still has cells), and unclamped the lobe dominates any fit there.
+//!
 //! with P0 = (21.5473, 3.82987, 0.19823, −1.97760, −4.32054) and P1 = (25.3245, 3.32435,
 //! 0.16801, −1.27393, −4.85967) (Estevez & Kulla's fit of the fibre shadowing, as the
 //! extension's notes print it). The specification calls the Charlie visibility the
@@ -33,7 +38,7 @@
 //! 0.3 %, the interpolation's error at the narrowest lobe near the horizon).
 //!
 //! **E exceeds 1** for narrow lobes near the horizon: Estevez & Kulla's fitted Λ is not
-//! exact there, and the tabulated Charlie E reaches 2.94 at sheenRoughness 0.07, μ = 1.7e-3
+//! exact there, and the tabulated Charlie E reaches 1.65 at sheenRoughness 0.07, μ = 1.7e-3 (with V clamped to 1)
 //! (E > 1 only for sheenRoughness < 0.3 and μ < 0.06, i.e. θ > 86.5°; test
 //! `charlie_albedo_exceeds_one_only_for_narrow_lobes_at_grazing`). [`sheen_albedo`] clamps
 //! E to 1, as the reference's lookup texture (an 8-bit image) does, so the albedo scaling
@@ -134,10 +139,13 @@ pub(crate) fn sheen_dv(
             let (li, dli) = lambda_and_da(zi, alpha);
             let (lo, dlo) = lambda_and_da(zo, alpha);
             let s = 1.0 + li + lo;
-            dln_da -= (dli + dlo) / s;
-            1.0 / (s * 4.0 * zi * zo)
+            let v = 1.0 / (s * 4.0 * zi * zo);
+            if v < 1.0 {
+                dln_da -= (dli + dlo) / s;
+            }
+            v.min(1.0)
         }
-        SheenVisibility::Ashikhmin => 1.0 / (4.0 * (zi + zo - zi * zo)),
+        SheenVisibility::Ashikhmin => (1.0 / (4.0 * (zi + zo - zi * zo))).min(1.0),
     };
     let dv = d * v;
     (dv, dv * dln_da * 2.0 * sheen_roughness)

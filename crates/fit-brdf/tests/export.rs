@@ -859,7 +859,9 @@ fn fit_for_a_renderer_writes_a_model_export_takes() {
     );
     for (to, best, form) in [
         ("pbrt", "conductor", "Material \"conductor\""),
-        ("gltf", "gltf-pbr", "pbrMetallicRoughness"),
+        // The core or an extension (on this conductor the clear coat's second lobe lowers
+        // the loss by a few percent): each is a glTF material.
+        ("gltf", "gltf-", "pbrMetallicRoughness"),
     ] {
         let params = d.path().join(format!("{to}.json"));
         let o = bin()
