@@ -13,6 +13,17 @@
 //! | pbrt-v4 | `conductor` | `cook-torrance` GGX, smith-correlated, conductor | α, η, k | ρd = 0, ρs = 1 |
 //! | pbrt-v4 | `coateddiffuse` (approximately, docs/export.md) | `rough-plastic` (GGX) | ρd, α, η | ρs = 1 |
 //! | glTF 2.0 | metallic-roughness | `gltf-pbr` | baseColor, metallic, roughness | |
+//! | glTF 2.0 | + `KHR_materials_sheen` (`gltf-sheen`) | `gltf-pbr-ext` (sheen) | core, sheenColor, sheenRoughness | |
+//! | glTF 2.0 | + `KHR_materials_clearcoat` (`gltf-clearcoat`) | `gltf-pbr-ext` (clearcoat) | core, clearcoat, clearcoatRoughness | |
+//! | glTF 2.0 | + `KHR_materials_specular` (`gltf-specular`) | `gltf-pbr-ext` (specular) | core, specular, specularColor | ior = 1.5 |
+//!
+//! glTF's extension configurations each contain the core (sheenColor 0, clearcoat 0 and
+//! specular 1 with specularColor 1 are the core), so on the optimised loss one of them is
+//! never worse than the core up to the solver's tolerance. An extension is kept only when
+//! it lowers the loss by at least [`GLTF_MIN_GAIN`] of the core's: below that it is noise
+//! bought with parameters every viewer must then evaluate, and the core is kept
+//! ([`TargetFit::why`] says which happened). The specular configuration holds ior at 1.5:
+//! for an opaque material ior and specularColor act only through their product.
 //!
 //! η and k of a conductor are fixed by default in an ordinary fit (they trade off against
 //! ρs); here they are free, since the renderer takes them: the fitted colour shift is the
@@ -25,6 +36,7 @@ use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking};
 use brdfkit_core::{Model, Rgb};
 use brdfkit_models::cook_torrance::{CookTorrance, Fresnel};
 use brdfkit_models::gltf_pbr::GltfPbr;
+use brdfkit_models::gltf_pbr_ext::{Clearcoat, GltfPbrExt, Sheen, Specular};
 use brdfkit_models::lambert::Lambert;
 use brdfkit_models::rough_plastic::RoughPlastic;
 
@@ -145,17 +157,49 @@ pub fn target_families(t: Target) -> Vec<TargetFamily> {
                 ..TargetFamily::new("coateddiffuse", Box::new(RoughPlastic::default()))
             },
         ],
-        Target::Gltf => vec![TargetFamily::new("gltf-pbr", Box::new(GltfPbr::default()))],
+        Target::Gltf => {
+            let ext = || GltfPbrExt::new(GltfPbr::default());
+            let ok = "the extensions' defaults are in their domains";
+            vec![
+                TargetFamily::new("gltf-pbr", Box::new(GltfPbr::default())),
+                TargetFamily::new(
+                    "gltf-sheen",
+                    Box::new(ext().with_sheen(Sheen::default()).expect(ok)),
+                ),
+                TargetFamily::new(
+                    "gltf-clearcoat",
+                    Box::new(ext().with_clearcoat(Clearcoat::default()).expect(ok)),
+                ),
+                TargetFamily {
+                    fixed: &["ior"],
+                    ..TargetFamily::new(
+                        "gltf-specular",
+                        Box::new(ext().with_specular(Specular::default()).expect(ok)),
+                    )
+                },
+            ]
+        }
     }
 }
+
+/// A core loss at or below this is a reproduction of the table to round-off: no extension
+/// can improve on it, whatever the relative figures of two round-off losses say.
+pub const GLTF_EXACT_LOSS: f64 = 1e-9;
+
+/// The least relative loss reduction for which `--for gltf` keeps an extension over the
+/// core material (module doc).
+pub const GLTF_MIN_GAIN: f64 = 0.01;
 
 /// Every configuration of a target fitted, and the best.
 #[derive(Debug, Clone)]
 pub struct TargetFit {
     /// One outcome per configuration, in [`target_families`] order.
     pub outcomes: Vec<Outcome>,
-    /// The index of the best outcome by the optimised loss over all fitted cells.
+    /// The index of the best outcome by the optimised loss over all fitted cells (for
+    /// glTF, with the rule of [`GLTF_MIN_GAIN`]).
     pub best: usize,
+    /// Why `best` was chosen, in one sentence.
+    pub why: String,
 }
 
 impl TargetFit {
@@ -183,14 +227,57 @@ pub fn fit_for(
         outcomes.extend(fit_each(data, &one, &tf.config(cfg), obs)?);
     }
     let loss = cfg.get_loss();
-    let best = (0..outcomes.len())
-        .min_by(|&a, &b| {
-            let la = outcomes[a].record.losses_full.get(loss).overall;
-            let lb = outcomes[b].record.losses_full.get(loss).overall;
-            la.total_cmp(&lb)
-        })
+    let l = |i: usize| outcomes[i].record.losses_full.get(loss).overall;
+    let lowest = (0..outcomes.len())
+        .min_by(|&a, &b| l(a).total_cmp(&l(b)))
         .expect("every target has a configuration");
-    Ok(TargetFit { outcomes, best })
+    let (best, why) = if t == Target::Gltf {
+        gltf_choice(&outcomes, lowest, l(0), l(lowest))
+    } else {
+        (lowest, format!("lowest loss ({:.4e})", l(lowest)))
+    };
+    Ok(TargetFit {
+        outcomes,
+        best,
+        why,
+    })
+}
+
+/// glTF's choice (module doc): outcome 0 is the core; `lowest` the lowest loss.
+fn gltf_choice(outcomes: &[Outcome], lowest: usize, core: f64, low: f64) -> (usize, String) {
+    if lowest == 0 {
+        return (
+            0,
+            format!("the core material has the lowest loss ({core:.4e})"),
+        );
+    }
+    if core <= GLTF_EXACT_LOSS {
+        return (
+            0,
+            format!("the core material reproduces the table (loss {core:.4e}): the core is kept"),
+        );
+    }
+    let gain = (core - low) / core;
+    let label = &outcomes[lowest].label;
+    if gain >= GLTF_MIN_GAIN {
+        (
+            lowest,
+            format!(
+                "{label} lowers the core's loss by {:.1} % ({core:.4e} -> {low:.4e})",
+                100.0 * gain
+            ),
+        )
+    } else {
+        (
+            0,
+            format!(
+                "the best extension ({label}) lowers the core's loss by only {:.2} % \
+                 (< {:.0} %): the core is kept",
+                100.0 * gain,
+                100.0 * GLTF_MIN_GAIN
+            ),
+        )
+    }
 }
 
 #[cfg(test)]
@@ -297,5 +384,58 @@ mod tests {
             }
         }
         assert!(r.outcomes[0].record.losses_full.cbrt.overall > 10.0 * loss);
+    }
+
+    /// `fit --for gltf` on tables of a known glTF material: the extension the table has
+    /// is picked (with its reason), and a core material keeps the core.
+    #[test]
+    fn gltf_picks_the_extension_the_material_has() {
+        use brdfkit_models::gltf_pbr_ext::{Clearcoat, GltfPbrExt, Sheen};
+        let base = GltfPbr::new(Rgb::new(0.3, 0.05, 0.05), 0.0, 0.6).unwrap();
+        let cases: [(Box<dyn Model>, &str); 3] = [
+            (
+                Box::new(
+                    GltfPbrExt::new(base.clone())
+                        .with_sheen(Sheen {
+                            color: Rgb::new(0.9, 0.6, 0.5),
+                            roughness: 0.4,
+                        })
+                        .unwrap(),
+                ),
+                "gltf-sheen",
+            ),
+            (
+                Box::new(
+                    GltfPbrExt::new(base.clone())
+                        .with_clearcoat(Clearcoat {
+                            factor: 1.0,
+                            roughness: 0.08,
+                        })
+                        .unwrap(),
+                ),
+                "gltf-clearcoat",
+            ),
+            (Box::new(base.clone()), "gltf-pbr"),
+        ];
+        for (truth, want) in cases {
+            let data = synth_data(
+                &*truth,
+                Dims::new(24, 24, 48).unwrap(),
+                Coverage::AboveHorizon,
+            )
+            .unwrap();
+            let cfg = FitConfig::default().loss(Loss::Cbrt).starts(2).unwrap();
+            let r = fit_for(&data, Target::Gltf, &cfg, &()).unwrap();
+            assert_eq!(r.best().label, want, "{}", r.why);
+            if want == "gltf-pbr" {
+                assert!(r.why.contains("core"), "{}", r.why);
+            } else {
+                assert!(
+                    r.why.contains(want) && r.why.contains("lowers"),
+                    "{}",
+                    r.why
+                );
+            }
+        }
     }
 }

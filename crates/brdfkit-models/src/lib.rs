@@ -16,6 +16,7 @@ pub mod par;
 mod params;
 pub mod raw;
 pub mod shape;
+pub mod sheen;
 pub mod testing;
 
 // Models (one file each).
@@ -23,6 +24,7 @@ pub mod ashikhmin_shirley;
 pub mod blinn_phong;
 pub mod cook_torrance;
 pub mod gltf_pbr;
+pub mod gltf_pbr_ext;
 pub mod lafortune;
 pub mod lambert;
 pub mod oren_nayar;
@@ -49,6 +51,7 @@ pub const MODEL_NAMES: &[&str] = &[
     "ashikhmin-shirley",
     "sum",
     "gltf-pbr",
+    "gltf-pbr-ext",
     "rough-plastic",
 ];
 
@@ -97,6 +100,7 @@ pub fn from_name_and_params(name: &str, params: &Value) -> Result<Box<dyn Model>
             params,
         )),
         "gltf-pbr" => boxed(gltf_pbr::GltfPbr::from_params_json(params)),
+        "gltf-pbr-ext" => boxed(gltf_pbr_ext::GltfPbrExt::from_params_json(params)),
         "rough-plastic" => boxed(rough_plastic::RoughPlastic::from_params_json(params)),
         other => published::from_params_json(other, params).unwrap_or_else(|| {
             Err(ModelError::Invalid(format!(

@@ -36,12 +36,11 @@ pub fn run(a: FitArgs) -> CliResult<()> {
         None => (fit_each(&data, &fams, &cfg, &bars).map_err(runtime)?, None),
         Some(r) => {
             let t = fit_for(&data, r.target(), &cfg, &bars).map_err(runtime)?;
-            let best = t.best;
-            (t.outcomes, Some((r, best)))
+            (t.outcomes, Some((r, t.best, t.why)))
         }
     };
-    if let Some((r, best)) = best {
-        return write_best(&a, &outcomes, best, r, cfg.get_loss());
+    if let Some((r, best, why)) = best {
+        return write_best(&a, &outcomes, best, &why, r, cfg.get_loss());
     }
 
     if let [o] = &outcomes[..] {
@@ -85,6 +84,7 @@ fn write_best(
     a: &FitArgs,
     outcomes: &[Outcome],
     best: usize,
+    why: &str,
     r: crate::cli::Renderer,
     loss: brdfkit::fit::Loss,
 ) -> CliResult<()> {
@@ -98,12 +98,12 @@ fn write_best(
     let target = r.target().name();
     if a.json {
         let v: Vec<Value> = outcomes.iter().map(Outcome::to_json).collect();
-        let v = serde_json::json!({"for": target, "best": o.label, "outcomes": v});
+        let v = serde_json::json!({"for": target, "best": o.label, "why": why, "outcomes": v});
         return write_text(None, &pretty(&v)?);
     }
     let mut text = comparison_text(outcomes, loss);
     text += &format!(
-        "best for {target}: {} (lowest {loss} loss); `fit-brdf export {} --to {target}` writes it\n",
+        "best for {target}: {} ({why}; {loss} loss); `fit-brdf export {} --to {target}` writes it\n",
         o.label,
         a.out
             .as_ref()
