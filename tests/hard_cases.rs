@@ -62,6 +62,32 @@ fn variants() -> Vec<String> {
             ));
         }
     }
+    // glTF with its extensions: every combination, both sheen visibilities, both Smith
+    // forms, a dielectric and a metal base.
+    let exts = ["sheen", "clearcoat", "specular"];
+    for mask in 0..8usize {
+        let on: Vec<String> = (0..3)
+            .filter(|k| mask & (1 << k) != 0)
+            .map(|k| format!("\"{}\"", exts[k]))
+            .collect();
+        // The visibility is a sheen parameter: without sheen there is one variant.
+        let visibilities: &[&str] = if mask & 1 != 0 {
+            &[
+                r#","sheen_visibility":"charlie""#,
+                r#","sheen_visibility":"ashikhmin""#,
+            ]
+        } else {
+            &[""]
+        };
+        for vis in visibilities {
+            for (metallic, masking) in [("0.0", "smith-correlated"), ("1.0", "smith-separable")] {
+                v.push(format!(
+                    r#"{{"model":"gltf-pbr-ext","params":{{"metallic":{metallic},"masking":"{masking}","extensions":[{}]{vis}}}}}"#,
+                    on.join(",")
+                ));
+            }
+        }
+    }
     // Rough plastic: a low and a high index, the nonlinear diffuse, no specular tint.
     for (eta, nonlinear) in [(1.05, false), (1.5, true), (2.5, false)] {
         v.push(format!(
@@ -106,7 +132,7 @@ fn variants() -> Vec<String> {
 }
 
 /// Sets the shape parameters of `m`: every roughness (`alpha`, `alpha_x`, `sigma`,
-/// `roughness`) to
+/// `roughness`, glTF's `sheen_roughness` and `clearcoat_roughness`) to
 /// `a` and every exponent (`n`, `n_u`, `lobes[k].n`, `terms[k].n`) to `e`; the second
 /// of an anisotropic pair (`alpha_y`, `n_v`) to the next value of its grid, so the
 /// anisotropic combinations are exercised too. Values outside a parameter's domain
@@ -118,7 +144,12 @@ fn set_shape(m: &mut dyn Model, a: f64, a2: f64, e: f64, e2: f64) -> bool {
     for (p, s) in specs.iter().enumerate() {
         let leaf = s.name.rsplit('.').next().unwrap_or(&s.name);
         let v = match leaf {
-            "alpha" | "alpha_x" | "sigma" | "roughness" => Some(a),
+            "alpha"
+            | "alpha_x"
+            | "sigma"
+            | "roughness"
+            | "sheen_roughness"
+            | "clearcoat_roughness" => Some(a),
             "alpha_y" => Some(a2),
             "n" | "n_u" => Some(e),
             "n_v" => Some(e2),
