@@ -92,20 +92,27 @@ pub struct NotUnit {
 /// that takes directions: the command line's pair files and the Python bindings);
 /// the error names the first row that is not. Below-horizon directions (z ≤ 0) are
 /// valid here: each caller states what it returns for them.
+///
+/// Blocks of pairs are tested without an early exit, a loop that vectorises (an
+/// early-exit `position` over 1.46 M pairs cost a third of a nearest lookup's time);
+/// the first bad row is searched for only in the first failing block. Callers that
+/// split the pairs over threads add their block's offset to [`NotUnit::row`].
 pub fn check_unit_pairs(wi: &[[f64; 3]], wo: &[[f64; 3]]) -> Result<(), NotUnit> {
+    const BLOCK: usize = 256;
     let norm = |w: [f64; 3]| (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-    match wi
-        .iter()
-        .zip(wo)
-        .position(|(&a, &b)| !(is_unit(a) && is_unit(b)))
-    {
-        None => Ok(()),
-        Some(row) => Err(NotUnit {
+    let good = |(&a, &b): (&[f64; 3], &[f64; 3])| is_unit(a) & is_unit(b);
+    for (k, (bi, bo)) in wi.chunks(BLOCK).zip(wo.chunks(BLOCK)).enumerate() {
+        if bi.iter().zip(bo).fold(true, |ok, p| ok & good(p)) {
+            continue;
+        }
+        let row = k * BLOCK + bi.iter().zip(bo).position(|p| !good(p)).unwrap_or(0);
+        return Err(NotUnit {
             row,
             wi_len: norm(wi[row]),
             wo_len: norm(wo[row]),
-        }),
+        });
     }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@ use brdfkit_merl::Dims;
 use numpy::{PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
+use rayon::prelude::*;
 
 /// A shape as Python prints it: `(4, 2)`, `(3,)`.
 pub(crate) fn shape_text(s: &[usize]) -> String {
@@ -86,7 +87,20 @@ pub(crate) fn check_pairs(a: &[[f64; 3]], b: &[[f64; 3]]) -> PyResult<()> {
             b.len()
         )));
     }
-    check_unit_pairs(a, b).map_err(errors::input)
+    // On every thread: the check is a pass over 70 MB for 1.46 M pairs, which on one
+    // thread took half as long as the nearest lookup it guards.
+    const BLOCK: usize = 1 << 14;
+    let bad = a
+        .par_chunks(BLOCK)
+        .zip(b.par_chunks(BLOCK))
+        .enumerate()
+        .find_map_first(|(k, (x, y))| {
+            check_unit_pairs(x, y).err().map(|mut e| {
+                e.row += k * BLOCK;
+                e
+            })
+        });
+    bad.map_or(Ok(()), |e| Err(errors::input(e)))
 }
 
 /// Grid dims from any sequence of three integers (a tuple, a list, a NumPy array).
