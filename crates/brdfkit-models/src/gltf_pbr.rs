@@ -160,21 +160,8 @@ impl GltfPbr {
             }
             return Rgb::ZERO;
         }
-        let a = self.roughness * self.roughness;
-        let a2 = a * a;
-        let u = (h[0] * h[0] + h[1] * h[1]) / a2;
-        let s = u + h[2] * h[2];
-        let sin2_i = wi[0] * wi[0] + wi[1] * wi[1];
-        let sin2_o = wo[0] * wo[0] + wo[1] * wo[1];
-        let si = (zi * zi + a2 * sin2_i).sqrt();
-        let so = (zo * zo + a2 * sin2_o).sqrt();
-        let correlated = self.masking == Masking::SmithCorrelated;
-        let vden = if correlated {
-            2.0 * (zo * si + zi * so)
-        } else {
-            (zi + si) * (zo + so)
-        };
-        let dv = FRAC_1_PI / (a2 * s * s * vden);
+        // Without `grad` the inlined derivative is dead code, and the compiler drops it.
+        let (dv, d_r) = ggx_dv(self.roughness, self.masking, wi, wo, h);
         let c = cd.clamp(0.0, 1.0);
         let m1 = 1.0 - c;
         let w = m1 * m1 * m1 * m1 * m1;
@@ -192,21 +179,55 @@ impl GltfPbr {
                 -(1.0 - DIELECTRIC_F0) * (1.0 - w) * FRAC_1_PI * bc[k]
                     + dv * (1.0 - w) * (bc[k] - DIELECTRIC_F0)
             }));
-            // ∂ln(D·V)/∂α (isotropic GGX, as cook-torrance's kernel): ∂ln D/∂α =
-            // (4u − 2s)/(α s); ∂S(v)/∂α = α sin²θv/S(v) enters through V's denominator.
-            let (dsi, dso) = (a * sin2_i / si, a * sin2_o / so);
-            let dln_vden = if correlated {
-                (zo * dsi + zi * dso) / (zo * si + zi * so)
-            } else {
-                dsi / (zi + si) + dso / (zo + so)
-            };
-            let dln_a = (4.0 * u - 2.0 * s) / (a * s) - dln_vden;
-            // α = roughness²: ∂α/∂roughness = 2 roughness.
-            let d_r = dln_a * 2.0 * self.roughness;
             g[4] = Rgb(std::array::from_fn(|k| dv * f[k] * d_r));
         }
         out
     }
+}
+
+/// glTF's GGX D·V (Appendix B: D with α = roughness², V the height-correlated or
+/// separable Smith term of `masking`) of the pair (wi, wo) with half vector `h`, and
+/// ∂ln(D·V)/∂roughness: the one kernel of the core model and of
+/// [`crate::gltf_pbr_ext`]'s core and clear coat.
+///
+/// With S(v) = √(cos²θv + α² sin²θv) and u = (h_x² + h_y²)/α², s = u + h_z²:
+/// D·V = 1 / (π α² s² · vden), vden = 2 (cos θo S(i) + cos θi S(o)) (correlated) or
+/// (cos θi + S(i))(cos θo + S(o)) (separable). Its log-derivative (isotropic GGX, as
+/// cook-torrance's kernel): ∂ln D/∂α = (4u − 2s)/(α s), and ∂S(v)/∂α = α sin²θv/S(v)
+/// enters through vden; α = roughness² gives ∂α/∂roughness = 2 roughness.
+/// Both directions must be above the horizon (the callers return 0 below it).
+#[inline(always)]
+pub(crate) fn ggx_dv(
+    roughness: f64,
+    masking: Masking,
+    wi: [f64; 3],
+    wo: [f64; 3],
+    h: [f64; 3],
+) -> (f64, f64) {
+    let (zi, zo) = (wi[2], wo[2]);
+    let a = roughness * roughness;
+    let a2 = a * a;
+    let u = (h[0] * h[0] + h[1] * h[1]) / a2;
+    let s = u + h[2] * h[2];
+    let sin2_i = wi[0] * wi[0] + wi[1] * wi[1];
+    let sin2_o = wo[0] * wo[0] + wo[1] * wo[1];
+    let si = (zi * zi + a2 * sin2_i).sqrt();
+    let so = (zo * zo + a2 * sin2_o).sqrt();
+    let correlated = masking == Masking::SmithCorrelated;
+    let vden = if correlated {
+        2.0 * (zo * si + zi * so)
+    } else {
+        (zi + si) * (zo + so)
+    };
+    let dv = FRAC_1_PI / (a2 * s * s * vden);
+    let (dsi, dso) = (a * sin2_i / si, a * sin2_o / so);
+    let dln_vden = if correlated {
+        (zo * dsi + zi * dso) / (zo * si + zi * so)
+    } else {
+        dsi / (zi + si) + dso / (zo + so)
+    };
+    let dln_a = (4.0 * u - 2.0 * s) / (a * s) - dln_vden;
+    (dv, dln_a * 2.0 * roughness)
 }
 
 crate::pair::pair_kernel_brdf!(GltfPbr);

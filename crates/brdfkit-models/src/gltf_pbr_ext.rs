@@ -69,12 +69,11 @@
 //! specular and ior extensions: for an opaque material they act only through the product
 //! f0_ior · specularColor.
 
-use crate::gltf_pbr::{DIELECTRIC_F0, GltfPbr, ROUGHNESS_DOMAIN, UNIT_DOMAIN};
+use crate::gltf_pbr::{self, DIELECTRIC_F0, GltfPbr, ROUGHNESS_DOMAIN, UNIT_DOMAIN};
 use crate::json;
 use crate::params::{channel, check_count, check_rgb};
 use crate::sheen::{SHEEN_ROUGHNESS_MIN, SheenVisibility, sheen_albedo, sheen_dv};
 use brdfkit_core::model::{Domain, check_param};
-use brdfkit_core::scattering::Masking;
 use brdfkit_core::{GeomSlice, Model, ModelError, ParamSpec, Rgb};
 use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
@@ -313,33 +312,11 @@ impl GltfPbrExt {
         Ok(m)
     }
 
-    /// The GGX D·V of the core's masking at `roughness` and ∂(D·V)/∂roughness (the
-    /// algebra of [`crate::gltf_pbr`]'s kernel).
+    /// The GGX D·V of the core's masking at `roughness` and ∂(D·V)/∂roughness
+    /// ([`crate::gltf_pbr`]'s kernel, [`gltf_pbr::ggx_dv`]).
     fn ggx_dv(&self, roughness: f64, wi: [f64; 3], wo: [f64; 3], h: [f64; 3]) -> (f64, f64) {
-        let (zi, zo) = (wi[2], wo[2]);
-        let a = roughness * roughness;
-        let a2 = a * a;
-        let u = (h[0] * h[0] + h[1] * h[1]) / a2;
-        let s = u + h[2] * h[2];
-        let sin2_i = wi[0] * wi[0] + wi[1] * wi[1];
-        let sin2_o = wo[0] * wo[0] + wo[1] * wo[1];
-        let si = (zi * zi + a2 * sin2_i).sqrt();
-        let so = (zo * zo + a2 * sin2_o).sqrt();
-        let correlated = self.core.masking() == Masking::SmithCorrelated;
-        let vden = if correlated {
-            2.0 * (zo * si + zi * so)
-        } else {
-            (zi + si) * (zo + so)
-        };
-        let dv = FRAC_1_PI / (a2 * s * s * vden);
-        let (dsi, dso) = (a * sin2_i / si, a * sin2_o / so);
-        let dln_vden = if correlated {
-            (zo * dsi + zi * dso) / (zo * si + zi * so)
-        } else {
-            dsi / (zi + si) + dso / (zo + so)
-        };
-        let dln_a = (4.0 * u - 2.0 * s) / (a * s) - dln_vden;
-        (dv, dv * dln_a * 2.0 * roughness)
+        let (dv, dln_r) = gltf_pbr::ggx_dv(roughness, self.core.masking(), wi, wo, h);
+        (dv, dv * dln_r)
     }
 
     /// The core with specular/ior (module doc) and, with `grad`, its gradient in the
@@ -705,6 +682,7 @@ mod tests {
     use brdfkit_core::Brdf;
     use brdfkit_core::direction::spherical;
     use brdfkit_core::quadrature::{AlbedoQuadrature, directional_albedo};
+    use brdfkit_core::scattering::Masking;
     use std::f64::consts::PI;
 
     fn core(masking: Masking) -> GltfPbr {
