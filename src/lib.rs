@@ -16,6 +16,7 @@
 pub use brdfkit_core as core;
 pub use brdfkit_fit as fit;
 pub use brdfkit_fit::synth;
+pub use brdfkit_io as io;
 pub use brdfkit_merl as merl;
 pub use brdfkit_models as models;
 pub use brdfkit_nbrdf as nbrdf;

@@ -69,16 +69,7 @@ pub enum NbrdfError {
     },
 }
 
-/// `(6, 21)` as numpy prints shapes (`(3,)` for one axis).
-pub(crate) fn fmt_shape(s: &[u64]) -> String {
-    match s {
-        [n] => format!("({n},)"),
-        _ => {
-            let parts: Vec<String> = s.iter().map(u64::to_string).collect();
-            format!("({})", parts.join(", "))
-        }
-    }
-}
+use brdfkit_io::npy::fmt_shape;
 
 fn fmt_index(i: &[usize]) -> String {
     let parts: Vec<String> = i.iter().map(usize::to_string).collect();

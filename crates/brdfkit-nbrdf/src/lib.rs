@@ -23,16 +23,9 @@
 //! [`NbrdfError`] is always bad input (exit 2) except [`NbrdfError::Read`] (I/O) and
 //! [`NbrdfError::Table`].
 //!
-//! # Why `npyz`
-//! `.npy` files are read with [`npyz`] (0.9, MIT), not a hand-written parser. It reads
-//! a file's header (dtype, shape, order) before its data, so a wrong dtype or shape is
-//! reported from the header, and it reads into a plain `Vec<f32>` / `Vec<f64>` and
-//! writes n-dimensional arrays of any plain dtype (`WriteOptions::new().default_dtype()
-//! .shape(&[n, 3])`), which is what `fit-brdf eval` needs later (read N×6 f64, write
-//! N×3 f64; writing into a `Vec<u8>` leaves the file to the project's atomic writer).
-//! Its dependencies are small (byteorder, num-bigint, py_literal). The alternative,
-//! `ndarray-npy`, does the same through `ndarray` arrays, a dependency nothing else in
-//! the workspace uses, for what here are six small matrices.
+//! # Reading the files
+//! The six `.npy` files are read by the workspace's one `.npy` reader,
+//! [`brdfkit_io::npy::read_f32`] (through `npyz`: see that crate for why).
 
 pub mod error;
 mod net;

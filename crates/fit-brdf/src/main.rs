@@ -2,16 +2,14 @@
 //! Parse → validated configuration → library call → output; exit 0 on success,
 //! 1 on a runtime failure, 2 on bad input or usage.
 //!
-//! One import rule: what the facade crate `brdfkit` re-exports (core, fit, merl,
-//! models, synth) is always reached through it (`brdfkit::fit::...`); only the crates
+//! One import rule: what the facade crate `brdfkit` re-exports (core, fit, io,
+//! merl, models, nbrdf, rgl, synth) is always reached through it (`brdfkit::fit::...`); only the crates
 //! it does not re-export (brdfkit-validate, brdfkit-render, brdfkit-study) are used
 //! directly.
 
 mod cli;
 mod commands;
-mod csvio;
 mod error;
-mod npyio;
 mod output;
 mod progress;
 

@@ -3,11 +3,11 @@
 
 use super::{lookup_mode, read_bsdf, read_model, read_nbrdf, read_table};
 use crate::cli::EvalArgs;
-use crate::csvio::{UNIT_TOLERANCE, format_rgb, read_pairs};
 use crate::error::{CliResult, bad_input, runtime};
-use crate::npyio::{self, Pairs, is_npy};
 use crate::output::{write_file, write_text};
 use brdfkit::core::{Rgb, Vec3};
+use brdfkit::io::csv::{UNIT_TOLERANCE, format_rgb, read_pairs};
+use brdfkit::io::npy::{self as npyio, Pairs, is_npy};
 use brdfkit::models::raw::eval_dirs_flat;
 use rayon::prelude::*;
 
@@ -17,7 +17,8 @@ pub fn run(a: EvalArgs) -> CliResult<()> {
         npyio::read_pairs(&a.dirs, UNIT_TOLERANCE).map_err(bad_input)?
     } else {
         Pairs::Owned(
-            read_pairs(&a.dirs)?
+            read_pairs(&a.dirs)
+                .map_err(bad_input)?
                 .iter()
                 .flat_map(|(wi, wo)| [wi.x, wi.y, wi.z, wo.x, wo.y, wo.z])
                 .collect(),

@@ -3,6 +3,7 @@
 
 #![allow(dead_code)] // each test file uses its own subset
 
+#[path = "../../../brdfkit-io/tests/common/npy_bytes.rs"]
 pub mod npy;
 
 use assert_cmd::Command;

@@ -1,22 +1,24 @@
-//! The `.npy` contract of `eval`: direction pairs in as an N×6 float64 array (rows
+//! NumPy `.npy` arrays. `eval`'s contract: direction pairs in as an N×6 float64 array (rows
 //! `wi_x wi_y wi_z wo_x wo_y wo_z`), values out as an N×3 float64 array (`r g b`, NaN
 //! where there is no sample). The header is parsed and written by `npyz`; the body is
 //! converted in bulk, since a million pairs are 48 MB that a per-element reader would
 //! spend most of the command's time on.
+//!
+//! Float32 arrays of any shape are read for the NBRDF weights ([`read_f32`]).
 
 #[cfg(unix)]
-use brdfkit::merl::MappedF64;
-use npyz::{DType, NpyHeader, Order, TypeChar, TypeStr, WriteOptions, WriterBuilder};
+use brdfkit_merl::MappedF64;
+use npyz::{DType, NpyFile, NpyHeader, Order, TypeChar, TypeStr, WriteOptions, WriterBuilder};
 use rayon::prelude::*;
 use std::io::Seek;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
-/// What is wrong with a `.npy` file of direction pairs.
+/// What is wrong with a `.npy` file.
 #[derive(Debug, Error)]
 pub enum NpyError {
     /// The file could not be read.
-    #[error("{}: cannot read the directions file: {source}", path.display())]
+    #[error("{}: cannot read: {source}", path.display())]
     Read {
         /// The file.
         path: PathBuf,
@@ -33,21 +35,26 @@ pub enum NpyError {
         #[source]
         source: std::io::Error,
     },
-    /// Another dtype than little-endian float64.
-    #[error("{}: dtype '{found}', expected float64 ('<f8'): convert with arr.astype(np.float64)", path.display())]
+    /// Another dtype than the reader's (none is converted: a different dtype means a
+    /// different file than the contract describes).
+    #[error("{}: dtype '{found}', expected {expected}", path.display())]
     Dtype {
         /// The file.
         path: PathBuf,
         /// The file's dtype descriptor.
         found: String,
+        /// The dtype the reader takes, and how to convert to it.
+        expected: &'static str,
     },
-    /// Not an N×6 array.
-    #[error("{}: shape {found:?}, expected (N, 6): one row wi_x, wi_y, wi_z, wo_x, wo_y, wo_z per pair", path.display())]
+    /// Another shape than the reader's.
+    #[error("{}: shape {}, expected {expected}", path.display(), fmt_shape(found))]
     Shape {
         /// The file.
         path: PathBuf,
         /// The file's shape.
         found: Vec<u64>,
+        /// The shape the reader takes.
+        expected: String,
     },
     /// Fewer or more data bytes than the header's shape.
     #[error("{}: the header says {rows} rows ({need} bytes of data) but the file holds {got}", path.display())]
@@ -73,10 +80,104 @@ pub enum NpyError {
     },
 }
 
+impl NpyError {
+    /// The file the error is about.
+    pub fn path(&self) -> &Path {
+        match self {
+            NpyError::Read { path, .. }
+            | NpyError::Format { path, .. }
+            | NpyError::Dtype { path, .. }
+            | NpyError::Shape { path, .. }
+            | NpyError::Length { path, .. }
+            | NpyError::Row { path, .. } => path,
+        }
+    }
+}
+
+/// `(6, 21)` as numpy prints shapes (`(3,)` for one axis).
+pub fn fmt_shape(s: &[u64]) -> String {
+    match s {
+        [n] => format!("({n},)"),
+        _ => {
+            let parts: Vec<String> = s.iter().map(u64::to_string).collect();
+            format!("({})", parts.join(", "))
+        }
+    }
+}
+
 /// Whether `path` names a `.npy` file (by extension, case-insensitive).
 pub fn is_npy(path: &Path) -> bool {
     path.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("npy"))
+}
+
+/// A float32 array read from a `.npy` file, in C (row-major) order whatever the file's
+/// order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArrayF32 {
+    /// The shape as written in the file.
+    pub shape: Vec<u64>,
+    /// The values, last axis fastest.
+    pub data: Vec<f32>,
+}
+
+/// Reads a float32 array (`<f4` or `>f4`) of any shape.
+///
+/// Errors name `path`: [`NpyError::Read`] on an I/O failure (its source's kind tells a
+/// missing file), [`NpyError::Format`] for a file that is not `.npy` or has fewer data
+/// bytes than its shape needs, [`NpyError::Dtype`] for any other dtype (float64,
+/// integers, records, pickled objects), [`NpyError::Shape`] for a Fortran-order array of
+/// more than two axes.
+pub fn read_f32(path: &Path) -> Result<ArrayF32, NpyError> {
+    let bytes = std::fs::read(path).map_err(|source| NpyError::Read {
+        path: path.to_owned(),
+        source,
+    })?;
+    parse_f32(&bytes, path)
+}
+
+/// [`read_f32`] of a file's bytes already in memory (an embedded file); `path` names it
+/// in errors.
+pub fn parse_f32(bytes: &[u8], path: &Path) -> Result<ArrayF32, NpyError> {
+    let format = |source| NpyError::Format {
+        path: path.to_owned(),
+        source,
+    };
+    let npy = NpyFile::new(bytes).map_err(format)?;
+    let dtype = npy.dtype();
+    let is_f32 = matches!(&dtype, DType::Plain(t)
+        if t.type_char() == TypeChar::Float && t.size_field() == 4);
+    if !is_f32 || npy.uses_pickled_array() {
+        return Err(NpyError::Dtype {
+            path: path.to_owned(),
+            found: dtype.descr(),
+            expected: "float32 ('<f4')",
+        });
+    }
+    let shape = npy.shape().to_vec();
+    let order = npy.order();
+    let data: Vec<f32> = npy.into_vec().map_err(format)?;
+    let data = if order == Order::Fortran && shape.len() == 2 {
+        // Column-major on disk: transpose into row-major.
+        let (rows, cols) = (shape[0] as usize, shape[1] as usize);
+        let mut c = vec![0.0f32; data.len()];
+        for r in 0..rows {
+            for k in 0..cols {
+                c[r * cols + k] = data[k * rows + r];
+            }
+        }
+        c
+    } else if order == Order::Fortran && shape.len() > 2 {
+        // The layout has no such arrays; refuse rather than guess an axis order.
+        return Err(NpyError::Shape {
+            path: path.to_owned(),
+            found: shape,
+            expected: "at most 2 axes for a Fortran-order array".into(),
+        });
+    } else {
+        data
+    };
+    Ok(ArrayF32 { shape, data })
 }
 
 /// N rows of six values: the body of a `.npy` file mapped into memory, or an array.
@@ -123,6 +224,7 @@ pub fn read_pairs(path: &Path, unit_tol: f64) -> Result<Pairs, NpyError> {
         return Err(NpyError::Dtype {
             path: path.to_owned(),
             found: descr,
+            expected: "float64 ('<f8'): convert with arr.astype(np.float64)",
         });
     }
     let shape = header.shape().to_vec();
@@ -130,6 +232,7 @@ pub fn read_pairs(path: &Path, unit_tol: f64) -> Result<Pairs, NpyError> {
         return Err(NpyError::Shape {
             path: path.to_owned(),
             found: shape,
+            expected: "(N, 6): one row wi_x, wi_y, wi_z, wo_x, wo_y, wo_z per pair".into(),
         });
     }
     let rows = shape[0];
@@ -166,7 +269,7 @@ pub fn read_pairs(path: &Path, unit_tol: f64) -> Result<Pairs, NpyError> {
     // The body is read straight into the f64 array (little-endian bytes on a
     // little-endian machine: no second copy of a 70 MB input), which lies on huge pages:
     // 4 KiB pages cost 17,000 first-touch faults for 1.46 M pairs.
-    let mut v = brdfkit::merl::zeroed_f64((rows * 6) as usize);
+    let mut v = brdfkit_merl::zeroed_f64((rows * 6) as usize);
     let got = read_full(&mut file, bytemuck::cast_slice_mut(&mut v)).map_err(read_err)?;
     let extra = read_full(&mut file, &mut [0u8; 1]).map_err(read_err)?;
     if got as u64 != need || extra != 0 {
@@ -185,7 +288,7 @@ pub fn read_pairs(path: &Path, unit_tol: f64) -> Result<Pairs, NpyError> {
     }
     if header.order() == Order::Fortran && rows > 1 {
         let n = rows as usize;
-        let mut c = brdfkit::merl::zeroed_f64(v.len());
+        let mut c = brdfkit_merl::zeroed_f64(v.len());
         for (col, column) in v.chunks_exact(n).enumerate() {
             for (r, &x) in column.iter().enumerate() {
                 c[r * 6 + col] = x;
@@ -354,7 +457,7 @@ pub fn write_values_with(
 }
 
 #[cfg(test)]
-#[path = "../tests/common/npy.rs"]
+#[path = "../tests/common/npy_bytes.rs"]
 mod npy_file;
 
 #[cfg(test)]
@@ -455,7 +558,7 @@ mod tests {
         let cases: Vec<(&str, Vec<u8>, &str)> = vec![
             ("text.npy", b"wi_x,wi_y\n".to_vec(), "not a valid .npy"),
             ("f32.npy", npy("<f4", "(1, 6)", &[0u8; 24]), "dtype '<f4'"),
-            ("shape.npy", npy("<f8", "(2, 3)", &one), "shape [2, 3]"),
+            ("shape.npy", npy("<f8", "(2, 3)", &one), "shape (2, 3)"),
             ("short.npy", npy("<f8", "(2, 6)", &one), "holds 48"),
             (
                 "long.npy",

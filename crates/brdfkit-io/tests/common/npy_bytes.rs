@@ -1,6 +1,6 @@
 //! A NumPy `.npy` file built by hand (format version 1.0), for tests of readers that
-//! must not trust a library to write what they read; shared by `tests/measured_io.rs`
-//! and the unit tests of `src/npyio.rs`.
+//! must not trust a library to write what they read; shared by the unit tests of
+//! `brdfkit-io/src/npy.rs` and fit-brdf's `tests/measured_io.rs`.
 
 /// The bytes of a version 1.0 `.npy` file: magic, header length, the header dict with
 /// `descr` and `shape` given as Python text, padded with spaces and a newline to a
