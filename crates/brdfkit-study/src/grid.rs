@@ -367,6 +367,13 @@ pub fn find_measured_dir(cwd: &Path) -> Option<PathBuf> {
     built.is_dir().then_some(built)
 }
 
+/// [`find_measured_dir`] from the current folder.
+pub fn find_measured_dir_here() -> Option<PathBuf> {
+    std::env::current_dir()
+        .ok()
+        .and_then(|cwd| find_measured_dir(&cwd))
+}
+
 /// The error of a name in `cfg.measured` with no proxy: a missing folder names the
 /// options that set it, a folder without the proxy the name.
 pub fn no_proxy(cfg: &StudyConfig, name: &str) -> StudyError {

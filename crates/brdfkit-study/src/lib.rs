@@ -100,6 +100,15 @@ pub enum StudyError {
 }
 
 impl StudyError {
+    /// Whether the request is at fault (a spec, an option, a model description) rather
+    /// than the run: a command line reports it as bad input.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(
+            self,
+            StudyError::Spec(_) | StudyError::Config { .. } | StudyError::Model { .. }
+        )
+    }
+
     pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
         StudyError::Io {
             path: path.to_path_buf(),

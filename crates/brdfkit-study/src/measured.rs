@@ -39,6 +39,22 @@ pub struct MeasuredConfig {
     pub thumb_size: usize,
 }
 
+impl MeasuredConfig {
+    /// The study of the batch in `fits`, written into the Markdown document `report` and
+    /// the folder beside it of the same name without extension (`docs/measured.md` and
+    /// `docs/measured/`), with `thumbnails` best and worst materials drawn at 96 pixels.
+    pub fn new(fits: PathBuf, report: PathBuf, categories: PathBuf, thumbnails: usize) -> Self {
+        MeasuredConfig {
+            fits,
+            out: report.with_extension(""),
+            report,
+            categories,
+            thumbnails,
+            thumb_size: 96,
+        }
+    }
+}
+
 /// One fit of one material, as the batch recorded it.
 #[derive(Debug, Clone)]
 pub struct MeasuredFit {

@@ -100,6 +100,17 @@ pub fn bad_settings(e: brdfkit::fit::families::FamilyError) -> CliError {
     bad_input(Flagged(e))
 }
 
+/// A report setting the library refused, named by its flag (bad input, exit 2); any
+/// other report error is a runtime failure.
+pub fn bad_report_option(e: brdfkit_validate::html::ReportError) -> CliError {
+    match e {
+        brdfkit_validate::html::ReportError::Option { option, reason } => {
+            bad_msg(format!("{}: {reason}", flag(option)))
+        }
+        e => runtime(e),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

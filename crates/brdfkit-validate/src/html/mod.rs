@@ -26,9 +26,12 @@
 
 pub mod analysis;
 pub mod charts;
+mod files;
 pub mod interactive;
 mod page;
 pub mod renders;
+
+pub use files::{HTML_FILE, JSON_FILE};
 
 use crate::physical::{CheckOptions, PhysicalReport, check_model_with};
 use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_of};
@@ -58,6 +61,9 @@ pub enum ReportError {
     /// A sphere could not be rendered.
     #[error("render: {0}")]
     Render(String),
+    /// A fitted model's description could not be read back.
+    #[error("{0}")]
+    Model(String),
     /// The interactive panels could not be built (a model that cannot be tabulated).
     #[error("interactive panels: {0}")]
     Panels(String),
@@ -274,6 +280,14 @@ pub struct FitReport {
     pub html: String,
 }
 
+impl ReportOptions {
+    /// Refuses a value out of its domain, naming the setting ([`ReportError::Option`]):
+    /// a caller can check its options before it fits anything.
+    pub fn check(&self) -> Result<(), ReportError> {
+        check_options(self)
+    }
+}
+
 fn check_options(o: &ReportOptions) -> Result<(), ReportError> {
     let bad = |option, reason: &str| {
         Err(ReportError::Option {
@@ -301,18 +315,7 @@ fn check_options(o: &ReportOptions) -> Result<(), ReportError> {
     if o.residual_max_bins == 0 {
         return bad("residual_max_bins", "must be at least 1");
     }
-    if let Some(r) = &o.render {
-        if !(8..=1024).contains(&r.size) {
-            return bad("render.size", "must be in 8..=1024 pixels");
-        }
-        if !(1..=4096).contains(&r.env_spp) {
-            return bad("render.env_spp", "must be in 1..=4096");
-        }
-        if !(r.diff_scale > 0.0 && r.diff_scale <= 1.0) {
-            return bad("render.diff_scale", "must lie in (0, 1]");
-        }
-    }
-    Ok(())
+    o.render.as_ref().map_or(Ok(()), RenderOptions::check)
 }
 
 /// The physical checks of a fitted model: one per channel model.

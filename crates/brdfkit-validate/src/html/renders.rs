@@ -30,6 +30,30 @@ pub struct RenderOptions {
     pub diff_scale: f64,
 }
 
+impl RenderOptions {
+    /// Refuses a value out of its domain, naming the setting ([`ReportError::Option`]:
+    /// `render_size`, `env_spp`, `diff_scale`).
+    pub fn check(&self) -> Result<(), ReportError> {
+        let bad = |option, reason: String| Err(ReportError::Option { option, reason });
+        if !(8..=1024).contains(&self.size) {
+            return bad(
+                "render_size",
+                format!("{}: must be in 8..=1024 pixels", self.size),
+            );
+        }
+        if !(1..=4096).contains(&self.env_spp) {
+            return bad("env_spp", format!("{}: must be in 1..=4096", self.env_spp));
+        }
+        if !(self.diff_scale > 0.0 && self.diff_scale <= 1.0) {
+            return bad(
+                "diff_scale",
+                format!("{}: must lie in (0, 1]", self.diff_scale),
+            );
+        }
+        Ok(())
+    }
+}
+
 impl Default for RenderOptions {
     /// 128 × 128, 16 spp under the environment, seed 7, ±0.25 of the display range.
     fn default() -> Self {

@@ -1,9 +1,8 @@
 //! `fit-brdf compare A B`: two representations of a material (tables, models, NBRDFs)
 //! against each other (the engine: `brdfkit_validate::compare`).
 
-use super::report::render_options;
 use super::score::loss_lines;
-use super::{cell_config, lookup_mode, parse_dims};
+use super::{cell_config, lookup_mode, parse_dims, render_options};
 use crate::cli::CompareArgs;
 use crate::error::{CliError, CliResult, bad_input, runtime};
 use crate::output::{write_failed, write_text};

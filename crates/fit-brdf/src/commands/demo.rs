@@ -13,10 +13,11 @@
 //!    where it is.
 
 use super::demo_material::{Material, material};
-use super::report::{make_report_from, write_report};
+use super::report::{make_report, model_fits};
 use super::{read_table, write_table};
 use crate::cli::DemoArgs;
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
+use crate::output::write_failed;
 use crate::progress;
 use anyhow::Context;
 use brdfkit::core::direction::spherical;
@@ -119,16 +120,12 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     // The report reuses the fits' cells and losses instead of rebuilding them.
-    let report = make_report_from(
-        std::sync::Arc::new(back),
-        data,
-        &name,
-        &outcomes,
-        &cfg,
-        &options,
-        false,
-    )?;
-    let (html, json) = write_report(&a.out.join("report"), &report)?;
+    let fits = model_fits(&outcomes)?;
+    let table = (std::sync::Arc::new(back), data);
+    let report = make_report(table, &name, &fits, Some(&cfg), &options, false)?;
+    let (html, json) = report
+        .write_to(&a.out.join("report"))
+        .map_err(write_failed)?;
     println!(
         "\nreport written in {:.1} s: {}\n  (data: {}); open it in a browser, no server needed",
         report.data.timings.total_s,

@@ -19,13 +19,14 @@ mod study;
 mod synth;
 mod view;
 
-use crate::cli::{CellOptions, Cli, Command, FitOptions, Interp};
-use crate::error::{CliResult, bad_input, bad_msg, bad_settings, runtime};
+use crate::cli::{CellOptions, Cli, Command, FitOptions, Interp, SphereOptions};
+use crate::error::{CliResult, bad_input, bad_msg, bad_report_option, bad_settings, runtime};
 use anyhow::Context;
 use brdfkit::core::Model;
 use brdfkit::fit::families::{Family, FitSettings, Structure, check_free, families};
 use brdfkit::fit::{FitConfig, Fitted};
 use brdfkit::merl::{Dims, Lookup, MerlError, MerlTable};
+use brdfkit_validate::html::renders::RenderOptions;
 use std::path::Path;
 
 pub fn run(cli: Cli) -> CliResult<()> {
@@ -91,6 +92,18 @@ pub fn cell_settings(c: &CellOptions) -> FitSettings {
         theta_max_deg: c.theta_max,
         ..FitSettings::default()
     }
+}
+
+/// The sphere renders of the command line (`None`: skipped), checked by the library and
+/// named by their flags; shared with `compare`.
+pub fn render_options(s: &SphereOptions) -> CliResult<Option<RenderOptions>> {
+    let r = RenderOptions {
+        size: s.render_size,
+        env_spp: s.env_spp,
+        ..RenderOptions::default()
+    };
+    r.check().map_err(bad_report_option)?;
+    Ok((!s.no_renders).then_some(r))
 }
 
 /// The validated configuration of the cell options alone (what `score` and `compare`

@@ -3,8 +3,9 @@
 
 use crate::cli::{StudyArgs, StudyPart};
 use crate::error::{CliResult, bad_msg, runtime};
-use brdfkit_study::grid::find_measured_dir;
+use brdfkit_study::grid::find_measured_dir_here;
 use brdfkit_study::losses::LossesConfig;
+use brdfkit_study::measured::MeasuredConfig;
 use brdfkit_study::{ModelChoice, StudyConfig, StudyError};
 
 fn list<T>(opt: &str, s: &str, parse: impl Fn(&str) -> Option<T>) -> CliResult<Vec<T>> {
@@ -42,13 +43,8 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
     }
     // Not given: found from the current folder (the README's tour runs in `tour/`);
     // none found: the default stays, and a measured material names --measured-dir.
-    if let Some(d) = a.measured_dir.clone().or_else(|| {
-        std::env::current_dir()
-            .ok()
-            .and_then(|cwd| find_measured_dir(&cwd))
-    }) {
-        c.measured_dir = d;
-    }
+    c.measured_dir =
+        (a.measured_dir.clone().or_else(find_measured_dir_here)).unwrap_or(c.measured_dir);
     if let Some(m) = &a.models {
         c.models = list("models", m, ModelChoice::by_label)?;
         custom = true;
@@ -65,9 +61,9 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
         c.starts = list("starts", s, |x| x.parse().ok())?;
         custom = true;
     }
-    if let Some(f) = a.nelder_mead_max_fraction {
-        c.nelder_mead_max_fraction = f;
-    }
+    c.nelder_mead_max_fraction = a
+        .nelder_mead_max_fraction
+        .unwrap_or(c.nelder_mead_max_fraction);
     // 0 lifts a cap (the solver's own default applies).
     let cap = |v: Option<u64>, d: Option<u64>| match v {
         Some(0) => None,
@@ -76,17 +72,11 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
     };
     c.max_iters = cap(a.max_iters, c.max_iters);
     c.nelder_mead_max_iters = cap(a.nelder_mead_max_iters, c.nelder_mead_max_iters);
-    if let Some(b) = a.starts_budget {
-        c.starts_budget = (b > 0.0).then_some(b);
-    }
+    c.starts_budget = (a.starts_budget).map_or(c.starts_budget, |b| (b > 0.0).then_some(b));
     c.resume = a.resume;
     c.theta_max_deg = a.theta_max;
-    if let Some(r) = a.reps {
-        c.reps = r;
-    }
-    if let Some(b) = a.batch_tables {
-        c.batch_tables = b;
-    }
+    c.reps = a.reps.unwrap_or(c.reps);
+    c.batch_tables = a.batch_tables.unwrap_or(c.batch_tables);
     c.grid = a.parts.contains(&StudyPart::Grid);
     c.choices = a.parts.contains(&StudyPart::Choices);
     c.scale = a.parts.contains(&StudyPart::Scale);
@@ -129,21 +119,13 @@ pub fn run(a: StudyArgs) -> CliResult<()> {
     if a.rewrite {
         return brdfkit_study::rewrite(&a.out, &progress).map_err(|e| bad_msg(e.to_string()));
     }
-    let study_error = |e: StudyError| match e {
-        StudyError::Spec(_) | StudyError::Config { .. } | StudyError::Model { .. } => {
-            bad_msg(e.to_string())
-        }
-        e => runtime(e),
+    let study_error = |e: StudyError| match e.is_bad_input() {
+        true => bad_msg(e.to_string()),
+        false => runtime(e),
     };
     if a.parts.contains(&StudyPart::Measured) {
-        let m = brdfkit_study::measured::MeasuredConfig {
-            fits: a.fits.clone(),
-            out: a.measured_doc.with_extension(""),
-            report: a.measured_doc.clone(),
-            categories: a.categories.clone(),
-            thumbnails: a.thumbnails,
-            thumb_size: 96,
-        };
+        let (fits, doc) = (a.fits.clone(), a.measured_doc.clone());
+        let m = MeasuredConfig::new(fits, doc, a.categories.clone(), a.thumbnails);
         brdfkit_study::measured::run(&m, &progress).map_err(study_error)?;
     }
     if a.parts.contains(&StudyPart::Losses) {

@@ -1,0 +1,76 @@
+//! The report's files and its plain-text lines: what `fit-brdf report` and `demo` write
+//! and print, in one place.
+
+use super::{FitReport, ModelFit, Origin, ReportError};
+use brdfkit_core::atomic::{FileSet, WriteError};
+use brdfkit_fit::Fitted;
+use brdfkit_fit::families::Outcome;
+use std::path::{Path, PathBuf};
+
+/// The page in the report's directory.
+pub const HTML_FILE: &str = "index.html";
+/// The report's data in its directory.
+pub const JSON_FILE: &str = "report.json";
+
+impl FitReport {
+    /// Writes DIR/report.json and DIR/index.html as one [`FileSet`]: both are staged
+    /// whole beside their destinations, then renamed into place; if the second rename
+    /// fails the first is rolled back, so DIR never holds half a report. DIR may exist.
+    /// Returns the page's and the data's paths.
+    pub fn write_to(&self, dir: &Path) -> Result<(PathBuf, PathBuf), WriteError> {
+        std::fs::create_dir_all(dir).map_err(|source| WriteError {
+            path: dir.to_owned(),
+            step: "creating the output directory",
+            source,
+        })?;
+        let (json, html) = (dir.join(JSON_FILE), dir.join(HTML_FILE));
+        let mut set = FileSet::new();
+        set.stage_bytes(&json, self.to_json_pretty().as_bytes())?;
+        set.stage_bytes(&html, self.html.as_bytes())?;
+        set.commit()?;
+        Ok((html, json))
+    }
+
+    /// One line per given model: its label and its four losses (the fitted models'
+    /// lines come from the fitter's comparison).
+    pub fn given_losses_text(&self) -> String {
+        self.data
+            .summary
+            .models
+            .iter()
+            .filter(|m| m.origin == Origin::Given)
+            .map(|m| {
+                let l = &m.losses;
+                format!(
+                    "{}: cbrt {:.6e}, l2 {:.6e}, cosine {:.6e}, log {:.6e}\n",
+                    m.label, l.cbrt.overall, l.l2.overall, l.cosine.overall, l.log.overall
+                )
+            })
+            .collect()
+    }
+}
+
+impl ModelFit {
+    /// A fitted family of the report, with its record.
+    pub fn fitted(o: &Outcome) -> Result<ModelFit, ReportError> {
+        let fitted = Fitted::from_json(&o.params)
+            .map_err(|e| ReportError::Model(format!("{}: fitted model: {e}", o.label)))?;
+        Ok(ModelFit {
+            label: o.label.clone(),
+            fitted,
+            record: Some(o.record.clone()),
+            origin: Origin::Fitted,
+        })
+    }
+
+    /// A given model (not fitted here), labelled with its family and its file.
+    pub fn given(fitted: Fitted, file: &Path) -> ModelFit {
+        let name = fitted.shared().map_or("per-channel", |m| m.name());
+        ModelFit {
+            label: format!("{name} (given: {})", file.display()),
+            fitted,
+            record: None,
+            origin: Origin::Given,
+        }
+    }
+}
