@@ -50,21 +50,29 @@ fn variants() -> Vec<(&'static str, Value)> {
         ("core", json!({"model": "gltf-pbr", "params": core})),
         (
             "sheen",
-            with(json!({"extensions": ["sheen"], "sheen_color": [0.7, 0.5, 0.4], "sheen_roughness": 0.4})),
+            with(
+                json!({"extensions": ["sheen"], "sheen_color": [0.7, 0.5, 0.4], "sheen_roughness": 0.4}),
+            ),
         ),
         (
             "clearcoat",
-            with(json!({"extensions": ["clearcoat"], "clearcoat": 0.8, "clearcoat_roughness": 0.15})),
+            with(
+                json!({"extensions": ["clearcoat"], "clearcoat": 0.8, "clearcoat_roughness": 0.15}),
+            ),
         ),
         (
             "specular",
-            with(json!({"extensions": ["specular"], "specular": 0.6, "specular_color": [1.4, 1.0, 0.8], "ior": 1.6})),
+            with(
+                json!({"extensions": ["specular"], "specular": 0.6, "specular_color": [1.4, 1.0, 0.8], "ior": 1.6}),
+            ),
         ),
         (
             "all",
-            with(json!({"extensions": ["sheen", "clearcoat", "specular"], "sheen_color": 0.5,
+            with(
+                json!({"extensions": ["sheen", "clearcoat", "specular"], "sheen_color": 0.5,
                 "sheen_roughness": 0.3, "clearcoat": 0.3, "clearcoat_roughness": 0.1, "specular": 0.9,
-                "specular_color": [0.9, 1.0, 1.2], "ior": 1.45})),
+                "specular_color": [0.9, 1.0, 1.2], "ior": 1.45}),
+            ),
         ),
     ]
 }
@@ -120,7 +128,10 @@ fn mapping(gltf: &Value) -> Value {
     let pbr = &m["pbrMetallicRoughness"];
     let ext = &m["extensions"];
     let base = rgb(&pbr["baseColorFactor"]);
-    let ior = ext["KHR_materials_ior"].get("ior").cloned().unwrap_or(json!(1.5));
+    let ior = ext["KHR_materials_ior"]
+        .get("ior")
+        .cloned()
+        .unwrap_or(json!(1.5));
     let cc = &ext["KHR_materials_clearcoat"];
     let mut principled = json!({
         "Base Color": pbr["baseColorFactor"], "Metallic": pbr["metallicFactor"],
@@ -162,7 +173,12 @@ fn differences(path: &str, want: &Value, got: &Value, out: &mut Vec<String>) {
         }
         (Value::Object(w), Value::Object(g)) => {
             for (k, v) in w {
-                differences(&format!("{path}.{k}"), v, g.get(k).unwrap_or(&Value::Null), out);
+                differences(
+                    &format!("{path}.{k}"),
+                    v,
+                    g.get(k).unwrap_or(&Value::Null),
+                    out,
+                );
             }
         }
         (Value::Array(w), Value::Array(g)) if w.len() == g.len() => {
@@ -172,16 +188,24 @@ fn differences(path: &str, want: &Value, got: &Value, out: &mut Vec<String>) {
         }
         (Value::Object(w), _) if w.is_empty() => {}
         _ if want == got => {}
-        _ => out.push(format!("{path}: Blender has {got}, the mapping promises {want}")),
+        _ => out.push(format!(
+            "{path}: Blender has {got}, the mapping promises {want}"
+        )),
     }
 }
 
 /// Whether Blender's import of a file (one entry of blender_readback.py's output)
 /// is `want`; the differences otherwise.
 fn check(want: &Value, imported: &Value) -> Result<(), Vec<String>> {
-    let mats = imported["materials"].as_array().cloned().unwrap_or_default();
+    let mats = imported["materials"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
     if mats.len() != 1 {
-        return Err(vec![format!("{} materials named brdfkit imported, want 1", mats.len())]);
+        return Err(vec![format!(
+            "{} materials named brdfkit imported, want 1",
+            mats.len()
+        )]);
     }
     let mut out = Vec::new();
     differences("", want, &mats[0], &mut out);
@@ -194,7 +218,13 @@ fn blender_import(dir: &Path, files: &[PathBuf]) -> Vec<Value> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/engines/blender_readback.py");
     let out = dir.join("blender.json");
     let o = std::process::Command::new(exe)
-        .args(["-b", "--factory-startup", "--python-exit-code", "3", "--python"])
+        .args([
+            "-b",
+            "--factory-startup",
+            "--python-exit-code",
+            "3",
+            "--python",
+        ])
         .arg(&script)
         .arg("--")
         .arg(&out)
@@ -202,7 +232,11 @@ fn blender_import(dir: &Path, files: &[PathBuf]) -> Vec<Value> {
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stdout).to_string() + &stderr(&o);
-    assert!(o.status.success() && out.is_file(), "blender: {}\n{log}", o.status);
+    assert!(
+        o.status.success() && out.is_file(),
+        "blender: {}\n{log}",
+        o.status
+    );
     serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap()
 }
 

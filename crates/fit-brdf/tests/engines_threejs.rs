@@ -22,8 +22,10 @@
 //! term either as three.js has it or as the specification (and brdfkit) has it. With
 //! every term as the specification's it reproduces brdfkit's render (a check of the
 //! reimplementation); with every term as three.js's it must reproduce three.js's pixels
-//! (within 0.5 %: the difference *is* accounted for); switching one term at a time shows
-//! what each contributes. docs/export.md has the table this test prints.
+//! (within 1 %, and within a tenth of any difference above 2 %: the difference *is*
+//! accounted for); switching one term at a time shows what each contributes.
+//! docs/export.md has the table this test prints (`-- --nocapture`); with
+//! `BRDFKIT_ENGINE_SHOTS=DIR` it keeps three.js's canvases as PNGs there.
 //!
 //! Needs chromium, node and `npm install --prefix target/browser-test playwright-core@1.65.1
 //! three@0.187.0` (`.ci/run` does it); ignored with the reason otherwise, failing under CI.
@@ -40,9 +42,9 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 /// Image side, pixels.
-const SIZE: usize = 128;
+const SIZE: usize = 256;
 /// Camera distance from the sphere's centre and the field of view (degrees): the unit
-/// sphere spans ~113 pixels.
+/// sphere spans ~226 pixels.
 const CAMERA_Z: f64 = 10.0;
 const FOV: f64 = 13.0;
 /// Irradiance of the directional light (W/m², three.js `intensity`).
@@ -86,15 +88,21 @@ fn variants() -> Vec<(&'static str, Value)> {
         ),
         (
             "sheen",
-            with(json!({"extensions": ["sheen"], "sheen_color": [0.7, 0.5, 0.4], "sheen_roughness": 0.4})),
+            with(
+                json!({"extensions": ["sheen"], "sheen_color": [0.7, 0.5, 0.4], "sheen_roughness": 0.4}),
+            ),
         ),
         (
             "clearcoat",
-            with(json!({"extensions": ["clearcoat"], "clearcoat": 0.8, "clearcoat_roughness": 0.15})),
+            with(
+                json!({"extensions": ["clearcoat"], "clearcoat": 0.8, "clearcoat_roughness": 0.15}),
+            ),
         ),
         (
             "specular",
-            with(json!({"extensions": ["specular"], "specular": 0.6, "specular_color": [1.4, 1.0, 0.8], "ior": 1.6})),
+            with(
+                json!({"extensions": ["specular"], "specular": 0.6, "specular_color": [1.4, 1.0, 0.8], "ior": 1.6}),
+            ),
         ),
     ]
 }
@@ -151,7 +159,11 @@ struct ThreeRender {
 }
 
 /// Runs tests/engines/threejs.cjs on `materials` (name, file); `shots` keeps PNGs.
-fn threejs_render(dir: &Path, materials: &[(&str, PathBuf)], shots: Option<&Path>) -> Vec<ThreeRender> {
+fn threejs_render(
+    dir: &Path,
+    materials: &[(&str, PathBuf)],
+    shots: Option<&Path>,
+) -> Vec<ThreeRender> {
     let (driver, exe) = external_tools::require_threejs();
     let l = light_from();
     let scene = json!({
@@ -168,7 +180,10 @@ fn threejs_render(dir: &Path, materials: &[(&str, PathBuf)], shots: Option<&Path
     if let Some(s) = shots {
         cmd.arg(s);
     }
-    let o = cmd.env("NODE_PATH", driver.join("node_modules")).output().unwrap();
+    let o = cmd
+        .env("NODE_PATH", driver.join("node_modules"))
+        .output()
+        .unwrap();
     assert!(o.status.success(), "three.js: {}\n{}", o.status, stderr(&o));
     let v: Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
     assert_eq!(v["errors"], json!([]), "{}", v["errors"]);
@@ -178,7 +193,12 @@ fn threejs_render(dir: &Path, materials: &[(&str, PathBuf)], shots: Option<&Path
         .iter()
         .map(|r| ThreeRender {
             info: r["info"].clone(),
-            rgba: r["rgba"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect(),
+            rgba: r["rgba"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect(),
         })
         .collect()
 }
@@ -205,7 +225,10 @@ fn pixel(x: f64, y: f64) -> Option<Pixel> {
     }
     let h = -b - disc.sqrt();
     let n = [o[0] + h * d[0], o[1] + h * d[1], o[2] + h * d[2]];
-    Some(Pixel { n, v: [-d[0], -d[1], -d[2]] })
+    Some(Pixel {
+        n,
+        v: [-d[0], -d[1], -d[2]],
+    })
 }
 
 /// three.js's geometryRoughness: the largest component of the normal's change across
@@ -213,10 +236,13 @@ fn pixel(x: f64, y: f64) -> Option<Pixel> {
 fn geometry_roughness(x: usize, y: usize) -> f64 {
     let c = |x: usize, y: usize| pixel(x as f64 + 0.5, y as f64 + 0.5).map(|p| p.n);
     let (x0, y0) = (x & !1, y & !1);
-    let (Some(a), Some(r), Some(d)) = (c(x0, y0), c(x0 + 1, y0), c(x0, y0 + 1)) else {
+    let (Some(l), Some(r), Some(t), Some(b)) = (c(x0, y), c(x0 + 1, y), c(x, y0), c(x, y0 + 1))
+    else {
         return 0.0;
     };
-    (0..3).map(|i| (r[i] - a[i]).abs().max((d[i] - a[i]).abs())).fold(0.0, f64::max)
+    (0..3)
+        .map(|i| (r[i] - l[i]).abs().max((b[i] - t[i]).abs()))
+        .fold(0.0, f64::max)
 }
 
 /// Where three.js r187's direct light differs from the specification (and brdfkit).
@@ -268,7 +294,11 @@ struct Factors {
 }
 
 fn rgb(v: &Value) -> V3 {
-    [v[0].as_f64().unwrap(), v[1].as_f64().unwrap(), v[2].as_f64().unwrap()]
+    [
+        v[0].as_f64().unwrap(),
+        v[1].as_f64().unwrap(),
+        v[2].as_f64().unwrap(),
+    ]
 }
 
 /// The factors of the exported file (its material 0).
@@ -282,15 +312,24 @@ fn factors(gltf: &Value) -> Factors {
         metallic: pbr["metallicFactor"].as_f64().unwrap(),
         roughness: pbr["roughnessFactor"].as_f64().unwrap(),
         sheen: e.get("KHR_materials_sheen").map(|s| {
-            (rgb(&s["sheenColorFactor"]), s["sheenRoughnessFactor"].as_f64().unwrap())
+            (
+                rgb(&s["sheenColorFactor"]),
+                s["sheenRoughnessFactor"].as_f64().unwrap(),
+            )
         }),
         coat: e.get("KHR_materials_clearcoat").map(|c| {
-            (c["clearcoatFactor"].as_f64().unwrap(), c["clearcoatRoughnessFactor"].as_f64().unwrap())
+            (
+                c["clearcoatFactor"].as_f64().unwrap(),
+                c["clearcoatRoughnessFactor"].as_f64().unwrap(),
+            )
         }),
         specular: (
-            sp.get("specularFactor").map_or(1.0, |v| v.as_f64().unwrap()),
+            sp.get("specularFactor")
+                .map_or(1.0, |v| v.as_f64().unwrap()),
             sp.get("specularColorFactor").map_or([1.0; 3], rgb),
-            e["KHR_materials_ior"].get("ior").map_or(1.5, |v| v.as_f64().unwrap()),
+            e["KHR_materials_ior"]
+                .get("ior")
+                .map_or(1.5, |v| v.as_f64().unwrap()),
         ),
     }
 }
@@ -332,7 +371,11 @@ impl Dfg {
 /// IEEE 754 binary16 to f64.
 fn half(h: u16) -> f64 {
     let (s, e, m) = ((h >> 15) as i32, ((h >> 10) & 31) as i32, (h & 1023) as f64);
-    let v = if e == 0 { m * 2f64.powi(-24) } else { (1.0 + m / 1024.0) * 2f64.powi(e - 15) };
+    let v = if e == 0 {
+        m * 2f64.powi(-24)
+    } else {
+        (1.0 + m / 1024.0) * 2f64.powi(e - 15)
+    };
     if s == 1 { -v } else { v }
 }
 
@@ -373,7 +416,13 @@ fn charlie_v(sheen_roughness: f64, nl: f64, nv: f64) -> f64 {
         p(-4.32054, -4.85967),
     );
     let l = |x: f64| a / (1.0 + b * x.powf(c)) + d * x + e;
-    let lambda = |mu: f64| if mu < 0.5 { l(mu).exp() } else { (2.0 * l(0.5) - l(1.0 - mu)).exp() };
+    let lambda = |mu: f64| {
+        if mu < 0.5 {
+            l(mu).exp()
+        } else {
+            (2.0 * l(0.5) - l(1.0 - mu)).exp()
+        }
+    };
     (1.0 / ((1.0 + lambda(nv) + lambda(nl)) * 4.0 * nl * nv)).min(1.0)
 }
 
@@ -437,10 +486,18 @@ fn shade(s: &Shading, p: Pixel, l: V3) -> V3 {
     if let Some((sc, sr)) = f.sheen {
         let sr = sr.clamp(1e-4, 1.0);
         let three = s.has(Term::SheenVisibility);
-        let vis = if three { (1.0 / (4.0 * (nl + nv - nl * nv))).min(1.0) } else { charlie_v(sr, nl, nv) };
+        let vis = if three {
+            (1.0 / (4.0 * (nl + nv - nl * nv))).min(1.0)
+        } else {
+            charlie_v(sr, nl, nv)
+        };
         let lobe = charlie_d(sr, nh, three) * vis;
         let e = |mu: f64| {
-            if s.has(Term::SheenAlbedo) { three_sheen_albedo(sr, mu) } else { sheen_albedo(SheenVisibility::Charlie, sr, mu).0 }
+            if s.has(Term::SheenAlbedo) {
+                three_sheen_albedo(sr, mu)
+            } else {
+                sheen_albedo(SheenVisibility::Charlie, sr, mu).0
+            }
         };
         let max_c = sc[0].max(sc[1]).max(sc[2]);
         sheen = [0, 1, 2].map(|i| irr * sc[i] * lobe);
@@ -452,16 +509,28 @@ fn shade(s: &Shading, p: Pixel, l: V3) -> V3 {
     let mut out = [0.0; 3];
     for i in 0..3 {
         let f0_blend = f0[i] + (f.base[i] - f0[i]) * f.metallic;
-        let ms = if s.has(Term::MultiScatter) { 1.0 + f0_blend * (1.0 / ess - 1.0) } else { 1.0 };
+        let ms = if s.has(Term::MultiScatter) {
+            1.0 + f0_blend * (1.0 / ess - 1.0)
+        } else {
+            1.0
+        };
         let specular = schlick(f0_blend, f90, vh) * dv * ms;
-        let fd = if s.has(Term::DiffusePerChannel) { fd[i] } else { fd_max };
+        let fd = if s.has(Term::DiffusePerChannel) {
+            fd[i]
+        } else {
+            fd_max
+        };
         let diffuse = f.base[i] * (1.0 - f.metallic) / PI * (1.0 - fd);
         out[i] = irr * (specular + diffuse) + sheen[i];
     }
     if let Some((cc, cr)) = f.coat {
         let cr = s.roughness(cr);
         let fcc = schlick(0.04, 1.0, nv);
-        let lobe_f = if s.has(Term::CoatFresnel) { schlick(0.04, 1.0, vh) } else { fcc };
+        let lobe_f = if s.has(Term::CoatFresnel) {
+            schlick(0.04, 1.0, vh)
+        } else {
+            fcc
+        };
         let coat = IRRADIANCE * nl * lobe_f * ggx_dv(cr * cr, nl, nv, nh);
         out = out.map(|o| o * (1.0 - cc * fcc) + cc * coat);
     }
@@ -474,7 +543,9 @@ fn mask(three: &ThreeRender) -> Vec<(usize, usize, Pixel)> {
     let mut m = Vec::new();
     for y in 0..SIZE {
         for x in 0..SIZE {
-            let Some(p) = pixel(x as f64 + 0.5, y as f64 + 0.5) else { continue };
+            let Some(p) = pixel(x as f64 + 0.5, y as f64 + 0.5) else {
+                continue;
+            };
             if dot(p.n, p.v) >= MIN_COS_VIEW && three.rgba[(y * SIZE + x) * 4 + 3] == 1.0 {
                 m.push((x, y, p));
             }
@@ -500,7 +571,12 @@ fn rel_rms(a: &[V3], b: &[V3]) -> f64 {
 fn reimplemented(f: &Factors, dfg: &Dfg, px: &[(usize, usize, Pixel)], three: &[Term]) -> Vec<V3> {
     px.iter()
         .map(|&(x, y, p)| {
-            let s = Shading { f, dfg, three, geometry_roughness: geometry_roughness(x, y) };
+            let s = Shading {
+                f,
+                dfg,
+                three,
+                geometry_roughness: geometry_roughness(x, y),
+            };
             shade(&s, p, light_from())
         })
         .collect()
@@ -519,11 +595,20 @@ struct Row {
     per_term: Vec<(Term, f64)>,
 }
 
-fn compare(name: &'static str, gltf: &Value, ours: &[[f32; 3]], three: &ThreeRender, dfg: &Dfg) -> Row {
+fn compare(
+    name: &'static str,
+    gltf: &Value,
+    ours: &[[f32; 3]],
+    three: &ThreeRender,
+    dfg: &Dfg,
+) -> Row {
     let f = factors(gltf);
     let px = mask(three);
     assert!(px.len() > 5000, "{name}: {} pixels on the sphere", px.len());
-    let brdfkit: Vec<V3> = px.iter().map(|&(x, y, _)| ours[y * SIZE + x].map(f64::from)).collect();
+    let brdfkit: Vec<V3> = px
+        .iter()
+        .map(|&(x, y, _)| ours[y * SIZE + x].map(f64::from))
+        .collect();
     let threejs: Vec<V3> = px
         .iter()
         .map(|&(x, y, _)| {
@@ -547,7 +632,9 @@ fn compare(name: &'static str, gltf: &Value, ours: &[[f32; 3]], three: &ThreeRen
 }
 
 fn print_rows(rows: &[Row]) {
-    eprintln!("| variant | three.js vs brdfkit | three.js vs reimplementation (all three.js terms) | spec reimplementation vs brdfkit | per term (brdfkit with that term as three.js's) |");
+    eprintln!(
+        "| variant | three.js vs brdfkit | three.js vs reimplementation (all three.js terms) | spec reimplementation vs brdfkit | per term (brdfkit with that term as three.js's) |"
+    );
     eprintln!("|---|---|---|---|---|");
     for r in rows {
         let terms: Vec<String> = r
@@ -588,8 +675,17 @@ threejs_test! {
         for r in &rows {
             // The reimplementation is the specification: it reproduces brdfkit's render.
             assert!(r.spec_check < 1e-4, "{}: spec reimplementation off by {}", r.name, r.spec_check);
-            // three.js's pixels are its documented terms and nothing else.
-            assert!(r.unexplained < 5e-3, "{}: {:.3} % not accounted for", r.name, 100.0 * r.unexplained);
+            // three.js's pixels are its documented terms and nothing else: what remains is
+            // the GPU's screen-space derivative in geometryRoughness (it scales with that
+            // term: halving the pixel size halves both).
+            assert!(r.unexplained < 0.01, "{}: {:.3} % not accounted for", r.name, 100.0 * r.unexplained);
+            assert!(
+                r.measured < 0.02 || r.unexplained < 0.1 * r.measured,
+                "{}: the terms account for too little of {:.2} % ({:.2} % left)",
+                r.name,
+                100.0 * r.measured,
+                100.0 * r.unexplained
+            );
         }
         assert!(rows[0].measured < 0.02, "core: {:.2} %", 100.0 * rows[0].measured);
     }
@@ -604,17 +700,24 @@ fn the_reimplementation_is_not_blind() {
         metallic: 0.5,
         roughness: 0.5,
         sheen: Some(([0.7, 0.5, 0.4], 0.4)),
-        coat: Some((0.8, 0.02)),
+        coat: Some((0.8, 0.3)),
         specular: (0.7, [1.4, 1.0, 0.8], 1.5),
     };
+    // The roughness floor shows on a near-mirror only.
+    let mirror = Factors {
+        roughness: 0.02,
+        coat: None,
+        ..f
+    };
     let dfg = Dfg((0..256).map(|_| [0.5, 0.2]).collect());
-    let px: Vec<(usize, usize, Pixel)> = (20..100)
-        .flat_map(|y| (20..100).map(move |x| (x, y)))
+    let px: Vec<(usize, usize, Pixel)> = (0..SIZE)
+        .flat_map(|y| (0..SIZE).map(move |x| (x, y)))
         .filter_map(|(x, y)| pixel(x as f64 + 0.5, y as f64 + 0.5).map(|p| (x, y, p)))
         .collect();
-    let spec = reimplemented(&f, &dfg, &px, &[]);
     for t in TERMS {
-        let one = reimplemented(&f, &dfg, &px, &[t]);
+        let f = if t == Term::MinRoughness { &mirror } else { &f };
+        let spec = reimplemented(f, &dfg, &px, &[]);
+        let one = reimplemented(f, &dfg, &px, &[t]);
         assert!(rel_rms(&one, &spec) > 1e-4, "{t:?} changes nothing");
     }
     assert_eq!(half(0x3c00), 1.0);

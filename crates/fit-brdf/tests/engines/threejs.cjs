@@ -64,11 +64,12 @@ window.render = async (s, url) => {
   renderer.setRenderTarget(null);
   renderer.render(scene, camera);
   const ext = material.type + (material.sheen > 0 ? ' sheen' : '') + (material.clearcoat > 0 ? ' clearcoat' : '');
+  // MeshStandardMaterial (a core-only file) has none of the extensions' fields.
   const info = { revision: THREE.REVISION, material: ext, sheen: material.sheen,
-    sheenColor: material.sheenColor.toArray(), sheenRoughness: material.sheenRoughness,
+    sheenColor: material.sheenColor?.toArray(), sheenRoughness: material.sheenRoughness,
     clearcoat: material.clearcoat, clearcoatRoughness: material.clearcoatRoughness,
     ior: material.ior, specularIntensity: material.specularIntensity,
-    specularColor: material.specularColor.toArray(), color: material.color.toArray(),
+    specularColor: material.specularColor?.toArray(), color: material.color.toArray(),
     metalness: material.metalness, roughness: material.roughness,
     float: renderer.extensions.has('EXT_color_buffer_float') };
   document.body.replaceChildren(renderer.domElement);
