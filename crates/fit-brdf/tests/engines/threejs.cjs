@@ -7,8 +7,8 @@
 // {"from": [x,y,z] (unit, towards the light), "irradiance": E}, "segments": [w, h],
 // "materials": [{"name": ..., "file": "....gltf"}, ...]}. OUT.json: {"errors": [...],
 // "size": N, "renders": [{"name", "info", "rgba": [N*N*4 floats, rows top-down]}]};
-// with SHOTS_DIR, the canvas of each material as <name>.png (8-bit, clamped, no sRGB
-// encoding: a picture for the docs, not the measurement).
+// with SHOTS_DIR, the canvas of each material as <name>.png (8-bit sRGB, clipped at 1,
+// on black: the encoding of `fit-brdf render`'s PNG; a picture, not the measurement).
 // The camera looks at the origin with +y up; the unit sphere sits at the origin.
 //
 // The page and three.js (npm `three`, from node_modules next to playwright-core: never a
@@ -61,7 +61,11 @@ window.render = async (s, url) => {
   renderer.render(scene, camera);
   const px = new Float32Array(n * n * 4);
   renderer.readRenderTargetPixels(target, 0, 0, n, n, px);
+  // The canvas (the screenshot, a picture for people): sRGB-encoded, clipped at 1, on
+  // black, as fit-brdf render's PNG at exposure 0. The float target above stays linear.
   renderer.setRenderTarget(null);
+  renderer.outputColorSpace = THREE.SRGBColorSpace;
+  renderer.setClearColor(0x000000, 1);
   renderer.render(scene, camera);
   const ext = material.type + (material.sheen > 0 ? ' sheen' : '') + (material.clearcoat > 0 ? ' clearcoat' : '');
   // MeshStandardMaterial (a core-only file) has none of the extensions' fields.
