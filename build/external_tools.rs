@@ -1,21 +1,23 @@
 //! The external tools some tests check against: Mitsuba 3 (in a Python), the brdfkit
 //! Python package (with pytest), headless Chromium, npm's playwright-core (driving that
-//! Chromium) and the Khronos glTF validator. One
+//! Chromium), npm's three.js beside it, Blender and the Khronos glTF validator. One
 //! file, included with `#[path]` by the build scripts of brdfkit-render,
 //! brdfkit-validate, brdfkit-python and fit-brdf and by their tests:
 //!
 //! - a build script calls [`emit`], which probes the tools and sets the cfgs
 //!   `has_mitsuba` / `has_brdfkit_python` / `has_chromium` / `has_gltf_validator` /
-//!   `has_browser_driver`; the
+//!   `has_browser_driver` / `has_threejs` / `has_blender`; the
 //!   tests carry `#[cfg_attr(not(has_mitsuba), ignore = "...")]`, so a check that cannot
 //!   run is counted as ignored, with the reason, never as passed;
 //! - under `CI` (set to anything but "", "0" or "false") the cfgs are always on: CI must
 //!   run the checks, and a missing tool fails them loudly;
 //! - a test calls [`require_mitsuba`] / [`require_python_package`] / [`require_chromium`]
-//!   / [`require_gltf_validator`] / [`require_browser_driver`], which return the tool or panic saying how to install
+//!   / [`require_gltf_validator`] / [`require_browser_driver`] / [`require_threejs`] /
+//!   [`require_blender`], which return the tool or panic saying how to install
 //!   it (under CI, after a stale probe, or with `--include-ignored`);
 //! - the tests are declared with `mitsuba_test!` / `python_package_test!` /
-//!   `chromium_test!` / `gltf_validator_test!` / `browser_driver_test!` (`#[test]` plus the `cfg_attr` and its
+//!   `chromium_test!` / `gltf_validator_test!` / `browser_driver_test!` / `threejs_test!` /
+//!   `blender_test!` (`#[test]` plus the `cfg_attr` and its
 //!   reason, in one place); the including `mod` needs `#[macro_use]`.
 //!
 //! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`; Chromium is
@@ -23,7 +25,9 @@
 //! glTF validator is npm's `gltf-validator` in `$BRDFKIT_GLTF_VALIDATOR`, else in
 //! `<workspace>/target/gltf-validator` (where `.ci/run` installs it), run by `node`; the
 //! browser driver is npm's `playwright-core` in `$BRDFKIT_BROWSER_TEST`, else in
-//! `<workspace>/target/browser-test` (where `.ci/run` installs it), run by `node`.
+//! `<workspace>/target/browser-test` (where `.ci/run` installs it), run by `node`;
+//! three.js is npm's `three` in that same directory; Blender is `$BLENDER`, else `blender`
+//! on the `PATH` or in `/usr/bin`.
 
 // Build scripts use the probes, tests the `require_*` functions and the macros: neither
 // uses all.
