@@ -51,7 +51,7 @@ const FOV: f64 = 13.0;
 const IRRADIANCE: f64 = 3.0;
 /// Pixels whose sphere normal is this close to the silhouette (n · v) are left out: a
 /// tessellated sphere's edge pixels cover the background partly.
-const MIN_COS_VIEW: f64 = 0.2;
+const MIN_COS_VIEW: f64 = 0.1;
 
 type V3 = [f64; 3];
 
@@ -585,6 +585,8 @@ fn reimplemented(f: &Factors, dfg: &Dfg, px: &[(usize, usize, Pixel)], three: &[
 /// One variant's figures.
 struct Row {
     name: &'static str,
+    /// Pixels compared.
+    pixels: usize,
     /// three.js against brdfkit.
     measured: f64,
     /// The reimplementation with every term as three.js's, against three.js.
@@ -624,6 +626,7 @@ fn compare(
         .collect();
     Row {
         name,
+        pixels: px.len(),
         measured: rel_rms(&threejs, &brdfkit),
         unexplained: rel_rms(&threejs, &all),
         spec_check: rel_rms(&spec, &brdfkit),
@@ -633,9 +636,9 @@ fn compare(
 
 fn print_rows(rows: &[Row]) {
     eprintln!(
-        "| variant | three.js vs brdfkit | three.js vs reimplementation (all three.js terms) | spec reimplementation vs brdfkit | per term (brdfkit with that term as three.js's) |"
+        "| variant | pixels | three.js vs brdfkit | three.js vs reimplementation (all three.js terms) | spec reimplementation vs brdfkit | per term (brdfkit with that term as three.js's) |"
     );
-    eprintln!("|---|---|---|---|---|");
+    eprintln!("|---|---|---|---|---|---|");
     for r in rows {
         let terms: Vec<String> = r
             .per_term
@@ -644,8 +647,9 @@ fn print_rows(rows: &[Row]) {
             .map(|(t, v)| format!("{t:?} {:.2} %", 100.0 * v))
             .collect();
         eprintln!(
-            "| {} | {:.2} % | {:.2} % | {:.4} % | {} |",
+            "| {} | {} | {:.2} % | {:.2} % | {:.4} % | {} |",
             r.name,
+            r.pixels,
             100.0 * r.measured,
             100.0 * r.unexplained,
             100.0 * r.spec_check,
