@@ -634,6 +634,36 @@ fn compare(
     }
 }
 
+/// `GLTFLoader` made a `MeshPhysicalMaterial` with the file's extension factors (float32).
+fn loader_read_the_extensions(name: &str, f: &Factors, info: &Value) {
+    let near = |key: &str, want: f64| {
+        let got = info[key].as_f64().unwrap_or(f64::NAN);
+        assert!(
+            (got - want).abs() < 1e-6,
+            "{name}: three.js {key} = {got}, the file has {want}: {info}"
+        );
+    };
+    near("roughness", f.roughness);
+    near("metalness", f.metallic);
+    if let Some((_, sr)) = f.sheen {
+        near("sheen", 1.0);
+        near("sheenRoughness", sr);
+    }
+    if let Some((c, cr)) = f.coat {
+        near("clearcoat", c);
+        near("clearcoatRoughness", cr);
+    }
+    if f.sheen.is_some() || f.coat.is_some() || f.specular != (1.0, [1.0; 3], 1.5) {
+        assert_eq!(
+            info["material"].as_str().unwrap().split(' ').next(),
+            Some("MeshPhysicalMaterial"),
+            "{name}"
+        );
+        near("ior", f.specular.2);
+        near("specularIntensity", f.specular.0);
+    }
+}
+
 fn print_rows(rows: &[Row]) {
     eprintln!(
         "| variant | pixels | three.js vs brdfkit | three.js vs reimplementation (all three.js terms) | spec reimplementation vs brdfkit | per term (brdfkit with that term as three.js's) |"
@@ -672,6 +702,7 @@ threejs_test! {
             assert_eq!(three.info["revision"], "187", "{}", three.info);
             assert_eq!(three.info["float"], true, "EXT_color_buffer_float: {}", three.info);
             let gltf: Value = serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+            loader_read_the_extensions(name, &factors(&gltf), &three.info);
             let ours = brdfkit_render(d.path(), name, model);
             rows.push(compare(name, &gltf, &ours, three, &dfg));
         }
