@@ -1,3 +1,11 @@
+# The relative RMS figures of docs/export.md's worked example ("From a measured fabric to
+# a web page"), run in Blender's Python (it has numpy and reads OpenEXR):
+#
+#   blender -b --factory-startup --python docs/engines/compare.py -- THREE.json FIT.exr TABLE.exr
+#
+# THREE.json is crates/fit-brdf/tests/engines/threejs.cjs's output (one material, rows
+# top-down); the EXRs are fit-brdf render's (linear). Pixels: where three.js covered the
+# pixel centre (alpha 1). Relative RMS = sqrt(sum (a - b)^2 / sum b^2) over them.
 import bpy, json, sys, numpy as np
 a = sys.argv[sys.argv.index('--')+1:]
 def exr(p):
