@@ -1,21 +1,23 @@
 //! The external tools some tests check against: Mitsuba 3 (in a Python), the brdfkit
 //! Python package (with pytest), headless Chromium, npm's playwright-core (driving that
-//! Chromium) and the Khronos glTF validator. One
+//! Chromium), npm's three.js beside it, Blender and the Khronos glTF validator. One
 //! file, included with `#[path]` by the build scripts of brdfkit-render,
 //! brdfkit-validate, brdfkit-python and fit-brdf and by their tests:
 //!
 //! - a build script calls [`emit`], which probes the tools and sets the cfgs
 //!   `has_mitsuba` / `has_brdfkit_python` / `has_chromium` / `has_gltf_validator` /
-//!   `has_browser_driver`; the
+//!   `has_browser_driver` / `has_threejs` / `has_blender`; the
 //!   tests carry `#[cfg_attr(not(has_mitsuba), ignore = "...")]`, so a check that cannot
 //!   run is counted as ignored, with the reason, never as passed;
 //! - under `CI` (set to anything but "", "0" or "false") the cfgs are always on: CI must
 //!   run the checks, and a missing tool fails them loudly;
 //! - a test calls [`require_mitsuba`] / [`require_python_package`] / [`require_chromium`]
-//!   / [`require_gltf_validator`] / [`require_browser_driver`], which return the tool or panic saying how to install
+//!   / [`require_gltf_validator`] / [`require_browser_driver`] / [`require_threejs`] /
+//!   [`require_blender`], which return the tool or panic saying how to install
 //!   it (under CI, after a stale probe, or with `--include-ignored`);
 //! - the tests are declared with `mitsuba_test!` / `python_package_test!` /
-//!   `chromium_test!` / `gltf_validator_test!` / `browser_driver_test!` (`#[test]` plus the `cfg_attr` and its
+//!   `chromium_test!` / `gltf_validator_test!` / `browser_driver_test!` / `threejs_test!` /
+//!   `blender_test!` (`#[test]` plus the `cfg_attr` and its
 //!   reason, in one place); the including `mod` needs `#[macro_use]`.
 //!
 //! The Python is `$BRDFKIT_PYTHON`, else `<workspace>/.venv/bin/python`; Chromium is
@@ -23,7 +25,9 @@
 //! glTF validator is npm's `gltf-validator` in `$BRDFKIT_GLTF_VALIDATOR`, else in
 //! `<workspace>/target/gltf-validator` (where `.ci/run` installs it), run by `node`; the
 //! browser driver is npm's `playwright-core` in `$BRDFKIT_BROWSER_TEST`, else in
-//! `<workspace>/target/browser-test` (where `.ci/run` installs it), run by `node`.
+//! `<workspace>/target/browser-test` (where `.ci/run` installs it), run by `node`;
+//! three.js is npm's `three` in that same directory; Blender is `$BLENDER`, else `blender`
+//! on the `PATH` or in `/usr/bin`.
 
 // Build scripts use the probes, tests the `require_*` functions and the macros: neither
 // uses all.
@@ -85,6 +89,30 @@ macro_rules! browser_driver_test {
     };
 }
 
+/// A test that renders with npm's `three` in Chromium driven by `playwright-core` (see
+/// [`tool_test`]).
+macro_rules! threejs_test {
+    ($($t:tt)*) => {
+        tool_test! { has_threejs, "needs chromium, node, npm's playwright-core and three: apt-get install chromium nodejs npm && npm install --prefix target/browser-test playwright-core@1.65.1 three@0.187.0 (or set BRDFKIT_BROWSER_TEST)", $($t)* }
+    };
+}
+
+/// A test that runs Blender headless (see [`tool_test`]).
+macro_rules! blender_test {
+    ($($t:tt)*) => {
+        tool_test! { has_blender, "needs blender (Debian's 3.4.1) with numpy: apt-get install --no-install-recommends blender python3-numpy (or set BLENDER)", $($t)* }
+    };
+}
+
+/// How to get three.js beside the browser driver for the engine check.
+pub const THREEJS_ENABLE: &str = "apt-get install chromium nodejs npm, then npm install --prefix \
+     target/browser-test playwright-core@1.65.1 three@0.187.0 (in the workspace root), or set \
+     BRDFKIT_BROWSER_TEST to a directory holding node_modules/playwright-core and node_modules/three";
+
+/// How to get Blender for the engine check.
+pub const BLENDER_ENABLE: &str = "apt-get install --no-install-recommends blender python3-numpy \
+     (Debian 12: Blender 3.4.1; its glTF importer needs numpy), or set BLENDER";
+
 /// How to get the browser driver for the interactive panels' check.
 pub const BROWSER_DRIVER_ENABLE: &str = "apt-get install chromium nodejs npm, then npm install --prefix \
      target/browser-test playwright-core@1.65.1 (in the workspace root), or set BRDFKIT_BROWSER_TEST \
@@ -112,6 +140,10 @@ pub enum Tool {
     /// npm's `playwright-core`, `node` and a Chromium (it drives the browser; it never
     /// downloads one).
     BrowserDriver,
+    /// The browser driver and npm's `three` beside it.
+    ThreeJs,
+    /// A `blender` executable.
+    Blender,
 }
 
 /// `CI` set to anything but "", "0" or "false".
@@ -214,6 +246,26 @@ pub fn browser_driver() -> Option<(PathBuf, PathBuf)> {
     ok.then_some(dir).zip(chromium())
 }
 
+/// The driver's directory (it also holds `node_modules/three`) and the Chromium, if
+/// they, three.js and `node` are there.
+pub fn threejs() -> Option<(PathBuf, PathBuf)> {
+    browser_driver().filter(|(dir, _)| dir.join("node_modules/three/package.json").is_file())
+}
+
+/// The Blender executable: `$BLENDER`, else `blender` on the `PATH` or in `/usr/bin`.
+pub fn blender() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("BLENDER").map(PathBuf::from)
+        && p.is_file()
+    {
+        return Some(p);
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    std::env::split_paths(&path)
+        .chain([PathBuf::from("/usr/bin")])
+        .map(|dir| dir.join("blender"))
+        .find(|p| p.is_file())
+}
+
 /// What a failing `require_*` adds under CI.
 fn ci_note() -> &'static str {
     if under_ci() {
@@ -286,6 +338,29 @@ pub fn require_browser_driver() -> (PathBuf, PathBuf) {
     })
 }
 
+/// For tests: the driver's directory (with three.js) and the Chromium, or a panic that
+/// says how to get them.
+pub fn require_threejs() -> (PathBuf, PathBuf) {
+    threejs().unwrap_or_else(|| {
+        panic!(
+            "the three.js check cannot run: no node_modules/playwright-core and \
+             node_modules/three in {}, no node or no chromium{}. Install them: {THREEJS_ENABLE}",
+            browser_driver_dir().display(),
+            ci_note()
+        )
+    })
+}
+
+/// For tests: the Blender executable, or a panic that says how to get it.
+pub fn require_blender() -> PathBuf {
+    blender().unwrap_or_else(|| {
+        panic!(
+            "the Blender check cannot run: no blender{}. Install it: {BLENDER_ENABLE}",
+            ci_note()
+        )
+    })
+}
+
 /// For build scripts: the Python, with the paths whose change redoes its probe.
 fn watch_python() -> PathBuf {
     println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
@@ -345,6 +420,24 @@ pub fn emit(tools: &[Tool]) {
                     println!("cargo::rerun-if-changed={}", dir.display());
                 }
                 ("has_browser_driver", ci || browser_driver().is_some())
+            }
+            Tool::ThreeJs => {
+                println!("cargo::rerun-if-env-changed=BRDFKIT_BROWSER_TEST");
+                println!("cargo::rerun-if-env-changed=CHROMIUM");
+                let dir = browser_driver_dir().join("node_modules");
+                if dir.exists() {
+                    println!("cargo::rerun-if-changed={}", dir.display());
+                }
+                ("has_threejs", ci || threejs().is_some())
+            }
+            Tool::Blender => {
+                println!("cargo::rerun-if-env-changed=BLENDER");
+                let found = blender();
+                let watched = found.clone().unwrap_or_else(|| PathBuf::from("/usr/bin"));
+                if watched.exists() {
+                    println!("cargo::rerun-if-changed={}", watched.display());
+                }
+                ("has_blender", ci || found.is_some())
             }
         };
         println!("cargo::rustc-check-cfg=cfg({cfg})");

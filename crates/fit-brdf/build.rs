@@ -1,6 +1,6 @@
-//! Sets `has_mitsuba` / `has_chromium` / `has_gltf_validator` / `has_browser_driver`
-//! when the export's Mitsuba check, the report's browser checks and the glTF validator
-//! check can run (see
+//! Sets `has_mitsuba` / `has_chromium` / `has_gltf_validator` / `has_browser_driver` /
+//! `has_threejs` / `has_blender` when the export's Mitsuba check, the report's browser
+//! checks, the glTF validator check and the engine checks (three.js, Blender) can run (see
 //! build/external_tools.rs).
 
 #[path = "../../build/external_tools.rs"]
@@ -13,5 +13,7 @@ fn main() {
         Tool::Chromium,
         Tool::GltfValidator,
         Tool::BrowserDriver,
+        Tool::ThreeJs,
+        Tool::Blender,
     ]);
 }

@@ -812,14 +812,26 @@ impl GltfMaterial {
             v.push(format!(
                 "sheen fitted with the {} visibility and brdfkit's own table of the sheen \
                  albedo E (clamped to 1); viewers choose their visibility and E table \
-                 (three.js: Charlie D with the Ashikhmin form, its `V_Neubelt`), so grazing sheen differs",
+                 (three.js: Charlie D with the Ashikhmin form, its `V_Neubelt`), so grazing sheen differs; \
+                 Blender 3.4's importer adds a Velvet BSDF (sheenColor, sigma = sheenRoughness) to \
+                 the Principled BSDF instead, without scaling the base (docs/export.md)",
                 self.sheen_visibility.name()
             ));
         }
         if self.clearcoat.is_some() {
             v.push(
                 "clear coat layered with fresnel_coat's Fresnel at N·V, as \
-                 KHR_materials_clearcoat specifies"
+                 KHR_materials_clearcoat specifies (three.js also puts Schlick's Fresnel at \
+                 V·H on the coat lobe)"
+                    .into(),
+            );
+        }
+        if self.specular.is_some() {
+            v.push(
+                "Blender 3.4's importer maps specularColor and ior to the Principled Specular \
+                 (lum(specularColor) · f0(ior) / 0.08) and Specular Tint and ignores \
+                 specularFactor (kept on its glTF Material Output node only): a specularFactor \
+                 far from 1 looks different there (docs/export.md)"
                     .into(),
             );
         }
