@@ -324,64 +324,77 @@ pub fn check_table(t: &MerlTable) -> TableReport {
     check_table_with(t, &TableCheckOptions::default())
 }
 
+/// The counts of one pass over the cells: coverage, negatives, finiteness.
+#[derive(Default, Clone)]
+struct CellCounts {
+    missing: usize,
+    above: usize,
+    missing_above: usize,
+    valid_below: usize,
+    markers: usize,
+    partial: usize,
+    /// The first partially negative cell (index, values): the smallest index, whatever
+    /// the order the threads met them in.
+    first: Option<(usize, [f64; 3])>,
+    nonfinite: usize,
+}
+
+impl CellCounts {
+    fn add_cell(mut self, t: &MerlTable, idx: usize) -> Self {
+        let (n, raw, dims) = (t.cells(), t.raw(), t.dims());
+        let r = [raw[idx], raw[n + idx], raw[2 * n + idx]];
+        self.nonfinite += r.iter().filter(|x| !x.is_finite()).count();
+        let negs = r.iter().filter(|x| **x < 0.0).count();
+        let (i, j, k) = dims.unflatten(idx);
+        let (_, _, _, above) = cell_directions(dims, i, j, k);
+        self.above += above as usize;
+        if !t.is_valid(idx) {
+            self.missing += 1;
+            self.missing_above += above as usize;
+        } else if !above {
+            self.valid_below += 1;
+        }
+        if negs == 3 {
+            self.markers += 1;
+        } else if negs > 0 {
+            self.partial += 1;
+            if self.first.is_none_or(|(f, _)| idx < f) {
+                self.first = Some((idx, r));
+            }
+        }
+        self
+    }
+
+    fn merge(mut self, b: Self) -> Self {
+        self.missing += b.missing;
+        self.above += b.above;
+        self.missing_above += b.missing_above;
+        self.valid_below += b.valid_below;
+        self.markers += b.markers;
+        self.partial += b.partial;
+        self.nonfinite += b.nonfinite;
+        self.first = match (self.first, b.first) {
+            (Some(x), Some(y)) => Some(if x.0 <= y.0 { x } else { y }),
+            (x, y) => x.or(y),
+        };
+        self
+    }
+
+    /// One parallel pass over the cells.
+    fn of(t: &MerlTable) -> Self {
+        (0..t.cells())
+            .into_par_iter()
+            .with_min_len(4096)
+            .fold(CellCounts::default, |a, idx| a.add_cell(t, idx))
+            .reduce(CellCounts::default, CellCounts::merge)
+    }
+}
+
 /// Runs every table check.
 pub fn check_table_with(t: &MerlTable, o: &TableCheckOptions) -> TableReport {
     let dims = t.dims();
     let n = t.cells();
-    let raw = t.raw();
-    // Coverage and negatives, one parallel pass over the cells.
-    #[derive(Default, Clone)]
-    struct Acc {
-        missing: usize,
-        above: usize,
-        missing_above: usize,
-        valid_below: usize,
-        markers: usize,
-        partial: usize,
-        first: Option<(usize, [f64; 3])>,
-        nonfinite: usize,
-    }
-    let acc = (0..n)
-        .into_par_iter()
-        .with_min_len(4096)
-        .fold(Acc::default, |mut a, idx| {
-            let r = [raw[idx], raw[n + idx], raw[2 * n + idx]];
-            a.nonfinite += r.iter().filter(|x| !x.is_finite()).count();
-            let negs = r.iter().filter(|x| **x < 0.0).count();
-            let (i, j, k) = dims.unflatten(idx);
-            let (_, _, _, above) = cell_directions(dims, i, j, k);
-            let valid = t.is_valid(idx);
-            a.above += above as usize;
-            if !valid {
-                a.missing += 1;
-                a.missing_above += above as usize;
-            } else if !above {
-                a.valid_below += 1;
-            }
-            if negs == 3 {
-                a.markers += 1;
-            } else if negs > 0 {
-                a.partial += 1;
-                if a.first.is_none_or(|(f, _)| idx < f) {
-                    a.first = Some((idx, r));
-                }
-            }
-            a
-        })
-        .reduce(Acc::default, |mut a, b| {
-            a.missing += b.missing;
-            a.above += b.above;
-            a.missing_above += b.missing_above;
-            a.valid_below += b.valid_below;
-            a.markers += b.markers;
-            a.partial += b.partial;
-            a.nonfinite += b.nonfinite;
-            a.first = match (a.first, b.first) {
-                (Some(x), Some(y)) => Some(if x.0 <= y.0 { x } else { y }),
-                (x, y) => x.or(y),
-            };
-            a
-        });
+    let acc = CellCounts::of(t);
     let th = &o.thresholds;
     let frac = |a: usize, b: usize| if b > 0 { a as f64 / b as f64 } else { 0.0 };
     let missing_above_fraction = frac(acc.missing_above, acc.above);
@@ -409,7 +422,32 @@ pub fn check_table_with(t: &MerlTable, o: &TableCheckOptions) -> TableReport {
         values: 3 * n,
         nonfinite: acc.nonfinite,
     };
+    let energy = energy_check(t, o);
+    let passed = coverage.verdict.passed()
+        && negative.verdict.passed()
+        && finiteness.verdict.passed()
+        && energy.verdict.passed();
+    TableReport {
+        dims: [dims.theta_h(), dims.theta_d(), dims.phi_d()],
+        valid: t.valid_count(),
+        thresholds: th.clone(),
+        lookup: match o.lookup {
+            Lookup::Nearest => "nearest",
+            Lookup::Interpolated => "interpolated",
+        }
+        .into(),
+        coverage,
+        negative,
+        finiteness,
+        energy,
+        passed,
+    }
+}
 
+/// The table's directional albedo at each of `o.albedo_thetas`, converged, against the
+/// energy bound: inconclusive when the quadrature did not converge enough to decide.
+fn energy_check(t: &MerlTable, o: &TableCheckOptions) -> TableEnergyCheck {
+    let th = &o.thresholds;
     let curve: Vec<TableAlbedoPoint> = o
         .albedo_thetas
         .par_iter()
@@ -459,31 +497,12 @@ pub fn check_table_with(t: &MerlTable, o: &TableCheckOptions) -> TableReport {
     } else {
         Verdict::Inconclusive
     };
-    let energy = TableEnergyCheck {
+    TableEnergyCheck {
         verdict,
         max_albedo: max.0,
         max_theta: max.1,
         convergence: conv,
         curve,
-    };
-    let passed = coverage.verdict.passed()
-        && negative.verdict.passed()
-        && finiteness.verdict.passed()
-        && energy.verdict.passed();
-    TableReport {
-        dims: [dims.theta_h(), dims.theta_d(), dims.phi_d()],
-        valid: t.valid_count(),
-        thresholds: th.clone(),
-        lookup: match o.lookup {
-            Lookup::Nearest => "nearest",
-            Lookup::Interpolated => "interpolated",
-        }
-        .into(),
-        coverage,
-        negative,
-        finiteness,
-        energy,
-        passed,
     }
 }
 

@@ -464,8 +464,47 @@ pub fn build_report_from(
     let panels = report_panels(&table, table_name, fits)?;
     timings.panels_s = t.elapsed().as_secs_f64();
 
+    let summary = report_summary(
+        &table,
+        table_name,
+        config,
+        o,
+        fits,
+        &quality,
+        &physical_reports,
+    );
+    let models = model_details(fits, quality, maps, &physical_reports);
+    let mut data = ReportData {
+        summary,
+        fit_config: config.cloned(),
+        options: o.clone(),
+        models,
+        slices,
+        albedo,
+        renders: render_sets,
+        view_precision: panels.precision,
+        timings,
+    };
+    progress("charts and page");
+    let t = Instant::now();
+    let html = page::page(&data, table.dims().theta_h(), &panels.markup)?;
+    data.timings.page_s = t.elapsed().as_secs_f64();
+    data.timings.total_s = t_all.elapsed().as_secs_f64();
+    Ok(FitReport { data, html })
+}
+
+/// The report's summary: the table, the optimised loss and one row per model.
+fn report_summary(
+    table: &MerlTable,
+    table_name: &str,
+    config: Option<&FitConfig>,
+    o: &ReportOptions,
+    fits: &[ModelFit],
+    quality: &[QualityReport],
+    physical_reports: &[(Vec<PhysicalReport>, f64)],
+) -> ReportSummary {
     let d = table.dims();
-    let summary = ReportSummary {
+    ReportSummary {
         table: TableInfo {
             name: table_name.to_string(),
             dims: [d.theta_h(), d.theta_d(), d.phi_d()],
@@ -490,9 +529,17 @@ pub fn build_report_from(
                     .map(|(r, _)| r.iter().all(|p| p.passed)),
             })
             .collect(),
-    };
-    let models = fits
-        .iter()
+    }
+}
+
+/// The report's details per model: its quality, checks, residual map and record.
+fn model_details(
+    fits: &[ModelFit],
+    quality: Vec<QualityReport>,
+    maps: Vec<ResidualMap>,
+    physical_reports: &[(Vec<PhysicalReport>, f64)],
+) -> Vec<ModelDetail> {
+    fits.iter()
         .zip(quality)
         .zip(maps)
         .enumerate()
@@ -508,24 +555,7 @@ pub fn build_report_from(
                 record: f.record.clone(),
             }
         })
-        .collect();
-    let mut data = ReportData {
-        summary,
-        fit_config: config.cloned(),
-        options: o.clone(),
-        models,
-        slices,
-        albedo,
-        renders: render_sets,
-        view_precision: panels.precision,
-        timings,
-    };
-    progress("charts and page");
-    let t = Instant::now();
-    let html = page::page(&data, table.dims().theta_h(), &panels.markup)?;
-    data.timings.page_s = t.elapsed().as_secs_f64();
-    data.timings.total_s = t_all.elapsed().as_secs_f64();
-    Ok(FitReport { data, html })
+        .collect()
 }
 
 /// The interactive panels of a report: the table first (the reference of ratios and
