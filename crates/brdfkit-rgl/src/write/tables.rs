@@ -14,10 +14,14 @@
 //!   [`Warp2D::invert`] (bisection: its y depends on u_φ alone, its x is monotone in
 //!   u_θ at fixed u_φ), so a file read back evaluates to the stored node exactly where
 //!   the measurement was taken.
+//! - What Mitsuba's `measured` returns from `eval` (the stored value times the Jacobian
+//!   below, no further factor) is, by Mitsuba's `BSDF::eval` contract, f · cos θo: the
+//!   product its integrators use. The quantity written is therefore f(wi, wo) · cos θo,
+//!   which makes Mitsuba render the source (tests/write_mitsuba.rs, the render test).
 //! - With the `jacobian` flag the reader returns value · D(m) / (4σ(wi)) (the VNDF's
 //!   pdf of wo, D_wi(m) / (4⟨wi, m⟩), since σ = cos θi / G₁); the stored value is
-//!   therefore f(wi, wo) · 4σ(wi) / D(m), with D and σ the reader's interpolants of
-//!   the written `ndf` and `sigma` tables.
+//!   therefore f(wi, wo) · cos θo · 4σ(wi) / D(m), with D and σ the reader's
+//!   interpolants of the written `ndf` and `sigma` tables.
 //! - `luminance` is the Rec. 709 luminance of the stored RGB: Mitsuba samples the
 //!   value grid by it before warping, and its sample weight is stored RGB / luminance
 //!   pdf, so this makes the weights nearly constant.
@@ -160,8 +164,8 @@ pub(crate) fn values_slice(spec: &SliceSpec) -> SliceValues {
                 out.non_finite = Some((wi, wo));
             }
             out.clamped += f.0.iter().filter(|&&c| c < 0.0).count();
-            let f = f.map(|c| c.max(0.0));
-            let stored = f.map(|c| c / (spec.jacobian)(um));
+            let scale = wo.z / (spec.jacobian)(um);
+            let stored = f.map(|c| c.max(0.0) * scale);
             for c in 0..3 {
                 out.rgb[c * n * n + k] = stored.0[c] as f32;
             }
