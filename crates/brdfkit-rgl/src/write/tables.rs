@@ -8,6 +8,7 @@
 //!   it as a density over the unit square of (u_θm, u_φm), u_θ = √(2θ/π) and
 //!   u_φ = (φm − φi + π)/2π: times the Jacobian |dω/du| = 2π² u_θ sin θm of that map
 //!   (the factor `measured.cpp` divides its pdf by). The reader normalises it.
+//!   It is mixed with a uniform density ([`UNIFORM_MIX`]).
 //! - Sample node s = (x, y)/(n − 1) of the value grid stands for the half vector
 //!   u_m = W(s), W the VNDF warp of the slice, and for wo = 2⟨wi, m⟩m − wi: the paper's
 //!   measurement positions. W is found here as the inverse of the reader's own
@@ -35,6 +36,16 @@ use std::f64::consts::PI;
 
 use super::ndf::u2theta;
 
+/// The VNDF table is D_wi mixed with this much of the uniform density in u (as a
+/// multiple of D_wi's mean): a departure from the paper, which warps by D_wi alone. A
+/// narrow lobe otherwise pulls nearly every value node into the peak and leaves the rest
+/// of the hemisphere to a few cells; with equal parts, half the nodes cover the
+/// hemisphere evenly in u. Measured (tests/write.rs figures, 20,000 pairs above 1°, 8
+/// slices, 32²): chrome-steel median error 44 % → 17 %, p90 425 % → 168 %; the rough
+/// proxies within ±0.3 points. Sampling stays good: Mitsuba samples the value grid by
+/// `luminance` first, which puts the samples back where f is.
+const UNIFORM_MIX: f64 = 1.0;
+
 /// Bisection steps of the inverse warp (2⁻⁴⁸ ≈ 4e-15 of the unit interval).
 const BISECT: usize = 48;
 
@@ -57,7 +68,8 @@ pub(crate) fn spherical(theta: f64, phi: f64) -> Vec3 {
 }
 
 /// The VNDF density of one slice on a `res` × `res` grid (rows u_φ, columns u_θ),
-/// in f32, floored at `floor` × its maximum so every row can be inverted.
+/// plus [`UNIFORM_MIX`] × its mean, in f32, floored at `floor` × its maximum so every
+/// row can be inverted.
 pub(crate) fn vndf_slice(
     d: &dyn Fn(f64) -> f64,
     sigma: f64,
@@ -78,6 +90,8 @@ pub(crate) fn vndf_slice(
             out.push(d(u) * wi.dot(&m).max(0.0) / sigma * jac);
         }
     }
+    let mean = out.iter().sum::<f64>() / out.len() as f64;
+    out.iter_mut().for_each(|v| *v += UNIFORM_MIX * mean);
     let max = out.iter().copied().fold(0.0, f64::max);
     let lo = if max > 0.0 { floor * max } else { 1.0 };
     out.iter().map(|&v| v.max(lo) as f32).collect()
