@@ -23,9 +23,12 @@
 //!   pdf of wo, D_wi(m) / (4⟨wi, m⟩), since σ = cos θi / G₁); the stored value is
 //!   therefore f(wi, wo) · cos θo · 4σ(wi) / D(m), with D and σ the reader's
 //!   interpolants of the written `ndf` and `sigma` tables.
-//! - `luminance` is the Rec. 709 luminance of the stored RGB: Mitsuba samples the
-//!   value grid by it before warping, and its sample weight is stored RGB / luminance
-//!   pdf, so this makes the weights nearly constant.
+//! - `luminance`: Mitsuba samples the value grid by it before the VNDF warp, so its
+//!   pdf of wo is lum(s) · p_u(u_m) / (2π² u sin θm · 4⟨wi, m⟩) (`measured.cpp`'s
+//!   `pdf`), p_u the VNDF table's density. The table holds the Rec. 709 luminance of
+//!   f · cos θo times 4⟨wi, m⟩ · 2π² u sin θm / p_u(u_m), which makes that pdf
+//!   proportional to the luminance of f · cos θo: Mitsuba's sample weights are then
+//!   nearly constant.
 //! - `valid` marks the nodes whose wo lies above the horizon. Below it there is no
 //!   measurement; those nodes hold the source at wo lifted to just above the horizon,
 //!   so the interpolation towards the horizon stays continuous.
@@ -36,14 +39,14 @@ use std::f64::consts::PI;
 
 use super::ndf::u2theta;
 
-/// The VNDF table is D_wi mixed with this much of the uniform density in u (as a
-/// multiple of D_wi's mean): a departure from the paper, which warps by D_wi alone. A
-/// narrow lobe otherwise pulls nearly every value node into the peak and leaves the rest
-/// of the hemisphere to a few cells; with equal parts, half the nodes cover the
-/// hemisphere evenly in u. Measured (tests/write.rs figures, 20,000 pairs above 1°, 8
-/// slices, 32²): chrome-steel median error 44 % → 17 %, p90 425 % → 168 %; the rough
-/// proxies within ±0.3 points. Sampling stays good: Mitsuba samples the value grid by
-/// `luminance` first, which puts the samples back where f is.
+/// The VNDF table is D_wi mixed with this much of the uniform density over the
+/// hemisphere of half vectors (1/2π, D_wi integrating to 1): a departure from the
+/// paper, which warps by D_wi alone. A narrow lobe otherwise pulls nearly every value
+/// node into the peak and leaves the rest of the hemisphere to a few cells; with equal
+/// parts, half the nodes cover the hemisphere evenly. Measured (tests/write.rs figures,
+/// 20,000 pairs above 1°, 8 slices, 32²): see docs/rgl.md. The mixture is a density
+/// over solid angle like D_wi, so it vanishes at the pole of the u map as D_wi does
+/// and Mitsuba's pdf stays bounded (its χ² test).
 const UNIFORM_MIX: f64 = 1.0;
 
 /// Bisection steps of the inverse warp (2⁻⁴⁸ ≈ 4e-15 of the unit interval).
@@ -68,7 +71,7 @@ pub(crate) fn spherical(theta: f64, phi: f64) -> Vec3 {
 }
 
 /// The VNDF density of one slice on a `res` × `res` grid (rows u_φ, columns u_θ),
-/// plus [`UNIFORM_MIX`] × its mean, in f32, floored at `floor` × its maximum so every
+/// mixed with the uniform density ([`UNIFORM_MIX`]), in f32, floored at `floor` × its maximum so every
 /// row can be inverted.
 pub(crate) fn vndf_slice(
     d: &dyn Fn(f64) -> f64,
@@ -87,11 +90,10 @@ pub(crate) fn vndf_slice(
             let th = u2theta(u);
             let m = spherical(th, phi);
             let jac = 2.0 * PI * PI * u * th.sin();
-            out.push(d(u) * wi.dot(&m).max(0.0) / sigma * jac);
+            let d_wi = d(u) * wi.dot(&m).max(0.0) / sigma;
+            out.push((d_wi + UNIFORM_MIX / (2.0 * PI)) * jac);
         }
     }
-    let mean = out.iter().sum::<f64>() / out.len() as f64;
-    out.iter_mut().for_each(|v| *v += UNIFORM_MIX * mean);
     let max = out.iter().copied().fold(0.0, f64::max);
     let lo = if max > 0.0 { floor * max } else { 1.0 };
     out.iter().map(|&v| v.max(lo) as f32).collect()
@@ -166,7 +168,9 @@ pub(crate) fn values_slice(spec: &SliceSpec) -> SliceValues {
         for x in 0..n {
             let k = y * n + x;
             let um = forward(spec.vndf, [x as f64 * step, y as f64 * step], &spec.params);
-            let m = spherical(u2theta(um[0]), u2phi(um[1]));
+            let (_, pdf_u) = spec.vndf.invert(um, &spec.params);
+            let th_m = u2theta(um[0]);
+            let m = spherical(th_m, u2phi(um[1]));
             let mut wo = m * (2.0 * wi.dot(&m)) - wi;
             out.valid[k] = wo.z > 0.0;
             if wo.z < LIFT_Z {
@@ -183,7 +187,11 @@ pub(crate) fn values_slice(spec: &SliceSpec) -> SliceValues {
             for c in 0..3 {
                 out.rgb[c * n * n + k] = stored.0[c] as f32;
             }
-            lum[k] = luminance(&stored);
+            // The luminance pdf that makes Mitsuba's total pdf ∝ Y(f · cos θo): its pdf
+            // is lum(s) · p_u(u_m) / (J(u_m) · 4⟨wi, m⟩), J = 2π² u sin θm (≥ 1e-6).
+            let jac_u = (2.0 * PI * PI * um[0] * th_m.sin()).max(1e-6);
+            let fcos = f.map(|c| c.max(0.0) * wo.z);
+            lum[k] = luminance(&fcos) * 4.0 * wi.dot(&m).max(0.0) * jac_u / pdf_u.max(1e-30);
         }
     }
     // Mitsuba normalises the luminance per slice; a floor keeps every cell reachable
