@@ -63,7 +63,10 @@ fn tensor_round_trip() {
     assert_eq!(s.negative, 0);
     assert!(s.jacobian);
     assert_eq!(s.measured_points, Some((report.valid, report.nodes)));
-    assert!(bsdf.description().starts_with("gold-paint; written by brdfkit"));
+    assert!(
+        bsdf.description()
+            .starts_with("gold-paint; written by brdfkit")
+    );
 }
 
 /// The file of each proxy against the proxy, 20,000 random pairs above 1° (docs/rgl.md

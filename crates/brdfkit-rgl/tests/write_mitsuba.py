@@ -7,7 +7,8 @@
 #       256x256 renders of a sphere under a point light and under a constant
 #       environment, the file through `measured` and the table through brdfkit's
 #       `brdfkit_merl` (linear lookup); prints JSON: the relative RMS of each pair over
-#       the sphere's pixels, and the noise floor (two renders of the file, two seeds).
+#       8x8-pixel block means on the sphere (and over single pixels), and the noise
+#       floor (two renders of the file, two seeds).
 import json
 import math
 import sys
@@ -15,6 +16,8 @@ import sys
 import numpy as np
 import mitsuba as mi
 import drjit as dr
+
+BLOCK = 8
 
 
 def chi2(path, degrees):
@@ -61,21 +64,42 @@ def render(table, path, spp_point, spp_env):
     measured = {"type": "measured", "filename": path}
     merl = {"type": "brdfkit_merl", "filename": table, "interp": "linear"}
     # The sphere's pixels: where a depth AOV is positive.
-    aov = mi.load_dict({**scene(measured, "point", 4, 0).__dict__} if False else {
+    aov = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "aov", "aovs": "dd:depth"},
         "sensor": scene(measured, "point", 4, 0).sensors()[0],
         "sphere": {"type": "sphere"},
     })
     mask = np.array(mi.render(aov, spp=4))[:, :, 0] > 0
-    out = {"sphere_pixels": int(mask.sum())}
+    # Blocks of BLOCK x BLOCK pixels wholly on the sphere: the Monte Carlo noise of a
+    # block mean is BLOCK times smaller than a pixel's (independent samples), while the
+    # shading varies little within a block, so the RMS over blocks measures the
+    # systematic difference; the noise floor (two seeds of the same file) shows what is
+    # left of the noise.
+    B = BLOCK
+    h, w = mask.shape
+    blocks = mask.reshape(h // B, B, w // B, B).all(axis=(1, 3))
+
+    def block_means(img):
+        return img.reshape(h // B, B, w // B, B, 3).mean(axis=(1, 3))[blocks]
+
+    def rms(x, y):
+        return float(np.sqrt(np.mean((x - y) ** 2) / np.mean(y ** 2)))
+
+    out = {"sphere_pixels": int(mask.sum()), "blocks": int(blocks.sum()), "block": B}
     for light, spp in (("point", spp_point), ("env", spp_env)):
-        a = np.array(mi.render(scene(measured, light, spp, 1)))[mask]
-        b = np.array(mi.render(scene(merl, light, spp, 2)))[mask]
-        c = np.array(mi.render(scene(measured, light, spp, 3)))[mask]
-        rms = lambda x, y: float(np.sqrt(np.mean((x - y) ** 2) / np.mean(y ** 2)))
-        out[light] = {"spp": spp, "rel_rms": rms(a, b), "noise_floor": rms(c, a),
-                      "mean_measured": float(a.mean()), "mean_merl": float(b.mean())}
+        a = np.array(mi.render(scene(measured, light, spp, 1)))
+        b = np.array(mi.render(scene(merl, light, spp, 2)))
+        c = np.array(mi.render(scene(measured, light, spp, 3)))
+        out[light] = {
+            "spp": spp,
+            "rel_rms": rms(block_means(a), block_means(b)),
+            "noise_floor": rms(block_means(c), block_means(a)),
+            "rel_rms_pixels": rms(a[mask], b[mask]),
+            "noise_floor_pixels": rms(c[mask], a[mask]),
+            "mean_measured": float(a[mask].mean()),
+            "mean_merl": float(b[mask].mean()),
+        }
     print(json.dumps(out), flush=True)
 
 

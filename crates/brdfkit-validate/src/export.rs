@@ -1018,14 +1018,11 @@ pub fn export_str(
     export(&v, form, source_name)
 }
 
-
 /// The measured-material target (`--to rgl`): any representation brdfkit holds as the
 /// [`brdfkit_core::Brdf`] the RGL-EPFL writer (`brdfkit_rgl::write`) tabulates. A table
 /// is read with the interpolated lookup (missing cells 0), a per-channel fit takes
 /// channel c from model c, an NBRDF is its (clamped) `eval`.
-pub fn measured_source(
-    rep: &crate::compare::Representation,
-) -> Box<dyn brdfkit_core::Brdf + '_> {
+pub fn measured_source(rep: &crate::compare::Representation) -> Box<dyn brdfkit_core::Brdf + '_> {
     use crate::compare::Representation;
     use brdfkit_fit::Fitted;
     match rep {

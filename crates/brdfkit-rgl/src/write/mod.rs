@@ -252,7 +252,14 @@ fn slices(
             let u_wi = [(theta * 2.0 / PI).sqrt(), 0.0];
             let sigma = sigma_w.eval(u_wi, &[]);
             let vndf = tables::vndf_slice(&d_u, sigma, th_eval, VNDF_RES, VNDF_FLOOR);
-            let warp = Warp2D::new(&vndf, VNDF_RES, VNDF_RES, vec![vec![0.0], vec![t]], true, true);
+            let warp = Warp2D::new(
+                &vndf,
+                VNDF_RES,
+                VNDF_RES,
+                vec![vec![0.0], vec![t]],
+                true,
+                true,
+            );
             let jacobian = |um: [f64; 2]| ndf_w.eval(um, &[]) / (4.0 * sigma);
             let values = tables::values_slice(&SliceSpec {
                 source,
@@ -274,7 +281,10 @@ fn slices(
 /// `valid`: one bit per value node over (φi, θi, y, x), packed most significant bit
 /// first (as `numpy.packbits`).
 fn valid_field(values: &[SliceValues]) -> Tensor {
-    let bits: Vec<bool> = values.iter().flat_map(|v| v.valid.iter().copied()).collect();
+    let bits: Vec<bool> = values
+        .iter()
+        .flat_map(|v| v.valid.iter().copied())
+        .collect();
     let bytes: Vec<u8> = bits
         .chunks(8)
         .map(|c| {
@@ -379,7 +389,10 @@ mod tests {
         assert_eq!(report.nodes, 6 * 16 * 16);
         assert_eq!(report.clamped, 0);
         let bsdf = read_back(&fields);
-        assert!(bsdf.description().starts_with("test lobe; written by brdfkit"));
+        assert!(
+            bsdf.description()
+                .starts_with("test lobe; written by brdfkit")
+        );
         let theta = field(&fields, "theta_i").to_vec();
         let vndf = field(&fields, "vndf");
         let (mut checked, mut worst) = (0, 0.0f64);
@@ -424,7 +437,10 @@ mod tests {
             shift: 0.0,
         };
         assert!(matches!(build(&src, &bad), Err(WriteError::Options(_))));
-        let bad = WriteOptions { theta_i: 1, ..o.clone() };
+        let bad = WriteOptions {
+            theta_i: 1,
+            ..o.clone()
+        };
         assert!(matches!(build(&src, &bad), Err(WriteError::Options(_))));
         assert!(matches!(build(&Nan, &o), Err(WriteError::NonFinite { .. })));
     }

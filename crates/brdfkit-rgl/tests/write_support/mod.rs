@@ -17,7 +17,10 @@ pub fn proxies() -> Vec<(&'static str, PathBuf)> {
         ("specular-red-phenolic", "merl/specular-red-phenolic"),
         ("pink-fabric", "merl/pink-fabric"),
         ("blue-rubber", "merl/blue-rubber"),
-        ("acrylic_felt_green_rgb", "rgl-isotropic/acrylic_felt_green_rgb"),
+        (
+            "acrylic_felt_green_rgb",
+            "rgl-isotropic/acrylic_felt_green_rgb",
+        ),
         ("bindercover", "nielsen/bindercover"),
     ]
     .into_iter()

@@ -83,13 +83,19 @@ fn run_rgl(a: &ExportArgs) -> CliResult<()> {
     use brdfkit_validate::compare::Representation;
     use brdfkit_validate::export::measured_source;
     if a.format.is_some() || a.approximate {
-        return Err(bad_msg("--format and --approximate do not apply to --to rgl"));
+        return Err(bad_msg(
+            "--format and --approximate do not apply to --to rgl",
+        ));
     }
     let Some(out) = &a.out else {
-        return Err(bad_msg("--to rgl writes a binary file: give --out X_rgb.bsdf"));
+        return Err(bad_msg(
+            "--to rgl writes a binary file: give --out X_rgb.bsdf",
+        ));
     };
     let path = a.params.display();
-    if a.params.is_file() && crate::commands::input_kind(&a.params)? == crate::commands::InputKind::Rgl {
+    if a.params.is_file()
+        && crate::commands::input_kind(&a.params)? == crate::commands::InputKind::Rgl
+    {
         return Err(bad_msg(format!(
             "{path}: already an RGL-EPFL .bsdf file (export takes a MERL table, a model or an NBRDF)"
         )));
