@@ -5,15 +5,15 @@
 //! them with importance sampling and no plugin:
 //!
 //! 1. the NDF from the source's retro-reflection by power iteration (Dupuy et al. 2015;
-//!    [`ndf`]) — for every source, models included: brdfkit has no typed accessor for a
+//!    `write/ndf.rs`) — for every source, models included: brdfkit has no typed accessor for a
 //!    whole model's D (a model is often a sum of lobes), and the power iteration gives
 //!    the D that the *whole* BRDF's retro-reflection implies, diffuse part included;
 //! 2. σ(θ) = ∫ D(m) ⟨ω, m⟩₊ dm from that D (the `sigma` table);
-//! 3. per θi slice, the VNDF table and the values on its warped grid ([`tables`]):
+//! 3. per θi slice, the VNDF table and the values on its warped grid (`write/tables.rs`):
 //!    `rgb` (f · cos θo · 4σ/D, the `jacobian` flag set: Mitsuba's `eval`, which
 //!    returns the stored value times D/(4σ), is f · cos θo by its contract), `luminance`,
 //!    `valid`;
-//! 4. `description`, `version` = 1.0, `phi_i` = [0] (isotropic), `theta_i`.
+//! 4. `description`, `version` = 1.0, `phi_i` = \[0\] (isotropic), `theta_i`.
 //!
 //! Only isotropic sources are written (one φi slice), as the database's isotropic
 //! files; an anisotropic source is refused ([`WriteError::Anisotropic`]).
