@@ -81,8 +81,14 @@ fn lambert_model_to_rgl() {
             Vec3::new(r * phi.cos(), r * phi.sin(), z)
         };
         (
-            dir_at(g(0.618_033_988_7), 6.283 * g(0.754_877_666_2)),
-            dir_at(g(0.569_840_290_9), 6.283 * g(0.433_881_088_4)),
+            dir_at(
+                g(0.618_033_988_7),
+                std::f64::consts::TAU * g(0.754_877_666_2),
+            ),
+            dir_at(
+                g(0.569_840_290_9),
+                std::f64::consts::TAU * g(0.433_881_088_4),
+            ),
         )
     };
     let mut last_p90 = f64::INFINITY;
