@@ -20,8 +20,19 @@ import drjit as dr
 BLOCK = 8
 
 
+def llvm():
+    """Mitsuba's `llvm_ad_rgb` (the χ² module and the brdfkit plugin's batched eval need
+    a vectorised variant), or exit 3 with how to get it (.ci/run installs LLVM 19)."""
+    try:
+        mi.set_variant("llvm_ad_rgb")
+    except Exception as e:  # noqa: BLE001 - any failure to load LLVM is the same message
+        print(f"llvm_ad_rgb unavailable ({e}): apt-get install libllvm19 and set "
+              "DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1", file=sys.stderr)
+        sys.exit(3)
+
+
 def chi2(path, degrees):
-    mi.set_variant("llvm_ad_rgb")
+    llvm()
     from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
 
     for deg in degrees:
@@ -58,7 +69,7 @@ def scene(bsdf, light, spp, seed):
 
 
 def render(table, path, spp_point, spp_env):
-    mi.set_variant("llvm_ad_rgb")
+    llvm()
     import brdfkit.mitsuba
     brdfkit.mitsuba.register()
     measured = {"type": "measured", "filename": path}
