@@ -419,7 +419,7 @@ mod tests {
                 }
             }
         }
-        assert!(checked > 800, "{checked} nodes checked");
+        assert!(checked > 600, "{checked} nodes checked");
         assert!(worst < 1e-5, "worst relative error at the nodes {worst:e}");
     }
 
