@@ -8,6 +8,8 @@
 //! - [`RglBsdf`]: a `.bsdf` file evaluated exactly as Mitsuba 3's `measured` plugin does
 //!   (isotropic and anisotropic, RGB and spectral), f_r without the cosine; it is a
 //!   [`brdfkit_core::Brdf`], so everything that takes a BRDF takes it.
+//! - [`mod@write`]: `.bsdf` files written from any isotropic [`brdfkit_core::Brdf`] (a table,
+//!   a model, an NBRDF), built as Dupuy & Jakob 2018 build the database's.
 //! - [`cie`]: the conversion of spectral files to linear sRGB.
 //! - [`RglBsdf::to_table`]: the file as a MERL table (mean of both orders of a pair),
 //!   and [`RglBsdf::asymmetry`], how far the data are from reciprocal.
@@ -22,6 +24,7 @@ mod error;
 mod resample;
 pub mod tensor;
 mod warp;
+pub mod write;
 
 pub use bsdf::{RglBsdf, Summary, Values};
 pub use error::RglError;

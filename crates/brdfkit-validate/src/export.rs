@@ -1030,6 +1030,36 @@ pub fn export_str(
     export(&v, form, source_name)
 }
 
+/// The measured-material target (`--to rgl`): any representation brdfkit holds as the
+/// [`brdfkit_core::Brdf`] the RGL-EPFL writer (`brdfkit_rgl::write`) tabulates. A table
+/// is read with the interpolated lookup (missing cells 0), a per-channel fit takes
+/// channel c from model c, an NBRDF is its (clamped) `eval`.
+pub fn measured_source(rep: &crate::compare::Representation) -> Box<dyn brdfkit_core::Brdf + '_> {
+    use crate::compare::Representation;
+    use brdfkit_fit::Fitted;
+    match rep {
+        Representation::Table(t) => Box::new(crate::table::table_brdf(
+            t,
+            brdfkit_merl::Lookup::Interpolated,
+        )),
+        Representation::Model(Fitted::Shared(m)) => Box::new(m.as_ref()),
+        Representation::Model(f) => Box::new(PerChannel(f)),
+        Representation::Nbrdf(n) => Box::new(n.as_ref()),
+    }
+}
+
+/// A per-channel fit as one BRDF: channel c of model c.
+struct PerChannel<'a>(&'a brdfkit_fit::Fitted);
+
+impl brdfkit_core::Brdf for PerChannel<'_> {
+    fn eval(&self, wi: &brdfkit_core::Vec3, wo: &brdfkit_core::Vec3) -> Rgb {
+        Rgb([0, 1, 2].map(|c| self.0.channel_model(c).eval(wi, wo).0[c]))
+    }
+    fn is_isotropic(&self) -> bool {
+        (0..3).all(|c| self.0.channel_model(c).is_isotropic())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

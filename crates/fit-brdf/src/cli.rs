@@ -564,13 +564,57 @@ pub enum ExportFormat {
     Dict,
 }
 
+/// What `export` writes for: a renderer's material, or an RGL-EPFL measured file.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExportTo {
+    /// Mitsuba 3 (`diffuse`, `roughconductor`).
+    Mitsuba,
+    /// pbrt-v4 (`diffuse`, `conductor`).
+    Pbrt,
+    /// glTF 2.0 (`pbrMetallicRoughness`, from the `gltf-pbr` model).
+    Gltf,
+    /// An RGL-EPFL `.bsdf` file (Mitsuba 3's and pbrt-v4's `measured` material) from a
+    /// MERL table, a model or an NBRDF.
+    Rgl,
+}
+
+impl ExportTo {
+    /// The renderer of a material export; `None` for the measured file.
+    pub fn renderer(self) -> Option<Renderer> {
+        match self {
+            ExportTo::Mitsuba => Some(Renderer::Mitsuba),
+            ExportTo::Pbrt => Some(Renderer::Pbrt),
+            ExportTo::Gltf => Some(Renderer::Gltf),
+            ExportTo::Rgl => None,
+        }
+    }
+}
+
+/// The value grid of an RGL-EPFL export (the database has both).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RglGrid {
+    #[value(name = "32")]
+    G32,
+    #[value(name = "64")]
+    G64,
+}
+
 #[derive(Args, Debug)]
 pub struct ExportArgs {
-    /// The model (JSON), e.g. the PARAMS.json written by `fit`.
+    /// The model (JSON), e.g. the PARAMS.json written by `fit`; with `--to rgl` also a
+    /// MERL table (`*.binary`) or an NBRDF (DIR/NAME).
     pub params: PathBuf,
-    /// The renderer.
+    /// The renderer, or `rgl` for an RGL-EPFL `.bsdf` measured file.
     #[arg(long, value_enum)]
-    pub to: Renderer,
+    pub to: ExportTo,
+    /// `--to rgl`: the number of θi slices, uniform in √θ from 0 to 90° [default: 8, as
+    /// the database's files].
+    #[arg(long = "theta-i", value_name = "N",
+          value_parser = clap::value_parser!(u16).range(2..=90))]
+    pub theta_i: Option<u16>,
+    /// `--to rgl`: the value grid, 32 × 32 or 64 × 64 [default: 32].
+    #[arg(long, value_enum)]
+    pub grid: Option<RglGrid>,
     /// Mitsuba only: xml (default) or dict.
     #[arg(long, value_enum)]
     pub format: Option<ExportFormat>,

@@ -2,8 +2,12 @@
 //! renderer's material. The mapping, its conditions, the writers and the approximation
 //! are `brdfkit_validate::export` (shared with the Mitsuba cross-check); this is the
 //! glue: arguments, file, output.
+//!
+//! `fit-brdf export TABLE|MODEL.json|NBRDF --to rgl --out X_rgb.bsdf [--theta-i N]
+//! [--grid 32|64]`: an RGL-EPFL measured file, written by `brdfkit_rgl::write` from the
+//! source as `brdfkit_validate::export::measured_source` reads it (docs/rgl.md).
 
-use crate::cli::{ExportArgs, ExportFormat, Renderer};
+use crate::cli::{ExportArgs, ExportFormat, Renderer, RglGrid};
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
 use crate::output::write_text;
 use anyhow::Context;
@@ -12,7 +16,13 @@ use brdfkit::fit::FitConfig;
 use brdfkit_validate::export::{ExportError, ExportForm, export, export_approximate};
 
 pub fn run(a: ExportArgs) -> CliResult<()> {
-    let form = match (a.to, a.format) {
+    let Some(to) = a.to.renderer() else {
+        return run_rgl(&a);
+    };
+    if a.theta_i.is_some() || a.grid.is_some() {
+        return Err(bad_msg("--theta-i and --grid apply to --to rgl only"));
+    }
+    let form = match (to, a.format) {
         (Renderer::Pbrt | Renderer::Gltf, Some(_)) => {
             return Err(bad_msg(
                 "--format applies to --to mitsuba (pbrt-v4 and glTF have one format each)",
@@ -44,7 +54,7 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
         if !a.quiet {
             eprintln!(
                 "export: fitting the {} configurations to the model if it has no exact counterpart ...",
-                a.to.target().name()
+                to.target().name()
             );
         }
         export_approximate(&v, form, &name, &FitConfig::default())
@@ -65,4 +75,74 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
         eprintln!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// `--to rgl`: the source (a MERL table, a model, an NBRDF) as a `.bsdf` file.
+fn run_rgl(a: &ExportArgs) -> CliResult<()> {
+    use brdfkit::rgl::write::{WriteError, WriteOptions, write};
+    use brdfkit_validate::compare::Representation;
+    use brdfkit_validate::export::measured_source;
+    if a.format.is_some() || a.approximate {
+        return Err(bad_msg(
+            "--format and --approximate do not apply to --to rgl",
+        ));
+    }
+    let Some(out) = &a.out else {
+        return Err(bad_msg(
+            "--to rgl writes a binary file: give --out X_rgb.bsdf",
+        ));
+    };
+    let path = a.params.display();
+    if a.params.is_file()
+        && crate::commands::input_kind(&a.params)? == crate::commands::InputKind::Rgl
+    {
+        return Err(bad_msg(format!(
+            "{path}: already an RGL-EPFL .bsdf file (export takes a MERL table, a model or an NBRDF)"
+        )));
+    }
+    let rep = Representation::load(&a.params).map_err(|e| bad_msg(e.to_string()))?;
+    let source = measured_source(&rep);
+    let name = a
+        .params
+        .file_name()
+        .map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned());
+    let opts = WriteOptions {
+        theta_i: a.theta_i.map_or(8, usize::from),
+        grid: match a.grid {
+            Some(RglGrid::G64) => 64,
+            _ => 32,
+        },
+        description: format!("{name} ({})", kind_name(&rep)),
+    };
+    let report = write(source.as_ref(), &opts, out).map_err(|e| match e {
+        WriteError::Write(e) => runtime(e),
+        e => bad_msg(format!("{path}: {e}")),
+    })?;
+    if !a.quiet {
+        let pi = report.power_iteration;
+        eprintln!(
+            "note: NDF from the retro-reflection by power iteration ({} steps, last change {:.1e}); \
+             {} theta_i slices, {} x {} values, {} of {} nodes above the horizon; \
+             {} negative source values stored as 0",
+            pi.iterations,
+            pi.change,
+            opts.theta_i,
+            opts.grid,
+            opts.grid,
+            report.valid,
+            report.nodes,
+            report.clamped
+        );
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+fn kind_name(rep: &brdfkit_validate::compare::Representation) -> &'static str {
+    use brdfkit_validate::compare::Kind;
+    match rep.kind() {
+        Kind::Table => "MERL table",
+        Kind::Model => "model",
+        Kind::Nbrdf => "NBRDF",
+    }
 }
