@@ -137,7 +137,7 @@ mitsuba_test! {
 }
 
 /// A MERL table as a BRDF: the interpolated lookup, missing cells 0 (what
-/// `fit-brdf export TABLE --to rgl` writes from, `measured_source`).
+/// `fit-brdf export TABLE --to rgl` writes from, `Representation::as_brdf`).
 struct TableSource(brdfkit_merl::MerlTable);
 
 impl Brdf for TableSource {

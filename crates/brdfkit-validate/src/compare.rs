@@ -155,6 +155,23 @@ pub enum Representation {
 }
 
 impl Representation {
+    /// The representation as one [`brdfkit_core::Brdf`] (what the RGL-EPFL writer,
+    /// `brdfkit_rgl::write`, tabulates for `export --to rgl`). A table
+    /// is read with the interpolated lookup (missing cells 0), a per-channel fit takes
+    /// channel c from model c, an NBRDF is its (clamped) `eval`.
+    pub fn as_brdf(&self) -> Box<dyn brdfkit_core::Brdf + '_> {
+        use brdfkit_fit::Fitted;
+        match self {
+            Representation::Table(t) => Box::new(crate::table::table_brdf(
+                t,
+                brdfkit_merl::Lookup::Interpolated,
+            )),
+            Representation::Model(Fitted::Shared(m)) => Box::new(m.as_ref()),
+            Representation::Model(f) => Box::new(PerChannel(f)),
+            Representation::Nbrdf(n) => Box::new(n.as_ref()),
+        }
+    }
+
     /// Loads a file by its name: `*.binary` a MERL table, `*.json` a model (a
     /// description, a per-channel fit or a fit record, [`Fitted::from_json`]); a path
     /// that is not a file is the stem `DIR/NAME` of an NBRDF's six `.npy` files.
@@ -539,6 +556,18 @@ pub fn compare(
         largest: top,
         renders,
     })
+}
+
+/// A per-channel fit as one BRDF: channel c of model c.
+struct PerChannel<'a>(&'a brdfkit_fit::Fitted);
+
+impl brdfkit_core::Brdf for PerChannel<'_> {
+    fn eval(&self, wi: &brdfkit_core::Vec3, wo: &brdfkit_core::Vec3) -> Rgb {
+        Rgb([0, 1, 2].map(|c| self.0.channel_model(c).eval(wi, wo).0[c]))
+    }
+    fn is_isotropic(&self) -> bool {
+        (0..3).all(|c| self.0.channel_model(c).is_isotropic())
+    }
 }
 
 #[cfg(test)]

@@ -14,9 +14,6 @@
 //! - [`compare`]: two representations of a material (tables, models, neural BRDFs)
 //!   against each other: every loss, the largest relative differences and where they
 //!   are, the render pair and its difference images;
-//! - [`export`]: the one mapping of a model onto a renderer's material (Mitsuba 3's
-//!   `diffuse` and `roughconductor`, pbrt-v4's `diffuse` and `conductor`) with its
-//!   writers (Mitsuba XML and dictionary, pbrt-v4 scene text) and typed refusals;
 //! - [`mitsuba`]: the cross-check against Mitsuba 3's `diffuse` and `roughconductor`
 //!   (case generation, the JSON batch exchanged with `python/mitsuba_eval.py`, the
 //!   comparison and its tolerances).
@@ -52,7 +49,6 @@
 #![warn(missing_docs)]
 
 pub mod compare;
-pub mod export;
 pub mod html;
 pub mod mitsuba;
 pub mod physical;

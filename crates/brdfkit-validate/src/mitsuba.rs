@@ -10,7 +10,7 @@
 //!   Beckmann, α from 0.01 to 1, the RGB η and k of gold, copper, silver and aluminium)
 //!   vs `cook-torrance` with ρd = 0, ρs = 1, `smith-separable` masking and conductor
 //!   Fresnel (Beckmann with `beckmann_g1 = rational`, Walter's G1 as Mitsuba); the
-//!   Mitsuba dictionary of each comes from [`crate::export`]'s mapping, the one
+//!   Mitsuba dictionary of each comes from [`brdfkit_export`]'s mapping, the one
 //!   `fit-brdf export` writes, so the cross-check tests the export too;
 //! - [`run_mitsuba`]: one Python process (`python/mitsuba_eval.py` of this crate)
 //!   evaluates every configuration's batch;
@@ -49,11 +49,11 @@
 //! 2e-5 relative (gold, blue), all of it on brdfkit's side of the comparison, since
 //! float32 emulation of Mitsuba's arithmetic with wo·h reproduces Mitsuba to 5e-8.
 
-use crate::export::{ExportError, Renderer, RendererMaterial, renderer_material};
 use crate::report::{PairAt, num};
 use brdfkit_core::geometry::half_vector;
 use brdfkit_core::scattering::Distribution;
 use brdfkit_core::{Model, Rgb, Vec3};
+use brdfkit_export::{ExportError, Renderer, RendererMaterial, renderer_material};
 use brdfkit_models::cook_torrance::Shape;
 use brdfkit_models::testing::SplitMix64;
 use serde::{Deserialize, Serialize};
@@ -193,7 +193,7 @@ pub const ALPHAS: [f64; 6] = [0.01, 0.03, 0.1, 0.3, 0.6, 1.0];
 
 impl CrossConfig {
     /// The configuration `name` of the brdfkit `model`, with the Mitsuba dictionary and
-    /// the microfacet parameters of [`crate::export`]'s mapping: the cross-check tests
+    /// the microfacet parameters of [`brdfkit_export`]'s mapping: the cross-check tests
     /// the very dictionary `fit-brdf export --to mitsuba --format dict` writes.
     pub fn from_model(
         name: impl Into<String>,

@@ -251,7 +251,7 @@ mitsuba_test! {
 
 #[test]
 fn cli_output_is_the_library_mapping() {
-    use brdfkit_validate::export::{self as lib, ExportForm, Renderer, renderer_material};
+    use brdfkit_export::{self as lib, ExportForm, Renderer, renderer_material};
     let d = tempfile::tempdir().unwrap();
     let text = |v: &Value, form| lib::export(v, form, "model.json").unwrap().text;
     for c in mitsuba_cases() {

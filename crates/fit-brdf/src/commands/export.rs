@@ -1,11 +1,11 @@
 //! `fit-brdf export PARAMS.json --to mitsuba|pbrt|gltf [--approximate]`: the model as a
 //! renderer's material. The mapping, its conditions, the writers and the approximation
-//! are `brdfkit_validate::export` (shared with the Mitsuba cross-check); this is the
+//! are `brdfkit_export` (shared with the Mitsuba cross-check); this is the
 //! glue: arguments, file, output.
 //!
 //! `fit-brdf export TABLE|MODEL.json|NBRDF --to rgl --out X_rgb.bsdf [--theta-i N]
 //! [--grid 32|64]`: an RGL-EPFL measured file, written by `brdfkit_rgl::write` from the
-//! source as `brdfkit_validate::export::measured_source` reads it (docs/rgl.md).
+//! source as `brdfkit_validate::compare::Representation::as_brdf` reads it (docs/rgl.md).
 
 use crate::cli::{ExportArgs, ExportFormat, Renderer, RglGrid};
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
@@ -13,7 +13,7 @@ use crate::output::write_text;
 use anyhow::Context;
 use brdfkit::core::ModelError;
 use brdfkit::fit::FitConfig;
-use brdfkit_validate::export::{ExportError, ExportForm, export, export_approximate};
+use brdfkit_export::{ExportError, ExportForm, export, export_approximate};
 
 pub fn run(a: ExportArgs) -> CliResult<()> {
     let Some(to) = a.to.renderer() else {
@@ -81,7 +81,6 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
 fn run_rgl(a: &ExportArgs) -> CliResult<()> {
     use brdfkit::rgl::write::{WriteError, WriteOptions, write};
     use brdfkit_validate::compare::Representation;
-    use brdfkit_validate::export::measured_source;
     if a.format.is_some() || a.approximate {
         return Err(bad_msg(
             "--format and --approximate do not apply to --to rgl",
@@ -101,7 +100,7 @@ fn run_rgl(a: &ExportArgs) -> CliResult<()> {
         )));
     }
     let rep = Representation::load(&a.params).map_err(|e| bad_msg(e.to_string()))?;
-    let source = measured_source(&rep);
+    let source = rep.as_brdf();
     let name = a
         .params
         .file_name()
