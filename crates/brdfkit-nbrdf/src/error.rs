@@ -16,30 +16,11 @@ pub enum NbrdfError {
     #[error("{}: missing: an NBRDF needs all six files <NAME>_{{fc1,b1,fc2,b2,fc3,b3}}.npy", path.display())]
     Missing { path: PathBuf },
 
-    /// The file exists but could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
-    Read {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-
-    /// Not a readable `.npy` file: a bad magic string or header, or fewer data bytes than
-    /// the header's shape needs.
-    #[error("{}: not a valid .npy file: {source}", path.display())]
-    Format {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-
-    /// The array's dtype is not the one expected (NBRDF weights are float32, `<f4`).
-    #[error("{}: dtype '{found}', expected {expected}", path.display())]
-    Dtype {
-        path: PathBuf,
-        found: String,
-        expected: &'static str,
-    },
+    /// A weight file that cannot be read as the `.npy` array it should be: unreadable,
+    /// not `.npy`, too short for its shape, or another dtype than float32 (brdfkit-io's
+    /// reader names the file and the problem).
+    #[error(transparent)]
+    Npy(#[from] brdfkit_io::npy::NpyError),
 
     /// The array's shape is not the one expected, or is inconsistent with the other
     /// layers (e.g. `fc2` must have as many rows as `fc1` has columns).

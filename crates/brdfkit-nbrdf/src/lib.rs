@@ -20,8 +20,8 @@
 //! # Wiring into `fit-brdf`
 //! `resample --nbrdf P`: `let (t, st) = Nbrdf::load(P)?.to_table(dims)?;` then write `t`
 //! and report `st`. `eval --nbrdf P --dirs F`: `Nbrdf::load(P)?.eval_pairs(&pairs)`.
-//! [`NbrdfError`] is always bad input (exit 2) except [`NbrdfError::Read`] (I/O) and
-//! [`NbrdfError::Table`].
+//! [`NbrdfError`] is always bad input (exit 2) except an I/O failure
+//! ([`NbrdfError::Npy`] of [`NpyError::Read`]) and [`NbrdfError::Table`].
 //!
 //! # Reading the files
 //! The six `.npy` files are read by the workspace's one `.npy` reader,
@@ -30,6 +30,7 @@
 pub mod error;
 mod net;
 pub mod npy;
+pub use brdfkit_io::npy::NpyError;
 mod table;
 
 pub use error::NbrdfError;

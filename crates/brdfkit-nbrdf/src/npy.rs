@@ -7,7 +7,7 @@ use brdfkit_io::npy::{self, NpyError};
 use std::path::Path;
 
 /// Reads a float32 array (`<f4` or `>f4`) of any shape: [`NbrdfError::Missing`] when the
-/// file does not exist, and the reader's other errors as they are.
+/// file does not exist, the reader's other errors as [`NbrdfError::Npy`].
 pub fn read_f32(path: &Path) -> Result<ArrayF32, NbrdfError> {
     npy::read_f32(path).map_err(from_npy)
 }
@@ -23,30 +23,6 @@ fn from_npy(e: NpyError) -> NbrdfError {
         NpyError::Read { path, source } if source.kind() == std::io::ErrorKind::NotFound => {
             NbrdfError::Missing { path }
         }
-        NpyError::Read { path, source } => NbrdfError::Read { path, source },
-        NpyError::Format { path, source } => NbrdfError::Format { path, source },
-        NpyError::Dtype {
-            path,
-            found,
-            expected,
-        } => NbrdfError::Dtype {
-            path,
-            found,
-            expected,
-        },
-        NpyError::Shape {
-            path,
-            found,
-            expected,
-        } => NbrdfError::Shape {
-            path,
-            found,
-            expected,
-        },
-        // Row and body-length checks belong to the pair reader, not this one.
-        other => NbrdfError::Format {
-            path: other.path().to_owned(),
-            source: std::io::Error::other(other.to_string()),
-        },
+        e => NbrdfError::Npy(e),
     }
 }

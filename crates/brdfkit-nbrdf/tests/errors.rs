@@ -3,7 +3,7 @@
 
 mod common;
 
-use brdfkit_nbrdf::{Nbrdf, NbrdfError, PARTS};
+use brdfkit_nbrdf::{Nbrdf, NbrdfError, NpyError, PARTS};
 use npyz::{AutoSerialize, Order, WriteOptions, WriterBuilder};
 use std::path::{Path, PathBuf};
 
@@ -121,7 +121,7 @@ fn wrong_dtypes() {
     write(&f, &[21, 3], &[0.5f64; 63], Order::C);
     let e = load_err(&m, &f);
     assert!(
-        matches!(&e, NbrdfError::Dtype { found, .. } if found == "'<f8'" || found == "<f8"),
+        matches!(&e, NbrdfError::Npy(NpyError::Dtype { found, .. }) if found == "'<f8'" || found == "<f8"),
         "{e:?}"
     );
     assert!(
@@ -172,7 +172,10 @@ fn not_npy_and_truncated() {
     let f = part(&m, "b1");
     std::fs::write(&f, b"not a numpy file at all").unwrap();
     let e = load_err(&m, &f);
-    assert!(matches!(e, NbrdfError::Format { .. }), "{e:?}");
+    assert!(
+        matches!(e, NbrdfError::Npy(NpyError::Format { .. })),
+        "{e:?}"
+    );
     let d2 = tempfile::tempdir().unwrap();
     let m = copy_of_gold_paint(d2.path());
     // The header promises 21 x 21 floats; half the data is there.
@@ -180,7 +183,10 @@ fn not_npy_and_truncated() {
     let full = std::fs::read(&f).unwrap();
     std::fs::write(&f, &full[..full.len() - 21 * 21 * 2]).unwrap();
     let e = load_err(&m, &f);
-    assert!(matches!(e, NbrdfError::Format { .. }), "{e:?}");
+    assert!(
+        matches!(e, NbrdfError::Npy(NpyError::Format { .. })),
+        "{e:?}"
+    );
 }
 
 /// A small network of other widths (4 and 5 hidden units), Fortran-order kernels and

@@ -137,10 +137,10 @@ mod tests {
         let bad = brdfkit_core::ModelError::Invalid("unknown model `x`".into());
         assert_eq!(io_kind(&bad), None);
         // A malformed file is bad input (ValueError), not a failure of the system.
-        let npy = brdfkit_nbrdf::NbrdfError::Format {
+        let npy = brdfkit_nbrdf::NbrdfError::Npy(brdfkit_nbrdf::NpyError::Format {
             path: "w_fc1.npy".into(),
             source: std::io::Error::new(ErrorKind::InvalidData, "bad magic"),
-        };
+        });
         assert_eq!(io_kind(&npy), None);
     }
 }
