@@ -161,3 +161,30 @@ impl SceneMaterial {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The renderer's (light, camera) pair is the file's (camera, light): the order
+    /// Mitsuba's `measured` plugin evaluates, whose `si.wi` points to the camera. The
+    /// vendored synthetic file is not reciprocal, so the swap shows.
+    #[test]
+    fn a_measured_material_puts_the_files_theta_i_on_the_camera_side() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../data-synthetic/felt-synthetic.bsdf");
+        let bsdf = Arc::new(RglBsdf::read(&path).unwrap());
+        let m = SceneMaterial::Measured {
+            brdf: MeasuredBrdf(bsdf.clone()),
+            source: MaterialSource::MeasuredFile(path),
+        };
+        let light = Vec3::new(0.7, 0.1, 0.5).normalize();
+        let camera = Vec3::new(-0.2, 0.3, 0.9).normalize();
+        let (f, miss) = m.eval(&light, &camera);
+        assert!(!miss);
+        assert_eq!(f, bsdf.eval(&camera, &light));
+        assert_ne!(f, bsdf.eval(&light, &camera), "the file is not reciprocal");
+        assert_eq!(m.as_brdf().eval(&light, &camera), f);
+        assert!(m.describe().contains(".bsdf"));
+    }
+}
