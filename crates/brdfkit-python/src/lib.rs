@@ -2,7 +2,7 @@
 //!
 //! Thin glue over the library crates: every value comes from the Rust API
 //! (`brdfkit_merl`, `brdfkit_models`, `brdfkit_fit`, `brdfkit_validate`,
-//! `brdfkit_nbrdf`), so Python gets the same numbers, to the bit. Arrays cross as
+//! `brdfkit_nbrdf`, `brdfkit_rgl`), so Python gets the same numbers, to the bit. Arrays cross as
 //! NumPy arrays: any input NumPy converts to float64 is taken (one rule, the `arrays`
 //! module), borrowed without a copy when it is C-contiguous float64 already, outputs are built in Rust and handed to NumPy
 //! without a copy. The GIL is released around reads, writes, lookups, evaluations,
@@ -16,6 +16,7 @@ mod arrays;
 mod errors;
 mod fit;
 mod model;
+mod rgl;
 mod table;
 
 use pyo3::prelude::*;
@@ -47,6 +48,7 @@ fn _brdfkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<table::PyTable>()?;
     m.add_class::<model::PyModel>()?;
     m.add_class::<model::PyNbrdf>()?;
+    m.add_class::<rgl::PyRglBsdf>()?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::check, m)?)?;
     m.add_function(wrap_pyfunction!(model::resample, m)?)?;

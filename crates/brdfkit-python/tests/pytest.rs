@@ -1,6 +1,7 @@
 //! Runs the Python tests of the `brdfkit` package (`tests/test_*.py`) with pytest, after
 //! computing what they compare against with the Rust API: lookups, evaluations, a fit,
-//! a check, resampled tables and a `brdfkit-render` image, written into a temporary
+//! a check, resampled tables, an RGL-EPFL `.bsdf` and its values, and a
+//! `brdfkit-render` image, written into a temporary
 //! directory (`BRDFKIT_REFS`). The Python side must give the same values to the bit.
 //!
 //! The Python is `$BRDFKIT_PYTHON` or `<workspace>/.venv/bin/python`, with the package
@@ -135,6 +136,7 @@ fn write_references(dir: &Path) {
         .expect("write");
 
     write_fit(&table, dir);
+    write_rgl(&wi, &wo, dir);
 
     for seed in [1, 2] {
         let text = scene_toml(&table_path, seed);
@@ -144,6 +146,68 @@ fn write_references(dir: &Path) {
         let px = out.radiance.iter().flat_map(|c| c.0);
         write_f64(&dir.join(format!("render_seed{seed}.f64")), px);
     }
+}
+
+/// A small isotropic RGB `.bsdf` (8 θi slices, 16² values with negatives, smooth
+/// `ndf`/`sigma`/`vndf`), its values at the pairs by `eval_flat` (what `fit-brdf eval
+/// --bsdf` runs), its `info_json` and its 10 × 10 × 20 resampling.
+fn write_rgl(wi: &[[f64; 3]], wo: &[[f64; 3]], dir: &Path) {
+    use brdfkit_rgl::{RglBsdf, Tensor, TensorData, tensor};
+    let n = 16usize;
+    let theta: Vec<f32> = (0..8).map(|k| (k as f32 * 11.0).to_radians()).collect();
+    let mut rgb = Vec::new();
+    for t in 0..8 {
+        for c in 0..3 {
+            for y in 0..n {
+                for x in 0..n {
+                    let (u, v) = (x as f32 / 15.0, y as f32 / 15.0);
+                    let (c, t) = (c as f32, t as f32);
+                    rgb.push(0.3 + 0.4 * (3.0 * u + c + t).sin() * (2.0 * v + c).sin());
+                }
+            }
+        }
+    }
+    let smooth = |len: usize, k: f32| -> Vec<f32> {
+        (0..len)
+            .map(|i| 1.0 + 0.3 * (k * i as f32 / len as f32).sin())
+            .collect()
+    };
+    let fields = vec![
+        Tensor::new("version", &[2], TensorData::U32(vec![1, 0])),
+        Tensor::new("description", &[9], TensorData::U8(b"test felt".to_vec())),
+        Tensor::new("phi_i", &[1], TensorData::F32(vec![0.0])),
+        Tensor::new("theta_i", &[8], TensorData::F32(theta)),
+        Tensor::new("sigma", &[2, 32], TensorData::F32(smooth(64, 3.0))),
+        Tensor::new("ndf", &[2, 32], TensorData::F32(smooth(64, 5.0))),
+        Tensor::new("vndf", &[1, 8, 16, 16], TensorData::F32(smooth(2048, 40.0))),
+        Tensor::new(
+            "luminance",
+            &[1, 8, 16, 16],
+            TensorData::F32(smooth(2048, 20.0)),
+        ),
+        Tensor::new("rgb", &[1, 8, 3, 16, 16], TensorData::F32(rgb)),
+        Tensor::new("jacobian", &[1], TensorData::U8(vec![1])),
+    ];
+    let path = dir.join("felt.bsdf");
+    tensor::write(&fields, &path).expect("write the .bsdf");
+    let b = RglBsdf::read(&path).expect("read the .bsdf");
+    let flat: Vec<f64> = wi
+        .iter()
+        .zip(wo)
+        .flat_map(|(i, o)| [*i, *o])
+        .flatten()
+        .collect();
+    let mut out = vec![0.0; wi.len() * 3];
+    b.eval_flat(&flat, &mut out);
+    write_f64(&dir.join("rgl_eval.f64"), out);
+    write_json(
+        &dir.join("rgl_info.json"),
+        &b.info_json(&b.asymmetry(200_000, 5.0, 1)),
+    );
+    let (t, _) = b
+        .to_table(Dims::new(10, 10, 20).expect("dims"))
+        .expect("resample");
+    t.write(dir.join("rgl_10_10_20.binary")).expect("write");
 }
 
 /// The reference fit: `fit-brdf fit`'s defaults (the Python `fit`'s) but two starts.

@@ -87,6 +87,17 @@ pub enum SceneError {
         source: Box<ModelError>,
     },
 
+    /// An RGL-EPFL `.bsdf` that cannot be read (its message names the file and field).
+    #[error("{}: `{key}`: {source}", scene.display())]
+    Measured {
+        /// The scene file.
+        scene: PathBuf,
+        /// The dotted key of the scene it concerns.
+        key: String,
+        #[source]
+        /// The underlying error.
+        source: Box<brdfkit_rgl::RglError>,
+    },
     /// A MERL table that cannot be read (its message names the table file).
     #[error("{}: `{key}`: {source}", scene.display())]
     Table {
@@ -124,6 +135,7 @@ impl SceneError {
             | SceneError::ModelJson { scene, .. }
             | SceneError::Model { scene, .. }
             | SceneError::Table { scene, .. }
+            | SceneError::Measured { scene, .. }
             | SceneError::Image { scene, .. } => scene,
         }
     }
@@ -138,6 +150,7 @@ impl SceneError {
             | SceneError::ModelJson { key, .. }
             | SceneError::Model { key, .. }
             | SceneError::Table { key, .. }
+            | SceneError::Measured { key, .. }
             | SceneError::Image { key, .. } => Some(key),
         }
     }

@@ -37,7 +37,7 @@ pub mod scene;
 pub mod stats;
 
 pub use error::{OutputError, RenderError, SceneError};
-pub use material::{SceneMaterial, TableBrdf};
+pub use material::{MeasuredBrdf, SceneMaterial, TableBrdf};
 pub use output::RenderOutput;
 pub use render::render;
 pub use scene::{Effect, Effects, Film, Light, Mis, PixelFilter, Scene};

@@ -1,8 +1,10 @@
-//! Materials: an analytic model (any `brdfkit_models` JSON description) or a MERL
-//! table, behind one evaluation that also reports missing table samples.
+//! Materials: an analytic model (any `brdfkit_models` JSON description), a MERL table
+//! or an RGL-EPFL `.bsdf` measurement, behind one evaluation that also reports missing
+//! table samples.
 
 use brdfkit_core::{Brdf, Model, Rgb, Vec3};
 use brdfkit_merl::{Lookup, MerlTable};
+use brdfkit_rgl::RglBsdf;
 use std::sync::Arc;
 
 /// A MERL table as a [`Brdf`].
@@ -48,6 +50,28 @@ impl Brdf for TableBrdf {
     }
 }
 
+/// An RGL-EPFL `.bsdf` measurement as the renderer sees it: evaluated as Mitsuba 3
+/// renders it, with the file's θi (Mitsuba's `si.wi`) on the camera side.
+///
+/// The data are not reciprocal (docs/rgl.md), so the order matters: the renderer's
+/// `eval(wi, wo)` has wi toward the light and wo toward the camera, and Mitsuba's
+/// `measured` plugin evaluates `eval(si.wi = toward the camera, wo = toward the light)`.
+/// This wrapper swaps the pair, so a render here is one of the same material as
+/// Mitsuba's render of the file.
+#[derive(Clone, Debug)]
+pub struct MeasuredBrdf(pub Arc<RglBsdf>);
+
+impl Brdf for MeasuredBrdf {
+    #[inline]
+    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
+        self.0.eval(wo, wi)
+    }
+
+    fn is_isotropic(&self) -> bool {
+        self.0.is_isotropic()
+    }
+}
+
 /// Where a material came from (for reports).
 #[derive(Clone, Debug, PartialEq)]
 pub enum MaterialSource {
@@ -57,6 +81,8 @@ pub enum MaterialSource {
     ModelFile(std::path::PathBuf),
     /// A MERL table file.
     TableFile(std::path::PathBuf),
+    /// An RGL-EPFL `.bsdf` file.
+    MeasuredFile(std::path::PathBuf),
 }
 
 /// The material of a scene object: what the renderer evaluates at a hit point.
@@ -76,6 +102,13 @@ pub enum SceneMaterial {
         /// Where it came from.
         source: MaterialSource,
     },
+    /// An RGL-EPFL `.bsdf` measurement, evaluated directly (not resampled).
+    Measured {
+        /// The file's model.
+        brdf: MeasuredBrdf,
+        /// Where it came from.
+        source: MaterialSource,
+    },
 }
 
 impl SceneMaterial {
@@ -90,6 +123,7 @@ impl SceneMaterial {
                 // Below the horizon is not a miss: the renderer never asks there.
                 None => (Rgb::ZERO, wi.z > 0.0 && wo.z > 0.0),
             },
+            SceneMaterial::Measured { brdf, .. } => (brdf.eval(wi, wo), false),
         }
     }
 
@@ -98,13 +132,16 @@ impl SceneMaterial {
         match self {
             SceneMaterial::Model { model, .. } => model.as_ref(),
             SceneMaterial::Table { brdf, .. } => brdf,
+            SceneMaterial::Measured { brdf, .. } => brdf,
         }
     }
 
     /// Where it came from.
     pub fn source(&self) -> &MaterialSource {
         match self {
-            SceneMaterial::Model { source, .. } | SceneMaterial::Table { source, .. } => source,
+            SceneMaterial::Model { source, .. }
+            | SceneMaterial::Table { source, .. }
+            | SceneMaterial::Measured { source, .. } => source,
         }
     }
 
@@ -113,6 +150,41 @@ impl SceneMaterial {
         match self {
             SceneMaterial::Model { model, .. } => format!("model `{}`", model.name()),
             SceneMaterial::Table { brdf, .. } => format!("MERL table {}", brdf.table().dims()),
+            SceneMaterial::Measured { brdf, .. } => format!(
+                "RGL-EPFL .bsdf ({})",
+                if brdf.0.is_spectral() {
+                    "spectral"
+                } else {
+                    "RGB"
+                }
+            ),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The renderer's (light, camera) pair is the file's (camera, light): the order
+    /// Mitsuba's `measured` plugin evaluates, whose `si.wi` points to the camera. The
+    /// vendored synthetic file is not reciprocal, so the swap shows.
+    #[test]
+    fn a_measured_material_puts_the_files_theta_i_on_the_camera_side() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../data-synthetic/felt-synthetic.bsdf");
+        let bsdf = Arc::new(RglBsdf::read(&path).unwrap());
+        let m = SceneMaterial::Measured {
+            brdf: MeasuredBrdf(bsdf.clone()),
+            source: MaterialSource::MeasuredFile(path),
+        };
+        let light = Vec3::new(0.7, 0.1, 0.5).normalize();
+        let camera = Vec3::new(-0.2, 0.3, 0.9).normalize();
+        let (f, miss) = m.eval(&light, &camera);
+        assert!(!miss);
+        assert_eq!(f, bsdf.eval(&camera, &light));
+        assert_ne!(f, bsdf.eval(&light, &camera), "the file is not reciprocal");
+        assert_eq!(m.as_brdf().eval(&light, &camera), f);
+        assert!(m.describe().contains(".bsdf"));
     }
 }

@@ -10,9 +10,10 @@
 use crate::env::{Environment, LatLong};
 use crate::error::SceneError;
 use crate::geometry::{Camera, Plane, Sphere};
-use crate::material::{MaterialSource, SceneMaterial, TableBrdf};
+use crate::material::{MaterialSource, MeasuredBrdf, SceneMaterial, TableBrdf};
 use brdfkit_core::{Rgb, Vec3};
 use brdfkit_merl::{Lookup, MerlTable};
+use brdfkit_rgl::{InputKind, RglBsdf};
 use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use std::fmt;
@@ -720,6 +721,10 @@ fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<SceneMaterial, 
         }
         (None, Some(p)) => {
             let file = cx.resolve(p);
+            // By content, as every reader of a table ([`brdfkit_rgl::InputKind`]).
+            if InputKind::of_file(&file).is_ok_and(|k| k == InputKind::Rgl) {
+                return load_measured(cx, key, m, file);
+            }
             let table = MerlTable::read(&file).map_err(|source| SceneError::Table {
                 scene: cx.path.to_path_buf(),
                 key: format!("{key}.table"),
@@ -735,6 +740,31 @@ fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<SceneMaterial, 
             })
         }
     }
+}
+
+/// A `table` that is an RGL-EPFL `.bsdf`: evaluated directly, so a `lookup` (which
+/// picks how a MERL table is read between cells) does not apply.
+fn load_measured(
+    cx: &Ctx,
+    key: &str,
+    m: &RawMaterial,
+    file: PathBuf,
+) -> Result<SceneMaterial, SceneError> {
+    if m.lookup.is_some() {
+        return Err(cx.invalid(
+            format!("{key}.lookup"),
+            "applies to a MERL table only; this `table` is an RGL-EPFL .bsdf, evaluated as it is",
+        ));
+    }
+    let bsdf = RglBsdf::read(&file).map_err(|source| SceneError::Measured {
+        scene: cx.path.to_path_buf(),
+        key: format!("{key}.table"),
+        source: Box::new(source),
+    })?;
+    Ok(SceneMaterial::Measured {
+        brdf: MeasuredBrdf(Arc::new(bsdf)),
+        source: MaterialSource::MeasuredFile(file),
+    })
 }
 
 /// The sRGB transfer function, decoding (IEC 61966-2-1): encoded value → linear.

@@ -21,8 +21,9 @@
 use crate::cie;
 use crate::error::RglError;
 use crate::tensor::{Dtype, FieldInfo, TensorFile};
-use crate::warp::Warp2D;
+use crate::warp::{ParamPos, Warp2D};
 use brdfkit_core::{Brdf, Rgb, Vec3};
+use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -80,6 +81,21 @@ pub struct Summary {
     /// Set bits of `valid` (the measured points) and its bit count, if the file has it.
     pub measured_points: Option<(usize, usize)>,
     pub jacobian: bool,
+}
+
+/// Pairs per parallel task of the batch evaluations.
+const EVAL_BLOCK: usize = 2048;
+
+/// What steps 1 to 3 of the evaluation find for a pair ([`RglBsdf::locate`]).
+struct Located {
+    /// (φi, θi) of the folded wi.
+    params: [f64; 2],
+    /// Their place on the φi and θi grids.
+    at: ParamPos,
+    /// The sample position of the value tables.
+    sample: [f64; 2],
+    /// D(m) / (4 σ(wi)), or 1 without the `jacobian` flag.
+    jac: f64,
 }
 
 /// Elevation of a unit vector, stable near the pole (`measured.cpp`'s `elevation`).
@@ -195,10 +211,10 @@ impl RglBsdf {
         (&self.theta_i, &self.phi_i)
     }
 
-    /// Steps 1 to 3: the parameters (φi, θi), the sample position of the value tables,
-    /// and the Jacobian factor; `None` below the horizon.
+    /// Steps 1 to 3: the parameters (φi, θi) and their place on the grids, the sample
+    /// position of the value tables, and the Jacobian factor; `None` below the horizon.
     #[inline]
-    fn locate(&self, wi: &Vec3, wo: &Vec3) -> Option<([f64; 2], [f64; 2], f64)> {
+    fn locate(&self, wi: &Vec3, wo: &Vec3) -> Option<Located> {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return None;
         }
@@ -221,13 +237,19 @@ impl RglBsdf {
         ];
         u_m[1] -= u_m[1].floor();
         let params = [phi_i, theta_i];
-        let (sample, _) = self.vndf.invert(u_m, &params);
+        let at = ParamPos::new([&self.phi_i, &self.theta_i], params);
+        let (sample, _) = self.vndf.invert_with(u_m, &self.vndf.weights_at(&at));
         let jac = if self.jacobian {
-            self.ndf.eval(u_m, &[]) / (4.0 * self.sigma.eval(u_wi, &[]))
+            self.ndf.eval_plain(u_m) / (4.0 * self.sigma.eval_plain(u_wi))
         } else {
             1.0
         };
-        Some((params, sample, jac))
+        Some(Located {
+            params,
+            at,
+            sample,
+            jac,
+        })
     }
 
     /// The spectral value at wavelength `lambda` (nm), f_r without the cosine; `None`
@@ -238,14 +260,15 @@ impl RglBsdf {
         };
         Some(match self.locate(wi, wo) {
             None => 0.0,
-            Some((p, s, jac)) => warp.eval(s, &[p[0], p[1], lambda]) * jac,
+            Some(l) => warp.eval(l.sample, &[l.params[0], l.params[1], lambda]) * l.jac,
         })
     }
 
     /// The values at every stored wavelength (spectral) or channel (RGB) into `out`
     /// (its length: 3 or the number of wavelengths); all 0 below the horizon.
+    #[inline]
     pub fn eval_stored(&self, wi: &Vec3, wo: &Vec3, out: &mut [f64]) {
-        let Some((p, s, jac)) = self.locate(wi, wo) else {
+        let Some(l) = self.locate(wi, wo) else {
             out.fill(0.0);
             return;
         };
@@ -253,8 +276,60 @@ impl RglBsdf {
             Values::Rgb(w) => w,
             Values::Spectral { warp, .. } => warp,
         };
-        warp.eval_nodes(s, &p, out);
-        out.iter_mut().for_each(|o| *o *= jac);
+        warp.eval_nodes_with(l.sample, warp.weights_at(&l.at), out);
+        out.iter_mut().for_each(|o| *o *= l.jac);
+    }
+
+    /// f_r(wi, wo) in linear RGB into `out` ([`Brdf::eval`]'s value); `scratch` holds a
+    /// spectral file's values at its wavelengths, so a caller evaluating many pairs
+    /// allocates it once.
+    #[inline]
+    pub fn eval_rgb_into(&self, wi: &Vec3, wo: &Vec3, scratch: &mut Vec<f64>, out: &mut [f64]) {
+        match &self.values {
+            Values::Rgb(_) => self.eval_stored(wi, wo, &mut out[..3]),
+            Values::Spectral { to_srgb, .. } => {
+                scratch.resize(to_srgb[0].len(), 0.0);
+                self.eval_stored(wi, wo, scratch);
+                for (o, w) in out.iter_mut().zip(to_srgb) {
+                    *o = cie::dot(w, scratch);
+                }
+            }
+        }
+    }
+
+    /// f_r in linear RGB at flat pairs (6 numbers a row: wi, then wo) into flat values
+    /// (3 a row), in parallel over blocks of rows, with no allocation per pair: what
+    /// `fit-brdf eval --bsdf` runs. The pairs are taken as given (the callers check
+    /// them); 0 below the horizon.
+    pub fn eval_flat(&self, dirs: &[f64], out: &mut [f64]) {
+        assert_eq!(dirs.len() / 6, out.len() / 3, "one row of values per pair");
+        out.par_chunks_mut(3 * EVAL_BLOCK)
+            .zip(dirs.par_chunks(6 * EVAL_BLOCK))
+            .for_each(|(out, rows)| {
+                let mut scratch = Vec::new();
+                for (o, r) in out.chunks_exact_mut(3).zip(rows.chunks_exact(6)) {
+                    let (wi, wo) = (Vec3::new(r[0], r[1], r[2]), Vec3::new(r[3], r[4], r[5]));
+                    self.eval_rgb_into(&wi, &wo, &mut scratch, o);
+                }
+            });
+    }
+
+    /// [`eval_flat`](Self::eval_flat) with wi and wo in separate arrays (Python's
+    /// `RglBsdf.eval`).
+    pub fn eval_split(&self, wi: &[[f64; 3]], wo: &[[f64; 3]], out: &mut [[f64; 3]]) {
+        assert!(
+            wi.len() == wo.len() && wi.len() == out.len(),
+            "one row per pair"
+        );
+        out.par_chunks_mut(EVAL_BLOCK)
+            .zip(wi.par_chunks(EVAL_BLOCK).zip(wo.par_chunks(EVAL_BLOCK)))
+            .for_each(|(out, (a, b))| {
+                let mut scratch = Vec::new();
+                for ((o, i), w) in out.iter_mut().zip(a).zip(b) {
+                    let (wi, wo) = (Vec3::new(i[0], i[1], i[2]), Vec3::new(w[0], w[1], w[2]));
+                    self.eval_rgb_into(&wi, &wo, &mut scratch, o);
+                }
+            });
     }
 
     /// Number of values [`eval_stored`](Self::eval_stored) writes.
@@ -267,18 +342,9 @@ impl Brdf for RglBsdf {
     /// f_r(wi, wo) in linear RGB: the stored channels of an RGB file, or a spectral
     /// file's spectrum converted to linear sRGB ([`cie`]).
     fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        match &self.values {
-            Values::Rgb(_) => {
-                let mut v = [0.0; 3];
-                self.eval_stored(wi, wo, &mut v);
-                Rgb(v)
-            }
-            Values::Spectral { to_srgb, .. } => {
-                let mut s = vec![0.0; to_srgb[0].len()];
-                self.eval_stored(wi, wo, &mut s);
-                Rgb(to_srgb.each_ref().map(|w| cie::dot(w, &s)))
-            }
-        }
+        let mut v = [0.0; 3];
+        self.eval_rgb_into(wi, wo, &mut Vec::new(), &mut v);
+        Rgb(v)
     }
 
     fn is_isotropic(&self) -> bool {

@@ -210,7 +210,7 @@ fn values<'a>(
         let f = float_field(tf, "spectra", 5)?;
         let mut params = pt.to_vec();
         params.push(wl.clone());
-        let w = warp(tf, f, params, false, false)?;
+        let w = warp(tf, f, params, false, false)?.interleave_last();
         let to_srgb = cie::srgb_weights(&wl);
         let nm = wl.iter().map(|&l| f64::from(l)).collect();
         return Ok((
@@ -237,7 +237,8 @@ fn values<'a>(
     }
     let mut params = pt.to_vec();
     params.push(vec![0.0, 1.0, 2.0]);
-    Ok((Values::Rgb(warp(tf, f, params, false, false)?), f, None))
+    let w = warp(tf, f, params, false, false)?.interleave_last();
+    Ok((Values::Rgb(w), f, None))
 }
 
 /// Set bits of `valid` and the bits it must hold, or `None` without the field; its

@@ -14,6 +14,9 @@
 //! - [`RglBsdf::to_table`]: the file as a MERL table (mean of both orders of a pair),
 //!   and [`RglBsdf::asymmetry`], how far the data are from reciprocal.
 //!
+//! - [`InputKind`]: the one rule that tells a `.bsdf`, a model description and a MERL
+//!   table apart by their first bytes.
+//!
 //! docs/rgl.md describes the format, the evaluation and its sources.
 
 mod bsdf;
@@ -21,6 +24,8 @@ mod check;
 pub mod cie;
 pub mod cie_table;
 mod error;
+mod info;
+pub mod kind;
 mod resample;
 pub mod tensor;
 mod warp;
@@ -28,6 +33,7 @@ pub mod write;
 
 pub use bsdf::{RglBsdf, Summary, Values};
 pub use error::RglError;
+pub use kind::InputKind;
 pub use resample::{Asymmetry, TableStats};
 pub use tensor::{Dtype, Tensor, TensorData, TensorFile, is_tensor_file};
 pub use warp::Warp2D;

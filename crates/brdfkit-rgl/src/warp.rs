@@ -30,12 +30,53 @@ pub struct Warp2D {
     /// Conditional CDFs, `slices × h × (w − 1)`; empty without sampling tables.
     cond: Vec<f32>,
     normalized: bool,
+    /// The densities again with the last parameter's slices interleaved (`… × h × w ×
+    /// n_last`), built by [`interleave_last`](Self::interleave_last) for the value
+    /// tables: [`eval_nodes`](Self::eval_nodes) then reads the three channels (or the
+    /// wavelengths) of a grid point from one cache line instead of one line each.
+    interleaved: Vec<f32>,
+}
+
+/// Where a point (φi, θi) lies on the incident-direction grids: on each, the interval
+/// (`find_interval`) and the weight clamped to [0, 1]. Every table a pair reads (`vndf`,
+/// `rgb`/`spectra`) is parameterised by the same two grids, so this is found once per
+/// pair and turned into each table's corner slices by [`Warp2D::weights_at`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ParamPos {
+    at: [usize; 2],
+    t: [f64; 2],
+}
+
+impl ParamPos {
+    /// The position of `p` on `grids` (each sorted, of length ≥ 1).
+    #[inline]
+    pub(crate) fn new(grids: [&[f32]; 2], p: [f64; 2]) -> ParamPos {
+        let mut out = ParamPos {
+            at: [0; 2],
+            t: [0.0; 2],
+        };
+        for (d, vals) in grids.iter().enumerate() {
+            if vals.len() > 1 {
+                (out.at[d], out.t[d]) = interval(vals, p[d]);
+            }
+        }
+        out
+    }
+}
+
+/// The largest i ≤ n − 2 with vals[i] < x (0 if none: `find_interval`), and x's weight
+/// between vals[i] and vals[i + 1], clamped to [0, 1].
+#[inline]
+fn interval(vals: &[f32], x: f64) -> (usize, f64) {
+    let i = vals[1..vals.len() - 1].partition_point(|&v| f64::from(v) < x);
+    let (p0, p1) = (f64::from(vals[i]), f64::from(vals[i + 1]));
+    (i, ((x - p0) / (p1 - p0)).clamp(0.0, 1.0))
 }
 
 /// The parameter interpolation at one point: the first slice and, for each of the up to
 /// 2³ corner slices with a non-zero weight, its slice offset from the first and its
 /// weight (the product of the parameters' linear weights).
-struct Weights {
+pub(crate) struct Weights {
     offset: usize,
     corners: [(usize, f64); 8],
     n: usize,
@@ -79,11 +120,28 @@ impl Warp2D {
             marg: Vec::new(),
             cond: Vec::new(),
             normalized: normalize,
+            interleaved: Vec::new(),
         };
         for slice in data.chunks_exact(w * h) {
             out.push_slice(slice, normalize, sampling);
         }
         out
+    }
+
+    /// Builds the interleaved copy of the densities that
+    /// [`eval_nodes`](Self::eval_nodes) reads (same values, so the same results).
+    pub(crate) fn interleave_last(mut self) -> Warp2D {
+        let k = self.params.last().map_or(1, Vec::len);
+        let n = self.w * self.h;
+        let mut il = vec![0.0; self.data.len()];
+        for (s, slice) in self.data.chunks_exact(n).enumerate() {
+            let (outer, kk) = (s / k, s % k);
+            for (cell, &v) in slice.iter().enumerate() {
+                il[outer * n * k + cell * k + kk] = v;
+            }
+        }
+        self.interleaved = il;
+        self
     }
 
     /// Appends one slice: its CDFs (trapezoid rule along x, then along y over the row
@@ -140,20 +198,37 @@ impl Warp2D {
     /// multilinearly as its recursive `lookup`).
     #[inline]
     fn weights(&self, p: &[f64], dims: usize) -> Weights {
-        let mut offset = 0;
+        let mut at = [0; 3];
         let mut w = [[1.0, 0.0]; 3];
         for (d, vals) in self.params.iter().enumerate().take(dims) {
-            if vals.len() == 1 {
-                continue;
+            if vals.len() > 1 {
+                let (i, t) = interval(vals, p[d]);
+                (at[d], w[d]) = (i, [1.0 - t, t]);
             }
-            let x = p[d];
-            // The largest i ≤ n − 2 with vals[i] < x (0 if none): find_interval.
-            let i = vals[1..vals.len() - 1].partition_point(|&v| f64::from(v) < x);
-            let (p0, p1) = (f64::from(vals[i]), f64::from(vals[i + 1]));
-            let t = ((x - p0) / (p1 - p0)).clamp(0.0, 1.0);
-            w[d] = [1.0 - t, t];
-            offset += self.strides[d] * i;
         }
+        self.combine(at, w, dims)
+    }
+
+    /// The corner slices of the first two parameters (φi, θi) at `pos`: the same
+    /// weights as [`weights`](Self::weights) at the point `pos` was found for.
+    #[inline]
+    pub(crate) fn weights_at(&self, pos: &ParamPos) -> Weights {
+        let mut at = [0; 3];
+        let mut w = [[1.0, 0.0]; 3];
+        for d in 0..2 {
+            if self.params[d].len() > 1 {
+                (at[d], w[d]) = (pos.at[d], [1.0 - pos.t[d], pos.t[d]]);
+            }
+        }
+        self.combine(at, w, 2)
+    }
+
+    /// The first slice and the corner slices with a non-zero weight (the product of
+    /// the parameters' linear weights, multilinear as the recursive `lookup` of
+    /// `distr_2d.h`), of the parameters' intervals `at` and weights `w`.
+    #[inline]
+    fn combine(&self, at: [usize; 3], w: [[f64; 2]; 3], dims: usize) -> Weights {
+        let offset = (0..dims).map(|d| self.strides[d] * at[d]).sum();
         let mut out = Weights {
             offset,
             corners: [(0, 0.0); 8],
@@ -215,18 +290,48 @@ impl Warp2D {
         lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1])
     }
 
+    /// [`eval`](Self::eval) of a table without parameters (`ndf`, `sigma`).
+    #[inline]
+    pub(crate) fn eval_plain(&self, pos: [f64; 2]) -> f64 {
+        debug_assert!(self.params.is_empty());
+        let (c, t) = self.cell(pos);
+        let i = c[1] * self.w + c[0];
+        let [v00, v10, v01, v11] = [0, 1, self.w, self.w + 1].map(|o| f64::from(self.data[i + o]));
+        lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1])
+    }
+
     /// The density at `pos` at every grid value of the last parameter into `out` (one
     /// per value), the other parameters at `p`: the same numbers as [`eval`](Self::eval)
     /// at each grid value (whose weights are exactly 1 and 0), with the weights and the
     /// cell found once.
     pub fn eval_nodes(&self, pos: [f64; 2], p: &[f64], out: &mut [f64]) {
-        let last = self.params.len() - 1;
-        let mut wt = self.weights(p, last);
+        let wt = self.weights(p, self.params.len() - 1);
+        self.eval_nodes_with(pos, wt, out);
+    }
+
+    /// [`eval_nodes`](Self::eval_nodes) with the weights of the other parameters given.
+    #[inline]
+    pub(crate) fn eval_nodes_with(&self, pos: [f64; 2], wt: Weights, out: &mut [f64]) {
         let (c, t) = self.cell(pos);
-        let base = wt.offset;
+        let (w, n) = (self.w, self.w * self.h);
+        let cell = c[1] * w + c[0];
+        if self.interleaved.is_empty() {
+            let mut wt = wt;
+            let (base, step) = (wt.offset, self.strides[self.params.len() - 1]);
+            for (k, o) in out.iter_mut().enumerate() {
+                wt.offset = base + step * k;
+                let [v00, v10, v01, v11] = self.corners(c, &wt);
+                *o = lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1]);
+            }
+            return;
+        }
+        // Element (slice s, cell, node k) of the interleaved copy lies at
+        // s·n + cell·K + k, s being the slice of node 0 (`wt` is over the other
+        // parameters, whose strides are multiples of K).
+        let kn = out.len();
         for (k, o) in out.iter_mut().enumerate() {
-            wt.offset = base + self.strides[last] * k;
-            let [v00, v10, v01, v11] = self.corners(c, &wt);
+            let [v00, v10, v01, v11] = [0, 1, w, w + 1]
+                .map(|d| self.lookup(&self.interleaved, (cell + d) * kn + k, n, &wt));
             *o = lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1]);
         }
     }
@@ -239,15 +344,20 @@ impl Warp2D {
     /// CDF of the cells before adds to it and the row total at y divides it. y is
     /// handled the same way with the row totals r0 → r1 and the marginal CDF.
     pub fn invert(&self, pos: [f64; 2], p: &[f64]) -> ([f64; 2], f64) {
-        let wt = self.weights(p, self.params.len());
+        self.invert_with(pos, &self.weights(p, self.params.len()))
+    }
+
+    /// [`invert`](Self::invert) with the parameters' weights given.
+    #[inline]
+    pub(crate) fn invert_with(&self, pos: [f64; 2], wt: &Weights) -> ([f64; 2], f64) {
         let (c, t) = self.cell(pos);
-        let [v00, v10, v01, v11] = self.corners(c, &wt);
+        let [v00, v10, v01, v11] = self.corners(c, wt);
         let (c0, c1) = (lerp(v00, v01, t[1]), lerp(v10, v11, t[1]));
         let pdf = lerp(c0, c1, t[0]);
         let (pw, ph) = (1.0 / (self.w - 1) as f64, 1.0 / (self.h - 1) as f64);
         let n_cond = self.h * (self.w - 1);
         let row = c[1] * (self.w - 1);
-        let cond = |k: usize| self.lookup(&self.cond, row + k, n_cond, &wt);
+        let cond = |k: usize| self.lookup(&self.cond, row + k, n_cond, wt);
         let mut x = t[0] * lerp(c0, c1, 0.5 * t[0]) * pw;
         if c[0] > 0 {
             x += lerp(cond(c[0] - 1), cond(c[0] - 1 + self.w - 1), t[1]);
@@ -257,10 +367,10 @@ impl Warp2D {
         let mut y = t[1] * lerp(r0, r1, 0.5 * t[1]) * ph;
         let n_marg = self.h - 1;
         if c[1] > 0 {
-            y += self.lookup(&self.marg, c[1] - 1, n_marg, &wt);
+            y += self.lookup(&self.marg, c[1] - 1, n_marg, wt);
         }
         if !self.normalized {
-            y /= self.lookup(&self.marg, n_marg - 1, n_marg, &wt);
+            y /= self.lookup(&self.marg, n_marg - 1, n_marg, wt);
         }
         ([x, y], pdf)
     }

@@ -9,10 +9,15 @@
 //! - the sphere renders of A and B under the report's two lightings, same seed and
 //!   exposure, and their difference images ([`crate::html::renders`]).
 //!
-//! The grid: a table A is its own; a model or an NBRDF A is tabulated at the cells'
+//! Files are told apart by their content, never their names
+//! ([`brdfkit_rgl::InputKind`], the rule every reader shares): a model description, an
+//! RGL-EPFL `.bsdf` or a MERL table; a path that is not a file is an NBRDF's stem.
+//!
+//! The grid: a table A is its own; a model, an NBRDF or a `.bsdf` A is tabulated at the cells'
 //! angles on B's grid when B is a table, else on [`CompareOptions::dims`]. B is
 //! brought onto A's grid: a model is evaluated at the cells' directions, an NBRDF
-//! tabulated, a table of the same dims taken cell for cell; a table of other dims is
+//! or a `.bsdf` tabulated (a `.bsdf` as the mean of both orders of each pair, as
+//! `RglBsdf::to_table` writes it: docs/rgl.md), a table of the same dims taken cell for cell; a table of other dims is
 //! refused ([`CompareError::GridMismatch`]) unless [`CompareOptions::resample`] names
 //! the lookup to resample it with ([`MerlTable::resample`]). Cells missing in B are
 //! left out and counted.
@@ -27,6 +32,7 @@ use brdfkit_fit::{
 };
 use brdfkit_merl::{Dims, Lookup, MerlError, MerlTable, TableError, cell_directions};
 use brdfkit_nbrdf::{Nbrdf, NbrdfError};
+use brdfkit_rgl::{InputKind, RglBsdf, RglError};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -39,7 +45,7 @@ use thiserror::Error;
 pub enum CompareError {
     /// A file that is none of the three kinds.
     #[error(
-        "{}: not a MERL table (.binary), a model (.json) or an NBRDF (DIR/NAME, the stem of NAME_fc1.npy ...)",
+        "{}: not a MERL table, a model description (JSON), an RGL-EPFL .bsdf or an NBRDF (DIR/NAME, the stem of NAME_fc1.npy ...)",
         path.display()
     )]
     Unrecognised {
@@ -67,6 +73,18 @@ pub enum CompareError {
         #[source]
         source: ScoreError,
     },
+    /// A file that cannot be opened or read to tell its kind.
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A `.bsdf` file that cannot be read (the error names the file and the field).
+    #[error(transparent)]
+    Rgl(#[from] RglError),
     /// An NBRDF that cannot be loaded or tabulated (the error names its files).
     #[error(transparent)]
     Nbrdf(#[from] NbrdfError),
@@ -142,6 +160,8 @@ pub enum Kind {
     Model,
     /// A neural BRDF.
     Nbrdf,
+    /// An RGL-EPFL `.bsdf` measurement.
+    RglBsdf,
 }
 
 /// A representation as loaded.
@@ -152,13 +172,15 @@ pub enum Representation {
     Model(Fitted),
     /// A neural BRDF.
     Nbrdf(Box<Nbrdf>),
+    /// An RGL-EPFL `.bsdf` measurement.
+    RglBsdf(Box<RglBsdf>),
 }
 
 impl Representation {
     /// The representation as one [`brdfkit_core::Brdf`] (what the RGL-EPFL writer,
     /// `brdfkit_rgl::write`, tabulates for `export --to rgl`). A table
     /// is read with the interpolated lookup (missing cells 0), a per-channel fit takes
-    /// channel c from model c, an NBRDF is its (clamped) `eval`.
+    /// channel c from model c, an NBRDF is its (clamped) `eval`, a `.bsdf` its own `eval`.
     pub fn as_brdf(&self) -> Box<dyn brdfkit_core::Brdf + '_> {
         use brdfkit_fit::Fitted;
         match self {
@@ -169,41 +191,48 @@ impl Representation {
             Representation::Model(Fitted::Shared(m)) => Box::new(m.as_ref()),
             Representation::Model(f) => Box::new(PerChannel(f)),
             Representation::Nbrdf(n) => Box::new(n.as_ref()),
+            // The file's own evaluation, one order of the pair (the writer refuses it).
+            Representation::RglBsdf(b) => Box::new(b.as_ref()),
         }
     }
 
-    /// Loads a file by its name: `*.binary` a MERL table, `*.json` a model (a
-    /// description, a per-channel fit or a fit record, [`Fitted::from_json`]); a path
-    /// that is not a file is the stem `DIR/NAME` of an NBRDF's six `.npy` files.
+    /// Loads a file by its content ([`InputKind::of_file`]): a model description (a
+    /// description, a per-channel fit or a fit record, [`Fitted::from_json`]), an
+    /// RGL-EPFL `.bsdf`, or else a MERL table; a path that is not a file is the stem
+    /// `DIR/NAME` of an NBRDF's six `.npy` files.
     pub fn load(path: &Path) -> Result<Representation, CompareError> {
-        let ext = path.extension().and_then(|e| e.to_str());
-        match ext {
-            Some("binary") => Ok(Representation::Table(Arc::new(MerlTable::read(path)?))),
-            Some("json") => {
-                let read = || -> Result<Fitted, ModelFileError> {
-                    let v = serde_json::from_str(&std::fs::read_to_string(path)?)?;
-                    Ok(Fitted::from_json(&v)?)
-                };
-                read()
-                    .map(Representation::Model)
-                    .map_err(|source| CompareError::ModelFile {
-                        path: path.into(),
-                        source,
-                    })
-            }
-            _ if path.is_file() || path.is_dir() => {
-                Err(CompareError::Unrecognised { path: path.into() })
-            }
-            _ => {
-                // Nothing of the NBRDF's at all: say what was expected, not which of
-                // the six is missing.
-                let any = Nbrdf::files(path).is_ok_and(|f| f.iter().any(|p| p.exists()));
-                if !any {
-                    return Err(CompareError::Unrecognised { path: path.into() });
+        if path.is_file() {
+            let kind = InputKind::of_file(path).map_err(|source| CompareError::Read {
+                path: path.into(),
+                source,
+            })?;
+            return match kind {
+                InputKind::Table => Ok(Representation::Table(Arc::new(MerlTable::read(path)?))),
+                InputKind::Rgl => Ok(Representation::RglBsdf(Box::new(RglBsdf::read(path)?))),
+                InputKind::Json => {
+                    let read = || -> Result<Fitted, ModelFileError> {
+                        let v = serde_json::from_str(&std::fs::read_to_string(path)?)?;
+                        Ok(Fitted::from_json(&v)?)
+                    };
+                    read()
+                        .map(Representation::Model)
+                        .map_err(|source| CompareError::ModelFile {
+                            path: path.into(),
+                            source,
+                        })
                 }
-                Ok(Representation::Nbrdf(Box::new(Nbrdf::load(path)?)))
-            }
+            };
         }
+        if path.is_dir() {
+            return Err(CompareError::Unrecognised { path: path.into() });
+        }
+        // Nothing of the NBRDF's at all: say what was expected, not which of the six
+        // is missing.
+        let any = Nbrdf::files(path).is_ok_and(|f| f.iter().any(|p| p.exists()));
+        if !any {
+            return Err(CompareError::Unrecognised { path: path.into() });
+        }
+        Ok(Representation::Nbrdf(Box::new(Nbrdf::load(path)?)))
     }
 
     /// The kind.
@@ -212,6 +241,7 @@ impl Representation {
             Representation::Table(_) => Kind::Table,
             Representation::Model(_) => Kind::Model,
             Representation::Nbrdf(_) => Kind::Nbrdf,
+            Representation::RglBsdf(_) => Kind::RglBsdf,
         }
     }
 
@@ -247,6 +277,7 @@ impl Representation {
                 .map_err(err)?,
             )),
             Representation::Nbrdf(n) => Ok(Arc::new(n.to_table(dims)?.0)),
+            Representation::RglBsdf(b) => Ok(Arc::new(b.to_table(dims).map_err(err)?.0)),
         }
     }
 }
@@ -451,6 +482,10 @@ pub fn compare(
         Representation::Nbrdf(_) => (
             Some(b.tabulate(b_path, dims)?),
             "NBRDF evaluated at the cells' angles".into(),
+        ),
+        Representation::RglBsdf(_) => (
+            Some(b.tabulate(b_path, dims)?),
+            ".bsdf evaluated at the cells' angles (mean of both orders of each pair)".into(),
         ),
         Representation::Table(t) if t.dims() == dims => (Some(t.clone()), "the same cells".into()),
         Representation::Table(t) => match o.resample {

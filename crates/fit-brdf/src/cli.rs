@@ -244,8 +244,9 @@ pub enum Command {
 
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// The sources: tables (.binary), models (.json), NBRDFs (DIR/NAME); the first is
-    /// the reference.
+    /// The sources: MERL tables, model descriptions (JSON), RGL-EPFL `.bsdf` files (each
+    /// file's kind told by its first bytes), NBRDFs (DIR/NAME); the first is the
+    /// reference.
     #[arg(required = true, value_name = "SOURCE")]
     pub sources: Vec<PathBuf>,
     /// Output directory (created if needed); index.html is replaced atomically.
@@ -714,9 +715,11 @@ pub struct ScoreArgs {
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
-    /// The reference: a table (.binary), a model (.json) or an NBRDF (DIR/NAME).
+    /// The reference: a MERL table, a model description (JSON), an RGL-EPFL `.bsdf` or
+    /// an NBRDF (DIR/NAME). A file's kind is told by its first bytes, not its name.
     pub a: PathBuf,
-    /// The representation compared with it (same kinds).
+    /// The representation compared with it (same kinds; a `.bsdf` as the mean of both
+    /// orders of each pair, as `resample --bsdf` writes it).
     pub b: PathBuf,
     #[command(flatten)]
     pub cells: CellOptions,
@@ -724,7 +727,7 @@ pub struct CompareArgs {
     /// otherwise).
     #[arg(long, value_enum, value_name = "LOOKUP")]
     pub resample: Option<Interp>,
-    /// The grid a model or an NBRDF A is tabulated on when B is not a table.
+    /// The grid a model, an NBRDF or a `.bsdf` A is tabulated on when B is not a table.
     #[arg(long, value_name = "A,B,C", default_value = "90,90,180")]
     pub dims: String,
     /// How many of the largest relative differences to list.

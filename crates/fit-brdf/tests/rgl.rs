@@ -269,3 +269,136 @@ fn a_broken_bsdf_is_exit_2_naming_the_file_and_the_field() {
     let o = bin().arg("fit").arg(&missing).output().unwrap();
     assert_bad_input(&o, &["missing.bsdf", "`ndf` is missing"]);
 }
+
+/// `compare` takes a `.bsdf` by its bytes (this one is named `.binary`) on either side:
+/// against its own resampling it is the same cells (losses 0), and against a model it
+/// is tabulated on the model's grid.
+#[test]
+fn compare_takes_a_bsdf_by_its_bytes_against_a_table_and_a_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = file(dir.path());
+    let table = dir.path().join("resampled.binary");
+    let o = bin()
+        .args(["resample", "--bsdf"])
+        .arg(&p)
+        .args(["--dims", "12,12,24", "-q", "--out"])
+        .arg(&table)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = bin()
+        .arg("compare")
+        .arg(&table)
+        .arg(&p)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(c["b"]["kind"], "rgl-bsdf", "{c}");
+    assert_eq!(c["losses"]["l2"]["overall"].as_f64(), Some(0.0), "{c}");
+    assert_eq!(c["largest"][0]["relative"].as_f64(), Some(0.0), "{c}");
+    assert!(
+        c["b_on_grid"].as_str().unwrap().contains("both orders"),
+        "{c}"
+    );
+    let lam = dir.path().join("lam.json");
+    std::fs::write(
+        &lam,
+        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.3, 0.2]}}"#,
+    )
+    .unwrap();
+    let o = bin()
+        .arg("compare")
+        .arg(&p)
+        .arg(&lam)
+        .args(["--dims", "12,12,24"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("(RGL-EPFL .bsdf)"), "{text}");
+    // A broken one is exit 2 naming the file and the field.
+    let good = std::fs::read(&p).unwrap();
+    let cut = dir.path().join("cut.json"); // the name says model; the bytes decide
+    std::fs::write(&cut, &good[..good.len() - 100]).unwrap();
+    let o = bin().arg("compare").arg(&table).arg(&cut).output().unwrap();
+    assert_bad_input(&o, &["cut.json", "`valid`"]);
+}
+
+#[test]
+fn view_shows_a_bsdf_beside_a_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = file(dir.path());
+    let (table, _) = common::plastic_and_lambert(dir.path());
+    let out = dir.path().join("v");
+    let o = bin()
+        .arg("view")
+        .arg(&p)
+        .arg(&table)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("\"kind\":\"rgl-bsdf\""));
+    assert!(html.contains("\"kind\":\"table\""));
+}
+
+/// A scene's `table` that is a `.bsdf` renders it as it is; `lookup` (a MERL table's
+/// option) is refused naming the key, and a broken file names the file and the field.
+#[test]
+fn render_takes_a_bsdf_scene_material() {
+    let dir = tempfile::tempdir().unwrap();
+    file(dir.path());
+    let scene = |extra: &str| {
+        format!(
+            "effects = [\"direct\"]\n[film]\nwidth = 16\nheight = 12\nfilter = \"center\"\n\
+             [camera]\nposition = [0.0, 0.6, 4.5]\nlook_at = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0]\nfov = 35.0\n\
+             [sphere]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n\
+             [material]\ntable = \"material.binary\"\n{extra}\
+             [[light]]\ntype = \"point\"\nposition = [3.0, 3.0, 3.0]\nintensity = [30.0, 30.0, 30.0]\n"
+        )
+    };
+    let s = dir.path().join("s.toml");
+    std::fs::write(&s, scene("")).unwrap();
+    let png = dir.path().join("s.png");
+    let o = bin()
+        .arg("render")
+        .arg(&s)
+        .arg("--out")
+        .arg(&png)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(&std::fs::read(&png).unwrap()[..4], b"\x89PNG");
+    std::fs::write(&s, scene("lookup = \"nearest\"\n")).unwrap();
+    let o = bin()
+        .arg("render")
+        .arg(&s)
+        .arg("--out")
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert_bad_input(&o, &["s.toml", "material.lookup", ".bsdf"]);
+    let good = std::fs::read(dir.path().join("material.binary")).unwrap();
+    std::fs::write(
+        dir.path().join("material.binary"),
+        &good[..good.len() - 100],
+    )
+    .unwrap();
+    std::fs::write(&s, scene("")).unwrap();
+    let o = bin()
+        .arg("render")
+        .arg(&s)
+        .arg("--out")
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert_bad_input(
+        &o,
+        &["s.toml", "material.table", "material.binary", "`valid`"],
+    );
+}

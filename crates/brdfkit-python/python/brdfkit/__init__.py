@@ -1,7 +1,7 @@
 """brdfkit in Python: measured BRDFs with NumPy arrays in and out.
 
 MERL tables (:class:`MerlTable`), analytic models (:class:`Model`), neural BRDFs
-(:class:`Nbrdf`), fitting (:func:`fit`), the physical checks (:func:`check`) and
+(:class:`Nbrdf`), RGL-EPFL ``.bsdf`` measurements (:class:`RglBsdf`), fitting (:func:`fit`), the physical checks (:func:`check`) and
 resampling (:func:`resample`), all computed by the brdfkit Rust library: the values are
 the library's, to the bit. Directions point away from the surface, z is the normal,
 and every BRDF value is f_r in 1/sr without the cosine factor. A Mitsuba 3 BSDF for
@@ -16,11 +16,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ._brdfkit import MerlTable, Model, Nbrdf, __version__, check, resample
+from ._brdfkit import MerlTable, Model, Nbrdf, RglBsdf, __version__, check, resample
 from ._brdfkit import _write_text
 from ._brdfkit import fit as _fit
 
-__all__ = ["MerlTable", "Model", "Nbrdf", "FitResult", "fit", "check", "resample", "__version__"]
+__all__ = ["MerlTable", "Model", "Nbrdf", "RglBsdf", "FitResult", "fit", "check", "resample", "__version__"]
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ from typing import Any, Callable, Literal
 from ._brdfkit import MerlTable as MerlTable
 from ._brdfkit import Model as Model
 from ._brdfkit import Nbrdf as Nbrdf
+from ._brdfkit import RglBsdf as RglBsdf
 from ._brdfkit import __version__ as __version__
 from ._brdfkit import check as check
 from ._brdfkit import resample as resample

@@ -123,6 +123,27 @@ class Nbrdf:
     def name(self) -> str:
         """The material's name."""
 
+class RglBsdf:
+    """An RGL-EPFL ``.bsdf`` measurement, evaluated as Mitsuba 3's ``measured`` plugin."""
+
+    @staticmethod
+    def open(path: _Path) -> RglBsdf:
+        """Reads a ``.bsdf`` file (told by its bytes): FileNotFoundError, or ValueError
+        naming the file and the field."""
+        ...
+    def eval(self, wi: npt.ArrayLike, wo: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """f_r (no cosine, linear RGB, 0 below the horizon) at (N, 3) pairs: (N, 3)."""
+        ...
+    @property
+    def info(self) -> dict[str, Any]:
+        """What ``fit-brdf info --json`` reports."""
+        ...
+    def resample(self, dims: Sequence[int] | None = None) -> MerlTable:
+        """The file as a MERL table (mean of both orders of each pair, negatives as 0)."""
+        ...
+    @property
+    def path(self) -> os.PathLike[str]: ...
+
 def check(source: Model | MerlTable) -> dict[str, Any]:
     """The physical-check report (`fit-brdf check --json`) of a model or a table.
 

@@ -27,6 +27,7 @@ fn kind(k: Kind) -> &'static str {
         Kind::Table => "table",
         Kind::Model => "model",
         Kind::Nbrdf => "NBRDF",
+        Kind::RglBsdf => "RGL-EPFL .bsdf",
     }
 }
 

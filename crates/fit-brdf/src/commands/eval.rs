@@ -24,6 +24,18 @@ pub fn run(a: EvalArgs) -> CliResult<()> {
                 .collect(),
         )
     };
+    if let (Some(b), Some(p)) = (&a.source.bsdf, &a.out)
+        && is_npy(p)
+    {
+        // As for a table: evaluated chunk by chunk while the previous chunk is written.
+        let bsdf = read_bsdf(b)?;
+        return write_file(p, |f| {
+            npyio::write_values_with(f, dirs.len() / 6, |first, out| {
+                bsdf.eval_flat(&dirs[6 * first..6 * first + 2 * out.len()], out);
+                Ok(())
+            })
+        });
+    }
     if let (Some(t), Some(p)) = (&a.source.table, &a.out)
         && is_npy(p)
     {
@@ -51,7 +63,7 @@ pub fn run(a: EvalArgs) -> CliResult<()> {
             .lookup_flat(lookup_mode(a.interp), &dirs, &mut values)
             .map_err(runtime)?;
     } else if let Some(b) = &a.source.bsdf {
-        eval_bsdf(&read_bsdf(b)?, &dirs, &mut values);
+        read_bsdf(b)?.eval_flat(&dirs, &mut values);
     } else if let Some(n) = &a.source.nbrdf {
         let pairs: Vec<(Vec3, Vec3)> = dirs
             .par_chunks_exact(6)
@@ -77,19 +89,4 @@ pub fn run(a: EvalArgs) -> CliResult<()> {
             write_text(out.as_deref(), &format_rgb(&rows))
         }
     }
-}
-
-/// A `.bsdf` file at flat pairs (6 per row) into flat RGB (3 per row), in parallel: f_r
-/// without the cosine, 0 below the horizon, negative values as stored.
-fn eval_bsdf(bsdf: &brdfkit::rgl::RglBsdf, dirs: &[f64], values: &mut [f64]) {
-    use brdfkit::core::Brdf;
-    values
-        .par_chunks_mut(3 * 4096)
-        .zip(dirs.par_chunks(6 * 4096))
-        .for_each(|(out, rows)| {
-            for (o, r) in out.chunks_exact_mut(3).zip(rows.chunks_exact(6)) {
-                let v = bsdf.eval(&Vec3::new(r[0], r[1], r[2]), &Vec3::new(r[3], r[4], r[5]));
-                o.copy_from_slice(&v.0);
-            }
-        });
 }

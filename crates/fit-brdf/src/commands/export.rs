@@ -143,5 +143,6 @@ fn kind_name(rep: &brdfkit_validate::compare::Representation) -> &'static str {
         Kind::Table => "MERL table",
         Kind::Model => "model",
         Kind::Nbrdf => "NBRDF",
+        Kind::RglBsdf => "RGL-EPFL .bsdf",
     }
 }

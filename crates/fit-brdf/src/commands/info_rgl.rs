@@ -7,36 +7,12 @@ use std::fmt::Write as _;
 /// Random pairs of the asymmetry statistics (above 5°, as the figures).
 pub const ASYMMETRY_PAIRS: usize = 200_000;
 
-/// The facts as JSON.
+/// The facts as JSON: the library's ([`RglBsdf::info_json`], which Python's
+/// `RglBsdf.info` returns too), under the name given on the command line.
 pub fn to_json(name: &str, b: &RglBsdf, asym: &Asymmetry) -> serde_json::Value {
-    let s = b.summary();
-    json!({
-        "file": name,
-        "format": "rgl-epfl-bsdf",
-        "description": b.description(),
-        "spectral": b.is_spectral(),
-        "anisotropic": b.is_anisotropic(),
-        "phi_i_count": s.n_phi_i,
-        "theta_i_deg": s.theta_i.iter().map(|t| t.to_degrees()).collect::<Vec<_>>(),
-        "vndf_grid": s.vndf_grid,
-        "value_grid": s.value_grid,
-        "wavelengths_nm": s.wavelengths,
-        "values": s.values,
-        "negative_values": s.negative,
-        "negative_fraction": s.negative as f64 / s.values as f64,
-        "measured_points": s.measured_points.map(|(set, _)| set),
-        "grid_points": s.measured_points.map(|(_, bits)| bits),
-        "jacobian": s.jacobian,
-        "asymmetry": {
-            "pairs": asym.pairs,
-            "min_elevation_deg": asym.min_elevation_deg,
-            "skipped_not_positive": asym.skipped,
-            "median": asym.median,
-            "p90": asym.p90,
-            "max": asym.max,
-        },
-        "fields": s.fields.iter().map(|(n, d, sh)| json!({"name": n, "dtype": d, "shape": sh})).collect::<Vec<_>>(),
-    })
+    let mut v = b.info_json(asym);
+    v["file"] = json!(name);
+    v
 }
 
 /// The facts as text for a person.

@@ -112,49 +112,14 @@ pub fn cell_config(c: &CellOptions) -> CliResult<FitConfig> {
     cell_settings(c).config().map_err(bad_settings)
 }
 
-/// What a file given where a table goes holds, told by its first bytes (not its name).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum InputKind {
-    /// A model description: the first non-blank byte is `{`.
-    Json,
-    /// An RGL-EPFL `.bsdf` (a Mitsuba tensor file): it starts with `tensor_file\0`.
-    Rgl,
-    /// Anything else is read as a MERL table (whose reader says if it is not one).
-    Table,
-}
+pub use brdfkit::rgl::InputKind;
 
-/// The input-kind rule of every command that takes a table (or a model): the first 256
-/// bytes decide.
+/// The input-kind rule of every command that takes a table (or a model): the library's
+/// one rule ([`InputKind::of_file`]), its I/O failure as bad input.
 pub fn input_kind(path: &Path) -> CliResult<InputKind> {
-    use std::io::Read;
-    if path.is_dir() {
-        return Ok(InputKind::Table); // the table reader names the problem
-    }
-    let mut f = std::fs::File::open(path)
-        .with_context(|| format!("{}: cannot open", path.display()))
-        .map_err(bad_input)?;
-    let mut head = [0u8; 256];
-    let mut n = 0;
-    while n < head.len() {
-        match f.read(&mut head[n..]) {
-            Ok(0) => break,
-            Ok(k) => n += k,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => {
-                return Err(bad_input(
-                    anyhow::Error::new(e).context(format!("{}: cannot read", path.display())),
-                ));
-            }
-        }
-    }
-    let head = &head[..n];
-    Ok(if brdfkit::rgl::is_tensor_file(head) {
-        InputKind::Rgl
-    } else if head.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{') {
-        InputKind::Json
-    } else {
-        InputKind::Table
-    })
+    InputKind::of_file(path)
+        .with_context(|| format!("{}: cannot read", path.display()))
+        .map_err(bad_input)
 }
 
 /// Reads a table; every read failure is the user's input (exit 2). A `.bsdf` file (by

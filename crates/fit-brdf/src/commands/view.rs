@@ -1,7 +1,7 @@
 //! `fit-brdf view SOURCE... --out DIR`: the report's interactive panels for any sources
 //! brdfkit reads, overlaid, nothing fitted (the engine:
 //! `brdfkit_validate::html::interactive::view_page`). A source is recognised by its
-//! name as in `compare` (`Representation::load`): a new kind of source plugs in there.
+//! content as in `compare` (`Representation::load`): a new kind of source plugs in there.
 
 use crate::cli::ViewArgs;
 use crate::error::{CliError, CliResult, bad_input, bad_msg, runtime};
