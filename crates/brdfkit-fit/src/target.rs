@@ -16,13 +16,36 @@
 //! | glTF 2.0 | + `KHR_materials_sheen` (`gltf-sheen`) | `gltf-pbr-ext` (sheen) | core, sheenColor, sheenRoughness | |
 //! | glTF 2.0 | + `KHR_materials_clearcoat` (`gltf-clearcoat`) | `gltf-pbr-ext` (clearcoat) | core, clearcoat, clearcoatRoughness | |
 //! | glTF 2.0 | + `KHR_materials_specular` (`gltf-specular`) | `gltf-pbr-ext` (specular) | core, specular, specularColor | ior = 1.5 |
+//! | glTF 2.0 | + sheen + specular (`gltf-sheen-specular`) | `gltf-pbr-ext` (sheen, specular) | both blocks | ior = 1.5 |
+//! | glTF 2.0 | + clearcoat + specular (`gltf-clearcoat-specular`) | `gltf-pbr-ext` (clearcoat, specular) | both blocks | ior = 1.5 |
 //!
-//! glTF's extension configurations each contain the core (sheenColor 0, clearcoat 0 and
-//! specular 1 with specularColor 1 are the core), so on the optimised loss one of them is
-//! never worse than the core up to the solver's tolerance. An extension is kept only when
-//! it lowers the loss by at least [`GLTF_MIN_GAIN`] of the core's: below that it is noise
-//! bought with parameters every viewer must then evaluate, and the core is kept
-//! ([`TargetFit::why`] says which happened). The specular configuration holds ior at 1.5:
+//! **glTF's configurations are nested** ([`GLTF_VARIANTS`]): sheenColor 0, clearcoat 0
+//! and specular 1 with specularColor 1 are the core, and each combination contains its
+//! subsets. They are fitted in that order, each **warm-started** from its subsets'
+//! optima: start 0 is the fitted subset one extension smaller with the lowest loss, plus
+//! the missing extension at its entry: sheenColor [`GLTF_ENTRY_WEIGHT`] = 0.1 in every
+//! channel, clearcoatFactor 0.1 (each with the roughness the lowest-loss fitted
+//! configuration with that extension reached), specular at its default (the core
+//! exactly). A weight enters at 0.1, not 0, because it is fitted through a logit whose
+//! slope x (1 − x) vanishes at 0: a start at 0 cannot move. So start 0 is within a small
+//! change of a subset's optimum, and the fit (a descent) ends no worse than that subset
+//! up to the
+//! solver's tolerance (tested); the other starts spread the shape parameters about it.
+//! A single extension is also fitted from its cold start (the default core, sheenColor
+//! or clearcoat 0.5), and the lower loss kept: the core's optimum can have absorbed what
+//! the extension would carry (a clear coat's sharp highlight taken by the core's lobe),
+//! a basin the warm start does not leave (test `gltf_picks_the_extension_the_material_has`).
+//! (Before, each extension started from the default core with sheenColor 0.5: on the
+//! MERL fabrics the fit drove sheenColor to 0, where it stuck.)
+//!
+//! **The choice** keeps a configuration only if **each** of its extensions lowers the loss
+//! by at least [`GLTF_MIN_GAIN`] = 1 % relative to the best fitted configuration without
+//! that extension (for `gltf-sheen-specular`: sheen against the better of the core and
+//! `gltf-specular`, specular against the better of the core and `gltf-sheen`), and takes
+//! the lowest loss among those kept. Below 1 % an extension is noise bought with
+//! parameters every viewer must then evaluate. The rule is the same for every extension
+//! and every material; [`TargetFit::why`] gives each extension's gain and names a
+//! lower-loss configuration that was refused. Specular configurations hold ior at 1.5:
 //! for an opaque material ior and specularColor act only through their product.
 //!
 //! η and k of a conductor are fixed by default in an ordinary fit (they trade off against
@@ -157,28 +180,10 @@ pub fn target_families(t: Target) -> Vec<TargetFamily> {
                 ..TargetFamily::new("coateddiffuse", Box::new(RoughPlastic::default()))
             },
         ],
-        Target::Gltf => {
-            let ext = || GltfPbrExt::new(GltfPbr::default());
-            let ok = "the extensions' defaults are in their domains";
-            vec![
-                TargetFamily::new("gltf-pbr", Box::new(GltfPbr::default())),
-                TargetFamily::new(
-                    "gltf-sheen",
-                    Box::new(ext().with_sheen(Sheen::default()).expect(ok)),
-                ),
-                TargetFamily::new(
-                    "gltf-clearcoat",
-                    Box::new(ext().with_clearcoat(Clearcoat::default()).expect(ok)),
-                ),
-                TargetFamily {
-                    fixed: &["ior"],
-                    ..TargetFamily::new(
-                        "gltf-specular",
-                        Box::new(ext().with_specular(Specular::default()).expect(ok)),
-                    )
-                },
-            ]
-        }
+        Target::Gltf => GLTF_VARIANTS
+            .iter()
+            .map(|v| gltf_family(v, gltf_cold(v)))
+            .collect(),
     }
 }
 
@@ -186,9 +191,206 @@ pub fn target_families(t: Target) -> Vec<TargetFamily> {
 /// can improve on it, whatever the relative figures of two round-off losses say.
 pub const GLTF_EXACT_LOSS: f64 = 1e-9;
 
-/// The least relative loss reduction for which `--for gltf` keeps an extension over the
-/// core material (module doc).
+/// The least relative loss reduction each extension of a glTF configuration must bring
+/// over the best fitted configuration without it for `--for gltf` to keep it (module
+/// doc).
 pub const GLTF_MIN_GAIN: f64 = 0.01;
+
+/// The least weight (each sheenColor channel, clearcoatFactor) an extension enters a
+/// warm start with (module doc): at 0 the logit's slope x (1 − x) vanishes and the fit
+/// cannot move the weight; 0.1 keeps the start within a small change of the subset's
+/// optimum.
+pub const GLTF_ENTRY_WEIGHT: f64 = 0.1;
+
+/// One glTF configuration `--for gltf` fits: its label and the extensions (names of
+/// [`brdfkit_models::gltf_pbr_ext::EXTENSION_NAMES`]) it adds to the core.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GltfVariant {
+    /// The label (the record's family).
+    pub label: &'static str,
+    /// The extensions added to the core.
+    pub extensions: &'static [&'static str],
+}
+
+/// The configurations of `--for gltf`, each after every one of its subsets (the order
+/// the warm starts need).
+pub const GLTF_VARIANTS: [GltfVariant; 6] = [
+    GltfVariant {
+        label: "gltf-pbr",
+        extensions: &[],
+    },
+    GltfVariant {
+        label: "gltf-sheen",
+        extensions: &["sheen"],
+    },
+    GltfVariant {
+        label: "gltf-clearcoat",
+        extensions: &["clearcoat"],
+    },
+    GltfVariant {
+        label: "gltf-specular",
+        extensions: &["specular"],
+    },
+    GltfVariant {
+        label: "gltf-sheen-specular",
+        extensions: &["sheen", "specular"],
+    },
+    GltfVariant {
+        label: "gltf-clearcoat-specular",
+        extensions: &["clearcoat", "specular"],
+    },
+];
+
+impl GltfVariant {
+    /// Whether every extension of `self` is in `other`.
+    fn is_subset_of(&self, other: &GltfVariant) -> bool {
+        self.extensions.iter().all(|e| other.extensions.contains(e))
+    }
+}
+
+/// The family of `v` starting at `model` (ior held with the specular extension: module
+/// doc).
+fn gltf_family(v: &GltfVariant, model: Box<dyn Model>) -> TargetFamily {
+    TargetFamily {
+        fixed: if v.extensions.contains(&"specular") {
+            &["ior"]
+        } else {
+            &[]
+        },
+        ..TargetFamily::new(v.label, model)
+    }
+}
+
+/// The start of a configuration with `exts` (module doc): `base` (a fitted subset one
+/// extension smaller, or the default core) as fitted, plus each extension it lacks at
+/// its entry: sheenColor [`GLTF_ENTRY_WEIGHT`] in every channel and clearcoatFactor
+/// [`GLTF_ENTRY_WEIGHT`], with the roughness of the lowest-loss fitted configuration in
+/// `donors` that has the extension (or the default); specular at its default, which is
+/// the core exactly. With no extension the core model itself (`gltf-pbr`).
+fn gltf_start(exts: &[&str], base: Option<&GltfPbrExt>, donors: &[&GltfPbrExt]) -> Box<dyn Model> {
+    let Some(base) = base else {
+        if exts.is_empty() {
+            return Box::new(GltfPbr::default());
+        }
+        return gltf_start(exts, Some(&GltfPbrExt::new(GltfPbr::default())), donors);
+    };
+    let ok = "blocks of fitted models and the entry values are in their domains";
+    let mut m = base.clone();
+    let donor = |f: fn(&GltfPbrExt) -> bool| donors.iter().copied().find(|d| f(d));
+    if exts.contains(&"sheen") && base.sheen().is_none() {
+        let roughness = donor(|d| d.sheen().is_some())
+            .and_then(|d| d.sheen())
+            .unwrap_or_default()
+            .roughness;
+        m = m
+            .with_sheen(Sheen {
+                color: Rgb::splat(GLTF_ENTRY_WEIGHT),
+                roughness,
+            })
+            .expect(ok);
+    }
+    if exts.contains(&"clearcoat") && base.clearcoat().is_none() {
+        let roughness = donor(|d| d.clearcoat().is_some())
+            .and_then(|d| d.clearcoat())
+            .unwrap_or_default()
+            .roughness;
+        m = m
+            .with_clearcoat(Clearcoat {
+                factor: GLTF_ENTRY_WEIGHT,
+                roughness,
+            })
+            .expect(ok);
+    }
+    if exts.contains(&"specular") && base.specular().is_none() {
+        m = m.with_specular(Specular::default()).expect(ok);
+    }
+    Box::new(m)
+}
+
+/// A fitted glTF configuration as the extended model (the core as one with none).
+fn as_ext(params: &serde_json::Value) -> GltfPbrExt {
+    let bad = "a fitted glTF configuration reads back";
+    match params["model"].as_str() {
+        Some("gltf-pbr") => {
+            GltfPbrExt::new(GltfPbr::from_params_json(&params["params"]).expect(bad))
+        }
+        _ => GltfPbrExt::from_params_json(&params["params"]).expect(bad),
+    }
+}
+
+/// Every configuration of [`GLTF_VARIANTS`] fitted in order, each warm-started
+/// ([`gltf_start`]) from its fitted subsets: the core from the subset with the lowest
+/// loss among those one extension smaller, the other extension's block from the
+/// lowest-loss subset that has it.
+fn fit_gltf(
+    data: &FitData,
+    cfg: &FitConfig,
+    obs: &dyn FamilyObserver,
+) -> Result<Vec<Outcome>, FamilyFitError> {
+    let loss = cfg.get_loss();
+    let mut outcomes: Vec<Outcome> = Vec::with_capacity(GLTF_VARIANTS.len());
+    let mut fitted: Vec<GltfPbrExt> = Vec::with_capacity(GLTF_VARIANTS.len());
+    for v in &GLTF_VARIANTS {
+        let l = |j: usize| outcomes[j].record.losses_full.get(loss).overall;
+        let mut subsets: Vec<usize> = (0..fitted.len())
+            .filter(|&j| GLTF_VARIANTS[j].is_subset_of(v))
+            .collect();
+        subsets.sort_by(|&a, &b| l(a).total_cmp(&l(b)));
+        let base = subsets
+            .iter()
+            .copied()
+            .find(|&j| GLTF_VARIANTS[j].extensions.len() + 1 == v.extensions.len());
+        let donors: Vec<&GltfPbrExt> = subsets.iter().map(|&j| &fitted[j]).collect();
+        let start = gltf_start(v.extensions, base.map(|j| &fitted[j]), &donors);
+        let mut o = fit_gltf_from(data, cfg, obs, v, start)?;
+        if v.extensions.len() == 1 {
+            // A single extension is also fitted from the cold start (the default core
+            // and extension): the core's optimum can have absorbed what the extension
+            // would carry (a coat's sharp highlight in the core's lobe), a basin the warm
+            // start cannot leave. The lower loss is kept.
+            let cold = fit_gltf_from(data, cfg, obs, v, gltf_cold(v))?;
+            let lo = |o: &Outcome| o.record.losses_full.get(loss).overall;
+            if lo(&cold) < lo(&o) {
+                o = cold;
+            }
+        }
+        fitted.push(as_ext(&o.params));
+        outcomes.push(o);
+    }
+    Ok(outcomes)
+}
+
+/// Configuration `v` fitted from `start`.
+fn fit_gltf_from(
+    data: &FitData,
+    cfg: &FitConfig,
+    obs: &dyn FamilyObserver,
+    v: &GltfVariant,
+    start: Box<dyn Model>,
+) -> Result<Outcome, FamilyFitError> {
+    let tf = gltf_family(v, start);
+    let tf_cfg = tf.config(cfg);
+    Ok(fit_each(data, &[tf.family], &tf_cfg, obs)?.remove(0))
+}
+
+/// The cold start of `v`: the default core with each extension at its default.
+fn gltf_cold(v: &GltfVariant) -> Box<dyn Model> {
+    if v.extensions.is_empty() {
+        return Box::new(GltfPbr::default());
+    }
+    let ok = "the extensions' defaults are in their domains";
+    let mut m = GltfPbrExt::new(GltfPbr::default());
+    if v.extensions.contains(&"sheen") {
+        m = m.with_sheen(Sheen::default()).expect(ok);
+    }
+    if v.extensions.contains(&"clearcoat") {
+        m = m.with_clearcoat(Clearcoat::default()).expect(ok);
+    }
+    if v.extensions.contains(&"specular") {
+        m = m.with_specular(Specular::default()).expect(ok);
+    }
+    Box::new(m)
+}
 
 /// Every configuration of a target fitted, and the best.
 #[derive(Debug, Clone)]
@@ -210,31 +412,40 @@ impl TargetFit {
 }
 
 /// Fits every configuration of `t` on `data` with the settings of `cfg` (plus each
-/// family's freed and held parameters) and picks the best by `cfg`'s loss on all cells.
+/// family's freed and held parameters) and picks the best by `cfg`'s loss on all cells
+/// (for glTF by the rule of [`GLTF_MIN_GAIN`], each configuration warm-started from its
+/// subsets' optima: module doc).
 pub fn fit_for(
     data: &FitData,
     t: Target,
     cfg: &FitConfig,
     obs: &dyn FamilyObserver,
 ) -> Result<TargetFit, FamilyFitError> {
-    let fams = target_families(t);
-    let mut outcomes = Vec::with_capacity(fams.len());
-    for tf in &fams {
-        let one = [Family {
-            label: tf.family.label.clone(),
-            model: tf.family.model.clone(),
-        }];
-        outcomes.extend(fit_each(data, &one, &tf.config(cfg), obs)?);
-    }
-    let loss = cfg.get_loss();
-    let l = |i: usize| outcomes[i].record.losses_full.get(loss).overall;
-    let lowest = (0..outcomes.len())
-        .min_by(|&a, &b| l(a).total_cmp(&l(b)))
-        .expect("every target has a configuration");
-    let (best, why) = if t == Target::Gltf {
-        gltf_choice(&outcomes, lowest, l(0), l(lowest))
+    let outcomes = if t == Target::Gltf {
+        fit_gltf(data, cfg, obs)?
     } else {
-        (lowest, format!("lowest loss ({:.4e})", l(lowest)))
+        let mut outcomes = Vec::new();
+        for tf in &target_families(t) {
+            let one = [Family {
+                label: tf.family.label.clone(),
+                model: tf.family.model.clone(),
+            }];
+            outcomes.extend(fit_each(data, &one, &tf.config(cfg), obs)?);
+        }
+        outcomes
+    };
+    let loss = cfg.get_loss();
+    let losses: Vec<f64> = outcomes
+        .iter()
+        .map(|o| o.record.losses_full.get(loss).overall)
+        .collect();
+    let (best, why) = if t == Target::Gltf {
+        gltf_choice(&losses)
+    } else {
+        let lowest = (0..losses.len())
+            .min_by(|&a, &b| losses[a].total_cmp(&losses[b]))
+            .expect("every target has a configuration");
+        (lowest, format!("lowest loss ({:.4e})", losses[lowest]))
     };
     Ok(TargetFit {
         outcomes,
@@ -243,41 +454,72 @@ pub fn fit_for(
     })
 }
 
-/// glTF's choice (module doc): outcome 0 is the core; `lowest` the lowest loss.
-fn gltf_choice(outcomes: &[Outcome], lowest: usize, core: f64, low: f64) -> (usize, String) {
-    if lowest == 0 {
-        return (
-            0,
-            format!("the core material has the lowest loss ({core:.4e})"),
-        );
-    }
+/// The gain of each extension of configuration `i` of [`GLTF_VARIANTS`]: the extension,
+/// the lowest-loss fitted configuration without it, and 1 − loss(i)/its loss.
+fn gltf_gains(losses: &[f64], i: usize) -> Vec<(&'static str, usize, f64)> {
+    let v = &GLTF_VARIANTS[i];
+    v.extensions
+        .iter()
+        .map(|&e| {
+            let without = (0..losses.len())
+                .filter(|&j| {
+                    let w = &GLTF_VARIANTS[j];
+                    w.is_subset_of(v) && !w.extensions.contains(&e)
+                })
+                .min_by(|&a, &b| losses[a].total_cmp(&losses[b]))
+                .expect("the core is without every extension");
+            (e, without, 1.0 - losses[i] / losses[without])
+        })
+        .collect()
+}
+
+/// glTF's choice (module doc) from the losses of [`GLTF_VARIANTS`] in order: the
+/// lowest-loss configuration each of whose extensions lowers the loss by at least
+/// [`GLTF_MIN_GAIN`] over the best fitted configuration without it.
+fn gltf_choice(losses: &[f64]) -> (usize, String) {
+    let core = losses[0];
     if core <= GLTF_EXACT_LOSS {
         return (
             0,
             format!("the core material reproduces the table (loss {core:.4e}): the core is kept"),
         );
     }
-    let gain = (core - low) / core;
-    let label = &outcomes[lowest].label;
-    if gain >= GLTF_MIN_GAIN {
-        (
-            lowest,
-            format!(
-                "{label} lowers the core's loss by {:.1} % ({core:.4e} -> {low:.4e})",
-                100.0 * gain
-            ),
-        )
+    let earns = |i: usize| gltf_gains(losses, i).iter().all(|g| g.2 >= GLTF_MIN_GAIN);
+    let pick = (0..losses.len())
+        .filter(|&i| earns(i))
+        .min_by(|&a, &b| losses[a].total_cmp(&losses[b]))
+        .expect("the core has no extension to earn");
+    let lowest = (0..losses.len())
+        .min_by(|&a, &b| losses[a].total_cmp(&losses[b]))
+        .expect("glTF has configurations");
+    let describe = |i: usize| {
+        gltf_gains(losses, i)
+            .iter()
+            .map(|(e, j, g)| format!("{e} {:.1} % over {}", 100.0 * g, GLTF_VARIANTS[*j].label))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut why = if pick == 0 {
+        format!("the core material is kept (loss {core:.4e})")
     } else {
-        (
-            0,
-            format!(
-                "the best extension ({label}) lowers the core's loss by only {:.2} % \
-                 (< {:.0} %): the core is kept",
-                100.0 * gain,
-                100.0 * GLTF_MIN_GAIN
-            ),
+        format!(
+            "{} lowers the core's loss by {:.1} % ({core:.4e} -> {:.4e}; {})",
+            GLTF_VARIANTS[pick].label,
+            100.0 * (1.0 - losses[pick] / core),
+            losses[pick],
+            describe(pick)
         )
+    };
+    if lowest != pick {
+        why += &format!(
+            "; {} has a lower loss ({:.4e}) but not every extension of it earns {:.0} % ({})",
+            GLTF_VARIANTS[lowest].label,
+            losses[lowest],
+            100.0 * GLTF_MIN_GAIN,
+            describe(lowest)
+        );
     }
+    (pick, why)
 }
 
 #[cfg(test)]
@@ -386,13 +628,94 @@ mod tests {
         assert!(r.outcomes[0].record.losses_full.cbrt.overall > 10.0 * loss);
     }
 
+    /// The rule of [`GLTF_MIN_GAIN`]: each extension against the best configuration
+    /// without it, not only against the core.
+    #[test]
+    fn gltf_choice_asks_every_extension_to_earn_its_place() {
+        // core, sheen, clearcoat, specular, sheen+specular, clearcoat+specular
+        let (pick, why) = gltf_choice(&[1.0, 0.995, 0.98, 0.6, 0.55, 0.598]);
+        assert_eq!(GLTF_VARIANTS[pick].label, "gltf-sheen-specular", "{why}");
+        assert!(why.contains("sheen 8.3 % over gltf-specular"), "{why}");
+        assert!(why.contains("specular 44.7 % over gltf-sheen"), "{why}");
+        // Sheen alone (0.5 %) does not earn its place; with specular it does (8.3 %).
+        let (pick, why) = gltf_choice(&[1.0, 0.995, 0.98, 0.6, 0.597, 0.596]);
+        assert_eq!(GLTF_VARIANTS[pick].label, "gltf-specular", "{why}");
+        assert!(
+            why.contains("gltf-clearcoat-specular has a lower loss")
+                && why.contains("clearcoat 0.7 % over gltf-specular"),
+            "{why}"
+        );
+        let (pick, why) = gltf_choice(&[1.0, 0.995, 0.992, 0.999, 0.99, 0.985]);
+        assert_eq!(pick, 0, "{why}");
+        assert!(why.contains("core material is kept"), "{why}");
+        let (pick, why) = gltf_choice(&[1e-12, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(pick, 0, "{why}");
+        assert!(why.contains("reproduces"), "{why}");
+        // Every configuration comes after its subsets (the warm starts need them).
+        for (i, v) in GLTF_VARIANTS.iter().enumerate() {
+            for (j, w) in GLTF_VARIANTS.iter().enumerate() {
+                if w.is_subset_of(v) && w != v {
+                    assert!(j < i, "{} before {}", w.label, v.label);
+                }
+            }
+        }
+    }
+
+    /// A warm start begins at its subset's optimum with the new extension at its entry
+    /// ([`GLTF_ENTRY_WEIGHT`], the donor's roughness), whatever the donor's weight was.
+    #[test]
+    fn gltf_warm_starts_take_the_subsets_optima() {
+        let core = GltfPbr::new(Rgb::new(0.2, 0.3, 0.4), 0.1, 0.7).unwrap();
+        let spec = GltfPbrExt::new(core.clone())
+            .with_specular(Specular {
+                factor: 0.3,
+                color: Rgb::new(2.0, 3.0, 4.0),
+                ior: 1.5,
+            })
+            .unwrap();
+        let dark_sheen = GltfPbrExt::new(GltfPbr::default())
+            .with_sheen(Sheen {
+                color: Rgb::new(1e-19, 0.4, 0.0),
+                roughness: 0.3,
+            })
+            .unwrap();
+        let m = gltf_start(&["sheen", "specular"], Some(&spec), &[&spec, &dark_sheen]);
+        let want = spec
+            .clone()
+            .with_sheen(Sheen {
+                color: Rgb::splat(GLTF_ENTRY_WEIGHT),
+                roughness: 0.3,
+            })
+            .unwrap();
+        assert_eq!(m.to_json(), want.to_json());
+        let m = gltf_start(&["clearcoat"], Some(&GltfPbrExt::new(core.clone())), &[]);
+        let want = GltfPbrExt::new(core.clone())
+            .with_clearcoat(Clearcoat {
+                factor: GLTF_ENTRY_WEIGHT,
+                ..Clearcoat::default()
+            })
+            .unwrap();
+        assert_eq!(m.to_json(), want.to_json());
+        // Specular enters at its default, the core exactly.
+        let m = gltf_start(&["sheen", "specular"], Some(&dark_sheen), &[&spec]);
+        let want = dark_sheen
+            .clone()
+            .with_specular(Specular::default())
+            .unwrap();
+        assert_eq!(m.to_json(), want.to_json());
+        assert_eq!(gltf_start(&[], None, &[]).name(), "gltf-pbr");
+    }
+
     /// `fit --for gltf` on tables of a known glTF material: the extension the table has
     /// is picked (with its reason), and a core material keeps the core.
     #[test]
     fn gltf_picks_the_extension_the_material_has() {
-        use brdfkit_models::gltf_pbr_ext::{Clearcoat, GltfPbrExt, Sheen};
         let base = GltfPbr::new(Rgb::new(0.3, 0.05, 0.05), 0.0, 0.6).unwrap();
-        let cases: [(Box<dyn Model>, &str); 3] = [
+        let sheen = Sheen {
+            color: Rgb::new(0.9, 0.6, 0.5),
+            roughness: 0.4,
+        };
+        let cases: [(Box<dyn Model>, &str); 4] = [
             (
                 Box::new(
                     GltfPbrExt::new(base.clone())
@@ -415,6 +738,21 @@ mod tests {
                 ),
                 "gltf-clearcoat",
             ),
+            (
+                Box::new(
+                    GltfPbrExt::new(base.clone())
+                        .with_sheen(sheen)
+                        .and_then(|m| {
+                            m.with_specular(Specular {
+                                factor: 0.3,
+                                color: Rgb::new(1.0, 2.0, 3.0),
+                                ior: 1.5,
+                            })
+                        })
+                        .unwrap(),
+                ),
+                "gltf-sheen-specular",
+            ),
             (Box::new(base.clone()), "gltf-pbr"),
         ];
         for (truth, want) in cases {
@@ -427,6 +765,22 @@ mod tests {
             let cfg = FitConfig::default().loss(Loss::Cbrt).starts(2).unwrap();
             let r = fit_for(&data, Target::Gltf, &cfg, &()).unwrap();
             assert_eq!(r.best().label, want, "{}", r.why);
+            // Warm-started from its subsets, no configuration ends worse than one of
+            // them (beyond the solver's tolerance).
+            let l = |i: usize| r.outcomes[i].record.losses_full.cbrt.overall;
+            for (i, v) in GLTF_VARIANTS.iter().enumerate() {
+                for (j, w) in GLTF_VARIANTS.iter().enumerate() {
+                    if w.is_subset_of(v) {
+                        assert!(
+                            l(i) <= l(j) * 1.001 + 1e-9,
+                            "{}: {} > {}",
+                            v.label,
+                            l(i),
+                            l(j)
+                        );
+                    }
+                }
+            }
             if want == "gltf-pbr" {
                 assert!(r.why.contains("core"), "{}", r.why);
             } else {

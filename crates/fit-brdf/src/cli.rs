@@ -540,7 +540,7 @@ pub enum Renderer {
     Mitsuba,
     /// pbrt-v4 (`diffuse`, `conductor`).
     Pbrt,
-    /// glTF 2.0 (`pbrMetallicRoughness`, from the `gltf-pbr` model).
+    /// glTF 2.0 (`pbrMetallicRoughness` and the sheen, clearcoat, specular/ior extensions).
     Gltf,
 }
 
