@@ -14,6 +14,10 @@
 //! 4. the value is the `rgb` (or `spectra`) interpolant at s under (φi, θi[, λ]),
 //!    multiplied, when the `jacobian` flag is set, by D(m) / (4 σ(wi)) (the `ndf` and
 //!    `sigma` interpolants at u(m) and u(wi)): the Jacobian of the half-vector warp.
+//!    That product is what Mitsuba's `eval` returns: f · cos θo, by Mitsuba's
+//!    `BSDF::eval` contract (Mitsuba renders it as such; pbrt-v4's `MeasuredBxDF`
+//!    divides it by |cos θo| for f);
+//! 5. divided by cos θo: f_r.
 //!
 //! The result is f_r without the cosine (brdfkit's convention), with the file's θi being
 //! brdfkit's wi; negative stored values are kept, as Mitsuba keeps them.
@@ -239,11 +243,14 @@ impl RglBsdf {
         let params = [phi_i, theta_i];
         let at = ParamPos::new([&self.phi_i, &self.theta_i], params);
         let (sample, _) = self.vndf.invert_with(u_m, &self.vndf.weights_at(&at));
+        // The stored value times the Jacobian is what Mitsuba's `eval` returns, f · cos θo
+        // by its `BSDF::eval` contract (the database's values carry the cosine): f_r is
+        // that over cos θo, which is > 0 here.
         let jac = if self.jacobian {
             self.ndf.eval_plain(u_m) / (4.0 * self.sigma.eval_plain(u_wi))
         } else {
             1.0
-        };
+        } / wo.z;
         Some(Located {
             params,
             at,

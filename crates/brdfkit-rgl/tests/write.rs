@@ -70,8 +70,8 @@ fn tensor_round_trip() {
 }
 
 /// The file of each proxy against the proxy, 20,000 random pairs above 1° (docs/rgl.md
-/// lists the figures this prints; the file's value is f · cos θo, divided by cos θo
-/// here). The bounds are ~2× the measured figures (chrome-steel, a near-mirror, has its
+/// lists the figures this prints; the file stores f · cos θo, which the reader divides
+/// by cos θo). The bounds are ~2× the measured figures (chrome-steel, a near-mirror, has its
 /// own): a regression in any table (NDF, σ, VNDF, warp inversion, jacobian, the cosine)
 /// moves them by far more. Exactness at the measurement positions themselves is the
 /// unit test `write::tests::nodes_read_back_exactly`.

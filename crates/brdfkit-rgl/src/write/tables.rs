@@ -19,7 +19,7 @@
 //!   below, no further factor) is, by Mitsuba's `BSDF::eval` contract, f · cos θo: the
 //!   product its integrators use. The quantity written is therefore f(wi, wo) · cos θo,
 //!   which makes Mitsuba render the source (tests/write_mitsuba.rs, the render test).
-//! - With the `jacobian` flag the reader returns value · D(m) / (4σ(wi)) (the VNDF's
+//! - With the `jacobian` flag Mitsuba returns value · D(m) / (4σ(wi)) (the VNDF's
 //!   pdf of wo, D_wi(m) / (4⟨wi, m⟩), since σ = cos θi / G₁); the stored value is
 //!   therefore f(wi, wo) · cos θo · 4σ(wi) / D(m), with D and σ the reader's
 //!   interpolants of the written `ndf` and `sigma` tables.

@@ -60,13 +60,8 @@ pub fn median_p90(mut v: Vec<f64>) -> (f64, f64) {
     (at(0.5), at(0.9))
 }
 
-/// The file's value at (wi, wo) as f_r: what Mitsuba's `eval` returns (and brdfkit's
-/// reader, which equals it) is f · cos θo by Mitsuba's `BSDF::eval` contract.
-pub fn as_fr(stored: Rgb, wo: &Vec3) -> Rgb {
-    stored.map(|c| c / wo.z)
-}
-
-/// Median and p90 relative error of `file` (f · cos θo) against `source` (f).
+/// Median and p90 relative error of `file` (f_r, as brdfkit's reader returns it) against
+/// `source`.
 pub fn against_source(
     file: &dyn Fn(usize) -> Rgb,
     source: &dyn Brdf,
@@ -75,7 +70,7 @@ pub fn against_source(
     let errs: Vec<f64> = pairs
         .iter()
         .enumerate()
-        .filter_map(|(k, (wi, wo))| rel(&as_fr(file(k), wo), &source.eval(wi, wo)))
+        .filter_map(|(k, (wi, wo))| rel(&file(k), &source.eval(wi, wo)))
         .collect();
     median_p90(errs)
 }
