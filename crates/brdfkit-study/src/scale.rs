@@ -241,6 +241,7 @@ fn scale_threads(
             let fc = FitConfig::default()
                 .starts(starts)
                 .map_err(fit_err("threads"))?;
+            let params = resolve_free(ct, &fc).map_err(fit_err("threads"))?.len();
             let (wall_s, cbrt) =
                 pool(t).install(|| timed_fit(reps, ct, full, &fc, "scale threads"))?;
             progress(&format!("scale threads {t} starts {starts}: {wall_s:.3} s"));
@@ -248,7 +249,7 @@ fn scale_threads(
                 axis: "threads".into(),
                 x: t as f64,
                 cells: full.len(),
-                params: 10,
+                params,
                 threads: t,
                 starts,
                 wall_s,
