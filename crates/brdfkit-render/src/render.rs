@@ -331,9 +331,14 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
             let mut x0 = 0;
             while x0 < w {
                 let x1 = (x0 + chunk_px).min(w);
-                render_chunk(
-                    &ctx, y, x0, x1, spp, n_cam, scratch, &mut c, rad_row, se_row,
-                );
+                let ch = Chunk {
+                    y,
+                    x0,
+                    x1,
+                    spp,
+                    n_cam,
+                };
+                render_chunk(&ctx, &ch, scratch, &mut c, rad_row, se_row);
                 x0 = x1;
             }
             c
@@ -380,40 +385,86 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
     })
 }
 
-#[allow(clippy::too_many_arguments)]
-fn render_chunk(
-    ctx: &Ctx,
+/// The pixels `x0..x1` of row `y` that one call of [`render_chunk`] renders, with the
+/// sample counts they share. Grouped so each phase takes one argument, not five.
+#[derive(Clone, Copy, Debug)]
+struct Chunk {
     y: usize,
     x0: usize,
     x1: usize,
     spp: usize,
+    /// Camera rays per pixel: 1 for the centre filter (shared by every sample), `spp`
+    /// for the box filter.
     n_cam: usize,
+}
+
+impl Chunk {
+    #[inline]
+    fn pixels(&self) -> usize {
+        self.x1 - self.x0
+    }
+
+    /// The camera ray that sample `k` of pixel `p` looks through.
+    #[inline]
+    fn cam_of(&self, p: usize, k: usize) -> usize {
+        if self.n_cam == 1 { p } else { p * self.spp + k }
+    }
+}
+
+/// Renders one chunk of a row: the phases run in turn over all of the chunk's pixels
+/// (rather than all phases per pixel) so that each phase is timed once per chunk, and
+/// their sum is written to `rad_row` / `se_row`.
+fn render_chunk(
+    ctx: &Ctx,
+    ch: &Chunk,
     s: &mut Scratch,
     c: &mut Counters,
     rad_row: &mut [Rgb],
     se_row: &mut [Rgb],
 ) {
+    let fx = ctx.scene.effects;
+    camera_phase(ctx, ch, s, &mut c.camera);
+    s.direct_cands.clear();
+    if fx.direct {
+        direct_phase(ctx, s, c);
+    }
+    s.env_cands.clear();
+    if let Some((env, dist)) = &ctx.env {
+        let es = EnvSampler { ctx, env, dist };
+        environment_phase(&es, ch, s, c);
+    }
+    if fx.shadows {
+        let t0 = Instant::now();
+        let sc = &mut c.shadows;
+        ctx.resolve(&s.direct_cands, sc, &mut s.cam_value);
+        ctx.resolve(&s.env_cands, sc, &mut s.values);
+        sc.time += t0.elapsed();
+    }
+    let t0 = Instant::now();
+    pixel_estimates(ch, s, rad_row, se_row);
+    // Part of the camera phase's bookkeeping.
+    c.camera.time += t0.elapsed();
+}
+
+/// Seeds each pixel's generator and traces its camera rays into `s.cams`, then sizes
+/// the per-ray and per-sample accumulators the later phases add into.
+fn camera_phase(ctx: &Ctx, ch: &Chunk, s: &mut Scratch, cost: &mut EffectCost) {
     let scene = ctx.scene;
     let film = &scene.film;
-    let fx = scene.effects;
-    let npx = x1 - x0;
-    let cam_of = |p: usize, k: usize| if n_cam == 1 { p } else { p * spp + k };
-
-    // Camera rays.
     let t0 = Instant::now();
     s.rngs.clear();
     s.cams.clear();
-    for x in x0..x1 {
-        let mut rng = Pcg32::for_pixel(film.seed, (y * film.width + x) as u64);
+    for x in ch.x0..ch.x1 {
+        let mut rng = Pcg32::for_pixel(film.seed, (ch.y * film.width + x) as u64);
         match film.filter {
             PixelFilter::Center => {
-                let ray = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                let ray = scene.camera.ray(x as f64 + 0.5, ch.y as f64 + 0.5);
                 s.cams.push(ctx.intersect(&ray));
             }
             PixelFilter::Box => {
-                stratified_2d(&mut rng, n_cam, &mut s.strat_a);
+                stratified_2d(&mut rng, ch.n_cam, &mut s.strat_a);
                 for j in &s.strat_a {
-                    let ray = scene.camera.ray(x as f64 + j[0], y as f64 + j[1]);
+                    let ray = scene.camera.ray(x as f64 + j[0], ch.y as f64 + j[1]);
                     s.cams.push(ctx.intersect(&ray));
                 }
             }
@@ -423,167 +474,228 @@ fn render_chunk(
     s.cam_value.clear();
     s.cam_value.resize(s.cams.len(), Rgb::ZERO);
     s.values.clear();
-    s.values.resize(npx * spp, Rgb::ZERO);
-    c.camera.samples += (npx * n_cam) as u64;
-    c.camera.rays += (npx * n_cam) as u64;
-    c.camera.time += t0.elapsed();
+    s.values.resize(ch.pixels() * ch.spp, Rgb::ZERO);
+    let rays = (ch.pixels() * ch.n_cam) as u64;
+    cost.samples += rays;
+    cost.rays += rays;
+    cost.time += t0.elapsed();
+}
 
-    // Direct light.
-    s.direct_cands.clear();
-    if fx.direct {
-        let t0 = Instant::now();
-        let d = &mut c.direct;
-        for (ci, cam) in s.cams.iter().enumerate() {
-            let CamHit::Surface(sh) = cam else { continue };
-            let mat = &scene.materials[sh.material];
-            for light in &scene.lights {
-                d.samples += 1;
-                let (dir, t_max, scale) = match light {
-                    Light::Point {
-                        position,
-                        intensity,
-                    } => {
-                        let to = position - sh.p;
-                        let r2 = to.norm_squared();
-                        let r = r2.sqrt();
-                        (to / r, r, *intensity / r2)
-                    }
-                    Light::Directional {
-                        direction,
-                        irradiance,
-                    } => (-direction, f64::INFINITY, *irradiance),
-                };
-                let wi = sh.local(&dir);
-                if wi.z <= 0.0 {
-                    continue;
-                }
-                d.brdf_evals += 1;
-                let (f, miss) = mat.eval(&wi, &sh.wo);
-                c.table_misses += miss as u64;
-                let value = f * scale * wi.z;
-                if value.max_channel() <= 0.0 && value.is_finite() {
-                    continue;
-                }
-                if fx.shadows {
-                    s.direct_cands.push(Candidate {
-                        origin: sh.p,
-                        dir,
-                        t_max,
-                        from: sh.obj,
-                        value,
-                        target: ci as u32,
-                    });
-                } else {
-                    s.cam_value[ci] += value;
-                }
-            }
-        }
-        d.time += t0.elapsed();
-    }
-
-    // Environment.
-    s.env_cands.clear();
-    if let Some((env, dist)) = &ctx.env {
-        let t0 = Instant::now();
-        let e = &mut c.environment;
-        let mis = film.mis;
-        if film.show_environment {
-            for (ci, cam) in s.cams.iter().enumerate() {
-                if let CamHit::Miss(dir) = cam {
-                    e.lookups += 1;
-                    s.cam_value[ci] += env.radiance(dir);
-                }
-            }
-        }
-        for p in 0..npx {
-            let rng = &mut s.rngs[p];
-            // Stratified light and BRDF sample positions over the pixel's samples.
-            stratified_2d(rng, spp, &mut s.strat_a);
-            stratified_2d(rng, spp, &mut s.strat_b);
-            for k in 0..spp {
-                let CamHit::Surface(sh) = &s.cams[cam_of(p, k)] else {
-                    continue;
-                };
-                let target = (p * spp + k) as u32;
-                let mat = &scene.materials[sh.material];
-                let lobe = &ctx.lobes[sh.material];
-                // Light sample.
-                if let Some(ls) = dist.sample(env, s.strat_a[k]) {
-                    e.samples += 1;
-                    e.lookups += 1;
-                    let wi = sh.local(&ls.dir);
-                    if wi.z > 0.0 {
-                        e.brdf_evals += 1;
-                        let (f, miss) = mat.eval(&wi, &sh.wo);
-                        c.table_misses += miss as u64;
-                        let wgt = mis_weight(mis, ls.pdf, lobe.pdf(&wi, &sh.wo));
-                        let value = f * ls.radiance * (wi.z * wgt / ls.pdf);
-                        push_env(
-                            &mut s.env_cands,
-                            &mut s.values,
-                            fx.shadows,
-                            sh,
-                            ls.dir,
-                            value,
-                            target,
-                        );
-                    }
-                }
-                // BRDF sample.
-                let bs = lobe.sample(&sh.wo, rng.uniform(), s.strat_b[k]);
-                e.samples += 1;
-                if bs.wi.z > 0.0 && bs.pdf > 0.0 {
-                    let dir = sh.world(&bs.wi);
-                    e.lookups += 1;
-                    let le = env.radiance(&dir);
-                    if le.max_channel() > 0.0 {
-                        e.brdf_evals += 1;
-                        let (f, miss) = mat.eval(&bs.wi, &sh.wo);
-                        c.table_misses += miss as u64;
-                        let wgt = if dist.can_sample() {
-                            mis_weight(mis, bs.pdf, dist.pdf(&dir))
-                        } else {
-                            1.0
-                        };
-                        let value = f * le * (bs.wi.z * wgt / bs.pdf);
-                        push_env(
-                            &mut s.env_cands,
-                            &mut s.values,
-                            fx.shadows,
-                            sh,
-                            dir,
-                            value,
-                            target,
-                        );
-                    }
-                }
-            }
-        }
-        e.time += t0.elapsed();
-    }
-
-    // Shadows.
-    if fx.shadows {
-        let t0 = Instant::now();
-        let sc = &mut c.shadows;
-        ctx.resolve(&s.direct_cands, sc, &mut s.cam_value);
-        ctx.resolve(&s.env_cands, sc, &mut s.values);
-        sc.time += t0.elapsed();
-    }
-
-    // Pixel means and standard errors (part of the camera phase's bookkeeping).
+/// Direct light, once per camera ray (every sample of a ray sees the same lights):
+/// L = f_r · I cos θi / r² for a point light, f_r · E cos θi for a directional one.
+/// With shadows the contribution waits in `s.direct_cands` for its visibility test.
+fn direct_phase(ctx: &Ctx, s: &mut Scratch, c: &mut Counters) {
+    let scene = ctx.scene;
+    let shadows = scene.effects.shadows;
     let t0 = Instant::now();
+    let d = &mut c.direct;
+    for (ci, cam) in s.cams.iter().enumerate() {
+        let CamHit::Surface(sh) = cam else { continue };
+        let mat = &scene.materials[sh.material];
+        for light in &scene.lights {
+            d.samples += 1;
+            let (dir, t_max, scale) = light_towards(light, &sh.p);
+            let wi = sh.local(&dir);
+            if wi.z <= 0.0 {
+                continue;
+            }
+            d.brdf_evals += 1;
+            let (f, miss) = mat.eval(&wi, &sh.wo);
+            c.table_misses += miss as u64;
+            let value = f * scale * wi.z;
+            if value.max_channel() <= 0.0 && value.is_finite() {
+                continue;
+            }
+            if shadows {
+                s.direct_cands.push(Candidate {
+                    origin: sh.p,
+                    dir,
+                    t_max,
+                    from: sh.obj,
+                    value,
+                    target: ci as u32,
+                });
+            } else {
+                s.cam_value[ci] += value;
+            }
+        }
+    }
+    d.time += t0.elapsed();
+}
+
+/// The world direction from `p` towards `light`, the distance a shadow ray must stay
+/// clear for, and the light's arriving radiometric scale (I / r² for a point light,
+/// E for a directional one).
+#[inline]
+fn light_towards(light: &Light, p: &Vec3) -> (Vec3, f64, Rgb) {
+    match light {
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            let to = position - p;
+            let r2 = to.norm_squared();
+            let r = r2.sqrt();
+            (to / r, r, *intensity / r2)
+        }
+        Light::Directional {
+            direction,
+            irradiance,
+        } => (-direction, f64::INFINITY, *irradiance),
+    }
+}
+
+/// The environment: the camera rays that miss see it (if shown), and every surface
+/// sample takes one light and one BRDF sample combined by MIS
+/// ([`EnvSampler::light_sample`], [`EnvSampler::brdf_sample`]).
+fn environment_phase(es: &EnvSampler, ch: &Chunk, s: &mut Scratch, c: &mut Counters) {
+    let t0 = Instant::now();
+    if es.ctx.scene.film.show_environment {
+        for (ci, cam) in s.cams.iter().enumerate() {
+            if let CamHit::Miss(dir) = cam {
+                c.environment.lookups += 1;
+                s.cam_value[ci] += es.env.radiance(dir);
+            }
+        }
+    }
+    let mut sink = Sink {
+        shadows: es.ctx.scene.effects.shadows,
+        cands: &mut s.env_cands,
+        values: &mut s.values,
+    };
+    for p in 0..ch.pixels() {
+        let rng = &mut s.rngs[p];
+        // Stratified light and BRDF sample positions over the pixel's samples.
+        stratified_2d(rng, ch.spp, &mut s.strat_a);
+        stratified_2d(rng, ch.spp, &mut s.strat_b);
+        for k in 0..ch.spp {
+            let CamHit::Surface(sh) = &s.cams[ch.cam_of(p, k)] else {
+                continue;
+            };
+            let target = (p * ch.spp + k) as u32;
+            es.light_sample(sh, target, s.strat_a[k], &mut sink, c);
+            let pick = rng.uniform();
+            es.brdf_sample(sh, target, pick, s.strat_b[k], &mut sink, c);
+        }
+    }
+    c.environment.time += t0.elapsed();
+}
+
+/// The environment with its importance-sampling distribution, and the scene it lights:
+/// what the two MIS estimators of a surface sample share.
+struct EnvSampler<'a> {
+    ctx: &'a Ctx<'a>,
+    env: &'a Environment,
+    dist: &'a EnvDistribution,
+}
+
+impl EnvSampler<'_> {
+    /// The light-sampling half of Veach's multi-sample estimator (Veach & Guibas 1995,
+    /// eq. 8): w_l · f L_e cos θ / p_env at w_l ~ p_env.
+    #[inline]
+    fn light_sample(
+        &self,
+        sh: &Shading,
+        target: u32,
+        u: [f64; 2],
+        sink: &mut Sink,
+        c: &mut Counters,
+    ) {
+        let Some(ls) = self.dist.sample(self.env, u) else {
+            return;
+        };
+        let e = &mut c.environment;
+        e.samples += 1;
+        e.lookups += 1;
+        let wi = sh.local(&ls.dir);
+        if wi.z > 0.0 {
+            e.brdf_evals += 1;
+            let (f, miss) = self.ctx.scene.materials[sh.material].eval(&wi, &sh.wo);
+            c.table_misses += miss as u64;
+            let lobe = &self.ctx.lobes[sh.material];
+            let wgt = mis_weight(self.ctx.scene.film.mis, ls.pdf, lobe.pdf(&wi, &sh.wo));
+            let value = f * ls.radiance * (wi.z * wgt / ls.pdf);
+            sink.push(sh, ls.dir, value, target);
+        }
+    }
+
+    /// The BRDF-sampling half: w_b · f L_e cos θ / p_brdf at w_b ~ p_brdf, with weight 1
+    /// when the environment cannot be sampled (all black).
+    #[inline]
+    fn brdf_sample(
+        &self,
+        sh: &Shading,
+        target: u32,
+        pick: f64,
+        u: [f64; 2],
+        sink: &mut Sink,
+        c: &mut Counters,
+    ) {
+        let bs = self.ctx.lobes[sh.material].sample(&sh.wo, pick, u);
+        let e = &mut c.environment;
+        e.samples += 1;
+        if !(bs.wi.z > 0.0 && bs.pdf > 0.0) {
+            return;
+        }
+        let dir = sh.world(&bs.wi);
+        e.lookups += 1;
+        let le = self.env.radiance(&dir);
+        if le.max_channel() > 0.0 {
+            e.brdf_evals += 1;
+            let (f, miss) = self.ctx.scene.materials[sh.material].eval(&bs.wi, &sh.wo);
+            c.table_misses += miss as u64;
+            let wgt = if self.dist.can_sample() {
+                mis_weight(self.ctx.scene.film.mis, bs.pdf, self.dist.pdf(&dir))
+            } else {
+                1.0
+            };
+            let value = f * le * (bs.wi.z * wgt / bs.pdf);
+            sink.push(sh, dir, value, target);
+        }
+    }
+}
+
+/// Where an environment contribution goes: straight into its sample's value, or, with
+/// shadows, into the candidates that wait for their visibility test.
+struct Sink<'a> {
+    shadows: bool,
+    cands: &'a mut Vec<Candidate>,
+    values: &'a mut [Rgb],
+}
+
+impl Sink<'_> {
+    #[inline]
+    fn push(&mut self, sh: &Shading, dir: Vec3, value: Rgb, target: u32) {
+        if self.shadows {
+            self.cands.push(Candidate {
+                origin: sh.p,
+                dir,
+                t_max: f64::INFINITY,
+                from: sh.obj,
+                value,
+                target,
+            });
+        } else {
+            self.values[target as usize] += value;
+        }
+    }
+}
+
+/// Each pixel's mean over its samples (direct light per camera ray plus environment per
+/// sample), and its standard error: sqrt(Σ (x_k − mean)² / (n (n − 1))), the two-pass
+/// unbiased sample variance over n, exactly zero when all samples agree.
+fn pixel_estimates(ch: &Chunk, s: &Scratch, rad_row: &mut [Rgb], se_row: &mut [Rgb]) {
+    let spp = ch.spp;
     let n = spp as f64;
-    for p in 0..npx {
-        let sample = |k: usize| s.values[p * spp + k] + s.cam_value[cam_of(p, k)];
+    for p in 0..ch.pixels() {
+        let sample = |k: usize| s.values[p * spp + k] + s.cam_value[ch.cam_of(p, k)];
         let mut sum = Rgb::ZERO;
         for k in 0..spp {
             sum += sample(k);
         }
         let mean = sum / n;
-        rad_row[x0 + p] = mean;
-        se_row[x0 + p] = if spp > 1 {
-            // Two-pass unbiased sample variance: exactly zero when all samples agree.
+        rad_row[ch.x0 + p] = mean;
+        se_row[ch.x0 + p] = if spp > 1 {
             let mut ss = Rgb::ZERO;
             for k in 0..spp {
                 let d = sample(k) - mean;
@@ -593,30 +705,5 @@ fn render_chunk(
         } else {
             Rgb::ZERO
         };
-    }
-    c.camera.time += t0.elapsed();
-}
-
-#[inline]
-fn push_env(
-    cands: &mut Vec<Candidate>,
-    values: &mut [Rgb],
-    shadows: bool,
-    sh: &Shading,
-    dir: Vec3,
-    value: Rgb,
-    target: u32,
-) {
-    if shadows {
-        cands.push(Candidate {
-            origin: sh.p,
-            dir,
-            t_max: f64::INFINITY,
-            from: sh.obj,
-            value,
-            target,
-        });
-    } else {
-        values[target as usize] += value;
     }
 }

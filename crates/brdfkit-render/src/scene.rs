@@ -403,242 +403,28 @@ impl Scene {
     }
 
     /// Parses scene text; `path` names it in errors and its directory anchors relative
-    /// paths.
+    /// paths. Each section is validated in file order by its own function, so the first
+    /// error reported is the same whichever sections follow it.
     pub fn from_toml_str(text: &str, path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let base = path.parent().unwrap_or(Path::new(""));
         let cx = Ctx { path, base };
         let raw: RawScene = toml::from_str(text).map_err(|e| syntax(path, e))?;
-
-        // Effects.
-        let mut effects = Effects::default();
-        for e in &raw.effects {
-            let slot = match e {
-                Effect::Direct => &mut effects.direct,
-                Effect::Environment => &mut effects.environment,
-                Effect::Shadows => &mut effects.shadows,
-            };
-            if *slot {
-                return Err(cx.invalid("effects", format!("`{e}` is listed twice")));
-            }
-            *slot = true;
-        }
-        if !effects.direct && !effects.environment {
-            return Err(cx.invalid(
-                "effects",
-                "asks for no light: list `direct` and/or `environment` (and optionally `shadows`)",
-            ));
-        }
-
-        // Film.
-        let f = &raw.film;
-        for (k, v) in [("film.width", f.width), ("film.height", f.height)] {
-            if !(1..=MAX_SIDE).contains(&v) {
-                return Err(cx.invalid(k, format!("must be in 1..={MAX_SIDE}, got {v}")));
-            }
-        }
-        let spp = f.spp.unwrap_or(64);
-        if !(1..=MAX_SPP).contains(&spp) {
-            return Err(cx.invalid("film.spp", format!("must be in 1..={MAX_SPP}, got {spp}")));
-        }
-        let exposure = f.exposure.unwrap_or(0.0);
-        if !exposure.is_finite() {
-            return Err(cx.invalid("film.exposure", "must be finite"));
-        }
-        let film = Film {
-            width: f.width as usize,
-            height: f.height as usize,
-            spp: spp as usize,
-            filter: f.filter.unwrap_or(PixelFilter::Center),
-            seed: f.seed.unwrap_or(0),
-            mis: f.mis.unwrap_or(Mis::Power),
-            show_environment: f.show_environment.unwrap_or(true),
-            exposure,
-        };
-
-        // Camera.
-        let c = &raw.camera;
-        let position = cx.finite3("camera.position", c.position)?;
-        let look_at = cx.finite3("camera.look_at", c.look_at)?;
-        let up = cx.unit3("camera.up", c.up.unwrap_or([0.0, 1.0, 0.0]))?;
-        if !(c.fov > 0.0 && c.fov < 180.0) {
-            return Err(cx.invalid(
-                "camera.fov",
-                format!("must be in (0, 180) degrees, got {}", c.fov),
-            ));
-        }
-        let view = look_at - position;
-        if view.norm() == 0.0 {
-            return Err(cx.invalid("camera.look_at", "equals camera.position"));
-        }
-        if view.normalize().cross(&up).norm() < 1e-6 {
-            return Err(cx.invalid("camera.up", "is parallel to the viewing direction"));
-        }
-        let camera = Camera::new(position, look_at, up, c.fov, film.width, film.height);
-
-        // Materials (loaded once each; objects refer to them by index).
-        let mut materials = Vec::new();
-        let global = match &raw.material {
-            Some(m) => {
-                materials.push(load_material(&cx, "material", m)?);
-                Some(0)
-            }
-            None => None,
-        };
-        let mut object_material =
-            |key: &str, own: &Option<RawMaterial>| -> Result<usize, SceneError> {
-                match own {
-                    Some(m) => {
-                        materials.push(load_material(&cx, &format!("{key}.material"), m)?);
-                        Ok(materials.len() - 1)
-                    }
-                    None => global.ok_or_else(|| {
-                        cx.invalid(
-                            format!("{key}.material"),
-                            "no material: give [material] or [".to_string() + key + ".material]",
-                        )
-                    }),
-                }
-            };
-
-        // Objects.
+        let effects = parse_effects(&cx, &raw.effects)?;
+        let film = parse_film(&cx, &raw.film)?;
+        let camera = parse_camera(&cx, &raw.camera, &film)?;
+        let mut materials = Materials::new(&cx, raw.material.as_ref())?;
         let sphere = match &raw.sphere {
-            Some(s) => {
-                let center = cx.finite3("sphere.center", s.center)?;
-                if !(s.radius > 0.0 && s.radius.is_finite()) {
-                    return Err(cx.invalid(
-                        "sphere.radius",
-                        format!("must be positive and finite, got {}", s.radius),
-                    ));
-                }
-                if (position - center).norm() <= s.radius {
-                    return Err(cx.invalid(
-                        "camera.position",
-                        "is inside the sphere (only its outside is a surface)",
-                    ));
-                }
-                Some(Object {
-                    shape: Sphere {
-                        center,
-                        radius: s.radius,
-                    },
-                    material: object_material("sphere", &s.material)?,
-                })
-            }
+            Some(s) => Some(parse_sphere(&cx, s, &camera.position, &mut materials)?),
             None => None,
         };
         let plane = match &raw.plane {
-            Some(p) => Some(Object {
-                shape: Plane {
-                    point: cx.finite3("plane.point", p.point)?,
-                    normal: cx.unit3("plane.normal", p.normal)?,
-                },
-                material: object_material("plane", &p.material)?,
-            }),
+            Some(p) => Some(parse_plane(&cx, p, &mut materials)?),
             None => None,
         };
-        if sphere.is_none() && plane.is_none() {
-            return Err(cx.invalid(
-                "sphere",
-                "the scene has no object: give [sphere] and/or [plane]",
-            ));
-        }
-        if raw.material.is_some()
-            && sphere.as_ref().is_none_or(|s| s.material != 0)
-            && plane.as_ref().is_none_or(|p| p.material != 0)
-        {
-            return Err(cx.invalid(
-                "material",
-                "is used by no object (every object has its own material)",
-            ));
-        }
-
-        // Lights.
-        let mut lights = Vec::new();
-        for (i, t) in raw.light.iter().enumerate() {
-            let key = format!("light[{i}]");
-            let kind = match t.get("type") {
-                Some(toml::Value::String(s)) => s.clone(),
-                Some(other) => {
-                    return Err(cx.invalid(
-                        format!("{key}.type"),
-                        format!("must be a string, found {}", other.type_str()),
-                    ));
-                }
-                None => {
-                    return Err(cx.invalid(
-                        format!("{key}.type"),
-                        "missing field `type` (\"point\" or \"directional\")",
-                    ));
-                }
-            };
-            let mut rest = t.clone();
-            rest.remove("type");
-            let sub =
-                |e: toml::de::Error| cx.invalid(key.clone(), e.message().trim_end().to_string());
-            match kind.as_str() {
-                "point" => {
-                    let p: RawPoint = toml::Value::Table(rest).try_into().map_err(sub)?;
-                    let position = cx.finite3(&format!("{key}.position"), p.position)?;
-                    if let Some(s) = &sphere
-                        && (position - s.shape.center).norm() <= s.shape.radius
-                    {
-                        return Err(cx.invalid(
-                            format!("{key}.position"),
-                            "is inside the sphere: it would light nothing",
-                        ));
-                    }
-                    lights.push(Light::Point {
-                        position,
-                        intensity: cx.color(&format!("{key}.intensity"), p.intensity)?,
-                    });
-                }
-                "directional" => {
-                    let d: RawDirectional = toml::Value::Table(rest).try_into().map_err(sub)?;
-                    lights.push(Light::Directional {
-                        direction: cx.unit3(&format!("{key}.direction"), d.direction)?,
-                        irradiance: cx.color(&format!("{key}.irradiance"), d.irradiance)?,
-                    });
-                }
-                other => {
-                    return Err(cx.invalid(
-                        format!("{key}.type"),
-                        format!("unknown light type `{other}` (expected \"point\" or \"directional\"; the environment is [environment])"),
-                    ));
-                }
-            }
-        }
-        if effects.direct && lights.is_empty() {
-            return Err(cx.invalid(
-                "effects",
-                "`direct` is requested but the scene declares no [[light]]",
-            ));
-        }
-        if !effects.direct && !lights.is_empty() {
-            return Err(cx.invalid(
-                "light",
-                "lights are declared but `direct` is not in `effects`: add it, or remove the lights",
-            ));
-        }
-
-        // Environment.
-        let environment = match &raw.environment {
-            None => None,
-            Some(e) => Some(load_environment(&cx, e)?),
-        };
-        if effects.environment && environment.is_none() {
-            return Err(cx.invalid(
-                "effects",
-                "`environment` is requested but the scene has no [environment]",
-            ));
-        }
-        if !effects.environment && environment.is_some() {
-            return Err(cx.invalid(
-                "environment",
-                "is declared but `environment` is not in `effects`: add it, or remove [environment]",
-            ));
-        }
-
+        check_objects(&cx, raw.material.is_some(), &sphere, &plane)?;
+        let lights = parse_lights(&cx, &raw.light, sphere.as_ref(), &effects)?;
+        let environment = parse_environment(&cx, raw.environment.as_ref(), &effects)?;
         Ok(Scene {
             path: path.to_path_buf(),
             effects,
@@ -646,11 +432,313 @@ impl Scene {
             camera,
             sphere,
             plane,
-            materials,
+            materials: materials.list,
             lights,
             environment,
         })
     }
+}
+
+/// The `effects` list: each effect at most once, and at least one source of light.
+fn parse_effects(cx: &Ctx, list: &[Effect]) -> Result<Effects, SceneError> {
+    let mut effects = Effects::default();
+    for e in list {
+        let slot = match e {
+            Effect::Direct => &mut effects.direct,
+            Effect::Environment => &mut effects.environment,
+            Effect::Shadows => &mut effects.shadows,
+        };
+        if *slot {
+            return Err(cx.invalid("effects", format!("`{e}` is listed twice")));
+        }
+        *slot = true;
+    }
+    if !effects.direct && !effects.environment {
+        return Err(cx.invalid(
+            "effects",
+            "asks for no light: list `direct` and/or `environment` (and optionally `shadows`)",
+        ));
+    }
+    Ok(effects)
+}
+
+/// `[film]`: sizes and samples within their limits, and the defaults of what is left out.
+fn parse_film(cx: &Ctx, f: &RawFilm) -> Result<Film, SceneError> {
+    for (k, v) in [("film.width", f.width), ("film.height", f.height)] {
+        if !(1..=MAX_SIDE).contains(&v) {
+            return Err(cx.invalid(k, format!("must be in 1..={MAX_SIDE}, got {v}")));
+        }
+    }
+    let spp = f.spp.unwrap_or(64);
+    if !(1..=MAX_SPP).contains(&spp) {
+        return Err(cx.invalid("film.spp", format!("must be in 1..={MAX_SPP}, got {spp}")));
+    }
+    let exposure = f.exposure.unwrap_or(0.0);
+    if !exposure.is_finite() {
+        return Err(cx.invalid("film.exposure", "must be finite"));
+    }
+    Ok(Film {
+        width: f.width as usize,
+        height: f.height as usize,
+        spp: spp as usize,
+        filter: f.filter.unwrap_or(PixelFilter::Center),
+        seed: f.seed.unwrap_or(0),
+        mis: f.mis.unwrap_or(Mis::Power),
+        show_environment: f.show_environment.unwrap_or(true),
+        exposure,
+    })
+}
+
+/// `[camera]`: a finite position, a distinct target, an up vector that is not along the
+/// view, and a field of view strictly between 0 and 180 degrees.
+fn parse_camera(cx: &Ctx, c: &RawCamera, film: &Film) -> Result<Camera, SceneError> {
+    let position = cx.finite3("camera.position", c.position)?;
+    let look_at = cx.finite3("camera.look_at", c.look_at)?;
+    let up = cx.unit3("camera.up", c.up.unwrap_or([0.0, 1.0, 0.0]))?;
+    if !(c.fov > 0.0 && c.fov < 180.0) {
+        return Err(cx.invalid(
+            "camera.fov",
+            format!("must be in (0, 180) degrees, got {}", c.fov),
+        ));
+    }
+    let view = look_at - position;
+    if view.norm() == 0.0 {
+        return Err(cx.invalid("camera.look_at", "equals camera.position"));
+    }
+    if view.normalize().cross(&up).norm() < 1e-6 {
+        return Err(cx.invalid("camera.up", "is parallel to the viewing direction"));
+    }
+    Ok(Camera::new(
+        position,
+        look_at,
+        up,
+        c.fov,
+        film.width,
+        film.height,
+    ))
+}
+
+/// The scene's materials, each loaded once; objects refer to them by index. The global
+/// `[material]`, when given, is index 0 and serves every object without its own.
+struct Materials {
+    list: Vec<SceneMaterial>,
+    global: Option<usize>,
+}
+
+impl Materials {
+    fn new(cx: &Ctx, global: Option<&RawMaterial>) -> Result<Materials, SceneError> {
+        let mut list = Vec::new();
+        if let Some(m) = global {
+            list.push(load_material(cx, "material", m)?);
+        }
+        Ok(Materials {
+            global: global.map(|_| 0),
+            list,
+        })
+    }
+
+    /// The index of the material of object `key`: its own (loaded now), else the global.
+    fn for_object(
+        &mut self,
+        cx: &Ctx,
+        key: &str,
+        own: &Option<RawMaterial>,
+    ) -> Result<usize, SceneError> {
+        match own {
+            Some(m) => {
+                self.list
+                    .push(load_material(cx, &format!("{key}.material"), m)?);
+                Ok(self.list.len() - 1)
+            }
+            None => self.global.ok_or_else(|| {
+                cx.invalid(
+                    format!("{key}.material"),
+                    "no material: give [material] or [".to_string() + key + ".material]",
+                )
+            }),
+        }
+    }
+}
+
+/// `[sphere]`: a positive finite radius, and a camera outside it (only the outside is a
+/// surface).
+fn parse_sphere(
+    cx: &Ctx,
+    s: &RawSphere,
+    camera: &Vec3,
+    materials: &mut Materials,
+) -> Result<Object<Sphere>, SceneError> {
+    let center = cx.finite3("sphere.center", s.center)?;
+    if !(s.radius > 0.0 && s.radius.is_finite()) {
+        return Err(cx.invalid(
+            "sphere.radius",
+            format!("must be positive and finite, got {}", s.radius),
+        ));
+    }
+    if (camera - center).norm() <= s.radius {
+        return Err(cx.invalid(
+            "camera.position",
+            "is inside the sphere (only its outside is a surface)",
+        ));
+    }
+    Ok(Object {
+        shape: Sphere {
+            center,
+            radius: s.radius,
+        },
+        material: materials.for_object(cx, "sphere", &s.material)?,
+    })
+}
+
+/// `[plane]`: a finite point and a non-zero normal (normalised).
+fn parse_plane(
+    cx: &Ctx,
+    p: &RawPlane,
+    materials: &mut Materials,
+) -> Result<Object<Plane>, SceneError> {
+    Ok(Object {
+        shape: Plane {
+            point: cx.finite3("plane.point", p.point)?,
+            normal: cx.unit3("plane.normal", p.normal)?,
+        },
+        material: materials.for_object(cx, "plane", &p.material)?,
+    })
+}
+
+/// At least one object, and a global `[material]` only if some object uses it.
+fn check_objects(
+    cx: &Ctx,
+    has_global: bool,
+    sphere: &Option<Object<Sphere>>,
+    plane: &Option<Object<Plane>>,
+) -> Result<(), SceneError> {
+    if sphere.is_none() && plane.is_none() {
+        return Err(cx.invalid(
+            "sphere",
+            "the scene has no object: give [sphere] and/or [plane]",
+        ));
+    }
+    if has_global
+        && sphere.as_ref().is_none_or(|s| s.material != 0)
+        && plane.as_ref().is_none_or(|p| p.material != 0)
+    {
+        return Err(cx.invalid(
+            "material",
+            "is used by no object (every object has its own material)",
+        ));
+    }
+    Ok(())
+}
+
+/// `[[light]]`: each table parsed by its `type`, and lights given exactly when the
+/// `direct` effect is asked for.
+fn parse_lights(
+    cx: &Ctx,
+    tables: &[toml::Table],
+    sphere: Option<&Object<Sphere>>,
+    effects: &Effects,
+) -> Result<Vec<Light>, SceneError> {
+    let lights = tables
+        .iter()
+        .enumerate()
+        .map(|(i, t)| parse_light(cx, &format!("light[{i}]"), t, sphere))
+        .collect::<Result<Vec<_>, _>>()?;
+    if effects.direct && lights.is_empty() {
+        return Err(cx.invalid(
+            "effects",
+            "`direct` is requested but the scene declares no [[light]]",
+        ));
+    }
+    if !effects.direct && !lights.is_empty() {
+        return Err(cx.invalid(
+            "light",
+            "lights are declared but `direct` is not in `effects`: add it, or remove the lights",
+        ));
+    }
+    Ok(lights)
+}
+
+/// One `[[light]]` table (`key` is `light[i]`, which every error names): its `type`
+/// picks the typed table the rest must match. A point light must not sit inside the
+/// sphere, where it would light nothing.
+fn parse_light(
+    cx: &Ctx,
+    key: &str,
+    t: &toml::Table,
+    sphere: Option<&Object<Sphere>>,
+) -> Result<Light, SceneError> {
+    let kind = match t.get("type") {
+        Some(toml::Value::String(s)) => s.clone(),
+        Some(other) => {
+            return Err(cx.invalid(
+                format!("{key}.type"),
+                format!("must be a string, found {}", other.type_str()),
+            ));
+        }
+        None => {
+            return Err(cx.invalid(
+                format!("{key}.type"),
+                "missing field `type` (\"point\" or \"directional\")",
+            ));
+        }
+    };
+    let mut rest = t.clone();
+    rest.remove("type");
+    let sub = |e: toml::de::Error| cx.invalid(key, e.message().trim_end().to_string());
+    match kind.as_str() {
+        "point" => {
+            let p: RawPoint = toml::Value::Table(rest).try_into().map_err(sub)?;
+            let position = cx.finite3(&format!("{key}.position"), p.position)?;
+            if let Some(s) = sphere
+                && (position - s.shape.center).norm() <= s.shape.radius
+            {
+                return Err(cx.invalid(
+                    format!("{key}.position"),
+                    "is inside the sphere: it would light nothing",
+                ));
+            }
+            Ok(Light::Point {
+                position,
+                intensity: cx.color(&format!("{key}.intensity"), p.intensity)?,
+            })
+        }
+        "directional" => {
+            let d: RawDirectional = toml::Value::Table(rest).try_into().map_err(sub)?;
+            Ok(Light::Directional {
+                direction: cx.unit3(&format!("{key}.direction"), d.direction)?,
+                irradiance: cx.color(&format!("{key}.irradiance"), d.irradiance)?,
+            })
+        }
+        other => Err(cx.invalid(
+            format!("{key}.type"),
+            format!("unknown light type `{other}` (expected \"point\" or \"directional\"; the environment is [environment])"),
+        )),
+    }
+}
+
+/// `[environment]`, loaded, given exactly when the `environment` effect is asked for.
+fn parse_environment(
+    cx: &Ctx,
+    raw: Option<&RawEnvironment>,
+    effects: &Effects,
+) -> Result<Option<Environment>, SceneError> {
+    let environment = match raw {
+        None => None,
+        Some(e) => Some(load_environment(cx, e)?),
+    };
+    if effects.environment && environment.is_none() {
+        return Err(cx.invalid(
+            "effects",
+            "`environment` is requested but the scene has no [environment]",
+        ));
+    }
+    if !effects.environment && environment.is_some() {
+        return Err(cx.invalid(
+            "environment",
+            "is declared but `environment` is not in `effects`: add it, or remove [environment]",
+        ));
+    }
+    Ok(environment)
 }
 
 fn load_material(cx: &Ctx, key: &str, m: &RawMaterial) -> Result<SceneMaterial, SceneError> {

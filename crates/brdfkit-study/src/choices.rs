@@ -259,79 +259,148 @@ fn built(m: Result<CookTorrance, ModelError>, what: &str) -> Result<CookTorrance
     })
 }
 
-/// Every Cook-Torrance variant against its reference.
+/// Every Cook-Torrance variant against its reference: the Fresnel approximations on
+/// gold, the Beckmann G1 forms and the Smith masking forms, and float32 evaluation.
 pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<VariantRow>, StudyError> {
-    let spec = |n: &str| SynthSpec::read(cfg.specs_dir.join(format!("{n}.toml")));
-    let gold = spec("gold-ggx")?;
-    let copper = spec("copper-beckmann")?;
-    let cells = |s: &SynthSpec| -> Result<FitData, StudyError> {
-        let t = s.synthesize()?;
-        FitData::from_table(&t).map_err(|source| StudyError::Fit {
-            what: s.name.clone(),
-            source,
-        })
+    let gold = VariantMaterial::read(cfg, "gold-ggx")?;
+    let copper = VariantMaterial::read(cfg, "copper-beckmann")?;
+    let mut rows = Rows {
+        cfg,
+        progress,
+        rows: Vec::new(),
     };
-    let gold_cells = cells(&gold)?;
-    let copper_cells = cells(&copper)?;
-    let gold_ct = cook_torrance(&gold)?;
-    let copper_ct = cook_torrance(&copper)?;
-    let mut rows = Vec::new();
-    let mut push = |choice: &str,
-                    material: &str,
-                    data: &FitData,
-                    (rn, r): (&str, &dyn Model),
-                    (vn, v): (&str, &dyn Model)| {
+    fresnel_variants(&mut rows, &gold)?;
+    // Beckmann G1: Walter's rational form vs the exact erf form.
+    let cexact = copper.ct.clone().with_beckmann_g1(BeckmannG1::Exact);
+    let crational = copper.ct.clone().with_beckmann_g1(BeckmannG1::Rational);
+    rows.push(
+        "beckmann-g1",
+        &copper,
+        ("exact (erf)", &cexact),
+        ("rational (Walter 2007)", &crational),
+    );
+    // Smith: separable vs height-correlated (the reference), GGX and Beckmann.
+    let gcor = gold.ct.clone().with_masking(Masking::SmithCorrelated);
+    let gsep = gold.ct.clone().with_masking(Masking::SmithSeparable);
+    rows.push(
+        "smith",
+        &gold,
+        ("height-correlated", &gcor),
+        ("separable", &gsep),
+    );
+    let csep = copper.ct.clone().with_masking(Masking::SmithSeparable);
+    rows.push(
+        "smith",
+        &copper,
+        ("height-correlated", &cexact),
+        ("separable", &csep),
+    );
+    // Precision: on gold and on the near-mirror silver (the steepest D).
+    let mut rows = rows.rows;
+    for name in ["gold-ggx", "near-mirror-silver"] {
+        rows.push(precision_variant(cfg, name, progress)?);
+    }
+    Ok(rows)
+}
+
+/// A material of the variant comparisons: its spec's name, its cells and its
+/// Cook-Torrance model.
+struct VariantMaterial {
+    name: String,
+    cells: FitData,
+    ct: CookTorrance,
+}
+
+/// The spec `name` of `cfg.specs_dir`, synthesised into its cells.
+fn spec_cells(cfg: &StudyConfig, name: &str) -> Result<(SynthSpec, FitData), StudyError> {
+    let s = SynthSpec::read(cfg.specs_dir.join(format!("{name}.toml")))?;
+    let t = s.synthesize()?;
+    let cells = FitData::from_table(&t).map_err(|source| StudyError::Fit {
+        what: s.name.clone(),
+        source,
+    })?;
+    Ok((s, cells))
+}
+
+impl VariantMaterial {
+    fn read(cfg: &StudyConfig, name: &str) -> Result<VariantMaterial, StudyError> {
+        let (s, cells) = spec_cells(cfg, name)?;
+        Ok(VariantMaterial {
+            name: name.to_string(),
+            ct: cook_torrance(&s)?,
+            cells,
+        })
+    }
+}
+
+/// The rows measured so far, and what measuring one needs.
+struct Rows<'a> {
+    cfg: &'a StudyConfig,
+    progress: &'a dyn Fn(&str),
+    rows: Vec<VariantRow>,
+}
+
+impl Rows<'_> {
+    /// Measures variant `v` against reference `r` on `mat`'s cells: the error it
+    /// introduces and both evaluation times.
+    fn push(
+        &mut self,
+        choice: &str,
+        mat: &VariantMaterial,
+        (rn, r): (&str, &dyn Model),
+        (vn, v): (&str, &dyn Model),
+    ) {
+        let data = &mat.cells;
         let g = data.geometry();
         let err = compare(data, &eval_model(r, g), &eval_model(v, g));
         let row = VariantRow {
             choice: choice.into(),
-            material: material.into(),
+            material: mat.name.clone(),
             reference: rn.into(),
             variant: vn.into(),
             err,
-            ns_reference: time_model(cfg.reps, r, g),
-            ns_variant: time_model(cfg.reps, v, g),
+            ns_reference: time_model(self.cfg.reps, r, g),
+            ns_variant: time_model(self.cfg.reps, v, g),
         };
-        progress(&format!(
+        (self.progress)(&format!(
             "variant {choice} {vn} vs {rn}: max rel {:.2e}, cbrt {:.2e}, {:.1} vs {:.1} ns",
             row.err.rel_max, row.err.cbrt_rms, row.ns_variant, row.ns_reference
         ));
-        rows.push(row);
-    };
+        self.rows.push(row);
+    }
+}
 
-    // Fresnel: Schlick with f0 = the conductor's normal-incidence reflectance, and with
-    // f0 fitted (cbrt loss, everything else held) to the conductor's values.
-    let Fresnel::Conductor { eta, k } = gold_ct.fresnel() else {
+/// Fresnel: Schlick with f0 = the conductor's normal-incidence reflectance, and with
+/// f0 fitted (cbrt loss, everything else held) to the conductor's values.
+fn fresnel_variants(rows: &mut Rows, gold: &VariantMaterial) -> Result<(), StudyError> {
+    let Fresnel::Conductor { eta, k } = gold.ct.fresnel() else {
         return Err(StudyError::Model {
-            what: "gold-ggx".into(),
+            what: gold.name.clone(),
             msg: "expected an exact conductor Fresnel".into(),
         });
     };
     let f0c = |c: usize| brdfkit_core::scattering::fresnel::conductor(1.0, eta[c], k[c]);
     let f0 = Rgb::new(f0c(0), f0c(1), f0c(2));
-    let reference = gold_ct.clone();
+    let reference = gold.ct.clone();
     let schlick = built(
-        gold_ct.clone().with_fresnel(Fresnel::Schlick { f0 }),
+        gold.ct.clone().with_fresnel(Fresnel::Schlick { f0 }),
         "schlick",
     )?;
-    push(
+    rows.push(
         "fresnel",
-        "gold-ggx",
-        &gold_cells,
+        gold,
         ("conductor (exact)", &reference),
         ("Schlick, f0 = F(0°)", &schlick),
     );
+    let fit_err = |source| StudyError::Fit {
+        what: "schlick f0 fit".into(),
+        source,
+    };
     let fc = FitConfig::default()
         .fix_params(["rho_d", "rho_s", "alpha"])
         .warm_up(None)
-        .map_err(|source| StudyError::Fit {
-            what: "schlick f0 fit".into(),
-            source,
-        })?;
-    let fitted = fit(&schlick, &gold_cells, &fc, None).map_err(|source| StudyError::Fit {
-        what: "schlick f0 fit".into(),
-        source,
-    })?;
+        .map_err(fit_err)?;
+    let fitted = fit(&schlick, &gold.cells, &fc, None).map_err(fit_err)?;
     let fitted = fitted
         .fitted
         .shared()
@@ -340,80 +409,53 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<Varian
             what: "schlick f0 fit".into(),
             msg: "expected a shared fit".into(),
         })?;
-    push(
+    rows.push(
         "fresnel",
-        "gold-ggx",
-        &gold_cells,
+        gold,
         ("conductor (exact)", &reference),
         ("Schlick, f0 fitted (cbrt)", fitted.as_ref()),
     );
+    Ok(())
+}
 
-    // Beckmann G1: Walter's rational form vs the exact erf form.
-    let cexact = copper_ct.clone().with_beckmann_g1(BeckmannG1::Exact);
-    let crational = copper_ct.clone().with_beckmann_g1(BeckmannG1::Rational);
-    push(
-        "beckmann-g1",
-        "copper-beckmann",
-        &copper_cells,
-        ("exact (erf)", &cexact),
-        ("rational (Walter 2007)", &crational),
-    );
-    // Smith: separable vs height-correlated (the reference), GGX and Beckmann.
-    let gcor = gold_ct.clone().with_masking(Masking::SmithCorrelated);
-    let gsep = gold_ct.clone().with_masking(Masking::SmithSeparable);
-    push(
-        "smith",
-        "gold-ggx",
-        &gold_cells,
-        ("height-correlated", &gcor),
-        ("separable", &gsep),
-    );
-    let csep = copper_ct.clone().with_masking(Masking::SmithSeparable);
-    push(
-        "smith",
-        "copper-beckmann",
-        &copper_cells,
-        ("height-correlated", &cexact),
-        ("separable", &csep),
-    );
-
-    // Precision: the model's float32 path against its f64 path, on gold and on the
-    // near-mirror silver (the steepest D).
-    for name in ["gold-ggx", "near-mirror-silver"] {
-        let s = spec(name)?;
-        let data = cells(&s)?;
-        let m = &s.material;
-        let g = data.geometry();
-        let reference = eval_model(m.as_ref(), g);
-        let ns_ref = time_model(cfg.reps, m.as_ref(), g);
-        let g32 = GeometryBatchF32::from_slice(&g.as_slice());
-        let s32 = g32.as_slice();
-        let n = g.len();
-        let mut o32 = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
-        let t32 = pool(1).install(|| {
-            time_min(cfg.reps, || {
-                let [r, gg, b] = &mut o32;
-                eval_batch_f32_par(m.as_ref(), &s32, [r, gg, b]);
-                black_box(&o32);
-            })
-        });
-        let v32: Vec<Rgb> = (0..n)
-            .map(|i| Rgb::new(o32[0][i] as f64, o32[1][i] as f64, o32[2][i] as f64))
-            .collect();
-        let row = VariantRow {
-            choice: "precision".into(),
-            material: name.into(),
-            reference: "f64 (eval_batch)".into(),
-            variant: "f32 (eval_batch_f32)".into(),
-            err: compare(&data, &reference, &v32),
-            ns_reference: ns_ref,
-            ns_variant: t32 / n as f64 * 1e9,
-        };
-        progress(&format!(
-            "variant precision {name} f32: max rel {:.2e}, {:.1} vs {:.1} ns",
-            row.err.rel_max, row.ns_variant, row.ns_reference
-        ));
-        rows.push(row);
-    }
-    Ok(rows)
+/// The model's float32 path (`eval_batch_f32`, one thread) against its f64 path on the
+/// material `name`: the error float32 introduces and the time it saves.
+fn precision_variant(
+    cfg: &StudyConfig,
+    name: &str,
+    progress: &dyn Fn(&str),
+) -> Result<VariantRow, StudyError> {
+    let (s, data) = spec_cells(cfg, name)?;
+    let m = &s.material;
+    let g = data.geometry();
+    let reference = eval_model(m.as_ref(), g);
+    let ns_ref = time_model(cfg.reps, m.as_ref(), g);
+    let g32 = GeometryBatchF32::from_slice(&g.as_slice());
+    let s32 = g32.as_slice();
+    let n = g.len();
+    let mut o32 = [vec![0f32; n], vec![0f32; n], vec![0f32; n]];
+    let t32 = pool(1).install(|| {
+        time_min(cfg.reps, || {
+            let [r, gg, b] = &mut o32;
+            eval_batch_f32_par(m.as_ref(), &s32, [r, gg, b]);
+            black_box(&o32);
+        })
+    });
+    let v32: Vec<Rgb> = (0..n)
+        .map(|i| Rgb::new(o32[0][i] as f64, o32[1][i] as f64, o32[2][i] as f64))
+        .collect();
+    let row = VariantRow {
+        choice: "precision".into(),
+        material: name.into(),
+        reference: "f64 (eval_batch)".into(),
+        variant: "f32 (eval_batch_f32)".into(),
+        err: compare(&data, &reference, &v32),
+        ns_reference: ns_ref,
+        ns_variant: t32 / n as f64 * 1e9,
+    };
+    progress(&format!(
+        "variant precision {name} f32: max rel {:.2e}, {:.1} vs {:.1} ns",
+        row.err.rel_max, row.ns_variant, row.ns_reference
+    ));
+    Ok(row)
 }

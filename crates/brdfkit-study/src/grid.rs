@@ -460,22 +460,37 @@ pub struct Reference {
 
 /// Whether a reference fit's model is the grid's model family: same family and, for
 /// every structural choice of the grid's start (a string parameter such as
-/// `distribution`), the same choice (a string, or an object keyed by it such as
-/// `{"schlick": {"f0": …}}`).
+/// `distribution`, or an object keyed by the choice such as `{"schlick": {"f0": …}}`),
+/// the same choice. The fitted model is read back through the registry first, so a
+/// choice it leaves out counts as the registry's default, as it does when it is fitted.
 fn same_structure(start: &serde_json::Value, fitted: &serde_json::Value) -> bool {
     if start["model"] != fitted["model"] {
         return false;
     }
+    let Ok(fitted) = brdfkit_models::from_json(fitted).map(|m| m.to_json()) else {
+        return false;
+    };
     let Some(params) = start["params"].as_object() else {
         return false;
     };
-    params.iter().all(|(k, v)| match v.as_str() {
+    params.iter().all(|(k, v)| match choice(v) {
         None => true,
-        Some(choice) => {
-            let f = &fitted["params"][k];
-            f.as_str() == Some(choice) || f.get(choice).is_some()
-        }
+        Some(c) => choice(&fitted["params"][k]) == Some(c),
     })
+}
+
+/// The structural choice a parameter value names: a string, or the one key of an object
+/// whose value is an object (`{"schlick": {"f0": …}}`); None for a number or an array.
+fn choice(v: &serde_json::Value) -> Option<&str> {
+    match v {
+        serde_json::Value::String(s) => Some(s),
+        serde_json::Value::Object(o) if o.len() == 1 => o
+            .iter()
+            .next()
+            .filter(|(_, b)| b.is_object())
+            .map(|(k, _)| k.as_str()),
+        _ => None,
+    }
 }
 
 /// The reference fits of `path` that apply to the grid of `cfg`: cbrt loss, solid-angle

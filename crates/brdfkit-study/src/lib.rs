@@ -15,8 +15,9 @@
 //!   (`Model::eval_batch_f32` against `Model::eval_batch`): error introduced against
 //!   time saved;
 //! - [`scale`]: fit time against the number of cells, the number of parameters (sums of
-//!   a Lambertian and 1–3 Cook-Torrance lobes) and threads, the throughput of 20 fits,
-//!   and the peak resident memory of a full-table fit (a child process).
+//!   a Lambertian and 1–3 Cook-Torrance lobes) and threads, and the throughput of 20
+//!   fits, all in-process (the whole-process wall time and peak memory of `fit-brdf`
+//!   are benchmarks: `benches/peers/process_memory.py`).
 //!
 //! A fourth part, [`measured`], reads a whole-database `fit-brdf batch --nbrdf` run of
 //! the measured-material proxies and writes `docs/measured.md`'s ranking of every model
@@ -39,6 +40,7 @@ pub mod measured;
 pub mod plot;
 pub mod scale;
 
+use brdfkit_core::Model as _;
 use brdfkit_fit::SolverKind;
 use brdfkit_fit::synth::SynthSpec;
 use serde::{Deserialize, Serialize};
@@ -127,23 +129,39 @@ pub struct ModelChoice {
 }
 
 impl ModelChoice {
-    /// The families of the study: Cook-Torrance (GGX, separable Smith, Schlick),
-    /// Ward (Dür), plausible Phong and Lambert, each from its default start.
+    /// The family `label` of the models crate's registry at its default start (the
+    /// registry's structural choices and start values, written out in full so that
+    /// [`grid::read_references`] can match reference fits by structure), except that
+    /// Ward takes Dür's normalisation, the form the study compares. None for a name the
+    /// registry does not know and for the sum, which has no start without its terms.
     pub fn by_label(label: &str) -> Option<ModelChoice> {
-        let start = match label {
-            "cook-torrance" => serde_json::json!({"model": "cook-torrance",
-                "params": {"distribution": "ggx", "masking": "smith-separable", "fresnel": "schlick"}}),
-            "ward" => serde_json::json!({"model": "ward", "params": {"normalization": "duer"}}),
-            "plausible-phong" => serde_json::json!({"model": "plausible-phong", "params": {}}),
-            "lambert" => serde_json::json!({"model": "lambert", "params": {}}),
-            "blinn-phong" => serde_json::json!({"model": "blinn-phong", "params": {}}),
-            "lafortune" => serde_json::json!({"model": "lafortune", "params": {}}),
-            _ => return None,
+        let model = brdfkit_models::default_model(label).ok()?;
+        if model.name() == brdfkit_models::sum::Sum::default().name() {
+            return None;
+        }
+        let start = if model.name() == brdfkit_models::ward::Ward::default().name() {
+            brdfkit_models::ward::Ward::default()
+                .with_normalization(brdfkit_models::ward::Normalization::Duer)
+                .to_json()
+        } else {
+            model.to_json()
         };
         Some(ModelChoice {
             label: label.to_string(),
             start,
         })
+    }
+
+    /// The family of model type `M`, named by the type rather than by a string, so that
+    /// the study's defaults follow the registry's names.
+    pub fn of<M: brdfkit_core::Model + Default>() -> ModelChoice {
+        ModelChoice::by_label(M::default().name()).expect("the registry knows its own family")
+    }
+
+    /// The study's first family, Cook-Torrance (GGX, separable Smith, Schlick: the
+    /// registry's default start), which the scaling figures fit.
+    pub fn default_family() -> ModelChoice {
+        ModelChoice::of::<brdfkit_models::cook_torrance::CookTorrance>()
     }
 }
 
@@ -203,8 +221,6 @@ pub struct StudyConfig {
     pub reps: usize,
     /// Tables of the batch-throughput figure.
     pub batch_tables: usize,
-    /// The `fit-brdf` executable, for the peak-memory child process (None: skipped).
-    pub fit_exe: Option<PathBuf>,
     /// Label of the grid in the report (`full`, `quick`, `custom`).
     pub grid_name: String,
     /// The fit grid leaves out cells whose θi or θo exceeds this angle (degrees;
@@ -256,10 +272,11 @@ impl StudyConfig {
             measured: DEFAULT_MEASURED.iter().map(|s| s.to_string()).collect(),
             measured_dir: default_measured_dir(),
             measured_dims: default_measured_dims(),
-            models: ["cook-torrance", "ward", "plausible-phong"]
-                .iter()
-                .map(|m| ModelChoice::by_label(m).expect("a known label"))
-                .collect(),
+            models: vec![
+                ModelChoice::default_family(),
+                ModelChoice::of::<brdfkit_models::ward::Ward>(),
+                ModelChoice::of::<brdfkit_models::plausible_phong::PlausiblePhong>(),
+            ],
             solvers: SolverKind::ALL.to_vec(),
             fractions: vec![0.005, 0.02, 0.1, 0.5, 1.0],
             starts: vec![1, 4, 16],
@@ -274,7 +291,6 @@ impl StudyConfig {
             lookup_pairs: 1_000_000,
             reps: 5,
             batch_tables: 20,
-            fit_exe: None,
             grid_name: "full".into(),
             theta_max_deg: None,
         }
@@ -287,7 +303,7 @@ impl StudyConfig {
         StudyConfig {
             materials: vec!["demo-plastic".into(), "gold-ggx".into()],
             measured: vec!["gold-paint".into()],
-            models: vec![ModelChoice::by_label("cook-torrance").expect("known")],
+            models: vec![ModelChoice::default_family()],
             solvers: vec![SolverKind::Lm, SolverKind::Lbfgs, SolverKind::NelderMead],
             fractions: vec![0.02, 1.0],
             starts: vec![1, 4],
@@ -575,4 +591,33 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
     files::write_json(&cfg.out.join("results.json"), &res)?;
     markdown::write_all(&info.config, &info, &res, progress)?;
     Ok(res)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The starts the study wrote out by hand before it asked the registry: the same
+    /// models, parameter for parameter.
+    #[test]
+    fn registry_starts_are_the_hand_written_ones() {
+        let by_hand = [
+            serde_json::json!({"model": "cook-torrance", "params": {"distribution": "ggx",
+                "masking": "smith-separable", "fresnel": "schlick"}}),
+            serde_json::json!({"model": "ward", "params": {"normalization": "duer"}}),
+            serde_json::json!({"model": "plausible-phong", "params": {}}),
+            serde_json::json!({"model": "lambert", "params": {}}),
+            serde_json::json!({"model": "blinn-phong", "params": {}}),
+            serde_json::json!({"model": "lafortune", "params": {}}),
+        ];
+        for old in by_hand {
+            let label = old["model"].as_str().unwrap();
+            let new = ModelChoice::by_label(label).unwrap().start;
+            let want = brdfkit_models::from_json(&old).unwrap().to_json();
+            assert_eq!(brdfkit_models::from_json(&new).unwrap().to_json(), want);
+        }
+        assert_eq!(ModelChoice::default_family().label, "cook-torrance");
+        assert!(ModelChoice::by_label("sum").is_none());
+        assert!(ModelChoice::by_label("no-such-family").is_none());
+    }
 }

@@ -112,7 +112,7 @@ impl LossesConfig {
             proxies: proxies.into(),
             categories: categories.into(),
             materials: DEFAULT_MATERIALS.iter().map(|s| s.to_string()).collect(),
-            models: vec!["cook-torrance".into()],
+            models: vec![crate::ModelChoice::default_family().label],
             starts: 8,
             dims: Dims::MERL,
             render: RenderOptions::default(),

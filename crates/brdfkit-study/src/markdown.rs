@@ -585,21 +585,10 @@ fn scale_section(res: &StudyResults) -> String {
         );
     }
     s.push_str(
-        "\n| child process (`fit-brdf …`) | peak RSS | wall | exit |\n|---|---:|---:|---:|\n",
+        "\nWhole-process figures (wall time and peak RSS of `fit-brdf batch`, `info` and \
+         `fit` on these tables) are benchmarks: docs/performance.md, \"Whole-process time \
+         and peak memory\" (`benches/peers/process_memory.py`).\n",
     );
-    for m in &sc.memory {
-        let _ = writeln!(
-            s,
-            "| `{}` | {:.0} MB | {} | {} |",
-            m.command,
-            m.peak_rss_mb,
-            secs(m.wall_s),
-            m.status
-        );
-    }
-    if sc.memory.is_empty() {
-        s.push_str("| (no `fit-brdf` executable given: not measured) | | | |\n");
-    }
     s
 }
 

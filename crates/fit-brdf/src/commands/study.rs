@@ -83,7 +83,6 @@ pub fn config(a: &StudyArgs) -> CliResult<StudyConfig> {
     if custom {
         c.grid_name = format!("custom ({})", c.grid_name);
     }
-    c.fit_exe = std::env::current_exe().ok();
     c.validate().map_err(|e| bad_msg(e.to_string()))?;
     Ok(c)
 }
