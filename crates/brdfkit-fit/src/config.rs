@@ -3,7 +3,7 @@
 use crate::data::FitData;
 use crate::error::FitError;
 use crate::lm::Tolerances;
-use crate::loss::{Loss, RobustKind, Weighting};
+use crate::loss::{Loss, LossSet, RobustKind, Weighting};
 use brdfkit_core::Model;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -161,6 +161,14 @@ pub struct FitConfig {
     pub(crate) albedo_max: Option<f64>,
     pub(crate) full_iters: FullIters,
     pub(crate) explore_cells: Option<usize>,
+    /// Absent from serialised configs at the library's default, all eight (configs
+    /// written before the setting existed hash the same).
+    #[serde(skip_serializing_if = "is_all")]
+    pub(crate) losses: LossSet,
+}
+
+fn is_all(l: &LossSet) -> bool {
+    *l == LossSet::All
 }
 
 impl Default for FitConfig {
@@ -190,6 +198,7 @@ impl Default for FitConfig {
             albedo_max: None,
             full_iters: FullIters::All,
             explore_cells: None,
+            losses: LossSet::All,
         }
     }
 }
@@ -593,6 +602,30 @@ impl FitConfig {
         c.clone().explore_cells(self.explore_cells)?;
         c.warm_up(self.warm_up)?;
         Ok(())
+    }
+
+    /// Which losses the fit's report computes: all eight (the library's default, as
+    /// before the setting existed) or brdfkit's own four (the command line's default,
+    /// `--losses own`: the published metrics cost a third of the report's pass) (see [`LossSet`]; a published metric that
+    /// is the optimised loss is always reported).
+    pub fn report_losses(mut self, set: LossSet) -> Self {
+        self.losses = set;
+        self
+    }
+
+    /// The losses the report computes, as asked ([`report_losses`](Self::report_losses)).
+    pub fn get_report_losses(&self) -> LossSet {
+        self.losses
+    }
+
+    /// The losses the report computes: as asked, and all eight when the optimised
+    /// loss is a published metric.
+    pub fn reported_losses(&self) -> LossSet {
+        if Loss::PUBLISHED.contains(&self.loss) {
+            LossSet::All
+        } else {
+            self.losses
+        }
     }
 
     /// The loss.

@@ -62,6 +62,8 @@ pub struct FitData {
     theta_d: OnceLock<Vec<f64>>,
     /// Subsamples already drawn from these cells ([`FitData::shared_subsample`]).
     subsets: SubsetCache,
+    /// ∛(f cos θi) per channel ([`FitData::cbrt_targets`]).
+    cbrt_targets: OnceLock<[Vec<f64>; 3]>,
 }
 
 /// The stratified subsamples drawn from a cell set, by (fraction, seed): the warm-up
@@ -121,6 +123,7 @@ impl FitData {
             theta_h: OnceLock::new(),
             theta_d: OnceLock::new(),
             subsets: SubsetCache::default(),
+            cbrt_targets: OnceLock::new(),
         }
     }
 
@@ -269,8 +272,8 @@ impl FitData {
                 });
             v
         };
-        for c in 0..3 {
-            out.values[c] = vals.iter().map(|v| v[c]).collect();
+        for (c, v) in out.values_mut().iter_mut().enumerate() {
+            *v = vals.iter().map(|x| x[c]).collect();
         }
         out
     }
@@ -299,6 +302,7 @@ impl FitData {
     /// finite and non-negative.
     pub fn values_mut(&mut self) -> &mut [Vec<f64>; 3] {
         self.subsets = SubsetCache::default();
+        self.cbrt_targets = OnceLock::new();
         &mut self.values
     }
 
@@ -340,6 +344,24 @@ impl FitData {
                 .par_iter()
                 .map(|&z| acos_clamped(z))
                 .collect()
+        })
+    }
+
+    /// The cube-root targets ∛(f cos θi) of each channel, the measured side of the
+    /// `cbrt` loss ([`crate::Loss::Cbrt`]): built on first call (a pass of 3 cube roots
+    /// a cell, 24 bytes a cell kept) and then shared by every loss report on these
+    /// cells, so the families of a batch, a report or `fit --model a,b,c` pay the roots
+    /// once per table. The same expression as the report's, so the same bits.
+    pub fn cbrt_targets(&self) -> &[Vec<f64>; 3] {
+        self.cbrt_targets.get_or_init(|| {
+            let ci = &self.geometry.wi_z;
+            [0, 1, 2].map(|c| {
+                self.values[c]
+                    .par_iter()
+                    .zip(ci.par_iter())
+                    .map(|(f, c)| crate::loss::cbrt(f * c))
+                    .collect()
+            })
         })
     }
 
@@ -404,6 +426,10 @@ impl FitData {
             + opt(self.ones.get())
             + opt(self.theta_h.get())
             + opt(self.theta_d.get())
+            + self
+                .cbrt_targets
+                .get()
+                .map_or(0, |t| 3 * t[0].capacity() * f)
             + self
                 .subsets
                 .0

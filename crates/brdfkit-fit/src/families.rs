@@ -505,6 +505,8 @@ pub struct Outcome {
     pub params: Value,
     /// The fit record.
     pub record: FitRecord,
+    /// Where the fit's time went ([`crate::FitResult::stages`]).
+    pub stages: crate::StageTimes,
 }
 
 impl Outcome {
@@ -571,6 +573,7 @@ pub fn fit_each(
                     label: f.label.clone(),
                     params: r.fitted.to_json(),
                     record: r.record,
+                    stages: r.stages,
                 };
                 obs.on_family_done(k, fams.len(), Some(&o));
                 out.push(o);
@@ -585,6 +588,31 @@ pub fn fit_each(
         }
     }
     Ok(out)
+}
+
+/// The table of `fit --stage-times`: the table's own stages (`per_table`, e.g. read
+/// and cells, paid once whatever the families), then one row per family with the
+/// fit's stages ([`crate::StageTimes`]) and its whole `fit` call, in milliseconds.
+pub fn stage_times_text(per_table: &[(&str, f64)], outcomes: &[Outcome]) -> String {
+    let ms = |s: f64| format!("{:.1}", 1e3 * s);
+    let mut t = per_table
+        .iter()
+        .map(|(n, s)| format!("{n} {} ms", ms(*s)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    t += "\nmodel";
+    for (n, _) in crate::StageTimes::default().stages() {
+        t += &format!("\t{n}");
+    }
+    t += "\tfit (wall_time_s)\n";
+    for o in outcomes {
+        t += &o.label;
+        for (_, s) in o.stages.stages() {
+            t += &format!("\t{}", ms(s));
+        }
+        t += &format!("\t{}\n", ms(o.record.wall_time_s));
+    }
+    t
 }
 
 /// The comparison table: every loss on the full table, time, iterations by stage

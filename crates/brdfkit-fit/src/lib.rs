@@ -68,9 +68,9 @@ pub use error::FitError;
 pub use fit::{FitResult, StageTimes, fit, fit_table, resolve_free};
 pub use fitted::Fitted;
 pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
-pub use loss::{ChannelLoss, Loss, LossReport, Robust, RobustKind, Weighting};
+pub use loss::{ChannelLoss, Loss, LossReport, LossSet, Robust, RobustKind, Weighting};
 pub use observer::{FitObserver, FitPlan, IterEvent, OnIter, StartDone};
-pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses};
+pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses, evaluate_losses_of};
 pub use record::{
     FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,
 };

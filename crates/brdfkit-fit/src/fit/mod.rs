@@ -17,7 +17,7 @@ use crate::error::FitError;
 use crate::fitted::Fitted;
 use crate::loss::LossReport;
 use crate::observer::{FitObserver, FitPlan, StartDone};
-use crate::problem::evaluate_losses;
+use crate::problem::evaluate_losses_of;
 use crate::record::{FitRecord, PassSummary, RecordParts};
 use brdfkit_core::{Model, ParamRole};
 use brdfkit_merl::MerlTable;
@@ -208,11 +208,12 @@ fn loss_reports(
     config: &FitConfig,
 ) -> (LossReport, LossReport) {
     let ms = fitted.channel_models();
-    let losses_fit = evaluate_losses(ms, cells.fitset(), config.weighting);
+    let (w, set) = (config.weighting, config.reported_losses());
+    let losses_fit = evaluate_losses_of(ms, cells.fitset(), w, set);
     let losses_full = if cells.fits_all() {
         losses_fit
     } else {
-        evaluate_losses(ms, &cells.full, config.weighting)
+        evaluate_losses_of(ms, &cells.full, w, set)
     };
     (losses_fit, losses_full)
 }
