@@ -565,6 +565,11 @@ pub fn fit_each(
     obs: &dyn FamilyObserver,
 ) -> Result<Vec<Outcome>, FamilyFitError> {
     let mut out = Vec::with_capacity(fams.len());
+    // The model-independent preparation, once for all families (a failure here is
+    // the first family's to report).
+    if fams.len() > 1 {
+        let _ = crate::prepare(data, cfg);
+    }
     for (k, f) in fams.iter().enumerate() {
         let inner = obs.on_family_start(k, fams.len(), f);
         match fit(&*f.model, data, cfg, inner) {

@@ -65,7 +65,7 @@ pub mod target;
 pub use config::{CellFilter, FitConfig, FullIters, Sharing, SolverKind};
 pub use data::FitData;
 pub use error::FitError;
-pub use fit::{FitResult, StageTimes, fit, fit_table, resolve_free};
+pub use fit::{FitResult, StageTimes, fit, fit_table, prepare, resolve_free};
 pub use fitted::Fitted;
 pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
 pub use loss::{ChannelLoss, Loss, LossReport, LossSet, Robust, RobustKind, Weighting};

@@ -113,3 +113,69 @@ fn explore_cells(config: &FitConfig, warm_cells: Option<usize>, ranked: bool) ->
             Some(e) => (e < w).then_some(e),
         })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdfkit_merl::{Dims, MerlTable};
+
+    /// A 60 × 60 × 120 table of a Lambertian surface: 250,000-odd valid cells.
+    fn data() -> FitData {
+        let m = brdfkit_models::default_model("lambert").unwrap();
+        let t = MerlTable::from_brdf(m.as_ref(), Dims::new(60, 60, 120).unwrap()).unwrap();
+        FitData::from_table(&t).unwrap()
+    }
+
+    #[test]
+    fn the_sets_follow_the_rules_and_are_drawn_once() {
+        let d = data();
+        let cfg = FitConfig::default()
+            .starts(8)
+            .unwrap()
+            .warm_up(Some(16_384))
+            .unwrap();
+        let a = Cells::of(&d, &cfg).unwrap();
+        let s = a.sets();
+        assert!(s.ranked, "8 starts, 1 finisher, a warm-up: ranked");
+        let w = s.warm.expect("a warm-up set");
+        assert!((w.len() as f64 - 16_384.0).abs() < 300.0, "{}", w.len());
+        // An eighth of 16,384 is under EXPLORE_MIN_CELLS: the warm-up set explores.
+        assert!(s.explore.is_none());
+        assert!(
+            std::ptr::eq(s.fit, &d),
+            "no cutoff, no subsample: the data itself"
+        );
+        // A second fit (another family) gets the same draw, not a new one.
+        let b = Cells::of(&d, &cfg).unwrap();
+        assert!(std::ptr::eq(b.sets().warm.unwrap(), w));
+        // The draw is the plain stratified subsample, bit for bit.
+        let again = d.stratified_subsample(16_384.0 / d.len() as f64, WARM_UP_SEED);
+        assert_eq!(again.values(), w.values());
+        assert_eq!(again.multiplicity(), w.multiplicity());
+    }
+
+    #[test]
+    fn one_start_or_one_finisher_per_start_is_not_ranked() {
+        let d = data();
+        let cfg = FitConfig::default().warm_up(Some(16_384)).unwrap();
+        assert!(!Cells::of(&d, &cfg).unwrap().sets().ranked);
+        let cfg = cfg.starts(4).unwrap().finish(4).unwrap();
+        let c = Cells::of(&d, &cfg).unwrap();
+        assert!(!c.sets().ranked && c.sets().warm.is_some());
+        let big = FitConfig::default().warm_up(Some(1 << 20)).unwrap();
+        assert!(
+            Cells::of(&d, &big).unwrap().sets().warm.is_none(),
+            "too few cells"
+        );
+    }
+
+    #[test]
+    fn the_exploration_set_is_an_eighth_unless_given() {
+        let cfg = FitConfig::default();
+        assert_eq!(explore_cells(&cfg, Some(65_536), true), Some(8_192));
+        assert_eq!(explore_cells(&cfg, Some(16_384), true), None);
+        assert_eq!(explore_cells(&cfg, Some(65_536), false), None);
+        let given = cfg.explore_cells(Some(1024)).unwrap();
+        assert_eq!(explore_cells(&given, Some(65_536), true), Some(1024));
+    }
+}

@@ -11,7 +11,7 @@ mod timing;
 
 pub use timing::StageTimes;
 
-use crate::config::{FitConfig, Sharing};
+use crate::config::{CellFilter, FitConfig, Sharing};
 use crate::data::FitData;
 use crate::error::FitError;
 use crate::fitted::Fitted;
@@ -182,6 +182,23 @@ pub fn fit(
         record,
         stages: times,
     })
+}
+
+/// Builds what every fit of `data` under `config` shares whatever the model: the
+/// warm-up and exploration subsamples and the cube-root targets of the loss report
+/// (see `docs/fitting.md`, "The fit's rooms"). [`fit`] builds them on first use
+/// anyway; calling this first (as [`crate::families::fit_each`] does) pays them once
+/// per table, outside every family's `wall_time_s`. Errors are the ones `fit` would
+/// give (no cell within the cutoffs).
+pub fn prepare(data: &FitData, config: &FitConfig) -> Result<(), FitError> {
+    // Cells behind an angular cutoff are a copy each fit makes: nothing of it is kept.
+    if !CellFilter::of(config).keeps_all() {
+        return Ok(());
+    }
+    let cells = Cells::of(data, config)?;
+    cells.fitset().cbrt_targets();
+    data.cbrt_targets();
+    Ok(())
 }
 
 /// What the observer is told before the passes: ranked passes finish `finish` starts,

@@ -617,3 +617,89 @@ impl StartFacts {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::cells::Cells;
+    use super::*;
+    use brdfkit_merl::{Dims, MerlTable};
+
+    /// Lambertian cells with ρd = (0.3, 0.4, 0.5), a ranked config of 4 starts.
+    fn setup() -> (FitData, FitConfig) {
+        let truth = brdfkit_models::from_json(&serde_json::json!(
+            {"model": "lambert", "params": {"rho_d": [0.3, 0.4, 0.5]}}
+        ))
+        .unwrap();
+        let t = MerlTable::from_brdf(truth.as_ref(), Dims::new(30, 30, 60).unwrap()).unwrap();
+        let cfg = FitConfig::default()
+            .starts(4)
+            .unwrap()
+            .warm_up(Some(2000))
+            .unwrap();
+        (FitData::from_table(&t).unwrap(), cfg)
+    }
+
+    #[test]
+    fn the_stages_explore_rank_warm_up_and_finish() {
+        let (d, cfg) = setup();
+        let model = brdfkit_models::default_model("lambert").unwrap();
+        let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
+        let cells = Cells::of(&d, &cfg).unwrap();
+        let sets = cells.sets();
+        assert!(sets.ranked);
+        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
+        let explored = pass.explore();
+        assert_eq!(explored.len(), 4, "one exploration per start");
+        let costs: Vec<f64> = explored
+            .iter()
+            .map(|e| e.as_ref().unwrap().rank_cost.unwrap())
+            .collect();
+        let (finishers, rank_of) = pass.rank(&explored);
+        assert_eq!(finishers.len(), 1, "the default: one finisher");
+        let best = finishers[0];
+        assert_eq!(rank_of[best], Some(0));
+        assert!(costs.iter().all(|&c| costs[best] <= c), "{costs:?}");
+        // No separate exploration set here: the warm-up stage passes the start on.
+        let warmed = pass.warm_up(&finishers, &explored);
+        assert_eq!(
+            warmed[0].as_ref().unwrap().u,
+            explored[best].as_ref().unwrap().u
+        );
+        let finished = pass.finish(&finishers, warmed, None, false);
+        let o = finished[0].1.as_ref().unwrap();
+        assert!(o.converged, "{}", o.termination);
+        assert!(
+            (2.0 * o.cost).sqrt() < 1e-6,
+            "a Lambertian table is fitted exactly"
+        );
+        let end = o.u.clone();
+        let (starts, kept) = start_records(&pass, &explored, finished, &rank_of, false).unwrap();
+        assert!(starts[best].kept && starts[best].finished);
+        assert_eq!(kept.u, end, "the kept outcome is the finisher's");
+        let out = starts.iter().find(|s| !s.finished).unwrap();
+        assert!(
+            out.termination.starts_with("not finished: ranked"),
+            "{}",
+            out.termination
+        );
+    }
+
+    #[test]
+    fn only_a_plain_single_finisher_evaluated_once_defers_its_cost() {
+        let (d, cfg) = setup();
+        let model = brdfkit_models::default_model("lambert").unwrap();
+        let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
+        let cells = Cells::of(&d, &cfg).unwrap();
+        let sets = cells.sets();
+        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
+        assert!(defers_cost(&pass, Some(0), 1));
+        assert!(!defers_cost(&pass, Some(0), 2));
+        assert!(!defers_cost(&pass, None, 1));
+        let penalised = cfg.clone().albedo_max(Some(1.0)).unwrap();
+        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &penalised, None).unwrap();
+        assert!(
+            !defers_cost(&pass, Some(0), 1),
+            "a penalty is not in the report"
+        );
+    }
+}
