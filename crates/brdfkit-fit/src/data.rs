@@ -365,6 +365,12 @@ impl FitData {
         })
     }
 
+    /// The cube-root targets if [`cbrt_targets`](Self::cbrt_targets) has built them
+    /// (a single fit does not: it would keep 24 bytes a cell for one report).
+    pub fn cbrt_targets_if_built(&self) -> Option<&[Vec<f64>; 3]> {
+        self.cbrt_targets.get()
+    }
+
     /// θh of cell m (the value [`theta_h`](Self::theta_h) holds, without the array).
     #[inline]
     fn theta_h_at(&self, m: usize) -> f64 {

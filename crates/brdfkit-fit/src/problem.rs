@@ -984,7 +984,8 @@ struct LossScratch {
 
 /// The losses of `set` (brdfkit's own four, or all eight) of per-channel models
 /// against a cell set, in one pass over the cells; the measured side of the cbrt loss
-/// comes from [`FitData::cbrt_targets`] (built once per cell set).
+/// comes from [`FitData::cbrt_targets`] when they are built (by [`crate::prepare`],
+/// once per table for several families), else is formed per chunk (same bits).
 pub fn evaluate_losses_of(
     models: [&dyn Model; 3],
     data: &FitData,
@@ -995,7 +996,7 @@ pub fn evaluate_losses_of(
     // Weights per chunk, not a full-length array (8 bytes a cell); the sum in cell
     // order as before.
     let wsum = data.weight_sum(weighting);
-    let roots = data.cbrt_targets();
+    let roots = data.cbrt_targets_if_built();
     let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
     let cap = PASS_CHUNK_CELLS.min(n);
     let published = set == LossSet::All;
@@ -1036,7 +1037,7 @@ pub fn evaluate_losses_of(
 fn chunk_losses(
     models: [&dyn Model; 3],
     data: &FitData,
-    roots: &[Vec<f64>; 3],
+    roots: Option<&[Vec<f64>; 3]>,
     weighting: Weighting,
     published: bool,
     r: std::ops::Range<usize>,
@@ -1081,10 +1082,20 @@ fn chunk_losses(
             let d = xm[k] - fm[k] * ci[k];
             acc[1][c] += ws[k] * d * d;
         }
-        let rt = &roots[c][r.clone()];
-        for k in 0..len {
-            let d = crate::loss::cbrt(xm[k]) - rt[k];
-            acc[2][c] += ws[k] * d * d;
+        match roots {
+            Some(roots) => {
+                let rt = &roots[c][r.clone()];
+                for k in 0..len {
+                    let d = crate::loss::cbrt(xm[k]) - rt[k];
+                    acc[2][c] += ws[k] * d * d;
+                }
+            }
+            None => {
+                for k in 0..len {
+                    let d = crate::loss::cbrt(xm[k]) - crate::loss::cbrt(fm[k] * ci[k]);
+                    acc[2][c] += ws[k] * d * d;
+                }
+            }
         }
         for k in 0..len {
             let xt = fm[k] * ci[k];
