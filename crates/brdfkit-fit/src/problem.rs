@@ -800,35 +800,8 @@ impl<'a> FitProblem<'a> {
                 },
             )
             .collect();
-        // Chunk partials added in chunk order: the same sums, to the bit, whatever the
-        // number of threads and however rayon split the work (a fold's per-split
-        // partials are grouped by work stealing, so their round-off varied from run to
-        // run, and a long fit could end elsewhere).
-        let (mut jtj_l, mut jtr, mut cost) = (vec![0.0; mdim * mdim], vec![0.0; mdim], 0.0);
-        for (a, b, c) in &parts {
-            for (x, y) in jtj_l.iter_mut().zip(a) {
-                *x += y;
-            }
-            for (x, y) in jtr.iter_mut().zip(b) {
-                *x += y;
-            }
-            cost += c;
-        }
-        // Only the lower triangle was accumulated (column lists increase in q, so
-        // qb ≤ qa): mirror it.
-        let mut jtj = DMatrix::zeros(mdim, mdim);
-        for a in 0..mdim {
-            for b in 0..mdim {
-                let v = jtj_l[a * mdim + b];
-                if v != 0.0 {
-                    jtj[(a, b)] += v;
-                    if a != b {
-                        jtj[(b, a)] += v;
-                    }
-                }
-            }
-        }
-        let mut jtr = DVector::from_vec(jtr);
+        let (mut jtj, jtr, mut cost) = sum_chunks(&parts, mdim);
+        let mut jtr = jtr;
         if let Some(pen) = &self.penalty {
             cost += pen.add_normal_eq(
                 model.as_ref(),
@@ -957,6 +930,41 @@ impl Jacobian for FitProblem<'_> {
         self.jac_evals.fetch_add(1, Ordering::Relaxed);
         Ok(self.jacobian_dense(u)?)
     }
+}
+
+/// The normal equations from per-chunk partials (JᵀJ's lower triangle row-major, Jᵀr,
+/// cost), added in chunk order: the same sums, to the bit, whatever the number of
+/// threads and however rayon split the work (a fold's per-split partials are grouped
+/// by work stealing, so their round-off varied from run to run, and a long fit could
+/// end elsewhere). Only the lower triangle was accumulated (column lists increase in
+/// q, so qb ≤ qa): it is mirrored.
+fn sum_chunks(
+    parts: &[(Vec<f64>, Vec<f64>, f64)],
+    mdim: usize,
+) -> (DMatrix<f64>, DVector<f64>, f64) {
+    let (mut jtj_l, mut jtr, mut cost) = (vec![0.0; mdim * mdim], vec![0.0; mdim], 0.0);
+    for (a, b, c) in parts {
+        for (x, y) in jtj_l.iter_mut().zip(a) {
+            *x += y;
+        }
+        for (x, y) in jtr.iter_mut().zip(b) {
+            *x += y;
+        }
+        cost += c;
+    }
+    let mut jtj = DMatrix::zeros(mdim, mdim);
+    for a in 0..mdim {
+        for b in 0..mdim {
+            let v = jtj_l[a * mdim + b];
+            if v != 0.0 {
+                jtj[(a, b)] += v;
+                if a != b {
+                    jtj[(b, a)] += v;
+                }
+            }
+        }
+    }
+    (jtj, DVector::from_vec(jtr), cost)
 }
 
 /// Every loss of per-channel models against a cell set: channel c is evaluated with
