@@ -416,7 +416,7 @@ impl FromStr for Weighting {
 /// Which losses a fit's loss report computes ([`crate::FitConfig::report_losses`],
 /// `--losses`). brdfkit's own four (l2, cosine, cbrt, log) always; the four published
 /// metrics ([`Loss::PUBLISHED`]) when asked, or when one of them is the optimised
-/// loss. A score always computes all eight ([`crate::score`]).
+/// loss. A score always computes all eight ([`crate::score()`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
 pub enum LossSet {
