@@ -1,10 +1,12 @@
 //! [`FitConfig`]: everything a fit needs besides the model and the cells.
 
+use crate::data::FitData;
 use crate::error::FitError;
 use crate::lm::Tolerances;
-use crate::loss::{Loss, RobustKind, Weighting};
+use crate::loss::{Loss, LossSet, RobustKind, Weighting};
 use brdfkit_core::Model;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::fmt;
 use std::str::FromStr;
 
@@ -159,6 +161,14 @@ pub struct FitConfig {
     pub(crate) albedo_max: Option<f64>,
     pub(crate) full_iters: FullIters,
     pub(crate) explore_cells: Option<usize>,
+    /// Absent from serialised configs at the library's default, all eight (configs
+    /// written before the setting existed hash the same).
+    #[serde(skip_serializing_if = "is_all")]
+    pub(crate) losses: LossSet,
+}
+
+fn is_all(l: &LossSet) -> bool {
+    *l == LossSet::All
 }
 
 impl Default for FitConfig {
@@ -188,6 +198,7 @@ impl Default for FitConfig {
             albedo_max: None,
             full_iters: FullIters::All,
             explore_cells: None,
+            losses: LossSet::All,
         }
     }
 }
@@ -563,7 +574,7 @@ impl FitConfig {
     /// (use `data` itself, no copy).
     pub fn angular_domain(&self, data: &crate::FitData) -> Option<crate::FitData> {
         // One definition of the kept cells: the score's filter, which `fit` also uses.
-        let f = crate::score::CellFilter::of(self);
+        let f = CellFilter::of(self);
         (!f.keeps_all()).then(|| data.filter(f.predicate(data)))
     }
 
@@ -591,6 +602,30 @@ impl FitConfig {
         c.clone().explore_cells(self.explore_cells)?;
         c.warm_up(self.warm_up)?;
         Ok(())
+    }
+
+    /// Which losses the fit's report computes: all eight (the library's default, as
+    /// before the setting existed) or brdfkit's own four (the command line's default,
+    /// `--losses own`: the published metrics cost a third of the report's pass) (see [`LossSet`]; a published metric that
+    /// is the optimised loss is always reported).
+    pub fn report_losses(mut self, set: LossSet) -> Self {
+        self.losses = set;
+        self
+    }
+
+    /// The losses the report computes, as asked ([`report_losses`](Self::report_losses)).
+    pub fn get_report_losses(&self) -> LossSet {
+        self.losses
+    }
+
+    /// The losses the report computes: as asked, and all eight when the optimised
+    /// loss is a published metric.
+    pub fn reported_losses(&self) -> LossSet {
+        if Loss::PUBLISHED.contains(&self.loss) {
+            LossSet::All
+        } else {
+            self.losses
+        }
     }
 
     /// The loss.
@@ -652,6 +687,73 @@ impl FitConfig {
             xtol: self.xtol,
             gtol: self.gtol,
         }
+    }
+}
+
+/// Which of a table's valid cells the losses are taken over: every filter of a
+/// [`FitConfig`] that removes cells (the θd cutoff and the θi/θo cutoff). A fit's
+/// `cells_full` set and a score's are this filter applied to the table's valid cells.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct CellFilter {
+    /// Cells with θd above this angle (radians) are left out.
+    pub theta_d_max: Option<f64>,
+    /// Cells whose θi or θo exceeds this angle (radians) are left out.
+    pub theta_max: Option<f64>,
+}
+
+impl CellFilter {
+    /// The filter of a fit configuration.
+    pub fn of(config: &FitConfig) -> CellFilter {
+        CellFilter {
+            theta_d_max: config.theta_d_max,
+            theta_max: config.theta_max,
+        }
+    }
+
+    /// True when the filter keeps every cell.
+    pub fn keeps_all(&self) -> bool {
+        *self == CellFilter::default()
+    }
+
+    /// Whether cell `m` of `data` passes.
+    #[inline]
+    pub fn keeps(&self, data: &FitData, m: usize) -> bool {
+        self.predicate(data)(m)
+    }
+
+    /// The pass test of `data`'s cells, with the cutoff's cosine taken once rather than
+    /// per cell.
+    pub fn predicate<'a>(&self, data: &'a FitData) -> impl Fn(usize) -> bool + 'a {
+        let (td, cos_max) = (self.theta_d_max, self.theta_max.map(f64::cos));
+        let g = data.geometry();
+        move |m| {
+            td.is_none_or(|t| data.theta_d_at(m) <= t)
+                // Compared through the cosines, as `FitData::with_theta_max` does.
+                && cos_max.is_none_or(|c| g.wi_z[m] >= c && g.wo_z[m] >= c)
+        }
+    }
+
+    /// The indices (into `data`) of the cells that pass, in order.
+    pub fn indices(&self, data: &FitData) -> Vec<usize> {
+        let keep = self.predicate(data);
+        (0..data.len()).filter(|&m| keep(m)).collect()
+    }
+
+    /// The cells that pass (borrowed when the filter keeps all); an error when none
+    /// does.
+    pub fn apply<'a>(&self, data: &'a FitData) -> Result<Cow<'a, FitData>, FitError> {
+        let cells = if self.keeps_all() {
+            Cow::Borrowed(data)
+        } else {
+            Cow::Owned(data.filter(self.predicate(data)))
+        };
+        if cells.is_empty() {
+            return Err(FitError::NoCells(format!(
+                "{} cells, none within the angular cutoffs (θd, θi/θo)",
+                data.len()
+            )));
+        }
+        Ok(cells)
     }
 }
 

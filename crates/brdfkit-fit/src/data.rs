@@ -9,7 +9,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
-use std::sync::OnceLock;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// Valid cells of each θh slab of a table (an error when there is none).
 fn valid_per_slab(t: &MerlTable) -> Result<Vec<usize>, FitError> {
@@ -60,6 +60,34 @@ pub struct FitData {
     ones: OnceLock<Vec<f64>>,
     theta_h: OnceLock<Vec<f64>>,
     theta_d: OnceLock<Vec<f64>>,
+    /// Subsamples already drawn from these cells ([`FitData::shared_subsample`]).
+    subsets: SubsetCache,
+    /// ∛(f cos θi) per channel ([`FitData::cbrt_targets`]).
+    cbrt_targets: OnceLock<[Vec<f64>; 3]>,
+}
+
+/// The stratified subsamples drawn from a cell set, by (fraction, seed): the warm-up
+/// and exploration sets depend on the cells and the settings, not on the model, so the
+/// families of a batch, a report or `fit --model a,b,c` (and the three passes of a
+/// per-channel fit) draw them once. A clone starts empty (its values may be changed),
+/// and so does a set whose values are changed ([`FitData::values_mut`]).
+#[derive(Default)]
+struct SubsetCache(Mutex<Vec<Subset>>);
+
+/// A drawn subsample and its key: (the fraction's bits, the seed).
+type Subset = ((u64, u64), Arc<FitData>);
+
+impl Clone for SubsetCache {
+    fn clone(&self) -> Self {
+        SubsetCache::default()
+    }
+}
+
+impl std::fmt::Debug for SubsetCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = self.0.lock().map_or(0, |v| v.len());
+        write!(f, "SubsetCache({n} subsamples)")
+    }
 }
 
 /// acos with its argument clamped to [−1, 1]: normalisation can land a ulp beyond 1.
@@ -94,6 +122,8 @@ impl FitData {
             ones: OnceLock::new(),
             theta_h: OnceLock::new(),
             theta_d: OnceLock::new(),
+            subsets: SubsetCache::default(),
+            cbrt_targets: OnceLock::new(),
         }
     }
 
@@ -242,8 +272,8 @@ impl FitData {
                 });
             v
         };
-        for c in 0..3 {
-            out.values[c] = vals.iter().map(|v| v[c]).collect();
+        for (c, v) in out.values_mut().iter_mut().enumerate() {
+            *v = vals.iter().map(|x| x[c]).collect();
         }
         out
     }
@@ -271,6 +301,8 @@ impl FitData {
     /// Mutable value planes (e.g. to add noise to a synthetic table). Values must stay
     /// finite and non-negative.
     pub fn values_mut(&mut self) -> &mut [Vec<f64>; 3] {
+        self.subsets = SubsetCache::default();
+        self.cbrt_targets = OnceLock::new();
         &mut self.values
     }
 
@@ -313,6 +345,30 @@ impl FitData {
                 .map(|&z| acos_clamped(z))
                 .collect()
         })
+    }
+
+    /// The cube-root targets ∛(f cos θi) of each channel, the measured side of the
+    /// `cbrt` loss ([`crate::Loss::Cbrt`]): built on first call (a pass of 3 cube roots
+    /// a cell, 24 bytes a cell kept) and then shared by every loss report on these
+    /// cells, so the families of a batch, a report or `fit --model a,b,c` pay the roots
+    /// once per table. The same expression as the report's, so the same bits.
+    pub fn cbrt_targets(&self) -> &[Vec<f64>; 3] {
+        self.cbrt_targets.get_or_init(|| {
+            let ci = &self.geometry.wi_z;
+            [0, 1, 2].map(|c| {
+                self.values[c]
+                    .par_iter()
+                    .zip(ci.par_iter())
+                    .map(|(f, c)| crate::loss::cbrt(f * c))
+                    .collect()
+            })
+        })
+    }
+
+    /// The cube-root targets if [`cbrt_targets`](Self::cbrt_targets) has built them
+    /// (a single fit does not: it would keep 24 bytes a cell for one report).
+    pub fn cbrt_targets_if_built(&self) -> Option<&[Vec<f64>; 3]> {
+        self.cbrt_targets.get()
     }
 
     /// θh of cell m (the value [`theta_h`](Self::theta_h) holds, without the array).
@@ -365,7 +421,7 @@ impl FitData {
     }
 
     /// Bytes held by the per-cell arrays (including any built angle or multiplicity
-    /// views).
+    /// views and the subsamples kept by [`shared_subsample`](Self::shared_subsample)).
     pub fn heap_bytes(&self) -> usize {
         let f = std::mem::size_of::<f64>();
         let opt = |v: Option<&Vec<f64>>| v.map_or(0, |v| v.capacity() * f);
@@ -376,6 +432,15 @@ impl FitData {
             + opt(self.ones.get())
             + opt(self.theta_h.get())
             + opt(self.theta_d.get())
+            + self
+                .cbrt_targets
+                .get()
+                .map_or(0, |t| 3 * t[0].capacity() * f)
+            + self
+                .subsets
+                .0
+                .lock()
+                .map_or(0, |v| v.iter().map(|(_, d)| d.heap_bytes()).sum::<usize>())
     }
 
     /// The cells with `keep[m]` true.
@@ -446,6 +511,25 @@ impl FitData {
         let a = ((self.theta_h_at(m).max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
         let b = ((self.theta_d_at(m).max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
         a.min(STRATA - 1) * STRATA + b.min(STRATA - 1)
+    }
+
+    /// [`stratified_subsample`](Self::stratified_subsample), drawn on the first call
+    /// for a (fraction, seed) and shared by the later ones (same cells, same bits).
+    pub fn shared_subsample(&self, fraction: f64, seed: u64) -> Arc<FitData> {
+        let key = (fraction.to_bits(), seed);
+        let hit = |v: &Vec<Subset>| v.iter().find(|(k, _)| *k == key).map(|(_, d)| d.clone());
+        // A poisoned lock only means another thread panicked mid-draw: draw again.
+        if let Some(d) = self.subsets.0.lock().ok().and_then(|v| hit(&v)) {
+            return d;
+        }
+        let d = Arc::new(self.stratified_subsample(fraction, seed));
+        if let Ok(mut v) = self.subsets.0.lock() {
+            match hit(&v) {
+                Some(other) => return other,
+                None => v.push((key, d.clone())),
+            }
+        }
+        d
     }
 
     /// A stratified, seeded subsample of about `fraction` of the cells.

@@ -505,6 +505,8 @@ pub struct Outcome {
     pub params: Value,
     /// The fit record.
     pub record: FitRecord,
+    /// Where the fit's time went ([`crate::FitResult::stages`]).
+    pub stages: crate::StageTimes,
 }
 
 impl Outcome {
@@ -563,6 +565,11 @@ pub fn fit_each(
     obs: &dyn FamilyObserver,
 ) -> Result<Vec<Outcome>, FamilyFitError> {
     let mut out = Vec::with_capacity(fams.len());
+    // The model-independent preparation, once for all families (a failure here is
+    // the first family's to report).
+    if fams.len() > 1 {
+        let _ = crate::prepare(data, cfg);
+    }
     for (k, f) in fams.iter().enumerate() {
         let inner = obs.on_family_start(k, fams.len(), f);
         match fit(&*f.model, data, cfg, inner) {
@@ -571,6 +578,7 @@ pub fn fit_each(
                     label: f.label.clone(),
                     params: r.fitted.to_json(),
                     record: r.record,
+                    stages: r.stages,
                 };
                 obs.on_family_done(k, fams.len(), Some(&o));
                 out.push(o);
@@ -585,6 +593,31 @@ pub fn fit_each(
         }
     }
     Ok(out)
+}
+
+/// The table of `fit --stage-times`: the table's own stages (`per_table`, e.g. read
+/// and cells, paid once whatever the families), then one row per family with the
+/// fit's stages ([`crate::StageTimes`]) and its whole `fit` call, in milliseconds.
+pub fn stage_times_text(per_table: &[(&str, f64)], outcomes: &[Outcome]) -> String {
+    let ms = |s: f64| format!("{:.1}", 1e3 * s);
+    let mut t = per_table
+        .iter()
+        .map(|(n, s)| format!("{n} {} ms", ms(*s)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    t += "\nmodel";
+    for (n, _) in crate::StageTimes::default().stages() {
+        t += &format!("\t{n}");
+    }
+    t += "\tfit (wall_time_s)\n";
+    for o in outcomes {
+        t += &o.label;
+        for (_, s) in o.stages.stages() {
+            t += &format!("\t{}", ms(s));
+        }
+        t += &format!("\t{}\n", ms(o.record.wall_time_s));
+    }
+    t
 }
 
 /// The comparison table: every loss on the full table, time, iterations by stage

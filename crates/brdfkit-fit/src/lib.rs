@@ -50,6 +50,7 @@ pub mod energy;
 pub mod error;
 pub mod families;
 mod fit;
+mod fitted;
 pub mod lm;
 pub mod loss;
 pub mod observer;
@@ -61,15 +62,16 @@ pub mod starts;
 pub mod synth;
 pub mod target;
 
-pub use config::{FitConfig, FullIters, Sharing, SolverKind};
+pub use config::{CellFilter, FitConfig, FullIters, Sharing, SolverKind};
 pub use data::FitData;
 pub use error::FitError;
-pub use fit::{FitResult, Fitted, fit, fit_table, resolve_free};
+pub use fit::{FitResult, StageTimes, fit, fit_table, prepare, resolve_free};
+pub use fitted::Fitted;
 pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
-pub use loss::{ChannelLoss, Loss, LossReport, Robust, RobustKind, Weighting};
+pub use loss::{ChannelLoss, Loss, LossReport, LossSet, Robust, RobustKind, Weighting};
 pub use observer::{FitObserver, FitPlan, IterEvent, OnIter, StartDone};
-pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses};
+pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses, evaluate_losses_of};
 pub use record::{
     FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,
 };
-pub use score::{CellFilter, Score, ScoreError, losses_of_values, score};
+pub use score::{Score, ScoreError, losses_of_values, score};

@@ -413,6 +413,41 @@ impl FromStr for Weighting {
     }
 }
 
+/// Which losses a fit's loss report computes ([`crate::FitConfig::report_losses`],
+/// `--losses`). brdfkit's own four (l2, cosine, cbrt, log) always; the four published
+/// metrics ([`Loss::PUBLISHED`]) when asked, or when one of them is the optimised
+/// loss. A score always computes all eight ([`crate::score()`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum LossSet {
+    /// brdfkit's own four (the command line's default).
+    Own,
+    /// All eight (the library's default).
+    #[default]
+    All,
+}
+
+impl LossSet {
+    /// The name on the command line and in configs.
+    pub fn name(&self) -> &'static str {
+        match self {
+            LossSet::Own => "own",
+            LossSet::All => "all",
+        }
+    }
+}
+
+impl FromStr for LossSet {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "own" => Ok(LossSet::Own),
+            "all" => Ok(LossSet::All),
+            _ => Err(format!("unknown loss set `{s}` (known: own, all)")),
+        }
+    }
+}
+
 /// One loss's weighted RMS per channel and overall.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
 pub struct ChannelLoss {
@@ -433,24 +468,64 @@ pub struct LossReport {
     pub cbrt: ChannelLoss,
     /// Squared error of ln(1 + f·cos θi).
     pub log: ChannelLoss,
-    /// Ngan et al. 2005 (`ngan`; over the cells with θi, θo ≤ 80°).
-    #[serde(default)]
+    /// Ngan et al. 2005 (`ngan`; over the cells with θi, θo ≤ 80°). The published
+    /// metrics are NaN when not computed ([`LossSet::Own`]; absent from the JSON, and
+    /// NaN when read from a record without them: see [`LossReport::has`]).
+    #[serde(
+        default = "ChannelLoss::unset",
+        skip_serializing_if = "ChannelLoss::is_unset"
+    )]
     pub ngan: ChannelLoss,
     /// Löw et al. 2012, E1 (`low-e1`).
-    #[serde(default, rename = "low-e1", alias = "low_e1")]
+    #[serde(
+        default = "ChannelLoss::unset",
+        skip_serializing_if = "ChannelLoss::is_unset",
+        rename = "low-e1",
+        alias = "low_e1"
+    )]
     pub low_e1: ChannelLoss,
     /// Löw et al. 2012, E2 (`low-e2`).
-    #[serde(default, rename = "low-e2", alias = "low_e2")]
+    #[serde(
+        default = "ChannelLoss::unset",
+        skip_serializing_if = "ChannelLoss::is_unset",
+        rename = "low-e2",
+        alias = "low_e2"
+    )]
     pub low_e2: ChannelLoss,
     /// Bieron & Peers 2020 (`bieron-log`).
-    #[serde(default, rename = "bieron-log", alias = "bieron_log")]
+    #[serde(
+        default = "ChannelLoss::unset",
+        skip_serializing_if = "ChannelLoss::is_unset",
+        rename = "bieron-log",
+        alias = "bieron_log"
+    )]
     pub bieron_log: ChannelLoss,
     /// Number of cells the losses were taken over.
     pub cells: usize,
 }
 
+impl ChannelLoss {
+    /// A loss not computed: NaN everywhere.
+    pub fn unset() -> ChannelLoss {
+        ChannelLoss {
+            channels: [f64::NAN; 3],
+            overall: f64::NAN,
+        }
+    }
+
+    /// Whether this is [`unset`](Self::unset) (a NaN overall).
+    pub fn is_unset(&self) -> bool {
+        self.overall.is_nan()
+    }
+}
+
 impl LossReport {
-    /// The entry of one loss.
+    /// Whether the report has `loss` (the published metrics only when computed).
+    pub fn has(&self, loss: Loss) -> bool {
+        !self.get(loss).is_unset()
+    }
+
+    /// The entry of one loss (NaN for a published metric not computed).
     pub fn get(&self, loss: Loss) -> &ChannelLoss {
         match loss {
             Loss::L2 => &self.l2,
@@ -473,6 +548,17 @@ impl LossReport {
         published: ([[f64; 3]; 4], [f64; 4]),
         cells: usize,
     ) -> Self {
+        Self::from_own_sums(sums, wsum, Some(published), cells)
+    }
+
+    /// [`from_sums`](Self::from_sums) with the published metrics optional (`None`:
+    /// not computed, [`ChannelLoss::unset`]).
+    pub fn from_own_sums(
+        sums: [[f64; 3]; 4],
+        wsum: f64,
+        published: Option<([[f64; 3]; 4], [f64; 4])>,
+        cells: usize,
+    ) -> Self {
         let mk = |s: [f64; 3], wsum: f64| {
             let ch = s.map(|v| if wsum > 0.0 { (v / wsum).sqrt() } else { 0.0 });
             let overall = ((ch[0] * ch[0] + ch[1] * ch[1] + ch[2] * ch[2]) / 3.0).sqrt();
@@ -481,16 +567,16 @@ impl LossReport {
                 overall,
             }
         };
-        let (ps, pw) = published;
+        let p = |l: usize| published.map_or(ChannelLoss::unset(), |(ps, pw)| mk(ps[l], pw[l]));
         LossReport {
             l2: mk(sums[0], wsum),
             cosine: mk(sums[1], wsum),
             cbrt: mk(sums[2], wsum),
             log: mk(sums[3], wsum),
-            ngan: mk(ps[0], pw[0]),
-            low_e1: mk(ps[1], pw[1]),
-            low_e2: mk(ps[2], pw[2]),
-            bieron_log: mk(ps[3], pw[3]),
+            ngan: p(0),
+            low_e1: p(1),
+            low_e2: p(2),
+            bieron_log: p(3),
             cells,
         }
     }

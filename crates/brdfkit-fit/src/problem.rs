@@ -48,7 +48,7 @@
 use crate::data::{FitData, PASS_CHUNK_CELLS};
 use crate::energy::AlbedoPenalty;
 use crate::error::FitError;
-use crate::loss::{Loss, Robust, RobustKind, Weighting};
+use crate::loss::{Loss, LossSet, Robust, RobustKind, Weighting};
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
 use brdfkit_core::model::Domain;
@@ -800,35 +800,8 @@ impl<'a> FitProblem<'a> {
                 },
             )
             .collect();
-        // Chunk partials added in chunk order: the same sums, to the bit, whatever the
-        // number of threads and however rayon split the work (a fold's per-split
-        // partials are grouped by work stealing, so their round-off varied from run to
-        // run, and a long fit could end elsewhere).
-        let (mut jtj_l, mut jtr, mut cost) = (vec![0.0; mdim * mdim], vec![0.0; mdim], 0.0);
-        for (a, b, c) in &parts {
-            for (x, y) in jtj_l.iter_mut().zip(a) {
-                *x += y;
-            }
-            for (x, y) in jtr.iter_mut().zip(b) {
-                *x += y;
-            }
-            cost += c;
-        }
-        // Only the lower triangle was accumulated (column lists increase in q, so
-        // qb ≤ qa): mirror it.
-        let mut jtj = DMatrix::zeros(mdim, mdim);
-        for a in 0..mdim {
-            for b in 0..mdim {
-                let v = jtj_l[a * mdim + b];
-                if v != 0.0 {
-                    jtj[(a, b)] += v;
-                    if a != b {
-                        jtj[(b, a)] += v;
-                    }
-                }
-            }
-        }
-        let mut jtr = DVector::from_vec(jtr);
+        let (mut jtj, jtr, mut cost) = sum_chunks(&parts, mdim);
+        let mut jtr = jtr;
         if let Some(pen) = &self.penalty {
             cost += pen.add_normal_eq(
                 model.as_ref(),
@@ -959,97 +932,96 @@ impl Jacobian for FitProblem<'_> {
     }
 }
 
+/// The normal equations from per-chunk partials (JᵀJ's lower triangle row-major, Jᵀr,
+/// cost), added in chunk order: the same sums, to the bit, whatever the number of
+/// threads and however rayon split the work (a fold's per-split partials are grouped
+/// by work stealing, so their round-off varied from run to run, and a long fit could
+/// end elsewhere). Only the lower triangle was accumulated (column lists increase in
+/// q, so qb ≤ qa): it is mirrored.
+fn sum_chunks(
+    parts: &[(Vec<f64>, Vec<f64>, f64)],
+    mdim: usize,
+) -> (DMatrix<f64>, DVector<f64>, f64) {
+    let (mut jtj_l, mut jtr, mut cost) = (vec![0.0; mdim * mdim], vec![0.0; mdim], 0.0);
+    for (a, b, c) in parts {
+        for (x, y) in jtj_l.iter_mut().zip(a) {
+            *x += y;
+        }
+        for (x, y) in jtr.iter_mut().zip(b) {
+            *x += y;
+        }
+        cost += c;
+    }
+    let mut jtj = DMatrix::zeros(mdim, mdim);
+    for a in 0..mdim {
+        for b in 0..mdim {
+            let v = jtj_l[a * mdim + b];
+            if v != 0.0 {
+                jtj[(a, b)] += v;
+                if a != b {
+                    jtj[(b, a)] += v;
+                }
+            }
+        }
+    }
+    (jtj, DVector::from_vec(jtr), cost)
+}
+
 /// Every loss of per-channel models against a cell set: channel c is evaluated with
-/// `models[c]` (pass the same model three times for a shared fit).
+/// `models[c]` (pass the same model three times for a shared fit). All eight losses;
+/// [`evaluate_losses_of`] chooses.
 pub fn evaluate_losses(
     models: [&dyn Model; 3],
     data: &FitData,
     weighting: Weighting,
 ) -> crate::loss::LossReport {
+    evaluate_losses_of(models, data, weighting, LossSet::All)
+}
+
+/// Σ w r² per own loss and channel; with the published metrics, Σ w g r² per metric
+/// and channel and Σ w g per metric.
+type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);
+
+/// Per-task buffers of [`evaluate_losses_of`], one chunk long.
+struct LossScratch {
+    out: [Vec<Rgb>; 2],
+    xm: Vec<f64>,
+    wb: Vec<f64>,
+    gb: Vec<[f64; 4]>,
+}
+
+/// The losses of `set` (brdfkit's own four, or all eight) of per-channel models
+/// against a cell set, in one pass over the cells; the measured side of the cbrt loss
+/// comes from [`FitData::cbrt_targets`] when they are built (by [`crate::prepare`],
+/// once per table for several families), else is formed per chunk (same bits).
+pub fn evaluate_losses_of(
+    models: [&dyn Model; 3],
+    data: &FitData,
+    weighting: Weighting,
+    set: LossSet,
+) -> crate::loss::LossReport {
     let n = data.len();
-    let g = data.geometry();
     // Weights per chunk, not a full-length array (8 bytes a cell); the sum in cell
     // order as before.
     let wsum = data.weight_sum(weighting);
-    let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
+    let roots = data.cbrt_targets_if_built();
     let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
-    type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);
+    let cap = PASS_CHUNK_CELLS.min(n);
+    let published = set == LossSet::All;
     let parts: Vec<Sums> = (0..nchunks)
         .into_par_iter()
         .with_min_len(min_len(nchunks))
         .map_init(
-            || {
-                (
-                    [
-                        vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
-                        vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
-                    ],
-                    (
-                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                    ),
-                    vec![[0.0; 4]; PASS_CHUNK_CELLS.min(n)],
-                )
+            || LossScratch {
+                out: [vec![Rgb::ZERO; cap], vec![Rgb::ZERO; cap]],
+                xm: vec![0.0; cap],
+                wb: vec![0.0; cap],
+                gb: vec![[0.0; 4]; cap],
             },
-            |(out, (xm, xt, wb), gb), ci| {
-                let mut acc = [[0.0f64; 3]; 4];
-                // The published metrics: Σ w g r² per metric and channel, Σ w g.
-                let mut pacc = [[0.0f64; 3]; 4];
-                let mut pw = [0.0f64; 4];
+            |sc, ci| {
                 let s = ci * PASS_CHUNK_CELLS;
                 let e = (s + PASS_CHUNK_CELLS).min(n);
-                let len = e - s;
-                let gs = g.slice(s..e);
-                for (k, x) in wb[..len].iter_mut().enumerate() {
-                    *x = data.weight_at(weighting, s + k);
-                    for (l, loss) in crate::Loss::PUBLISHED.into_iter().enumerate() {
-                        gb[k][l] = *x * data.loss_factor_at(loss, s + k);
-                        pw[l] += gb[k][l];
-                    }
-                }
-                models[0].eval_batch(&gs, &mut out[0][..len]);
-                for c in 0..3 {
-                    let vals: &[Rgb] = if same || c == 0 {
-                        &out[0][..len]
-                    } else {
-                        models[c].eval_batch(&gs, &mut out[1][..len]);
-                        &out[1][..len]
-                    };
-                    // One loop per loss over plain slices (so each vectorises), on
-                    // x = f cos θi of model (xm) and measurement (xt).
-                    let fm = &data.values()[c][s..e];
-                    let ws = &wb[..len];
-                    let ci = &g.wi_z[s..e];
-                    for k in 0..len {
-                        xm[k] = vals[k][c];
-                        let d = xm[k] - fm[k];
-                        acc[0][c] += ws[k] * d * d;
-                        xm[k] *= ci[k];
-                        xt[k] = fm[k] * ci[k];
-                        let d = xm[k] - xt[k];
-                        acc[1][c] += ws[k] * d * d;
-                    }
-                    for k in 0..len {
-                        let d = crate::loss::cbrt(xm[k]) - crate::loss::cbrt(xt[k]);
-                        acc[2][c] += ws[k] * d * d;
-                    }
-                    for k in 0..len {
-                        // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm
-                        // instead of two, and accurate when the two are close.
-                        let d = ((xm[k] - xt[k]) / (1.0 + xt[k])).ln_1p();
-                        acc[3][c] += ws[k] * d * d;
-                        // Ngan and Löw E1 on the cosine residual, Löw E2 and
-                        // Bieron-Peers on the log one (`Loss::base`).
-                        let e = xm[k] - xt[k];
-                        let [g0, g1, g2, g3] = gb[k];
-                        pacc[0][c] += g0 * e * e;
-                        pacc[1][c] += g1 * e * e;
-                        pacc[2][c] += g2 * d * d;
-                        pacc[3][c] += g3 * d * d;
-                    }
-                }
-                (acc, pacc, pw)
+                chunk_losses(models, data, roots, weighting, published, s..e, sc)
             },
         )
         .collect();
@@ -1066,5 +1038,90 @@ pub fn evaluate_losses(
             pw[l] += w[l];
         }
     }
-    crate::loss::LossReport::from_sums(sums, wsum, (psums, pw), n)
+    crate::loss::LossReport::from_own_sums(sums, wsum, published.then_some((psums, pw)), n)
+}
+
+/// The sums of [`evaluate_losses_of`] over the cells `r`.
+fn chunk_losses(
+    models: [&dyn Model; 3],
+    data: &FitData,
+    roots: Option<&[Vec<f64>; 3]>,
+    weighting: Weighting,
+    published: bool,
+    r: std::ops::Range<usize>,
+    sc: &mut LossScratch,
+) -> Sums {
+    let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
+    let g = data.geometry();
+    let (s, len) = (r.start, r.len());
+    let mut acc = [[0.0f64; 3]; 4];
+    let mut pacc = [[0.0f64; 3]; 4];
+    let mut pw = [0.0f64; 4];
+    for (k, x) in sc.wb[..len].iter_mut().enumerate() {
+        *x = data.weight_at(weighting, s + k);
+        if published {
+            for (l, loss) in crate::Loss::PUBLISHED.into_iter().enumerate() {
+                sc.gb[k][l] = *x * data.loss_factor_at(loss, s + k);
+                pw[l] += sc.gb[k][l];
+            }
+        }
+    }
+    let gs = g.slice(r.clone());
+    let [out0, out1] = &mut sc.out;
+    models[0].eval_batch(&gs, &mut out0[..len]);
+    for c in 0..3 {
+        let vals: &[Rgb] = if same || c == 0 {
+            &out0[..len]
+        } else {
+            models[c].eval_batch(&gs, &mut out1[..len]);
+            &out1[..len]
+        };
+        // One loop per loss over plain slices (so each vectorises), on x = f cos θi
+        // of model (xm) and measurement (xt).
+        let fm = &data.values()[c][r.clone()];
+        let ws = &sc.wb[..len];
+        let ci = &g.wi_z[r.clone()];
+        let xm = &mut sc.xm[..len];
+        for k in 0..len {
+            xm[k] = vals[k][c];
+            let d = xm[k] - fm[k];
+            acc[0][c] += ws[k] * d * d;
+            xm[k] *= ci[k];
+            let d = xm[k] - fm[k] * ci[k];
+            acc[1][c] += ws[k] * d * d;
+        }
+        match roots {
+            Some(roots) => {
+                let rt = &roots[c][r.clone()];
+                for k in 0..len {
+                    let d = crate::loss::cbrt(xm[k]) - rt[k];
+                    acc[2][c] += ws[k] * d * d;
+                }
+            }
+            None => {
+                for k in 0..len {
+                    let d = crate::loss::cbrt(xm[k]) - crate::loss::cbrt(fm[k] * ci[k]);
+                    acc[2][c] += ws[k] * d * d;
+                }
+            }
+        }
+        for k in 0..len {
+            let xt = fm[k] * ci[k];
+            // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm instead of two,
+            // and accurate when the two are close.
+            let d = ((xm[k] - xt) / (1.0 + xt)).ln_1p();
+            acc[3][c] += ws[k] * d * d;
+            if published {
+                // Ngan and Löw E1 on the cosine residual, Löw E2 and Bieron-Peers on
+                // the log one (`Loss::base`).
+                let e = xm[k] - xt;
+                let [g0, g1, g2, g3] = sc.gb[k];
+                pacc[0][c] += g0 * e * e;
+                pacc[1][c] += g1 * e * e;
+                pacc[2][c] += g2 * d * d;
+                pacc[3][c] += g3 * d * d;
+            }
+        }
+    }
+    (acc, pacc, pw)
 }

@@ -1,8 +1,12 @@
 //! The fit record: what was fitted, how, and how well. Serialises to JSON (see
 //! `docs/fitting.md` for the field list).
 
-use crate::config::{Sharing, SolverKind};
+use crate::config::{FitConfig, Sharing, SolverKind};
+use crate::energy::AlbedoQuadrature;
+use crate::fitted::Fitted;
 use crate::loss::{Loss, LossReport, RobustKind, Weighting};
+use crate::reparam::Transform;
+use brdfkit_core::{Model, ParamRole};
 use serde::{Deserialize, Serialize};
 
 /// One parameter of the fitted model.
@@ -287,6 +291,185 @@ impl FitRecord {
         self.iterations_run
             .unwrap_or_else(|| StageIterations::of_starts(&self.starts))
     }
+}
+
+/// What the record keeps of one pass of a fit (all channels, or one).
+pub(crate) struct PassSummary<'a> {
+    /// The pass's fitted model.
+    pub model: &'a dyn Model,
+    /// The model-vector indices the pass freed, and their transforms.
+    pub free: &'a [usize],
+    pub transforms: &'a [Transform],
+    /// The kept start's point in the solver's coordinates.
+    pub u: &'a [f64],
+    pub starts: &'a [StartRecord],
+    /// The kept start's iterations on the fitted cells, termination, convergence, and
+    /// optimised cost.
+    pub iterations: u64,
+    pub termination: &'a str,
+    pub converged: bool,
+    pub cost: f64,
+    /// The pass's robust scale and, with an automatic one, the plain stage's loss.
+    pub robust: Option<(f64, Option<f64>)>,
+}
+
+/// Everything a fit's record is assembled from.
+pub(crate) struct RecordParts<'a> {
+    /// The model the fit started from (start 0, the fixed parameters' values).
+    pub start: &'a dyn Model,
+    pub fitted: &'a Fitted,
+    pub config: &'a FitConfig,
+    /// The free parameters of the fit (the union over its passes).
+    pub free: &'a [usize],
+    pub passes: Vec<PassSummary<'a>>,
+    pub cells_fit: usize,
+    pub cells_full: usize,
+    pub losses_fit: LossReport,
+    pub losses_full: LossReport,
+    pub wall_time_s: f64,
+}
+
+impl FitRecord {
+    /// The record of a fit from its parts.
+    pub(crate) fn assemble(p: RecordParts<'_>) -> FitRecord {
+        let config = p.config;
+        let params = param_records(&p);
+        let starts: Vec<StartRecord> = p.passes.iter().flat_map(|r| r.starts.to_vec()).collect();
+        let (termination, converged) = termination_of(&p.passes);
+        let warm_up_cells = config.warm_up_cells_for(p.cells_fit);
+        let specs = p.start.param_specs();
+        FitRecord {
+            model: p.fitted.to_json(),
+            family: p.start.name().into(),
+            loss: config.loss,
+            weighting: config.weighting,
+            solver: config.solver,
+            sharing: config.sharing,
+            theta_d_max_deg: config.theta_d_max.map(f64::to_degrees),
+            theta_max_deg: config.theta_max.map(f64::to_degrees),
+            subsample: config.subsample,
+            seed: config.seed,
+            starts_per_pass: config.starts,
+            finish: Some(config.finish),
+            free_params: p.free.iter().map(|&q| specs[q].name.clone()).collect(),
+            active_bounds: active_bounds(&params, p.start),
+            params,
+            cells_fit: p.cells_fit,
+            cells_full: p.cells_full,
+            warm_up_cells,
+            full_iters: warm_up_cells.map(|_| config.full_iters.for_model(p.start)),
+            losses_fit: p.losses_fit,
+            losses_full: p.losses_full,
+            iterations: p.passes.iter().map(|r| r.iterations).sum(),
+            iterations_run: Some(StageIterations::of_starts(&starts)),
+            cost_evals: starts.iter().map(|s| s.cost_evals).sum(),
+            jacobian_evals: starts.iter().map(|s| s.jacobian_evals).sum(),
+            wall_time_s: p.wall_time_s,
+            termination,
+            converged,
+            starts,
+            robust: robust_record(config, &p.passes),
+            albedo_max: config.albedo_max,
+            max_albedo: Some(max_albedo(p.fitted)).filter(|v| v.is_finite()),
+        }
+    }
+}
+
+/// Every parameter's record. Per-channel fits: a channel parameter from its channel's
+/// pass, a shared one from the green pass (the record's `model` holds all three).
+fn param_records(p: &RecordParts<'_>) -> Vec<ParamRecord> {
+    let x0 = p.start.params();
+    p.start
+        .param_specs()
+        .iter()
+        .enumerate()
+        .map(|(q, s)| {
+            let pass = match (s.role, p.passes.len()) {
+                (_, 1) => 0,
+                (ParamRole::Channel(c), _) => c,
+                (ParamRole::Shared, _) => 1,
+            };
+            let r = &p.passes[pass];
+            let k = r.free.iter().position(|&f| f == q);
+            ParamRecord {
+                name: s.name.clone(),
+                value: r.model.params()[q],
+                start: x0[q],
+                free: k.is_some(),
+                transform: k.map(|k| r.transforms[k].name().to_string()),
+                at_bound: k
+                    .and_then(|k| r.transforms[k].end_at(r.u[k]))
+                    .map(String::from),
+            }
+        })
+        .collect()
+}
+
+/// The parameters at an end of their domain, as `name (lower end lo)`.
+fn active_bounds(params: &[ParamRecord], start: &dyn Model) -> Vec<String> {
+    params
+        .iter()
+        .zip(&start.param_specs())
+        .filter_map(|(r, s)| {
+            r.at_bound.as_deref().map(|end| {
+                let v = if end == "lower" {
+                    s.domain.lo
+                } else {
+                    s.domain.hi
+                };
+                format!("{} ({end} end {v})", r.name)
+            })
+        })
+        .collect()
+}
+
+/// The kept start's termination and convergence (per-channel: `r: …; g: …; b: …`,
+/// converged when all three are).
+fn termination_of(passes: &[PassSummary<'_>]) -> (String, bool) {
+    if let [one] = passes {
+        return (one.termination.to_string(), one.converged);
+    }
+    let text = ["r", "g", "b"]
+        .iter()
+        .zip(passes)
+        .map(|(c, r)| format!("{c}: {}", r.termination))
+        .collect::<Vec<_>>()
+        .join("; ");
+    (text, passes.iter().all(|r| r.converged))
+}
+
+/// The robust stage's record, when a robust loss was asked for.
+fn robust_record(config: &FitConfig, passes: &[PassSummary<'_>]) -> Option<RobustRecord> {
+    (config.robust != RobustKind::None).then(|| RobustRecord {
+        kind: config.robust,
+        scale: passes
+            .iter()
+            .map(|r| r.robust.map_or(f64::NAN, |x| x.0))
+            .collect(),
+        scale_source: if config.robust_scale.is_some() {
+            "given".into()
+        } else {
+            "auto".into()
+        },
+        plain_stage_loss: passes
+            .iter()
+            .filter_map(|r| r.robust.and_then(|x| x.1))
+            .collect(),
+        objective: passes.iter().map(|r| (2.0 * r.cost).sqrt()).collect(),
+    })
+}
+
+/// The fitted model's largest directional albedo over channels and incidence angles.
+fn max_albedo(fitted: &Fitted) -> f64 {
+    let quad = AlbedoQuadrature::new();
+    (0..3)
+        .map(|c| {
+            quad.albedos(fitted.channel_model(c))
+                .iter()
+                .map(|a| a[c])
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max)
 }
 
 #[cfg(test)]

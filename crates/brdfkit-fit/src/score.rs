@@ -11,83 +11,16 @@
 //! second table, a neural BRDF tabulated on the grid), for comparisons of two
 //! representations.
 
+pub use crate::config::CellFilter;
 use crate::data::FitData;
 use crate::error::FitError;
-use crate::fit::Fitted;
+use crate::fitted::Fitted;
 use crate::loss::{Loss, LossReport, Weighting};
 use crate::{FitConfig, evaluate_losses};
 use brdfkit_core::ModelError;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-use std::borrow::Cow;
-
-/// Which of a table's valid cells the losses are taken over: every filter of a
-/// [`FitConfig`] that removes cells (the θd cutoff and the θi/θo cutoff). A fit's
-/// `cells_full` set and a score's are this filter applied to the table's valid cells.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
-pub struct CellFilter {
-    /// Cells with θd above this angle (radians) are left out.
-    pub theta_d_max: Option<f64>,
-    /// Cells whose θi or θo exceeds this angle (radians) are left out.
-    pub theta_max: Option<f64>,
-}
-
-impl CellFilter {
-    /// The filter of a fit configuration.
-    pub fn of(config: &FitConfig) -> CellFilter {
-        CellFilter {
-            theta_d_max: config.theta_d_max,
-            theta_max: config.theta_max,
-        }
-    }
-
-    /// True when the filter keeps every cell.
-    pub fn keeps_all(&self) -> bool {
-        *self == CellFilter::default()
-    }
-
-    /// Whether cell `m` of `data` passes.
-    #[inline]
-    pub fn keeps(&self, data: &FitData, m: usize) -> bool {
-        self.predicate(data)(m)
-    }
-
-    /// The pass test of `data`'s cells, with the cutoff's cosine taken once rather than
-    /// per cell.
-    pub fn predicate<'a>(&self, data: &'a FitData) -> impl Fn(usize) -> bool + 'a {
-        let (td, cos_max) = (self.theta_d_max, self.theta_max.map(f64::cos));
-        let g = data.geometry();
-        move |m| {
-            td.is_none_or(|t| data.theta_d_at(m) <= t)
-                // Compared through the cosines, as `FitData::with_theta_max` does.
-                && cos_max.is_none_or(|c| g.wi_z[m] >= c && g.wo_z[m] >= c)
-        }
-    }
-
-    /// The indices (into `data`) of the cells that pass, in order.
-    pub fn indices(&self, data: &FitData) -> Vec<usize> {
-        let keep = self.predicate(data);
-        (0..data.len()).filter(|&m| keep(m)).collect()
-    }
-
-    /// The cells that pass (borrowed when the filter keeps all); an error when none
-    /// does.
-    pub fn apply<'a>(&self, data: &'a FitData) -> Result<Cow<'a, FitData>, FitError> {
-        let cells = if self.keeps_all() {
-            Cow::Borrowed(data)
-        } else {
-            Cow::Owned(data.filter(self.predicate(data)))
-        };
-        if cells.is_empty() {
-            return Err(FitError::NoCells(format!(
-                "{} cells, none within the angular cutoffs (θd, θi/θo)",
-                data.len()
-            )));
-        }
-        Ok(cells)
-    }
-}
 
 /// Why given parameters cannot be scored against a table.
 #[derive(Debug, thiserror::Error)]
@@ -107,32 +40,6 @@ pub enum ScoreError {
     /// No cell to score on, or inconsistent cells.
     #[error(transparent)]
     Fit(#[from] FitError),
-}
-
-impl Fitted {
-    /// A model description, `{"per_channel": [r, g, b]}` as [`Fitted::to_json`] writes
-    /// it, or a fit record (its `model`, as `fit --record` writes it).
-    pub fn from_json(v: &Value) -> Result<Fitted, ModelError> {
-        let v = match v.get("losses_full").and(v.get("model")) {
-            Some(m) if m.is_object() => m,
-            _ => v,
-        };
-        if let Some(pc) = v.get("per_channel") {
-            let arr = pc.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
-                ModelError::Invalid(
-                    "`per_channel` must be an array of three model descriptions".into(),
-                )
-            })?;
-            let m = |c: usize| brdfkit_models::from_json(&arr[c]);
-            return Ok(Fitted::PerChannel([m(0)?, m(1)?, m(2)?]));
-        }
-        Ok(Fitted::Shared(brdfkit_models::from_json(v)?))
-    }
-
-    /// The model of each channel.
-    pub fn channel_models(&self) -> [&dyn brdfkit_core::Model; 3] {
-        [0, 1, 2].map(|c| self.channel_model(c))
-    }
 }
 
 /// A score: every loss of a model against a table's cells, and what they were taken

@@ -79,6 +79,7 @@ fn auto_finishes_ward_duer_on_all_cells_and_keeps_the_shortcut_elsewhere() {
         label: "ward".into(),
         params: gm.model.clone(),
         record: gm,
+        stages: Default::default(),
     };
     let table = brdfkit_fit::families::comparison_text(&[outcome], brdfkit_fit::Loss::Cbrt);
     let row = table.lines().nth(1).expect("a row");

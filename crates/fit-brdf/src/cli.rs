@@ -370,6 +370,10 @@ pub struct FitArgs {
     /// No progress bar, no summary on stderr.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Print where each fit's time went, stage by stage, on stderr (milliseconds;
+    /// docs/performance.md).
+    #[arg(long)]
+    pub stage_times: bool,
 }
 
 /// The fit options shared by `fit` and `batch`: the models, their structural choices
@@ -396,10 +400,14 @@ pub struct FitOptions {
     /// Normalisation of ward.
     #[arg(long, value_parser = choice::<Normalization>(Normalization::ALL.map(|v| v.name())))]
     pub normalization: Option<Normalization>,
-    /// Loss optimised (every loss is reported): brdfkit's l2, cosine, cbrt, log, or a
-    /// published metric, ngan, low-e1, low-e2, bieron-log (bbm-log is log; docs/fitting.md).
+    /// Loss optimised: brdfkit's l2, cosine, cbrt, log, or a published metric, ngan,
+    /// low-e1, low-e2, bieron-log (bbm-log is log; docs/fitting.md).
     #[arg(long, default_value = "cbrt", value_parser = loss_choice())]
     pub loss: Loss,
+    /// Losses reported: `own` (l2, cosine, cbrt, log) or `all` (and the four published
+    /// metrics; always when one is optimised; `score` always reports all).
+    #[arg(long, default_value = "own", value_parser = ["own", "all"])]
+    pub losses: String,
     #[command(flatten)]
     pub cells: CellOptions,
     /// Solver.

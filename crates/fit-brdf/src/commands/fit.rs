@@ -9,9 +9,10 @@ use crate::output::{write_atomic, write_text};
 use crate::progress;
 use anyhow::Context;
 use brdfkit::fit::FitData;
-use brdfkit::fit::families::{Outcome, comparison_text, fit_each, pretty_file};
+use brdfkit::fit::families::{Outcome, comparison_text, fit_each, pretty_file, stage_times_text};
 use brdfkit::fit::target::fit_for;
 use serde_json::Value;
+use std::time::Instant;
 
 /// Pretty JSON with a final newline (the library's, which Python's `FitResult.save`
 /// writes too).
@@ -26,11 +27,15 @@ pub fn run(a: FitArgs) -> CliResult<()> {
             "--record takes one model; with several, --out DIR receives every record",
         ));
     }
+    let t = Instant::now();
     let table = read_table(&a.table)?;
+    let read_s = t.elapsed().as_secs_f64();
     // The fit needs only the cells: the table (35 MB) is freed while they are built,
     // before their geometry is allocated (FitData::from_owned_table).
+    let t = Instant::now();
     let data = FitData::from_owned_table(table)
         .map_err(|e| bad_msg(format!("{}: {e}", a.table.display())))?;
+    let cells_s = t.elapsed().as_secs_f64();
     let bars = progress::Families::bars(a.quiet);
     let (outcomes, best) = match a.for_renderer {
         None => (fit_each(&data, &fams, &cfg, &bars).map_err(runtime)?, None),
@@ -43,6 +48,7 @@ pub fn run(a: FitArgs) -> CliResult<()> {
         return write_best(&a, &outcomes, best, &why, r, cfg.get_loss());
     }
 
+    let t = Instant::now();
     if let [o] = &outcomes[..] {
         if let Some(p) = &a.out {
             write_atomic(p, pretty(&o.params)?.as_bytes())?;
@@ -66,7 +72,11 @@ pub fn run(a: FitArgs) -> CliResult<()> {
             )?;
         }
     }
-
+    if a.stage_times {
+        let per_table = [("read", read_s), ("cells", cells_s)];
+        eprint!("{}", stage_times_text(&per_table, &outcomes));
+        eprintln!("write {:.1} ms", 1e3 * t.elapsed().as_secs_f64());
+    }
     if a.json {
         let v: Vec<Value> = outcomes.iter().map(Outcome::to_json).collect();
         write_text(None, &pretty(&v)?)

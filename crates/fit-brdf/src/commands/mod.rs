@@ -77,7 +77,8 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         explore_cells: Some(o.explore_cells),
         ..cell_settings(&o.cells)
     };
-    let cfg = settings.config().map_err(bad_settings)?;
+    let set = o.losses.parse().map_err(bad_msg)?;
+    let cfg = settings.config().map_err(bad_settings)?.report_losses(set);
     check_free(&fams, &cfg).map_err(bad_settings)?;
     Ok((fams, cfg))
 }

@@ -1,0 +1,705 @@
+//! One pass of a fit (the three channels of a shared fit, or one channel), as the
+//! staged strategy of `docs/fitting.md`: every start **explores** (on the exploration
+//! set, or warms up when there is none), the starts are **ranked**, the finishers
+//! **warm up** on the warm-up set, then **finish** on all fitted cells (an automatic
+//! robust scale adds a **robust** stage). Each stage is one function below; [`run_pass`]
+//! strings them together and [`start_records`] says what became of every start.
+
+use super::cells::CellSets;
+use super::solve::{Outcome, run_on, run_start, sub_stage};
+use super::timing::StageTimes;
+use crate::config::FitConfig;
+use crate::energy::{AlbedoPenalty, AlbedoQuadrature, PENALTY_WEIGHT};
+use crate::error::FitError;
+use crate::loss::{Robust, RobustKind};
+use crate::observer::{FitObserver, StartDone};
+use crate::problem::FitProblem;
+use crate::record::{StartRecord, WarmUpRecord};
+use crate::reparam::Transform;
+use crate::starts::start_points;
+use brdfkit_core::Model;
+use nalgebra::DVector;
+use rayon::prelude::*;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// What a pass leaves for the fit's record.
+pub(super) struct PassResult {
+    pub(super) model: Box<dyn Model>,
+    pub(super) free: Vec<usize>,
+    pub(super) starts: Vec<StartRecord>,
+    pub(super) best: Outcome,
+    pub(super) transforms: Vec<Transform>,
+    /// The robust scale of the pass and, with an automatic scale, the plain stage's
+    /// best loss.
+    pub(super) robust: Option<(f64, Option<f64>)>,
+    /// The pass's channel (a per-channel pass) or `None` (all three).
+    pub(super) channel: Option<usize>,
+    /// The kept start's cost over the fitted cells is left to the fit's loss report
+    /// (see [`defers_cost`]): `best.cost` and its record's `final_loss` are filled in
+    /// there.
+    pub(super) deferred: bool,
+}
+
+/// A start after its subsample stages: where it got to, the stages' records and, when
+/// the starts are ranked, the optimised cost (on the warm-up set after a separate
+/// exploration, else on all fitted cells) where its exploration ended.
+#[derive(Clone)]
+struct Explored {
+    u: DVector<f64>,
+    explore: Option<WarmUpRecord>,
+    warm: Option<WarmUpRecord>,
+    rank_cost: Option<f64>,
+}
+
+/// Floor of the automatic robust scale, relative to the targets' RMS: a plain fit that
+/// is exact (median |e| = 0) would otherwise give c = 0. Any c gives the same optimum
+/// there (no residual is an outlier).
+const ROBUST_SCALE_FLOOR: f64 = 1e-9;
+
+/// Everything the stages of one pass share: the problems on each cell set (with the
+/// albedo penalty and a given robust scale), the starts, the settings.
+struct Pass<'a> {
+    config: &'a FitConfig,
+    observer: Option<&'a Arc<dyn FitObserver>>,
+    channel: Option<usize>,
+    points: Vec<Vec<f64>>,
+    ranked: bool,
+    /// A given robust loss (applies from the start); an automatic one is `auto`.
+    given: Option<Robust>,
+    auto: bool,
+    penalty: bool,
+    /// All fitted cells, plain (the automatic robust stage starts from it).
+    plain: FitProblem<'a>,
+    /// All fitted cells with the given robust loss, if any: the finish's problem.
+    full: FitProblem<'a>,
+    warm: Option<FitProblem<'a>>,
+    explore: Option<FitProblem<'a>>,
+}
+
+/// The problem of one pass on the cells `d`: `model`, its free parameters and channels,
+/// the config's loss and weighting, and the albedo penalty.
+fn problem_on<'d>(
+    d: &'d FitData,
+    model: &dyn Model,
+    free: &[usize],
+    channels: &[usize],
+    config: &FitConfig,
+    penalty: &Option<Arc<AlbedoPenalty>>,
+) -> Result<FitProblem<'d>, FitError> {
+    let p = FitProblem::new(
+        d,
+        model,
+        free.to_vec(),
+        channels.to_vec(),
+        config.loss,
+        config.weighting,
+    )?;
+    Ok(p.with_penalty(penalty.clone()))
+}
+
+use crate::data::FitData;
+
+impl<'a> Pass<'a> {
+    /// The problems of a pass on `cells` (cell preparation: scales, targets).
+    fn new(
+        cells: &CellSets<'a>,
+        model: &dyn Model,
+        free: &[usize],
+        channels: &[usize],
+        config: &'a FitConfig,
+        observer: Option<&'a Arc<dyn FitObserver>>,
+    ) -> Result<Pass<'a>, FitError> {
+        let plain = FitProblem::new(
+            cells.fit,
+            model,
+            free.to_vec(),
+            channels.to_vec(),
+            config.loss,
+            config.weighting,
+        )?;
+        // Energy conservation: the albedo penalty on every stage's problem (λ relative
+        // to the full set's targets, so the stages share it).
+        let penalty = config.albedo_max.map(|a| {
+            Arc::new(AlbedoPenalty {
+                quad: AlbedoQuadrature::new(),
+                max: a,
+                lambda: PENALTY_WEIGHT * plain.target_rms().powi(2),
+            })
+        });
+        let plain = plain.with_penalty(penalty.clone());
+        // A given robust scale applies from the start (subsamples included); an
+        // automatic one needs a plain fit first (see `FitConfig::robust`).
+        let given = match (config.robust, config.robust_scale) {
+            (RobustKind::None, _) | (_, None) => None,
+            (kind, Some(scale)) => Some(Robust { kind, scale }),
+        };
+        let robust = |p: FitProblem<'a>| match given {
+            Some(r) => p.with_robust(r),
+            None => p,
+        };
+        let sub = |d: Option<&'a FitData>| {
+            d.map(|d| problem_on(d, model, free, channels, config, &penalty).map(robust))
+                .transpose()
+        };
+        let points = start_points(
+            &model.param_specs(),
+            &model.params(),
+            free,
+            config.starts,
+            config.seed,
+        );
+        Ok(Pass {
+            config,
+            observer,
+            channel: (channels.len() == 1).then(|| channels[0]),
+            ranked: cells.ranked,
+            given,
+            auto: config.robust != RobustKind::None && config.robust_scale.is_none(),
+            penalty: penalty.is_some(),
+            full: robust(plain.clone()),
+            plain,
+            warm: sub(cells.warm)?,
+            explore: sub(cells.explore)?,
+            points,
+        })
+    }
+
+    /// Reports a finished start to the observer.
+    fn done(&self, k: usize, o: &Result<Outcome, FitError>) {
+        if let (Some(obs), Ok(o)) = (self.observer, o) {
+            obs.on_start_done(&StartDone {
+                start: k,
+                channel: self.channel,
+                loss: (2.0 * o.cost).sqrt(),
+                iterations: o.iterations,
+                termination: o.termination.clone(),
+            });
+        }
+    }
+
+    /// After a separate exploration the starts are ranked on the warm-up set (a cost
+    /// pass over 65,536 cells instead of all fitted cells: the same order on every
+    /// measured table tried, at a sixteenth of the cost); without one, on the fitted
+    /// cells.
+    fn rank_on_warm(&self) -> bool {
+        self.explore.is_some() && self.warm.is_some()
+    }
+
+    /// Stage 1, every start in parallel. Unranked: its warm-up. Ranked: it converges on
+    /// the exploration set (restarted while it hits the iteration cap, see
+    /// [`sub_stage`]), and the optimised cost where it ended is its rank (a fresh clone
+    /// of the problem, so the pass is counted for this start).
+    fn explore(&self) -> Vec<Result<Explored, FitError>> {
+        let first = self.explore.as_ref().or(self.warm.as_ref());
+        self.points
+            .par_iter()
+            .enumerate()
+            .map(|(k, x)| {
+                let u0 = self.full.to_u(x);
+                let (u, rec) = match first {
+                    Some(p) => {
+                        let (u, rec) = sub_stage(
+                            p,
+                            u0,
+                            self.config,
+                            self.observer,
+                            k,
+                            self.channel,
+                            self.ranked,
+                        )?;
+                        (u, Some(rec))
+                    }
+                    None => (u0, None),
+                };
+                let rank_cost = self
+                    .ranked
+                    .then(|| match (&self.warm, self.rank_on_warm()) {
+                        (Some(wp), true) => wp.clone().cost_at(&u),
+                        _ => self.full.clone().cost_at(&u),
+                    });
+                // With a separate exploration set the start has not warmed up yet.
+                let (explore, warm) = match self.explore {
+                    Some(_) => (rec, None),
+                    None => (None, rec),
+                };
+                Ok(Explored {
+                    u,
+                    explore,
+                    warm,
+                    rank_cost,
+                })
+            })
+            .collect()
+    }
+
+    /// Ranking: finite costs first, lowest first; ties and non-finite costs in start
+    /// order. Starts whose exploration failed are never finished (their error is
+    /// recorded). Returns the finishers and each start's rank; the observer hears of
+    /// the starts ranked out.
+    fn rank(&self, explored: &[Result<Explored, FitError>]) -> (Vec<usize>, Vec<Option<usize>>) {
+        let n = explored.len();
+        let rank_key = |k: usize| match &explored[k] {
+            Ok(e) => e
+                .rank_cost
+                .filter(|c| c.is_finite())
+                .unwrap_or(f64::INFINITY),
+            Err(_) => f64::NAN,
+        };
+        let mut order: Vec<usize> = (0..n).filter(|&k| explored[k].is_ok()).collect();
+        if self.ranked {
+            order.sort_by(|&a, &b| rank_key(a).total_cmp(&rank_key(b)).then(a.cmp(&b)));
+        }
+        let mut rank_of = vec![None; n];
+        for (pos, &k) in order.iter().enumerate() {
+            rank_of[k] = Some(pos);
+        }
+        if self.ranked {
+            order.truncate(self.config.finish);
+        }
+        if let Some(obs) = self.observer {
+            for k in (0..n).filter(|k| !order.contains(k)) {
+                if let Ok(e) = &explored[k] {
+                    obs.on_start_done(&StartDone {
+                        start: k,
+                        channel: self.channel,
+                        loss: (2.0 * e.rank_cost.unwrap_or(f64::NAN)).sqrt(),
+                        iterations: 0,
+                        termination: "not finished (ranked out after its exploration)".into(),
+                    });
+                }
+            }
+        }
+        (order, rank_of)
+    }
+
+    /// Stage 2a: after a separate exploration, the finishers warm up from where they
+    /// got to.
+    fn warm_up(
+        &self,
+        finishers: &[usize],
+        explored: &[Result<Explored, FitError>],
+    ) -> Vec<Result<Explored, FitError>> {
+        finishers
+            .par_iter()
+            .map(|&k| {
+                let e = explored[k].as_ref().expect("finishers explored fine");
+                match (&self.warm, e.warm.is_none() && e.explore.is_some()) {
+                    (Some(wp), true) => {
+                        let (u, rec) = sub_stage(
+                            wp,
+                            e.u.clone(),
+                            self.config,
+                            self.observer,
+                            k,
+                            self.channel,
+                            false,
+                        )?;
+                        Ok(Explored {
+                            u,
+                            warm: Some(rec),
+                            ..e.clone()
+                        })
+                    }
+                    _ => Ok(e.clone()),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Whether the kept start's cost over the fitted cells is left to the fit's loss
+/// report: one finisher whose warm-up optimum is only evaluated (`full_iters` 0) under
+/// the plain loss. Its cost, ½ loss², is what the report sums anyway (the same terms in
+/// another order), so that pass over all cells is not paid twice.
+fn defers_cost(pass: &Pass<'_>, full_iters: Option<u64>, finishers: usize) -> bool {
+    full_iters == Some(0) && finishers == 1 && pass.given.is_none() && !pass.auto && !pass.penalty
+}
+
+type Finished = Vec<(usize, Result<Outcome, FitError>)>;
+
+impl Pass<'_> {
+    /// Stage 2b: the finishers continue on all fitted cells, in parallel. A start that
+    /// warmed up takes at most `full_iters` iterations here (see
+    /// `FitConfig::full_iters`); 0: its warm-up optimum is only evaluated (one cost
+    /// pass, or none when `defer`).
+    fn finish(
+        &self,
+        finishers: &[usize],
+        warmed: Vec<Result<Explored, FitError>>,
+        full_iters: Option<u64>,
+        defer: bool,
+    ) -> Finished {
+        let config = self.config;
+        let capped_cfg = match full_iters {
+            Some(n) if n > 0 => config
+                .clone()
+                .max_iters(n)
+                .unwrap_or_else(|_| config.clone()),
+            _ => config.clone(),
+        };
+        let rank_on_warm = self.rank_on_warm();
+        finishers
+            .par_iter()
+            .zip(warmed)
+            .map(|(&k, e)| {
+                let e = match e {
+                    Ok(e) => e,
+                    Err(err) => return (k, Err(err)),
+                };
+                let o = match (&e.warm, full_iters) {
+                    (Some(w), Some(0)) => Ok(self.evaluate_warm_optimum(&e.u, w, defer)),
+                    _ => {
+                        let cfg = if e.warm.is_some() {
+                            &capped_cfg
+                        } else {
+                            config
+                        };
+                        let (obs, ch) = (self.observer, self.channel);
+                        run_start(self.full.clone(), e.u.clone(), cfg, obs, k, ch, false)
+                    }
+                };
+                let o = o.map(|mut o| {
+                    o.warm = e.warm.clone();
+                    o.explore = e.explore.clone();
+                    // The ranking pass was a cost pass over the fitted cells too.
+                    o.cost_evals += u64::from(e.rank_cost.is_some() && !rank_on_warm);
+                    o
+                });
+                if !self.auto && !defer {
+                    self.done(k, &o);
+                }
+                (k, o)
+            })
+            .collect()
+    }
+
+    /// The warm-up optimum `u`, evaluated on all fitted cells (one cost pass; none when
+    /// `defer`: the loss report's pass is this start's cost pass).
+    fn evaluate_warm_optimum(&self, u: &DVector<f64>, w: &WarmUpRecord, defer: bool) -> Outcome {
+        let probe = self.full.clone();
+        let cost = if defer { f64::NAN } else { probe.cost_at(u) };
+        Outcome {
+            u: u.clone(),
+            cost,
+            iterations: 0,
+            cost_evals: if defer { 1 } else { probe.cost_evals() },
+            jac_evals: 0,
+            termination: format!(
+                "{} on the warm-up set; evaluated on all fitted cells (full_iters 0)",
+                w.termination
+            ),
+            converged: w.termination.starts_with("converged"),
+            warm: None,
+            explore: None,
+        }
+    }
+
+    /// The automatic robust stage: the scale from the best plain start (common to every
+    /// finished start so their robust costs compare), then every finished start
+    /// continues under the robust loss. Returns the scale and the plain best loss.
+    fn robust_stage(&self, finished: Finished) -> (Finished, Option<(f64, Option<f64>)>) {
+        let plain_best = finished
+            .iter()
+            .filter_map(|(_, o)| o.as_ref().ok())
+            .filter(|o| o.cost.is_finite())
+            .min_by(|a, b| a.cost.total_cmp(&b.cost));
+        let Some(pb) = plain_best else {
+            return (finished, None);
+        };
+        let floor = ROBUST_SCALE_FLOOR * self.plain.target_rms();
+        let med = self.plain.median_abs_residual(&pb.u).unwrap_or(0.0);
+        let scale = (self.config.robust.tuning() * 1.4826 * med).max(floor);
+        let plain_loss = (2.0 * pb.cost).sqrt();
+        let rp = self.plain.with_robust(Robust {
+            kind: self.config.robust,
+            scale,
+        });
+        let finished = finished
+            .into_par_iter()
+            .map(|(k, o1)| {
+                let o1 = match o1 {
+                    Ok(o) => o,
+                    Err(e) => return (k, Err(e)),
+                };
+                let (obs, ch) = (self.observer, self.channel);
+                let o = run_on(&o1, |u| {
+                    run_start(rp.clone(), u, self.config, obs, k, ch, false)
+                })
+                .map(|mut o| {
+                    o.warm = o1.warm.clone();
+                    o.explore = o1.explore.clone();
+                    o
+                });
+                self.done(k, &o);
+                (k, o)
+            })
+            .collect();
+        (finished, Some((scale, Some(plain_loss))))
+    }
+}
+
+/// One pass: the stages in order, each timed into `times`.
+pub(super) fn run_pass(
+    cells: &CellSets<'_>,
+    model: &dyn Model,
+    free: Vec<usize>,
+    channels: Vec<usize>,
+    config: &FitConfig,
+    observer: Option<&Arc<dyn FitObserver>>,
+    times: &mut StageTimes,
+) -> Result<PassResult, FitError> {
+    let t = Instant::now();
+    let pass = Pass::new(cells, model, &free, &channels, config, observer)?;
+    times.prepare += t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let explored = pass.explore();
+    times.explore += t.elapsed().as_secs_f64();
+    let (finishers, rank_of) = pass.rank(&explored);
+    let t = Instant::now();
+    let warmed = pass.warm_up(&finishers, &explored);
+    times.warm_up += t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let full_iters = config.full_iters.cap_for(model);
+    let defer = defers_cost(&pass, full_iters, finishers.len());
+    let mut finished = pass.finish(&finishers, warmed, full_iters, defer);
+    let mut robust = pass.given.map(|r| (r.scale, None));
+    if pass.auto {
+        let (f, r) = pass.robust_stage(finished);
+        finished = f;
+        robust = r.or(robust);
+    }
+    times.finish += t.elapsed().as_secs_f64();
+    let (starts, best) = start_records(&pass, &explored, finished, &rank_of, defer)?;
+    Ok(PassResult {
+        model: pass.full.model_at(&best.u)?,
+        transforms: pass.full.transforms().to_vec(),
+        free,
+        starts,
+        best,
+        robust,
+        channel: pass.channel,
+        deferred: defer,
+    })
+}
+
+/// The record of every start (kept, finished, ranked out or failed) and the kept
+/// start's outcome: the lowest finite cost, the first in start order on ties.
+fn start_records(
+    pass: &Pass<'_>,
+    explored: &[Result<Explored, FitError>],
+    finished: Finished,
+    rank_of: &[Option<usize>],
+    defer: bool,
+) -> Result<(Vec<StartRecord>, Outcome), FitError> {
+    let n = explored.len();
+    let mut outcome_of: Vec<Option<Result<Outcome, FitError>>> = (0..n).map(|_| None).collect();
+    for (k, o) in finished {
+        outcome_of[k] = Some(o);
+    }
+    let mut best: Option<(usize, f64)> = None;
+    let mut first_err = None;
+    let mut records = Vec::with_capacity(n);
+    for k in 0..n {
+        let rec = StartFacts::of(pass, k, &explored[k]);
+        records.push(match (&explored[k], &outcome_of[k]) {
+            (Err(e), _) => {
+                first_err.get_or_insert_with(|| e.to_string());
+                rec.failed(e, false, None)
+            }
+            (Ok(x), Some(Err(e))) => {
+                first_err.get_or_insert_with(|| e.to_string());
+                rec.failed(e, true, x.warm.clone())
+            }
+            (Ok(_), Some(Ok(o))) => {
+                if (o.cost.is_finite() || defer) && best.is_none_or(|(_, c)| o.cost < c) {
+                    best = Some((k, o.cost));
+                }
+                rec.finished(o)
+            }
+            (Ok(x), None) => rec.ranked_out(x, rank_of[k], n, pass.config.finish),
+        });
+    }
+    let Some((b, _)) = best else {
+        return Err(FitError::Solver {
+            solver: pass.config.solver.name().into(),
+            start: 0,
+            reason: format!(
+                "no start reached a finite loss ({})",
+                first_err.unwrap_or_else(|| "every cost was infinite or NaN".into())
+            ),
+        });
+    };
+    records[b].kept = true;
+    match outcome_of[b].take() {
+        Some(Ok(o)) => Ok((records, o)),
+        _ => unreachable!("the best start has an outcome"),
+    }
+}
+
+/// What every record of start k says whatever became of it.
+struct StartFacts {
+    index: usize,
+    channel: Option<usize>,
+    start: Vec<f64>,
+    rank_loss: Option<f64>,
+    explore: Option<WarmUpRecord>,
+}
+
+impl StartFacts {
+    fn of(pass: &Pass<'_>, k: usize, explored: &Result<Explored, FitError>) -> StartFacts {
+        let e = explored.as_ref().ok();
+        StartFacts {
+            index: k,
+            channel: pass.channel,
+            start: pass
+                .full
+                .free_indices()
+                .iter()
+                .map(|&p| pass.points[k][p])
+                .collect(),
+            rank_loss: e.and_then(|e| e.rank_cost).map(|c| (2.0 * c).sqrt()),
+            explore: e.and_then(|e| e.explore.clone()),
+        }
+    }
+
+    fn record(self, termination: String, finished: bool) -> StartRecord {
+        StartRecord {
+            index: self.index,
+            channel: self.channel,
+            start: self.start,
+            final_loss: None,
+            iterations: 0,
+            cost_evals: 0,
+            jacobian_evals: 0,
+            termination,
+            converged: false,
+            kept: false,
+            warm_up: None,
+            finished,
+            rank_loss: self.rank_loss,
+            explore: self.explore,
+        }
+    }
+
+    fn failed(self, e: &FitError, finished: bool, warm: Option<WarmUpRecord>) -> StartRecord {
+        StartRecord {
+            warm_up: warm,
+            ..self.record(format!("error: {e}"), finished)
+        }
+    }
+
+    fn finished(self, o: &Outcome) -> StartRecord {
+        StartRecord {
+            final_loss: Some((2.0 * o.cost).sqrt()).filter(|v| v.is_finite()),
+            iterations: o.iterations,
+            cost_evals: o.cost_evals,
+            jacobian_evals: o.jac_evals,
+            converged: o.converged,
+            warm_up: o.warm.clone(),
+            explore: o.explore.clone(),
+            ..self.record(o.termination.clone(), true)
+        }
+    }
+
+    fn ranked_out(self, x: &Explored, rank: Option<usize>, n: usize, finish: usize) -> StartRecord {
+        let termination = format!(
+            "not finished: ranked {} of {n} by the loss over the fitted cells after its \
+             exploration; the best {finish} continued",
+            rank.map_or(n, |r| r + 1),
+        );
+        StartRecord {
+            final_loss: self.rank_loss.filter(|v| v.is_finite()),
+            cost_evals: u64::from(x.rank_cost.is_some()),
+            warm_up: x.warm.clone(),
+            explore: x.explore.clone(),
+            ..self.record(termination, false)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::cells::Cells;
+    use super::*;
+    use brdfkit_merl::{Dims, MerlTable};
+
+    /// Lambertian cells with ρd = (0.3, 0.4, 0.5), a ranked config of 4 starts.
+    fn setup() -> (FitData, FitConfig) {
+        let truth = brdfkit_models::from_json(&serde_json::json!(
+            {"model": "lambert", "params": {"rho_d": [0.3, 0.4, 0.5]}}
+        ))
+        .unwrap();
+        let t = MerlTable::from_brdf(truth.as_ref(), Dims::new(30, 30, 60).unwrap()).unwrap();
+        let cfg = FitConfig::default()
+            .starts(4)
+            .unwrap()
+            .warm_up(Some(2000))
+            .unwrap();
+        (FitData::from_table(&t).unwrap(), cfg)
+    }
+
+    #[test]
+    fn the_stages_explore_rank_warm_up_and_finish() {
+        let (d, cfg) = setup();
+        let model = brdfkit_models::default_model("lambert").unwrap();
+        let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
+        let cells = Cells::of(&d, &cfg).unwrap();
+        let sets = cells.sets();
+        assert!(sets.ranked);
+        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
+        let explored = pass.explore();
+        assert_eq!(explored.len(), 4, "one exploration per start");
+        let costs: Vec<f64> = explored
+            .iter()
+            .map(|e| e.as_ref().unwrap().rank_cost.unwrap())
+            .collect();
+        let (finishers, rank_of) = pass.rank(&explored);
+        assert_eq!(finishers.len(), 1, "the default: one finisher");
+        let best = finishers[0];
+        assert_eq!(rank_of[best], Some(0));
+        assert!(costs.iter().all(|&c| costs[best] <= c), "{costs:?}");
+        // No separate exploration set here: the warm-up stage passes the start on.
+        let warmed = pass.warm_up(&finishers, &explored);
+        assert_eq!(
+            warmed[0].as_ref().unwrap().u,
+            explored[best].as_ref().unwrap().u
+        );
+        let finished = pass.finish(&finishers, warmed, None, false);
+        let o = finished[0].1.as_ref().unwrap();
+        assert!(o.converged, "{}", o.termination);
+        assert!(
+            (2.0 * o.cost).sqrt() < 1e-6,
+            "a Lambertian table is fitted exactly"
+        );
+        let end = o.u.clone();
+        let (starts, kept) = start_records(&pass, &explored, finished, &rank_of, false).unwrap();
+        assert!(starts[best].kept && starts[best].finished);
+        assert_eq!(kept.u, end, "the kept outcome is the finisher's");
+        let out = starts.iter().find(|s| !s.finished).unwrap();
+        assert!(
+            out.termination.starts_with("not finished: ranked"),
+            "{}",
+            out.termination
+        );
+    }
+
+    #[test]
+    fn only_a_plain_single_finisher_evaluated_once_defers_its_cost() {
+        let (d, cfg) = setup();
+        let model = brdfkit_models::default_model("lambert").unwrap();
+        let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
+        let cells = Cells::of(&d, &cfg).unwrap();
+        let sets = cells.sets();
+        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
+        assert!(defers_cost(&pass, Some(0), 1));
+        assert!(!defers_cost(&pass, Some(0), 2));
+        assert!(!defers_cost(&pass, None, 1));
+        let penalised = cfg.clone().albedo_max(Some(1.0)).unwrap();
+        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &penalised, None).unwrap();
+        assert!(
+            !defers_cost(&pass, Some(0), 1),
+            "a penalty is not in the report"
+        );
+    }
+}
