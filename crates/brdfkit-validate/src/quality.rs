@@ -460,62 +460,7 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
         // relative errors, into their places).
         let diffs: Vec<BlockTerms> = window
             .into_par_iter()
-            .map(|(k, dst)| {
-                let s = k * BLOCK;
-                let e = (s + BLOCK).min(n);
-                let len = e - s;
-                let gs = g.slice(s..e);
-                let mut out = vec![Rgb::ZERO; len];
-                let mut tmp = if same {
-                    Vec::new()
-                } else {
-                    vec![Rgb::ZERO; len]
-                };
-                models[0].eval_batch(&gs, &mut out);
-                if !same {
-                    for c in 1..3 {
-                        models[c].eval_batch(&gs, &mut tmp);
-                        for (a, b) in out.iter_mut().zip(&tmp) {
-                            a[c] = b[c];
-                        }
-                    }
-                }
-                // The cells' bands, from θ = acos(z) as `FitData::theta_h` / `theta_d`
-                // compute it (no full-length angle arrays).
-                let theta = |z: f64| z.clamp(-1.0, 1.0).acos();
-                let bands: Vec<[Option<usize>; 2]> = (s..e)
-                    .map(|m| {
-                        [
-                            band_of(&o.theta_h_bands, theta(g.h_z[m])),
-                            band_of(&o.theta_d_bands, theta(g.cos_d[m])),
-                        ]
-                    })
-                    .collect();
-                let mut d = vec![0.0; len * 12];
-                for (c, dst) in dst.into_iter().enumerate() {
-                    let mut q = 0;
-                    for k in 0..len {
-                        let fm = vals[c][s + k];
-                        let ci = g.wi_z[s + k];
-                        // The terms of `evaluate_losses`, in its order.
-                        let mut xm = out[k][c];
-                        if fm > 0.0 {
-                            dst[q] = (xm - fm).abs() / fm;
-                            q += 1;
-                        }
-                        let d0 = xm - fm;
-                        xm *= ci;
-                        let xt = fm * ci;
-                        let d1 = xm - xt;
-                        let d2 = brdfkit_fit::loss::cbrt(xm) - brdfkit_fit::loss::cbrt(xt);
-                        let d3 = ((xm - xt) / (1.0 + xt)).ln_1p();
-                        let r = &mut d[k * 12..k * 12 + 12];
-                        (r[c], r[3 + c], r[6 + c], r[9 + c]) = (d0, d1, d2, d3);
-                    }
-                    debug_assert_eq!(q, dst.len());
-                }
-                (s, d, bands)
-            })
+            .map(|(k, dst)| block_terms(models, same, data, o, k, dst))
             .collect();
         // In cell order: the sums.
         for (s, d, bands) in diffs {
@@ -561,6 +506,75 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
         theta_d_bands: bands(&o.theta_d_bands, ds),
         relative_error,
     }
+}
+
+/// One block of [`cell_pass`]: the loss differences d[cell][loss][channel] of its cells
+/// (the terms of `evaluate_losses`, in its order), the cells' θh and θd bands, and the
+/// relative errors of its cells measured above 0, written into `dst` (one slice per
+/// channel, placed by `cell_pass`). `same`: one model for the three channels.
+fn block_terms(
+    models: [&dyn Model; 3],
+    same: bool,
+    data: &FitData,
+    o: &QualityOptions,
+    k: usize,
+    dst: [&mut [f64]; 3],
+) -> BlockTerms {
+    let (n, vals, g) = (data.len(), data.values(), data.geometry());
+    let s = k * BLOCK;
+    let e = (s + BLOCK).min(n);
+    let len = e - s;
+    let gs = g.slice(s..e);
+    let mut out = vec![Rgb::ZERO; len];
+    let mut tmp = if same {
+        Vec::new()
+    } else {
+        vec![Rgb::ZERO; len]
+    };
+    models[0].eval_batch(&gs, &mut out);
+    if !same {
+        for c in 1..3 {
+            models[c].eval_batch(&gs, &mut tmp);
+            for (a, b) in out.iter_mut().zip(&tmp) {
+                a[c] = b[c];
+            }
+        }
+    }
+    // The cells' bands, from θ = acos(z) as `FitData::theta_h` / `theta_d`
+    // compute it (no full-length angle arrays).
+    let theta = |z: f64| z.clamp(-1.0, 1.0).acos();
+    let bands: Vec<[Option<usize>; 2]> = (s..e)
+        .map(|m| {
+            [
+                band_of(&o.theta_h_bands, theta(g.h_z[m])),
+                band_of(&o.theta_d_bands, theta(g.cos_d[m])),
+            ]
+        })
+        .collect();
+    let mut d = vec![0.0; len * 12];
+    for (c, dst) in dst.into_iter().enumerate() {
+        let mut q = 0;
+        for k in 0..len {
+            let fm = vals[c][s + k];
+            let ci = g.wi_z[s + k];
+            // The terms of `evaluate_losses`, in its order.
+            let mut xm = out[k][c];
+            if fm > 0.0 {
+                dst[q] = (xm - fm).abs() / fm;
+                q += 1;
+            }
+            let d0 = xm - fm;
+            xm *= ci;
+            let xt = fm * ci;
+            let d1 = xm - xt;
+            let d2 = brdfkit_fit::loss::cbrt(xm) - brdfkit_fit::loss::cbrt(xt);
+            let d3 = ((xm - xt) / (1.0 + xt)).ln_1p();
+            let r = &mut d[k * 12..k * 12 + 12];
+            (r[c], r[3 + c], r[6 + c], r[9 + c]) = (d0, d1, d2, d3);
+        }
+        debug_assert_eq!(q, dst.len());
+    }
+    (s, d, bands)
 }
 
 fn albedo_comparison(
