@@ -539,3 +539,54 @@ fn an_empty_shard_says_so_plainly_and_exits_0() {
     }
     assert!(empty >= 1);
 }
+
+/// A directory of MERL tables and RGL-EPFL `.bsdf` files is one batch: the `.bsdf` is
+/// told by its content (the directory listing picks `*.binary` and `*.bsdf`), resampled
+/// in memory and fitted like a table, with the same fit as `fit` of the file itself.
+#[test]
+fn a_bsdf_goes_into_a_batch_beside_tables() {
+    let d = tempfile::tempdir().unwrap();
+    let db = database(d.path(), 1, false);
+    let felt =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data-synthetic/felt-synthetic.bsdf");
+    std::fs::copy(&felt, db.join("felt.bsdf")).unwrap();
+    let out = d.path().join("out");
+    let o = batch(&db, &out, &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v = json_of(&o);
+    let tables: Vec<&str> = v["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["table"].as_str().unwrap())
+        .collect();
+    assert_eq!(tables.len(), 2, "{v}");
+    assert!(tables.iter().any(|t| t.contains("felt")), "{tables:?}");
+    assert!(
+        v["results"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|r| r["status"] == "fitted"),
+        "{v}"
+    );
+
+    // The batch's Lambert fit of the felt equals `fit`'s of the file.
+    let fit = bin()
+        .args(["fit"])
+        .arg(&felt)
+        .args(["--model", "lambert", "--starts", "1", "--json", "--quiet"])
+        .output()
+        .unwrap();
+    assert_eq!(fit.status.code(), Some(0), "{}", stderr(&fit));
+    let alone = json_of(&fit);
+    let rec: Value =
+        serde_json::from_slice(&std::fs::read(out.join("felt.json")).unwrap()).unwrap();
+    let lambert = rec["fits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["label"] == "lambert")
+        .unwrap();
+    assert_eq!(lambert["params"], alone[0]["params"], "{lambert}\n{alone}");
+}

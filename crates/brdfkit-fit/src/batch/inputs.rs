@@ -1,6 +1,7 @@
 //! The tables of a batch: inputs (directories, files, glob patterns) expanded into a
 //! fixed, duplicate-free list, each with its output file. The inputs are MERL binary
-//! tables, or neural BRDF proxies ([`Source::Nbrdf`]) that the engine resamples onto
+//! tables and RGL-EPFL `.bsdf` files (told apart by their content, and the `.bsdf`
+//! resampled onto the MERL grid in memory), or neural BRDF proxies ([`Source::Nbrdf`]) that the engine resamples onto
 //! the MERL grid in memory.
 
 use super::BatchError;
@@ -9,6 +10,10 @@ use std::path::{Path, PathBuf};
 
 /// Extension of the tables a directory input contributes.
 pub const TABLE_EXT: &str = "binary";
+
+/// Extension of the RGL-EPFL files a directory input also contributes (a file is read
+/// by its content, this only picks directory entries).
+pub const RGL_EXT: &str = "bsdf";
 
 /// Suffix of the file that names a neural BRDF proxy in a directory listing (one of
 /// its six `.npy` files, `brdfkit_nbrdf::PARTS`).
@@ -49,7 +54,7 @@ fn has_glob_chars(s: &str) -> bool {
 fn is_table_file(p: &Path) -> bool {
     p.is_file()
         && p.extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case(TABLE_EXT))
+            .is_some_and(|e| e.eq_ignore_ascii_case(TABLE_EXT) || e.eq_ignore_ascii_case(RGL_EXT))
 }
 
 /// The stem `DIR/NAME` of a proxy file `DIR/NAME_fc1.npy`.

@@ -46,7 +46,7 @@ mod resume;
 mod shard;
 mod summary;
 
-pub use inputs::{NBRDF_MARK, Source, TABLE_EXT, Table, tables, tables_of};
+pub use inputs::{NBRDF_MARK, RGL_EXT, Source, TABLE_EXT, Table, tables, tables_of};
 pub use resume::{Prior, Stamp, files, options_hash, options_value, prior, table_bytes};
 pub use shard::{Shard, ShardError, fnv1a64, hex};
 pub use summary::{CSV_HEADER, Row, Status, csv_field, summary_csv};
@@ -55,6 +55,7 @@ use crate::families::{FamilyError, check_free, fit_each};
 use crate::{FitConfig, FitData, FitError, families::Family};
 use brdfkit_core::atomic::{FileSet, WriteError};
 use brdfkit_merl::MerlTable;
+use brdfkit_rgl::{InputKind, RglBsdf, TensorFile};
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -79,7 +80,7 @@ pub enum BatchError {
     },
     /// A directory input holds no table (or no proxy).
     #[error("{input}: the directory holds no {}", match looked_for {
-        Source::Binary => format!("*.{TABLE_EXT} table"),
+        Source::Binary => format!("*.{TABLE_EXT} table or *.{RGL_EXT} file"),
         Source::Nbrdf => format!("neural BRDF proxy (*{NBRDF_MARK})"),
     })]
     EmptyDir {
@@ -498,6 +499,14 @@ fn read_data(t: &Table) -> Result<(FitData, String), String> {
     let bytes = table_bytes(t).map_err(|e| format!("{}: cannot read: {e}", t.path.display()))?;
     let hash = hex(fnv1a64(&bytes));
     let table = match t.source {
+        Source::Binary if InputKind::of_head(&bytes) == InputKind::Rgl => {
+            // Resampled in memory (each cell the mean of both orders of its pair), as
+            // `fit-brdf resample --bsdf` writes it.
+            let tf = TensorFile::from_bytes(bytes, &t.path).map_err(|e| e.to_string())?;
+            let bsdf = RglBsdf::from_tensor(&tf).map_err(|e| e.to_string())?;
+            let table = bsdf.to_table(brdfkit_merl::Dims::MERL);
+            table.map_err(|e| format!("{}: {e}", t.path.display()))?.0
+        }
         Source::Binary => MerlTable::from_bytes(&bytes, &t.path).map_err(|e| e.to_string())?,
         Source::Nbrdf => {
             drop(bytes);
