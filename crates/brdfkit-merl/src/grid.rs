@@ -317,6 +317,14 @@ pub fn snap_coord(x: f64) -> f64 {
     if (x - r).abs() <= 1e-9 { r } else { x }
 }
 
+/// Cells per I/O run (reading: per parallel task; writing: per buffered write). A read
+/// task reads this many values of each channel (3 × 64 KiB) into a per-thread buffer
+/// that stays in L2, then converts, validates and stores
+/// them and their mask entries in one pass. Longer runs mean fewer `pread` calls (three
+/// per run): 16384 and 32768 cells saved 3–5 % of the CPU of a MERL read, at two and
+/// four times the buffer (beyond L2 on smaller caches) and fewer tasks to balance.
+pub const IO_CHUNK_CELLS: usize = 8 * 1024;
+
 #[cfg(test)]
 mod tests {
     use super::*;

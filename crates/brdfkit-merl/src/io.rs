@@ -16,21 +16,13 @@
 //! one, and a failed write removes its temporary file and leaves the old file intact.
 
 use crate::error::{Channel, MerlError};
-use crate::grid::{Dims, HEADER_BYTES};
+use crate::grid::{Dims, HEADER_BYTES, IO_CHUNK_CELLS};
 use crate::table::{MerlTable, acceptable_raw, alloc_mask, alloc_raw, raw_valid, spread};
 use byteorder::{ByteOrder, LittleEndian};
 use std::cell::RefCell;
 use std::fs::File;
 use std::io::{self, Read, Write};
 use std::path::Path;
-
-/// Cells per I/O run (reading: per parallel task; writing: per buffered write). A read
-/// task reads this many values of each channel (3 × 64 KiB) into a per-thread buffer
-/// that stays in L2, then converts, validates and stores
-/// them and their mask entries in one pass. Longer runs mean fewer `pread` calls (three
-/// per run): 16384 and 32768 cells saved 3–5 % of the CPU of a MERL read, at two and
-/// four times the buffer (beyond L2 on smaller caches) and fewer tasks to balance.
-pub const IO_CHUNK_CELLS: usize = 8 * 1024;
 
 /// Where the body's bytes come from: a file read positionally (parallel tasks share it)
 /// or a byte slice.

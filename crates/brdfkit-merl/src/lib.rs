@@ -35,10 +35,10 @@ pub mod table;
 pub use cells::CellDirections;
 pub use error::{Channel, MerlError, TableError};
 pub use grid::{
-    Dims, DimsError, cell_weight, phi_d_angle, phi_d_bin, phi_d_coord, snap_coord, theta_d_angle,
-    theta_d_bin, theta_d_coord, theta_h_angle, theta_h_bin, theta_h_coord,
+    Dims, DimsError, IO_CHUNK_CELLS, cell_weight, phi_d_angle, phi_d_bin, phi_d_coord, snap_coord,
+    theta_d_angle, theta_d_bin, theta_d_coord, theta_h_angle, theta_h_bin, theta_h_coord,
 };
-pub use io::{IO_CHUNK_CELLS, atomic_write};
+pub use io::atomic_write;
 pub use lookup::{BATCH_RUN, Lookup, PairsError};
 #[cfg(unix)]
 pub use mapped::MappedF64;

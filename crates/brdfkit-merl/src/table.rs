@@ -287,7 +287,7 @@ impl MerlTable {
         let at = (buf.as_ptr() as usize).next_multiple_of(64) - buf.as_ptr() as usize;
         let at = at / 8;
         let out = &mut buf[at..at + CELL_STRIDE * n];
-        let run = crate::io::IO_CHUNK_CELLS;
+        let run = crate::grid::IO_CHUNK_CELLS;
         spread(out.chunks_mut(CELL_STRIDE * run).collect(), |q, out| {
             let (out, _) = out.as_chunks_mut::<CELL_STRIDE>();
             for (x, o) in (q * run..).zip(out) {
