@@ -214,9 +214,12 @@ fn eight_fits_at_once_share_the_pool_and_finish() {
     println!(
         "8 concurrent fits: {wall:.2} s wall; threads: {baseline} before (rayon pool of {pool} included), at most {max} during (8 callers + 1 monitor)"
     );
-    // 8 callers + the monitor on top of the baseline; a pool per fit would add ≥ 8 · 2.
+    // 8 callers + the monitor on top of the baseline, + 1: the harness may start the
+    // thread of another test of this file after the baseline (it waits on SERIAL, but
+    // it is a thread of this process; CI saw 14 against 13 once). A pool per fit would
+    // add ≥ 8 · 2.
     assert!(
-        max <= baseline + 8 + 1,
+        max <= baseline + 8 + 1 + 1,
         "{max} threads vs baseline {baseline}"
     );
 }

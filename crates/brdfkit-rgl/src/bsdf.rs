@@ -23,13 +23,11 @@
 //! brdfkit's wi; negative stored values are kept, as Mitsuba keeps them.
 
 use crate::cie;
-use crate::error::RglError;
-use crate::tensor::{Dtype, FieldInfo, TensorFile};
+use crate::tensor::TensorFile;
 use crate::warp::{ParamPos, Warp2D};
 use brdfkit_core::{Brdf, Rgb, Vec3};
 use rayon::prelude::*;
 use std::f64::consts::PI;
-use std::path::Path;
 
 /// What the file stores per sample: three colour channels or a spectrum.
 #[derive(Clone, Debug)]
@@ -126,17 +124,6 @@ fn mulsign_neg(x: f64, s: f64) -> f64 {
 }
 
 impl RglBsdf {
-    /// Reads and checks a `.bsdf` file.
-    pub fn read(path: &Path) -> Result<RglBsdf, RglError> {
-        RglBsdf::from_tensor(&TensorFile::read(path)?)
-    }
-
-    /// The model of a parsed tensor file; every structural problem is an error naming the
-    /// file and the field.
-    pub fn from_tensor(tf: &TensorFile) -> Result<RglBsdf, RglError> {
-        crate::check::build(tf)
-    }
-
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_parts(
         tf: &TensorFile,
@@ -357,9 +344,4 @@ impl Brdf for RglBsdf {
     fn is_isotropic(&self) -> bool {
         self.isotropic
     }
-}
-
-/// Whether `f` has the dtype `want`, else the error naming file and field.
-pub(crate) fn want_dtype(tf: &TensorFile, f: &FieldInfo, want: Dtype) -> Result<(), RglError> {
-    tf.expect_dtype(&f.name, want).map(|_| ())
 }

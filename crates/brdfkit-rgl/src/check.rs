@@ -3,11 +3,30 @@
 //! failure names the file and the field (the checks of `measured.cpp`'s constructor, and
 //! those it leaves to chance: NaN or unsorted grids, a `valid` of the wrong length).
 
-use crate::bsdf::{RglBsdf, Summary, Values, want_dtype};
+use crate::bsdf::{RglBsdf, Summary, Values};
 use crate::cie;
 use crate::error::RglError;
 use crate::tensor::{Dtype, FieldInfo, TensorFile};
 use crate::warp::Warp2D;
+
+// Reading is checking: the constructors live beside the checks they run.
+impl RglBsdf {
+    /// Reads and checks a `.bsdf` file.
+    pub fn read(path: &std::path::Path) -> Result<RglBsdf, RglError> {
+        RglBsdf::from_tensor(&TensorFile::read(path)?)
+    }
+
+    /// The model of a parsed tensor file; every structural problem is an error naming the
+    /// file and the field.
+    pub fn from_tensor(tf: &TensorFile) -> Result<RglBsdf, RglError> {
+        build(tf)
+    }
+}
+
+/// Whether `f` has the dtype `want`, else the error naming file and field.
+fn want_dtype(tf: &TensorFile, f: &FieldInfo, want: Dtype) -> Result<(), RglError> {
+    tf.expect_dtype(&f.name, want).map(|_| ())
+}
 
 fn shape_err(tf: &TensorFile, field: &str, problem: String) -> RglError {
     RglError::Shape {

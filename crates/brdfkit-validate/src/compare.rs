@@ -22,7 +22,7 @@
 //! the lookup to resample it with ([`MerlTable::resample`]). Cells missing in B are
 //! left out and counted.
 
-use crate::html::ReportError;
+use crate::html::error::ReportError;
 use crate::html::renders::{Lighting, RenderOptions, RenderSet, Shown, render_set_of};
 use brdfkit_core::{ModelError, Rgb};
 use brdfkit_fit::data::PASS_CHUNK_CELLS;

@@ -25,6 +25,7 @@
 //! `DecompressionStream` (docs/report.md).
 
 use super::charts::model_colour_hex;
+use super::style::{PAGE_CSS, PANELS_CSS};
 use crate::compare::{CompareError, Kind, Representation};
 use base64::Engine;
 use brdfkit_core::direction::spherical;
@@ -38,18 +39,6 @@ use std::sync::Arc;
 
 /// The panels' script (no module import: it runs from `file://`).
 const SCRIPT: &str = include_str!("interactive.js");
-
-/// The panels' style.
-pub(crate) const CSS: &str = r#"
-.panel { border: 1px solid #ddd; border-radius: 4px; padding: 8px; margin: 10px 0; }
-.panel h3 { margin: 2px 0 6px; }
-.controls { display: flex; flex-wrap: wrap; gap: 14px; align-items: center; font-size: 13px; margin-bottom: 6px; }
-.controls label { white-space: nowrap; }
-.controls input[type=range] { width: 160px; vertical-align: middle; }
-.panel canvas { border: 1px solid #eee; }
-.readout { font-family: ui-monospace, monospace; font-size: 12px; color: #333; min-height: 1.3em; }
-.legend span { margin-right: 12px; font-size: 12px; }
-"#;
 
 /// Codes of the embedding.
 const MISSING: u16 = 0;
@@ -456,7 +445,7 @@ pub fn view_page(title: &str, sources: &[PanelSource<'_>]) -> Result<String, Com
                 meta charset="utf-8";
                 meta name="viewport" content="width=device-width, initial-scale=1";
                 title { (title) }
-                style { (PreEscaped(super::page::CSS)) (PreEscaped(CSS)) }
+                style { (PreEscaped(PAGE_CSS)) (PreEscaped(PANELS_CSS)) }
             }
             body {
                 h1 { (title) }

@@ -26,11 +26,14 @@
 
 pub mod analysis;
 pub mod charts;
+pub(crate) mod error;
 mod files;
 pub mod interactive;
 mod page;
 pub mod renders;
+mod style;
 
+pub use error::ReportError;
 pub use files::{HTML_FILE, JSON_FILE};
 
 use crate::physical::{CheckOptions, PhysicalReport, check_model_with};
@@ -44,38 +47,6 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::sync::Arc;
 use std::time::Instant;
-use thiserror::Error;
-
-/// Errors of the report.
-#[derive(Debug, Error)]
-pub enum ReportError {
-    /// No model to report on.
-    #[error("the report needs at least one fitted model")]
-    NoModels,
-    /// The fit-quality computation failed.
-    #[error(transparent)]
-    Quality(#[from] QualityError),
-    /// A chart could not be drawn.
-    #[error("chart: {0}")]
-    Chart(String),
-    /// A sphere could not be rendered.
-    #[error("render: {0}")]
-    Render(String),
-    /// A fitted model's description could not be read back.
-    #[error("{0}")]
-    Model(String),
-    /// The interactive panels could not be built (a model that cannot be tabulated).
-    #[error("interactive panels: {0}")]
-    Panels(String),
-    /// An option out of range.
-    #[error("report option `{option}`: {reason}")]
-    Option {
-        /// The option's name.
-        option: &'static str,
-        /// Why its value is refused.
-        reason: String,
-    },
-}
 
 /// Where a model of the report comes from.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]

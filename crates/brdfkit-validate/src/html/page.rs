@@ -2,38 +2,13 @@
 
 use super::analysis::LOG_RATIO_FLOOR;
 use super::charts::{self, model_colour_hex};
+use super::style::{PAGE_CSS, PANELS_CSS};
 use super::{ReportData, ReportError};
 use crate::report::{deg, num};
 use base64::Engine;
 use brdfkit_fit::{Loss, LossReport};
 use maud::{DOCTYPE, Markup, PreEscaped, html};
 use serde_json::Value;
-
-pub(crate) const CSS: &str = r#"
-body { font-family: system-ui, sans-serif; margin: 0 auto; max-width: 1320px; padding: 0 18px 40px; color: #222; }
-h1 { margin-bottom: 4px; }
-h2 { border-bottom: 2px solid #ddd; padding-bottom: 4px; margin-top: 36px; }
-p.meta, p.note { color: #555; font-size: 14px; }
-nav a { margin-right: 14px; font-size: 14px; }
-table { border-collapse: collapse; font-size: 13px; margin: 8px 0; }
-th, td { border: 1px solid #ddd; padding: 4px 8px; text-align: right; vertical-align: top; }
-th { background: #f4f4f4; }
-td.l, th.l { text-align: left; }
-td.best { font-weight: bold; background: #eef7ee; }
-.swatch { display: inline-block; width: 12px; height: 12px; border-radius: 2px; margin-right: 6px; vertical-align: -1px; }
-.pass { color: #1a7f37; font-weight: bold; }
-.fail { color: #c62828; font-weight: bold; }
-.inconclusive { color: #b26a00; font-weight: bold; }
-.row { display: flex; flex-wrap: wrap; gap: 8px; align-items: flex-start; }
-.row svg { max-width: 100%; height: auto; }
-.card { border: 1px solid #ddd; border-radius: 4px; padding: 6px; font-size: 12px; text-align: center; }
-.card img { width: 128px; height: 128px; image-rendering: pixelated; display: block; margin: 2px; }
-.pair { display: flex; }
-code.params { font-size: 12px; white-space: pre-wrap; text-align: left; display: block; max-width: 420px; }
-details { margin: 6px 0; }
-summary { cursor: pointer; font-weight: bold; }
-#page-check { font-size: 12px; color: #888; }
-"#;
 
 /// On load, records in the DOM whether every image decoded (naturalWidth > 0), how many
 /// charts there are and whether the summary table has its rows: a headless browser's
@@ -164,7 +139,7 @@ pub(crate) fn page(
                 meta charset="utf-8";
                 meta name="viewport" content="width=device-width, initial-scale=1";
                 title { (d.options.title) " · " (t.name) }
-                style { (PreEscaped(CSS)) (PreEscaped(super::interactive::CSS)) }
+                style { (PreEscaped(PAGE_CSS)) (PreEscaped(PANELS_CSS)) }
             }
             body {
                 (meta_section(d))

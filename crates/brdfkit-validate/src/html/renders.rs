@@ -2,7 +2,7 @@
 //! with the same seed, so the difference image shows the model's error and not the
 //! sampling noise of two independent renders.
 
-use super::ReportError;
+use super::error::ReportError;
 use brdfkit_core::Rgb;
 use brdfkit_core::Vec3;
 use brdfkit_fit::Fitted;
