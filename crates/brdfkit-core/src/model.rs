@@ -211,13 +211,35 @@ impl ParamSpec {
     }
 }
 
+/// The concrete type behind a `dyn Model`, for code that needs a model's typed
+/// accessors (its structural choices, its blocks) instead of its name and JSON: see
+/// [`downcast`]. Every `'static` type has it.
+pub trait AsAny: std::any::Any {
+    /// `self` as [`std::any::Any`].
+    fn as_any(&self) -> &dyn std::any::Any;
+}
+
+impl<T: std::any::Any> AsAny for T {
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+/// The model as its concrete type `T`, or None when it is another model.
+///
+/// Takes `&dyn Model`, not `&Box<dyn Model>`: the box itself is also `Any`, and asking
+/// it would always answer None.
+pub fn downcast<T: Model>(m: &dyn Model) -> Option<&T> {
+    m.as_any().downcast_ref::<T>()
+}
+
 /// A parametric, differentiable BRDF model.
 ///
 /// Every implementation must keep four paths numerically identical: [`Brdf::eval`],
 /// [`Model::eval_grad`] (value part), [`Model::eval_batch`] and
 /// [`Model::eval_grad_batch`]; and return exactly 0 (value and gradient) for a pair
 /// with either direction at or below the horizon.
-pub trait Model: Brdf + fmt::Debug {
+pub trait Model: Brdf + fmt::Debug + AsAny {
     /// The model's name in the JSON contract (`"cook-torrance"`).
     fn name(&self) -> &'static str;
 

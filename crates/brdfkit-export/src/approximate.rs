@@ -71,7 +71,7 @@ pub fn export_approximate(
     } else {
         0.0
     };
-    let mut exported = export(&best.params, form, source_name)?;
+    let mut exported = export(&best.params(), form, source_name)?;
     let note = format!(
         "approximation: `{}` is not exactly a {} material; fitted `{}` (best of {}) to it \
          over {} cells of a {a}x{b}x{c} grid: relative RMS error {:.3} %, {} loss {:.4e}",

@@ -1,8 +1,8 @@
 //! glTF 2.0: the metallic-roughness material and its KHR extensions, as a document.
 
 use crate::*;
-use brdfkit_core::Rgb;
 use brdfkit_core::scattering::Masking;
+use brdfkit_core::{Rgb, downcast};
 use brdfkit_models::gltf_pbr::GltfPbr;
 use brdfkit_models::gltf_pbr_ext::{Clearcoat, GltfPbrExt, Sheen, Specular};
 use brdfkit_models::sheen::SheenVisibility;
@@ -36,15 +36,14 @@ pub fn gltf_material(description: &Value) -> Result<(GltfMaterial, String), Expo
         return Err(ExportError::PerChannel);
     }
     let model = brdfkit_models::from_json(description)?;
-    let params = description.get("params").unwrap_or(&Value::Null);
-    let g = match model.name() {
-        "gltf-pbr" => GltfPbrExt::new(GltfPbr::from_params_json(params)?),
-        "gltf-pbr-ext" => GltfPbrExt::from_params_json(params)?,
-        other => {
-            return Err(ExportError::NotGltf {
-                model: other.into(),
-            });
-        }
+    let g = if let Some(core) = downcast::<GltfPbr>(model.as_ref()) {
+        GltfPbrExt::new(core.clone())
+    } else if let Some(ext) = downcast::<GltfPbrExt>(model.as_ref()) {
+        ext.clone()
+    } else {
+        return Err(ExportError::NotGltf {
+            model: model.name().into(),
+        });
     };
     let core = g.core();
     let mut words = format!("{} ({}", model.name(), core.masking().name());

@@ -1,8 +1,8 @@
 //! The one mapping of a brdfkit model onto a renderer's material, and its notes.
 
 use crate::*;
-use brdfkit_core::Rgb;
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking};
+use brdfkit_core::{Rgb, downcast};
 use brdfkit_models::cook_torrance::{CookTorrance, Fresnel, Shape};
 use brdfkit_models::lambert::Lambert;
 use brdfkit_models::rough_plastic::RoughPlastic;
@@ -262,44 +262,35 @@ pub fn map_model(description: &Value, to: Renderer) -> Result<Mapped, ExportErro
     if description.get("per_channel").is_some() {
         return Err(ExportError::PerChannel);
     }
-    brdfkit_models::from_json(description)?;
-    let name = description["model"].as_str().unwrap_or("");
-    let params = description.get("params").unwrap_or(&Value::Null);
-    match name {
-        "lambert" => Ok(Mapped {
-            material: RendererMaterial::Diffuse {
-                reflectance: Lambert::from_params_json(params)?.rho_d(),
-            },
-            model: "lambert".into(),
-        }),
-        "cook-torrance" => {
-            let ct = CookTorrance::from_params_json(params)?;
-            let model = describe_cook_torrance(&ct);
-            match conductor_of(&ct, to) {
-                Ok(material) => Ok(Mapped { material, model }),
-                Err(reason) => Err(ExportError::Unsupported {
-                    config: model,
-                    renderer: to,
-                    reason,
-                }),
-            }
+    let model = brdfkit_models::from_json(description)?;
+    let refused = |model: String, reason| ExportError::Unsupported {
+        config: model,
+        renderer: to,
+        reason,
+    };
+    if let Some(l) = downcast::<Lambert>(model.as_ref()) {
+        let material = RendererMaterial::Diffuse {
+            reflectance: l.rho_d(),
+        };
+        let model = Lambert::NAME.into();
+        Ok(Mapped { material, model })
+    } else if let Some(ct) = downcast::<CookTorrance>(model.as_ref()) {
+        let model = describe_cook_torrance(ct);
+        match conductor_of(ct, to) {
+            Ok(material) => Ok(Mapped { material, model }),
+            Err(reason) => Err(refused(model, reason)),
         }
-        "rough-plastic" => {
-            let p = RoughPlastic::from_params_json(params)?;
-            let model = format!("rough-plastic (ggx, eta {})", p.eta());
-            match plastic_of(&p, to) {
-                Ok(material) => Ok(Mapped { material, model }),
-                Err(reason) => Err(ExportError::Unsupported {
-                    config: model,
-                    renderer: to,
-                    reason,
-                }),
-            }
+    } else if let Some(p) = downcast::<RoughPlastic>(model.as_ref()) {
+        let model = format!("{} (ggx, eta {})", RoughPlastic::NAME, p.eta());
+        match plastic_of(p, to) {
+            Ok(material) => Ok(Mapped { material, model }),
+            Err(reason) => Err(refused(model, reason)),
         }
-        other => Err(ExportError::UnsupportedModel {
-            model: other.into(),
+    } else {
+        Err(ExportError::UnsupportedModel {
+            model: model.name().into(),
             renderer: to,
-        }),
+        })
     }
 }
 

@@ -17,7 +17,7 @@ use crate::{
     SolverKind, Weighting, fit, resolve_free,
 };
 use brdfkit_core::scattering::{Distribution, Masking};
-use brdfkit_core::{Model, ModelError};
+use brdfkit_core::{Model, ModelError, downcast};
 use brdfkit_models::cook_torrance::{CookTorrance, FresnelKind};
 use brdfkit_models::ward::{Normalization, Ward};
 use serde_json::Value;
@@ -25,8 +25,9 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// The model families of the report and the demo, in the order they are shown.
-pub const REPORT_MODELS: &str = "lambert,plausible-phong,ward,lafortune,cook-torrance";
+pub use brdfkit_models::named::{
+    DATABASE_MODELS, DEFAULT_FAMILY, NAMED_FAMILIES, REPORT_MODELS, named_family,
+};
 
 /// Why the model list or the settings cannot be used: always the user's input.
 ///
@@ -234,25 +235,19 @@ pub fn families(list: &str, s: &Structure) -> Result<Vec<Family>, FamilyError> {
             item: item.into(),
             source,
         };
-        // The generic reader checks the whole description (keys, name, parameters).
+        // The generic reader checks the whole description (keys, name, parameters);
+        // the choices then go through the model's own builders, on the typed model.
         let mut model = brdfkit_models::from_json(&v).map_err(err)?;
-        let params = v.get("params").unwrap_or(&Value::Null);
-        match model.name() {
-            "cook-torrance" => {
-                ct_used = true;
-                if s.any_cook_torrance() {
-                    let ct = CookTorrance::from_params_json(params).map_err(err)?;
-                    model = Box::new(s.apply_cook_torrance(ct).map_err(err)?);
-                }
+        if let Some(ct) = downcast::<CookTorrance>(model.as_ref()) {
+            ct_used = true;
+            if s.any_cook_torrance() {
+                model = Box::new(s.apply_cook_torrance(ct.clone()).map_err(err)?);
             }
-            "ward" => {
-                ward_used = true;
-                if s.normalization.is_some() {
-                    let w = Ward::from_params_json(params).map_err(err)?;
-                    model = Box::new(s.apply_ward(w));
-                }
+        } else if let Some(w) = downcast::<Ward>(model.as_ref()) {
+            ward_used = true;
+            if s.normalization.is_some() {
+                model = Box::new(s.apply_ward(w.clone()));
             }
-            _ => {}
         }
         let label = if is_file {
             format!("{} ({item})", model.name())
@@ -272,80 +267,16 @@ pub fn families(list: &str, s: &Structure) -> Result<Vec<Family>, FamilyError> {
         ];
         return Err(FamilyError::ChoiceWithoutModel {
             options: given.iter().filter(|g| g.1).map(|g| g.0).collect(),
-            model: "cook-torrance",
+            model: CookTorrance::NAME,
         });
     }
     if !ward_used && s.normalization.is_some() {
         return Err(FamilyError::ChoiceWithoutModel {
             options: vec!["normalization"],
-            model: "ward",
+            model: Ward::NAME,
         });
     }
     Ok(out)
-}
-
-/// The named families beyond the models' own names: variants and multi-lobe models
-/// that measured materials need. The literature finds two-lobe Cook-Torrance and
-/// Lafortune with 2–3 lobes best for many MERL materials (A. Ngan, F. Durand,
-/// W. Matusik, "Experimental Analysis of BRDF Models", EGSR 2005, sec. 5; E. Lafortune
-/// et al., "Non-Linear Approximation of Reflectance Functions", SIGGRAPH 1997).
-pub const NAMED_FAMILIES: [&str; 4] = [
-    "cook-torrance-beckmann",
-    "cook-torrance-2",
-    "lafortune-2",
-    "lafortune-3",
-];
-
-/// The families of a whole-database run: every model family of issue 12, one- and
-/// multi-lobe.
-pub const DATABASE_MODELS: &str = "lambert,oren-nayar,plausible-phong,blinn-phong,ward,\
-lafortune,lafortune-2,ashikhmin-shirley,cook-torrance,cook-torrance-beckmann,cook-torrance-2";
-
-/// The start of a named family ([`NAMED_FAMILIES`]), or None for any other name.
-///
-/// Multi-lobe starts are a broad and a narrow lobe (roughness or exponent a decade
-/// apart, on either side of the one-lobe default), so that from the first iteration
-/// each lobe has its own part of the data to follow: two equal lobes would share every
-/// gradient and stay equal. The multi-start grid then varies both shapes.
-/// - `cook-torrance-beckmann`: Cook-Torrance with the Beckmann distribution.
-/// - `cook-torrance-2`: the `sum` of two Cook-Torrance (GGX) lobes, α = 0.3 and 0.03,
-///   the second lobe's ρd held at 0 (diffuse parts add up: only one is identifiable).
-/// - `lafortune-N` (N = 2, 3): N Phong-like lobes (cxy = −1, cz = 1) with exponents
-///   spread a decade apart from 5, each ρ set so the lobe's albedo bound 2πρ/(n+2)
-///   (see `LafortuneLobe::albedo_bound`) is 0.1.
-pub fn named_family(name: &str) -> Option<Result<Box<dyn Model>, ModelError>> {
-    use brdfkit_models::lafortune::{Lafortune, LafortuneLobe};
-    use brdfkit_models::sum::Sum;
-    let lafortune = |n: usize| -> Result<Box<dyn Model>, ModelError> {
-        let lobes = (0..n)
-            .map(|j| {
-                let e = 5.0 * 10f64.powi(j as i32);
-                let rho = 0.1 * (e + 2.0) / (2.0 * std::f64::consts::PI);
-                LafortuneLobe::new(-1.0, 1.0, e, brdfkit_core::Rgb::splat(rho))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        Ok(Box::new(Lafortune::new(
-            brdfkit_core::Rgb::splat(0.5),
-            lobes,
-        )?))
-    };
-    let ct = |alpha: f64, rho_d: f64| -> Result<Box<dyn Model>, ModelError> {
-        let params = serde_json::json!({"model": "cook-torrance",
-            "params": {"alpha": alpha, "rho_d": rho_d}});
-        brdfkit_models::from_json(&params)
-    };
-    Some(match name {
-        "cook-torrance-beckmann" => {
-            Ok(Box::new(CookTorrance::new().with_distribution(Distribution::Beckmann)) as _)
-        }
-        "cook-torrance-2" => (|| {
-            let sum = Sum::new(vec![ct(0.3, 0.3)?, ct(0.03, 0.0)?])?;
-            Ok(Box::new(sum.with_fixed(&["terms[1].rho_d"])?) as Box<dyn Model>)
-        })(),
-        "lafortune-2" => lafortune(2),
-        "lafortune-3" => lafortune(3),
-        _ => return None,
-    })
 }
 
 /// The fit settings of the command line, typed; [`FitSettings::config`] validates
@@ -501,8 +432,8 @@ pub fn check_free(fams: &[Family], cfg: &FitConfig) -> Result<(), FamilyError> {
 pub struct Outcome {
     /// The family's label.
     pub label: String,
-    /// The fitted model as JSON (the model contract).
-    pub params: Value,
+    /// The fitted model(s), typed: [`Outcome::params`] is their JSON.
+    pub fitted: crate::Fitted,
     /// The fit record.
     pub record: FitRecord,
     /// Where the fit's time went ([`crate::FitResult::stages`]).
@@ -510,14 +441,19 @@ pub struct Outcome {
 }
 
 impl Outcome {
+    /// The fitted model in the JSON contract (`fit --out`'s file).
+    pub fn params(&self) -> Value {
+        self.fitted.to_json()
+    }
+
     /// `{"label", "params", "record"}`: what `fit --json` prints and a batch stores.
     pub fn to_json(&self) -> Value {
-        serde_json::json!({"label": self.label, "params": self.params, "record": self.record})
+        serde_json::json!({"label": self.label, "params": self.params(), "record": self.record})
     }
 
     /// The text of the fitted model's file (`fit --out`): pretty JSON and a newline.
     pub fn params_file(&self) -> Result<String, serde_json::Error> {
-        pretty_file(&self.params)
+        pretty_file(&self.params())
     }
 
     /// The text of the fit record's file (`fit --record`): pretty JSON and a newline.
@@ -576,7 +512,7 @@ pub fn fit_each(
             Ok(r) => {
                 let o = Outcome {
                     label: f.label.clone(),
-                    params: r.fitted.to_json(),
+                    fitted: r.fitted,
                     record: r.record,
                     stages: r.stages,
                 };

@@ -170,6 +170,7 @@ pub fn losses_of_values(
 /// Published parameter conventions that differ from brdfkit's, converted to its model
 /// JSON (the worked example of `docs/scoring.md`).
 pub mod published {
+    use brdfkit_models::cook_torrance::CookTorrance;
     use serde_json::{Value, json};
 
     /// The smallest GGX α of [`metallic_roughness`]: Burley's BRDF Explorer clamps
@@ -211,7 +212,7 @@ pub mod published {
         let rho_d = base_color.map(|c| (1.0 - metallic) * c);
         let f0 = base_color.map(|c| (1.0 - metallic) * 0.08 * specular + metallic * c);
         json!({
-            "model": "cook-torrance",
+            "model": CookTorrance::NAME,
             "params": {
                 "rho_d": rho_d,
                 "rho_s": 1.0,

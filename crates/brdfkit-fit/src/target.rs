@@ -54,9 +54,9 @@
 //! (the export's conditions are the held values above).
 
 use crate::families::{Family, FamilyFitError, FamilyObserver, Outcome, fit_each};
-use crate::{FitConfig, FitData};
+use crate::{FitConfig, FitData, Fitted};
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking};
-use brdfkit_core::{Model, Rgb};
+use brdfkit_core::{Model, Rgb, downcast};
 use brdfkit_models::cook_torrance::{CookTorrance, Fresnel};
 use brdfkit_models::gltf_pbr::GltfPbr;
 use brdfkit_models::gltf_pbr_ext::{Clearcoat, GltfPbrExt, Sheen, Specular};
@@ -202,51 +202,7 @@ pub const GLTF_MIN_GAIN: f64 = 0.01;
 /// optimum.
 pub const GLTF_ENTRY_WEIGHT: f64 = 0.1;
 
-/// One glTF configuration `--for gltf` fits: its label and the extensions (names of
-/// [`brdfkit_models::gltf_pbr_ext::EXTENSION_NAMES`]) it adds to the core.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct GltfVariant {
-    /// The label (the record's family).
-    pub label: &'static str,
-    /// The extensions added to the core.
-    pub extensions: &'static [&'static str],
-}
-
-/// The configurations of `--for gltf`, each after every one of its subsets (the order
-/// the warm starts need).
-pub const GLTF_VARIANTS: [GltfVariant; 6] = [
-    GltfVariant {
-        label: "gltf-pbr",
-        extensions: &[],
-    },
-    GltfVariant {
-        label: "gltf-sheen",
-        extensions: &["sheen"],
-    },
-    GltfVariant {
-        label: "gltf-clearcoat",
-        extensions: &["clearcoat"],
-    },
-    GltfVariant {
-        label: "gltf-specular",
-        extensions: &["specular"],
-    },
-    GltfVariant {
-        label: "gltf-sheen-specular",
-        extensions: &["sheen", "specular"],
-    },
-    GltfVariant {
-        label: "gltf-clearcoat-specular",
-        extensions: &["clearcoat", "specular"],
-    },
-];
-
-impl GltfVariant {
-    /// Whether every extension of `self` is in `other`.
-    fn is_subset_of(&self, other: &GltfVariant) -> bool {
-        self.extensions.iter().all(|e| other.extensions.contains(e))
-    }
-}
+pub use brdfkit_models::named::{GLTF_VARIANTS, GltfVariant};
 
 /// The family of `v` starting at `model` (ior held with the specular extension: module
 /// doc).
@@ -308,13 +264,15 @@ fn gltf_start(exts: &[&str], base: Option<&GltfPbrExt>, donors: &[&GltfPbrExt]) 
 }
 
 /// A fitted glTF configuration as the extended model (the core as one with none).
-fn as_ext(params: &serde_json::Value) -> GltfPbrExt {
-    let bad = "a fitted glTF configuration reads back";
-    match params["model"].as_str() {
-        Some("gltf-pbr") => {
-            GltfPbrExt::new(GltfPbr::from_params_json(&params["params"]).expect(bad))
-        }
-        _ => GltfPbrExt::from_params_json(&params["params"]).expect(bad),
+fn as_ext(fitted: &Fitted) -> GltfPbrExt {
+    let model = fitted
+        .shared()
+        .expect("glTF configurations are fitted with shared parameters");
+    match downcast::<GltfPbr>(model) {
+        Some(core) => GltfPbrExt::new(core.clone()),
+        None => downcast::<GltfPbrExt>(model)
+            .expect("every glTF configuration is gltf-pbr or gltf-pbr-ext")
+            .clone(),
     }
 }
 
@@ -354,7 +312,7 @@ fn fit_gltf(
                 o = cold;
             }
         }
-        fitted.push(as_ext(&o.params));
+        fitted.push(as_ext(&o.fitted));
         outcomes.push(o);
     }
     Ok(outcomes)
@@ -606,9 +564,10 @@ mod tests {
         assert_eq!(r.best().label, "conductor");
         let loss = r.best().record.losses_full.cbrt.overall;
         assert!(loss < 1e-3, "loss {loss}");
-        let back = CookTorrance::from_params_json(&r.best().params["params"]).unwrap();
+        let best = r.best().fitted.shared().unwrap();
+        let back = downcast::<CookTorrance>(best).unwrap();
         let Fresnel::Conductor { eta, k } = back.fresnel() else {
-            panic!("{}", r.best().params)
+            panic!("{}", r.best().params())
         };
         // F(θ) of the fit matches the truth's (η, k are identifiable only through F).
         for c in [0.05, 0.5, 1.0] {

@@ -182,9 +182,14 @@ impl Brdf for AshikhminShirley {
     }
 }
 
+impl AshikhminShirley {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = "ashikhmin-shirley";
+}
+
 impl Model for AshikhminShirley {
     fn name(&self) -> &'static str {
-        "ashikhmin-shirley"
+        Self::NAME
     }
 
     shaped_lobe_params!(n);

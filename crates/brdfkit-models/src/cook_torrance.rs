@@ -649,9 +649,14 @@ impl Brdf for CookTorrance {
     }
 }
 
+impl CookTorrance {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = "cook-torrance";
+}
+
 impl Model for CookTorrance {
     fn name(&self) -> &'static str {
-        "cook-torrance"
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

@@ -306,9 +306,14 @@ impl<K: LobeKind> Brdf for CosineLobeModel<K> {
     }
 }
 
+impl<K: LobeKind> CosineLobeModel<K> {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = K::NAME;
+}
+
 impl<K: LobeKind> Model for CosineLobeModel<K> {
     fn name(&self) -> &'static str {
-        K::NAME
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

@@ -232,9 +232,14 @@ pub(crate) fn ggx_dv(
 
 crate::pair::pair_kernel_brdf!(GltfPbr);
 
+impl GltfPbr {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = M;
+}
+
 impl Model for GltfPbr {
     fn name(&self) -> &'static str {
-        M
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

@@ -512,9 +512,14 @@ fn read_extensions(o: &serde_json::Map<String, Value>) -> Result<Vec<&'static st
 
 crate::pair::pair_kernel_brdf!(GltfPbrExt);
 
+impl GltfPbrExt {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = M;
+}
+
 impl Model for GltfPbrExt {
     fn name(&self) -> &'static str {
-        M
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

@@ -324,9 +324,14 @@ impl Brdf for Lafortune {
     }
 }
 
+impl Lafortune {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = "lafortune";
+}
+
 impl Model for Lafortune {
     fn name(&self) -> &'static str {
-        "lafortune"
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

@@ -66,9 +66,14 @@ impl Brdf for Lambert {
     }
 }
 
+impl Lambert {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = "lambert";
+}
+
 impl Model for Lambert {
     fn name(&self) -> &'static str {
-        "lambert"
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

@@ -27,6 +27,7 @@ pub mod gltf_pbr;
 pub mod gltf_pbr_ext;
 pub mod lafortune;
 pub mod lambert;
+pub mod named;
 pub mod oren_nayar;
 pub mod phong;
 pub mod plausible_phong;

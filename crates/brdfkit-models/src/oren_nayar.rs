@@ -143,9 +143,14 @@ impl Brdf for OrenNayar {
     }
 }
 
+impl OrenNayar {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = "oren-nayar";
+}
+
 impl Model for OrenNayar {
     fn name(&self) -> &'static str {
-        "oren-nayar"
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

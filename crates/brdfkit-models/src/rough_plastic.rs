@@ -536,9 +536,14 @@ impl RoughPlastic {
 
 crate::pair::pair_kernel_brdf!(RoughPlastic);
 
+impl RoughPlastic {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = M;
+}
+
 impl Model for RoughPlastic {
     fn name(&self) -> &'static str {
-        M
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

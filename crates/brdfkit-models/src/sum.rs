@@ -176,9 +176,14 @@ impl Brdf for Sum {
     }
 }
 
+impl Sum {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = "sum";
+}
+
 impl Model for Sum {
     fn name(&self) -> &'static str {
-        "sum"
+        Self::NAME
     }
 
     fn param_specs(&self) -> Vec<ParamSpec> {

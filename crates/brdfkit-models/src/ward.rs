@@ -227,9 +227,14 @@ impl Brdf for Ward {
     }
 }
 
+impl Ward {
+    /// The model's name in the JSON contract.
+    pub const NAME: &'static str = "ward";
+}
+
 impl Model for Ward {
     fn name(&self) -> &'static str {
-        "ward"
+        Self::NAME
     }
 
     shaped_lobe_params!(alpha);

@@ -54,7 +54,8 @@ use brdfkit_core::geometry::half_vector;
 use brdfkit_core::scattering::Distribution;
 use brdfkit_core::{Model, Rgb, Vec3};
 use brdfkit_export::{ExportError, Renderer, RendererMaterial, renderer_material};
-use brdfkit_models::cook_torrance::Shape;
+use brdfkit_models::cook_torrance::{CookTorrance, Shape};
+use brdfkit_models::lambert::Lambert;
 use brdfkit_models::testing::SplitMix64;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
@@ -231,7 +232,7 @@ pub fn standard_configs() -> Vec<CrossConfig> {
     };
     let mut v = vec![config(
         "diffuse".into(),
-        json!({"model": "lambert", "params": {"rho_d": [0.2, 0.5, 0.9]}}),
+        json!({"model": Lambert::NAME, "params": {"rho_d": [0.2, 0.5, 0.9]}}),
         Tolerance::Relative { rel: 1e-5 },
         None,
     )];
@@ -239,7 +240,7 @@ pub fn standard_configs() -> Vec<CrossConfig> {
         for &alpha in &ALPHAS {
             for (metal, eta, k) in METALS {
                 let model = |g1: &str| {
-                    json!({"model": "cook-torrance", "params": {
+                    json!({"model": CookTorrance::NAME, "params": {
                         "rho_d": 0.0, "rho_s": 1.0, "alpha": alpha,
                         "distribution": dist.name(), "masking": "smith-separable",
                         "beckmann_g1": g1,

@@ -385,7 +385,7 @@ pub struct FitOptions {
         long,
         visible_alias = "models",
         value_name = "MODELS",
-        default_value = "cook-torrance"
+        default_value = brdfkit::models::named::DEFAULT_FAMILY
     )]
     pub model: String,
     /// Microfacet distribution of cook-torrance.
@@ -870,7 +870,7 @@ pub struct StudyArgs {
     #[arg(long, value_name = "NAMES")]
     pub loss_materials: Option<String>,
     /// The losses part: model families (comma-separated `--model` names).
-    #[arg(long, value_name = "MODELS", default_value = "cook-torrance")]
+    #[arg(long, value_name = "MODELS", default_value = brdfkit::models::named::DEFAULT_FAMILY)]
     pub loss_models: String,
     /// The losses part: the document (its data and images go to the directory of the
     /// same name without `.md`).

@@ -53,11 +53,9 @@ impl FitReport {
 impl ModelFit {
     /// A fitted family of the report, with its record.
     pub fn fitted(o: &Outcome) -> Result<ModelFit, ReportError> {
-        let fitted = Fitted::from_json(&o.params)
-            .map_err(|e| ReportError::Model(format!("{}: fitted model: {e}", o.label)))?;
         Ok(ModelFit {
             label: o.label.clone(),
-            fitted,
+            fitted: o.fitted.clone(),
             record: Some(o.record.clone()),
             origin: Origin::Fitted,
         })

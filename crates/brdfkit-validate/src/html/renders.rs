@@ -166,9 +166,10 @@ center = [0.0, 0.0, 0.0]
 radius = 1.0
 
 [material]
-model = {{ model = "lambert", params = {{ rho_d = 0.5 }} }}
+model = {{ model = "{lambert}", params = {{ rho_d = 0.5 }} }}
 "#,
         s = o.size,
+        lambert = brdfkit_models::lambert::Lambert::NAME,
         seed = o.seed,
         spp = match l {
             Lighting::Point => 1,

@@ -51,7 +51,7 @@ pub fn run(a: FitArgs) -> CliResult<()> {
     let t = Instant::now();
     if let [o] = &outcomes[..] {
         if let Some(p) = &a.out {
-            write_atomic(p, pretty(&o.params)?.as_bytes())?;
+            write_atomic(p, pretty(&o.params())?.as_bytes())?;
         }
         if let Some(p) = &a.record {
             write_atomic(p, pretty(&o.record)?.as_bytes())?;
@@ -64,7 +64,7 @@ pub fn run(a: FitArgs) -> CliResult<()> {
             let stem = &o.record.family;
             write_atomic(
                 &dir.join(format!("{stem}.json")),
-                pretty(&o.params)?.as_bytes(),
+                pretty(&o.params())?.as_bytes(),
             )?;
             write_atomic(
                 &dir.join(format!("{stem}.fit.json")),
@@ -83,7 +83,7 @@ pub fn run(a: FitArgs) -> CliResult<()> {
     } else {
         let mut text = comparison_text(&outcomes, cfg.get_loss());
         if outcomes.len() == 1 && a.out.is_none() {
-            text += &pretty(&outcomes[0].params)?;
+            text += &pretty(&outcomes[0].params())?;
         }
         write_text(None, &text)
     }
@@ -100,7 +100,7 @@ fn write_best(
 ) -> CliResult<()> {
     let o = &outcomes[best];
     if let Some(p) = &a.out {
-        write_atomic(p, pretty(&o.params)?.as_bytes())?;
+        write_atomic(p, pretty(&o.params())?.as_bytes())?;
     }
     if let Some(p) = &a.record {
         write_atomic(p, pretty(&o.record)?.as_bytes())?;
@@ -120,7 +120,7 @@ fn write_best(
             .map_or_else(|| "PARAMS.json".into(), |p| p.display().to_string()),
     );
     if a.out.is_none() {
-        text += &pretty(&o.params)?;
+        text += &pretty(&o.params())?;
     }
     write_text(None, &text)
 }
