@@ -77,7 +77,7 @@ fn auto_finishes_ward_duer_on_all_cells_and_keeps_the_shortcut_elsewhere() {
     assert_eq!(older.stage_iterations(), stages, "summed from the starts");
     let outcome = brdfkit_fit::families::Outcome {
         label: "ward".into(),
-        params: gm.model.clone(),
+        fitted: brdfkit_fit::Fitted::from_json(&gm.model).unwrap(),
         record: gm,
         stages: Default::default(),
     };
