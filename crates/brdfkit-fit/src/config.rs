@@ -203,14 +203,20 @@ impl Default for FitConfig {
     }
 }
 
-/// The command line's exploration set of a ranked fit (see
-/// [`FitConfig::explore_cells`]): 1,024 cells, 4 per stratum of the 16 × 16 grid.
-pub const CLI_EXPLORE_CELLS: usize = 1024;
+/// The default exploration set of a ranked fit ([`crate::families::FitSettings`]'s;
+/// see [`FitConfig::explore_cells`]): 1,024 cells, 4 per stratum of the 16 × 16 grid.
+pub const DEFAULT_EXPLORE_CELLS: usize = 1024;
 
-/// The command line's rule for the iterations over all fitted cells of a start that
-/// warmed up (see [`FitConfig::full_iters`]): [`FullIters::Auto`], the warm-up optimum
-/// evaluated, not refined, for every model whose subsample optimum holds.
-pub const CLI_FULL_ITERS: FullIters = FullIters::Auto;
+/// The default rule for the iterations over all fitted cells of a start that warmed
+/// up ([`crate::families::FitSettings`]'s; see [`FitConfig::full_iters`]):
+/// [`FullIters::Auto`], the warm-up optimum evaluated, not refined, for every model
+/// whose subsample optimum holds.
+pub const DEFAULT_FULL_ITERS: FullIters = FullIters::Auto;
+
+/// The default number of starts ([`crate::families::FitSettings`]'s): eight, the
+/// multi-start grid that finds the global optimum on the measured tables
+/// (docs/fitting.md, "Multiple starts").
+pub const DEFAULT_STARTS: usize = 8;
 
 /// How many LM iterations on all fitted cells a start that warmed up takes (see
 /// [`FitConfig::full_iters`]). Written `N`, `all` or `auto` ([`FromStr`], [`fmt::Display`]).
@@ -506,7 +512,7 @@ impl FitConfig {
     /// start's warm-up optimum (converged on the stratified 65 536-cell subsample) and
     /// only evaluates it on all cells; `All` (the library default) iterates to
     /// convergence on all cells; `Auto` (the command line's default,
-    /// [`CLI_FULL_ITERS`]) is `Cap(0)` where the model's subsample optimum holds and
+    /// [`DEFAULT_FULL_ITERS`]) is `Cap(0)` where the model's subsample optimum holds and
     /// `All` elsewhere. Measured on 15 measured tables (docs/fitting.md): the
     /// full-table loss of Cook-Torrance's `Cap(0)` is within 0.004 % of `All`'s, for
     /// about half the CPU time; every other default family's within 0.14 % on seven.
@@ -520,7 +526,7 @@ impl FitConfig {
     /// `Some(n)` (n ≥ 256) draws n cells from the warm-up set when n is below its size
     /// (else the warm-up set is explored directly); `None` (the library default) an
     /// eighth of the warm-up set, or the warm-up set itself when that is under 4,096
-    /// cells. The command line uses [`CLI_EXPLORE_CELLS`] = 1,024: on 15 measured
+    /// cells. The command line uses [`DEFAULT_EXPLORE_CELLS`] = 1,024: on 15 measured
     /// tables (docs/fitting.md) no full-table loss moved by more than 0.004 % against
     /// 8,192, at an eighth of the exploration's CPU time.
     pub fn explore_cells(mut self, n: Option<usize>) -> Result<Self, FitError> {

@@ -12,9 +12,10 @@
 //! [`FamilyError::message_with`] names it otherwise (the command line: `--fix`,
 //! `--sample-fraction`).
 
+use crate::config::{DEFAULT_EXPLORE_CELLS, DEFAULT_FINISH, DEFAULT_FULL_ITERS, DEFAULT_STARTS};
 use crate::{
-    FitConfig, FitData, FitError, FitObserver, FitRecord, FullIters, Loss, RobustKind, Sharing,
-    SolverKind, Weighting, fit, resolve_free,
+    FitConfig, FitData, FitError, FitObserver, FitRecord, FullIters, Loss, LossSet, RobustKind,
+    Sharing, SolverKind, Weighting, fit, resolve_free,
 };
 use brdfkit_core::scattering::{Distribution, Masking};
 use brdfkit_core::{Model, ModelError, downcast};
@@ -279,8 +280,11 @@ pub fn families(list: &str, s: &Structure) -> Result<Vec<Family>, FamilyError> {
     Ok(out)
 }
 
-/// The fit settings of the command line, typed; [`FitSettings::config`] validates
-/// them into a [`FitConfig`].
+/// The fit settings a user states, typed: the one settings type of the command line
+/// (`fit`, `report`, `batch`, `demo`) and of Python's `brdfkit.fit`, which map their
+/// flags and arguments onto it field by field and take their defaults from
+/// [`FitSettings::default`]. [`FitSettings::config`] validates them into the engine's
+/// [`FitConfig`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitSettings {
     /// The loss optimised.
@@ -319,30 +323,37 @@ pub struct FitSettings {
     /// Size of the exploration set of a ranked fit (see [`FitConfig::explore_cells`];
     /// None: the library's rule).
     pub explore_cells: Option<usize>,
+    /// The losses the record reports (see [`FitConfig::report_losses`]).
+    pub losses: LossSet,
 }
 
 impl Default for FitSettings {
-    /// The defaults of [`FitConfig::default`] (one start), on every cell; the command
-    /// line has its own defaults (8 starts).
+    /// The one set of defaults a user meets, on the command line and in Python:
+    /// the cube-root loss with solid-angle weights, Levenberg-Marquardt from
+    /// [`DEFAULT_STARTS`] starts ([`DEFAULT_FINISH`] finished), the warm-up optimum kept
+    /// where it holds ([`DEFAULT_FULL_ITERS`]), [`DEFAULT_EXPLORE_CELLS`] exploration
+    /// cells, every cell, brdfkit's own four losses reported. Their evidence is in
+    /// docs/fitting.md. ([`FitConfig::default`] is the engine's bare configuration,
+    /// one start over every cell, which tests and studies build on.)
     fn default() -> Self {
-        let c = FitConfig::default();
         FitSettings {
-            loss: c.get_loss(),
-            weighting: c.get_weighting(),
-            solver: c.get_solver(),
-            starts: c.get_starts(),
-            finish: c.get_finish(),
+            loss: Loss::Cbrt,
+            weighting: Weighting::SolidAngle,
+            solver: SolverKind::Lm,
+            starts: DEFAULT_STARTS,
+            finish: DEFAULT_FINISH,
             sample_fraction: 1.0,
             theta_d_max_deg: None,
             theta_max_deg: None,
             per_channel: false,
-            seed: c.get_seed(),
+            seed: 0,
             fix: None,
-            robust: c.get_robust(),
+            robust: RobustKind::None,
             robust_scale: None,
             albedo_max: None,
-            full_iters: c.get_full_iters(),
-            explore_cells: c.get_explore_cells(),
+            full_iters: DEFAULT_FULL_ITERS,
+            explore_cells: Some(DEFAULT_EXPLORE_CELLS),
+            losses: LossSet::Own,
         }
     }
 }
@@ -404,7 +415,7 @@ impl FitSettings {
             .map_err(bad("robust_scale"))?
             .albedo_max(self.albedo_max)
             .map_err(bad("energy_conserving"))
-            .map(|c| c.full_iters(self.full_iters))?
+            .map(|c| c.full_iters(self.full_iters).report_losses(self.losses))?
             .explore_cells(self.explore_cells)
             .map_err(bad("explore_cells"))
     }

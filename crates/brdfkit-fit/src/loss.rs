@@ -428,6 +428,9 @@ pub enum LossSet {
 }
 
 impl LossSet {
+    /// Every set.
+    pub const ALL: [LossSet; 2] = [LossSet::Own, LossSet::All];
+
     /// The name on the command line and in configs.
     pub fn name(&self) -> &'static str {
         match self {

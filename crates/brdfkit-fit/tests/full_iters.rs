@@ -24,7 +24,7 @@ fn fit_with(data: &FitData, model: &dyn Model, rule: FullIters) -> FitRecord {
     let cfg = FitConfig::default()
         .starts(8)
         .expect("8 starts")
-        .explore_cells(Some(config::CLI_EXPLORE_CELLS))
+        .explore_cells(Some(config::DEFAULT_EXPLORE_CELLS))
         .expect("explore cells")
         .full_iters(rule);
     fit(model, data, &cfg, None).expect("fit").record
@@ -32,7 +32,7 @@ fn fit_with(data: &FitData, model: &dyn Model, rule: FullIters) -> FitRecord {
 
 #[test]
 fn auto_finishes_ward_duer_on_all_cells_and_keeps_the_shortcut_elsewhere() {
-    assert_eq!(config::CLI_FULL_ITERS, FullIters::Auto);
+    assert_eq!(config::DEFAULT_FULL_ITERS, FullIters::Auto);
     let data = pink_fabric();
     let duer = Ward::default().with_normalization(Normalization::Duer);
 

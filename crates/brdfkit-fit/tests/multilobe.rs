@@ -29,8 +29,8 @@ fn two_lobes_fit_measured_proxies_at_least_as_well_as_one() {
     // The command line's defaults (`fit-brdf fit`).
     let cfg = FitSettings {
         starts: 8,
-        full_iters: config::CLI_FULL_ITERS,
-        explore_cells: Some(config::CLI_EXPLORE_CELLS),
+        full_iters: config::DEFAULT_FULL_ITERS,
+        explore_cells: Some(config::DEFAULT_EXPLORE_CELLS),
         ..FitSettings::default()
     }
     .config()

@@ -58,8 +58,8 @@ pub fn default_cli_config() -> FitConfig {
     FitConfig::default()
         .starts(8)
         .expect("8 starts")
-        .full_iters(brdfkit_fit::config::CLI_FULL_ITERS)
-        .explore_cells(Some(brdfkit_fit::config::CLI_EXPLORE_CELLS))
+        .full_iters(brdfkit_fit::config::DEFAULT_FULL_ITERS)
+        .explore_cells(Some(brdfkit_fit::config::DEFAULT_EXPLORE_CELLS))
         .expect("explore cells")
 }
 

@@ -5,7 +5,7 @@
 use crate::model::PyModel;
 use crate::table::PyTable;
 use crate::{errors, json_to_py};
-use brdfkit_fit::config::{CLI_EXPLORE_CELLS, DEFAULT_FINISH};
+use brdfkit_fit::config::DEFAULT_EXPLORE_CELLS;
 use brdfkit_fit::families::{
     Family, FamilyObserver, FitSettings, Structure, check_free, families, fit_each,
 };
@@ -176,16 +176,42 @@ fn families_of(model: &Bound<'_, PyAny>, s: &Structure) -> PyResult<Vec<Family>>
     Ok(out)
 }
 
+/// The defaults of every argument of [`fit`]: the library's one set
+/// ([`FitSettings::default`]), shared with the command line.
+fn d() -> FitSettings {
+    FitSettings::default()
+}
+
+/// The defaults of `brdfkit.fit` as a dict (`brdfkit._brdfkit.FIT_DEFAULTS`): the Python
+/// wrapper's signature takes them from here, so no default is written twice.
+pub fn defaults_dict(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    let s = d();
+    let v = json!({
+        "model": brdfkit_models::named::DEFAULT_FAMILY,
+        "loss": s.loss.name(),
+        "starts": s.starts,
+        "losses": s.losses.name(),
+        "weighting": s.weighting.name(),
+        "solver": s.solver.name(),
+        "finish": s.finish,
+        "full_iters": s.full_iters.to_string(),
+        "explore_cells": s.explore_cells,
+    });
+    json_to_py(py, &v)
+}
+
 /// Fits each model family to the table as `fit-brdf fit` does (same defaults); returns
 /// (label, fitted model file text, fit record file text, iterations by stage) per
 /// family: the bytes `fit-brdf fit --out` and `--record` write, and the iterations as
 /// the command line's fit table prints them.
 #[pyfunction]
 #[pyo3(signature = (
-    table, model, *, loss = "cbrt", weighting = "solid-angle", solver = "lm", starts = 8,
-    finish = DEFAULT_FINISH, sample_fraction = 1.0, theta_d_max = None, theta_max = None, per_channel = false,
-    seed = 0, fix = None, robust = "none", robust_scale = None, energy_conserving = false,
-    full_iters = "auto", explore_cells = CLI_EXPLORE_CELLS, distribution = None,
+    table, model, *, loss = d().loss.name(), weighting = d().weighting.name(),
+    solver = d().solver.name(), starts = d().starts, finish = d().finish,
+    sample_fraction = d().sample_fraction, theta_d_max = None, theta_max = None,
+    per_channel = d().per_channel, seed = d().seed, fix = None, robust = d().robust.name(),
+    robust_scale = None, energy_conserving = false, full_iters = d().full_iters.to_string(),
+    explore_cells = DEFAULT_EXPLORE_CELLS, losses = d().losses.name(), distribution = None,
     masking = None, fresnel = None, normalization = None, progress = None
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -207,8 +233,9 @@ pub fn fit(
     robust: &str,
     robust_scale: Option<f64>,
     energy_conserving: bool,
-    full_iters: &str,
+    full_iters: String,
     explore_cells: usize,
+    losses: &str,
     distribution: Option<&str>,
     masking: Option<&str>,
     fresnel: Option<&str>,
@@ -241,6 +268,7 @@ pub fn fit(
             .parse()
             .map_err(|e: String| errors::value(format!("full_iters: {e}")))?,
         explore_cells: Some(explore_cells),
+        losses: choice("losses", losses)?,
     };
     let cfg = settings.config().map_err(errors::input)?;
     check_free(&fams, &cfg).map_err(errors::input)?;

@@ -50,6 +50,7 @@ fn _brdfkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyNbrdf>()?;
     m.add_class::<rgl::PyRglBsdf>()?;
     m.add_function(wrap_pyfunction!(fit::fit, m)?)?;
+    m.add("FIT_DEFAULTS", fit::defaults_dict(m.py())?)?;
     m.add_function(wrap_pyfunction!(model::check, m)?)?;
     m.add_function(wrap_pyfunction!(model::resample, m)?)?;
     m.add_function(wrap_pyfunction!(table::lookup_seconds, m)?)?;

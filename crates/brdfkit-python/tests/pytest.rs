@@ -12,9 +12,8 @@
 //! the Rust side, reinstall it.
 
 use brdfkit_core::Model;
-use brdfkit_fit::config::{CLI_EXPLORE_CELLS, DEFAULT_FINISH};
 use brdfkit_fit::families::{FitSettings, Structure, comparison_text, families, fit_each};
-use brdfkit_fit::{FitData, Loss, RobustKind, SolverKind, Weighting};
+use brdfkit_fit::{FitData, Loss};
 use brdfkit_merl::{Dims, Lookup, MerlTable};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -214,22 +213,8 @@ fn write_rgl(wi: &[[f64; 3]], wo: &[[f64; 3]], dir: &Path) {
 fn write_fit(table: &MerlTable, dir: &Path) {
     let fams = families("cook-torrance", &Structure::default()).expect("family");
     let cfg = FitSettings {
-        loss: Loss::Cbrt,
-        weighting: Weighting::SolidAngle,
-        solver: SolverKind::Lm,
         starts: FIT_STARTS,
-        finish: DEFAULT_FINISH,
-        sample_fraction: 1.0,
-        theta_d_max_deg: None,
-        theta_max_deg: None,
-        per_channel: false,
-        seed: 0,
-        fix: None,
-        robust: RobustKind::None,
-        robust_scale: None,
-        albedo_max: None,
-        full_iters: brdfkit_fit::config::CLI_FULL_ITERS,
-        explore_cells: Some(CLI_EXPLORE_CELLS),
+        ..FitSettings::default()
     }
     .config()
     .expect("settings");

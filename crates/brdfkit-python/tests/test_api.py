@@ -138,9 +138,14 @@ def test_fit_is_the_rust_fit(refs, gold):
     assert r.model.to_json() == brdfkit.Model.from_json(expect["params"]).to_json()
     assert strip_times(r.record) == strip_times(expect["record"])
     assert r.losses["cbrt"] == expect["record"]["losses_full"]["cbrt"]["overall"]
-    assert set(r.losses) == {
+    # The defaults are the command line's: brdfkit's own four losses.
+    assert set(r.losses) == {"cbrt", "l2", "cosine", "log"}
+    assert brdfkit._brdfkit.FIT_DEFAULTS["losses"] == "own"
+    every = brdfkit.fit(gold, "cook-torrance", starts=2, losses="all")
+    assert set(every.losses) == {
         "cbrt", "l2", "cosine", "log", "ngan", "low-e1", "low-e2", "bieron-log"
     }
+    assert every.losses["cbrt"] == r.losses["cbrt"]
     assert "cook-torrance" in repr(r)
 
 

@@ -150,9 +150,9 @@ pub fn fit_cli_default(
     };
     let mut fc = FitConfig::default()
         .starts(CLI_STARTS)
-        .and_then(|c| c.explore_cells(Some(brdfkit_fit::config::CLI_EXPLORE_CELLS)))
+        .and_then(|c| c.explore_cells(Some(brdfkit_fit::config::DEFAULT_EXPLORE_CELLS)))
         .map_err(err)?
-        .full_iters(brdfkit_fit::config::CLI_FULL_ITERS)
+        .full_iters(brdfkit_fit::config::DEFAULT_FULL_ITERS)
         .seed(0);
     if let Some(t) = cfg.theta_max_deg {
         fc = fc.theta_max_deg(t).map_err(err)?;

@@ -264,7 +264,10 @@ fn measure(
             let fc = FitSettings {
                 loss: l,
                 starts: cfg.starts,
-                explore_cells: Some(brdfkit_fit::config::CLI_EXPLORE_CELLS),
+                // The study's fits as before the settings had one set of defaults:
+                // every start refined on all cells, all eight losses recorded.
+                full_iters: brdfkit_fit::FullIters::All,
+                losses: brdfkit_fit::LossSet::All,
                 ..FitSettings::default()
             }
             .config()

@@ -432,7 +432,7 @@ fn measured_run_section(res: &StudyResults) -> String {
          LM, {} starts ranked on {} cells, the best finished, no grid cap).\n",
         cfg.measured_dir.display(),
         crate::grid::CLI_STARTS,
-        brdfkit_fit::config::CLI_EXPLORE_CELLS
+        brdfkit_fit::config::DEFAULT_EXPLORE_CELLS
     );
     let _ = writeln!(
         s,

@@ -2,8 +2,9 @@
 
 use brdfkit::core::scattering::{Distribution, Masking};
 use brdfkit::fit::batch::Shard;
+use brdfkit::fit::families::FitSettings;
 use brdfkit::fit::families::REPORT_MODELS;
-use brdfkit::fit::{FullIters, Loss, RobustKind, SolverKind, Weighting};
+use brdfkit::fit::{FullIters, Loss, LossSet, RobustKind, SolverKind, Weighting};
 use brdfkit::models::cook_torrance::FresnelKind;
 use brdfkit::models::ward::Normalization;
 use clap::builder::{ArgPredicate, PossibleValue, PossibleValuesParser, TypedValueParser};
@@ -376,8 +377,13 @@ pub struct FitArgs {
     pub stage_times: bool,
 }
 
+/// The defaults of every fit option: the library's one set ([`FitSettings::default`]).
+fn defaults() -> FitSettings {
+    FitSettings::default()
+}
+
 /// The fit options shared by `fit` and `batch`: the models, their structural choices
-/// and the solver settings.
+/// and the solver settings, each a field of [`FitSettings`] with its default.
 #[derive(Args, Debug, Clone)]
 pub struct FitOptions {
     /// Comma-separated model names, or model JSON files (fitted from their parameters).
@@ -402,32 +408,32 @@ pub struct FitOptions {
     pub normalization: Option<Normalization>,
     /// Loss optimised: brdfkit's l2, cosine, cbrt, log, or a published metric, ngan,
     /// low-e1, low-e2, bieron-log (bbm-log is log; docs/fitting.md).
-    #[arg(long, default_value = "cbrt", value_parser = loss_choice())]
+    #[arg(long, default_value = defaults().loss.name(), value_parser = loss_choice())]
     pub loss: Loss,
     /// Losses reported: `own` (l2, cosine, cbrt, log) or `all` (and the four published
     /// metrics; always when one is optimised; `score` always reports all).
-    #[arg(long, default_value = "own", value_parser = ["own", "all"])]
-    pub losses: String,
+    #[arg(long, default_value = defaults().losses.name(), value_parser = choice::<LossSet>(LossSet::ALL.map(|v| v.name())))]
+    pub losses: LossSet,
     #[command(flatten)]
     pub cells: CellOptions,
     /// Solver.
-    #[arg(long, default_value = "lm", value_parser = choice::<SolverKind>(SolverKind::ALL.map(|v| v.name())))]
+    #[arg(long, default_value = defaults().solver.name(), value_parser = choice::<SolverKind>(SolverKind::ALL.map(|v| v.name())))]
     pub solver: SolverKind,
     /// Number of starts (spread over the shape parameters, run in parallel).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = defaults().starts)]
     pub starts: usize,
     /// How many of the starts continue on all cells after every start's warm-up on a
     /// subsample, the best by their loss there (the others stop; docs/fitting.md).
-    #[arg(long, default_value_t = brdfkit::fit::config::DEFAULT_FINISH, value_name = "N")]
+    #[arg(long, default_value_t = defaults().finish, value_name = "N")]
     pub finish: usize,
     /// Fit on this stratified fraction of the valid cells (losses are also reported on all).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = defaults().sample_fraction)]
     pub sample_fraction: f64,
     /// Fit every parameter per channel independently (default: shape shared).
     #[arg(long)]
     pub per_channel: bool,
     /// Seed of the starts and the subsample.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = defaults().seed)]
     pub seed: u64,
     /// Hold these parameters at their start values: comma-separated names or groups
     /// (`rho_d`, `alpha`, `rho_s.r`); the start is the model JSON given to --model, e.g.
@@ -435,7 +441,7 @@ pub struct FitOptions {
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub fix: Option<Vec<String>>,
     /// Robust loss against outliers (see docs/fitting.md).
-    #[arg(long, default_value = "none", value_parser = choice::<RobustKind>(RobustKind::ALL.map(|v| v.name())))]
+    #[arg(long, default_value = defaults().robust.name(), value_parser = choice::<RobustKind>(RobustKind::ALL.map(|v| v.name())))]
     pub robust: RobustKind,
     /// Scale c of the robust loss, in the loss's units (default: automatic, from the
     /// residuals of a plain fit: 1.4826 · median |e| times 1.345 (huber) or 2.385 (cauchy)).
@@ -452,11 +458,11 @@ pub struct FitOptions {
     /// every default family within 0.14 % on the 7 vendored ones); `all` iterates to
     /// convergence; `auto` is 0, except `all` for Ward with Dür's normalisation, whose
     /// warm-up optimum lies up to 4.6 % above (docs/fitting.md).
-    #[arg(long, default_value_t = brdfkit::fit::config::CLI_FULL_ITERS, value_name = "N|all|auto")]
+    #[arg(long, default_value_t = defaults().full_iters, value_name = "N|all|auto")]
     pub full_iters: FullIters,
     /// Cells of the subsample every start explores before the starts are ranked (when
     /// there are more starts than --finish and the table is large enough for a warm-up).
-    #[arg(long, default_value_t = brdfkit::fit::config::CLI_EXPLORE_CELLS, value_name = "N")]
+    #[arg(long, default_value_t = brdfkit::fit::config::DEFAULT_EXPLORE_CELLS, value_name = "N")]
     pub explore_cells: usize,
 }
 
@@ -466,7 +472,7 @@ pub struct FitOptions {
 #[derive(Args, Debug, Clone)]
 pub struct CellOptions {
     /// Cell weights.
-    #[arg(long, default_value = "solid-angle", value_parser = choice::<Weighting>(WEIGHTINGS))]
+    #[arg(long, default_value = defaults().weighting.name(), value_parser = choice::<Weighting>(WEIGHTINGS))]
     pub weighting: Weighting,
     /// Ignore cells with θd above this angle (degrees): grazing data is the least reliable.
     #[arg(long, value_name = "DEG")]

@@ -18,6 +18,7 @@ from typing import Any, Callable
 
 from ._brdfkit import MerlTable, Model, Nbrdf, RglBsdf, __version__, check, resample
 from ._brdfkit import _write_text
+from ._brdfkit import FIT_DEFAULTS as _DEFAULTS
 from ._brdfkit import fit as _fit
 
 __all__ = ["MerlTable", "Model", "Nbrdf", "RglBsdf", "FitResult", "fit", "check", "resample", "__version__"]
@@ -90,14 +91,15 @@ def _model_item(m: Any) -> Any:
 
 def fit(
     table: MerlTable,
-    model: str | Model | dict | os.PathLike | Sequence[str | Model | dict | os.PathLike] = "cook-torrance",
-    loss: str = "cbrt",
-    starts: int = 8,
+    model: str | Model | dict | os.PathLike | Sequence[str | Model | dict | os.PathLike] = _DEFAULTS["model"],
+    loss: str = _DEFAULTS["loss"],
+    starts: int = _DEFAULTS["starts"],
     *,
     progress: Callable[[dict[str, Any]], object] | None = None,
     **choices: Any,
 ) -> FitResult | list[FitResult]:
-    """Fits an analytic model to a table, as ``fit-brdf fit`` does, with its defaults.
+    """Fits an analytic model to a table, as ``fit-brdf fit`` does, with its defaults
+    (one set, the library's: ``brdfkit._brdfkit.FIT_DEFAULTS``).
 
     ``model`` is a model name, a model JSON file (a path), a :class:`Model` or its JSON
     dict (the start), or several of these: a comma-separated string or any sequence
@@ -108,7 +110,9 @@ def fit(
     ``theta_max`` (θi and θo cutoff, degrees), ``per_channel``, ``seed``, ``fix`` (a
     name, a comma-separated string or a sequence of names), ``robust``,
     ``robust_scale``, ``energy_conserving``, ``full_iters`` (a count, ``"all"`` or
-    ``"auto"``), ``explore_cells``, and the structural choices ``distribution``,
+    ``"auto"``), ``explore_cells``, ``losses`` (``"own"``: brdfkit's four losses in
+    the record, the default; ``"all"``: also the four published metrics), and the
+    structural choices ``distribution``,
     ``masking``, ``fresnel``, ``normalization``. ``progress`` is called with one dict
     per event (``event`` is ``plan``, ``iter`` or ``start_done``), from the fitting
     threads; an exception it raises is raised when the fit returns.

@@ -164,26 +164,30 @@ def resample(
     three integers).
     """
 
+FIT_DEFAULTS: dict[str, Any]
+"""The defaults of `fit` (the library's one set, shared with `fit-brdf fit`)."""
+
 def fit(
     table: MerlTable,
     model: str | Model | Sequence[str | Model | os.PathLike[str]],
     *,
-    loss: str = "cbrt",
-    weighting: str = "solid-angle",
-    solver: str = "lm",
-    starts: int = 8,
-    finish: int = 1,
-    sample_fraction: float = 1.0,
+    loss: str = ...,
+    weighting: str = ...,
+    solver: str = ...,
+    starts: int = ...,
+    finish: int = ...,
+    sample_fraction: float = ...,
     theta_d_max: float | None = None,
     theta_max: float | None = None,
-    per_channel: bool = False,
-    seed: int = 0,
+    per_channel: bool = ...,
+    seed: int = ...,
     fix: list[str] | None = None,
-    robust: str = "none",
+    robust: str = ...,
     robust_scale: float | None = None,
     energy_conserving: bool = False,
-    full_iters: str = "auto",
-    explore_cells: int = 1024,
+    full_iters: str = ...,
+    explore_cells: int = ...,
+    losses: Literal["own", "all"] = ...,
     distribution: str | None = None,
     masking: str | None = None,
     fresnel: str | None = None,

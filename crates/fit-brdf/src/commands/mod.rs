@@ -61,7 +61,15 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         normalization: o.normalization,
     };
     let fams = families(&o.model, &structure).map_err(bad_settings)?;
-    let settings = FitSettings {
+    let cfg = settings_of(o).config().map_err(bad_settings)?;
+    check_free(&fams, &cfg).map_err(bad_settings)?;
+    Ok((fams, cfg))
+}
+
+/// The fit options as the library's settings, field by field (their defaults are
+/// [`FitSettings::default`]'s: `cli::defaults`).
+fn settings_of(o: &FitOptions) -> FitSettings {
+    FitSettings {
         loss: o.loss,
         solver: o.solver,
         starts: o.starts,
@@ -75,12 +83,9 @@ pub fn fit_setup(o: &FitOptions) -> CliResult<(Vec<Family>, FitConfig)> {
         albedo_max: o.energy_conserving.then_some(1.0),
         full_iters: o.full_iters,
         explore_cells: Some(o.explore_cells),
+        losses: o.losses,
         ..cell_settings(&o.cells)
-    };
-    let set = o.losses.parse().map_err(bad_msg)?;
-    let cfg = settings.config().map_err(bad_settings)?.report_losses(set);
-    check_free(&fams, &cfg).map_err(bad_settings)?;
-    Ok((fams, cfg))
+    }
 }
 
 /// The cell options as fit settings, the rest at their defaults: the one place where a
@@ -201,5 +206,28 @@ pub fn lookup_mode(i: Interp) -> Lookup {
     match i {
         Interp::Nearest => Lookup::Nearest,
         Interp::Linear => Lookup::Interpolated,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    /// The flags' defaults are the library's settings, for every verb that fits.
+    #[test]
+    fn fit_flags_default_to_the_library_settings() {
+        for args in [
+            &["fit-brdf", "fit", "t.binary"][..],
+            &["fit-brdf", "batch", "db", "--out", "o"][..],
+        ] {
+            let opts = match Cli::try_parse_from(args).unwrap().command {
+                Command::Fit(a) => a.opts,
+                Command::Batch(a) => a.opts,
+                _ => unreachable!(),
+            };
+            assert_eq!(settings_of(&opts), FitSettings::default(), "{args:?}");
+            assert_eq!(opts.model, brdfkit::models::named::DEFAULT_FAMILY);
+        }
     }
 }
