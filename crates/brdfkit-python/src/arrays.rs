@@ -103,6 +103,30 @@ pub(crate) fn check_pairs(a: &[[f64; 3]], b: &[[f64; 3]]) -> PyResult<()> {
     bad.map_or(Ok(()), |e| Err(errors::input(e)))
 }
 
+/// The pairs (wi[k], wo[k]) of two direction arguments, checked ([`check_pairs`]), and
+/// `f` of them into (N, 3) rows, with the GIL released: the one path of every
+/// per-pair evaluation of the package (`Model.eval`, `MerlTable.lookup`,
+/// `RglBsdf.eval`), returned as an (N, 3) float64 array.
+pub(crate) fn eval_pairs<'py, F>(
+    py: Python<'py>,
+    wi: &Bound<'py, PyAny>,
+    wo: &Bound<'py, PyAny>,
+    f: F,
+) -> PyResult<Bound<'py, PyAny>>
+where
+    F: FnOnce(&[[f64; 3]], &[[f64; 3]], &mut [[f64; 3]]) -> PyResult<()> + Send,
+{
+    let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
+    let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
+    let mut out = vec![0.0; 3 * wi.len()];
+    py.detach(|| {
+        check_pairs(wi, wo)?;
+        let (rows, _) = out.as_chunks_mut::<3>();
+        f(wi, wo, rows)
+    })?;
+    crate::table::rows_array(py, out)
+}
+
 /// Grid dims from any sequence of three integers (a tuple, a list, a NumPy array).
 pub(crate) fn dims_of(obj: &Bound<'_, PyAny>) -> PyResult<Dims> {
     const WANT: &str = "expected a sequence of three integers (n_theta_h, n_theta_d, n_phi_d)";

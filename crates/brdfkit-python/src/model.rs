@@ -1,8 +1,8 @@
 //! `brdfkit.Model` (an analytic model of `brdfkit_models`), `brdfkit.Nbrdf` (a neural
 //! BRDF of `brdfkit_nbrdf`), `check` (`brdfkit_validate`) and `resample`.
 
-use crate::arrays::{check_pairs, dims_of, directions, rows3};
-use crate::table::{PyTable, lookup_mode, rows_array};
+use crate::arrays::{dims_of, eval_pairs};
+use crate::table::{PyTable, lookup_mode};
 use crate::{errors, json_to_py};
 use brdfkit_core::{Model, Rgb};
 use brdfkit_fit::families::FamilyError;
@@ -152,16 +152,13 @@ impl PyModel {
         wi: &Bound<'py, PyAny>,
         wo: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
-        let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
-        let out = py.detach(|| {
-            check_pairs(wi, wo)?;
+        eval_pairs(py, wi, wo, |wi, wo, rows| {
             let mut rgb = vec![Rgb([0.0; 3]); wi.len()];
             brdfkit_models::raw::eval_dirs(&*self.inner, wi, wo, &mut rgb)
-                .map(|()| rgb.iter().flat_map(|c| c.0).collect::<Vec<f64>>())
-                .map_err(errors::input)
-        })?;
-        rows_array(py, out)
+                .map_err(errors::input)?;
+            rows.iter_mut().zip(&rgb).for_each(|(r, c)| *r = c.0);
+            Ok(())
+        })
     }
 
     fn __repr__(&self) -> String {

@@ -1,6 +1,6 @@
 //! `brdfkit.MerlTable`: a MERL binary table (`brdfkit_merl::MerlTable`).
 
-use crate::arrays::{check_pairs, directions, float64, rows3, shape_text};
+use crate::arrays::{check_pairs, directions, eval_pairs, float64, rows3, shape_text};
 use crate::errors;
 use brdfkit_core::Rgb;
 use brdfkit_merl::{Dims, Lookup, MerlTable};
@@ -163,17 +163,11 @@ impl PyTable {
         interp: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
         let mode = lookup_mode(interp)?;
-        let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
-        let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
-        let mut out = vec![0.0; 3 * wi.len()];
-        py.detach(|| {
-            check_pairs(wi, wo)?;
-            let (rows, _) = out.as_chunks_mut::<3>();
+        eval_pairs(py, wi, wo, |wi, wo, rows| {
             self.inner
                 .lookup_split(mode, wi, wo, rows)
                 .map_err(errors::input)
-        })?;
-        rows_array(py, out)
+        })
     }
 
     fn __repr__(&self) -> String {
