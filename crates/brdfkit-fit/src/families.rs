@@ -739,10 +739,16 @@ mod tests {
         let c = ok.config().unwrap();
         assert_eq!(c.get_subsample(), Some(0.5));
         assert_eq!(c.get_theta_max(), Some(80f64.to_radians()));
-        assert_eq!(
-            FitSettings::default().config().unwrap(),
-            FitConfig::default()
-        );
+        // The user's defaults are the bare engine's configuration with 8 starts, the
+        // warm-up optimum kept, 1,024 exploration cells and brdfkit's own losses.
+        let user = FitConfig::default()
+            .starts(DEFAULT_STARTS)
+            .unwrap()
+            .full_iters(DEFAULT_FULL_ITERS)
+            .explore_cells(Some(DEFAULT_EXPLORE_CELLS))
+            .unwrap()
+            .report_losses(LossSet::Own);
+        assert_eq!(FitSettings::default().config().unwrap(), user);
         for (s, option) in [
             (
                 FitSettings {
