@@ -182,10 +182,7 @@ impl Brdf for AshikhminShirley {
     }
 }
 
-impl AshikhminShirley {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = "ashikhmin-shirley";
-}
+model_name!(AshikhminShirley, "ashikhmin-shirley");
 
 impl Model for AshikhminShirley {
     fn name(&self) -> &'static str {

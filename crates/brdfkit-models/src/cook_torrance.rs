@@ -649,10 +649,7 @@ impl Brdf for CookTorrance {
     }
 }
 
-impl CookTorrance {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = "cook-torrance";
-}
+model_name!(CookTorrance, "cook-torrance");
 
 impl Model for CookTorrance {
     fn name(&self) -> &'static str {

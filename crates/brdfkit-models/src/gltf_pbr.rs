@@ -232,10 +232,7 @@ pub(crate) fn ggx_dv(
 
 crate::pair::pair_kernel_brdf!(GltfPbr);
 
-impl GltfPbr {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = M;
-}
+model_name!(GltfPbr, M);
 
 impl Model for GltfPbr {
     fn name(&self) -> &'static str {

@@ -512,10 +512,7 @@ fn read_extensions(o: &serde_json::Map<String, Value>) -> Result<Vec<&'static st
 
 crate::pair::pair_kernel_brdf!(GltfPbrExt);
 
-impl GltfPbrExt {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = M;
-}
+model_name!(GltfPbrExt, M);
 
 impl Model for GltfPbrExt {
     fn name(&self) -> &'static str {

@@ -324,10 +324,7 @@ impl Brdf for Lafortune {
     }
 }
 
-impl Lafortune {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = "lafortune";
-}
+model_name!(Lafortune, "lafortune");
 
 impl Model for Lafortune {
     fn name(&self) -> &'static str {

@@ -66,10 +66,7 @@ impl Brdf for Lambert {
     }
 }
 
-impl Lambert {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = "lambert";
-}
+model_name!(Lambert, "lambert");
 
 impl Model for Lambert {
     fn name(&self) -> &'static str {

@@ -7,6 +7,17 @@
 
 #![warn(missing_docs)]
 
+/// `impl Model { pub const NAME }`: the model's name in the JSON contract, which
+/// `Model::name` returns and other crates use instead of spelling it.
+macro_rules! model_name {
+    ($t:ty, $name:expr) => {
+        impl $t {
+            /// The model's name in the JSON contract.
+            pub const NAME: &'static str = $name;
+        }
+    };
+}
+
 pub mod cosine_lobe;
 pub mod json;
 mod lanes;

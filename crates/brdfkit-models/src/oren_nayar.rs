@@ -143,10 +143,7 @@ impl Brdf for OrenNayar {
     }
 }
 
-impl OrenNayar {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = "oren-nayar";
-}
+model_name!(OrenNayar, "oren-nayar");
 
 impl Model for OrenNayar {
     fn name(&self) -> &'static str {

@@ -536,10 +536,7 @@ impl RoughPlastic {
 
 crate::pair::pair_kernel_brdf!(RoughPlastic);
 
-impl RoughPlastic {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = M;
-}
+model_name!(RoughPlastic, M);
 
 impl Model for RoughPlastic {
     fn name(&self) -> &'static str {

@@ -176,10 +176,7 @@ impl Brdf for Sum {
     }
 }
 
-impl Sum {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = "sum";
-}
+model_name!(Sum, "sum");
 
 impl Model for Sum {
     fn name(&self) -> &'static str {

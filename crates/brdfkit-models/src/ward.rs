@@ -227,10 +227,7 @@ impl Brdf for Ward {
     }
 }
 
-impl Ward {
-    /// The model's name in the JSON contract.
-    pub const NAME: &'static str = "ward";
-}
+model_name!(Ward, "ward");
 
 impl Model for Ward {
     fn name(&self) -> &'static str {

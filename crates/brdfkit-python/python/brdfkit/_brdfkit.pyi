@@ -171,31 +171,11 @@ def fit(
     table: MerlTable,
     model: str | Model | Sequence[str | Model | os.PathLike[str]],
     *,
-    loss: str = ...,
-    weighting: str = ...,
-    solver: str = ...,
-    starts: int = ...,
-    finish: int = ...,
-    sample_fraction: float = ...,
-    theta_d_max: float | None = None,
-    theta_max: float | None = None,
-    per_channel: bool = ...,
-    seed: int = ...,
-    fix: list[str] | None = None,
-    robust: str = ...,
-    robust_scale: float | None = None,
-    energy_conserving: bool = False,
-    full_iters: str = ...,
-    explore_cells: int = ...,
-    losses: Literal["own", "all"] = ...,
-    distribution: str | None = None,
-    masking: str | None = None,
-    fresnel: str | None = None,
-    normalization: str | None = None,
     progress: Callable[[dict[str, Any]], object] | None = None,
+    **settings: Any,
 ) -> list[tuple[str, str, str, str]]:
     """(label, model file text, record file text, iterations by stage) per family
-    (`brdfkit.fit` documents every argument)."""
+    (`brdfkit.fit` documents every setting; their defaults are `FIT_DEFAULTS`)."""
 
 def _write_text(path: _Path, text: str) -> None:
     """Writes `text` to `path` atomically."""
