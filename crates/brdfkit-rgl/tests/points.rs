@@ -15,8 +15,8 @@ fn felt() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data-synthetic/felt-synthetic.bsdf")
 }
 
-/// Every point equals `eval` at its pair (to rounding: the pair's θi and half vector are
-/// recomputed from the directions), and the points are the file's valid bits less the
+/// Every point equals `eval` at its pair (to 1e-7 relative: eval recomputes θi and the
+/// half vector from the directions, and the warp's inverse is found to 2⁻⁴⁸), and the points are the file's valid bits less the
 /// ones on the horizon.
 fn points_are_eval(path: &Path) -> (RglBsdf, MeasuredPoints) {
     let (bsdf, pts) = MeasuredPoints::read(path).unwrap();
@@ -39,24 +39,13 @@ fn points_are_eval(path: &Path) -> (RglBsdf, MeasuredPoints) {
 /// Σ weight · cos θo over a slice's points is dω_i · π: the weights are the solid
 /// angles of the nodes' cells.
 fn weights_integrate_the_cosine(pts: &MeasuredPoints) {
-    let mut by_slice: BTreeMap<usize, (f64, f64, f64)> = BTreeMap::new();
+    let mut by_slice: BTreeMap<usize, f64> = BTreeMap::new();
     for p in &pts.points {
-        let e = by_slice.entry(p.node[1]).or_insert((0.0, 0.0, f64::INFINITY));
-        e.0 += p.weight * p.wo.z;
-        e.1 += p.weight;
-        e.2 = e.2.min(p.weight);
+        *by_slice.entry(p.node[1]).or_insert(0.0) += p.weight * p.wo.z;
         assert!(p.weight > 0.0 && p.weight.is_finite(), "{p:?}");
     }
-    // dω_i of a slice is the weight over dω_o; recover it from one point per slice
-    // through the cosine integral's expected value instead: the ratio of two slices'
-    // sums must equal the ratio of their rings, so check against the rings directly.
-    let theta: Vec<f64> = {
-        let mut t: Vec<usize> = by_slice.keys().copied().collect();
-        t.sort();
-        t.iter().map(|&k| k as f64).collect()
-    };
-    assert!(!theta.is_empty());
-    for (k, (cos_sum, _, _)) in &by_slice {
+    assert!(by_slice.len() >= 7, "{} slices", by_slice.len());
+    for (k, cos_sum) in &by_slice {
         let ring = ring_of(pts, *k);
         let r = cos_sum / (ring * std::f64::consts::PI);
         assert!((r - 1.0).abs() < 0.03, "slice {k}: Σ w cos θo / (dω_i π) = {r}");
@@ -72,10 +61,12 @@ fn ring_of(pts: &MeasuredPoints, k: usize) -> f64 {
     std::f64::consts::TAU * (a.cos() - b.cos())
 }
 
+/// The vendored synthetic felt (a formula: its `valid` bits and VNDF are patterns, not a
+/// measurement, so its weights integrate nothing in particular).
 #[test]
-fn felt_points_are_the_readers_values_and_weights_integrate() {
+fn felt_points_are_the_readers_values() {
     let (_, pts) = points_are_eval(&felt());
-    weights_integrate_the_cosine(&pts);
+    assert!(pts.points.iter().all(|p| p.weight > 0.0 && p.weight.is_finite()));
 }
 
 #[test]
