@@ -327,7 +327,7 @@ mod tests {
         assert!(sub.len() >= occupied.len(), "{} < {}", sub.len(), occupied.len());
         let total: f64 = sub.multiplicity().iter().sum();
         assert!((total - 300.0).abs() < 1e-9, "{total}");
-        let cfg = FitConfig::default().sample_fraction(Some(0.5)).unwrap();
+        let cfg = FitConfig::default().subsample(0.5, 1).unwrap();
         let start = brdfkit_models::default_model("lambert").unwrap();
         let out = fit(start.as_ref(), &data, &cfg, None).unwrap();
         assert!(out.record.cells_fit < 300 && out.record.cells_full == 300);
@@ -349,12 +349,20 @@ mod tests {
         let i = d.input().unwrap();
         assert_eq!((i.rows, i.dropped_missing, i.negative_zeroed), (3, 1, 1));
         let tilt = Vec3::new(0.6, 0.0, 0.8);
-        let bad: [(Sample, SampleError); 5] = [
+        let weighted = |w: f64| Sample {
+            weight: Some(w),
+            wo: tilt,
+            ..s([0.1; 3])
+        };
+        let cases: [(Vec<Sample>, SampleError); 5] = [
             (
-                Sample {
-                    wi: Vec3::new(0.0, 0.0, 2.0),
-                    ..s([0.1; 3])
-                },
+                vec![
+                    s([0.1; 3]),
+                    Sample {
+                        wi: Vec3::new(0.0, 0.0, 2.0),
+                        ..s([0.1; 3])
+                    },
+                ],
                 SampleError::NotUnit {
                     row: 1,
                     name: "wi",
@@ -363,10 +371,13 @@ mod tests {
                 },
             ),
             (
-                Sample {
-                    wo: Vec3::new(0.6, 0.0, -0.8),
-                    ..s([0.1; 3])
-                },
+                vec![
+                    s([0.1; 3]),
+                    Sample {
+                        wo: Vec3::new(0.6, 0.0, -0.8),
+                        ..s([0.1; 3])
+                    },
+                ],
                 SampleError::BelowHorizon {
                     row: 1,
                     name: "wo",
@@ -374,7 +385,7 @@ mod tests {
                 },
             ),
             (
-                s([0.1, f64::INFINITY, 0.0]),
+                vec![s([0.1; 3]), s([0.1, f64::INFINITY, 0.0])],
                 SampleError::Value {
                     row: 1,
                     channel: 1,
@@ -382,28 +393,21 @@ mod tests {
                 },
             ),
             (
-                Sample {
-                    weight: Some(0.0),
-                    wo: tilt,
-                    ..s([0.1; 3])
+                vec![weighted(1.0), weighted(0.0)],
+                SampleError::Weight {
+                    row: 1,
+                    weight: 0.0,
                 },
-                SampleError::Weight { row: 1, weight: 0.0 },
             ),
             (
-                Sample {
-                    weight: Some(1.0),
-                    ..s([0.1; 3])
-                },
+                vec![s([0.1; 3]), weighted(1.0)],
                 SampleError::MixedWeights { row: 0, first: 1 },
             ),
         ];
-        for (b, want) in bad {
-            let e = FitData::from_samples(&[s([0.1; 3]), b], "samples", None).unwrap_err();
+        for (rows, want) in cases {
+            let e = FitData::from_samples(&rows, "samples", None).unwrap_err();
             assert_eq!(e, want);
-            assert!(e.to_string().starts_with(&format!("row {}", 0.max(match want {
-                SampleError::MixedWeights { row, .. } => row,
-                _ => 1,
-            }))), "{e}");
+            assert!(e.to_string().starts_with("row "), "{e}");
         }
         let e = FitData::from_samples(&[s([f64::NAN; 3])], "samples", None).unwrap_err();
         assert_eq!(e, SampleError::Empty { rows: 1, missing: 1 });
