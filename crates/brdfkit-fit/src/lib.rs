@@ -76,5 +76,5 @@ pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses, evalua
 pub use record::{
     FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,
 };
-pub use samples::{Sample, SampleError, SampleInput};
+pub use samples::{Sample, SampleError, SampleInput, SampleProblem, SamplesFileError};
 pub use score::{Score, ScoreError, losses_of_values, score};

@@ -44,56 +44,16 @@ pub struct Sample {
     pub weight: Option<f64>,
 }
 
-/// What is wrong with a sample set; `row` counts samples from 0 in the caller's order.
+/// What is wrong with a sample set.
 #[derive(Debug, Error, PartialEq)]
 pub enum SampleError {
-    /// A direction that is not finite and of unit length.
-    #[error("row {row}: {name} = {v:?} has length {norm}, expected a unit vector (within {tol})", tol = UNIT_TOLERANCE)]
-    NotUnit {
+    /// A bad sample; `row` counts samples from 0 in the caller's order.
+    #[error("row {row}: {problem}")]
+    Row {
         /// The sample.
         row: usize,
-        /// `wi` or `wo`.
-        name: &'static str,
-        /// The direction.
-        v: [f64; 3],
-        /// Its length.
-        norm: f64,
-    },
-    /// A direction on or below the horizon (z ≤ 0).
-    #[error("row {row}: {name} has z = {z}: on or below the horizon (f_r is defined above it)")]
-    BelowHorizon {
-        /// The sample.
-        row: usize,
-        /// `wi` or `wo`.
-        name: &'static str,
-        /// Its z.
-        z: f64,
-    },
-    /// An infinite value (a missing value is NaN).
-    #[error("row {row}: channel {channel} is {value}: values must be finite (NaN marks a missing value)")]
-    Value {
-        /// The sample.
-        row: usize,
-        /// 0, 1, 2 for r, g, b.
-        channel: usize,
-        /// The value.
-        value: f64,
-    },
-    /// A weight that is not finite and positive.
-    #[error("row {row}: weight {weight} is not a finite positive number")]
-    Weight {
-        /// The sample.
-        row: usize,
-        /// The weight.
-        weight: f64,
-    },
-    /// Some samples with a weight and some without.
-    #[error("row {row}: no weight, but row {first} has one: give every sample a weight or none")]
-    MixedWeights {
-        /// The sample without one.
-        row: usize,
-        /// The first sample with one.
-        first: usize,
+        /// What is wrong with it.
+        problem: SampleProblem,
     },
     /// Nothing left to fit.
     #[error("no sample to fit ({rows} rows, {missing} with a missing value)")]
@@ -102,6 +62,49 @@ pub enum SampleError {
         rows: usize,
         /// Rows dropped as missing.
         missing: usize,
+    },
+}
+
+/// What is wrong with one sample.
+#[derive(Debug, Error, PartialEq)]
+pub enum SampleProblem {
+    /// A direction that is not finite and of unit length.
+    #[error("{name} = {v:?} has length {norm}, expected a unit vector (within {tol})", tol = UNIT_TOLERANCE)]
+    NotUnit {
+        /// `wi` or `wo`.
+        name: &'static str,
+        /// The direction.
+        v: [f64; 3],
+        /// Its length.
+        norm: f64,
+    },
+    /// A direction on or below the horizon (z ≤ 0).
+    #[error("{name} has z = {z}: on or below the horizon (f_r is defined above it)")]
+    BelowHorizon {
+        /// `wi` or `wo`.
+        name: &'static str,
+        /// Its z.
+        z: f64,
+    },
+    /// An infinite value (a missing value is NaN).
+    #[error("channel {channel} is {value}: values must be finite (NaN marks a missing value)")]
+    Value {
+        /// 0, 1, 2 for r, g, b.
+        channel: usize,
+        /// The value.
+        value: f64,
+    },
+    /// A weight that is not finite and positive.
+    #[error("weight {weight} is not a finite positive number")]
+    Weight {
+        /// The weight.
+        weight: f64,
+    },
+    /// Some samples with a weight and some without.
+    #[error("no weight, but row {first} has one: give every sample a weight or none")]
+    MixedWeights {
+        /// The first sample with one.
+        first: usize,
     },
 }
 
@@ -130,33 +133,84 @@ pub struct SampleInput {
 }
 
 /// The checks of one sample's directions.
-fn check_dirs(row: usize, s: &Sample) -> Result<(), SampleError> {
+fn check_dirs(s: &Sample) -> Result<(), SampleProblem> {
     for (name, w) in [("wi", s.wi), ("wo", s.wo)] {
         let norm = w.norm();
         // Written as a "good" test so NaN lands on the bad side.
         if !((norm - 1.0).abs() <= UNIT_TOLERANCE) {
-            return Err(SampleError::NotUnit {
-                row,
+            return Err(SampleProblem::NotUnit {
                 name,
                 v: [w.x, w.y, w.z],
                 norm,
             });
         }
         if w.z <= 0.0 {
-            return Err(SampleError::BelowHorizon { row, name, z: w.z });
+            return Err(SampleProblem::BelowHorizon { name, z: w.z });
         }
     }
     Ok(())
 }
 
 /// The sample's weight under the set's rule (`first`: the first weighted row, if any).
-fn weight_of(row: usize, s: &Sample, first: Option<usize>) -> Result<f64, SampleError> {
+fn weight_of(s: &Sample, first: Option<usize>) -> Result<f64, SampleProblem> {
     match (s.weight, first) {
         (Some(w), _) if w.is_finite() && w > 0.0 => Ok(w),
-        (Some(weight), _) => Err(SampleError::Weight { row, weight }),
-        (None, Some(first)) => Err(SampleError::MixedWeights { row, first }),
+        (Some(weight), _) => Err(SampleProblem::Weight { weight }),
+        (None, Some(first)) => Err(SampleProblem::MixedWeights { first }),
         (None, None) => Ok(1.0),
     }
+}
+
+/// A sample's checks: its directions, weight and values (`None`: a missing value).
+fn check(s: &Sample, first: Option<usize>) -> Result<Option<f64>, SampleProblem> {
+    check_dirs(s)?;
+    let w = weight_of(s, first)?;
+    if let Some((channel, &value)) = s.rgb.iter().enumerate().find(|(_, v)| v.is_infinite()) {
+        return Err(SampleProblem::Value { channel, value });
+    }
+    Ok((!s.rgb.iter().any(|v| v.is_nan())).then_some(w))
+}
+
+/// What is wrong with a samples file (`fit-brdf fit --samples`): its structure, or a
+/// sample, named by the file and its row (`.npy`) or line (CSV).
+#[derive(Debug, Error)]
+pub enum SamplesFileError {
+    /// Unreadable, or not the documented layout ([`brdfkit_io::samples`]).
+    #[error(transparent)]
+    File(#[from] brdfkit_io::samples::SamplesError),
+    /// A bad sample.
+    #[error("{}: {at}: {problem}", path.display())]
+    Row {
+        /// The file.
+        path: std::path::PathBuf,
+        /// `row k` or `line L`.
+        at: String,
+        /// What is wrong with it.
+        problem: SampleProblem,
+    },
+    /// No sample left.
+    #[error("{}: {source}", path.display())]
+    Empty {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The counts.
+        source: SampleError,
+    },
+}
+
+/// The samples of a file's rows (9 columns, or 10 with the weight).
+pub fn samples_of_rows(rows: &brdfkit_io::samples::SampleRows) -> Vec<Sample> {
+    (0..rows.len())
+        .map(|k| {
+            let r = rows.row(k);
+            Sample {
+                wi: Vec3::new(r[0], r[1], r[2]),
+                wo: Vec3::new(r[3], r[4], r[5]),
+                rgb: [r[6], r[7], r[8]],
+                weight: r.get(9).copied(),
+            }
+        })
+        .collect()
 }
 
 impl FitData {
@@ -175,20 +229,11 @@ impl FitData {
         let mut measure = Vec::with_capacity(samples.len());
         let (mut missing, mut negative) = (0, 0);
         for (row, s) in samples.iter().enumerate() {
-            check_dirs(row, s)?;
-            let w = weight_of(row, s, first)?;
-            if let Some((channel, &value)) = s.rgb.iter().enumerate().find(|(_, v)| v.is_infinite())
-            {
-                return Err(SampleError::Value {
-                    row,
-                    channel,
-                    value,
-                });
-            }
-            if s.rgb.iter().any(|v| v.is_nan()) {
+            let Some(w) = check(s, first).map_err(|problem| SampleError::Row { row, problem })?
+            else {
                 missing += 1;
                 continue;
-            }
+            };
             geometry.push(&s.wi, &s.wo);
             for (c, v) in values.iter_mut().zip(s.rgb) {
                 negative += usize::from(v < 0.0);
@@ -215,6 +260,24 @@ impl FitData {
         let data = FitData::from_parts(geometry, values, measure)
             .expect("values and weights were checked above");
         Ok(data.with_input(input))
+    }
+
+    /// The samples of a file ([`brdfkit_io::samples`]: `.npy` N × 9|10 or CSV), as
+    /// [`from_samples`](Self::from_samples) builds them; every error names the file.
+    pub fn read_samples(path: &std::path::Path) -> Result<FitData, SamplesFileError> {
+        let rows = brdfkit_io::samples::read_samples(path)?;
+        let source = Some(path.display().to_string());
+        FitData::from_samples(&samples_of_rows(&rows), "samples", source).map_err(|e| match e {
+            SampleError::Row { row, problem } => SamplesFileError::Row {
+                path: path.to_owned(),
+                at: rows.locate(row),
+                problem,
+            },
+            e @ SampleError::Empty { .. } => SamplesFileError::Empty {
+                path: path.to_owned(),
+                source: e,
+            },
+        })
     }
 
     /// The measured points of a `.bsdf` file at their own directions, with the solid
@@ -354,6 +417,7 @@ mod tests {
             wo: tilt,
             ..s([0.1; 3])
         };
+        let row = |row, problem| SampleError::Row { row, problem };
         let cases: [(Vec<Sample>, SampleError); 5] = [
             (
                 vec![
@@ -363,12 +427,11 @@ mod tests {
                         ..s([0.1; 3])
                     },
                 ],
-                SampleError::NotUnit {
-                    row: 1,
+                row(1, SampleProblem::NotUnit {
                     name: "wi",
                     v: [0.0, 0.0, 2.0],
                     norm: 2.0,
-                },
+                }),
             ),
             (
                 vec![
@@ -378,30 +441,22 @@ mod tests {
                         ..s([0.1; 3])
                     },
                 ],
-                SampleError::BelowHorizon {
-                    row: 1,
-                    name: "wo",
-                    z: -0.8,
-                },
+                row(1, SampleProblem::BelowHorizon { name: "wo", z: -0.8 }),
             ),
             (
                 vec![s([0.1; 3]), s([0.1, f64::INFINITY, 0.0])],
-                SampleError::Value {
-                    row: 1,
+                row(1, SampleProblem::Value {
                     channel: 1,
                     value: f64::INFINITY,
-                },
+                }),
             ),
             (
                 vec![weighted(1.0), weighted(0.0)],
-                SampleError::Weight {
-                    row: 1,
-                    weight: 0.0,
-                },
+                row(1, SampleProblem::Weight { weight: 0.0 }),
             ),
             (
                 vec![s([0.1; 3]), weighted(1.0)],
-                SampleError::MixedWeights { row: 0, first: 1 },
+                row(0, SampleProblem::MixedWeights { first: 1 }),
             ),
         ];
         for (rows, want) in cases {
