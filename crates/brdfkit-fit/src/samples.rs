@@ -348,9 +348,8 @@ mod tests {
     fn a_fit_of_exact_samples_recovers_the_parameters() {
         let truth = model(TRUTH);
         for (n, warm) in [(20_000, Some(4096)), (600, Some(4096))] {
-            let data =
-                FitData::from_samples(&model_samples(truth.as_ref(), n, 7), "samples", None)
-                    .unwrap();
+            let data = FitData::from_samples(&model_samples(truth.as_ref(), n, 7), "samples", None)
+                .unwrap();
             let cfg = FitConfig::default()
                 .loss(Loss::Cbrt)
                 .starts(3)
@@ -371,7 +370,11 @@ mod tests {
                     assert!((v - w).abs() < 1e-4 * w, "{n}: {k}[{c}] = {v}");
                 }
             }
-            let input = out.record.input.as_ref().expect("the record names the input");
+            let input = out
+                .record
+                .input
+                .as_ref()
+                .expect("the record names the input");
             assert_eq!((input.kind.as_str(), input.samples), ("samples", n));
             assert_eq!(input.weights, "uniform");
         }
@@ -387,7 +390,12 @@ mod tests {
         let sub = data.stratified_subsample(0.1, 1);
         let occupied: std::collections::BTreeSet<usize> =
             (0..data.len()).map(|m| data.stratum_at(m)).collect();
-        assert!(sub.len() >= occupied.len(), "{} < {}", sub.len(), occupied.len());
+        assert!(
+            sub.len() >= occupied.len(),
+            "{} < {}",
+            sub.len(),
+            occupied.len()
+        );
         let total: f64 = sub.multiplicity().iter().sum();
         assert!((total - 300.0).abs() < 1e-9, "{total}");
         let cfg = FitConfig::default().subsample(0.5, 1).unwrap();
@@ -427,11 +435,14 @@ mod tests {
                         ..s([0.1; 3])
                     },
                 ],
-                row(1, SampleProblem::NotUnit {
-                    name: "wi",
-                    v: [0.0, 0.0, 2.0],
-                    norm: 2.0,
-                }),
+                row(
+                    1,
+                    SampleProblem::NotUnit {
+                        name: "wi",
+                        v: [0.0, 0.0, 2.0],
+                        norm: 2.0,
+                    },
+                ),
             ),
             (
                 vec![
@@ -441,14 +452,23 @@ mod tests {
                         ..s([0.1; 3])
                     },
                 ],
-                row(1, SampleProblem::BelowHorizon { name: "wo", z: -0.8 }),
+                row(
+                    1,
+                    SampleProblem::BelowHorizon {
+                        name: "wo",
+                        z: -0.8,
+                    },
+                ),
             ),
             (
                 vec![s([0.1; 3]), s([0.1, f64::INFINITY, 0.0])],
-                row(1, SampleProblem::Value {
-                    channel: 1,
-                    value: f64::INFINITY,
-                }),
+                row(
+                    1,
+                    SampleProblem::Value {
+                        channel: 1,
+                        value: f64::INFINITY,
+                    },
+                ),
             ),
             (
                 vec![weighted(1.0), weighted(0.0)],
@@ -465,7 +485,13 @@ mod tests {
             assert!(e.to_string().starts_with("row "), "{e}");
         }
         let e = FitData::from_samples(&[s([f64::NAN; 3])], "samples", None).unwrap_err();
-        assert_eq!(e, SampleError::Empty { rows: 1, missing: 1 });
+        assert_eq!(
+            e,
+            SampleError::Empty {
+                rows: 1,
+                missing: 1
+            }
+        );
     }
 
     /// Both orders of a non-reciprocal pair in: a reciprocal model (Lambert) fits

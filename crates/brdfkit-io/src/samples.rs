@@ -204,12 +204,10 @@ pub fn parse_csv(text: &str, path: &Path) -> Result<SampleRows, SamplesError> {
             ));
         }
         for (c, f) in fields.iter().enumerate() {
-            out.data.push(field(f, c).ok_or_else(|| {
-                err(
-                    line,
-                    format!("{} = `{f}` is not a number", HEADER[c]),
-                )
-            })?);
+            out.data.push(
+                field(f, c)
+                    .ok_or_else(|| err(line, format!("{} = `{f}` is not a number", HEADER[c])))?,
+            );
         }
         if let Some(l) = &mut out.lines {
             l.push(line);
@@ -225,9 +223,7 @@ fn field(f: &str, c: usize) -> Option<f64> {
     if f.is_empty() {
         return value_col.then_some(f64::NAN);
     }
-    f.parse::<f64>()
-        .ok()
-        .filter(|x| !x.is_nan() || value_col)
+    f.parse::<f64>().ok().filter(|x| !x.is_nan() || value_col)
 }
 
 /// A (N, 9|10) `.npy` of `rows` in float64 (tests and tools): header by npyz.
@@ -256,8 +252,11 @@ mod tests {
         assert_eq!(r.row(0), [0.0, 0.0, 1.0, 0.6, 0.0, 0.8, 0.1, 0.2, 0.3]);
         assert!(r.row(1)[6].is_nan() && r.row(1)[7].is_nan() && r.row(1)[8] == 0.5);
         assert_eq!(r.locate(1), "line 4");
-        let w = parse_csv(&format!("{H9},weight\n0,0,1,0,0,1,1,1,1,0.25\n"), Path::new("w.csv"))
-            .unwrap();
+        let w = parse_csv(
+            &format!("{H9},weight\n0,0,1,0,0,1,1,1,1,0.25\n"),
+            Path::new("w.csv"),
+        )
+        .unwrap();
         assert_eq!((w.cols, w.row(0)[9]), (10, 0.25));
     }
 
@@ -266,14 +265,31 @@ mod tests {
         let bad = [
             ("".to_string(), "line 1: empty file"),
             ("a,b\n".to_string(), "line 1: header is `a,b`"),
-            (format!("{H9}\n0,0,1,0,0,1,1,1\n"), "line 2: expected 9 fields, found 8"),
-            (format!("{H9}\n0,0,x,0,0,1,1,1,1\n"), "line 2: wi_z = `x` is not a number"),
-            (format!("{H9}\n\n0,0,,0,0,1,1,1,1\n"), "line 3: wi_z = `` is not a number"),
-            (format!("{H9}\n0,0,nan,0,0,1,1,1,1\n"), "line 2: wi_z = `nan`"),
-            (format!("{H9},weight\n0,0,1,0,0,1,1,1,1,\n"), "line 2: weight = ``"),
+            (
+                format!("{H9}\n0,0,1,0,0,1,1,1\n"),
+                "line 2: expected 9 fields, found 8",
+            ),
+            (
+                format!("{H9}\n0,0,x,0,0,1,1,1,1\n"),
+                "line 2: wi_z = `x` is not a number",
+            ),
+            (
+                format!("{H9}\n\n0,0,,0,0,1,1,1,1\n"),
+                "line 3: wi_z = `` is not a number",
+            ),
+            (
+                format!("{H9}\n0,0,nan,0,0,1,1,1,1\n"),
+                "line 2: wi_z = `nan`",
+            ),
+            (
+                format!("{H9},weight\n0,0,1,0,0,1,1,1,1,\n"),
+                "line 2: weight = ``",
+            ),
         ];
         for (text, what) in bad {
-            let m = parse_csv(&text, Path::new("s.csv")).unwrap_err().to_string();
+            let m = parse_csv(&text, Path::new("s.csv"))
+                .unwrap_err()
+                .to_string();
             assert!(m.starts_with("s.csv: ") && m.contains(what), "{m}");
         }
     }
@@ -305,8 +321,13 @@ mod tests {
         let mut b = Vec::new();
         write_npy(&mut b, &rows[..6], 6).unwrap();
         let m = parse_npy(&b, Path::new("s.npy")).unwrap_err().to_string();
-        assert!(m.contains("s.npy: shape (1, 6), expected (N, 9) or (N, 10)"), "{m}");
-        let m = parse_npy(b"not npy", Path::new("s.npy")).unwrap_err().to_string();
+        assert!(
+            m.contains("s.npy: shape (1, 6), expected (N, 9) or (N, 10)"),
+            "{m}"
+        );
+        let m = parse_npy(b"not npy", Path::new("s.npy"))
+            .unwrap_err()
+            .to_string();
         assert!(m.starts_with("s.npy: not a valid .npy file"), "{m}");
     }
 }

@@ -244,7 +244,13 @@ struct SlicePoints {
 /// `eval` at the pair (the node it reads there is a matter of rounding): column x = 0
 /// (u_θ = 0, every row is the half vector at the pole, wo the mirror direction) and row
 /// y = n − 1 (u_φ = 1, the row y = 0 again).
-fn slice_points(p: &Parts, bsdf: &RglBsdf, ab: [usize; 2], nodes: &[usize], n: usize) -> SlicePoints {
+fn slice_points(
+    p: &Parts,
+    bsdf: &RglBsdf,
+    ab: [usize; 2],
+    nodes: &[usize],
+    n: usize,
+) -> SlicePoints {
     let sl = slice(p, ab);
     let mut out = SlicePoints {
         points: Vec::with_capacity(nodes.len()),
@@ -292,7 +298,9 @@ fn slice_points(p: &Parts, bsdf: &RglBsdf, ab: [usize; 2], nodes: &[usize], n: u
                     out.points[i].weight += weight;
                     out.merged += 1;
                 }
-                None => out.points.push(point(wo, bsdf.eval(&sl.wi, &wo).0, weight, y, x)),
+                None => out
+                    .points
+                    .push(point(wo, bsdf.eval(&sl.wi, &wo).0, weight, y, x)),
             }
             continue;
         }
@@ -309,7 +317,8 @@ fn slice_points(p: &Parts, bsdf: &RglBsdf, ab: [usize; 2], nodes: &[usize], n: u
     }
     if pole_nodes > 0 {
         let wo = Vec3::new(-sl.wi.x, -sl.wi.y, sl.wi.z);
-        out.points.push(point(wo, bsdf.eval(&sl.wi, &wo).0, pole, 0, 0));
+        out.points
+            .push(point(wo, bsdf.eval(&sl.wi, &wo).0, pole, 0, 0));
         out.merged += pole_nodes - 1;
     }
     out

@@ -32,7 +32,11 @@ fn points_are_eval(path: &Path) -> (RglBsdf, MeasuredPoints) {
             worst = worst.max(d);
         }
     }
-    assert!(worst < 1e-7, "{}: worst relative difference {worst}", path.display());
+    assert!(
+        worst < 1e-7,
+        "{}: worst relative difference {worst}",
+        path.display()
+    );
     (bsdf, pts)
 }
 
@@ -48,7 +52,10 @@ fn weights_integrate_the_cosine(pts: &MeasuredPoints) {
     for (k, cos_sum) in &by_slice {
         let ring = ring_of(pts, *k);
         let r = cos_sum / (ring * std::f64::consts::PI);
-        assert!((r - 1.0).abs() < 0.03, "slice {k}: Σ w cos θo / (dω_i π) = {r}");
+        assert!(
+            (r - 1.0).abs() < 0.03,
+            "slice {k}: Σ w cos θo / (dω_i π) = {r}"
+        );
     }
 }
 
@@ -57,7 +64,11 @@ fn ring_of(pts: &MeasuredPoints, k: usize) -> f64 {
     let bsdf = RglBsdf::read(Path::new(&pts.name)).unwrap();
     let t: Vec<f64> = bsdf.grids().0.iter().map(|&x| f64::from(x)).collect();
     let a = if k == 0 { 0.0 } else { 0.5 * (t[k - 1] + t[k]) };
-    let b = if k + 1 == t.len() { std::f64::consts::FRAC_PI_2 } else { 0.5 * (t[k] + t[k + 1]) };
+    let b = if k + 1 == t.len() {
+        std::f64::consts::FRAC_PI_2
+    } else {
+        0.5 * (t[k] + t[k + 1])
+    };
     std::f64::consts::TAU * (a.cos() - b.cos())
 }
 
@@ -66,7 +77,11 @@ fn ring_of(pts: &MeasuredPoints, k: usize) -> f64 {
 #[test]
 fn felt_points_are_the_readers_values() {
     let (_, pts) = points_are_eval(&felt());
-    assert!(pts.points.iter().all(|p| p.weight > 0.0 && p.weight.is_finite()));
+    assert!(
+        pts.points
+            .iter()
+            .all(|p| p.weight > 0.0 && p.weight.is_finite())
+    );
 }
 
 #[test]

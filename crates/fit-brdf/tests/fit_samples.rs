@@ -18,7 +18,12 @@ fn truth() -> Box<dyn Model> {
 
 /// `n` pairs on a low-discrepancy sequence (golden-ratio steps), both directions above 5°.
 fn pairs(n: usize) -> Vec<(Vec3, Vec3)> {
-    let g = [0.618_033_988_749_895, 0.754_877_666_246_693, 0.569_840_290_998_053, 0.438_579_073_460_287];
+    let g = [
+        0.618_033_988_749_895,
+        0.754_877_666_246_693,
+        0.569_840_290_998_053,
+        0.438_579_073_460_287,
+    ];
     let dir = |a: f64, b: f64| {
         let z = 0.0872 + (1.0 - 0.0872) * a;
         let (r, phi) = ((1.0 - z * z).sqrt(), std::f64::consts::TAU * b);
@@ -38,8 +43,17 @@ fn samples_csv(dir: &Path, n: usize) -> PathBuf {
     let mut s = String::from("wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,r,g,b\n");
     for (k, (wi, wo)) in pairs(n).into_iter().enumerate() {
         let f = m.eval(&wi, &wo).0;
-        let g = if k == 5 { String::new() } else { f[1].to_string() };
-        writeln!(s, "{},{},{},{},{},{},{},{g},{}", wi.x, wi.y, wi.z, wo.x, wo.y, wo.z, f[0], f[2]).unwrap();
+        let g = if k == 5 {
+            String::new()
+        } else {
+            f[1].to_string()
+        };
+        writeln!(
+            s,
+            "{},{},{},{},{},{},{},{g},{}",
+            wi.x, wi.y, wi.z, wo.x, wo.y, wo.z, f[0], f[2]
+        )
+        .unwrap();
     }
     let p = dir.join("s.csv");
     std::fs::write(&p, s).unwrap();
@@ -48,7 +62,13 @@ fn samples_csv(dir: &Path, n: usize) -> PathBuf {
 
 fn fit_record(args: &[&str], dir: &Path) -> Value {
     let rec = dir.join("r.json");
-    let o = bin().args(args).arg("--record").arg(&rec).arg("-q").output().unwrap();
+    let o = bin()
+        .args(args)
+        .arg("--record")
+        .arg(&rec)
+        .arg("-q")
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     serde_json::from_slice(&std::fs::read(rec).unwrap()).unwrap()
 }
@@ -63,14 +83,28 @@ fn fit_samples_csv_recovers_the_model() {
     let dir = tempfile::tempdir().unwrap();
     let csv = samples_csv(dir.path(), 2000);
     let r = fit_record(&["fit", "--samples", csv.to_str().unwrap()], dir.path());
-    assert!((param(&r, "alpha", None) - 0.2).abs() < 1e-4, "{}", r["model"]);
+    assert!(
+        (param(&r, "alpha", None) - 0.2).abs() < 1e-4,
+        "{}",
+        r["model"]
+    );
     for (c, w) in [0.4, 0.5, 0.6].iter().enumerate() {
-        assert!((param(&r, "rho_s", Some(c)) - w).abs() < 1e-4, "{}", r["model"]);
+        assert!(
+            (param(&r, "rho_s", Some(c)) - w).abs() < 1e-4,
+            "{}",
+            r["model"]
+        );
     }
     let i = &r["input"];
     assert_eq!(i["kind"], "samples");
-    assert_eq!((i["rows"].as_u64(), i["samples"].as_u64()), (Some(2000), Some(1999)));
-    assert_eq!((i["dropped_missing"].as_u64(), i["weights"].as_str()), (Some(1), Some("uniform")));
+    assert_eq!(
+        (i["rows"].as_u64(), i["samples"].as_u64()),
+        (Some(2000), Some(1999))
+    );
+    assert_eq!(
+        (i["dropped_missing"].as_u64(), i["weights"].as_str()),
+        (Some(1), Some("uniform"))
+    );
     assert_eq!(r["cells_full"].as_u64(), Some(1999));
 }
 
@@ -89,7 +123,11 @@ fn fit_samples_npy_with_weights() {
     std::fs::write(&p, bytes).unwrap();
     let r = fit_record(&["fit", "--samples", p.to_str().unwrap()], dir.path());
     assert_eq!(r["input"]["weights"], "given");
-    assert!((param(&r, "alpha", None) - 0.2).abs() < 1e-4, "{}", r["model"]);
+    assert!(
+        (param(&r, "alpha", None) - 0.2).abs() < 1e-4,
+        "{}",
+        r["model"]
+    );
 }
 
 #[test]
@@ -97,11 +135,26 @@ fn bad_samples_files_are_exit_2_naming_file_and_row() {
     let dir = tempfile::tempdir().unwrap();
     let h = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,r,g,b\n";
     let cases: [(&str, String, &[&str]); 4] = [
-        ("below.csv", format!("{h}0,0,1,0,0,1,1,1,1\n0,0,1,0.6,0,-0.8,1,1,1\n"),
-         &["below.csv: line 3: wo has z = -0.8", "below the horizon"]),
-        ("long.csv", format!("{h}0,0,1,0,0,2,1,1,1\n"), &["long.csv: line 2: wo", "unit vector"]),
-        ("fields.csv", format!("{h}0,0,1,0,0,1,1,1\n"), &["fields.csv: line 2: expected 9 fields, found 8"]),
-        ("empty.csv", format!("{h}0,0,1,0,0,1,,,\n"), &["empty.csv: no sample to fit (1 rows, 1 with a missing value)"]),
+        (
+            "below.csv",
+            format!("{h}0,0,1,0,0,1,1,1,1\n0,0,1,0.6,0,-0.8,1,1,1\n"),
+            &["below.csv: line 3: wo has z = -0.8", "below the horizon"],
+        ),
+        (
+            "long.csv",
+            format!("{h}0,0,1,0,0,2,1,1,1\n"),
+            &["long.csv: line 2: wo", "unit vector"],
+        ),
+        (
+            "fields.csv",
+            format!("{h}0,0,1,0,0,1,1,1\n"),
+            &["fields.csv: line 2: expected 9 fields, found 8"],
+        ),
+        (
+            "empty.csv",
+            format!("{h}0,0,1,0,0,1,,,\n"),
+            &["empty.csv: no sample to fit (1 rows, 1 with a missing value)"],
+        ),
     ];
     for (name, text, needles) in cases {
         let p = dir.path().join(name);

@@ -153,7 +153,9 @@ pub fn fit_data(
     let t = std::time::Instant::now();
     let data = match (table, samples) {
         (_, Some(s)) => FitData::read_samples(s).map_err(bad_input)?,
-        (Some(p), None) if how == crate::cli::BsdfInput::Points && input_kind(p)? == InputKind::Rgl => {
+        (Some(p), None)
+            if how == crate::cli::BsdfInput::Points && input_kind(p)? == InputKind::Rgl =>
+        {
             let (_, pts) = brdfkit::rgl::MeasuredPoints::read(p).map_err(bad_input)?;
             let data = FitData::from_bsdf_points(&pts).map_err(bad_input)?;
             eprintln!(
