@@ -136,8 +136,7 @@ pub struct SampleInput {
 fn check_dirs(s: &Sample) -> Result<(), SampleProblem> {
     for (name, w) in [("wi", s.wi), ("wo", s.wo)] {
         let norm = w.norm();
-        // Written as a "good" test so NaN lands on the bad side.
-        if !((norm - 1.0).abs() <= UNIT_TOLERANCE) {
+        if !brdfkit_core::direction::is_unit([w.x, w.y, w.z]) {
             return Err(SampleProblem::NotUnit {
                 name,
                 v: [w.x, w.y, w.z],
@@ -360,10 +359,8 @@ mod tests {
             let out = fit(start.as_ref(), &data, &cfg, None).unwrap();
             assert_eq!(out.record.warm_up_cells.is_some(), n > 4 * 4096);
             let got = out.fitted.to_json();
-            for (k, want) in [("alpha", 0.2)] {
-                let v = got["params"][k].as_f64().unwrap();
-                assert!((v - want).abs() < 1e-4 * want, "{n}: {k} = {v}");
-            }
+            let alpha = got["params"]["alpha"].as_f64().unwrap();
+            assert!((alpha - 0.2).abs() < 2e-5, "{n}: alpha = {alpha}");
             for (k, want) in [("rho_d", [0.3, 0.2, 0.1]), ("rho_s", [0.4, 0.5, 0.6])] {
                 for (c, w) in want.iter().enumerate() {
                     let v = got["params"][k][c].as_f64().unwrap();
