@@ -42,8 +42,9 @@
 //! there is a matter of rounding).
 //!
 //! Skipped (counted): slices with cos θi < [`MIN_COS_I`] (wi on the horizon, where
-//! f_r · cos θi vanishes and the files hold no measurement), and nodes whose wo is on or
-//! below the horizon.
+//! f_r · cos θi vanishes and the files hold no measurement), an anisotropic file's
+//! θi = 0 slices but the first (one incident direction, which the reader evaluates from
+//! the first φi slice), and nodes whose wo is on or below the horizon.
 
 use crate::bsdf::{Parts, RglBsdf, Values};
 use crate::cie;
@@ -173,11 +174,25 @@ impl MeasuredPoints {
 
     /// The points of `bsdf` whose bit is set in `valid` (packed as the file's `valid`
     /// field; `None`: every node, as for a file without the field).
+    ///
+    /// Isotropic files only: an anisotropic file gives no point (every valid node is
+    /// counted in `skipped`). Its points, built the same way, do not yet equal the
+    /// reader's `eval` at their pairs (tests/points.rs), so they are not offered.
     pub fn of(bsdf: &RglBsdf, valid: Option<&[u8]>) -> MeasuredPoints {
         let p = bsdf.parts();
         let n = bsdf.summary().value_grid[0];
         let (nphi, nth) = (p.phi_i.len(), p.theta_i.len());
         let is_valid = |k: usize| valid.is_none_or(|v| bit(v, k));
+        if !p.isotropic {
+            let valid = (0..nphi * nth * n * n).filter(|&k| is_valid(k)).count();
+            return MeasuredPoints {
+                name: bsdf.name().into(),
+                points: Vec::new(),
+                valid,
+                skipped: valid,
+                merged: 0,
+            };
+        }
         let slices: Vec<(usize, usize)> = (0..nphi)
             .flat_map(|a| (0..nth).map(move |b| (a, b)))
             .collect();
@@ -206,13 +221,18 @@ impl MeasuredPoints {
     }
 }
 
-/// The slice's incident geometry. An isotropic file's wi is placed at φ = −π (y ≤ 0):
-/// the reader folds every wi into y ≤ 0, so this one is left as it is and the pair
-/// it evaluates is the pair built here.
+/// The slice's incident geometry. The reader folds every wi into the stored φi range
+/// (y ≤ 0; x ≤ 0 too for a 4-fold anisotropic file) by the sign bits of its components;
+/// wi is built inside it (an isotropic file's at φ = −π), so the fold leaves the pair
+/// as it is and `eval` sees the pair built here.
 fn slice(p: &Parts, [a, b]: [usize; 2]) -> Slice {
     let (phi, theta) = (f64::from(p.phi_i[a]), f64::from(p.theta_i[b]));
     let phi_wi = if p.isotropic { -PI } else { phi };
-    let wi = spherical(theta, phi_wi);
+    let mut wi = spherical(theta, phi_wi);
+    // A component that is zero but for round-off (θi = 0, φ = −π/2, −π) is −0: the
+    // reader folds by the components' sign bits, and −0 is on the stored side.
+    let signed_zero = |c: f64| if c.abs() < 1e-12 { -0.0 } else { c };
+    (wi.x, wi.y) = (signed_zero(wi.x), signed_zero(wi.y));
     Slice {
         wi,
         params: [phi, theta],
@@ -257,7 +277,10 @@ fn slice_points(
         skipped: 0,
         merged: 0,
     };
-    if sl.wi.z < MIN_COS_I {
+    // At θi = 0 every φi slice is the one incident direction, whose φi the reader
+    // takes as −π (the first slice): the others' nodes are not what it evaluates there.
+    let repeated_pole = !p.isotropic && ab[0] > 0 && p.theta_i[ab[1]] == 0.0;
+    if sl.wi.z < MIN_COS_I || repeated_pole {
         out.skipped = nodes.len();
         return out;
     }
@@ -309,10 +332,13 @@ fn slice_points(
         } else {
             1.0
         } / wo.z;
-        let rgb = node_rgb(p.values, s, &sl.params, &mut stored).map(|v| v * jac);
-        if y == 0 {
+        let rgb = if y == 0 {
+            // Shared with row n − 1: the reader's value (see above).
             row0[x] = Some(out.points.len());
-        }
+            bsdf.eval(&sl.wi, &wo).0
+        } else {
+            node_rgb(p.values, s, &sl.params, &mut stored).map(|v| v * jac)
+        };
         out.points.push(point(wo, rgb, weight, y, x));
     }
     if pole_nodes > 0 {
