@@ -7,7 +7,8 @@
 //! grid's nodes s = (x, y)/(n − 1) *through* the slice's VNDF warp W: node s stands for
 //! the half vector with grid coordinates u_m = W(s) (u_θ = √(2θm/π), u_φ = (φm + π)/2π,
 //! φm relative to φi in an isotropic file) and for wo = 2⟨wi, m⟩m − wi. The `valid`
-//! bits (packed most significant bit first over (φi, θi, y, x)) mark the nodes that were
+//! bits (packed most significant bit first over (φi, θi, y, x); a grid may have other
+//! row and column counts, s = (x/(cols − 1), y/(rows − 1))) mark the nodes that were
 //! measured. Evaluation runs the other way (u_m → W⁻¹ → s: [`crate::Warp2D::invert`]);
 //! here W is its inverse by bisection, as the writer finds it, so the reader's `eval`
 //! at a point's pair lands on the point's own node.
@@ -120,14 +121,14 @@ impl Slice {
         (m, wo, um, if jac.is_finite() { jac } else { 0.0 })
     }
 
-    /// ∫ |dω_o/ds| over node `k`'s clipped cell of an `n`-node axis pair.
-    fn cell_solid_angle(&self, p: &Parts, x: usize, y: usize, n: usize) -> f64 {
-        let h = 1.0 / (n - 1) as f64;
-        let span = |i: usize| {
+    /// ∫ |dω_o/ds| over node (x, y)'s clipped cell of a grid of `[rows, cols]` nodes.
+    fn cell_solid_angle(&self, p: &Parts, x: usize, y: usize, [rows, cols]: [usize; 2]) -> f64 {
+        let span = |i: usize, n: usize| {
+            let h = 1.0 / (n - 1) as f64;
             let c = i as f64 * h;
             ((c - 0.5 * h).max(0.0), (c + 0.5 * h).min(1.0))
         };
-        let ((x0, x1), (y0, y1)) = (span(x), span(y));
+        let ((x0, x1), (y0, y1)) = (span(x, cols), span(y, rows));
         let mut sum = 0.0;
         for gy in GAUSS {
             for gx in GAUSS {
@@ -142,10 +143,10 @@ impl Slice {
     }
 }
 
-/// Bit `k` of a most-significant-bit-first packing.
+/// Bit `k` of a most-significant-bit-first packing (false past its end).
 #[inline]
 fn bit(bytes: &[u8], k: usize) -> bool {
-    bytes[k / 8] & (0x80 >> (k % 8)) != 0
+    bytes.get(k / 8).is_some_and(|b| b & (0x80 >> (k % 8)) != 0)
 }
 
 /// The share of the incident directions slice `i` of `grid` stands for: the interval
@@ -180,11 +181,12 @@ impl MeasuredPoints {
     /// reader's `eval` at their pairs (tests/points.rs), so they are not offered.
     pub fn of(bsdf: &RglBsdf, valid: Option<&[u8]>) -> MeasuredPoints {
         let p = bsdf.parts();
-        let n = bsdf.summary().value_grid[0];
+        let grid = bsdf.summary().value_grid;
+        let n = grid[0] * grid[1];
         let (nphi, nth) = (p.phi_i.len(), p.theta_i.len());
         let is_valid = |k: usize| valid.is_none_or(|v| bit(v, k));
         if !p.isotropic {
-            let valid = (0..nphi * nth * n * n).filter(|&k| is_valid(k)).count();
+            let valid = (0..nphi * nth * n).filter(|&k| is_valid(k)).count();
             return MeasuredPoints {
                 name: bsdf.name().into(),
                 points: Vec::new(),
@@ -199,9 +201,9 @@ impl MeasuredPoints {
         let per: Vec<(SlicePoints, usize)> = slices
             .par_iter()
             .map(|&(a, b)| {
-                let base = (a * nth + b) * n * n;
-                let nodes: Vec<usize> = (0..n * n).filter(|&k| is_valid(base + k)).collect();
-                (slice_points(&p, bsdf, [a, b], &nodes, n), nodes.len())
+                let base = (a * nth + b) * n;
+                let nodes: Vec<usize> = (0..n).filter(|&k| is_valid(base + k)).collect();
+                (slice_points(&p, bsdf, [a, b], &nodes, grid), nodes.len())
             })
             .collect();
         let mut out = MeasuredPoints {
@@ -259,18 +261,20 @@ struct SlicePoints {
     merged: usize,
 }
 
-/// The points of one slice's valid `nodes` (indices y·n + x, ascending). Nodes that
-/// share a direction become one point with their weights summed, valued by the reader's
-/// `eval` at the pair (the node it reads there is a matter of rounding): column x = 0
-/// (u_θ = 0, every row is the half vector at the pole, wo the mirror direction) and row
-/// y = n − 1 (u_φ = 1, the row y = 0 again).
+/// The points of one slice's valid `nodes` (indices y·cols + x, ascending) on a grid of
+/// `[rows, cols]` nodes. Nodes that share a direction become one point with their
+/// weights summed, valued by the reader's `eval` at the pair (the node it reads there is
+/// a matter of rounding): column x = 0 (u_θ = 0, every row is the half vector at the
+/// pole, wo the mirror direction) and rows y = 0 and y = rows − 1 (u_φ = 0 and 1, one
+/// azimuth).
 fn slice_points(
     p: &Parts,
     bsdf: &RglBsdf,
     ab: [usize; 2],
     nodes: &[usize],
-    n: usize,
+    grid: [usize; 2],
 ) -> SlicePoints {
+    let [rows, cols] = grid;
     let sl = slice(p, ab);
     let mut out = SlicePoints {
         points: Vec::with_capacity(nodes.len()),
@@ -285,7 +289,7 @@ fn slice_points(
         return out;
     }
     let d_i = incident_measure(p, ab);
-    let h = 1.0 / (n - 1) as f64;
+    let step = [1.0 / (cols - 1) as f64, 1.0 / (rows - 1) as f64];
     let theta_wi = f64::from(p.theta_i[ab[1]]);
     let u_wi = [
         (theta_wi * (2.0 / PI)).sqrt(),
@@ -293,7 +297,7 @@ fn slice_points(
     ];
     let sigma = p.sigma.eval(u_wi, &[]);
     let mut stored = vec![0.0; bsdf.stored_len()];
-    let mut row0: Vec<Option<usize>> = vec![None; n];
+    let mut row0: Vec<Option<usize>> = vec![None; cols];
     let (mut pole, mut pole_nodes) = (0.0, 0);
     let point = |wo: Vec3, rgb: [f64; 3], weight: f64, y: usize, x: usize| Point {
         wi: sl.wi,
@@ -303,19 +307,19 @@ fn slice_points(
         node: [ab[0], ab[1], y, x],
     };
     for &k in nodes {
-        let (y, x) = (k / n, k % n);
-        let s = [x as f64 * h, y as f64 * h];
+        let (y, x) = (k / cols, k % cols);
+        let s = [x as f64 * step[0], y as f64 * step[1]];
         let (_, wo, um, _) = sl.map(p, s);
         if wo.z <= 0.0 {
             out.skipped += 1;
             continue;
         }
-        let weight = d_i * sl.cell_solid_angle(p, x, y, n);
+        let weight = d_i * sl.cell_solid_angle(p, x, y, grid);
         if x == 0 {
             (pole, pole_nodes) = (pole + weight, pole_nodes + 1);
             continue;
         }
-        if y == n - 1 {
+        if y == rows - 1 {
             match row0[x] {
                 Some(i) => {
                     out.points[i].weight += weight;
