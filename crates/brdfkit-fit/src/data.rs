@@ -64,6 +64,9 @@ pub struct FitData {
     subsets: SubsetCache,
     /// ∛(f cos θi) per channel ([`FitData::cbrt_targets`]).
     cbrt_targets: OnceLock<[Vec<f64>; 3]>,
+    /// What scattered samples these cells were built from (`None`: a table, or a
+    /// subset of cells), which a fit's record carries.
+    input: Option<crate::samples::SampleInput>,
 }
 
 /// The stratified subsamples drawn from a cell set, by (fraction, seed): the warm-up
@@ -124,7 +127,24 @@ impl FitData {
             theta_d: OnceLock::new(),
             subsets: SubsetCache::default(),
             cbrt_targets: OnceLock::new(),
+            input: None,
         }
+    }
+
+    /// These cells, described as built from `input` ([`FitData::from_samples`]).
+    pub(crate) fn with_input(mut self, input: crate::samples::SampleInput) -> FitData {
+        self.input = Some(input);
+        self
+    }
+
+    /// What scattered samples the cells were built from; `None` for a table's cells
+    /// and for subsets (cutoffs, subsamples).
+    pub fn input(&self) -> Option<&crate::samples::SampleInput> {
+        self.input.as_ref()
+    }
+
+    pub(crate) fn input_mut(&mut self) -> Option<&mut crate::samples::SampleInput> {
+        self.input.as_mut()
     }
 
     /// Cells from their parts: geometry, values per channel (finite, ≥ 0) and the

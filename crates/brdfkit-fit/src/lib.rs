@@ -25,6 +25,7 @@
 //! - [`loss`]: the four losses (`l2`, `cosine`, `cbrt`, `log`) and the cell weights;
 //! - [`reparam`]: the smooth log / logit reparameterisation that enforces bounds;
 //! - [`data`]: the cells, their cutoff and stratified subsampling;
+//! - [`samples`]: scattered samples (a lab's rows, a `.bsdf`'s measured points) as cells;
 //! - [`problem`]: residuals, the normal equations in one parallel pass, argmin traits;
 //! - [`lm`]: Levenberg-Marquardt and Gauss-Newton as argmin solvers;
 //! - [`starts`]: the multi-start scheme;
@@ -57,6 +58,7 @@ pub mod observer;
 pub mod problem;
 pub mod record;
 pub mod reparam;
+pub mod samples;
 pub mod score;
 pub mod starts;
 pub mod synth;
@@ -74,4 +76,5 @@ pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses, evalua
 pub use record::{
     FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,
 };
+pub use samples::{Sample, SampleError, SampleInput, SampleProblem, SamplesFileError};
 pub use score::{Score, ScoreError, losses_of_values, score};

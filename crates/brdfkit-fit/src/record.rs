@@ -282,6 +282,10 @@ pub struct FitRecord {
     /// the three channel models); absent in older records.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_albedo: Option<f64>,
+    /// The scattered samples the fit's cells were built from (absent for a MERL
+    /// table and in older records): kind, rows, kept, dropped ([`crate::samples`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input: Option<crate::samples::SampleInput>,
 }
 
 impl FitRecord {
@@ -371,6 +375,7 @@ impl FitRecord {
             robust: robust_record(config, &p.passes),
             albedo_max: config.albedo_max,
             max_albedo: Some(max_albedo(p.fitted)).filter(|v| v.is_finite()),
+            input: None,
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The array file formats brdfkit reads and writes besides its measured sources: NumPy
 //! `.npy` arrays ([`npy`]: the NBRDF weights, `eval`'s direction pairs and values) and
-//! the direction-pair CSV ([`csv`]). One implementation of each, shared by the CLI and the
+//! the direction-pair CSV ([`csv`]), and the scattered samples of `fit --samples`
+//! ([`samples`], `.npy` or CSV). One implementation of each, shared by the CLI and the
 //! NBRDF reader (and through it the Python package), so that one file is read by one rule
 //! everywhere.
 //!
@@ -20,3 +21,4 @@
 
 pub mod csv;
 pub mod npy;
+pub mod samples;

@@ -345,3 +345,32 @@ impl Brdf for RglBsdf {
         self.isotropic
     }
 }
+
+/// The tables of a file, for the measured points ([`crate::MeasuredPoints`]): a view
+/// that leaves the evaluation's fields private to this file.
+pub(crate) struct Parts<'a> {
+    pub phi_i: &'a [f32],
+    pub theta_i: &'a [f32],
+    pub ndf: &'a Warp2D,
+    pub sigma: &'a Warp2D,
+    pub vndf: &'a Warp2D,
+    pub values: &'a Values,
+    pub isotropic: bool,
+    pub jacobian: bool,
+}
+
+impl RglBsdf {
+    /// The tables of the file ([`Parts`]).
+    pub(crate) fn parts(&self) -> Parts<'_> {
+        Parts {
+            phi_i: &self.phi_i,
+            theta_i: &self.theta_i,
+            ndf: &self.ndf,
+            sigma: &self.sigma,
+            vndf: &self.vndf,
+            values: &self.values,
+            isotropic: self.isotropic,
+            jacobian: self.jacobian,
+        }
+    }
+}

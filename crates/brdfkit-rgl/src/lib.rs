@@ -14,6 +14,9 @@
 //! - [`RglBsdf::to_table`]: the file as a MERL table (mean of both orders of a pair),
 //!   and [`RglBsdf::asymmetry`], how far the data are from reciprocal.
 //!
+//! - [`MeasuredPoints`]: the file's measured points at their own directions, with the
+//!   solid angle each stands for (the native input of a fit).
+//!
 //! - [`InputKind`]: the one rule that tells a `.bsdf`, a model description and a MERL
 //!   table apart by their first bytes.
 //!
@@ -26,6 +29,7 @@ pub mod cie_table;
 mod error;
 mod info;
 pub mod kind;
+mod points;
 mod resample;
 pub mod tensor;
 mod warp;
@@ -34,6 +38,7 @@ pub mod write;
 pub use bsdf::{RglBsdf, Summary, Values};
 pub use error::RglError;
 pub use kind::InputKind;
+pub use points::{MIN_COS_I, MeasuredPoints, Point};
 pub use resample::{Asymmetry, TableStats};
 pub use tensor::{Dtype, Tensor, TensorData, TensorFile, is_tensor_file};
 pub use warp::Warp2D;

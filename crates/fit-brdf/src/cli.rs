@@ -348,10 +348,31 @@ pub struct SynthArgs {
     pub quiet: bool,
 }
 
+/// What `fit` fits of a `.bsdf` file.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BsdfInput {
+    /// The measured points (the `valid` bits) at their own directions.
+    Points,
+    /// The file resampled to a MERL table (as `resample --bsdf` writes it).
+    Table,
+}
+
 #[derive(Args, Debug)]
 pub struct FitArgs {
-    /// The MERL binary table to fit.
-    pub table: PathBuf,
+    /// The measurement to fit: a MERL binary table or an RGL-EPFL `.bsdf` file (told
+    /// apart by their first bytes; a `.bsdf` is fitted as `--bsdf-input` says).
+    #[arg(required_unless_present = "samples", conflicts_with = "samples")]
+    pub table: Option<PathBuf>,
+    /// Scattered samples to fit instead of a table: a `.npy` array (float32 or float64)
+    /// or a CSV file, N rows of `wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,r,g,b[,weight]`
+    /// (docs/fitting.md, "Scattered samples").
+    #[arg(long, value_name = "S.npy|S.csv")]
+    pub samples: Option<PathBuf>,
+    /// What a `.bsdf` input is fitted to: its measured points at their own directions
+    /// (`points`), or its resampling to a 90 × 90 × 180 MERL table (`table`); the
+    /// default and why: docs/rgl.md, "The sample-set fit".
+    #[arg(long, value_enum, default_value_t = BsdfInput::Points)]
+    pub bsdf_input: BsdfInput,
     #[command(flatten)]
     pub opts: FitOptions,
     /// Fitted parameters (one model) or an output directory (several).

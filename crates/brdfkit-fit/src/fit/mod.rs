@@ -177,6 +177,7 @@ pub fn fit(
     });
     times.record = t.elapsed().as_secs_f64();
     record.wall_time_s = t0.elapsed().as_secs_f64();
+    record.input = data.input().cloned();
     Ok(FitResult {
         fitted,
         record,

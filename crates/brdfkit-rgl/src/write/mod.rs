@@ -26,8 +26,8 @@
 //! dips slightly below 0 near grazing) is stored as 0 and counted
 //! ([`WriteReport::clamped`]).
 
-mod ndf;
-mod tables;
+pub(crate) mod ndf;
+pub(crate) mod tables;
 
 pub use ndf::PowerIteration;
 

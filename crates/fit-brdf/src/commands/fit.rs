@@ -2,13 +2,12 @@
 //! (the families and the settings: `brdfkit::fit::families`); `--for RENDERER`: the
 //! renderer's configurations, the best written (`brdfkit::fit::target`).
 
-use super::{fit_setup, read_table};
+use super::{fit_data, fit_setup};
 use crate::cli::FitArgs;
 use crate::error::{CliResult, bad_msg, runtime};
 use crate::output::{write_atomic, write_text};
 use crate::progress;
 use anyhow::Context;
-use brdfkit::fit::FitData;
 use brdfkit::fit::families::{Outcome, comparison_text, fit_each, pretty_file, stage_times_text};
 use brdfkit::fit::target::fit_for;
 use serde_json::Value;
@@ -27,15 +26,7 @@ pub fn run(a: FitArgs) -> CliResult<()> {
             "--record takes one model; with several, --out DIR receives every record",
         ));
     }
-    let t = Instant::now();
-    let table = read_table(&a.table)?;
-    let read_s = t.elapsed().as_secs_f64();
-    // The fit needs only the cells: the table (35 MB) is freed while they are built,
-    // before their geometry is allocated (FitData::from_owned_table).
-    let t = Instant::now();
-    let data = FitData::from_owned_table(table)
-        .map_err(|e| bad_msg(format!("{}: {e}", a.table.display())))?;
-    let cells_s = t.elapsed().as_secs_f64();
+    let (data, read_s, cells_s) = fit_data(a.table.as_deref(), a.samples.as_deref(), a.bsdf_input)?;
     let bars = progress::Families::bars(a.quiet);
     let (outcomes, best) = match a.for_renderer {
         None => (fit_each(&data, &fams, &cfg, &bars).map_err(runtime)?, None),
