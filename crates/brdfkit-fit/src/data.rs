@@ -262,15 +262,20 @@ impl FitData {
         let runs = split_runs(self.geometry.columns_mut(), counts);
         // cell_directions' values from per-axis sines and cosines (no trig per cell).
         let cells = CellDirections::new(dims);
+        // Row by row (θd) rather than unflattening each flat index: two integer
+        // divisions a cell were a visible part of this pass.
+        let np = dims.phi_d();
         runs.into_par_iter().enumerate().for_each(|(i, mut c)| {
             let mut m = 0;
-            for x in (i * slab..(i + 1) * slab).filter(|&x| mask[x]) {
-                let (_, j, k) = dims.unflatten(x);
-                let (wi, wo) = cells.get(i, j, k);
-                for (col, v) in c.iter_mut().zip(pair_columns(&wi, &wo)) {
-                    col[m] = v;
+            for j in 0..dims.theta_d() {
+                let row = &mask[i * slab + j * np..i * slab + (j + 1) * np];
+                for k in (0..np).filter(|&k| row[k]) {
+                    let (wi, wo) = cells.get(i, j, k);
+                    for (col, v) in c.iter_mut().zip(pair_columns(&wi, &wo)) {
+                        col[m] = v;
+                    }
+                    m += 1;
                 }
-                m += 1;
             }
             debug_assert_eq!(m, c[0].len());
         });

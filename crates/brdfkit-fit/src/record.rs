@@ -23,7 +23,7 @@ pub struct ParamRecord {
     /// True when the fit moved it; false when it was held fixed.
     pub free: bool,
     /// The reparameterisation the solver used (`logit`, `log`, `neg-log`,
-    /// `identity`); `None` for a fixed parameter.
+    /// `asinh`); `None` for a fixed parameter.
     pub transform: Option<String>,
     /// `"lower"` or `"upper"` when the fit drove this free parameter onto an end of its
     /// domain (the reparameterised coordinate past ±[`crate::reparam::U_ACTIVE`]: within

@@ -6,7 +6,7 @@
 //!
 //! | domain            | transform  | x(u)                          | dx/du             |
 //! |-------------------|------------|-------------------------------|-------------------|
-//! | (−∞, ∞)           | identity   | u                             | 1                 |
+//! | (−∞, ∞)           | asinh      | sinh u                        | cosh u            |
 //! | [lo, ∞), (lo, ∞)  | log        | lo + eᵘ                       | x − lo            |
 //! | (−∞, hi], (−∞, hi)| neg-log    | hi − eᵘ                       | hi − x            |
 //! | [lo, hi], (lo, hi)| logit      | lo + (hi − lo) σ(u)           | (hi − lo) σ (1 − σ) |
@@ -20,6 +20,16 @@
 //! A closed end (ρs = 0) is reached only in the limit u → −∞; a fit whose optimum sits
 //! on the end converges towards it (with dx/du → 0) and stops on the step or
 //! gradient tolerance with x within round-off of the end.
+//!
+//! A real parameter takes x = sinh u rather than x = u: near 0 it is the identity to
+//! first order (sinh u = u + u³/6 + …), far out a step of u is a relative change of x,
+//! as for the log. That matters where the optimum lies at infinity: Lafortune's lobe
+//! ρ · max(0, cxy pxy + pz)ⁿ tends, as cxy → ±∞ with ρ |cxy|ⁿ held, to
+//! ρ|cxy|ⁿ · max(0, ±pxy)ⁿ, a lobe no finite cxy gives. With x = u the fit crept there
+//! 3 units a step ([`crate::lm::MAX_STEP`]) until |u| reached [`U_MAX`] and ended on
+//! the iteration limit; with sinh it gets there in a few steps, |u| > [`U_ACTIVE`]
+//! counts as that end of the real line (the record's `at_bound`), and the ftol rules
+//! stop it once the lobe has reached its limit shape to round-off.
 
 use brdfkit_core::model::Domain;
 use serde::{Deserialize, Serialize};
@@ -44,8 +54,8 @@ pub const END_OFFSET: f64 = 1e-6;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum Transform {
-    /// x = u.
-    Identity,
+    /// x = sinh u (a real parameter; see the module doc).
+    Asinh,
     /// x = lo + eᵘ.
     Log {
         /// Lower bound.
@@ -80,7 +90,7 @@ impl Transform {
     /// The transform for a domain.
     pub fn for_domain(d: &Domain) -> Transform {
         match (d.lo.is_finite(), d.hi.is_finite()) {
-            (false, false) => Transform::Identity,
+            (false, false) => Transform::Asinh,
             (true, false) => Transform::Log { lo: d.lo },
             (false, true) => Transform::NegLog { hi: d.hi },
             (true, true) => Transform::Logit { lo: d.lo, hi: d.hi },
@@ -90,7 +100,7 @@ impl Transform {
     /// Short name for records and docs.
     pub fn name(&self) -> &'static str {
         match self {
-            Transform::Identity => "identity",
+            Transform::Asinh => "asinh",
             Transform::Log { .. } => "log",
             Transform::NegLog { .. } => "neg-log",
             Transform::Logit { .. } => "logit",
@@ -101,10 +111,9 @@ impl Transform {
     /// domain bounds: `Some("lower")`, `Some("upper")` or `None`.
     pub fn end_at(&self, u: f64) -> Option<&'static str> {
         match *self {
-            Transform::Identity => None,
             Transform::Log { .. } => (u < -U_ACTIVE).then_some("lower"),
             Transform::NegLog { .. } => (u < -U_ACTIVE).then_some("upper"),
-            Transform::Logit { .. } => {
+            Transform::Logit { .. } | Transform::Asinh => {
                 if u < -U_ACTIVE {
                     Some("lower")
                 } else if u > U_ACTIVE {
@@ -121,7 +130,8 @@ impl Transform {
     pub fn forward(&self, u: f64) -> (f64, f64) {
         let u = u.clamp(-U_MAX, U_MAX);
         match *self {
-            Transform::Identity => (u, 1.0),
+            // sinh 700 ≈ 5e303 and cosh 700 are finite.
+            Transform::Asinh => (u.sinh(), u.cosh()),
             Transform::Log { lo } => {
                 let e = u.exp();
                 (lo + e, e)
@@ -145,7 +155,7 @@ impl Transform {
     /// (half-line); values outside the domain are the caller's error (checked before).
     pub fn inverse(&self, x: f64) -> f64 {
         let u = match *self {
-            Transform::Identity => x,
+            Transform::Asinh => x.asinh(),
             Transform::Log { lo } => (x - lo).max(END_OFFSET).ln(),
             Transform::NegLog { hi } => (hi - x).max(END_OFFSET).ln(),
             Transform::Logit { lo, hi } => {
@@ -199,7 +209,7 @@ mod tests {
     #[test]
     fn transforms_round_trip_and_differentiate() {
         let cases = [
-            Transform::Identity,
+            Transform::Asinh,
             Transform::Log { lo: 0.0 },
             Transform::Log { lo: 1.0 },
             Transform::NegLog { hi: 2.0 },
@@ -234,6 +244,22 @@ mod tests {
         let (x, _) = Transform::for_domain(&h).forward(-U_MAX);
         assert_eq!(x, 1.0, "1 + e^-700 rounds to 1");
         assert!(h.contains(nudge_into(&h, x)));
+    }
+
+    #[test]
+    fn a_real_parameter_far_out_is_at_an_end_of_the_line() {
+        let t = Transform::for_domain(&Domain::real());
+        assert_eq!(t, Transform::Asinh);
+        assert_eq!(t.end_at(-(U_ACTIVE + 1.0)), Some("lower"));
+        assert_eq!(t.end_at(U_ACTIVE + 1.0), Some("upper"));
+        assert_eq!(t.end_at(5.0), None);
+        // Near 0 a step of u is a step of x; far out, a relative change of x.
+        let (x, dx) = t.forward(1e-3);
+        assert!((x - 1e-3).abs() < 1e-9 && (dx - 1.0).abs() < 1e-6);
+        let (x, dx) = t.forward(30.0);
+        assert!((dx / x - 1.0).abs() < 1e-12);
+        let (x, dx) = t.forward(U_MAX);
+        assert!(x.is_finite() && dx.is_finite());
     }
 
     #[test]

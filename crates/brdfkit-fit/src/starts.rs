@@ -15,7 +15,7 @@
 //!   90 % of a bounded interval. The logit is logarithmic near its lower end, so the
 //!   grid is log-spaced either way;
 //! - other bounded domains: u₀ ± 3 in the logit, clipped to [−7, 7];
-//! - identity (a signed coefficient): u₀ ± max(1, |u₀|).
+//! - asinh (a signed coefficient): x₀ ± max(1, |x₀|), mapped to u.
 
 use crate::reparam::Transform;
 use brdfkit_core::{ParamRole, ParamSpec};
@@ -27,7 +27,8 @@ use rand_chacha::ChaCha8Rng;
 /// at `x0`: the start value ×/÷ 100 (measured from the lower end) for a half-line or
 /// for a bounded domain whose start sits in the lowest tenth (roughness on [1e-6,
 /// 100]: the logit is logarithmic there), clipped to 90 % of a bounded interval;
-/// otherwise u₀ ± 3 clipped to [−7, 7] (logit) or u₀ ± max(1, |u₀|) (identity).
+/// otherwise u₀ ± 3 clipped to [−7, 7] (logit) or x₀ ± max(1, |x₀|) (asinh, a real
+/// parameter).
 pub fn shape_range(t: &Transform, x0: f64) -> (f64, f64) {
     let u0 = t.inverse(x0);
     match *t {
@@ -48,9 +49,9 @@ pub fn shape_range(t: &Transform, x0: f64) -> (f64, f64) {
             (t.inverse(lo + a), t.inverse(lo + b))
         }
         Transform::Logit { .. } => ((u0 - 3.0).max(-7.0), (u0 + 3.0).min(7.0)),
-        Transform::Identity => {
-            let w = u0.abs().max(1.0);
-            (u0 - w, u0 + w)
+        Transform::Asinh => {
+            let w = x0.abs().max(1.0);
+            (t.inverse(x0 - w), t.inverse(x0 + w))
         }
     }
 }

@@ -198,7 +198,7 @@ fn fixed_and_freed_parameters() {
     )
     .unwrap();
     assert!(res.record.params[cz].free);
-    assert_eq!(res.record.params[cz].transform.as_deref(), Some("identity"));
+    assert_eq!(res.record.params[cz].transform.as_deref(), Some("asinh"));
     // Group names: `rho_d` frees or fixes all three channels.
     let res = fit(
         start.as_ref(),

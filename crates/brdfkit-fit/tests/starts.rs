@@ -347,3 +347,31 @@ fn a_fit_is_the_same_on_any_number_of_threads() {
         assert_eq!(strip(x), strip(y));
     }
 }
+
+/// A finisher's warm-up after a separate exploration restarts with fresh damping while
+/// a run hits the iteration cap and still improves, as an exploration does (issue 28:
+/// plausible-Phong on MERL's steel ended "maximum iterations reached" without it).
+/// With a cap of 2 iterations from roughness 80, one run cannot get there.
+#[test]
+fn a_capped_warm_up_restarts_while_it_improves() {
+    let cfg = cfg(4, 1)
+        .warm_up(Some(5_000))
+        .unwrap()
+        .explore_cells(Some(1_000))
+        .unwrap()
+        .max_iters(2)
+        .unwrap();
+    let res = fit(model(FAR_ALONE).as_ref(), &data(), &cfg, None).unwrap();
+    let kept = res.record.starts.iter().find(|s| s.kept).unwrap();
+    assert!(
+        kept.explore.is_some(),
+        "a separate exploration: {}",
+        show(&res)
+    );
+    let w = kept.warm_up.as_ref().expect("a warm-up");
+    assert!(
+        w.rounds > 1 && w.iterations > 2,
+        "warm-up {w:?}: {}",
+        show(&res)
+    );
+}
