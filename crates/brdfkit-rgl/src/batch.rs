@@ -27,6 +27,85 @@ use std::f32::consts::PI;
 pub(crate) const LANES: usize = 16;
 const L: usize = LANES;
 
+/// One VNDF cell of one slice, all that the inverse warp reads there: the densities at
+/// its corners (v00, v10, v01, v11), the conditional CDF just before it on its two rows
+/// (0 in the first column), and the two rows' totals. 32 bytes, one aligned load, where
+/// the tables of [`Warp2D`] take seven cache lines.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub(crate) struct VndfCell([f32; 8]);
+
+/// Four floats, aligned: the corners (v00, v10, v01, v11) of one value channel of a cell.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+pub(crate) struct Quad([f32; 4]);
+
+/// The tables rearranged by cell for the batch kernel, built once per file (lazily, on
+/// the first batch evaluation): the same f32 numbers as the [`Warp2D`]s, so the same
+/// results, with a cell's data together.
+#[derive(Clone, Debug)]
+pub(crate) struct Packed {
+    /// `slices × (h − 1) × (w − 1)` cells of the VNDF.
+    vndf: Vec<VndfCell>,
+    /// The marginal CDF before each cell row (0 for the first) and its total, per slice.
+    marg_before: Vec<f32>,
+    marg_total: Vec<f32>,
+    /// `slices × (h − 1) × (w − 1)` cells of the values, `stride` quads a cell (the
+    /// channels or wavelengths, RGB padded to 4 so a cell is one 64-byte line).
+    values: Vec<Quad>,
+    stride: usize,
+}
+
+impl Packed {
+    pub(crate) fn new(vndf: &Warp2D, values: &Warp2D) -> Packed {
+        let (w, h) = (vndf.w, vndf.h);
+        let (n, nc, nm) = (w * h, h * (w - 1), h - 1);
+        let slices = vndf.data.len() / n;
+        let mut cells = Vec::with_capacity(slices * (h - 1) * (w - 1));
+        for s in 0..slices {
+            let d = &vndf.data[s * n..(s + 1) * n];
+            let cond = &vndf.cond[s * nc..(s + 1) * nc];
+            let cd = |row: usize, k: usize| cond[row * (w - 1) + k];
+            for y in 0..h - 1 {
+                for x in 0..w - 1 {
+                    let i = y * w + x;
+                    let (b0, b1) = if x > 0 { (cd(y, x - 1), cd(y + 1, x - 1)) } else { (0.0, 0.0) };
+                    cells.push(VndfCell([d[i], d[i + 1], d[i + w], d[i + w + 1], b0, b1, cd(y, w - 2), cd(y + 1, w - 2)]));
+                }
+            }
+        }
+        let marg = |s: usize, k: usize| vndf.marg[s * nm + k];
+        let marg_before = (0..slices * nm).map(|i| if i % nm > 0 { marg(i / nm, i % nm - 1) } else { 0.0 }).collect();
+        let marg_total = (0..slices).map(|s| marg(s, nm - 1)).collect();
+        let (values, stride) = pack_values(values);
+        Packed { vndf: cells, marg_before, marg_total, values, stride }
+    }
+}
+
+/// The value cells: for each outer slice and cell, the four corners of each node of the
+/// last parameter (from [`Warp2D`]'s interleaved copy).
+fn pack_values(v: &Warp2D) -> (Vec<Quad>, usize) {
+    let (w, h) = (v.w, v.h);
+    let k = v.params.last().map_or(1, Vec::len);
+    let stride = if k == 3 { 4 } else { k };
+    let outer = v.interleaved.len() / (w * h * k);
+    let mut out = vec![Quad::default(); outer * (h - 1) * (w - 1) * stride];
+    for s in 0..outer {
+        let il = &v.interleaved[s * w * h * k..(s + 1) * w * h * k];
+        for y in 0..h - 1 {
+            for x in 0..w - 1 {
+                let cell = (s * (h - 1) + y) * (w - 1) + x;
+                let i = y * w + x;
+                for j in 0..k {
+                    let at = |c: usize| il[c * k + j];
+                    out[cell * stride + j] = Quad([at(i), at(i + 1), at(i + w), at(i + w + 1)]);
+                }
+            }
+        }
+    }
+    (out, stride)
+}
+
 /// The per-file constants of the kernel.
 pub(crate) struct Kernel<'a> {
     pub(crate) vndf: &'a Warp2D,
@@ -40,6 +119,7 @@ pub(crate) struct Kernel<'a> {
     pub(crate) jacobian: bool,
     /// 1, 2 or 4: the fold of wi into the stored φi range.
     pub(crate) reduction: i32,
+    pub(crate) packed: &'a Packed,
 }
 
 /// Step 1 for a lane block: the grid coordinates of the half vector (`um`) and of wi
@@ -56,6 +136,14 @@ struct Geo {
 struct Place {
     slice: [usize; L],
     w: [[f32; 4]; L],
+}
+
+/// Step 3a's gathered VNDF cells of a lane block, with each lane's cell row and position
+/// in its cell.
+struct Stage<const NC: usize> {
+    vndf: [[VndfCell; NC]; L],
+    row: [usize; L],
+    t: [[f32; 2]; L],
 }
 
 /// Elevation of a unit vector, stable near the pole (`measured.cpp`'s `elevation`):
@@ -171,32 +259,48 @@ impl Kernel<'_> {
         [0, dt, dp, dp + dt]
     }
 
-    /// Step 3a, the inverse VNDF warp at the half vector (`Warp2D::invert_with`).
+    /// Step 3a, first half: every lane's VNDF cells (one per corner slice), loaded
+    /// before any is used so the lanes' cache misses overlap, with the lanes' cells and
+    /// positions in them.
     #[inline(always)]
-    fn invert<const NC: usize>(&self, g: &Geo, p: &Place, l: usize, off: &[usize; 4]) -> [f32; 2] {
+    fn gather_vndf<const NC: usize>(&self, g: &Geo, p: &Place, off: &[usize; 4], st: &mut Stage<NC>) {
+        let (w, h) = (self.vndf.w, self.vndf.h);
+        let per = (h - 1) * (w - 1);
+        for l in 0..L {
+            let (c, t) = cell([g.um[0][l], g.um[1][l]], w, h);
+            let i = p.slice[l] * per + c[1] * (w - 1) + c[0];
+            for k in 0..NC {
+                st.vndf[l][k] = self.packed.vndf[i + off[k] * per];
+            }
+            (st.row[l], st.t[l]) = (c[1], t);
+        }
+    }
+
+    /// Step 3a, second half: the inverse VNDF warp at the half vector of lane `l`
+    /// (`Warp2D::invert_with`, the same arithmetic on its [`VndfCell`]s mixed over the
+    /// corner slices).
+    #[inline(always)]
+    fn invert<const NC: usize>(&self, p: &Place, l: usize, off: &[usize; 4], st: &Stage<NC>) -> [f32; 2] {
         let v = self.vndf;
-        let (w, h, n) = (v.w, v.h, v.w * v.h);
-        let (c, t) = cell([g.um[0][l], g.um[1][l]], w, h);
-        let (s, wt) = (p.slice[l], &p.w[l]);
-        let i = s * n + c[1] * w + c[0];
-        let [v00, v10, v01, v11] = [0, 1, w, w + 1].map(|o| mix::<NC>(&v.data, i + o, n, off, wt));
+        let (w, h) = (v.w, v.h);
+        let (t, wt) = (st.t[l], &p.w[l]);
+        let mut r = [0.0f32; 8];
+        for k in 0..NC {
+            for (r, x) in r.iter_mut().zip(&st.vndf[l][k].0) {
+                *r += wt[k] * x;
+            }
+        }
+        let [v00, v10, v01, v11, b0, b1, r0, r1] = r;
         let (c0, c1) = (lerp(v00, v01, t[1]), lerp(v10, v11, t[1]));
         let (pw, ph) = (1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32);
-        let (nc, row) = (h * (w - 1), s * h * (w - 1) + c[1] * (w - 1));
-        let cond = |k: usize| mix::<NC>(&v.cond, row + k, nc, off, wt);
         let mut x = t[0] * lerp(c0, c1, 0.5 * t[0]) * pw;
-        let prev = c[0].max(1) - 1;
-        let before = lerp(cond(prev), cond(prev + w - 1), t[1]);
-        x += if c[0] > 0 { before } else { 0.0 };
-        let (r0, r1) = (cond(w - 2), cond(2 * (w - 1) - 1));
+        x += lerp(b0, b1, t[1]);
         x /= lerp(r0, r1, t[1]);
         let mut y = t[1] * lerp(r0, r1, 0.5 * t[1]) * ph;
-        let nm = h - 1;
-        let marg = |k: usize| mix::<NC>(&v.marg, s * nm + k, nm, off, wt);
-        let below = marg(c[1].max(1) - 1);
-        y += if c[1] > 0 { below } else { 0.0 };
+        let (s, nm) = (p.slice[l], h - 1);
+        y += mix::<NC>(&self.packed.marg_before, s * nm + st.row[l], nm, off, wt);
         if !v.normalized {
-            y /= marg(nm - 1);
+            y /= mix::<NC>(&self.packed.marg_total, s, 1, off, wt);
         }
         [x, y]
     }
@@ -210,64 +314,156 @@ impl Kernel<'_> {
         plain(self.ndf, [g.um[0][l], g.um[1][l]]) / (4.0 * plain(self.sigma, [g.uwi[0][l], g.uwi[1][l]]))
     }
 
-    /// Step 3b: the value table's `k` values at `pos` under the corners of lane `l`,
-    /// times `scale`, into `out`.
+    /// The first quad of lane `l`'s value cell at `pos` (corner slice 0) and the
+    /// position in the cell.
     #[inline(always)]
-    fn values<const NC: usize>(&self, pos: [f32; 2], p: &Place, l: usize, off: &[usize; 4], scale: f32, out: &mut [f32]) {
+    fn value_cell(&self, pos: [f32; 2], p: &Place, l: usize) -> (usize, [f32; 2]) {
         let v = self.values;
-        let k = out.len();
         let (c, t) = cell(pos, v.w, v.h);
-        let size = v.w * v.h * k;
-        let base = p.slice[l] * size + (c[1] * v.w + c[0]) * k;
-        let [d00, d10, d01, d11] = [0, 1, v.w, v.w + 1].map(|d| base + d * k);
-        for (j, o) in out.iter_mut().enumerate() {
-            let [a, b, cc, d] = [d00, d10, d01, d11].map(|i| mix::<NC>(&v.interleaved, i + j, size, off, &p.w[l]));
-            *o = lerp(lerp(a, b, t[0]), lerp(cc, d, t[0]), t[1]) * scale;
-        }
+        let per = (v.h - 1) * (v.w - 1);
+        ((p.slice[l] * per + c[1] * (v.w - 1) + c[0]) * self.packed.stride, t)
     }
 
-    /// Steps 1 to 4 for one lane block: the stored values (3 or the wavelengths a
-    /// pair) times the Jacobian over cos θo, into `out` (`k` a lane).
+    /// Step 3b: the value table's `k` values of the quads `q(j, corner)` at position
+    /// `t` in the cell, mixed with the corner weights `wt`, times `scale`, into `out`.
     #[inline(always)]
-    fn block<const NC: usize>(&self, rows: &[[f64; 6]; L], out: &mut [f32]) {
-        let mut g = Geo {
-            um: [[0.0; L]; 2],
-            uwi: [[0.0; L]; 2],
-            param: [[0.0; L]; 2],
-            scale: [0.0; L],
-        };
-        self.geometry(rows, &mut g);
-        let mut p = Place {
-            slice: [0; L],
-            w: [[0.0; 4]; L],
-        };
-        self.place(&g, &mut p);
-        let off = self.offsets();
-        let mut pos = [[0.0f32; 2]; L];
-        let mut scale = [0.0f32; L];
-        for l in 0..L {
-            pos[l] = self.invert::<NC>(&g, &p, l, &off);
-            scale[l] = self.jacobian(&g, l) * g.scale[l];
-        }
-        let k = out.len() / L;
-        for (l, o) in out.chunks_exact_mut(k).enumerate() {
-            self.values::<NC>(pos[l], &p, l, &off, scale[l], o);
+    fn values<const NC: usize>(&self, q: impl Fn(usize, usize) -> Quad, t: [f32; 2], wt: &[f32; 4], scale: f32, out: &mut [f32]) {
+        for (j, o) in out.iter_mut().enumerate() {
+            let mut m = [0.0f32; 4];
+            for (k, w) in wt.iter().enumerate().take(NC) {
+                for (m, x) in m.iter_mut().zip(q(j, k).0) {
+                    *m += w * x;
+                }
+            }
+            let [a, b, c, d] = m;
+            *o = lerp(lerp(a, b, t[0]), lerp(c, d, t[0]), t[1]) * scale;
         }
     }
 
-    /// [`block`](Self::block) over whole rows (the last block padded with pairs below
-    /// the horizon).
+    /// Step 3b for a lane block: RGB cells gathered for every lane before any is used
+    /// (as [`gather_vndf`](Self::gather_vndf)); a spectral file's, lane by lane.
+    #[inline(always)]
+    fn all_values<const NC: usize>(&self, p: &Place, off: &[usize; 4], pos: &[[f32; 2]; L], scale: &[f32; L], out: &mut [f32]) {
+        let k = out.len() / L;
+        let (per, stride) = ((self.values.h - 1) * (self.values.w - 1), self.packed.stride);
+        let vals = &self.packed.values;
+        let corner = |k: usize| off[k] * per * stride;
+        if stride == 4 {
+            let mut cells = [[[Quad::default(); 4]; NC]; L];
+            let mut ts = [[0.0f32; 2]; L];
+            for l in 0..L {
+                let (i, t) = self.value_cell(pos[l], p, l);
+                for (k, c) in cells[l].iter_mut().enumerate() {
+                    c.copy_from_slice(&vals[i + corner(k)..i + corner(k) + 4]);
+                }
+                ts[l] = t;
+            }
+            for (l, o) in out.chunks_exact_mut(k).enumerate() {
+                self.values::<NC>(|j, k| cells[l][k][j], ts[l], &p.w[l], scale[l], o);
+            }
+        } else {
+            for (l, o) in out.chunks_exact_mut(k).enumerate() {
+                let (i, t) = self.value_cell(pos[l], p, l);
+                self.values::<NC>(|j, k| vals[i + corner(k) + j], t, &p.w[l], scale[l], o);
+            }
+        }
+    }
+
+    /// Steps 1 and 2 of a lane block, and a prefetch of the VNDF cells its step 3
+    /// reads: issued one block ahead, their cache misses are served while the block
+    /// before is finished.
+    #[inline(always)]
+    fn front<const NC: usize>(&self, rows: &[[f64; 6]; L], g: &mut Geo, p: &mut Place) {
+        self.geometry(rows, g);
+        self.place(g, p);
+        let (w, h, off) = (self.vndf.w, self.vndf.h, self.offsets());
+        let per = (h - 1) * (w - 1);
+        for l in 0..L {
+            let (c, _) = cell([g.um[0][l], g.um[1][l]], w, h);
+            let i = p.slice[l] * per + c[1] * (w - 1) + c[0];
+            for o in &off[..NC] {
+                prefetch(&self.packed.vndf[i + o * per]);
+            }
+        }
+    }
+
+    /// [`front`](Self::front) of lane block `b` of `rows` (a method, not a closure: a
+    /// closure is compiled apart, without the AVX2 of its caller).
+    #[inline(always)]
+    fn front_at<const NC: usize>(&self, rows: &[[f64; 6]], b: usize, (g, p): &mut (Geo, Place)) {
+        let r = &rows[b * L..rows.len().min(b * L + L)];
+        if let Ok(r) = <&[[f64; 6]; L]>::try_from(r) {
+            self.front::<NC>(r, g, p);
+        } else {
+            let mut pad = [[0.0; 6]; L];
+            pad[..r.len()].copy_from_slice(r);
+            self.front::<NC>(&pad, g, p);
+        }
+    }
+
+    /// Steps 3 and 4 of a lane block whose [`front`](Self::front) is `g`, `p`: the
+    /// stored values (3 or the wavelengths a pair) times the Jacobian over cos θo,
+    /// into `out` (`k` a lane).
+    #[inline(always)]
+    fn back<const NC: usize>(&self, g: &Geo, p: &Place, out: &mut [f32]) {
+        let off = self.offsets();
+        let mut st = Stage {
+            vndf: [[VndfCell::default(); NC]; L],
+            row: [0; L],
+            t: [[0.0; 2]; L],
+        };
+        self.gather_vndf::<NC>(g, p, &off, &mut st);
+        let mut pos = [[0.0f32; 2]; L];
+        for (l, pos) in pos.iter_mut().enumerate() {
+            *pos = self.invert::<NC>(p, l, &off, &st);
+        }
+        // The value cells are fetched while the Jacobians are computed.
+        let per = (self.values.h - 1) * (self.values.w - 1) * self.packed.stride;
+        for (l, pos) in pos.iter().enumerate() {
+            let (i, _) = self.value_cell(*pos, p, l);
+            for o in &off[..NC] {
+                prefetch(&self.packed.values[i + o * per]);
+            }
+        }
+        let mut scale = [0.0f32; L];
+        for (l, s) in scale.iter_mut().enumerate() {
+            *s = self.jacobian(g, l) * g.scale[l];
+        }
+        self.all_values::<NC>(p, &off, &pos, &scale, out);
+    }
+
+    /// Steps 1 to 4 over whole rows, a lane block at a time, each block's
+    /// [`front`](Self::front) run before the previous block's [`back`](Self::back)
+    /// (the last block padded with pairs below the horizon).
     #[inline(always)]
     fn rows_inline<const NC: usize>(&self, rows: &[[f64; 6]], out: &mut [f32]) {
         let k = out.len() / rows.len().max(1);
-        for (r, o) in rows.chunks(L).zip(out.chunks_mut(L * k)) {
-            if let Ok(r) = <&[[f64; 6]; L]>::try_from(r) {
-                self.block::<NC>(r, o);
+        let n = rows.len().div_ceil(L);
+        let new = || {
+            let g = Geo {
+                um: [[0.0; L]; 2],
+                uwi: [[0.0; L]; 2],
+                param: [[0.0; L]; 2],
+                scale: [0.0; L],
+            };
+            (g, Place { slice: [0; L], w: [[0.0; 4]; L] })
+        };
+        // Two sets of stage buffers, used in turn (moving them would copy them).
+        let mut bufs = [new(), new()];
+        if n > 0 {
+            self.front_at::<NC>(rows, 0, &mut bufs[0]);
+        }
+        for (b, o) in out.chunks_mut(L * k).enumerate() {
+            let [x, y] = &mut bufs;
+            let (cur, next) = if b % 2 == 0 { (x, y) } else { (y, x) };
+            if b + 1 < n {
+                self.front_at::<NC>(rows, b + 1, next);
+            }
+            if o.len() == L * k {
+                self.back::<NC>(&cur.0, &cur.1, o);
             } else {
-                let mut pad = [[0.0; 6]; L];
-                pad[..r.len()].copy_from_slice(r);
                 let mut tmp = vec![0.0; L * k];
-                self.block::<NC>(&pad, &mut tmp);
+                self.back::<NC>(&cur.0, &cur.1, &mut tmp);
                 o.copy_from_slice(&tmp[..o.len()]);
             }
         }
@@ -301,6 +497,20 @@ impl Kernel<'_> {
         }
         self.rows_any(rows, out);
     }
+}
+
+/// A hint to fetch `x`'s cache line.
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint: it reads nothing and cannot fault (SSE, in every
+    // x86-64 CPU).
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast::<i8>());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
 }
 
 /// A table without parameters (`ndf`, `sigma`) at `pos` (`Warp2D::eval_plain`).

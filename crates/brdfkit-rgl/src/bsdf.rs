@@ -22,7 +22,7 @@
 //! The result is f_r without the cosine (brdfkit's convention), with the file's θi being
 //! brdfkit's wi; negative stored values are kept, as Mitsuba keeps them.
 
-use crate::batch::Kernel;
+use crate::batch::{Kernel, Packed};
 use crate::cie;
 use crate::fastmath::atan2_drjit;
 use crate::tensor::TensorFile;
@@ -30,6 +30,7 @@ use crate::warp::{ParamPos, Warp2D};
 use brdfkit_core::{Brdf, Rgb, Vec3};
 use rayon::prelude::*;
 use std::f64::consts::PI;
+use std::sync::OnceLock;
 
 /// What the file stores per sample: three colour channels or a spectrum.
 #[derive(Clone, Debug)]
@@ -62,6 +63,8 @@ pub struct RglBsdf {
     reduction: i32,
     /// What `info` reports.
     summary: Summary,
+    /// The tables by cell for the batch kernel ([`crate::batch`]), built on first use.
+    packed: OnceLock<Packed>,
 }
 
 /// The facts of a file that `info` reports.
@@ -163,6 +166,7 @@ impl RglBsdf {
             jacobian,
             reduction,
             summary,
+            packed: OnceLock::new(),
         }
     }
 
@@ -311,6 +315,7 @@ impl RglBsdf {
             isotropic: self.isotropic,
             jacobian: self.jacobian,
             reduction: self.reduction,
+            packed: self.packed.get_or_init(|| Packed::new(&self.vndf, values)),
         }
     }
 

@@ -20,7 +20,7 @@ pub struct Warp2D {
     pub(crate) w: usize,
     pub(crate) h: usize,
     /// The grid values of each parameter (each of length ≥ 1, sorted).
-    params: Vec<Vec<f32>>,
+    pub(crate) params: Vec<Vec<f32>>,
     /// Slice stride of each parameter (0 for a parameter with one value).
     strides: Vec<usize>,
     /// Densities, `slices × h × w` (scaled to integrate to 1 per slice if normalised).
