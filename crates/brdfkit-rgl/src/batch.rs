@@ -136,14 +136,13 @@ struct Geo {
 struct Place {
     slice: [usize; L],
     w: [[f32; 4]; L],
+    /// The VNDF cell of each lane's half vector (step 3a).
+    vndf: Cells,
 }
 
-/// Step 3a's gathered VNDF cells of a lane block, with each lane's cell row and position
-/// in its cell.
+/// Step 3a's gathered VNDF cells of a lane block.
 struct Stage<const NC: usize> {
     vndf: [[VndfCell; NC]; L],
-    row: [usize; L],
-    t: [[f32; 2]; L],
 }
 
 /// Elevation of a unit vector, stable near the pole (`measured.cpp`'s `elevation`):
@@ -166,15 +165,42 @@ fn lerp(a: f32, b: f32, t: f32) -> f32 {
     a - a * t + b * t
 }
 
-/// Cell of `pos` (clamped to the unit square) on a `w` × `h` grid, and the position in it.
+/// The cells of a lane block's positions on a grid: each lane's column and row and its
+/// position in the cell.
+struct Cells {
+    col: [u32; L],
+    row: [u32; L],
+    t: [[f32; L]; 2],
+}
+
+/// The [`Cells`] of the positions `u` (clamped to the unit square) on a `w` × `h` grid,
+/// vectorised over the lanes (through i32: a grid has far fewer than 2³¹ columns).
 #[inline(always)]
-fn cell(pos: [f32; 2], w: usize, h: usize) -> ([usize; 2], [f32; 2]) {
-    let s = [
-        pos[0].clamp(0.0, 1.0) * (w - 1) as f32,
-        pos[1].clamp(0.0, 1.0) * (h - 1) as f32,
-    ];
-    let c = [(s[0] as usize).min(w - 2), (s[1] as usize).min(h - 2)];
-    (c, [s[0] - c[0] as f32, s[1] - c[1] as f32])
+fn cells(u: [&[f32; L]; 2], w: usize, h: usize) -> Cells {
+    let mut c = Cells {
+        col: [0; L],
+        row: [0; L],
+        t: [[0.0; L]; 2],
+    };
+    let last = [w, h].map(|n| i32::try_from(n - 2).expect("a grid under 2³¹ columns (the file holds it)"));
+    let scale = [(w - 1) as f32, (h - 1) as f32];
+    for l in 0..L {
+        for d in 0..2 {
+            // max before min: NaN becomes 0 (as the f64 path's `as usize` makes it).
+            let s = u[d][l].max(0.0).min(1.0) * scale[d];
+            // SAFETY: s is finite, in [0, w − 1], and w − 1 < 2³¹ (`last`); the checked
+            // `as i32` compiles to scalar code with saturation, this to one vector
+            // instruction.
+            let i = unsafe { s.to_int_unchecked::<i32>() }.min(last[d]);
+            c.t[d][l] = s - i as f32;
+            if d == 0 {
+                c.col[l] = i as u32;
+            } else {
+                c.row[l] = i as u32;
+            }
+        }
+    }
+    c
 }
 
 /// Σ over the `NC` corner slices of weight × `table[i + offset · size]`.
@@ -259,20 +285,25 @@ impl Kernel<'_> {
         [0, dt, dp, dp + dt]
     }
 
+    /// The index of lane `l`'s VNDF cell in corner slice 0.
+    #[inline(always)]
+    fn vndf_cell(&self, p: &Place, l: usize) -> usize {
+        let (w, h) = (self.vndf.w, self.vndf.h);
+        let (col, row) = (p.vndf.col[l] as usize, p.vndf.row[l] as usize);
+        p.slice[l] * (h - 1) * (w - 1) + row * (w - 1) + col
+    }
+
     /// Step 3a, first half: every lane's VNDF cells (one per corner slice), loaded
     /// before any is used so the lanes' cache misses overlap, with the lanes' cells and
     /// positions in them.
     #[inline(always)]
-    fn gather_vndf<const NC: usize>(&self, g: &Geo, p: &Place, off: &[usize; 4], st: &mut Stage<NC>) {
-        let (w, h) = (self.vndf.w, self.vndf.h);
-        let per = (h - 1) * (w - 1);
+    fn gather_vndf<const NC: usize>(&self, p: &Place, off: &[usize; 4], st: &mut Stage<NC>) {
+        let per = (self.vndf.h - 1) * (self.vndf.w - 1);
         for l in 0..L {
-            let (c, t) = cell([g.um[0][l], g.um[1][l]], w, h);
-            let i = p.slice[l] * per + c[1] * (w - 1) + c[0];
+            let i = self.vndf_cell(p, l);
             for k in 0..NC {
                 st.vndf[l][k] = self.packed.vndf[i + off[k] * per];
             }
-            (st.row[l], st.t[l]) = (c[1], t);
         }
     }
 
@@ -283,7 +314,7 @@ impl Kernel<'_> {
     fn invert<const NC: usize>(&self, p: &Place, l: usize, off: &[usize; 4], st: &Stage<NC>) -> [f32; 2] {
         let v = self.vndf;
         let (w, h) = (v.w, v.h);
-        let (t, wt) = (st.t[l], &p.w[l]);
+        let (t, wt) = ([p.vndf.t[0][l], p.vndf.t[1][l]], &p.w[l]);
         let mut r = [0.0f32; 8];
         for k in 0..NC {
             for (r, x) in r.iter_mut().zip(&st.vndf[l][k].0) {
@@ -298,30 +329,41 @@ impl Kernel<'_> {
         x /= lerp(r0, r1, t[1]);
         let mut y = t[1] * lerp(r0, r1, 0.5 * t[1]) * ph;
         let (s, nm) = (p.slice[l], h - 1);
-        y += mix::<NC>(&self.packed.marg_before, s * nm + st.row[l], nm, off, wt);
+        y += mix::<NC>(&self.packed.marg_before, s * nm + p.vndf.row[l] as usize, nm, off, wt);
         if !v.normalized {
             y /= mix::<NC>(&self.packed.marg_total, s, 1, off, wt);
         }
         [x, y]
     }
 
-    /// D(m) / (4 σ(wi)) (step 4's Jacobian), or 1 without the `jacobian` flag.
+    /// D(m) / (4 σ(wi)) (step 4's Jacobian; 1 without the `jacobian` flag) over
+    /// cos θo, each lane's into `scale`.
     #[inline(always)]
-    fn jacobian(&self, g: &Geo, l: usize) -> f32 {
+    fn jacobians(&self, g: &Geo, scale: &mut [f32; L]) {
         if !self.jacobian {
-            return 1.0;
+            *scale = g.scale;
+            return;
         }
-        plain(self.ndf, [g.um[0][l], g.um[1][l]]) / (4.0 * plain(self.sigma, [g.uwi[0][l], g.uwi[1][l]]))
+        let (n, s) = (self.ndf, self.sigma);
+        let cn = cells([&g.um[0], &g.um[1]], n.w, n.h);
+        let cs = cells([&g.uwi[0], &g.uwi[1]], s.w, s.h);
+        for l in 0..L {
+            scale[l] = plain(n, &cn, l) / (4.0 * plain(s, &cs, l)) * g.scale[l];
+        }
     }
 
-    /// The first quad of lane `l`'s value cell at `pos` (corner slice 0) and the
-    /// position in the cell.
+    /// The first quad of each lane's value cell (corner slice 0), and the cells.
     #[inline(always)]
-    fn value_cell(&self, pos: [f32; 2], p: &Place, l: usize) -> (usize, [f32; 2]) {
+    fn value_cells(&self, pos: &[[f32; L]; 2], p: &Place) -> ([usize; L], Cells) {
         let v = self.values;
-        let (c, t) = cell(pos, v.w, v.h);
+        let c = cells([&pos[0], &pos[1]], v.w, v.h);
         let per = (v.h - 1) * (v.w - 1);
-        ((p.slice[l] * per + c[1] * (v.w - 1) + c[0]) * self.packed.stride, t)
+        let mut first = [0; L];
+        for (l, f) in first.iter_mut().enumerate() {
+            let cell = c.row[l] as usize * (v.w - 1) + c.col[l] as usize;
+            *f = (p.slice[l] * per + cell) * self.packed.stride;
+        }
+        (first, c)
     }
 
     /// Step 3b: the value table's `k` values of the quads `q(j, corner)` at position
@@ -340,31 +382,31 @@ impl Kernel<'_> {
         }
     }
 
-    /// Step 3b for a lane block: RGB cells gathered for every lane before any is used
-    /// (as [`gather_vndf`](Self::gather_vndf)); a spectral file's, lane by lane.
+    /// Step 3b for a lane block whose value cells are `at`: RGB cells gathered for
+    /// every lane before any is used (as [`gather_vndf`](Self::gather_vndf)); a
+    /// spectral file's, lane by lane.
     #[inline(always)]
-    fn all_values<const NC: usize>(&self, p: &Place, off: &[usize; 4], pos: &[[f32; 2]; L], scale: &[f32; L], out: &mut [f32]) {
+    fn all_values<const NC: usize>(&self, p: &Place, off: &[usize; 4], at: &([usize; L], Cells), scale: &[f32; L], out: &mut [f32]) {
         let k = out.len() / L;
         let (per, stride) = ((self.values.h - 1) * (self.values.w - 1), self.packed.stride);
         let vals = &self.packed.values;
-        let corner = |k: usize| off[k] * per * stride;
+        let (first, c) = at;
+        let t = |l: usize| [c.t[0][l], c.t[1][l]];
         if stride == 4 {
             let mut cells = [[[Quad::default(); 4]; NC]; L];
-            let mut ts = [[0.0f32; 2]; L];
             for l in 0..L {
-                let (i, t) = self.value_cell(pos[l], p, l);
                 for (k, c) in cells[l].iter_mut().enumerate() {
-                    c.copy_from_slice(&vals[i + corner(k)..i + corner(k) + 4]);
+                    let i = first[l] + off[k] * per * stride;
+                    c.copy_from_slice(&vals[i..i + 4]);
                 }
-                ts[l] = t;
             }
             for (l, o) in out.chunks_exact_mut(k).enumerate() {
-                self.values::<NC>(|j, k| cells[l][k][j], ts[l], &p.w[l], scale[l], o);
+                self.values::<NC>(|j, k| cells[l][k][j], t(l), &p.w[l], scale[l], o);
             }
         } else {
             for (l, o) in out.chunks_exact_mut(k).enumerate() {
-                let (i, t) = self.value_cell(pos[l], p, l);
-                self.values::<NC>(|j, k| vals[i + corner(k) + j], t, &p.w[l], scale[l], o);
+                let i = first[l];
+                self.values::<NC>(|j, k| vals[i + off[k] * per * stride + j], t(l), &p.w[l], scale[l], o);
             }
         }
     }
@@ -376,11 +418,11 @@ impl Kernel<'_> {
     fn front<const NC: usize>(&self, rows: &[[f64; 6]; L], g: &mut Geo, p: &mut Place) {
         self.geometry(rows, g);
         self.place(g, p);
-        let (w, h, off) = (self.vndf.w, self.vndf.h, self.offsets());
-        let per = (h - 1) * (w - 1);
+        p.vndf = cells([&g.um[0], &g.um[1]], self.vndf.w, self.vndf.h);
+        let off = self.offsets();
+        let per = (self.vndf.h - 1) * (self.vndf.w - 1);
         for l in 0..L {
-            let (c, _) = cell([g.um[0][l], g.um[1][l]], w, h);
-            let i = p.slice[l] * per + c[1] * (w - 1) + c[0];
+            let i = self.vndf_cell(p, l);
             for o in &off[..NC] {
                 prefetch(&self.packed.vndf[i + o * per]);
             }
@@ -409,27 +451,23 @@ impl Kernel<'_> {
         let off = self.offsets();
         let mut st = Stage {
             vndf: [[VndfCell::default(); NC]; L],
-            row: [0; L],
-            t: [[0.0; 2]; L],
         };
-        self.gather_vndf::<NC>(g, p, &off, &mut st);
-        let mut pos = [[0.0f32; 2]; L];
-        for (l, pos) in pos.iter_mut().enumerate() {
-            *pos = self.invert::<NC>(p, l, &off, &st);
+        self.gather_vndf::<NC>(p, &off, &mut st);
+        let mut pos = [[0.0f32; L]; 2];
+        for l in 0..L {
+            [pos[0][l], pos[1][l]] = self.invert::<NC>(p, l, &off, &st);
         }
         // The value cells are fetched while the Jacobians are computed.
+        let at = self.value_cells(&pos, p);
         let per = (self.values.h - 1) * (self.values.w - 1) * self.packed.stride;
-        for (l, pos) in pos.iter().enumerate() {
-            let (i, _) = self.value_cell(*pos, p, l);
+        for i in at.0 {
             for o in &off[..NC] {
                 prefetch(&self.packed.values[i + o * per]);
             }
         }
         let mut scale = [0.0f32; L];
-        for (l, s) in scale.iter_mut().enumerate() {
-            *s = self.jacobian(g, l) * g.scale[l];
-        }
-        self.all_values::<NC>(p, &off, &pos, &scale, out);
+        self.jacobians(g, &mut scale);
+        self.all_values::<NC>(p, &off, &at, &scale, out);
     }
 
     /// Steps 1 to 4 over whole rows, a lane block at a time, each block's
@@ -446,7 +484,14 @@ impl Kernel<'_> {
                 param: [[0.0; L]; 2],
                 scale: [0.0; L],
             };
-            (g, Place { slice: [0; L], w: [[0.0; 4]; L] })
+            (
+                g,
+                Place {
+                    slice: [0; L],
+                    w: [[0.0; 4]; L],
+                    vndf: cells([&[0.0; L], &[0.0; L]], 2, 2),
+                },
+            )
         };
         // Two sets of stage buffers, used in turn (moving them would copy them).
         let mut bufs = [new(), new()];
@@ -458,6 +503,11 @@ impl Kernel<'_> {
             let (cur, next) = if b % 2 == 0 { (x, y) } else { (y, x) };
             if b + 1 < n {
                 self.front_at::<NC>(rows, b + 1, next);
+            }
+            // The input rows a few blocks ahead (the hardware prefetcher alone left the
+            // row loads waiting on memory, `perf annotate`).
+            for r in rows.iter().skip((b + 4) * L).take(L).step_by(4) {
+                prefetch(r);
             }
             if o.len() == L * k {
                 self.back::<NC>(&cur.0, &cur.1, o);
@@ -513,11 +563,12 @@ fn prefetch<T>(x: &T) {
     let _ = x;
 }
 
-/// A table without parameters (`ndf`, `sigma`) at `pos` (`Warp2D::eval_plain`).
+/// A table without parameters (`ndf`, `sigma`) in lane `l`'s cell of `c`
+/// (`Warp2D::eval_plain`).
 #[inline(always)]
-fn plain(w: &Warp2D, pos: [f32; 2]) -> f32 {
-    let (c, t) = cell(pos, w.w, w.h);
-    let i = c[1] * w.w + c[0];
+fn plain(w: &Warp2D, c: &Cells, l: usize) -> f32 {
+    let i = c.row[l] as usize * w.w + c.col[l] as usize;
     let [v00, v10, v01, v11] = [0, 1, w.w, w.w + 1].map(|o| w.data[i + o]);
+    let t = [c.t[0][l], c.t[1][l]];
     lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1])
 }
