@@ -24,7 +24,7 @@ use crate::warp::Warp2D;
 use std::f32::consts::PI;
 
 /// Pairs per lane block.
-pub(crate) const LANES: usize = 16;
+pub(crate) const LANES: usize = 32;
 const L: usize = LANES;
 
 /// One VNDF cell of one slice, all that the inverse warp reads there: the densities at
@@ -307,33 +307,44 @@ impl Kernel<'_> {
         }
     }
 
-    /// Step 3a, second half: the inverse VNDF warp at the half vector of lane `l`
-    /// (`Warp2D::invert_with`, the same arithmetic on its [`VndfCell`]s mixed over the
-    /// corner slices).
+    /// Step 3a, second half: the inverse VNDF warp at every lane's half vector
+    /// (`Warp2D::invert_with`, the same arithmetic on the lanes' [`VndfCell`]s mixed
+    /// over the corner slices), into `pos`. The cells are mixed into one array per
+    /// field, so the arithmetic runs over lanes (vectorised).
     #[inline(always)]
-    fn invert<const NC: usize>(&self, p: &Place, l: usize, off: &[usize; 4], st: &Stage<NC>) -> [f32; 2] {
+    fn invert<const NC: usize>(&self, p: &Place, off: &[usize; 4], st: &Stage<NC>, pos: &mut [[f32; L]; 2]) {
         let v = self.vndf;
         let (w, h) = (v.w, v.h);
-        let (t, wt) = ([p.vndf.t[0][l], p.vndf.t[1][l]], &p.w[l]);
-        let mut r = [0.0f32; 8];
-        for k in 0..NC {
-            for (r, x) in r.iter_mut().zip(&st.vndf[l][k].0) {
-                *r += wt[k] * x;
+        let mut m = [[0.0f32; L]; 8];
+        let (mut before, mut total) = ([0.0f32; L], [1.0f32; L]);
+        let nm = h - 1;
+        for l in 0..L {
+            let wt = &p.w[l];
+            for k in 0..NC {
+                for (j, x) in st.vndf[l][k].0.iter().enumerate() {
+                    m[j][l] += wt[k] * x;
+                }
+            }
+            let s = p.slice[l];
+            before[l] = mix::<NC>(&self.packed.marg_before, s * nm + p.vndf.row[l] as usize, nm, off, wt);
+            if !v.normalized {
+                total[l] = mix::<NC>(&self.packed.marg_total, s, 1, off, wt);
             }
         }
-        let [v00, v10, v01, v11, b0, b1, r0, r1] = r;
-        let (c0, c1) = (lerp(v00, v01, t[1]), lerp(v10, v11, t[1]));
         let (pw, ph) = (1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32);
-        let mut x = t[0] * lerp(c0, c1, 0.5 * t[0]) * pw;
-        x += lerp(b0, b1, t[1]);
-        x /= lerp(r0, r1, t[1]);
-        let mut y = t[1] * lerp(r0, r1, 0.5 * t[1]) * ph;
-        let (s, nm) = (p.slice[l], h - 1);
-        y += mix::<NC>(&self.packed.marg_before, s * nm + p.vndf.row[l] as usize, nm, off, wt);
-        if !v.normalized {
-            y /= mix::<NC>(&self.packed.marg_total, s, 1, off, wt);
+        let [v00, v10, v01, v11, b0, b1, r0, r1] = &m;
+        let [tx, ty] = &p.vndf.t;
+        for l in 0..L {
+            let (c0, c1) = (lerp(v00[l], v01[l], ty[l]), lerp(v10[l], v11[l], ty[l]));
+            let mut x = tx[l] * lerp(c0, c1, 0.5 * tx[l]) * pw;
+            x += lerp(b0[l], b1[l], ty[l]);
+            x /= lerp(r0[l], r1[l], ty[l]);
+            let mut y = ty[l] * lerp(r0[l], r1[l], 0.5 * ty[l]) * ph;
+            y += before[l];
+            // 1 for a normalised VNDF (every `.bsdf`'s): an exact division.
+            y /= total[l];
+            [pos[0][l], pos[1][l]] = [x, y];
         }
-        [x, y]
     }
 
     /// D(m) / (4 σ(wi)) (step 4's Jacobian; 1 without the `jacobian` flag) over
@@ -454,9 +465,7 @@ impl Kernel<'_> {
         };
         self.gather_vndf::<NC>(p, &off, &mut st);
         let mut pos = [[0.0f32; L]; 2];
-        for l in 0..L {
-            [pos[0][l], pos[1][l]] = self.invert::<NC>(p, l, &off, &st);
-        }
+        self.invert::<NC>(p, &off, &st, &mut pos);
         // The value cells are fetched while the Jacobians are computed.
         let at = self.value_cells(&pos, p);
         let per = (self.values.h - 1) * (self.values.w - 1) * self.packed.stride;
