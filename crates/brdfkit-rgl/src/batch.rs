@@ -404,15 +404,25 @@ impl Kernel<'_> {
         let (first, c) = at;
         let t = |l: usize| [c.t[0][l], c.t[1][l]];
         if stride == 4 {
-            let mut cells = [[[Quad::default(); 4]; NC]; L];
+            debug_assert_eq!(k, 3);
+            // Mixed over the corner slices into one array per (channel, corner), so
+            // the interpolation runs over lanes (vectorised).
+            let mut m = [[[0.0f32; L]; 4]; 3];
             for l in 0..L {
-                for (k, c) in cells[l].iter_mut().enumerate() {
+                for (k, w) in p.w[l].iter().enumerate().take(NC) {
                     let i = first[l] + off[k] * per * stride;
-                    c.copy_from_slice(&vals[i..i + 4]);
+                    for (j, q) in vals[i..i + 3].iter().enumerate() {
+                        for (corner, x) in q.0.iter().enumerate() {
+                            m[j][corner][l] += w * x;
+                        }
+                    }
                 }
             }
-            for (l, o) in out.chunks_exact_mut(k).enumerate() {
-                self.values::<NC>(|j, k| cells[l][k][j], t(l), &p.w[l], scale[l], o);
+            for (j, [a, b, cc, d]) in m.iter().enumerate() {
+                for l in 0..L {
+                    let (tx, ty) = (c.t[0][l], c.t[1][l]);
+                    out[l * 3 + j] = lerp(lerp(a[l], b[l], tx), lerp(cc[l], d[l], tx), ty) * scale[l];
+                }
             }
         } else {
             for (l, o) in out.chunks_exact_mut(k).enumerate() {
