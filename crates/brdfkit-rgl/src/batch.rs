@@ -228,10 +228,15 @@ impl Kernel<'_> {
             let (ix, iy) = (fold(ix, sx, mask_y), fold(iy, sy, mask_y));
             let (ox, oy) = (fold(ox, sx, mask_y), fold(oy, sy, mask_y));
             let (hx, hy, hz) = (ix + ox, iy + oy, iz + oz);
-            let inv = 1.0 / (hx * hx + hy * hy + hz * hz).sqrt();
-            let (mx, my, mz) = (hx * inv, hy * inv, hz * inv);
+            let (r2, len) = (hx * hx + hy * hy, (hx * hx + hy * hy + hz * hz).sqrt());
+            let (mx, my) = (hx / len, hy / len);
+            // mz − 1 without the cancellation: −(hx² + hy²) / (|h| (hz + |h|)). In f32,
+            // mz = hz/|h| is 1 − 6e-8 where m is at the pole, and √ of the elevation
+            // (the grid's u) turns that into an error of 2e-4 in u.
+            let mz1 = -r2 / (len * (hz + len));
             let (theta_i, phi_i) = (elevation(ix, iy, iz), atan2_f32(iy, ix));
-            let (theta_m, phi_m) = (elevation(mx, my, mz), atan2_f32(my, mx));
+            let dist_m = (mx * mx + my * my + mz1 * mz1).sqrt();
+            let (theta_m, phi_m) = (2.0 * asin_f32((0.5 * dist_m).min(1.0)), atan2_f32(my, mx));
             let to_u = 2.0 / PI;
             g.uwi[0][l] = (theta_i * to_u).sqrt();
             g.uwi[1][l] = (phi_i + PI) * (0.5 / PI);
