@@ -69,16 +69,43 @@ impl Packed {
             for y in 0..h - 1 {
                 for x in 0..w - 1 {
                     let i = y * w + x;
-                    let (b0, b1) = if x > 0 { (cd(y, x - 1), cd(y + 1, x - 1)) } else { (0.0, 0.0) };
-                    cells.push(VndfCell([d[i], d[i + 1], d[i + w], d[i + w + 1], b0, b1, cd(y, w - 2), cd(y + 1, w - 2)]));
+                    let (b0, b1) = if x > 0 {
+                        (cd(y, x - 1), cd(y + 1, x - 1))
+                    } else {
+                        (0.0, 0.0)
+                    };
+                    cells.push(VndfCell([
+                        d[i],
+                        d[i + 1],
+                        d[i + w],
+                        d[i + w + 1],
+                        b0,
+                        b1,
+                        cd(y, w - 2),
+                        cd(y + 1, w - 2),
+                    ]));
                 }
             }
         }
         let marg = |s: usize, k: usize| vndf.marg[s * nm + k];
-        let marg_before = (0..slices * nm).map(|i| if i % nm > 0 { marg(i / nm, i % nm - 1) } else { 0.0 }).collect();
+        let marg_before = (0..slices * nm)
+            .map(|i| {
+                if i % nm > 0 {
+                    marg(i / nm, i % nm - 1)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         let marg_total = (0..slices).map(|s| marg(s, nm - 1)).collect();
         let (values, stride) = pack_values(values);
-        Packed { vndf: cells, marg_before, marg_total, values, stride }
+        Packed {
+            vndf: cells,
+            marg_before,
+            marg_total,
+            values,
+            stride,
+        }
     }
 }
 
@@ -182,7 +209,8 @@ fn cells(u: [&[f32; L]; 2], w: usize, h: usize) -> Cells {
         row: [0; L],
         t: [[0.0; L]; 2],
     };
-    let last = [w, h].map(|n| i32::try_from(n - 2).expect("a grid under 2³¹ columns (the file holds it)"));
+    let last =
+        [w, h].map(|n| i32::try_from(n - 2).expect("a grid under 2³¹ columns (the file holds it)"));
     let scale = [(w - 1) as f32, (h - 1) as f32];
     for l in 0..L {
         for d in 0..2 {
@@ -205,7 +233,13 @@ fn cells(u: [&[f32; L]; 2], w: usize, h: usize) -> Cells {
 
 /// Σ over the `NC` corner slices of weight × `table[i + offset · size]`.
 #[inline(always)]
-fn mix<const NC: usize>(table: &[f32], i: usize, size: usize, off: &[usize; 4], w: &[f32; 4]) -> f32 {
+fn mix<const NC: usize>(
+    table: &[f32],
+    i: usize,
+    size: usize,
+    off: &[usize; 4],
+    w: &[f32; 4],
+) -> f32 {
     let mut s = 0.0;
     for c in 0..NC {
         s += w[c] * table[i + off[c] * size];
@@ -223,7 +257,11 @@ impl Kernel<'_> {
             let above = r[2] > 0.0 && r[5] > 0.0;
             let v = r.map(|x| x as f32);
             // Below the horizon: the normal for both, so every later step stays finite.
-            let [ix, iy, iz, ox, oy, oz] = if above { v } else { [0.0, 0.0, 1.0, 0.0, 0.0, 1.0] };
+            let [ix, iy, iz, ox, oy, oz] = if above {
+                v
+            } else {
+                [0.0, 0.0, 1.0, 0.0, 0.0, 1.0]
+            };
             let (sy, sx) = (iy, if x_by_x { ix } else { iy });
             let (ix, iy) = (fold(ix, sx, mask_y), fold(iy, sy, mask_y));
             let (ox, oy) = (fold(ox, sx, mask_y), fold(oy, sy, mask_y));
@@ -286,7 +324,11 @@ impl Kernel<'_> {
     /// next θ row; a grid of one value repeats its slice, with weight 0).
     fn offsets(&self) -> [usize; 4] {
         let dt = usize::from(self.theta_i.len() > 1);
-        let dp = if self.phi_i.len() > 1 { self.theta_i.len() } else { 0 };
+        let dp = if self.phi_i.len() > 1 {
+            self.theta_i.len()
+        } else {
+            0
+        };
         [0, dt, dp, dp + dt]
     }
 
@@ -317,7 +359,13 @@ impl Kernel<'_> {
     /// over the corner slices), into `pos`. The cells are mixed into one array per
     /// field, so the arithmetic runs over lanes (vectorised).
     #[inline(always)]
-    fn invert<const NC: usize>(&self, p: &Place, off: &[usize; 4], st: &Stage<NC>, pos: &mut [[f32; L]; 2]) {
+    fn invert<const NC: usize>(
+        &self,
+        p: &Place,
+        off: &[usize; 4],
+        st: &Stage<NC>,
+        pos: &mut [[f32; L]; 2],
+    ) {
         let v = self.vndf;
         let (w, h) = (v.w, v.h);
         let mut m = [[0.0f32; L]; 8];
@@ -331,7 +379,13 @@ impl Kernel<'_> {
                 }
             }
             let s = p.slice[l];
-            before[l] = mix::<NC>(&self.packed.marg_before, s * nm + p.vndf.row[l] as usize, nm, off, wt);
+            before[l] = mix::<NC>(
+                &self.packed.marg_before,
+                s * nm + p.vndf.row[l] as usize,
+                nm,
+                off,
+                wt,
+            );
             if !v.normalized {
                 total[l] = mix::<NC>(&self.packed.marg_total, s, 1, off, wt);
             }
@@ -385,7 +439,14 @@ impl Kernel<'_> {
     /// Step 3b: the value table's `k` values of the quads `q(j, corner)` at position
     /// `t` in the cell, mixed with the corner weights `wt`, times `scale`, into `out`.
     #[inline(always)]
-    fn values<const NC: usize>(&self, q: impl Fn(usize, usize) -> Quad, t: [f32; 2], wt: &[f32; 4], scale: f32, out: &mut [f32]) {
+    fn values<const NC: usize>(
+        &self,
+        q: impl Fn(usize, usize) -> Quad,
+        t: [f32; 2],
+        wt: &[f32; 4],
+        scale: f32,
+        out: &mut [f32],
+    ) {
         for (j, o) in out.iter_mut().enumerate() {
             let mut m = [0.0f32; 4];
             for (k, w) in wt.iter().enumerate().take(NC) {
@@ -402,9 +463,19 @@ impl Kernel<'_> {
     /// every lane before any is used (as [`gather_vndf`](Self::gather_vndf)); a
     /// spectral file's, lane by lane.
     #[inline(always)]
-    fn all_values<const NC: usize>(&self, p: &Place, off: &[usize; 4], at: &([usize; L], Cells), scale: &[f32; L], out: &mut [f32]) {
+    fn all_values<const NC: usize>(
+        &self,
+        p: &Place,
+        off: &[usize; 4],
+        at: &([usize; L], Cells),
+        scale: &[f32; L],
+        out: &mut [f32],
+    ) {
         let k = out.len() / L;
-        let (per, stride) = ((self.values.h - 1) * (self.values.w - 1), self.packed.stride);
+        let (per, stride) = (
+            (self.values.h - 1) * (self.values.w - 1),
+            self.packed.stride,
+        );
         let vals = &self.packed.values;
         let (first, c) = at;
         let t = |l: usize| [c.t[0][l], c.t[1][l]];
@@ -426,13 +497,20 @@ impl Kernel<'_> {
             for (j, [a, b, cc, d]) in m.iter().enumerate() {
                 for l in 0..L {
                     let (tx, ty) = (c.t[0][l], c.t[1][l]);
-                    out[l * 3 + j] = lerp(lerp(a[l], b[l], tx), lerp(cc[l], d[l], tx), ty) * scale[l];
+                    out[l * 3 + j] =
+                        lerp(lerp(a[l], b[l], tx), lerp(cc[l], d[l], tx), ty) * scale[l];
                 }
             }
         } else {
             for (l, o) in out.chunks_exact_mut(k).enumerate() {
                 let i = first[l];
-                self.values::<NC>(|j, k| vals[i + off[k] * per * stride + j], t(l), &p.w[l], scale[l], o);
+                self.values::<NC>(
+                    |j, k| vals[i + off[k] * per * stride + j],
+                    t(l),
+                    &p.w[l],
+                    scale[l],
+                    o,
+                );
             }
         }
     }

@@ -322,7 +322,12 @@ impl RglBsdf {
     /// f_r in linear RGB at `rows` (wi, then wo) into `out`, by the f32 batch kernel
     /// ([`crate::batch`]), on this thread; 0 below the horizon. `scratch` holds the
     /// stored values, so a caller evaluating many blocks allocates it once.
-    pub(crate) fn eval_rows(&self, rows: &[[f64; 6]], scratch: &mut Vec<f32>, out: &mut [[f64; 3]]) {
+    pub(crate) fn eval_rows(
+        &self,
+        rows: &[[f64; 6]],
+        scratch: &mut Vec<f32>,
+        out: &mut [[f64; 3]],
+    ) {
         let k = self.stored_len();
         scratch.resize(rows.len() * k, 0.0);
         self.kernel().rows(rows, scratch);
@@ -352,7 +357,9 @@ impl RglBsdf {
         let (rows, out) = (dirs.as_chunks::<6>().0, out.as_chunks_mut::<3>().0);
         out.par_chunks_mut(EVAL_BLOCK)
             .zip(rows.par_chunks(EVAL_BLOCK))
-            .for_each_init(Vec::new, |scratch, (out, rows)| self.eval_rows(rows, scratch, out));
+            .for_each_init(Vec::new, |scratch, (out, rows)| {
+                self.eval_rows(rows, scratch, out)
+            });
     }
 
     /// [`eval_flat`](Self::eval_flat) with wi and wo in separate arrays (Python's
@@ -387,7 +394,9 @@ impl RglBsdf {
             .for_each_init(Vec::new, |scratch: &mut Vec<f32>, (out, rows)| {
                 scratch.resize(rows.len() * k, 0.0);
                 self.kernel().rows(rows, scratch);
-                out.iter_mut().zip(scratch.iter()).for_each(|(o, &v)| *o = f64::from(v));
+                out.iter_mut()
+                    .zip(scratch.iter())
+                    .for_each(|(o, &v)| *o = f64::from(v));
             });
     }
 

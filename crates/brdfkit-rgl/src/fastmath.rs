@@ -30,8 +30,7 @@ pub fn atan2_f32(y: f32, x: f32) -> f32 {
     let (lo, hi) = (ax.min(ay), ax.max(ay));
     let q = if hi > 0.0 { lo / hi } else { 0.0 };
     let z = q * q;
-    let p = ((((((7.861_379_4e-3 * z - 3.700_652_6e-2) * z + 8.386_312e-2) * z
-        - 1.348_670_9e-1)
+    let p = ((((((7.861_379_4e-3 * z - 3.700_652_6e-2) * z + 8.386_312e-2) * z - 1.348_670_9e-1)
         * z
         + 1.988_134_2e-1)
         * z
@@ -51,9 +50,7 @@ pub fn asin_f32(x: f32) -> f32 {
     let big = a > 0.5;
     let z = if big { 0.5 * (1.0 - a) } else { a * a };
     let r = if big { z.sqrt() } else { a };
-    let p = ((((4.216_32e-2 * z + 2.418_131_1e-2) * z + 4.547_002_6e-2) * z
-        + 7.495_300_3e-2)
-        * z
+    let p = ((((4.216_32e-2 * z + 2.418_131_1e-2) * z + 4.547_002_6e-2) * z + 7.495_300_3e-2) * z
         + 1.666_675_2e-1)
         * z;
     let s = r + r * p;
@@ -88,8 +85,18 @@ mod tests {
             for j in 0..=n {
                 // Both signs, magnitudes from 1e-6 to 1e3, and exact zeros.
                 for (sx, sy) in [(1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)] {
-                    let x = sx * if i == 0 { 0.0 } else { 10f64.powf(-6.0 + 9.0 * i as f64 / n as f64) };
-                    let y = sy * if j == 0 { 0.0 } else { 10f64.powf(-6.0 + 9.0 * j as f64 / n as f64) };
+                    let x = sx
+                        * if i == 0 {
+                            0.0
+                        } else {
+                            10f64.powf(-6.0 + 9.0 * i as f64 / n as f64)
+                        };
+                    let y = sy
+                        * if j == 0 {
+                            0.0
+                        } else {
+                            10f64.powf(-6.0 + 9.0 * j as f64 / n as f64)
+                        };
                     let (xf, yf) = (x as f32, y as f32);
                     let truth = atan2_drjit(f64::from(yf), f64::from(xf));
                     let got = f64::from(atan2_f32(yf, xf));
@@ -119,7 +126,10 @@ mod tests {
         ] {
             let got = f64::from(atan2_f32(y, x));
             assert_eq!(atan2_drjit(f64::from(y), f64::from(x)), want);
-            assert!((got - want).abs() <= ATAN2_MAX_ABS_ERR, "atan2({y}, {x}) = {got}");
+            assert!(
+                (got - want).abs() <= ATAN2_MAX_ABS_ERR,
+                "atan2({y}, {x}) = {got}"
+            );
         }
     }
 

@@ -37,8 +37,14 @@ fn test_pairs(seed: u64) -> Vec<[f64; 6]> {
         ps.push(join(pole, unit(k as f64 * 0.2, phi)));
         ps.push(join(unit(k as f64 * 0.2, phi), pole));
         let eps = 1e-7 * (k as f64 - 200.0);
-        ps.push(join(unit(40.0, std::f64::consts::PI + eps), unit(60.0, std::f64::consts::PI - eps)));
-        ps.push(join(unit(70.0, eps), unit(20.0, std::f64::consts::PI + eps)));
+        ps.push(join(
+            unit(40.0, std::f64::consts::PI + eps),
+            unit(60.0, std::f64::consts::PI - eps),
+        ));
+        ps.push(join(
+            unit(70.0, eps),
+            unit(20.0, std::f64::consts::PI + eps),
+        ));
     }
     ps.push(join(pole, pole));
     ps
@@ -47,9 +53,16 @@ fn test_pairs(seed: u64) -> Vec<[f64; 6]> {
 fn below_horizon() -> Vec<[f64; 6]> {
     let up = [0.3, 0.4, 0.866_025_403_784_438_6];
     let (down, flat) = ([0.3, 0.4, -0.866_025_403_784_438_6], [0.6, 0.8, 0.0]);
-    [(up, down), (down, up), (down, down), (up, flat), (flat, up), (flat, flat)]
-        .map(|(a, b)| [a[0], a[1], a[2], b[0], b[1], b[2]])
-        .to_vec()
+    [
+        (up, down),
+        (down, up),
+        (down, down),
+        (up, flat),
+        (flat, up),
+        (flat, flat),
+    ]
+    .map(|(a, b)| [a[0], a[1], a[2], b[0], b[1], b[2]])
+    .to_vec()
 }
 
 /// Counts the batch values within the bound of the f64 values, as tests/mitsuba.rs
@@ -105,7 +118,11 @@ impl Tally {
             self.worst
         );
         assert!(frac >= 0.999, "{what}: only {:.4} % within", 100.0 * frac);
-        assert!(self.worst <= 0.01, "{what}: a value off by {:.3e}", self.worst);
+        assert!(
+            self.worst <= 0.01,
+            "{what}: a value off by {:.3e}",
+            self.worst
+        );
     }
 }
 
@@ -129,14 +146,20 @@ fn check(spec: Spec) {
     b.eval_stored_flat(&flat, &mut stored);
     let (mut t, mut want) = (Tally::default(), vec![0.0; k]);
     for (p, o) in ps.iter().zip(stored.chunks_exact(k)) {
-        b.eval_stored(&Vec3::new(p[0], p[1], p[2]), &Vec3::new(p[3], p[4], p[5]), &mut want);
+        b.eval_stored(
+            &Vec3::new(p[0], p[1], p[2]),
+            &Vec3::new(p[3], p[4], p[5]),
+            &mut want,
+        );
         let seam = spec.anisotropic && on_seam(p);
         o.iter().zip(&want).for_each(|(x, y)| t.add(*x, *y, seam));
     }
     t.check(&format!("stored {spec:?}"));
     // wi and wo apart: the same numbers as `eval_flat`.
-    let (wi, wo): (Vec<[f64; 3]>, Vec<[f64; 3]>) =
-        ps.iter().map(|p| ([p[0], p[1], p[2]], [p[3], p[4], p[5]])).unzip();
+    let (wi, wo): (Vec<[f64; 3]>, Vec<[f64; 3]>) = ps
+        .iter()
+        .map(|p| ([p[0], p[1], p[2]], [p[3], p[4], p[5]]))
+        .unzip();
     let mut split = vec![[f64::NAN; 3]; ps.len()];
     b.eval_split(&wi, &wo, &mut split);
     assert_eq!(split.concat(), out);
@@ -184,7 +207,10 @@ fn below_the_horizon_is_zero_and_odd_lengths_are_whole() {
             assert_eq!(o, [0.0; 3], "below the horizon at {p:?}");
         } else {
             for (x, y) in o.iter().zip(want.0) {
-                assert!((x - y).abs() <= 1e-4 * y.abs() + 1e-6, "{x} vs {y} at {p:?}");
+                assert!(
+                    (x - y).abs() <= 1e-4 * y.abs() + 1e-6,
+                    "{x} vs {y} at {p:?}"
+                );
                 assert!(*x != 0.0);
             }
         }
@@ -218,7 +244,10 @@ fn to_table_holds_the_f64_two_order_mean() {
             }
         }
     }
-    assert_eq!(present + stats.missing, dims.theta_h() * dims.theta_d() * dims.phi_d());
+    assert_eq!(
+        present + stats.missing,
+        dims.theta_h() * dims.theta_d() * dims.phi_d()
+    );
     assert!(present > 1000);
     t.check("to_table");
 }

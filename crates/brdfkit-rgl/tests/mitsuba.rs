@@ -134,7 +134,11 @@ fn check_rgb(spec: Spec, count: usize) {
     let mut batch = vec![0.0; 3 * ps.len()];
     bsdf.eval_flat(&ps.concat(), &mut batch);
     let (mut t, mut tb) = (Tally::default(), Tally::default());
-    for ((p, m), b) in ps.iter().zip(out.chunks_exact(3)).zip(batch.chunks_exact(3)) {
+    for ((p, m), b) in ps
+        .iter()
+        .zip(out.chunks_exact(3))
+        .zip(batch.chunks_exact(3))
+    {
         let (wi, wo) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
         let ours = bsdf.eval(&wi, &wo);
         for ((o, m), b) in ours.0.iter().zip(m).zip(b) {
@@ -151,7 +155,12 @@ fn check_rgb(spec: Spec, count: usize) {
 /// with the clamped weight of the format, as `Warp2D` interpolates its last parameter).
 fn check_spectral(spec: Spec, count: usize) {
     let (bsdf, ps, out, wl) = run(spec, count);
-    let nodes: Vec<f64> = bsdf.wavelengths().unwrap().iter().map(|&x| f64::from(x)).collect();
+    let nodes: Vec<f64> = bsdf
+        .wavelengths()
+        .unwrap()
+        .iter()
+        .map(|&x| f64::from(x))
+        .collect();
     let n = nodes.len();
     let mut stored = vec![0.0; n * ps.len()];
     bsdf.eval_stored_flat(&ps.concat(), &mut stored);
