@@ -19,6 +19,10 @@
 //! tests/mitsuba.rs). On x86-64 CPUs with AVX2 the same code runs compiled for AVX2
 //! (chosen at run time); IEEE arithmetic makes both builds give the same bits.
 
+// The lane loops index several arrays of a structure of arrays by the lane, in step:
+// written as `for l in 0..L` so the vectoriser sees one induction variable.
+#![allow(clippy::needless_range_loop)]
+
 use crate::fastmath::{asin_f32, atan2_f32};
 use crate::warp::Warp2D;
 use std::f32::consts::PI;
@@ -214,7 +218,9 @@ fn cells(u: [&[f32; L]; 2], w: usize, h: usize) -> Cells {
     let scale = [(w - 1) as f32, (h - 1) as f32];
     for l in 0..L {
         for d in 0..2 {
-            // max before min: NaN becomes 0 (as the f64 path's `as usize` makes it).
+            // max before min: NaN becomes 0 (as the f64 path's `as usize` makes it);
+            // `clamp` would keep the NaN.
+            #[allow(clippy::manual_clamp)]
             let s = u[d][l].max(0.0).min(1.0) * scale[d];
             // SAFETY: s is finite, in [0, w − 1], and w − 1 < 2³¹ (`last`); the checked
             // `as i32` compiles to scalar code with saturation, this to one vector

@@ -348,7 +348,7 @@ impl RglBsdf {
     }
 
     /// f_r in linear RGB at flat pairs (6 numbers a row: wi, then wo) into flat values
-    /// (3 a row), by the f32 batch kernel ([`crate::batch`]) in parallel over blocks of
+    /// (3 a row), by the f32 batch kernel (`batch.rs`, docs/rgl.md "Speed") in parallel over blocks of
     /// rows: what `fit-brdf eval --bsdf` runs. The pairs are taken as given (the callers
     /// check them); 0 below the horizon. Within the bound of the f64 path
     /// ([`Brdf::eval`]) and of Mitsuba (tests/batch.rs, tests/mitsuba.rs).

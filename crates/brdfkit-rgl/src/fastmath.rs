@@ -1,4 +1,4 @@
-//! Branch-free f32 `atan2` and `asin` for the batch evaluation ([`crate::batch`]): glibc's
+//! Branch-free f32 `atan2` and `asin` for the batch evaluation (`batch.rs`): glibc's
 //! are calls the compiler cannot vectorise, and they were a fifth of the f64 path's time.
 //!
 //! They are the polynomials of Dr.Jit (`drjit/math.h`), hence of Mitsuba 3's LLVM kernel,
@@ -50,7 +50,7 @@ pub fn asin_f32(x: f32) -> f32 {
     let big = a > 0.5;
     let z = if big { 0.5 * (1.0 - a) } else { a * a };
     let r = if big { z.sqrt() } else { a };
-    let p = ((((4.216_32e-2 * z + 2.418_131_1e-2) * z + 4.547_002_6e-2) * z + 7.495_300_3e-2) * z
+    let p = ((((4.216_32e-2 * z + 2.418_131e-2) * z + 4.547_002_6e-2) * z + 7.495_300_3e-2) * z
         + 1.666_675_2e-1)
         * z;
     let s = r + r * p;
