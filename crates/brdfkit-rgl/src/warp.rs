@@ -11,7 +11,8 @@
 //!
 //! The evaluation must match Mitsuba's to 1e-4 relative, so the tables are stored as
 //! f32 exactly as Mitsuba stores them (CDFs accumulated in f64, then rounded) and the
-//! arithmetic follows the same steps; it runs in f64.
+//! arithmetic follows the same steps; it runs in f64. The batch kernel (`batch.rs`) runs
+//! the same steps in f32 on a copy of these tables rearranged by cell.
 
 /// A parameterised piecewise-bilinear 2D density.
 #[derive(Clone, Debug)]
