@@ -27,6 +27,11 @@ use crate::fastmath::{asin_f32, atan2_f32};
 use crate::warp::Warp2D;
 use std::f32::consts::PI;
 
+/// The largest grid (columns or rows) the kernel takes: f32 holds every cell index and
+/// position of it exactly. Files with larger grids (none in the database, whose grids are
+/// 32 to 128) are evaluated by the f64 path ([`crate::RglBsdf::eval_flat`] checks).
+pub(crate) const MAX_GRID: usize = 1 << 24;
+
 /// Pairs per lane block.
 pub(crate) const LANES: usize = 32;
 const L: usize = LANES;
@@ -205,7 +210,7 @@ struct Cells {
 }
 
 /// The [`Cells`] of the positions `u` (clamped to the unit square) on a `w` × `h` grid,
-/// vectorised over the lanes (through i32: a grid has far fewer than 2³¹ columns).
+/// vectorised over the lanes (through i32: the grid is at most [`MAX_GRID`] wide).
 #[inline(always)]
 fn cells(u: [&[f32; L]; 2], w: usize, h: usize) -> Cells {
     let mut c = Cells {
@@ -213,8 +218,8 @@ fn cells(u: [&[f32; L]; 2], w: usize, h: usize) -> Cells {
         row: [0; L],
         t: [[0.0; L]; 2],
     };
-    let last =
-        [w, h].map(|n| i32::try_from(n - 2).expect("a grid under 2³¹ columns (the file holds it)"));
+    debug_assert!(w <= MAX_GRID && h <= MAX_GRID, "RglBsdf::batch_fits");
+    let last = [w, h].map(|n| (n - 2).min(MAX_GRID) as i32);
     let scale = [(w - 1) as f32, (h - 1) as f32];
     for l in 0..L {
         for d in 0..2 {
@@ -222,7 +227,7 @@ fn cells(u: [&[f32; L]; 2], w: usize, h: usize) -> Cells {
             // `clamp` would keep the NaN.
             #[allow(clippy::manual_clamp)]
             let s = u[d][l].max(0.0).min(1.0) * scale[d];
-            // SAFETY: s is finite, in [0, w − 1], and w − 1 < 2³¹ (`last`); the checked
+            // SAFETY: s is finite, in [0, w − 1], and w ≤ 2²⁴ (`MAX_GRID`); the checked
             // `as i32` compiles to scalar code with saturation, this to one vector
             // instruction.
             let i = unsafe { s.to_int_unchecked::<i32>() }.min(last[d]);

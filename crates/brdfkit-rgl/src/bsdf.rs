@@ -29,7 +29,7 @@
 //! --bsdf` and `resample --bsdf` run. Both agree with Mitsuba within the bound
 //! (tests/mitsuba.rs) and with each other (tests/batch.rs).
 
-use crate::batch::{Kernel, Packed};
+use crate::batch::{Kernel, MAX_GRID, Packed};
 use crate::cie;
 use crate::fastmath::atan2_drjit;
 use crate::tensor::TensorFile;
@@ -326,6 +326,33 @@ impl RglBsdf {
         }
     }
 
+    /// The stored values times the Jacobian over cos θo at `rows` into `scratch`
+    /// ([`stored_len`](Self::stored_len) a row), by the batch kernel; by the f64 path
+    /// (rounded to f32) for a file with a grid beyond the kernel's
+    /// (`batch::MAX_GRID`, 2²⁴ columns).
+    fn stored_rows(&self, rows: &[[f64; 6]], scratch: &mut Vec<f32>) {
+        let k = self.stored_len();
+        scratch.resize(rows.len() * k, 0.0);
+        let values = match &self.values {
+            Values::Rgb(w) => w,
+            Values::Spectral { warp, .. } => warp,
+        };
+        // Checked before `kernel()`, which builds the kernel's tables.
+        let fits = [&self.vndf, values, &self.ndf, &self.sigma]
+            .iter()
+            .all(|w| w.w <= MAX_GRID && w.h <= MAX_GRID);
+        if fits {
+            self.kernel().rows(rows, scratch);
+            return;
+        }
+        let mut v = vec![0.0; k];
+        for (r, o) in rows.iter().zip(scratch.chunks_exact_mut(k)) {
+            let (wi, wo) = (Vec3::new(r[0], r[1], r[2]), Vec3::new(r[3], r[4], r[5]));
+            self.eval_stored(&wi, &wo, &mut v);
+            o.iter_mut().zip(&v).for_each(|(o, &x)| *o = x as f32);
+        }
+    }
+
     /// f_r in linear RGB at `rows` (wi, then wo) into `out`, by the f32 batch kernel
     /// ([`crate::batch`]), on this thread; 0 below the horizon. `scratch` holds the
     /// stored values, so a caller evaluating many blocks allocates it once.
@@ -336,8 +363,7 @@ impl RglBsdf {
         out: &mut [[f64; 3]],
     ) {
         let k = self.stored_len();
-        scratch.resize(rows.len() * k, 0.0);
-        self.kernel().rows(rows, scratch);
+        self.stored_rows(rows, scratch);
         match &self.values {
             Values::Rgb(_) => {
                 for (o, v) in out.iter_mut().zip(scratch.chunks_exact(3)) {
@@ -399,8 +425,7 @@ impl RglBsdf {
         out.par_chunks_mut(EVAL_BLOCK * k)
             .zip(rows.par_chunks(EVAL_BLOCK))
             .for_each_init(Vec::new, |scratch: &mut Vec<f32>, (out, rows)| {
-                scratch.resize(rows.len() * k, 0.0);
-                self.kernel().rows(rows, scratch);
+                self.stored_rows(rows, scratch);
                 out.iter_mut()
                     .zip(scratch.iter())
                     .for_each(|(o, &v)| *o = f64::from(v));
