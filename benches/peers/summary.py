@@ -66,6 +66,19 @@ def main():
         n = peers["eval_numpy"]
         row("", "eval_batch (f64)", e["eval_batch_s"], "numpy (f64)", n["time_s"])
         checks.append(("numpy sum of f_r vs brdfkit (1e-9)", close(n["sum"], e["sum_f64"], 1e-9)))
+    rgl = load(work, "rgl.json")
+    if rgl:
+        what = f"RGL .bsdf eval, {rgl['pairs']:,} pairs"
+        row(what, "RglBsdf::eval_flat (f32)", rgl["eval_inprocess_s"],
+            "Mitsuba measured eval+sync (wall)", rgl["mitsuba_s"], "ratio >= 1")
+        row("", "fit-brdf eval --bsdf (process)", rgl["eval_process_s"],
+            "Mitsuba measured eval+sync (wall)", rgl["mitsuba_s"])
+        row("RGL .bsdf resample to 90x90x180", "fit-brdf resample --bsdf", rgl["resample_process_s"],
+            "the issue's bound, 1 s", 1.0, "ratio >= 1")
+        checks.append(("RGL eval within 1e-4 of Mitsuba (>= 99.9 %)",
+                       rgl["within_1e4_of_mitsuba"] >= 0.999))
+        notes.append(f"RGL CPU: eval_flat {rgl['eval_inprocess_cpu_s']:.3f} s, Mitsuba "
+                     f"{rgl['mitsuba_cpu_s']:.3f} s (load {rgl['load_start']} -> {rgl['load_end']})")
     rd = r["read"]
     row("read a 34,992,012-byte table", "MerlTable::read", rd["read_s"], "cat FILE > /dev/null",
         rd["cat_s"], "read/cat <= 1.5")

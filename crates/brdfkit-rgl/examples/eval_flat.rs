@@ -1,4 +1,4 @@
-//! Times `RglBsdf::eval_flat` alone (no process start, no file I/O) over the pairs of an
+//! Times `RglBsdf::eval_flat` (the f32 batch kernel) alone (no process start, no file I/O) over the pairs of an
 //! N × 6 little-endian f64 `.npy` file: the in-process figure beside the whole-process
 //! `fit-brdf eval --bsdf` of benches/peers/rgl (docs/rgl.md, "Speed").
 //!
@@ -22,17 +22,19 @@ fn main() {
         .collect();
     let reps: usize = args.get(3).map_or(5, |r| r.parse().expect("a count"));
     let mut out = vec![0.0; dirs.len() / 2];
-    let mut best = f64::INFINITY;
+    let mut walls = Vec::with_capacity(reps);
     let cpu0 = cpu_seconds();
     for _ in 0..reps {
         let t = Instant::now();
         bsdf.eval_flat(&dirs, &mut out);
-        best = best.min(t.elapsed().as_secs_f64());
+        walls.push(t.elapsed().as_secs_f64());
     }
     let cpu = (cpu_seconds() - cpu0) / reps as f64;
+    walls.sort_by(f64::total_cmp);
+    let (best, median) = (walls[0], walls[walls.len() / 2]);
     let sum: f64 = out.iter().sum();
     println!(
-        "{} pairs: best of {reps} {best:.4} s wall, mean {cpu:.4} s CPU ({:.1} ns CPU a pair), checksum {sum:.6}",
+        "{} pairs: best of {reps} {best:.4} s wall, median {median:.4} s wall, mean {cpu:.4} s CPU ({:.1} ns CPU a pair), checksum {sum:.6}",
         dirs.len() / 6,
         1e9 * cpu / (dirs.len() / 6) as f64
     );

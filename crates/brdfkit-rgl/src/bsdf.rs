@@ -21,13 +21,23 @@
 //!
 //! The result is f_r without the cosine (brdfkit's convention), with the file's θi being
 //! brdfkit's wi; negative stored values are kept, as Mitsuba keeps them.
+//!
+//! Two paths compute it: this file's, one pair at a time in f64 ([`Brdf::eval`],
+//! [`RglBsdf::eval_stored`], [`RglBsdf::eval_spectral`]), and the f32 batch kernel over
+//! lanes of pairs (`batch.rs`: [`RglBsdf::eval_flat`], [`RglBsdf::eval_split`],
+//! [`RglBsdf::eval_stored_flat`], [`RglBsdf::to_table`]), which is what `fit-brdf eval
+//! --bsdf` and `resample --bsdf` run. Both agree with Mitsuba within the bound
+//! (tests/mitsuba.rs) and with each other (tests/batch.rs).
 
+use crate::batch::{Kernel, MAX_GRID, Packed};
 use crate::cie;
+use crate::fastmath::atan2_drjit;
 use crate::tensor::TensorFile;
 use crate::warp::{ParamPos, Warp2D};
 use brdfkit_core::{Brdf, Rgb, Vec3};
 use rayon::prelude::*;
 use std::f64::consts::PI;
+use std::sync::OnceLock;
 
 /// What the file stores per sample: three colour channels or a spectrum.
 #[derive(Clone, Debug)]
@@ -60,6 +70,8 @@ pub struct RglBsdf {
     reduction: i32,
     /// What `info` reports.
     summary: Summary,
+    /// The tables by cell for the batch kernel ([`crate::batch`]), built on first use.
+    packed: OnceLock<Packed>,
 }
 
 /// The facts of a file that `info` reports.
@@ -161,6 +173,7 @@ impl RglBsdf {
             jacobian,
             reduction,
             summary,
+            packed: OnceLock::new(),
         }
     }
 
@@ -219,8 +232,10 @@ impl RglBsdf {
             wo.y = mulsign_neg(wo.y, sy);
         }
         let m = (wi + wo).normalize();
-        let (theta_i, phi_i) = (elevation(&wi), wi.y.atan2(wi.x));
-        let (theta_m, phi_m) = (elevation(&m), m.y.atan2(m.x));
+        // φ by Dr.Jit's `atan2` conventions at signed zeros (wi at the pole, or on the
+        // x axis after the fold), as Mitsuba computes it.
+        let (theta_i, phi_i) = (elevation(&wi), atan2_drjit(wi.y, wi.x));
+        let (theta_m, phi_m) = (elevation(&m), atan2_drjit(m.y, m.x));
         let u_wi = [theta2u(theta_i), phi2u(phi_i)];
         let mut u_m = [
             theta2u(theta_m),
@@ -291,20 +306,92 @@ impl RglBsdf {
         }
     }
 
+    /// The batch kernel's view of the file ([`crate::batch`]).
+    fn kernel(&self) -> Kernel<'_> {
+        let values = match &self.values {
+            Values::Rgb(w) => w,
+            Values::Spectral { warp, .. } => warp,
+        };
+        Kernel {
+            vndf: &self.vndf,
+            ndf: &self.ndf,
+            sigma: &self.sigma,
+            values,
+            phi_i: &self.phi_i,
+            theta_i: &self.theta_i,
+            isotropic: self.isotropic,
+            jacobian: self.jacobian,
+            reduction: self.reduction,
+            packed: self.packed.get_or_init(|| Packed::new(&self.vndf, values)),
+        }
+    }
+
+    /// The stored values times the Jacobian over cos θo at `rows` into `scratch`
+    /// ([`stored_len`](Self::stored_len) a row), by the batch kernel; by the f64 path
+    /// (rounded to f32) for a file with a grid beyond the kernel's
+    /// (`batch::MAX_GRID`, 2²⁴ columns).
+    fn stored_rows(&self, rows: &[[f64; 6]], scratch: &mut Vec<f32>) {
+        let k = self.stored_len();
+        scratch.resize(rows.len() * k, 0.0);
+        let values = match &self.values {
+            Values::Rgb(w) => w,
+            Values::Spectral { warp, .. } => warp,
+        };
+        // Checked before `kernel()`, which builds the kernel's tables.
+        let fits = [&self.vndf, values, &self.ndf, &self.sigma]
+            .iter()
+            .all(|w| w.w <= MAX_GRID && w.h <= MAX_GRID);
+        if fits {
+            self.kernel().rows(rows, scratch);
+            return;
+        }
+        let mut v = vec![0.0; k];
+        for (r, o) in rows.iter().zip(scratch.chunks_exact_mut(k)) {
+            let (wi, wo) = (Vec3::new(r[0], r[1], r[2]), Vec3::new(r[3], r[4], r[5]));
+            self.eval_stored(&wi, &wo, &mut v);
+            o.iter_mut().zip(&v).for_each(|(o, &x)| *o = x as f32);
+        }
+    }
+
+    /// f_r in linear RGB at `rows` (wi, then wo) into `out`, by the f32 batch kernel
+    /// ([`crate::batch`]), on this thread; 0 below the horizon. `scratch` holds the
+    /// stored values, so a caller evaluating many blocks allocates it once.
+    pub(crate) fn eval_rows(
+        &self,
+        rows: &[[f64; 6]],
+        scratch: &mut Vec<f32>,
+        out: &mut [[f64; 3]],
+    ) {
+        let k = self.stored_len();
+        self.stored_rows(rows, scratch);
+        match &self.values {
+            Values::Rgb(_) => {
+                for (o, v) in out.iter_mut().zip(scratch.chunks_exact(3)) {
+                    *o = [v[0], v[1], v[2]].map(f64::from);
+                }
+            }
+            Values::Spectral { to_srgb, .. } => {
+                let mut spec = vec![0.0; k];
+                for (o, v) in out.iter_mut().zip(scratch.chunks_exact(k)) {
+                    spec.iter_mut().zip(v).for_each(|(s, &x)| *s = f64::from(x));
+                    *o = [0, 1, 2].map(|c| cie::dot(&to_srgb[c], &spec));
+                }
+            }
+        }
+    }
+
     /// f_r in linear RGB at flat pairs (6 numbers a row: wi, then wo) into flat values
-    /// (3 a row), in parallel over blocks of rows, with no allocation per pair: what
-    /// `fit-brdf eval --bsdf` runs. The pairs are taken as given (the callers check
-    /// them); 0 below the horizon.
+    /// (3 a row), by the f32 batch kernel (`batch.rs`, docs/rgl.md "Speed") in parallel over blocks of
+    /// rows: what `fit-brdf eval --bsdf` runs. The pairs are taken as given (the callers
+    /// check them); 0 below the horizon. Within the bound of the f64 path
+    /// ([`Brdf::eval`]) and of Mitsuba (tests/batch.rs, tests/mitsuba.rs).
     pub fn eval_flat(&self, dirs: &[f64], out: &mut [f64]) {
         assert_eq!(dirs.len() / 6, out.len() / 3, "one row of values per pair");
-        out.par_chunks_mut(3 * EVAL_BLOCK)
-            .zip(dirs.par_chunks(6 * EVAL_BLOCK))
-            .for_each(|(out, rows)| {
-                let mut scratch = Vec::new();
-                for (o, r) in out.chunks_exact_mut(3).zip(rows.chunks_exact(6)) {
-                    let (wi, wo) = (Vec3::new(r[0], r[1], r[2]), Vec3::new(r[3], r[4], r[5]));
-                    self.eval_rgb_into(&wi, &wo, &mut scratch, o);
-                }
+        let (rows, out) = (dirs.as_chunks::<6>().0, out.as_chunks_mut::<3>().0);
+        out.par_chunks_mut(EVAL_BLOCK)
+            .zip(rows.par_chunks(EVAL_BLOCK))
+            .for_each_init(Vec::new, |scratch, (out, rows)| {
+                self.eval_rows(rows, scratch, out)
             });
     }
 
@@ -317,12 +404,31 @@ impl RglBsdf {
         );
         out.par_chunks_mut(EVAL_BLOCK)
             .zip(wi.par_chunks(EVAL_BLOCK).zip(wo.par_chunks(EVAL_BLOCK)))
-            .for_each(|(out, (a, b))| {
-                let mut scratch = Vec::new();
-                for ((o, i), w) in out.iter_mut().zip(a).zip(b) {
-                    let (wi, wo) = (Vec3::new(i[0], i[1], i[2]), Vec3::new(w[0], w[1], w[2]));
-                    self.eval_rgb_into(&wi, &wo, &mut scratch, o);
-                }
+            .for_each_init(Vec::new, |scratch, (out, (a, b))| {
+                let rows: Vec<[f64; 6]> = a
+                    .iter()
+                    .zip(b)
+                    .map(|(i, o)| [i[0], i[1], i[2], o[0], o[1], o[2]])
+                    .collect();
+                self.eval_rows(&rows, scratch, out);
+            });
+    }
+
+    /// The stored values (3 channels, or one per wavelength of a spectral file:
+    /// [`stored_len`](Self::stored_len) a pair) at flat pairs, times the Jacobian and
+    /// over cos θo as [`eval_stored`](Self::eval_stored), by the f32 batch kernel in
+    /// parallel; 0 below the horizon.
+    pub fn eval_stored_flat(&self, dirs: &[f64], out: &mut [f64]) {
+        let k = self.stored_len();
+        assert_eq!(dirs.len() / 6, out.len() / k, "one row of values per pair");
+        let rows = dirs.as_chunks::<6>().0;
+        out.par_chunks_mut(EVAL_BLOCK * k)
+            .zip(rows.par_chunks(EVAL_BLOCK))
+            .for_each_init(Vec::new, |scratch: &mut Vec<f32>, (out, rows)| {
+                self.stored_rows(rows, scratch);
+                out.iter_mut()
+                    .zip(scratch.iter())
+                    .for_each(|(o, &v)| *o = f64::from(v));
             });
     }
 

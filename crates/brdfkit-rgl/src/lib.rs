@@ -10,6 +10,8 @@
 //!   [`brdfkit_core::Brdf`], so everything that takes a BRDF takes it.
 //! - [`mod@write`]: `.bsdf` files written from any isotropic [`brdfkit_core::Brdf`] (a table,
 //!   a model, an NBRDF), built as Dupuy & Jakob 2018 build the database's.
+//! - [`fastmath`]: the f32 `atan2`/`asin` polynomials of the batch evaluation, with
+//!   their error bounds.
 //! - [`cie`]: the conversion of spectral files to linear sRGB.
 //! - [`RglBsdf::to_table`]: the file as a MERL table (mean of both orders of a pair),
 //!   and [`RglBsdf::asymmetry`], how far the data are from reciprocal.
@@ -22,11 +24,13 @@
 //!
 //! docs/rgl.md describes the format, the evaluation and its sources.
 
+mod batch;
 mod bsdf;
 mod check;
 pub mod cie;
 pub mod cie_table;
 mod error;
+pub mod fastmath;
 mod info;
 pub mod kind;
 mod points;

@@ -43,7 +43,8 @@ pub struct Asymmetry {
 
 impl RglBsdf {
     /// The two-order mean sampled onto a MERL table of `dims`: cell (i, j, k) at its grid
-    /// angles ([`cell_directions`], the table crate's definition), in parallel.
+    /// angles ([`cell_directions`], the table crate's definition), in parallel, by the
+    /// f32 batch kernel (as [`RglBsdf::eval_flat`]).
     pub fn to_table(&self, dims: Dims) -> Result<(MerlTable, TableStats), TableError> {
         let slab = dims.theta_d() * dims.phi_d();
         let slabs: Vec<(Vec<Option<Rgb>>, TableStats)> = (0..dims.theta_h())
@@ -53,24 +54,39 @@ impl RglBsdf {
                     cells: slab,
                     ..Default::default()
                 };
-                let mut vals = Vec::with_capacity(slab);
+                // Both orders of every cell above the horizon, evaluated as one batch.
+                let mut rows = Vec::with_capacity(2 * slab);
+                let mut above = Vec::with_capacity(slab);
                 for j in 0..dims.theta_d() {
                     for k in 0..dims.phi_d() {
                         let (_, wi, wo, _) = cell_directions(dims, i, j, k);
-                        if wi.z <= HORIZON_Z || wo.z <= HORIZON_Z {
-                            st.missing += 1;
-                            vals.push(None);
-                            continue;
+                        let ok = wi.z > HORIZON_Z && wo.z > HORIZON_Z;
+                        above.push(ok);
+                        if ok {
+                            let (a, b) = ([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]);
+                            rows.push([a[0], a[1], a[2], b[0], b[1], b[2]]);
+                            rows.push([b[0], b[1], b[2], a[0], a[1], a[2]]);
                         }
-                        let m = self.symmetric(&wi, &wo);
-                        for x in m.0 {
-                            if x < 0.0 {
-                                st.clamped_values += 1;
-                                st.most_negative = st.most_negative.min(x);
-                            }
-                        }
-                        vals.push(Some(m.map(|x| x.max(0.0))));
                     }
+                }
+                let mut f = vec![[0.0; 3]; rows.len()];
+                self.eval_rows(&rows, &mut Vec::new(), &mut f);
+                let mut pairs = f.chunks_exact(2);
+                let mut vals = Vec::with_capacity(slab);
+                for ok in above {
+                    let Some(p) = ok.then(|| pairs.next()).flatten() else {
+                        st.missing += 1;
+                        vals.push(None);
+                        continue;
+                    };
+                    let m = Rgb(p[0]).zip(Rgb(p[1]), |x, y| 0.5 * (x + y));
+                    for x in m.0 {
+                        if x < 0.0 {
+                            st.clamped_values += 1;
+                            st.most_negative = st.most_negative.min(x);
+                        }
+                    }
+                    vals.push(Some(m.map(|x| x.max(0.0))));
                 }
                 (vals, st)
             })

@@ -11,30 +11,31 @@
 //!
 //! The evaluation must match Mitsuba's to 1e-4 relative, so the tables are stored as
 //! f32 exactly as Mitsuba stores them (CDFs accumulated in f64, then rounded) and the
-//! arithmetic follows the same steps; it runs in f64.
+//! arithmetic follows the same steps; it runs in f64. The batch kernel (`batch.rs`) runs
+//! the same steps in f32 on a copy of these tables rearranged by cell.
 
 /// A parameterised piecewise-bilinear 2D density.
 #[derive(Clone, Debug)]
 pub struct Warp2D {
     /// Grid resolution (x = columns = the last axis, y = rows).
-    w: usize,
-    h: usize,
+    pub(crate) w: usize,
+    pub(crate) h: usize,
     /// The grid values of each parameter (each of length ≥ 1, sorted).
-    params: Vec<Vec<f32>>,
+    pub(crate) params: Vec<Vec<f32>>,
     /// Slice stride of each parameter (0 for a parameter with one value).
     strides: Vec<usize>,
     /// Densities, `slices × h × w` (scaled to integrate to 1 per slice if normalised).
-    data: Vec<f32>,
+    pub(crate) data: Vec<f32>,
     /// Marginal CDF, `slices × (h − 1)`; empty without sampling tables.
-    marg: Vec<f32>,
+    pub(crate) marg: Vec<f32>,
     /// Conditional CDFs, `slices × h × (w − 1)`; empty without sampling tables.
-    cond: Vec<f32>,
-    normalized: bool,
+    pub(crate) cond: Vec<f32>,
+    pub(crate) normalized: bool,
     /// The densities again with the last parameter's slices interleaved (`… × h × w ×
     /// n_last`), built by [`interleave_last`](Self::interleave_last) for the value
     /// tables: [`eval_nodes`](Self::eval_nodes) then reads the three channels (or the
     /// wavelengths) of a grid point from one cache line instead of one line each.
-    interleaved: Vec<f32>,
+    pub(crate) interleaved: Vec<f32>,
 }
 
 /// Where a point (φi, θi) lies on the incident-direction grids: on each, the interval

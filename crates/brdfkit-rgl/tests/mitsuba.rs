@@ -127,30 +127,60 @@ fn run(spec: Spec, count: usize) -> (RglBsdf, Vec<[f64; 6]>, Vec<f64>, Vec<f64>)
     (RglBsdf::read(&file).unwrap(), ps, out, wl)
 }
 
+/// Both paths: the f64 one (`Brdf::eval`) and the f32 batch one (`eval_flat`, what
+/// `fit-brdf eval --bsdf` and `resample --bsdf` run).
 fn check_rgb(spec: Spec, count: usize) {
     let (bsdf, ps, out, _) = run(spec, count);
-    let mut t = Tally::default();
-    for (p, m) in ps.iter().zip(out.chunks_exact(3)) {
+    let mut batch = vec![0.0; 3 * ps.len()];
+    bsdf.eval_flat(&ps.concat(), &mut batch);
+    let (mut t, mut tb) = (Tally::default(), Tally::default());
+    for ((p, m), b) in ps
+        .iter()
+        .zip(out.chunks_exact(3))
+        .zip(batch.chunks_exact(3))
+    {
         let (wi, wo) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
         let ours = bsdf.eval(&wi, &wo);
-        for (o, m) in ours.0.iter().zip(m) {
+        for ((o, m), b) in ours.0.iter().zip(m).zip(b) {
             t.add(o * wo.z, *m);
+            tb.add(b * wo.z, *m);
         }
     }
     t.check(&format!("{spec:?}"));
+    tb.check(&format!("batch {spec:?}"));
 }
 
+/// Both paths: the f64 one (`eval_spectral`) and the f32 batch one
+/// (`eval_stored_flat`'s values at the file's wavelengths, interpolated linearly in λ
+/// with the clamped weight of the format, as `Warp2D` interpolates its last parameter).
 fn check_spectral(spec: Spec, count: usize) {
     let (bsdf, ps, out, wl) = run(spec, count);
-    let mut t = Tally::default();
+    let nodes: Vec<f64> = bsdf
+        .wavelengths()
+        .unwrap()
+        .iter()
+        .map(|&x| f64::from(x))
+        .collect();
+    let n = nodes.len();
+    let mut stored = vec![0.0; n * ps.len()];
+    bsdf.eval_stored_flat(&ps.concat(), &mut stored);
+    let at = |v: &[f64], lambda: f64| {
+        let i = nodes[1..n - 1].partition_point(|&x| x < lambda);
+        let t = ((lambda - nodes[i]) / (nodes[i + 1] - nodes[i])).clamp(0.0, 1.0);
+        v[i] * (1.0 - t) + v[i + 1] * t
+    };
+    let (mut t, mut tb) = (Tally::default(), Tally::default());
     for (k, p) in ps.iter().enumerate() {
         let (wi, wo) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
         for c in 0..4 {
             let ours = bsdf.eval_spectral(&wi, &wo, wl[4 * k + c]).unwrap();
             t.add(ours * wo.z, out[4 * k + c]);
+            let b = at(&stored[n * k..n * (k + 1)], wl[4 * k + c]);
+            tb.add(b * wo.z, out[4 * k + c]);
         }
     }
     t.check(&format!("{spec:?}"));
+    tb.check(&format!("batch {spec:?}"));
 }
 
 const fn spec(anisotropic: bool, spectral: bool, n: u64, m: u64, seed: u64) -> Spec {

@@ -4,7 +4,7 @@
 
 mod common;
 
-use brdfkit::core::{Brdf, Vec3};
+use brdfkit::core::Brdf;
 use brdfkit::merl::{Dims, MerlTable, cell_directions};
 use brdfkit::rgl::{RglBsdf, Tensor, TensorData, tensor};
 use common::npy::npy_bytes;
@@ -74,15 +74,14 @@ const PAIRS: [[f64; 6]; 4] = [
     [0.0, 0.0, -1.0, 0.0, 0.0, 1.0],
 ];
 
+/// The library's values at `PAIRS`: `eval_flat`, the f32 batch path the CLI runs
+/// (within 1e-4 of the f64 `Brdf::eval` and of Mitsuba: brdfkit-rgl's tests/batch.rs and
+/// tests/mitsuba.rs).
 fn library(p: &Path) -> Vec<f64> {
     let b = RglBsdf::read(p).unwrap();
-    PAIRS
-        .iter()
-        .flat_map(|r| {
-            b.eval(&Vec3::new(r[0], r[1], r[2]), &Vec3::new(r[3], r[4], r[5]))
-                .0
-        })
-        .collect()
+    let mut out = vec![0.0; 3 * PAIRS.len()];
+    b.eval_flat(&PAIRS.concat(), &mut out);
+    out
 }
 
 #[test]
@@ -211,9 +210,10 @@ fn resample_bsdf_writes_the_two_order_mean_and_says_what_it_clamped() {
         .eval(&wi, &wo)
         .zip(b.eval(&wo, &wi), |x, y| (0.5 * (x + y)).max(0.0));
     let cell = t.get(6, 5, 7).unwrap();
+    // The f64 path by hand; `resample` runs the f32 batch path: the bound.
     for c in 0..3 {
         assert!(
-            (cell.0[c] - m.0[c]).abs() <= 1e-6 * m.0[c].abs().max(1e-3),
+            (cell.0[c] - m.0[c]).abs() <= 1e-4 * m.0[c].abs() + 1e-6,
             "{cell:?} vs {m:?}"
         );
     }
