@@ -157,24 +157,6 @@ pub enum FresnelKind {
 }
 
 impl FresnelKind {
-    /// Every kind.
-    pub const ALL: [FresnelKind; 4] = [
-        FresnelKind::None,
-        FresnelKind::Schlick,
-        FresnelKind::Conductor,
-        FresnelKind::Dielectric,
-    ];
-
-    /// The name used in the JSON contract and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            FresnelKind::None => "none",
-            FresnelKind::Schlick => "schlick",
-            FresnelKind::Conductor => "conductor",
-            FresnelKind::Dielectric => "dielectric",
-        }
-    }
-
     /// This kind with its default parameters.
     pub fn with_defaults(self) -> Fresnel {
         match self {
@@ -186,7 +168,12 @@ impl FresnelKind {
     }
 }
 
-brdfkit_core::named_choice!(FresnelKind, "fresnel");
+brdfkit_core::named_choice!(FresnelKind, "fresnel", {
+    None => "none",
+    Schlick => "schlick",
+    Conductor => "conductor",
+    Dielectric => "dielectric",
+});
 
 impl Fresnel {
     /// The kind of this factor.
@@ -580,10 +567,7 @@ impl CookTorrance {
                     *cfg,
                     ggx::Pair {
                         k,
-                        wi: p.wi,
-                        wo: p.wo,
-                        h: p.h,
-                        cd: p.cos_d,
+                        p,
                         out: &mut out,
                         grad: None,
                     },
@@ -683,10 +667,7 @@ impl Model for CookTorrance {
                 cfg,
                 ggx::Pair {
                     k,
-                    wi: p.wi,
-                    wo: p.wo,
-                    h: p.h,
-                    cd: p.cos_d,
+                    p,
                     out: &mut out,
                     grad: Some(&mut grad[..np]),
                 },

@@ -399,9 +399,7 @@ mod tests {
         assert!(GltfPbr::new(Rgb::splat(0.5), 0.5, 0.0).is_err());
         assert!(GltfPbr::new(Rgb::new(0.5, 1.1, 0.5), 0.5, 0.5).is_err());
         let m = model(Masking::SmithSeparable);
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.to_json(), m.to_json());
-        assert_eq!(back.params(), m.params());
+        assert_json_round_trip(&m);
         let e = crate::from_json_str(r#"{"model":"gltf-pbr","params":{"masking":"v-cavity"}}"#)
             .unwrap_err();
         assert!(e.to_string().contains("smith-correlated"), "{e}");

@@ -896,9 +896,7 @@ mod tests {
     #[test]
     fn domains_and_json() {
         let m = variants(core(Masking::SmithSeparable), SheenVisibility::Ashikhmin)[7].clone();
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.to_json(), m.to_json());
-        assert_eq!(back.params(), m.params());
+        assert_json_round_trip(&m);
         assert_eq!(m.num_params(), 16);
         assert_eq!(m.param_specs().len(), 16);
         let mut m2 = m.clone();

@@ -825,8 +825,7 @@ mod tests {
     #[test]
     fn json_round_trip_and_domains() {
         let m = model().with_nonlinear(true);
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.to_json(), m.to_json());
+        assert_json_round_trip(&m);
         assert!(RoughPlastic::new(Rgb::splat(0.5), Rgb::splat(1.0), 0.1, 1.0).is_err());
         assert!(RoughPlastic::new(Rgb::splat(1.5), Rgb::splat(1.0), 0.1, 1.5).is_err());
         let e = crate::from_json_str(r#"{"model":"rough-plastic","params":{"nonlinear":1}}"#)

@@ -317,6 +317,15 @@ pub fn assert_zero_below_horizon(m: &dyn Model) {
     }
 }
 
+/// The JSON contract's round trip: `m.to_json()` read back is the same model (its name,
+/// its parameters bit for bit, and the same JSON again).
+pub fn assert_json_round_trip(m: &dyn Model) {
+    let back = crate::from_json(&m.to_json()).unwrap();
+    assert_eq!(back.name(), m.name());
+    assert_eq!(back.params(), m.params(), "{}", m.name());
+    assert_eq!(back.to_json(), m.to_json());
+}
+
 /// The property checks on given pair sets: the four paths agree exactly on `pairs` and
 /// `hard`; f is reciprocal to 1e-12 on `pairs` and `dense`, nonnegative on `dense`,
 /// finite on `hard` and zero below the horizon.

@@ -38,6 +38,11 @@ fn error_with(edit: impl FnOnce(&mut Vec<Tensor>), field: &str) -> RglError {
     e
 }
 
+/// [`error_with`] of the file whose field `name` is given `shape` and `data`.
+fn error_setting(name: &str, shape: &[u64], data: TensorData) -> RglError {
+    error_with(|f| set(f, name, shape, data), name)
+}
+
 fn set(f: &mut [Tensor], name: &str, shape: &[u64], data: TensorData) {
     let t = f.iter_mut().find(|t| t.name == name).unwrap();
     t.shape = shape.to_vec();
@@ -139,80 +144,38 @@ fn a_field_count_beyond_the_file_is_an_error_not_an_allocation() {
 
 #[test]
 fn shapes_that_disagree_name_the_field() {
-    let e = error_with(
-        |f| {
-            set(
-                f,
-                "vndf",
-                &[1, 7, 32, 32],
-                TensorData::F32(vec![1.0; 7 * 1024]),
-            )
-        },
+    let e = error_setting(
         "vndf",
+        &[1, 7, 32, 32],
+        TensorData::F32(vec![1.0; 7 * 1024]),
     );
     assert!(matches!(e, RglError::Shape { .. }));
-    error_with(
-        |f| {
-            set(
-                f,
-                "luminance",
-                &[1, 8, 16, 16],
-                TensorData::F32(vec![1.0; 8 * 256]),
-            )
-        },
+    error_setting(
         "luminance",
+        &[1, 8, 16, 16],
+        TensorData::F32(vec![1.0; 8 * 256]),
     );
-    error_with(
-        |f| {
-            set(
-                f,
-                "rgb",
-                &[1, 8, 4, 32, 32],
-                TensorData::F32(vec![1.0; 8 * 4 * 1024]),
-            )
-        },
+    error_setting(
         "rgb",
+        &[1, 8, 4, 32, 32],
+        TensorData::F32(vec![1.0; 8 * 4 * 1024]),
     );
-    error_with(
-        |f| set(f, "ndf", &[64], TensorData::F32(vec![1.0; 64])),
-        "ndf",
-    );
-    error_with(
-        |f| set(f, "sigma", &[1, 32], TensorData::F32(vec![1.0; 32])),
-        "sigma",
-    );
-    error_with(
-        |f| set(f, "jacobian", &[2], TensorData::U8(vec![1, 1])),
-        "jacobian",
-    );
+    error_setting("ndf", &[64], TensorData::F32(vec![1.0; 64]));
+    error_setting("sigma", &[1, 32], TensorData::F32(vec![1.0; 32]));
+    error_setting("jacobian", &[2], TensorData::U8(vec![1, 1]));
 }
 
 #[test]
 fn wrong_dtypes_name_the_field() {
-    let e = error_with(
-        |f| set(f, "theta_i", &[8], TensorData::F64(vec![0.1; 8])),
-        "theta_i",
-    );
+    let e = error_setting("theta_i", &[8], TensorData::F64(vec![0.1; 8]));
     assert!(matches!(e, RglError::Dtype { .. }));
-    error_with(
-        |f| set(f, "jacobian", &[1], TensorData::U32(vec![1])),
-        "jacobian",
-    );
-    error_with(
-        |f| {
-            set(
-                f,
-                "vndf",
-                &[1, 8, 32, 32],
-                TensorData::F64(vec![1.0; 8 * 1024]),
-            )
-        },
+    error_setting("jacobian", &[1], TensorData::U32(vec![1]));
+    error_setting(
         "vndf",
+        &[1, 8, 32, 32],
+        TensorData::F64(vec![1.0; 8 * 1024]),
     );
-    error_with(
-        |f| set(f, "valid", &[1024], TensorData::I8(vec![0; 1024])),
-        "valid",
-    );
+    error_setting("valid", &[1024], TensorData::I8(vec![0; 1024]));
 }
 
 #[test]
@@ -255,18 +218,12 @@ fn nan_or_unsorted_theta_i_names_the_field() {
     assert!(matches!(e, RglError::Value { .. }));
     error_with(th(vec![0.0, 0.2, 0.1, 0.3, 0.4, 0.5, 0.6, 0.7]), "theta_i");
     error_with(th(vec![0.0, 0.1, 0.1, 0.3, 0.4, 0.5, 0.6, 0.7]), "theta_i");
-    error_with(
-        |f| set(f, "theta_i", &[0], TensorData::F32(vec![])),
-        "theta_i",
-    );
+    error_setting("theta_i", &[0], TensorData::F32(vec![]));
 }
 
 #[test]
 fn a_valid_field_of_the_wrong_length_names_the_field() {
-    let e = error_with(
-        |f| set(f, "valid", &[1023], TensorData::U8(vec![0; 1023])),
-        "valid",
-    );
+    let e = error_setting("valid", &[1023], TensorData::U8(vec![0; 1023]));
     assert!(matches!(e, RglError::Shape { .. }));
 }
 
