@@ -376,6 +376,14 @@ pub fn assert_gradient_paths_reciprocity(m: &dyn Model, seed: u64) {
     }
 }
 
+/// The Phong lobe max(cos θr, 0)ⁿ about the mirror direction, from the spherical angles
+/// alone (an independent truth for the Phong models' tests): cos θr = cos θi cos θo −
+/// sin θi sin θo cos(φi − φo).
+pub fn mirror_lobe_from_angles(ti: f64, pi: f64, to: f64, po: f64, n: f64) -> f64 {
+    let cr = ti.cos() * to.cos() - ti.sin() * to.sin() * (pi - po).cos();
+    if cr > 0.0 { cr.powf(n) } else { 0.0 }
+}
+
 /// `eval` agrees with an independent closed form `want(θi, φi, θo, φo)` to relative
 /// `tol` per channel, on `count` angle quadruples drawn from `seed` (θ uniform in
 /// [0, `theta_max`), φ in [−3, 3)).

@@ -1,8 +1,8 @@
 //! `brdfkit.RglBsdf`: an RGL-EPFL `.bsdf` measurement (`brdfkit_rgl::RglBsdf`).
 
-use crate::arrays::{check_pairs, dims_of, directions, rows3};
+use crate::arrays::dims_of;
 use crate::errors;
-use crate::table::{PyTable, rows_array};
+use crate::table::{PyTable, rows_of_pairs};
 use brdfkit_rgl::RglBsdf;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -43,16 +43,10 @@ impl PyRglBsdf {
         wi: &Bound<'py, PyAny>,
         wo: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
-        let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
-        let mut out = vec![0.0; 3 * wi.len()];
-        py.detach(|| {
-            check_pairs(wi, wo)?;
-            let (rows, _) = out.as_chunks_mut::<3>();
+        rows_of_pairs(py, wi, wo, |wi, wo, rows| {
             self.inner.eval_split(wi, wo, rows);
-            PyResult::Ok(())
-        })?;
-        rows_array(py, out)
+            Ok(())
+        })
     }
 
     /// What `fit-brdf info --json` reports: a dict (description, kind, grids, negative

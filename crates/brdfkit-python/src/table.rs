@@ -55,6 +55,26 @@ pub(crate) fn rows_array<'py>(py: Python<'py>, v: Vec<f64>) -> PyResult<Bound<'p
     Ok(PyArray1::from_vec(py, v).reshape([n, 3])?.into_any())
 }
 
+/// The (N, 3) float64 array `f` writes for the direction pairs of `wi` and `wo` (each
+/// (N, 3), or one (3,) direction as one row; checked: as many of each, every one a unit
+/// vector), `f` and the check run without the GIL.
+pub(crate) fn rows_of_pairs<'py>(
+    py: Python<'py>,
+    wi: &Bound<'py, PyAny>,
+    wo: &Bound<'py, PyAny>,
+    f: impl FnOnce(&[[f64; 3]], &[[f64; 3]], &mut [[f64; 3]]) -> PyResult<()> + Send,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
+    let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
+    let mut out = vec![0.0; 3 * wi.len()];
+    py.detach(|| {
+        check_pairs(wi, wo)?;
+        let (rows, _) = out.as_chunks_mut::<3>();
+        f(wi, wo, rows)
+    })?;
+    rows_array(py, out)
+}
+
 #[pymethods]
 impl PyTable {
     /// Reads a MERL binary table (any dims).
@@ -163,17 +183,11 @@ impl PyTable {
         interp: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
         let mode = lookup_mode(interp)?;
-        let (wi, wo) = (directions(wi, "wi")?, directions(wo, "wo")?);
-        let (wi, wo) = (rows3(&wi)?, rows3(&wo)?);
-        let mut out = vec![0.0; 3 * wi.len()];
-        py.detach(|| {
-            check_pairs(wi, wo)?;
-            let (rows, _) = out.as_chunks_mut::<3>();
+        rows_of_pairs(py, wi, wo, |wi, wo, rows| {
             self.inner
                 .lookup_split(mode, wi, wo, rows)
                 .map_err(errors::input)
-        })?;
-        rows_array(py, out)
+        })
     }
 
     fn __repr__(&self) -> String {

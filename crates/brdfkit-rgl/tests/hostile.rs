@@ -10,6 +10,17 @@ use std::path::Path;
 
 const NAME: &str = "hostile.bsdf";
 
+/// Asserts that `result` is the error `RglError::$variant` naming `$field`.
+macro_rules! assert_error {
+    ($result:expr, $variant:ident, $field:literal) => {
+        let e = $result.unwrap_err();
+        assert!(
+            matches!(&e, RglError::$variant { field, .. } if field == $field),
+            "{e}"
+        );
+    };
+}
+
 fn good() -> Vec<Tensor> {
     common::fields(common::Spec {
         anisotropic: false,
@@ -93,11 +104,7 @@ fn an_offset_past_the_end_names_the_field() {
     let mut bytes = bytes_of(&good());
     let (off, _) = slots(&bytes, 6); // vndf
     bytes[off..off + 8].copy_from_slice(&(u64::MAX - 3).to_le_bytes());
-    let e = read(bytes).unwrap_err();
-    assert!(
-        matches!(&e, RglError::OutOfBounds { field, .. } if field == "vndf"),
-        "{e}"
-    );
+    assert_error!(read(bytes), OutOfBounds, "vndf");
 }
 
 #[test]
@@ -107,11 +114,7 @@ fn a_shape_whose_product_overflows_names_the_field() {
     for k in 0..4 {
         bytes[shape + 8 * k..shape + 8 * k + 8].copy_from_slice(&(1u64 << 20).to_le_bytes());
     }
-    let e = read(bytes).unwrap_err();
-    assert!(
-        matches!(&e, RglError::ShapeOverflow { field, .. } if field == "vndf"),
-        "{e}"
-    );
+    assert_error!(read(bytes), ShapeOverflow, "vndf");
 }
 
 #[test]
@@ -119,11 +122,7 @@ fn a_huge_shape_inside_u64_is_out_of_bounds_not_an_allocation() {
     let mut bytes = bytes_of(&good());
     let (_, shape) = slots(&bytes, 7); // luminance
     bytes[shape..shape + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
-    let e = read(bytes).unwrap_err();
-    assert!(
-        matches!(&e, RglError::OutOfBounds { field, .. } if field == "luminance"),
-        "{e}"
-    );
+    assert_error!(read(bytes), OutOfBounds, "luminance");
 }
 
 #[test]
@@ -183,11 +182,7 @@ fn an_unknown_dtype_code_names_the_field() {
     let mut bytes = bytes_of(&good());
     let (off, _) = slots(&bytes, 4); // sigma: the dtype byte precedes the offset
     bytes[off - 1] = 12;
-    let e = read(bytes).unwrap_err();
-    assert!(
-        matches!(&e, RglError::Dtype { field, .. } if field == "sigma"),
-        "{e}"
-    );
+    assert_error!(read(bytes), Dtype, "sigma");
 }
 
 #[test]

@@ -8,7 +8,9 @@ mod common;
 
 use brdfkit::core::{Brdf, Vec3};
 use brdfkit::rgl::RglBsdf;
-use common::{assert_bad_input, bin, stderr, synth_spec, write_file};
+use common::{
+    assert_bad_input, assert_bad_input_writes_nothing, bin, stderr, synth_spec, write_file,
+};
 use std::path::Path;
 
 fn export(src: &Path, out: &Path, args: &[&str]) -> std::process::Output {
@@ -149,8 +151,7 @@ fn refusals() {
         "ward.json",
         r#"{"model": "ward", "params": {"rho_d": 0.2, "rho_s": 0.1, "alpha_x": 0.1, "alpha_y": 0.3}}"#,
     );
-    assert_bad_input(&export(&aniso, &again, &[]), &["anisotropic"]);
-    assert!(!again.exists(), "nothing written on refusal");
+    assert_bad_input_writes_nothing(&export(&aniso, &again, &[]), &["anisotropic"], &again);
     assert_bad_input(
         &export(&dir.path().join("nope.json"), &again, &[]),
         &["nope.json"],

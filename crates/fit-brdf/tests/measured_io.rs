@@ -5,7 +5,7 @@
 mod common;
 
 use common::npy::npy_bytes;
-use common::{assert_bad_input, bin, write_file};
+use common::{assert_bad_input, assert_bad_input_writes_nothing, bin, write_file};
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {
@@ -178,6 +178,9 @@ fn bad_npy_and_nbrdf_inputs_exit_2_naming_the_file() {
         "--out",
         d.path().join("t.binary")
     );
-    assert_bad_input(&o, &["no-such-material_fc1.npy", "missing"]);
-    assert!(!d.path().join("t.binary").exists());
+    assert_bad_input_writes_nothing(
+        &o,
+        &["no-such-material_fc1.npy", "missing"],
+        &d.path().join("t.binary"),
+    );
 }

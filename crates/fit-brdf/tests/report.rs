@@ -5,7 +5,9 @@
 mod common;
 
 use assert_cmd::Command;
-use common::{assert_bad_input, bin, names, stderr, synth_spec, write_file};
+use common::{
+    assert_bad_input, assert_bad_input_writes_nothing, bin, names, stderr, synth_spec, write_file,
+};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -175,8 +177,7 @@ fn bad_input_exits_2_naming_the_file() {
 
     let garbage = write_file(d.path(), "garbage.binary", b"not a table at all");
     let o = report(&garbage, &out).output().unwrap();
-    assert_bad_input(&o, &["garbage.binary"]);
-    assert!(!out.exists(), "nothing written on bad input");
+    assert_bad_input_writes_nothing(&o, &["garbage.binary"], &out);
 
     let t = small_table(d.path());
     for args in [

@@ -9,7 +9,7 @@ use brdfkit::core::{Brdf, Vec3};
 use brdfkit::merl::{Dims, MerlTable, cell_directions};
 use brdfkit::rgl::{RglBsdf, Tensor, TensorData, tensor};
 use common::npy::npy_bytes;
-use common::{assert_bad_input, stderr, write_file};
+use common::{assert_bad_input, assert_bad_input_writes_nothing, stderr, write_file};
 use std::path::{Path, PathBuf};
 
 #[path = "../../brdfkit-rgl/tests/common/felt.rs"]
@@ -201,8 +201,7 @@ fn a_broken_bsdf_is_exit_2_naming_the_file_and_the_field() {
         "--out",
         dir.path().join("x.binary")
     );
-    assert_bad_input(&o, &["cut.bsdf", "`valid`"]);
-    assert!(!dir.path().join("x.binary").exists());
+    assert_bad_input_writes_nothing(&o, &["cut.bsdf", "`valid`"], &dir.path().join("x.binary"));
     let mut f = fields();
     f.retain(|t| t.name != "ndf");
     let missing = dir.path().join("missing.bsdf");

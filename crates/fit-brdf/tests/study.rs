@@ -7,7 +7,7 @@
 #[macro_use]
 mod common;
 
-use common::{assert_bad_input, bin, stderr};
+use common::{assert_bad_input, assert_bad_input_writes_nothing, bin, stderr};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -216,8 +216,11 @@ fn the_measured_folder_is_found_or_named() {
         run(&["--measured-dir", missing.to_str().unwrap()], None),
         run(&[], Some(&missing)),
     ] {
-        assert_bad_input(&o, &["nowhere", "--measured-dir", "BRDFKIT_MEASURED_DIR"]);
-        assert!(!out.exists(), "no output directory for a failed run");
+        assert_bad_input_writes_nothing(
+            &o,
+            &["nowhere", "--measured-dir", "BRDFKIT_MEASURED_DIR"],
+            &out,
+        );
     }
     // From a folder of the checkout without the option: its data-measured/ is found,
     // and the name missing from it is the error.

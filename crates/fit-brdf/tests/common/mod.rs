@@ -112,6 +112,12 @@ pub fn small_plastic_spec(name: &str, rho_d: [f64; 3], alpha: f64) -> String {
     plastic_spec(name, rho_d, alpha, "distribution = \"ggx\"\n")
 }
 
+/// [`assert_bad_input`], and `out` was not written.
+pub fn assert_bad_input_writes_nothing(o: &std::process::Output, needles: &[&str], out: &Path) {
+    assert_bad_input(o, needles);
+    assert!(!out.exists(), "{} written on bad input", out.display());
+}
+
 /// Writes `contents` to `dir/name`; returns the path.
 pub fn write_file(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
     let p = dir.join(name);
