@@ -18,6 +18,10 @@ use std::f64::consts::PI;
 use std::hint::black_box;
 use std::path::Path;
 use std::process::{Command, Stdio};
+
+#[path = "common/interleaved.rs"]
+mod interleaved;
+use interleaved::interleaved;
 use std::time::{Duration, Instant};
 
 /// Number of lookups per batch: as many pairs as the MERL grid has cells.
@@ -150,7 +154,6 @@ fn main() {
 
     // The read/cat ratio, measured interleaved so both see the same machine state.
     let load0 = load_average();
-    let (mut reads, mut cats, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
     let time_read = || {
         let s = Instant::now();
         black_box(MerlTable::read(&path).unwrap());
@@ -161,21 +164,7 @@ fn main() {
         cat(&path);
         s.elapsed().as_secs_f64()
     };
-    for p in 0..PAIRS_READ_CAT {
-        let (r, k) = if p % 2 == 0 {
-            let r = time_read();
-            (r, time_cat())
-        } else {
-            let k = time_cat();
-            (time_read(), k)
-        };
-        reads.push(r);
-        cats.push(k);
-        ratios.push(r / k);
-    }
-    for v in [&mut reads, &mut cats, &mut ratios] {
-        v.sort_by(f64::total_cmp);
-    }
+    let (reads, cats, ratios) = interleaved(PAIRS_READ_CAT, time_read, time_cat);
     let ms = |v: &[f64], p: f64| quantile(v, p) * 1e3;
     let (r, k) = (ms(&reads, 0.5), ms(&cats, 0.5));
     println!(

@@ -81,6 +81,9 @@ use cpu::cpu_seconds;
 #[path = "common/pairs.rs"]
 mod pairs;
 use pairs::merl_pairs;
+#[path = "common/interleaved.rs"]
+mod interleaved;
+use interleaved::interleaved;
 
 fn sums(v: &[Rgb]) -> [f64; 3] {
     let mut s = [0.0; 3];
@@ -205,7 +208,6 @@ fn main() {
     // Interleaved pairs, the order alternating so neither side always runs on a cache or
     // page state the other left; many pairs, because a fresh 35 MB allocation costs 2–3×
     // more in some stretches of time than in others on this VM (docs/merl-format.md).
-    let (mut rs, mut cs, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
     black_box(MerlTable::read(&tpath).unwrap());
     cat();
     let time_read = || {
@@ -218,21 +220,7 @@ fn main() {
         cat();
         t.elapsed().as_secs_f64()
     };
-    for i in 0..(14 * reps).max(100) {
-        let (r, c) = if i % 2 == 0 {
-            let r = time_read();
-            (r, time_cat())
-        } else {
-            let c = time_cat();
-            (time_read(), c)
-        };
-        rs.push(r);
-        cs.push(c);
-        ratios.push(r / c);
-    }
-    rs.sort_by(|a, b| a.total_cmp(b));
-    cs.sort_by(|a, b| a.total_cmp(b));
-    ratios.sort_by(|a, b| a.total_cmp(b));
+    let (rs, cs, ratios) = interleaved((14 * reps).max(100), time_read, time_cat);
     let within = ratios.iter().filter(|&&x| x <= 1.5).count();
     let raw_sum: f64 = table.raw().iter().filter(|x| **x >= 0.0).sum();
     out["read"] = json!({

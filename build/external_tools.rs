@@ -46,25 +46,33 @@ macro_rules! tool_test {
     };
 }
 
-/// A test that needs Mitsuba 3 (see [`tool_test`]).
-macro_rules! mitsuba_test {
-    ($($t:tt)*) => {
-        tool_test! { has_mitsuba, "needs Mitsuba 3: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)", $($t)* }
+/// Declares one `#[test]`-declaring macro per tool: `$name! { fn t() { ... } }` is a test
+/// ignored with `$reason` unless the build script set `$cfg` (see [`tool_test`]). `$d`
+/// is a literal `$`, so that the macros written here can take their own arguments.
+macro_rules! tool_tests {
+    ($d:tt $($name:ident: $cfg:ident, $reason:literal;)+) => {
+        $(
+            macro_rules! $name {
+                ($d($d t:tt)*) => {
+                    tool_test! { $cfg, $reason, $d($d t)* }
+                };
+            }
+        )+
     };
 }
 
-/// A test that needs the brdfkit Python package and pytest (see [`tool_test`]).
-macro_rules! python_package_test {
-    ($($t:tt)*) => {
-        tool_test! { has_brdfkit_python, "needs the brdfkit Python package and pytest: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt && .venv/bin/pip install ./crates/brdfkit-python (or set BRDFKIT_PYTHON)", $($t)* }
-    };
-}
-
-/// A test that needs Chromium (see [`tool_test`]).
-macro_rules! chromium_test {
-    ($($t:tt)*) => {
-        tool_test! { has_chromium, "needs chromium: apt-get install chromium (or set CHROMIUM)", $($t)* }
-    };
+// The tests' macros: `mitsuba_test!` (Mitsuba 3), `python_package_test!` (the brdfkit
+// Python package and pytest), `chromium_test!`, `gltf_validator_test!` (the Khronos
+// validator), `browser_driver_test!` (Chromium driven by `playwright-core`),
+// `threejs_test!` (three.js in that Chromium) and `blender_test!`.
+tool_tests! { $
+    mitsuba_test: has_mitsuba, "needs Mitsuba 3: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt (or set BRDFKIT_PYTHON)";
+    python_package_test: has_brdfkit_python, "needs the brdfkit Python package and pytest: python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt && .venv/bin/pip install ./crates/brdfkit-python (or set BRDFKIT_PYTHON)";
+    chromium_test: has_chromium, "needs chromium: apt-get install chromium (or set CHROMIUM)";
+    gltf_validator_test: has_gltf_validator, "needs the glTF validator: npm install --prefix target/gltf-validator gltf-validator (or set BRDFKIT_GLTF_VALIDATOR), and node";
+    browser_driver_test: has_browser_driver, "needs chromium, node and npm's playwright-core: apt-get install chromium nodejs npm && npm install --prefix target/browser-test playwright-core@1.65.1 (or set BRDFKIT_BROWSER_TEST)";
+    threejs_test: has_threejs, "needs chromium, node, npm's playwright-core and three: apt-get install chromium nodejs npm && npm install --prefix target/browser-test playwright-core@1.65.1 three@0.187.0 (or set BRDFKIT_BROWSER_TEST)";
+    blender_test: has_blender, "needs blender (Debian's 3.4.1) with numpy: apt-get install --no-install-recommends blender python3-numpy (or set BLENDER)";
 }
 
 /// How to get Mitsuba 3 for the cross-checks.
@@ -74,35 +82,6 @@ pub const MITSUBA_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install
 /// How to get the brdfkit Python package for its pytest suite (`.ci/run` does this).
 pub const PYTHON_PACKAGE_ENABLE: &str = "python3 -m venv .venv && .venv/bin/pip install -r python/requirements.txt \
      && .venv/bin/pip install ./crates/brdfkit-python (in the workspace root), or set BRDFKIT_PYTHON";
-
-/// A test that needs the Khronos glTF validator (see [`tool_test`]).
-macro_rules! gltf_validator_test {
-    ($($t:tt)*) => {
-        tool_test! { has_gltf_validator, "needs the glTF validator: npm install --prefix target/gltf-validator gltf-validator (or set BRDFKIT_GLTF_VALIDATOR), and node", $($t)* }
-    };
-}
-
-/// A test that drives Chromium through npm's `playwright-core` (see [`tool_test`]).
-macro_rules! browser_driver_test {
-    ($($t:tt)*) => {
-        tool_test! { has_browser_driver, "needs chromium, node and npm's playwright-core: apt-get install chromium nodejs npm && npm install --prefix target/browser-test playwright-core@1.65.1 (or set BRDFKIT_BROWSER_TEST)", $($t)* }
-    };
-}
-
-/// A test that renders with npm's `three` in Chromium driven by `playwright-core` (see
-/// [`tool_test`]).
-macro_rules! threejs_test {
-    ($($t:tt)*) => {
-        tool_test! { has_threejs, "needs chromium, node, npm's playwright-core and three: apt-get install chromium nodejs npm && npm install --prefix target/browser-test playwright-core@1.65.1 three@0.187.0 (or set BRDFKIT_BROWSER_TEST)", $($t)* }
-    };
-}
-
-/// A test that runs Blender headless (see [`tool_test`]).
-macro_rules! blender_test {
-    ($($t:tt)*) => {
-        tool_test! { has_blender, "needs blender (Debian's 3.4.1) with numpy: apt-get install --no-install-recommends blender python3-numpy (or set BLENDER)", $($t)* }
-    };
-}
 
 /// How to get three.js beside the browser driver for the engine check.
 pub const THREEJS_ENABLE: &str = "apt-get install chromium nodejs npm, then npm install --prefix \
@@ -279,13 +258,8 @@ fn ci_note() -> &'static str {
 /// to get it (`enable`).
 fn require_python(importable: fn(&Path) -> bool, what: &str, enable: &str) -> PathBuf {
     let py = python();
-    assert!(
-        importable(&py),
-        "the check cannot run: no {what} in {}{}. Install it: {enable}",
-        py.display(),
-        ci_note()
-    );
-    py
+    let missing = format!("{what} in {}", py.display());
+    require(importable(&py).then_some(py), "Python", &missing, enable)
 }
 
 /// For tests: the Python with Mitsuba 3, or a panic that says how to get it.
@@ -303,62 +277,59 @@ pub fn require_python_package() -> PathBuf {
     )
 }
 
-/// For tests: the Chromium executable, or a panic that says how to get it.
-pub fn require_chromium() -> PathBuf {
-    chromium().unwrap_or_else(|| {
+/// For tests: the tool `found`, or a panic saying that the `check` cannot run for want
+/// of `missing`, and how to get it (`enable`).
+fn require<T>(found: Option<T>, check: &str, missing: &str, enable: &str) -> T {
+    found.unwrap_or_else(|| {
         panic!(
-            "the browser check cannot run: no chromium{}. Install it: {CHROMIUM_ENABLE}",
+            "the {check} check cannot run: no {missing}{}. Install: {enable}",
             ci_note()
         )
     })
 }
 
+/// For tests: the Chromium executable, or a panic that says how to get it.
+pub fn require_chromium() -> PathBuf {
+    require(chromium(), "browser", "chromium", CHROMIUM_ENABLE)
+}
+
 /// For tests: the glTF validator's directory, or a panic that says how to get it.
 pub fn require_gltf_validator() -> PathBuf {
-    gltf_validator().unwrap_or_else(|| {
-        panic!(
-            "the glTF validator check cannot run: no node_modules/gltf-validator in {} or no \
-             node{}. Install it: {GLTF_VALIDATOR_ENABLE}",
-            gltf_validator_dir().display(),
-            ci_note()
-        )
-    })
+    let missing = format!(
+        "node_modules/gltf-validator in {} or no node",
+        gltf_validator_dir().display()
+    );
+    require(
+        gltf_validator(),
+        "glTF validator",
+        &missing,
+        GLTF_VALIDATOR_ENABLE,
+    )
 }
 
 /// For tests: the driver's directory and the Chromium, or a panic that says how to get
 /// them.
 pub fn require_browser_driver() -> (PathBuf, PathBuf) {
-    browser_driver().unwrap_or_else(|| {
-        panic!(
-            "the browser check cannot run: no node_modules/playwright-core in {}, no node or no \
-             chromium{}. Install them: {BROWSER_DRIVER_ENABLE}",
-            browser_driver_dir().display(),
-            ci_note()
-        )
-    })
+    let missing = format!(
+        "node_modules/playwright-core in {}, no node or no chromium",
+        browser_driver_dir().display()
+    );
+    require(browser_driver(), "browser", &missing, BROWSER_DRIVER_ENABLE)
 }
 
 /// For tests: the driver's directory (with three.js) and the Chromium, or a panic that
 /// says how to get them.
 pub fn require_threejs() -> (PathBuf, PathBuf) {
-    threejs().unwrap_or_else(|| {
-        panic!(
-            "the three.js check cannot run: no node_modules/playwright-core and \
-             node_modules/three in {}, no node or no chromium{}. Install them: {THREEJS_ENABLE}",
-            browser_driver_dir().display(),
-            ci_note()
-        )
-    })
+    let missing = format!(
+        "node_modules/playwright-core and node_modules/three in {}, no node or no chromium",
+        browser_driver_dir().display()
+    );
+    require(threejs(), "three.js", &missing, THREEJS_ENABLE)
 }
 
 /// For tests: the Blender executable, or a panic that says how to get it.
 pub fn require_blender() -> PathBuf {
-    blender().unwrap_or_else(|| {
-        panic!(
-            "the Blender check cannot run: no blender{}. Install it: {BLENDER_ENABLE}",
-            ci_note()
-        )
-    })
+    require(blender(), "Blender", "blender", BLENDER_ENABLE)
 }
 
 /// For build scripts: the Python, with the paths whose change redoes its probe.

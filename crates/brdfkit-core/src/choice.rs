@@ -47,9 +47,24 @@ pub fn parse_named<T: Copy>(
 }
 
 /// Implements `FromStr` (error [`UnknownName`]) and `Display` for a `Copy` enum from its
-/// `ALL` list and its `name(self)` method.
+/// `ALL` list and its `name(self)` method. Given the variants with their names
+/// (`{ Variant => "name", ... }`, in declaration order), it writes `ALL` and `name` too.
 #[macro_export]
 macro_rules! named_choice {
+    ($ty:ident, $what:literal, { $($v:ident => $name:literal),+ $(,)? }) => {
+        impl $ty {
+            /// Every variant, in declaration order.
+            pub const ALL: [$ty; [$($name),+].len()] = [$($ty::$v),+];
+
+            /// The variant's name in the JSON contract and on the command line.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($ty::$v => $name,)+
+                }
+            }
+        }
+        $crate::named_choice!($ty, $what);
+    };
     ($ty:ty, $what:literal) => {
         impl ::std::str::FromStr for $ty {
             type Err = $crate::choice::UnknownName;

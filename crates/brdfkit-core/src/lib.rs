@@ -29,6 +29,7 @@ pub mod choice;
 pub mod direction;
 pub mod geometry;
 pub mod model;
+pub mod par;
 pub mod quadrature;
 pub mod rgb;
 pub mod rusinkiewicz;

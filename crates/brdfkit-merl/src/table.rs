@@ -5,8 +5,7 @@ use crate::error::{Channel, TableError};
 use crate::grid::Dims;
 use brdfkit_core::Rgb;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Mutex, OnceLock};
+use std::sync::OnceLock;
 
 /// Scale factors from raw file values to physical reflectance (1/sr), R, G, B:
 /// 1/1500, 1.15/1500, 1.66/1500 (`RED_SCALE`, `GREEN_SCALE`, `BLUE_SCALE` of the
@@ -345,28 +344,7 @@ impl MerlTable {
     }
 }
 
-/// Runs `f(index, item)` for every item of `items`, spread over the threads of the
-/// current rayon pool: items are handed out from an atomic counter to every worker,
-/// which [`rayon::broadcast`] wakes up front. With `par_chunks_mut` a job of a few
-/// milliseconds on a 2-thread pool was measured to run on one thread in about a third
-/// of the repetitions (the second worker still asleep when the first had split and
-/// taken all the work back; brdfkit-models' `par`, docs/performance.md).
-pub(crate) fn spread<T: Send>(items: Vec<T>, f: impl Fn(usize, T) + Sync) {
-    let next = AtomicUsize::new(0);
-    let slots: Vec<Mutex<Option<T>>> = items.into_iter().map(|r| Mutex::new(Some(r))).collect();
-    rayon::broadcast(|_| {
-        loop {
-            let i = next.fetch_add(1, Ordering::Relaxed);
-            let Some(slot) = slots.get(i) else { break };
-            // Each slot is taken once (the counter hands out each index once): the lock
-            // is never contended, never poisoned by another item.
-            let item = slot.lock().ok().and_then(|mut s| s.take());
-            if let Some(item) = item {
-                f(i, item);
-            }
-        }
-    });
-}
+pub(crate) use brdfkit_core::par::spread;
 
 /// A zeroed buffer for the 3 raw planes of `n` cells, on transparent huge pages where
 /// the system allows (see [`huge_capacity`]).

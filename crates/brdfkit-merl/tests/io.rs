@@ -119,6 +119,16 @@ fn assert_names(err: &MerlError, name: &str) {
     assert!(err.path().to_string_lossy().contains(name));
 }
 
+/// The dims error of reading `p`, after checking that the error names the file `name`.
+fn read_dims_error(p: &Path, name: &str) -> DimsError {
+    let e = MerlTable::read(p).unwrap_err();
+    assert_names(&e, name);
+    match e {
+        MerlError::Dims { source, .. } => source,
+        e => panic!("expected a dims error, got {e}"),
+    }
+}
+
 #[test]
 fn too_short_for_the_header() {
     let dir = tempfile::tempdir().unwrap();
@@ -141,18 +151,8 @@ fn dims_not_positive() {
     let dir = tempfile::tempdir().unwrap();
     for dims in [[90, 0, 180], [-1, 90, 180], [90, 90, i32::MIN]] {
         let p = write_file(dir.path(), "dims.binary", &image(dims, &[0.0; 9]));
-        let e = MerlTable::read(&p).unwrap_err();
-        assert!(
-            matches!(
-                e,
-                MerlError::Dims {
-                    source: DimsError::NotPositive(..),
-                    ..
-                }
-            ),
-            "{e}"
-        );
-        assert_names(&e, "dims.binary");
+        let e = read_dims_error(&p, "dims.binary");
+        assert!(matches!(e, DimsError::NotPositive(..)), "{e}");
         assert!(e.to_string().contains("positive"), "{e}");
     }
 }
@@ -230,18 +230,8 @@ fn dims_whose_size_overflows() {
         "huge.binary",
         &image([i32::MAX, i32::MAX, i32::MAX], &[0.0; 3]),
     );
-    let e = MerlTable::read(&p).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MerlError::Dims {
-                source: DimsError::Overflow(..),
-                ..
-            }
-        ),
-        "{e}"
-    );
-    assert_names(&e, "huge.binary");
+    let e = read_dims_error(&p, "huge.binary");
+    assert!(matches!(e, DimsError::Overflow(..)), "{e}");
 }
 
 #[test]

@@ -39,14 +39,12 @@
 //! measure the corners: see [`Model::conserves_energy`] and `docs/models.md`.
 
 use crate::json;
-use crate::pair::{batch_pair, pair_geometry};
-use crate::params::{
-    DiffuseSpecular, ShapedLayout, above_horizon, grad_batch_via, grad_via, shape_gradient,
-};
+use crate::pair::{PairGeom, pair_kernel_brdf, pair_kernel_evals};
+use crate::params::{DiffuseSpecular, ShapedLayout, above_horizon, shape_gradient};
 use crate::shape::Shape;
 use brdfkit_core::model::Domain;
 use brdfkit_core::scattering::fresnel::schlick_weight;
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use brdfkit_core::{Model, ModelError, ParamSpec, Rgb};
 use serde_json::{Value, json};
 use std::f64::consts::PI;
 
@@ -120,13 +118,8 @@ impl AshikhminShirley {
 
     /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
     #[inline(always)]
-    fn kernel(
-        &self,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        h: [f64; 3],
-        grad: Option<&mut [Rgb; MAXP]>,
-    ) -> Rgb {
+    fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; MAXP]>) -> Rgb {
+        let PairGeom { wi, wo, h, .. } = p;
         let Some(grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
         };
@@ -171,16 +164,7 @@ impl AshikhminShirley {
     }
 }
 
-impl Brdf for AshikhminShirley {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        let (a, b, h, _) = pair_geometry(wi, wo);
-        self.kernel(a, b, h, None)
-    }
-
-    fn is_isotropic(&self) -> bool {
-        self.n.is_symmetric()
-    }
-}
+pair_kernel_brdf!(AshikhminShirley, isotropic: n);
 
 model_name!(AshikhminShirley, "ashikhmin-shirley");
 
@@ -191,24 +175,7 @@ impl Model for AshikhminShirley {
 
     shaped_lobe_params!(n);
 
-    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let (a, b, h, _) = pair_geometry(wi, wo);
-        grad_via::<MAXP>(self.num_params(), grad, |g| self.kernel(a, b, h, Some(g)))
-    }
-
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        for (k, o) in out.iter_mut().enumerate().take(g.len()) {
-            let (a, b, h, _) = batch_pair(g, k);
-            *o = self.kernel(a, b, h, None);
-        }
-    }
-
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        grad_batch_via::<MAXP>(g.len(), self.num_params(), out, grad, |k, gk| {
-            let (a, b, h, _) = batch_pair(g, k);
-            self.kernel(a, b, h, Some(gk))
-        });
-    }
+    pair_kernel_evals!(MAXP);
 
     fn to_json(&self) -> Value {
         let o = LAYOUT.write_json(self.rho_d, self.rho_s, self.n);

@@ -61,7 +61,7 @@
 
 use crate::json;
 use crate::lanes::Real;
-use crate::pair::{batch_pair, pair_geometry};
+use crate::pair::{PairGeom, batch_pair, pair_geometry};
 use crate::params::{
     DiffuseSpecular, ShapedLayout, above_horizon, check_count, check_rgb, grad_batch_via, grad_via,
     shape_gradient,
@@ -157,24 +157,6 @@ pub enum FresnelKind {
 }
 
 impl FresnelKind {
-    /// Every kind.
-    pub const ALL: [FresnelKind; 4] = [
-        FresnelKind::None,
-        FresnelKind::Schlick,
-        FresnelKind::Conductor,
-        FresnelKind::Dielectric,
-    ];
-
-    /// The name used in the JSON contract and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            FresnelKind::None => "none",
-            FresnelKind::Schlick => "schlick",
-            FresnelKind::Conductor => "conductor",
-            FresnelKind::Dielectric => "dielectric",
-        }
-    }
-
     /// This kind with its default parameters.
     pub fn with_defaults(self) -> Fresnel {
         match self {
@@ -186,7 +168,12 @@ impl FresnelKind {
     }
 }
 
-brdfkit_core::named_choice!(FresnelKind, "fresnel");
+brdfkit_core::named_choice!(FresnelKind, "fresnel", {
+    None => "none",
+    Schlick => "schlick",
+    Conductor => "conductor",
+    Dielectric => "dielectric",
+});
 
 impl Fresnel {
     /// The kind of this factor.
@@ -473,18 +460,12 @@ impl CookTorrance {
 
     /// The model for one pair: value, and when `grad` is given, every ∂f/∂p.
     ///
-    /// `h` is the unit half vector and `cos_d` = wi·h, exactly as
+    /// The pair is [`PairGeom`]: the unit half vector `h` and `cos_d` = wi·h exactly as
     /// [`GeometryBatch`](brdfkit_core::GeometryBatch) stores them, so the slow and the
     /// fast paths share every operation.
     #[inline(always)]
-    fn kernel(
-        &self,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        h: [f64; 3],
-        cos_d: f64,
-        grad: Option<&mut [Rgb; MAXP]>,
-    ) -> Rgb {
+    fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; MAXP]>) -> Rgb {
+        let PairGeom { wi, wo, h, cos_d } = p;
         let Some(grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
         };
@@ -578,7 +559,7 @@ impl CookTorrance {
 impl CookTorrance {
     /// f_r of one pair from its batch geometry: the GGX kernel where it applies (the
     /// value of every path of those configurations), else the per-pair code.
-    fn value(&self, wi: [f64; 3], wo: [f64; 3], h: [f64; 3], cd: f64) -> Rgb {
+    fn value(&self, p: PairGeom) -> Rgb {
         match &self.ggx64 {
             Some((cfg, k)) => {
                 let mut out = Rgb::ZERO;
@@ -586,17 +567,14 @@ impl CookTorrance {
                     *cfg,
                     ggx::Pair {
                         k,
-                        wi,
-                        wo,
-                        h,
-                        cd,
+                        p,
                         out: &mut out,
                         grad: None,
                     },
                 );
                 out
             }
-            None => self.kernel(wi, wo, h, cd, None),
+            None => self.kernel(p, None),
         }
     }
 
@@ -640,8 +618,7 @@ impl CookTorrance {
 
 impl Brdf for CookTorrance {
     fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        let (a, b, h, c) = pair_geometry(wi, wo);
-        self.value(a, b, h, c)
+        self.value(pair_geometry(wi, wo))
     }
 
     fn is_isotropic(&self) -> bool {
@@ -684,7 +661,7 @@ impl Model for CookTorrance {
     }
 
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let (a, b, h, c) = pair_geometry(wi, wo);
+        let p = pair_geometry(wi, wo);
         if let (Some(cfg), Some((_, k))) = (self.ggx_grad_config(), &self.ggx64) {
             let mut out = Rgb::ZERO;
             let np = self.num_params();
@@ -692,22 +669,17 @@ impl Model for CookTorrance {
                 cfg,
                 ggx::Pair {
                     k,
-                    wi: a,
-                    wo: b,
-                    h,
-                    cd: c,
+                    p,
                     out: &mut out,
                     grad: Some(&mut grad[..np]),
                 },
             );
             return out;
         }
-        let f = grad_via::<MAXP>(self.num_params(), grad, |g| {
-            self.kernel(a, b, h, c, Some(g))
-        });
+        let f = grad_via::<MAXP>(self.num_params(), grad, |g| self.kernel(p, Some(g)));
         if self.ggx_config().is_some() {
             // The value of the GGX kernel, as every other path returns it.
-            self.value(a, b, h, c)
+            self.value(p)
         } else {
             f
         }
@@ -718,8 +690,7 @@ impl Model for CookTorrance {
             return;
         }
         for (k, o) in out.iter_mut().enumerate().take(g.len()) {
-            let (a, b, h, c) = batch_pair(g, k);
-            *o = self.kernel(a, b, h, c, None);
+            *o = self.kernel(batch_pair(g, k), None);
         }
     }
 
@@ -766,8 +737,7 @@ impl Model for CookTorrance {
             return;
         }
         grad_batch_via::<MAXP>(n, np, out, grad, |k, gk| {
-            let (a, b, h, c) = batch_pair(g, k);
-            self.kernel(a, b, h, c, Some(gk))
+            self.kernel(batch_pair(g, k), Some(gk))
         });
         if self.ggx_config().is_some() {
             // The values of the GGX kernel, as every other path returns them.

@@ -29,6 +29,7 @@
 
 use super::{CookTorrance, Fresnel, Shape};
 use crate::lanes::{Real, Run, clamp01, dispatch, max, select};
+use crate::pair::PairGeom;
 use brdfkit_core::geometry::half_and_cos_d;
 use brdfkit_core::scattering::{Distribution, Masking};
 use brdfkit_core::{DirPairs, GeomSlice, GeomSliceOf, Rgb};
@@ -524,25 +525,20 @@ pub(super) fn with_config<J: Job>(cfg: Config, job: J) {
 /// [`with_grad_config`]) the gradient (`grad.len()` = the model's parameter count).
 pub(super) struct Pair<'a> {
     pub k: &'a Consts<f64>,
-    pub wi: [f64; 3],
-    pub wo: [f64; 3],
-    pub h: [f64; 3],
-    pub cd: f64,
+    pub p: PairGeom,
     pub out: &'a mut Rgb,
     pub grad: Option<&'a mut [Rgb]>,
 }
 
 impl Job for Pair<'_> {
     fn go<const A: bool, const C: bool, const F: u8>(self) {
-        let Pair {
-            k,
+        let Pair { k, p, out, grad } = self;
+        let PairGeom {
             wi,
             wo,
             h,
-            cd,
-            out,
-            grad,
-        } = self;
+            cos_d: cd,
+        } = p;
         *out = Rgb(match grad {
             None => value::<f64, A, C, F>(k, wi, wo, h, cd),
             Some(grad) => {

@@ -52,7 +52,8 @@
 //! model, kept as written: a fit reproduces what glTF viewers render.
 
 use crate::json;
-use crate::params::{channel, check_count, check_rgb};
+use crate::pair::PairGeom;
+use crate::params::{above_horizon, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::scattering::Masking;
 use brdfkit_core::{Model, ModelError, ParamSpec, Rgb};
@@ -142,24 +143,15 @@ impl GltfPbr {
         .with_masking(json::choice_or(&o, "masking", Masking::SmithCorrelated, M)?)
     }
 
-    /// f_r of one pair (arrays as [`pair_geometry`](crate::pair::pair_geometry) gives them) and, with `grad`, its
-    /// gradient in the order base_color.{r,g,b}, metallic, roughness.
+    /// f_r of one pair and, with `grad`, its gradient in the order
+    /// base_color.{r,g,b}, metallic, roughness.
     #[inline(always)]
-    fn kernel(
-        &self,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        h: [f64; 3],
-        cd: f64,
-        grad: Option<&mut [Rgb]>,
-    ) -> Rgb {
-        let (zi, zo) = (wi[2], wo[2]);
-        if zi <= 0.0 || zo <= 0.0 {
-            if let Some(g) = grad {
-                g[..5].fill(Rgb::ZERO);
-            }
+    fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; 5]>) -> Rgb {
+        let PairGeom { wi, wo, h, .. } = p;
+        let Some(grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
-        }
+        };
+        let cd = p.cos_d;
         // Without `grad` the inlined derivative is dead code, and the compiler drops it.
         let (dv, d_r) = ggx_dv(self.roughness, self.masking, wi, wo, h);
         let c = cd.clamp(0.0, 1.0);
@@ -409,9 +401,7 @@ mod tests {
         assert!(GltfPbr::new(Rgb::splat(0.5), 0.5, 0.0).is_err());
         assert!(GltfPbr::new(Rgb::new(0.5, 1.1, 0.5), 0.5, 0.5).is_err());
         let m = model(Masking::SmithSeparable);
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.to_json(), m.to_json());
-        assert_eq!(back.params(), m.params());
+        assert_json_round_trip(&m);
         let e = crate::from_json_str(r#"{"model":"gltf-pbr","params":{"masking":"v-cavity"}}"#)
             .unwrap_err();
         assert!(e.to_string().contains("smith-correlated"), "{e}");

@@ -71,14 +71,17 @@
 
 use crate::gltf_pbr::{self, DIELECTRIC_F0, GltfPbr, ROUGHNESS_DOMAIN, UNIT_DOMAIN};
 use crate::json;
-use crate::params::{channel, check_count, check_rgb};
+use crate::pair::PairGeom;
+use crate::params::{above_horizon, channel, check_count, check_rgb};
 use crate::sheen::{SHEEN_ROUGHNESS_MIN, SheenVisibility, sheen_albedo, sheen_dv};
 use brdfkit_core::model::{Domain, check_param};
-use brdfkit_core::{GeomSlice, Model, ModelError, ParamSpec, Rgb};
+use brdfkit_core::{Model, ModelError, ParamSpec, Rgb};
 use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
 
 const M: &str = "gltf-pbr-ext";
+/// The most parameters: the core's 5, sheen's 4, clearcoat's 2 and specular's 5.
+const MAXP: usize = 16;
 /// The domain of `sheen_roughness` (module doc).
 pub const SHEEN_ROUGHNESS_DOMAIN: Domain = Domain::closed(SHEEN_ROUGHNESS_MIN, 1.0);
 /// The domain of `specular_color`: glTF allows values above 1 (f0 is clamped to 1).
@@ -321,14 +324,9 @@ impl GltfPbrExt {
 
     /// The core with specular/ior (module doc) and, with `grad`, its gradient in the
     /// core's 5 parameters then (if present) the specular block's 5.
-    fn core_kernel(
-        &self,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        h: [f64; 3],
-        cd: f64,
-        grad: Option<&mut [Rgb]>,
-    ) -> Rgb {
+    fn core_kernel(&self, p: PairGeom, grad: Option<&mut [Rgb]>) -> Rgb {
+        let PairGeom { wi, wo, h, .. } = p;
+        let cd = p.cos_d;
         let (dv, ddv_dr) = self.ggx_dv(self.core.roughness(), wi, wo, h);
         let c = cd.clamp(0.0, 1.0);
         let m1 = 1.0 - c;
@@ -407,27 +405,18 @@ impl GltfPbrExt {
         ]
     }
 
-    /// f_r of one pair and, with `grad` (`num_params()` entries), its gradient.
-    fn kernel(
-        &self,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        h: [f64; 3],
-        cd: f64,
-        mut grad: Option<&mut [Rgb]>,
-    ) -> Rgb {
-        let (zi, zo) = (wi[2], wo[2]);
-        if zi <= 0.0 || zo <= 0.0 {
-            if let Some(g) = grad {
-                g.fill(Rgb::ZERO);
-            }
+    /// f_r of one pair and, with `grad`, its gradient (the first `num_params()` entries).
+    fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; MAXP]>) -> Rgb {
+        let PairGeom { wi, wo, h, .. } = p;
+        let Some(mut grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
-        }
+        };
+        let (zi, zo) = (wi[2], wo[2]);
         let [o_sheen, o_coat, o_spec] = self.offsets();
         // The core's gradient goes into a fixed buffer in core-then-specular order,
         // then to its slots scaled by the layers above.
         let mut cg = [Rgb::ZERO; 10];
-        let core = self.core_kernel(wi, wo, h, cd, grad.is_some().then_some(&mut cg[..]));
+        let core = self.core_kernel(p, grad.is_some().then_some(&mut cg[..]));
         let mut scale = 1.0;
         let mut out = core;
         if let (Some(s), Some(os)) = (self.sheen, o_sheen) {
@@ -611,30 +600,7 @@ impl Model for GltfPbrExt {
         Ok(())
     }
 
-    fn eval_grad(&self, wi: &brdfkit_core::Vec3, wo: &brdfkit_core::Vec3, grad: &mut [Rgb]) -> Rgb {
-        let (i, o, h, cd) = crate::pair::pair_geometry(wi, wo);
-        self.kernel(i, o, h, cd, Some(grad))
-    }
-
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        for (k, o) in out.iter_mut().enumerate().take(g.len()) {
-            let (i, w, h, cd) = crate::pair::batch_pair(g, k);
-            *o = self.kernel(i, w, h, cd, None);
-        }
-    }
-
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let np = self.num_params();
-        let mut gk = vec![Rgb::ZERO; np];
-        for (k, o) in out.iter_mut().enumerate().take(n) {
-            let (i, w, h, cd) = crate::pair::batch_pair(g, k);
-            *o = self.kernel(i, w, h, cd, Some(&mut gk));
-            for (p, v) in gk.iter().enumerate() {
-                grad[p * n + k] = *v;
-            }
-        }
-    }
+    crate::pair::pair_kernel_evals!(MAXP);
 
     fn to_json(&self) -> Value {
         let mut params = self.core.to_json()["params"].clone();
@@ -932,9 +898,7 @@ mod tests {
     #[test]
     fn domains_and_json() {
         let m = variants(core(Masking::SmithSeparable), SheenVisibility::Ashikhmin)[7].clone();
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.to_json(), m.to_json());
-        assert_eq!(back.params(), m.params());
+        assert_json_round_trip(&m);
         assert_eq!(m.num_params(), 16);
         assert_eq!(m.param_specs().len(), 16);
         let mut m2 = m.clone();

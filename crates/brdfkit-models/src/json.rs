@@ -49,11 +49,24 @@ pub fn number_or(
     default: f64,
     model: &str,
 ) -> Result<f64, ModelError> {
+    entry_or(obj, key, default, model, as_number, "a number")
+}
+
+/// `obj[key]` read by `read`, or `default` when absent; an error saying the key must be
+/// `what` when `read` refuses it.
+fn entry_or<T>(
+    obj: &Map<String, Value>,
+    key: &str,
+    default: T,
+    model: &str,
+    read: impl FnOnce(&Value) -> Option<T>,
+    what: &str,
+) -> Result<T, ModelError> {
     match obj.get(key) {
         None => Ok(default),
-        Some(v) => as_number(v).ok_or_else(|| {
+        Some(v) => read(v).ok_or_else(|| {
             ModelError::Invalid(format!(
-                "`{key}` of `{model}` must be a number, found {}",
+                "`{key}` of `{model}` must be {what}, found {}",
                 kind(v)
             ))
         }),
@@ -67,15 +80,8 @@ pub fn rgb_or(
     default: f64,
     model: &str,
 ) -> Result<Rgb, ModelError> {
-    match obj.get(key) {
-        None => Ok(Rgb::splat(default)),
-        Some(v) => as_rgb(v).ok_or_else(|| {
-            ModelError::Invalid(format!(
-                "`{key}` of `{model}` must be a number or an [r, g, b] triple of numbers, found {}",
-                kind(v)
-            ))
-        }),
-    }
+    let what = "a number or an [r, g, b] triple of numbers";
+    entry_or(obj, key, Rgb::splat(default), model, as_rgb, what)
 }
 
 /// A string, or `default` when absent.

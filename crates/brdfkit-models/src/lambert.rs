@@ -192,8 +192,7 @@ mod tests {
     #[test]
     fn json_round_trip() {
         let m = model();
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.params(), m.params());
+        assert_json_round_trip(&m);
         assert!(crate::from_json_str(r#"{"model":"lambert","params":{"rho":0.5}}"#).is_err());
         let d = crate::default_model("lambert").unwrap();
         assert_eq!(d.params(), vec![0.5; 3]);

@@ -11,23 +11,13 @@
 //! scalar call of the same kernel (tested), which is what keeps a model's `eval` and its
 //! batch paths identical.
 
-use std::ops::{Add, Div, Mul, Sub};
+use brdfkit_core::geometry::Component;
+use std::ops::Sub;
 
-/// The arithmetic a lane kernel may use: IEEE operations that vectorise (no `exp`, no
-/// `erf`, no library calls).
-pub(crate) trait Real:
-    Copy
-    + PartialOrd
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Send
-    + Sync
-    + 'static
-{
-    const ZERO: Self;
-    const ONE: Self;
+/// The arithmetic a lane kernel may use: brdfkit-core's [`Component`] (the IEEE
+/// operations that vectorise, no `exp`, no `erf`, no library calls, with 0, 1 and the
+/// square root) and subtraction, with the constants and choices of the kernels.
+pub(crate) trait Real: Component + Sub<Output = Self> {
     const HALF: Self;
     const TWO: Self;
     /// The smallest positive normal number: a floor for denominators that are exactly 0
@@ -45,8 +35,6 @@ pub(crate) trait Real:
     const FOLD_DIVISIONS: bool;
     /// `x` rounded to this precision.
     fn of(x: f64) -> Self;
-    /// Correctly rounded square root.
-    fn sqrt(self) -> Self;
 }
 
 macro_rules! real {
@@ -54,18 +42,12 @@ macro_rules! real {
         impl Real for $t {
             const SIN2_FROM_Z: bool = $sin2_from_z;
             const FOLD_DIVISIONS: bool = $fold_divisions;
-            const ZERO: Self = 0.0;
-            const ONE: Self = 1.0;
             const HALF: Self = 0.5;
             const TWO: Self = 2.0;
             const TINY: Self = $t::MIN_POSITIVE;
             #[inline(always)]
             fn of(x: f64) -> Self {
                 x as $t
-            }
-            #[inline(always)]
-            fn sqrt(self) -> Self {
-                $t::sqrt(self)
             }
         }
     };

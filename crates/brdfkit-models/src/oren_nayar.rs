@@ -310,8 +310,7 @@ mod tests {
     #[test]
     fn json_round_trip_and_errors() {
         let m = model();
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.params(), m.params());
+        assert_json_round_trip(&m);
         assert_eq!(
             crate::default_model("oren-nayar").unwrap().params(),
             vec![0.5, 0.5, 0.5, 0.3]

@@ -8,30 +8,12 @@
 //! every worker up front removed that bimodality.
 
 use brdfkit_core::{GeomSlice, GeomSliceF32, Model, Rgb};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Pairs per unit of work: large enough that the per-run overhead (a counter increment,
 /// an uncontended lock, the model's set-up) is negligible, small enough to balance.
 pub const RUN: usize = 8192;
 
-/// Runs `f(run index, run)` over `runs`, spread over the threads of the current pool.
-pub(crate) fn spread<T: Send>(runs: Vec<T>, f: impl Fn(usize, T) + Sync) {
-    let next = AtomicUsize::new(0);
-    let slots: Vec<Mutex<Option<T>>> = runs.into_iter().map(|r| Mutex::new(Some(r))).collect();
-    rayon::broadcast(|_| {
-        loop {
-            let i = next.fetch_add(1, Ordering::Relaxed);
-            let Some(slot) = slots.get(i) else { break };
-            // Each slot is taken exactly once (the counter hands out each index once), so
-            // the lock is never contended and never poisoned by another run.
-            let run = slot.lock().ok().and_then(|mut s| s.take());
-            if let Some(run) = run {
-                f(i, run);
-            }
-        }
-    });
-}
+pub(crate) use brdfkit_core::par::spread;
 
 /// [`Model::eval_batch`] over the whole of `g` on every thread of the current rayon pool:
 /// `out[k]` for pair k (`out.len()` pairs are evaluated; at most `g.len()`).

@@ -67,22 +67,22 @@ impl DiffuseSpecular {
     /// ρd per channel in [0, 1] and a specular scale ρs per channel in [0, ∞)
     /// ([`RHO_S_DOMAIN`]) under the names `rho_d` and `rho_s`.
     pub const fn albedos(d: f64, s: f64) -> Self {
-        DiffuseSpecular {
-            names: ("rho_d", "rho_s"),
-            domain: RHO_DOMAIN,
-            s_domain: RHO_S_DOMAIN,
-            defaults: (d, s),
-        }
+        Self::rho_d_rho_s(RHO_S_DOMAIN, d, s)
     }
 
     /// ρd and ρs per channel, both in [0, 1]: for models whose ρs is a reflectance
     /// (Ashikhmin-Shirley's Rs, a Fresnel value whose 1 − Rs weights the diffuse term)
     /// or that conserve energy by construction (plausible Phong).
     pub const fn bounded_albedos(d: f64, s: f64) -> Self {
+        Self::rho_d_rho_s(RHO_DOMAIN, d, s)
+    }
+
+    /// `rho_d` in [0, 1] and `rho_s` in `s_domain`, defaults `d` and `s`.
+    const fn rho_d_rho_s(s_domain: Domain, d: f64, s: f64) -> Self {
         DiffuseSpecular {
             names: ("rho_d", "rho_s"),
             domain: RHO_DOMAIN,
-            s_domain: RHO_DOMAIN,
+            s_domain,
             defaults: (d, s),
         }
     }

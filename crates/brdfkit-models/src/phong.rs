@@ -124,12 +124,9 @@ mod tests {
 
     #[test]
     fn value_matches_the_angle_formula() {
-        // Independent truth: cos θr from the spherical angles,
-        // cos θr = cos θi cos θo − sin θi sin θo cos(φi − φo).
         let m = model();
         assert_matches_angle_formula(&m, 7, 500, 1.5, 1e-12, |ti, pi, to, po| {
-            let cr = ti.cos() * to.cos() - ti.sin() * to.sin() * (pi - po).cos();
-            let lobe = if cr > 0.0 { cr.powf(12.0) } else { 0.0 };
+            let lobe = mirror_lobe_from_angles(ti, pi, to, po, 12.0);
             m.k_d() + m.k_s() * (lobe / ti.cos())
         });
     }

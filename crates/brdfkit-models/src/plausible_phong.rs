@@ -83,8 +83,7 @@ mod tests {
     fn value_matches_the_angle_formula() {
         let m = model();
         assert_matches_angle_formula(&m, 8, 500, 1.5, 1e-12, |ti, pi, to, po| {
-            let cr = ti.cos() * to.cos() - ti.sin() * to.sin() * (pi - po).cos();
-            let lobe = if cr > 0.0 { cr.powf(35.0) } else { 0.0 };
+            let lobe = mirror_lobe_from_angles(ti, pi, to, po, 35.0);
             m.rho_d() / PI + m.rho_s() * (37.0 / (2.0 * PI) * lobe)
         });
     }

@@ -54,12 +54,23 @@ pub fn ngan_cook_torrance(
     f0: Rgb,
     m: f64,
 ) -> Result<CookTorrance, ModelError> {
+    beckmann_v_cavity(Fresnel::Schlick { f0 }, rho_d, k_s * (4.0 / PI), m)
+}
+
+/// brdfkit's `cook-torrance` with Beckmann's distribution and V-cavity masking, as both
+/// published Cook-Torrance parameterisations have them.
+fn beckmann_v_cavity(
+    fresnel: Fresnel,
+    rho_d: Rgb,
+    rho_s: Rgb,
+    m: f64,
+) -> Result<CookTorrance, ModelError> {
     CookTorrance::new()
         .with_distribution(Distribution::Beckmann)
         .with_masking(Masking::VCavity)
-        .with_fresnel(Fresnel::Schlick { f0 })?
+        .with_fresnel(fresnel)?
         .with_rho_d(rho_d)?
-        .with_rho_s(k_s * (4.0 / PI))?
+        .with_rho_s(rho_s)?
         .with_alpha(m)
 }
 
@@ -82,13 +93,7 @@ pub fn low_cook_torrance(
     eta: f64,
     m: f64,
 ) -> Result<CookTorrance, ModelError> {
-    CookTorrance::new()
-        .with_distribution(Distribution::Beckmann)
-        .with_masking(Masking::VCavity)
-        .with_fresnel(Fresnel::Dielectric { eta })?
-        .with_rho_d(rho_d)?
-        .with_rho_s(k_s * 4.0)?
-        .with_alpha(m)
+    beckmann_v_cavity(Fresnel::Dielectric { eta }, rho_d, k_s * 4.0, m)
 }
 
 /// A required entry of a published parameter set.

@@ -56,7 +56,8 @@
 //! difference quotient is the derivative of the value the model computes).
 
 use crate::json;
-use crate::params::{RHO_DOMAIN, RHO_S_DOMAIN, channel, check_count, check_rgb};
+use crate::pair::PairGeom;
+use crate::params::{RHO_DOMAIN, RHO_S_DOMAIN, above_horizon, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::quadrature::gauss_legendre;
 use brdfkit_core::scattering::fresnel::{dielectric, dielectric_grad};
@@ -466,21 +467,13 @@ impl RoughPlastic {
     }
 
     /// f_r of one pair and, with `grad`, its gradient (ρd, ρs, α, η).
-    fn kernel(
-        &self,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        h: [f64; 3],
-        cd: f64,
-        grad: Option<&mut [Rgb]>,
-    ) -> Rgb {
-        let (zi, zo) = (wi[2], wo[2]);
-        if zi <= 0.0 || zo <= 0.0 {
-            if let Some(g) = grad {
-                g[..8].fill(Rgb::ZERO);
-            }
+    fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; 8]>) -> Rgb {
+        let PairGeom { wi, wo, h, .. } = p;
+        let Some(grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
-        }
+        };
+        let cd = p.cos_d;
+        let (zi, zo) = (wi[2], wo[2]);
         let a = self.alpha;
         let d = brdfkit_core::scattering::microfacet::ggx_grad(h[0], h[1], h[2], a, a);
         let smith = brdfkit_core::scattering::Smith::Ggx;
@@ -834,8 +827,7 @@ mod tests {
     #[test]
     fn json_round_trip_and_domains() {
         let m = model().with_nonlinear(true);
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.to_json(), m.to_json());
+        assert_json_round_trip(&m);
         assert!(RoughPlastic::new(Rgb::splat(0.5), Rgb::splat(1.0), 0.1, 1.0).is_err());
         assert!(RoughPlastic::new(Rgb::splat(1.5), Rgb::splat(1.0), 0.1, 1.5).is_err());
         let e = crate::from_json_str(r#"{"model":"rough-plastic","params":{"nonlinear":1}}"#)

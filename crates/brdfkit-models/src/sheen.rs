@@ -58,20 +58,10 @@ pub enum SheenVisibility {
     Ashikhmin,
 }
 
-impl SheenVisibility {
-    /// Every variant, the default first.
-    pub const ALL: [SheenVisibility; 2] = [SheenVisibility::Charlie, SheenVisibility::Ashikhmin];
-
-    /// The JSON name.
-    pub fn name(self) -> &'static str {
-        match self {
-            SheenVisibility::Charlie => "charlie",
-            SheenVisibility::Ashikhmin => "ashikhmin",
-        }
-    }
-}
-
-brdfkit_core::named_choice!(SheenVisibility, "sheen visibility");
+brdfkit_core::named_choice!(SheenVisibility, "sheen visibility", {
+    Charlie => "charlie",
+    Ashikhmin => "ashikhmin",
+});
 
 /// The smallest sheenRoughness: three.js clamps to it, and below it the lobe is a
 /// grazing spike narrower than the E table can resolve.

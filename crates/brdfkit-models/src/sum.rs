@@ -432,9 +432,7 @@ mod tests {
     #[test]
     fn json_round_trip_nesting_and_errors() {
         let m = model();
-        let back = crate::from_json(&m.to_json()).unwrap();
-        assert_eq!(back.params(), m.params());
-        assert_eq!(back.to_json(), m.to_json());
+        assert_json_round_trip(&m);
         let d = crate::default_model("sum").unwrap();
         assert_eq!(d.num_params(), 3 + 7 + 7);
         assert_eq!(d.params()[..3], [0.4, 0.4, 0.4]);

@@ -317,6 +317,15 @@ pub fn assert_zero_below_horizon(m: &dyn Model) {
     }
 }
 
+/// The JSON contract's round trip: `m.to_json()` read back is the same model (its name,
+/// its parameters bit for bit, and the same JSON again).
+pub fn assert_json_round_trip(m: &dyn Model) {
+    let back = crate::from_json(&m.to_json()).unwrap();
+    assert_eq!(back.name(), m.name());
+    assert_eq!(back.params(), m.params(), "{}", m.name());
+    assert_eq!(back.to_json(), m.to_json());
+}
+
 /// The property checks on given pair sets: the four paths agree exactly on `pairs` and
 /// `hard`; f is reciprocal to 1e-12 on `pairs` and `dense`, nonnegative on `dense`,
 /// finite on `hard` and zero below the horizon.
@@ -365,6 +374,14 @@ pub fn assert_gradient_paths_reciprocity(m: &dyn Model, seed: u64) {
     if m.is_reciprocal() {
         assert_reciprocal(m, &pairs, 1e-12);
     }
+}
+
+/// The Phong lobe max(cos θr, 0)ⁿ about the mirror direction, from the spherical angles
+/// alone (an independent truth for the Phong models' tests): cos θr = cos θi cos θo −
+/// sin θi sin θo cos(φi − φo).
+pub fn mirror_lobe_from_angles(ti: f64, pi: f64, to: f64, po: f64, n: f64) -> f64 {
+    let cr = ti.cos() * to.cos() - ti.sin() * to.sin() * (pi - po).cos();
+    if cr > 0.0 { cr.powf(n) } else { 0.0 }
 }
 
 /// `eval` agrees with an independent closed form `want(θi, φi, θo, φo)` to relative

@@ -57,6 +57,20 @@ def refs() -> Refs:
     return Refs(Path(d))
 
 
+@pytest.fixture(scope="module")
+def gold(refs):
+    """The reference table `gold.binary`, read by the package (a `brdfkit.MerlTable`)."""
+    import brdfkit
+
+    return brdfkit.MerlTable.read(refs.file("gold.binary"))
+
+
+def bits_equal(a: np.ndarray, b: np.ndarray) -> bool:
+    """Same shape and the same float64 bit patterns (NaN included)."""
+    a, b = np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64)
+    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
+
+
 def read_merl_numpy(path) -> np.ndarray:
     """A MERL binary table read by NumPy alone (docs/merl-format.md): the header dims,
     the raw planes times the scales, NaN for a negative (missing) raw value."""

@@ -6,20 +6,9 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import DIMS, GOLD, read_merl_numpy
+from conftest import DIMS, GOLD, bits_equal, read_merl_numpy
 
 import brdfkit
-
-
-def bits_equal(a: np.ndarray, b: np.ndarray) -> bool:
-    """Same shape and the same float64 bit patterns (NaN included)."""
-    a, b = np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64)
-    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
-
-
-@pytest.fixture(scope="module")
-def gold(refs) -> brdfkit.MerlTable:
-    return brdfkit.MerlTable.read(refs.file("gold.binary"))
 
 
 def test_values_are_the_file_read_by_numpy(refs, gold):

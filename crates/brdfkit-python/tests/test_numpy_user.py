@@ -12,22 +12,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import GOLD, ROOT
+from conftest import GOLD, ROOT, bits_equal
 
 import brdfkit
 from brdfkit import _brdfkit
 
 UNIT = r"directions must be unit vectors \(within 0\.000001\)"
-
-
-def bits_equal(a: np.ndarray, b: np.ndarray) -> bool:
-    a, b = np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64)
-    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
-
-
-@pytest.fixture(scope="module")
-def gold(refs) -> brdfkit.MerlTable:
-    return brdfkit.MerlTable.read(refs.file("gold.binary"))
 
 
 @pytest.fixture(scope="module")

@@ -55,6 +55,16 @@ fn assert_invalid(text: &str, key: &str, words: &str) {
     assert!(msg.contains(words), "`{words}` not in: {msg}");
 }
 
+/// [`assert_invalid`] of the good scene with `from` replaced by `to`.
+fn invalid_after(from: &str, to: &str, key: &str, words: &str) {
+    assert_invalid(&edit(from, to), key, words);
+}
+
+/// [`assert_syntax`] of the good scene with `from` replaced by `to`.
+fn syntax_after(from: &str, to: &str, words: &[&str]) {
+    assert_syntax(&edit(from, to), words);
+}
+
 fn assert_syntax(text: &str, words: &[&str]) {
     let (e, msg) = read(text, &[]);
     assert!(
@@ -96,34 +106,41 @@ fn unknown_keys_are_rejected_with_their_name() {
         "light[0]",
         "unknown field `samples`",
     );
-    assert_syntax(
-        &edit("fov = 40", "fov = 40\nfovv = 3"),
+    syntax_after(
+        "fov = 40",
+        "fov = 40\nfovv = 3",
         &["unknown field `fovv`", "fov"],
     );
-    assert_syntax(
-        &edit("radius = 1", "radius = 1\ncolour = 3"),
+    syntax_after(
+        "radius = 1",
+        "radius = 1\ncolour = 3",
         &["unknown field `colour`"],
     );
-    assert_syntax(
-        &edit("rho_d = 0.5 } }", "rho_d = 0.5 } }\nlookups = \"nearest\""),
+    syntax_after(
+        "rho_d = 0.5 } }",
+        "rho_d = 0.5 } }\nlookups = \"nearest\"",
         &["unknown field `lookups`"],
     );
-    assert_syntax(
-        &edit("effects = [\"direct\"]", "effects = [\"direct\", \"gi\"]"),
+    syntax_after(
+        "effects = [\"direct\"]",
+        "effects = [\"direct\", \"gi\"]",
         &["unknown variant `gi`"],
     );
-    assert_invalid(
-        &edit("intensity = 10", "intensity = 10\nradius = 2"),
+    invalid_after(
+        "intensity = 10",
+        "intensity = 10\nradius = 2",
         "light[0]",
         "unknown field `radius`",
     );
-    assert_invalid(
-        &edit("type = \"point\"", "type = \"spot\""),
+    invalid_after(
+        "type = \"point\"",
+        "type = \"spot\"",
         "light[0].type",
         "unknown light type `spot`",
     );
-    assert_invalid(
-        &edit("type = \"point\"\n", ""),
+    invalid_after(
+        "type = \"point\"\n",
+        "",
         "light[0].type",
         "missing field `type`",
     );
@@ -131,36 +148,35 @@ fn unknown_keys_are_rejected_with_their_name() {
 
 #[test]
 fn wrong_types_are_rejected() {
-    assert_syntax(
-        &edit("width = 8", "width = \"big\""),
-        &["width", "invalid type"],
-    );
-    assert_syntax(&edit("fov = 40", "fov = [40]"), &["fov", "invalid type"]);
-    assert_syntax(&edit("center = [0, 0, 0]", "center = [0, 0]"), &["center"]);
-    assert_syntax(
-        &edit("effects = [\"direct\"]", "effects = \"direct\""),
+    syntax_after("width = 8", "width = \"big\"", &["width", "invalid type"]);
+    syntax_after("fov = 40", "fov = [40]", &["fov", "invalid type"]);
+    syntax_after("center = [0, 0, 0]", "center = [0, 0]", &["center"]);
+    syntax_after(
+        "effects = [\"direct\"]",
+        "effects = \"direct\"",
         &["effects"],
     );
-    assert_invalid(
-        &edit("intensity = 10", "intensity = [1, 2]"),
+    invalid_after(
+        "intensity = 10",
+        "intensity = [1, 2]",
         "light[0]",
         "3 numbers",
     );
-    assert_invalid(
-        &edit("intensity = 10", "intensity = \"bright\""),
+    invalid_after(
+        "intensity = 10",
+        "intensity = \"bright\"",
         "light[0]",
         "a number or an [r, g, b]",
     );
-    assert_invalid(
-        &edit("type = \"point\"", "type = 3"),
+    invalid_after(
+        "type = \"point\"",
+        "type = 3",
         "light[0].type",
         "must be a string",
     );
-    assert_invalid(
-        &edit(
-            "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
-            "model = 3",
-        ),
+    invalid_after(
+        "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
+        "model = 3",
         "material.model",
         "must be a path to a model JSON file or an inline table",
     );
@@ -168,11 +184,12 @@ fn wrong_types_are_rejected() {
 
 #[test]
 fn missing_fields_are_rejected() {
-    assert_syntax(&edit("fov = 40\n", ""), &["missing field `fov`"]);
-    assert_syntax(&edit("width = 8\n", ""), &["missing field `width`"]);
-    assert_syntax(&edit("radius = 1\n", ""), &["missing field `radius`"]);
-    assert_invalid(
-        &edit("intensity = 10\n", ""),
+    syntax_after("fov = 40\n", "", &["missing field `fov`"]);
+    syntax_after("width = 8\n", "", &["missing field `width`"]);
+    syntax_after("radius = 1\n", "", &["missing field `radius`"]);
+    invalid_after(
+        "intensity = 10\n",
+        "",
         "light[0]",
         "missing field `intensity`",
     );
@@ -187,69 +204,63 @@ fn missing_fields_are_rejected() {
 
 #[test]
 fn out_of_domain_values_are_rejected_with_the_value() {
-    assert_invalid(&edit("fov = 40", "fov = 200"), "camera.fov", "got 200");
-    assert_invalid(&edit("fov = 40", "fov = 0"), "camera.fov", "(0, 180)");
-    assert_invalid(&edit("width = 8", "width = 0"), "film.width", "got 0");
-    assert_invalid(
-        &edit("height = 6", "height = 100000"),
-        "film.height",
-        "got 100000",
-    );
-    assert_invalid(
-        &edit("width = 8", "width = 8\nspp = 0"),
-        "film.spp",
-        "got 0",
-    );
-    assert_invalid(
-        &edit("width = 8", "width = 8\nexposure = inf"),
+    invalid_after("fov = 40", "fov = 200", "camera.fov", "got 200");
+    invalid_after("fov = 40", "fov = 0", "camera.fov", "(0, 180)");
+    invalid_after("width = 8", "width = 0", "film.width", "got 0");
+    invalid_after("height = 6", "height = 100000", "film.height", "got 100000");
+    invalid_after("width = 8", "width = 8\nspp = 0", "film.spp", "got 0");
+    invalid_after(
+        "width = 8",
+        "width = 8\nexposure = inf",
         "film.exposure",
         "finite",
     );
-    assert_invalid(
-        &edit("radius = 1", "radius = -1"),
-        "sphere.radius",
-        "got -1",
-    );
-    assert_invalid(
-        &edit("intensity = 10", "intensity = -1"),
+    invalid_after("radius = 1", "radius = -1", "sphere.radius", "got -1");
+    invalid_after(
+        "intensity = 10",
+        "intensity = -1",
         "light[0].intensity",
         "non-negative",
     );
-    assert_invalid(
-        &edit("intensity = 10", "intensity = [1, nan, 1]"),
+    invalid_after(
+        "intensity = 10",
+        "intensity = [1, nan, 1]",
         "light[0].intensity",
         "finite",
     );
-    assert_invalid(
-        &edit("position = [0, 0, 4]", "position = [0, 0, 0.5]"),
+    invalid_after(
+        "position = [0, 0, 4]",
+        "position = [0, 0, 0.5]",
         "camera.position",
         "inside the sphere",
     );
-    assert_invalid(
-        &edit("position = [2, 2, 2]", "position = [0, 0.5, 0]"),
+    invalid_after(
+        "position = [2, 2, 2]",
+        "position = [0, 0.5, 0]",
         "light[0].position",
         "inside the sphere",
     );
-    assert_invalid(
-        &edit("look_at = [0, 0, 0]", "look_at = [0, 0, 4]"),
+    invalid_after(
+        "look_at = [0, 0, 0]",
+        "look_at = [0, 0, 4]",
         "camera.look_at",
         "equals",
     );
-    assert_invalid(
-        &edit("fov = 40", "fov = 40\nup = [0, 0, 1]"),
+    invalid_after(
+        "fov = 40",
+        "fov = 40\nup = [0, 0, 1]",
         "camera.up",
         "parallel",
     );
-    assert_invalid(
-        &edit("fov = 40", "fov = 40\nup = [0, 0, 0]"),
+    invalid_after(
+        "fov = 40",
+        "fov = 40\nup = [0, 0, 0]",
         "camera.up",
         "non-zero",
     );
-    assert_invalid(
-        &edit(
-            "effects = [\"direct\"]",
-            "effects = [\"direct\", \"direct\"]",
-        ),
+    invalid_after(
+        "effects = [\"direct\"]",
+        "effects = [\"direct\", \"direct\"]",
         "effects",
         "listed twice",
     );
@@ -300,11 +311,9 @@ fn contradictory_material_keys_are_rejected() {
     assert_invalid(&both, "material", "not both");
     let lookup = edit("rho_d = 0.5 } }", "rho_d = 0.5 } }\nlookup = \"nearest\"");
     assert_invalid(&lookup, "material.lookup", "applies to a `table` only");
-    assert_syntax(
-        &edit(
-            "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
-            "table = \"x.binary\"\nlookup = \"cubic\"",
-        ),
+    syntax_after(
+        "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
+        "table = \"x.binary\"\nlookup = \"cubic\"",
         &["unknown variant `cubic`"],
     );
 }

@@ -10,6 +10,17 @@ use std::path::Path;
 
 const NAME: &str = "hostile.bsdf";
 
+/// Asserts that `result` is the error `RglError::$variant` naming `$field`.
+macro_rules! assert_error {
+    ($result:expr, $variant:ident, $field:literal) => {
+        let e = $result.unwrap_err();
+        assert!(
+            matches!(&e, RglError::$variant { field, .. } if field == $field),
+            "{e}"
+        );
+    };
+}
+
 fn good() -> Vec<Tensor> {
     common::fields(common::Spec {
         anisotropic: false,
@@ -36,6 +47,11 @@ fn error_with(edit: impl FnOnce(&mut Vec<Tensor>), field: &str) -> RglError {
     let msg = e.to_string();
     assert!(msg.contains(NAME) && msg.contains(field), "{msg}");
     e
+}
+
+/// [`error_with`] of the file whose field `name` is given `shape` and `data`.
+fn error_setting(name: &str, shape: &[u64], data: TensorData) -> RglError {
+    error_with(|f| set(f, name, shape, data), name)
 }
 
 fn set(f: &mut [Tensor], name: &str, shape: &[u64], data: TensorData) {
@@ -88,11 +104,7 @@ fn an_offset_past_the_end_names_the_field() {
     let mut bytes = bytes_of(&good());
     let (off, _) = slots(&bytes, 6); // vndf
     bytes[off..off + 8].copy_from_slice(&(u64::MAX - 3).to_le_bytes());
-    let e = read(bytes).unwrap_err();
-    assert!(
-        matches!(&e, RglError::OutOfBounds { field, .. } if field == "vndf"),
-        "{e}"
-    );
+    assert_error!(read(bytes), OutOfBounds, "vndf");
 }
 
 #[test]
@@ -102,11 +114,7 @@ fn a_shape_whose_product_overflows_names_the_field() {
     for k in 0..4 {
         bytes[shape + 8 * k..shape + 8 * k + 8].copy_from_slice(&(1u64 << 20).to_le_bytes());
     }
-    let e = read(bytes).unwrap_err();
-    assert!(
-        matches!(&e, RglError::ShapeOverflow { field, .. } if field == "vndf"),
-        "{e}"
-    );
+    assert_error!(read(bytes), ShapeOverflow, "vndf");
 }
 
 #[test]
@@ -114,11 +122,7 @@ fn a_huge_shape_inside_u64_is_out_of_bounds_not_an_allocation() {
     let mut bytes = bytes_of(&good());
     let (_, shape) = slots(&bytes, 7); // luminance
     bytes[shape..shape + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
-    let e = read(bytes).unwrap_err();
-    assert!(
-        matches!(&e, RglError::OutOfBounds { field, .. } if field == "luminance"),
-        "{e}"
-    );
+    assert_error!(read(bytes), OutOfBounds, "luminance");
 }
 
 #[test]
@@ -139,80 +143,38 @@ fn a_field_count_beyond_the_file_is_an_error_not_an_allocation() {
 
 #[test]
 fn shapes_that_disagree_name_the_field() {
-    let e = error_with(
-        |f| {
-            set(
-                f,
-                "vndf",
-                &[1, 7, 32, 32],
-                TensorData::F32(vec![1.0; 7 * 1024]),
-            )
-        },
+    let e = error_setting(
         "vndf",
+        &[1, 7, 32, 32],
+        TensorData::F32(vec![1.0; 7 * 1024]),
     );
     assert!(matches!(e, RglError::Shape { .. }));
-    error_with(
-        |f| {
-            set(
-                f,
-                "luminance",
-                &[1, 8, 16, 16],
-                TensorData::F32(vec![1.0; 8 * 256]),
-            )
-        },
+    error_setting(
         "luminance",
+        &[1, 8, 16, 16],
+        TensorData::F32(vec![1.0; 8 * 256]),
     );
-    error_with(
-        |f| {
-            set(
-                f,
-                "rgb",
-                &[1, 8, 4, 32, 32],
-                TensorData::F32(vec![1.0; 8 * 4 * 1024]),
-            )
-        },
+    error_setting(
         "rgb",
+        &[1, 8, 4, 32, 32],
+        TensorData::F32(vec![1.0; 8 * 4 * 1024]),
     );
-    error_with(
-        |f| set(f, "ndf", &[64], TensorData::F32(vec![1.0; 64])),
-        "ndf",
-    );
-    error_with(
-        |f| set(f, "sigma", &[1, 32], TensorData::F32(vec![1.0; 32])),
-        "sigma",
-    );
-    error_with(
-        |f| set(f, "jacobian", &[2], TensorData::U8(vec![1, 1])),
-        "jacobian",
-    );
+    error_setting("ndf", &[64], TensorData::F32(vec![1.0; 64]));
+    error_setting("sigma", &[1, 32], TensorData::F32(vec![1.0; 32]));
+    error_setting("jacobian", &[2], TensorData::U8(vec![1, 1]));
 }
 
 #[test]
 fn wrong_dtypes_name_the_field() {
-    let e = error_with(
-        |f| set(f, "theta_i", &[8], TensorData::F64(vec![0.1; 8])),
-        "theta_i",
-    );
+    let e = error_setting("theta_i", &[8], TensorData::F64(vec![0.1; 8]));
     assert!(matches!(e, RglError::Dtype { .. }));
-    error_with(
-        |f| set(f, "jacobian", &[1], TensorData::U32(vec![1])),
-        "jacobian",
-    );
-    error_with(
-        |f| {
-            set(
-                f,
-                "vndf",
-                &[1, 8, 32, 32],
-                TensorData::F64(vec![1.0; 8 * 1024]),
-            )
-        },
+    error_setting("jacobian", &[1], TensorData::U32(vec![1]));
+    error_setting(
         "vndf",
+        &[1, 8, 32, 32],
+        TensorData::F64(vec![1.0; 8 * 1024]),
     );
-    error_with(
-        |f| set(f, "valid", &[1024], TensorData::I8(vec![0; 1024])),
-        "valid",
-    );
+    error_setting("valid", &[1024], TensorData::I8(vec![0; 1024]));
 }
 
 #[test]
@@ -220,11 +182,7 @@ fn an_unknown_dtype_code_names_the_field() {
     let mut bytes = bytes_of(&good());
     let (off, _) = slots(&bytes, 4); // sigma: the dtype byte precedes the offset
     bytes[off - 1] = 12;
-    let e = read(bytes).unwrap_err();
-    assert!(
-        matches!(&e, RglError::Dtype { field, .. } if field == "sigma"),
-        "{e}"
-    );
+    assert_error!(read(bytes), Dtype, "sigma");
 }
 
 #[test]
@@ -255,18 +213,12 @@ fn nan_or_unsorted_theta_i_names_the_field() {
     assert!(matches!(e, RglError::Value { .. }));
     error_with(th(vec![0.0, 0.2, 0.1, 0.3, 0.4, 0.5, 0.6, 0.7]), "theta_i");
     error_with(th(vec![0.0, 0.1, 0.1, 0.3, 0.4, 0.5, 0.6, 0.7]), "theta_i");
-    error_with(
-        |f| set(f, "theta_i", &[0], TensorData::F32(vec![])),
-        "theta_i",
-    );
+    error_setting("theta_i", &[0], TensorData::F32(vec![]));
 }
 
 #[test]
 fn a_valid_field_of_the_wrong_length_names_the_field() {
-    let e = error_with(
-        |f| set(f, "valid", &[1023], TensorData::U8(vec![0; 1023])),
-        "valid",
-    );
+    let e = error_setting("valid", &[1023], TensorData::U8(vec![0; 1023]));
     assert!(matches!(e, RglError::Shape { .. }));
 }
 

@@ -2,6 +2,7 @@
 //! reruns resume without refitting, shards partition the database, and SIGINT leaves
 //! only complete files. The engine's logic has its unit tests in `brdfkit_fit::batch`.
 
+#[macro_use]
 mod common;
 
 use common::{assert_bad_input, bin, names, stderr, synth_to};
@@ -254,21 +255,18 @@ fn shards_partition_the_tables_and_their_summaries_merge() {
     let mut seen = Vec::new();
     let mut merged = String::new();
     for i in 1..=3 {
-        let o = bin()
-            .arg("batch")
-            .arg(&db)
-            .args([
-                "--models",
-                "lambert",
-                "--json",
-                "--quiet",
-                "--shard",
-                &format!("{i}/3"),
-                "--out",
-            ])
-            .arg(&out)
-            .output()
-            .unwrap();
+        let o = fit_brdf!(
+            "batch",
+            &db,
+            "--models",
+            "lambert",
+            "--json",
+            "--quiet",
+            "--shard",
+            &format!("{i}/3"),
+            "--out",
+            &out
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         let v = json_of(&o);
         assert_eq!(v["tables_matched"].as_u64(), Some(9));
@@ -302,15 +300,18 @@ fn shards_partition_the_tables_and_their_summaries_merge() {
         std::fs::copy(db.join(t), moved.join(t)).unwrap();
     }
     let shard_of = |dir: &Path| -> Vec<String> {
-        let o = bin()
-            .arg("batch")
-            .arg(dir)
-            .args([
-                "--models", "lambert", "--json", "--quiet", "--shard", "2/3", "--out",
-            ])
-            .arg(d.path().join(format!("o-{}", dir.components().count())))
-            .output()
-            .unwrap();
+        let o = fit_brdf!(
+            "batch",
+            dir,
+            "--models",
+            "lambert",
+            "--json",
+            "--quiet",
+            "--shard",
+            "2/3",
+            "--out",
+            d.path().join(format!("o-{}", dir.components().count()))
+        );
         json_of(&o)["results"]
             .as_array()
             .unwrap()
@@ -321,13 +322,7 @@ fn shards_partition_the_tables_and_their_summaries_merge() {
     assert_eq!(shard_of(&db), shard_of(&moved));
 
     for bad in ["0/3", "4/3", "1/0", "x/2", "2"] {
-        let o = bin()
-            .arg("batch")
-            .arg(&db)
-            .args(["--shard", bad, "--out"])
-            .arg(&out)
-            .output()
-            .unwrap();
+        let o = fit_brdf!("batch", &db, "--shard", bad, "--out", &out);
         assert_bad_input(&o, &["--shard"]);
     }
 }
@@ -339,24 +334,23 @@ fn inputs_globs_and_bad_usage() {
     let out = d.path().join("out");
     // A quoted glob (expanded by the batch) and explicit files (expanded by a shell).
     let pattern = format!("{}/t0[12].binary", db.display());
-    let o = bin()
-        .args([
-            "batch", &pattern, "--models", "lambert", "--json", "--quiet", "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "batch", &pattern, "--models", "lambert", "--json", "--quiet", "--out", &out
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(json_of(&o)["tables"].as_u64(), Some(2));
-    let o = bin()
-        .arg("batch")
-        .arg(db.join("t00.binary"))
-        .arg(db.join("t03.binary"))
-        .arg(db.join("t03.binary"))
-        .args(["--models", "lambert", "--json", "--quiet", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "batch",
+        db.join("t00.binary"),
+        db.join("t03.binary"),
+        db.join("t03.binary"),
+        "--models",
+        "lambert",
+        "--json",
+        "--quiet",
+        "--out",
+        &out
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         json_of(&o)["tables"].as_u64(),
@@ -364,13 +358,14 @@ fn inputs_globs_and_bad_usage() {
         "duplicates count once"
     );
     // Not quiet: the summary on stdout, per-table lines on stderr; quiet: nothing on stderr.
-    let o = bin()
-        .arg("batch")
-        .arg(&db)
-        .args(["--models", "lambert", "--out"])
-        .arg(d.path().join("loud"))
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "batch",
+        &db,
+        "--models",
+        "lambert",
+        "--out",
+        d.path().join("loud")
+    );
     assert!(o.status.success());
     let s = String::from_utf8_lossy(&o.stdout);
     assert!(
@@ -382,13 +377,15 @@ fn inputs_globs_and_bad_usage() {
         "{}",
         stderr(&o)
     );
-    let o = bin()
-        .arg("batch")
-        .arg(&db)
-        .args(["--models", "lambert", "--quiet", "--out"])
-        .arg(d.path().join("loud"))
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "batch",
+        &db,
+        "--models",
+        "lambert",
+        "--quiet",
+        "--out",
+        d.path().join("loud")
+    );
     assert!(o.status.success() && o.stderr.is_empty(), "{}", stderr(&o));
 
     let empty = d.path().join("empty");
@@ -572,12 +569,9 @@ fn a_bsdf_goes_into_a_batch_beside_tables() {
     );
 
     // The batch's Lambert fit of the felt equals `fit`'s of the file.
-    let fit = bin()
-        .args(["fit"])
-        .arg(&felt)
-        .args(["--model", "lambert", "--starts", "1", "--json", "--quiet"])
-        .output()
-        .unwrap();
+    let fit = fit_brdf!(
+        "fit", &felt, "--model", "lambert", "--starts", "1", "--json", "--quiet"
+    );
     assert_eq!(fit.status.code(), Some(0), "{}", stderr(&fit));
     let alone = json_of(&fit);
     let rec: Value =

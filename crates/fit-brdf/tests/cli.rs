@@ -1,9 +1,11 @@
 //! Drives the `fit-brdf` binary as a user would: every subcommand and its failure modes.
 
+#[macro_use]
 mod common;
 
 use common::{
-    assert_bad_input, bin, small_plastic_spec, spec_text, stderr, synth_output, synth_spec,
+    assert_bad_input, bin, names, small_plastic_spec, spec_text, stderr, synth_output, synth_spec,
+    write_file,
 };
 use std::path::{Path, PathBuf};
 
@@ -30,11 +32,11 @@ fn synth_then_info_text_and_json() {
         std::fs::metadata(&t).unwrap().len(),
         12 + 3 * 8 * 16 * 16 * 32
     );
-    let o = bin().arg("info").arg(&t).output().unwrap();
+    let o = fit_brdf!("info", &t);
     assert!(o.status.success());
     let s = String::from_utf8(o.stdout).unwrap();
     assert!(s.contains("16 x 16 x 32"), "{s}");
-    let o = bin().arg("info").arg(&t).arg("--json").output().unwrap();
+    let o = fit_brdf!("info", &t, "--json");
     assert!(o.status.success());
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["dims"], serde_json::json!([16, 16, 32]));
@@ -68,18 +70,14 @@ fn info_rejects_bad_tables_with_exit_2_and_the_file_name() {
     for (name, bytes) in cases {
         let p = d.path().join(name);
         std::fs::write(&p, bytes).unwrap();
-        let o = bin().arg("info").arg(&p).output().unwrap();
+        let o = fit_brdf!("info", &p);
         assert_eq!(o.status.code(), Some(2), "{name}");
         let e = stderr(&o);
         assert!(e.starts_with("error: ") && e.contains(name), "{name}: {e}");
     }
-    let o = bin().arg("info").arg(d.path()).output().unwrap();
+    let o = fit_brdf!("info", d.path());
     assert_eq!(o.status.code(), Some(2), "a directory is bad input");
-    let o = bin()
-        .arg("info")
-        .arg(d.path().join("nope.binary"))
-        .output()
-        .unwrap();
+    let o = fit_brdf!("info", d.path().join("nope.binary"));
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("nope.binary"));
 }
@@ -114,15 +112,12 @@ fn eval_table_and_model_write_one_row_per_pair() {
         assert!((r - 0.5 / std::f64::consts::PI).abs() < 1e-12);
         assert_eq!(lines[3], ",,", "below the horizon there is no sample");
     }
-    let model = d.path().join("m.json");
-    std::fs::write(&model, r#"{"model": "lambert", "params": {"rho_d": 0.3}}"#).unwrap();
-    let o = bin()
-        .args(["eval", "--model"])
-        .arg(&model)
-        .arg("--dirs")
-        .arg(&dirs)
-        .output()
-        .unwrap();
+    let model = write_file(
+        d.path(),
+        "m.json",
+        r#"{"model": "lambert", "params": {"rho_d": 0.3}}"#,
+    );
+    let o = fit_brdf!("eval", "--model", &model, "--dirs", &dirs);
     assert!(o.status.success(), "{}", stderr(&o));
     let s = String::from_utf8(o.stdout).unwrap();
     let lines: Vec<&str> = s.lines().collect();
@@ -134,15 +129,12 @@ fn eval_table_and_model_write_one_row_per_pair() {
 fn eval_rejects_bad_input_with_exit_2() {
     let d = tempfile::tempdir().unwrap();
     let t = small_table(d.path());
-    let dirs = d.path().join("bad.csv");
-    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,2,0,0,1\n").unwrap();
-    let o = bin()
-        .args(["eval", "--table"])
-        .arg(&t)
-        .arg("--dirs")
-        .arg(&dirs)
-        .output()
-        .unwrap();
+    let dirs = write_file(
+        d.path(),
+        "bad.csv",
+        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,2,0,0,1\n",
+    );
+    let o = fit_brdf!("eval", "--table", &t, "--dirs", &dirs);
     assert_bad_input(&o, &["bad.csv: line 2"]);
     let model = d.path().join("m.json");
     for (text, what) in [
@@ -151,26 +143,20 @@ fn eval_rejects_bad_input_with_exit_2() {
         ("{not json", "not valid JSON"),
     ] {
         std::fs::write(&model, text).unwrap();
-        let good = d.path().join("good.csv");
-        std::fs::write(&good, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
-        let o = bin()
-            .args(["eval", "--model"])
-            .arg(&model)
-            .arg("--dirs")
-            .arg(&good)
-            .output()
-            .unwrap();
+        let good = write_file(
+            d.path(),
+            "good.csv",
+            "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
+        );
+        let o = fit_brdf!("eval", "--model", &model, "--dirs", &good);
         assert_eq!(o.status.code(), Some(2), "{text}");
         let e = stderr(&o);
         assert!(e.contains("m.json") && e.contains(what), "{e}");
     }
     // Both sources, or none: usage errors.
-    let o = bin().args(["eval", "--dirs", "x.csv"]).output().unwrap();
+    let o = fit_brdf!("eval", "--dirs", "x.csv");
     assert_eq!(o.status.code(), Some(2));
-    let o = bin()
-        .args(["eval", "--table", "a", "--model", "b", "--dirs", "x.csv"])
-        .output()
-        .unwrap();
+    let o = fit_brdf!("eval", "--table", "a", "--model", "b", "--dirs", "x.csv");
     assert_eq!(o.status.code(), Some(2));
 }
 
@@ -190,12 +176,11 @@ fn resample_table_and_model() {
         std::fs::metadata(&out).unwrap().len(),
         12 + 24 * 32 * 16 * 64
     );
-    let model = d.path().join("m.json");
-    std::fs::write(
-        &model,
+    let model = write_file(
+        d.path(),
+        "m.json",
         r#"{"model": "lambert", "params": {"rho_d": [0.1, 0.2, 0.3]}}"#,
-    )
-    .unwrap();
+    );
     let mt = d.path().join("model.binary");
     bin()
         .args(["resample", "--model"])
@@ -204,18 +189,20 @@ fn resample_table_and_model() {
         .arg(&mt)
         .assert()
         .success();
-    let o = bin().arg("info").arg(&mt).arg("--json").output().unwrap();
+    let o = fit_brdf!("info", &mt, "--json");
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let g = v["channels"]["g"]["max"].as_f64().unwrap();
     assert!((g - 0.2 / std::f64::consts::PI).abs() < 1e-12);
     for bad in ["1,2", "0,1,1", "a,b,c", "-1,2,3"] {
-        let o = bin()
-            .args(["resample", "--table"])
-            .arg(&t)
-            .args(["--dims", bad, "--out"])
-            .arg(d.path().join("x.binary"))
-            .output()
-            .unwrap();
+        let o = fit_brdf!(
+            "resample",
+            "--table",
+            &t,
+            "--dims",
+            bad,
+            "--out",
+            d.path().join("x.binary")
+        );
         assert_bad_input(&o, &["--dims"]);
     }
 }
@@ -223,27 +210,22 @@ fn resample_table_and_model() {
 #[test]
 fn write_failure_is_exit_1_and_leaves_nothing_behind() {
     let d = tempfile::tempdir().unwrap();
-    let spec = d.path().join("small.toml");
-    std::fs::write(&spec, small_lambert()).unwrap();
+    let spec = write_file(d.path(), "small.toml", small_lambert());
     let o = synth_output(&spec, &d.path().join("no-such-dir").join("t.binary"));
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("t.binary"));
-    let names: Vec<_> = std::fs::read_dir(d.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
+    let names = names(d.path());
     assert_eq!(names.len(), 1, "only the spec: {names:?}");
 }
 
 #[test]
 fn synth_rejects_a_bad_spec_with_exit_2() {
     let d = tempfile::tempdir().unwrap();
-    let spec = d.path().join("bad.toml");
-    std::fs::write(
-        &spec,
+    let spec = write_file(
+        d.path(),
+        "bad.toml",
         "name = \"x\"\ncolour = 1\n[material]\nmodel = \"lambert\"\n",
-    )
-    .unwrap();
+    );
     let o = synth_output(&spec, &d.path().join("t.binary"));
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
@@ -253,36 +235,29 @@ fn synth_rejects_a_bad_spec_with_exit_2() {
 
 #[test]
 fn unknown_subcommand_is_a_usage_error() {
-    let o = bin().arg("frobnicate").output().unwrap();
+    let o = fit_brdf!("frobnicate");
     assert_eq!(o.status.code(), Some(2));
 }
 
 #[test]
 fn check_passes_lambert_fails_phong_and_checks_tables() {
     let d = tempfile::tempdir().unwrap();
-    let lambert = d.path().join("lambert.json");
-    std::fs::write(
-        &lambert,
+    let lambert = write_file(
+        d.path(),
+        "lambert.json",
         r#"{"model": "lambert", "params": {"rho_d": 0.7}}"#,
-    )
-    .unwrap();
-    let o = bin().arg("check").arg(&lambert).output().unwrap();
+    );
+    let o = fit_brdf!("check", &lambert);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = bin()
-        .arg("check")
-        .arg(&lambert)
-        .arg("--json")
-        .output()
-        .unwrap();
+    let o = fit_brdf!("check", &lambert, "--json");
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["passed"], true);
-    let phong = d.path().join("phong.json");
-    std::fs::write(
-        &phong,
+    let phong = write_file(
+        d.path(),
+        "phong.json",
         r#"{"model": "phong", "params": {"k_d": 0.1, "k_s": 0.5, "n": 10}}"#,
-    )
-    .unwrap();
-    let o = bin().arg("check").arg(&phong).output().unwrap();
+    );
+    let o = fit_brdf!("check", &phong);
     assert_eq!(
         o.status.code(),
         Some(1),
@@ -291,11 +266,11 @@ fn check_passes_lambert_fails_phong_and_checks_tables() {
     let s = String::from_utf8_lossy(&o.stdout);
     assert!(s.contains("reciprocity") && s.contains("FAIL"), "{s}");
     let t = small_table(d.path());
-    let o = bin().arg("check").arg(&t).arg("--json").output().unwrap();
+    let o = fit_brdf!("check", &t, "--json");
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["passed"], true);
-    let o = bin().arg("check").arg(d.path()).output().unwrap();
+    let o = fit_brdf!("check", d.path());
     assert_eq!(o.status.code(), Some(2));
 }
 
@@ -306,16 +281,9 @@ fn render_writes_png_and_exr_and_rejects_bad_scenes() {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/sphere-point.toml");
     let png = d.path().join("s.png");
     let exr = d.path().join("s.exr");
-    let o = bin()
-        .arg("render")
-        .arg(&scene)
-        .arg("--out")
-        .arg(&png)
-        .arg("--exr")
-        .arg(&exr)
-        .args(["--size", "32x24"])
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "render", &scene, "--out", &png, "--exr", &exr, "--size", "32x24"
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let s = stderr(&o);
     assert!(
@@ -326,23 +294,10 @@ fn render_writes_png_and_exr_and_rejects_bad_scenes() {
     assert_eq!(&png_bytes[..8], b"\x89PNG\r\n\x1a\n");
     let exr_bytes = std::fs::read(&exr).unwrap();
     assert_eq!(&exr_bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "EXR magic");
-    let o = bin()
-        .arg("render")
-        .arg(&scene)
-        .arg("--out")
-        .arg(d.path().join("s.jpg"))
-        .output()
-        .unwrap();
+    let o = fit_brdf!("render", &scene, "--out", d.path().join("s.jpg"));
     assert_eq!(o.status.code(), Some(2));
-    let bad = d.path().join("bad.toml");
-    std::fs::write(&bad, "effects = [\"direct\"]\nwibble = 1\n").unwrap();
-    let o = bin()
-        .arg("render")
-        .arg(&bad)
-        .arg("--out")
-        .arg(&png)
-        .output()
-        .unwrap();
+    let bad = write_file(d.path(), "bad.toml", "effects = [\"direct\"]\nwibble = 1\n");
+    let o = fit_brdf!("render", &bad, "--out", &png);
     assert_bad_input(&o, &["bad.toml"]);
 }
 
@@ -357,25 +312,22 @@ fn fit_recovers_a_synthetic_plastic_and_writes_params_and_record() {
     let t = small_plastic(d.path());
     let params = d.path().join("params.json");
     let record = d.path().join("fit.json");
-    let o = bin()
-        .arg("fit")
-        .arg(&t)
-        .args([
-            "--model",
-            "cook-torrance",
-            "--distribution",
-            "ggx",
-            "--fresnel",
-            "schlick",
-            "--starts",
-            "2",
-            "--out",
-        ])
-        .arg(&params)
-        .arg("--record")
-        .arg(&record)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "fit",
+        &t,
+        "--model",
+        "cook-torrance",
+        "--distribution",
+        "ggx",
+        "--fresnel",
+        "schlick",
+        "--starts",
+        "2",
+        "--out",
+        &params,
+        "--record",
+        &record
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let p: serde_json::Value = serde_json::from_slice(&std::fs::read(&params).unwrap()).unwrap();
     let alpha = p["params"]["alpha"].as_f64().unwrap();
@@ -384,8 +336,11 @@ fn fit_recovers_a_synthetic_plastic_and_writes_params_and_record() {
     assert!(r["losses_full"]["cbrt"]["overall"].as_f64().unwrap() < 1e-10);
     assert!(r["starts"].as_array().unwrap().len() >= 2);
     // The fitted parameters are a model the other commands read.
-    let dirs = d.path().join("dirs.csv");
-    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let dirs = write_file(
+        d.path(),
+        "dirs.csv",
+        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
+    );
     bin()
         .args(["eval", "--model"])
         .arg(&params)
@@ -400,21 +355,18 @@ fn fit_compares_several_models() {
     let d = tempfile::tempdir().unwrap();
     let t = small_plastic(d.path());
     let out = d.path().join("fits");
-    let o = bin()
-        .arg("fit")
-        .arg(&t)
-        .args([
-            "--model",
-            "lambert,plausible-phong,cook-torrance",
-            "--starts",
-            "2",
-            "--json",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "fit",
+        &t,
+        "--model",
+        "lambert,plausible-phong,cook-torrance",
+        "--starts",
+        "2",
+        "--json",
+        "--quiet",
+        "--out",
+        &out
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let losses: Vec<f64> = v
@@ -461,51 +413,35 @@ fn fit_rejects_bad_options_with_exit_2() {
 #[test]
 fn quiet_and_json_options_where_results_are_printed() {
     let d = tempfile::tempdir().unwrap();
-    let spec = d.path().join("small.toml");
-    std::fs::write(&spec, small_lambert()).unwrap();
+    let spec = write_file(d.path(), "small.toml", small_lambert());
     let t = d.path().join("t.binary");
-    let o = bin()
-        .arg("synth")
-        .arg(&spec)
-        .arg("--out")
-        .arg(&t)
-        .arg("--quiet")
-        .output()
-        .unwrap();
+    let o = fit_brdf!("synth", &spec, "--out", &t, "--quiet");
     assert!(o.status.success() && o.stdout.is_empty() && o.stderr.is_empty());
     let r = d.path().join("r.binary");
-    let o = bin()
-        .args(["resample", "--table"])
-        .arg(&t)
-        .args(["--dims", "8,8,16", "-q", "--out"])
-        .arg(&r)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "resample", "--table", &t, "--dims", "8,8,16", "-q", "--out", &r
+    );
     assert!(o.status.success() && o.stderr.is_empty());
-    let phong = d.path().join("phong.json");
-    std::fs::write(
-        &phong,
+    let phong = write_file(
+        d.path(),
+        "phong.json",
         r#"{"model": "phong", "params": {"k_d": 0.1, "k_s": 0.5, "n": 10}}"#,
-    )
-    .unwrap();
-    let o = bin()
-        .arg("check")
-        .arg(&phong)
-        .arg("--quiet")
-        .output()
-        .unwrap();
+    );
+    let o = fit_brdf!("check", &phong, "--quiet");
     assert_eq!(o.status.code(), Some(1));
     assert!(o.stdout.is_empty());
     let scene =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/sphere-point.toml");
-    let o = bin()
-        .arg("render")
-        .arg(&scene)
-        .arg("--out")
-        .arg(d.path().join("s.png"))
-        .args(["--size", "16x16", "--json", "--quiet"])
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "render",
+        &scene,
+        "--out",
+        d.path().join("s.png"),
+        "--size",
+        "16x16",
+        "--json",
+        "--quiet"
+    );
     assert!(o.status.success() && o.stderr.is_empty(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["effects"]["direct"]["requested"], true);

@@ -1,9 +1,10 @@
 //! `fit-brdf compare A B`: tables, models and NBRDFs against each other, driven as a
 //! user would.
 
+#[macro_use]
 mod common;
 
-use common::{bin, plastic_and_lambert, red_plastic, stderr, synth_spec};
+use common::{bin, plastic_and_lambert, red_plastic, stderr, synth_spec, write_file};
 use serde_json::Value;
 use std::path::Path;
 
@@ -137,14 +138,17 @@ fn renders_and_json_are_written() {
     let d = tempfile::tempdir().unwrap();
     let (t, m) = plastic_and_lambert(d.path());
     let out = d.path().join("cmp");
-    let o = bin()
-        .arg("compare")
-        .arg(&t)
-        .arg(&m)
-        .args(["--render-size", "16", "--env-spp", "2", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "compare",
+        &t,
+        &m,
+        "--render-size",
+        "16",
+        "--env-spp",
+        "2",
+        "--out",
+        &out
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("render (point light)"), "{text}");
@@ -164,16 +168,15 @@ fn renders_and_json_are_written() {
             > 0.0
     );
     // An output directory that cannot be created: a runtime failure, exit 1.
-    let blocker = d.path().join("file");
-    std::fs::write(&blocker, "x").unwrap();
-    let o = bin()
-        .arg("compare")
-        .arg(&t)
-        .arg(&m)
-        .args(["--no-renders", "--out"])
-        .arg(blocker.join("sub"))
-        .output()
-        .unwrap();
+    let blocker = write_file(d.path(), "file", "x");
+    let o = fit_brdf!(
+        "compare",
+        &t,
+        &m,
+        "--no-renders",
+        "--out",
+        blocker.join("sub")
+    );
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
 }
 
@@ -181,16 +184,13 @@ fn renders_and_json_are_written() {
 fn unrecognised_and_incompatible_inputs_exit_2_naming_the_file() {
     let d = tempfile::tempdir().unwrap();
     let t = synth_spec(d.path(), "plastic", &red_plastic());
-    let txt = d.path().join("notes.txt");
-    std::fs::write(&txt, "hello").unwrap();
-    let aniso = d.path().join("aniso.json");
-    std::fs::write(
-        &aniso,
+    let txt = write_file(d.path(), "notes.txt", "hello");
+    let aniso = write_file(
+        d.path(),
+        "aniso.json",
         r#"{"model": "ward", "params": {"rho_d": 0.2, "rho_s": 0.1, "alpha_x": 0.1, "alpha_y": 0.3}}"#,
-    )
-    .unwrap();
-    let bad = d.path().join("bad.json");
-    std::fs::write(&bad, "[1, 2").unwrap();
+    );
+    let bad = write_file(d.path(), "bad.json", "[1, 2");
     for (a, b, want) in [
         (&t, &txt, "notes.txt"),
         (&t, &d.path().join("nothing-here"), "nothing-here"),

@@ -1,13 +1,14 @@
 //! `fit-brdf completions SHELL`: a completion script for every shell clap_complete knows,
 //! listing every subcommand; and the help conventions of batch, export and completions.
 
+#[macro_use]
 mod common;
 
 use common::{bin, stderr};
 
 /// The subcommands as `fit-brdf --help` lists them (so a new one is checked too).
 fn subcommands() -> Vec<String> {
-    let o = bin().arg("--help").output().unwrap();
+    let o = fit_brdf!("--help");
     assert!(o.status.success());
     let help = String::from_utf8(o.stdout).unwrap();
     let section = help
@@ -28,7 +29,7 @@ fn subcommands() -> Vec<String> {
 
 #[test]
 fn bash_completion_mentions_every_subcommand() {
-    let o = bin().args(["completions", "bash"]).output().unwrap();
+    let o = fit_brdf!("completions", "bash");
     assert!(o.status.success());
     let script = String::from_utf8(o.stdout).unwrap();
     assert!(
@@ -54,22 +55,22 @@ fn every_shell_gets_a_script_and_a_bad_shell_is_a_usage_error() {
         ("elvish", "fit-brdf"),
         ("powershell", "Register-ArgumentCompleter"),
     ] {
-        let o = bin().args(["completions", shell]).output().unwrap();
+        let o = fit_brdf!("completions", shell);
         assert!(o.status.success(), "{shell}");
         let s = String::from_utf8(o.stdout).unwrap();
         assert!(s.contains(marker), "{shell}: {}", &s[..s.len().min(200)]);
         assert!(s.contains("batch") && s.contains("export"), "{shell}");
     }
-    let o = bin().args(["completions", "tcsh"]).output().unwrap();
+    let o = fit_brdf!("completions", "tcsh");
     assert_eq!(o.status.code(), Some(2));
-    let o = bin().arg("completions").output().unwrap();
+    let o = fit_brdf!("completions");
     assert_eq!(o.status.code(), Some(2));
 }
 
 #[test]
 fn batch_export_and_completions_show_examples_in_their_help() {
     for sub in ["batch", "export", "completions"] {
-        let o = bin().args([sub, "--help"]).output().unwrap();
+        let o = fit_brdf!(sub, "--help");
         assert!(o.status.success(), "{sub}");
         let h = String::from_utf8(o.stdout).unwrap();
         assert!(

@@ -2,22 +2,23 @@
 //! (no model fits it exactly, and the report says so), on the synthetic plastic with
 //! known parameters under `--synthetic` (its own family fits it to round-off).
 
-use assert_cmd::Command;
+mod common;
+
+use common::{bin, names, stderr};
 use serde_json::Value;
 use std::path::Path;
 
 /// Runs the demo into a fresh directory; returns its stdout and report.json.
 fn demo(dir: &Path, extra: &[&str]) -> (String, Value) {
     let out = dir.join("demo");
-    let o = Command::cargo_bin("fit-brdf")
-        .unwrap()
+    let o = bin()
         .arg("demo")
         .arg("--out")
         .arg(&out)
         .args(extra)
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "{}", stderr(&o));
     let s = String::from_utf8(o.stdout).unwrap();
     // The steps, in order: the round trip, the fits, the report and where it is.
     let at = |needle: &str| {
@@ -28,11 +29,7 @@ fn demo(dir: &Path, extra: &[&str]) -> (String, Value) {
     assert!(at("optimised: cbrt") < at("report written"));
     let page = out.join("report").join("index.html");
     assert!(s.contains(&page.display().to_string()), "{s}");
-    let mut names: Vec<String> = std::fs::read_dir(out.join("report"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
+    let names = names(&out.join("report"));
     assert_eq!(names, ["index.html", "report.json"]);
     let html = std::fs::read_to_string(&page).unwrap();
     assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 22);

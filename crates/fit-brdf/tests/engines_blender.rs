@@ -27,70 +27,22 @@
 //! Needs `blender` (`apt-get install --no-install-recommends blender python3-numpy`;
 //! `.ci/run` does it); ignored with the reason otherwise, failing under CI.
 
+#[macro_use]
 mod common;
 #[path = "../../../build/external_tools.rs"]
 #[macro_use]
 mod external_tools;
 
-use common::{bin, stderr};
+use common::{export_gltf, gltf_extension_variants, stderr, write_file};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
 /// The variants `fit --for gltf` chooses between, and all extensions at once.
 fn variants() -> Vec<(&'static str, Value)> {
     let core = json!({"base_color": [0.6, 0.2, 0.1], "metallic": 0.3, "roughness": 0.55});
-    let with = |extra: Value| {
-        let mut p = core.clone();
-        for (k, v) in extra.as_object().unwrap() {
-            p[k] = v.clone();
-        }
-        json!({"model": "gltf-pbr-ext", "params": p})
-    };
-    vec![
-        ("core", json!({"model": "gltf-pbr", "params": core})),
-        (
-            "sheen",
-            with(
-                json!({"extensions": ["sheen"], "sheen_color": [0.7, 0.5, 0.4], "sheen_roughness": 0.4}),
-            ),
-        ),
-        (
-            "clearcoat",
-            with(
-                json!({"extensions": ["clearcoat"], "clearcoat": 0.8, "clearcoat_roughness": 0.15}),
-            ),
-        ),
-        (
-            "specular",
-            with(
-                json!({"extensions": ["specular"], "specular": 0.6, "specular_color": [1.4, 1.0, 0.8], "ior": 1.6}),
-            ),
-        ),
-        (
-            "all",
-            with(
-                json!({"extensions": ["sheen", "clearcoat", "specular"], "sheen_color": 0.5,
-                "sheen_roughness": 0.3, "clearcoat": 0.3, "clearcoat_roughness": 0.1, "specular": 0.9,
-                "specular_color": [0.9, 1.0, 1.2], "ior": 1.45}),
-            ),
-        ),
-    ]
-}
-
-/// `fit-brdf export --to gltf` of `model` into `dir/<name>.gltf`.
-fn export_gltf(dir: &Path, name: &str, model: &Value) -> PathBuf {
-    let params = dir.join(format!("{name}.json"));
-    std::fs::write(&params, model.to_string()).unwrap();
-    let out = dir.join(format!("{name}.gltf"));
-    let o = bin()
-        .arg("export")
-        .arg(&params)
-        .args(["--to", "gltf", "--quiet", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "export {name}: {}", stderr(&o));
-    out
+    let mut v = vec![("core", json!({"model": "gltf-pbr", "params": core}))];
+    v.extend(gltf_extension_variants(&core));
+    v
 }
 
 fn rgb(v: &Value) -> [f64; 3] {
@@ -256,8 +208,7 @@ blender_test! {
         let e = &mut bad["materials"][0]["extensions"];
         e["KHR_materials_clearcoat"]["clearcoatFactor"] = json!(0.5);
         e["KHR_materials_sheen"]["sheenRoughnessFactor"] = json!(0.6);
-        let bad_file = d.path().join("altered.gltf");
-        std::fs::write(&bad_file, bad.to_string()).unwrap();
+        let bad_file = write_file(d.path(), "altered.gltf", bad.to_string());
         files.push(bad_file);
 
         let got = blender_import(d.path(), &files);

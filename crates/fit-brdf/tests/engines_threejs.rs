@@ -30,13 +30,14 @@
 //! Needs chromium, node and `npm install --prefix target/browser-test playwright-core@1.65.1
 //! three@0.187.0` (`.ci/run` does it); ignored with the reason otherwise, failing under CI.
 
+#[macro_use]
 mod common;
 #[path = "../../../build/external_tools.rs"]
 #[macro_use]
 mod external_tools;
 
 use brdfkit::models::sheen::{SheenVisibility, sheen_albedo};
-use common::{bin, stderr};
+use common::{export_gltf, gltf_extension_variants, stderr};
 use serde_json::{Value, json};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -70,57 +71,21 @@ fn light_from() -> V3 {
     normalize([-0.4, 0.5, 0.77])
 }
 
-/// One `gltf-pbr-ext` description per variant (the `gltf-pbr` core where it has none).
+/// One `gltf-pbr-ext` description per variant (the `gltf-pbr` core where it has none):
+/// the cores and each extension alone.
 fn variants() -> Vec<(&'static str, Value)> {
     let core = json!({"base_color": [0.6, 0.2, 0.1], "metallic": 0.0, "roughness": 0.5});
-    let with = |extra: Value| {
-        let mut p = core.clone();
-        for (k, v) in extra.as_object().unwrap() {
-            p[k] = v.clone();
-        }
-        json!({"model": "gltf-pbr-ext", "params": p})
-    };
-    vec![
+    let metal = json!({"base_color": [0.9, 0.6, 0.3], "metallic": 1.0, "roughness": 0.5});
+    let mut v = vec![
         ("core", json!({"model": "gltf-pbr", "params": core})),
-        (
-            "core-metal",
-            json!({"model": "gltf-pbr", "params": {"base_color": [0.9, 0.6, 0.3], "metallic": 1.0, "roughness": 0.5}}),
-        ),
-        (
-            "sheen",
-            with(
-                json!({"extensions": ["sheen"], "sheen_color": [0.7, 0.5, 0.4], "sheen_roughness": 0.4}),
-            ),
-        ),
-        (
-            "clearcoat",
-            with(
-                json!({"extensions": ["clearcoat"], "clearcoat": 0.8, "clearcoat_roughness": 0.15}),
-            ),
-        ),
-        (
-            "specular",
-            with(
-                json!({"extensions": ["specular"], "specular": 0.6, "specular_color": [1.4, 1.0, 0.8], "ior": 1.6}),
-            ),
-        ),
-    ]
-}
-
-/// `fit-brdf export --to gltf` of `model` into `dir/<name>.gltf`.
-fn export_gltf(dir: &Path, name: &str, model: &Value) -> PathBuf {
-    let params = dir.join(format!("{name}.json"));
-    std::fs::write(&params, model.to_string()).unwrap();
-    let out = dir.join(format!("{name}.gltf"));
-    let o = bin()
-        .arg("export")
-        .arg(&params)
-        .args(["--to", "gltf", "--quiet", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "export {name}: {}", stderr(&o));
-    out
+        ("core-metal", json!({"model": "gltf-pbr", "params": metal})),
+    ];
+    v.extend(
+        gltf_extension_variants(&core)
+            .into_iter()
+            .filter(|(n, _)| *n != "all"),
+    );
+    v
 }
 
 /// `fit-brdf render` of `model` under the shared light and camera: linear RGB, rows
@@ -138,14 +103,7 @@ fn brdfkit_render(dir: &Path, name: &str, model: &Value) -> Vec<[f32; 3]> {
     std::fs::write(&path, scene).unwrap();
     std::fs::write(dir.join(format!("{name}.json")), model.to_string()).unwrap();
     let exr = dir.join(format!("{name}.exr"));
-    let o = bin()
-        .arg("render")
-        .arg(&path)
-        .arg("--out")
-        .arg(&exr)
-        .arg("--quiet")
-        .output()
-        .unwrap();
+    let o = fit_brdf!("render", &path, "--out", &exr, "--quiet");
     assert!(o.status.success(), "render {name}: {}", stderr(&o));
     let img = image::open(&exr).unwrap().to_rgb32f();
     assert_eq!(img.dimensions(), (SIZE as u32, SIZE as u32));

@@ -8,6 +8,7 @@
 //! build/external_tools.rs); with `CI` set (to anything but "", "0" or "false") a missing
 //! Mitsuba fails it.
 
+#[macro_use]
 mod common;
 #[path = "../../../build/external_tools.rs"]
 #[macro_use]
@@ -16,7 +17,10 @@ mod external_tools;
 use brdfkit::core::{Rgb, Vec3};
 use brdfkit::models::cook_torrance::Shape;
 use brdfkit_validate::mitsuba::{CrossConfig, Tolerance, cases, compare};
-use common::{assert_bad_input, bin, stderr, synth_spec};
+use common::{
+    assert_bad_input, bin, gltf_extension_variants, gltf_pbr_ext, names, stderr, synth_spec,
+    write_file,
+};
 use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -462,13 +466,7 @@ fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
     for (model, to, what) in cases {
         std::fs::write(&p, model.to_string()).unwrap();
         let out = d.path().join("never.xml");
-        let o = bin()
-            .arg("export")
-            .arg(&p)
-            .args(["--to", to, "--out"])
-            .arg(&out)
-            .output()
-            .unwrap();
+        let o = fit_brdf!("export", &p, "--to", to, "--out", &out);
         assert_eq!(o.status.code(), Some(2), "{model}: {}", stderr(&o));
         let e = stderr(&o);
         assert!(e.contains("m.json") && e.contains(what), "{model}: {e}");
@@ -503,16 +501,13 @@ fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
 #[test]
 fn export_writes_the_file_atomically_and_notes_on_stderr() {
     let d = tempfile::tempdir().unwrap();
-    let p = d.path().join("m.json");
-    std::fs::write(&p, r#"{"model": "lambert", "params": {"rho_d": 0.4}}"#).unwrap();
+    let p = write_file(
+        d.path(),
+        "m.json",
+        r#"{"model": "lambert", "params": {"rho_d": 0.4}}"#,
+    );
     let out = d.path().join("bsdf.xml");
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "mitsuba", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("export", &p, "--to", "mitsuba", "--out", &out);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(o.stdout.is_empty());
     assert!(stderr(&o).contains("note:"), "{}", stderr(&o));
@@ -521,8 +516,7 @@ fn export_writes_the_file_atomically_and_notes_on_stderr() {
     {
         // Readable like a plainly created file (not tempfile's owner-only 0o600).
         use std::os::unix::fs::PermissionsExt;
-        let plain = d.path().join("plain");
-        std::fs::write(&plain, "x").unwrap();
+        let plain = write_file(d.path(), "plain", "x");
         let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o444;
         assert_eq!(mode(&out), mode(&plain));
         std::fs::remove_file(&plain).unwrap();
@@ -532,18 +526,9 @@ fn export_writes_the_file_atomically_and_notes_on_stderr() {
         "{x}"
     );
     assert!(x.contains("value=\"0.4, 0.4, 0.4\""), "{x}");
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "mitsuba", "--quiet", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("export", &p, "--to", "mitsuba", "--quiet", "--out", &out);
     assert!(o.status.success() && o.stderr.is_empty(), "{}", stderr(&o));
-    let names: Vec<_> = std::fs::read_dir(d.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
+    let names = names(d.path());
     assert_eq!(names.len(), 2, "{names:?}");
 }
 
@@ -551,23 +536,13 @@ fn export_writes_the_file_atomically_and_notes_on_stderr() {
 fn a_conductor_fitted_with_rho_d_fixed_at_0_exports() {
     let d = tempfile::tempdir().unwrap();
     let table = gold_table(d.path(), "rho_s = 0.7\nalpha = 0.15\n");
-    let start = d.path().join("start.json");
-    std::fs::write(
-        &start,
-        json!({"model": "cook-torrance", "params": {"rho_d": 0, "fresnel": conductor(GOLD_ETA, GOLD_K)}})
-            .to_string(),
-    )
-    .unwrap();
+    let start = write_file(d.path(), "start.json", json!({"model": "cook-torrance", "params": {"rho_d": 0, "fresnel": conductor(GOLD_ETA, GOLD_K)}})
+            .to_string());
     let params = d.path().join("params.json");
-    let o = bin()
-        .arg("fit")
-        .arg(&table)
-        .arg("--model")
-        .arg(&start)
-        .args(["--fix", "rho_d", "--starts", "1", "--quiet", "--out"])
-        .arg(&params)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "fit", &table, "--model", &start, "--fix", "rho_d", "--starts", "1", "--quiet", "--out",
+        &params
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let p: Value = serde_json::from_slice(&std::fs::read(&params).unwrap()).unwrap();
     assert_eq!(p["params"]["rho_d"], json!([0.0, 0.0, 0.0]), "{p}");
@@ -637,8 +612,7 @@ fn gltf_export_is_a_gltf_material() {
         "{g}"
     );
     // Other models are refused, pointing at --approximate and fit --for.
-    let p = d.path().join("ct.json");
-    std::fs::write(&p, json!({"model": "lambert"}).to_string()).unwrap();
+    let p = write_file(d.path(), "ct.json", json!({"model": "lambert"}).to_string());
     refused(&p, "gltf", "--approximate");
     let o = run_export(&p, &["--to", "gltf", "--format", "xml"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
@@ -649,8 +623,7 @@ gltf_validator_test! {
         let dir = external_tools::require_gltf_validator();
         let d = tempfile::tempdir().unwrap();
         let (text, g) = gltf_export(d.path());
-        let file = d.path().join("material.gltf");
-        std::fs::write(&file, &text).unwrap();
+        let file = write_file(d.path(), "material.gltf", &text);
         let r = validate_gltf(&dir, &file);
         say(&format!("gltf-validator: {r}"));
         assert_eq!(r["numErrors"], 0, "{r}");
@@ -663,45 +636,13 @@ gltf_validator_test! {
     }
 }
 
-/// One `gltf-pbr-ext` per glTF variant `fit --for gltf` chooses between, and all at once.
+/// One `gltf-pbr-ext` per glTF variant `fit --for gltf` chooses between, and all at once,
+/// after the core alone as a `gltf-pbr-ext` with no extension.
 fn gltf_ext_variants() -> Vec<(&'static str, Value)> {
     let core = json!({"base_color": [0.6, 0.2, 0.1], "metallic": 0.0, "roughness": 0.7});
-    let with = |extra: Value| {
-        let mut p = core.clone();
-        for (k, v) in extra.as_object().unwrap() {
-            p[k] = v.clone();
-        }
-        json!({"model": "gltf-pbr-ext", "params": p})
-    };
-    vec![
-        ("core", with(json!({}))),
-        (
-            "sheen",
-            with(
-                json!({"extensions": ["sheen"], "sheen_color": [0.7, 0.4, 0.3], "sheen_roughness": 0.35}),
-            ),
-        ),
-        (
-            "clearcoat",
-            with(
-                json!({"extensions": ["clearcoat"], "clearcoat": 0.8, "clearcoat_roughness": 0.05}),
-            ),
-        ),
-        (
-            "specular",
-            with(
-                json!({"extensions": ["specular"], "specular": 0.6, "specular_color": [1.4, 1.0, 0.8], "ior": 1.6}),
-            ),
-        ),
-        (
-            "all",
-            with(
-                json!({"extensions": ["sheen", "clearcoat", "specular"], "sheen_color": 0.5,
-            "sheen_roughness": 0.5, "clearcoat": 0.3, "clearcoat_roughness": 0.1, "specular": 0.9,
-            "specular_color": 1.2, "ior": 1.45}),
-            ),
-        ),
-    ]
+    let mut v = vec![("core", gltf_pbr_ext(&core, json!({})))];
+    v.extend(gltf_extension_variants(&core));
+    v
 }
 
 #[test]
@@ -793,22 +734,23 @@ gltf_validator_test! {
 #[test]
 fn approximate_fits_the_nearest_material_and_states_the_error() {
     let d = tempfile::tempdir().unwrap();
-    let p = d.path().join("ward.json");
-    std::fs::write(
-        &p,
+    let p = write_file(
+        d.path(),
+        "ward.json",
         json!({"model": "ward", "params": {"rho_d": [0.3, 0.2, 0.1], "rho_s": 0.1, "alpha": 0.15}})
             .to_string(),
-    )
-    .unwrap();
+    );
     refused(&p, "mitsuba", "--approximate");
     let out = d.path().join("ward.xml");
-    let o = bin()
-        .arg("export")
-        .arg(&p)
-        .args(["--to", "mitsuba", "--approximate", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "export",
+        &p,
+        "--to",
+        "mitsuba",
+        "--approximate",
+        "--out",
+        &out
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let e = stderr(&o);
     say(&e);
@@ -830,12 +772,11 @@ fn approximate_fits_the_nearest_material_and_states_the_error() {
     // 39.9 %: the l2 error is dominated by the lobe's peak).
     assert!(rel > 0.0 && rel < 100.0, "{rel} %");
     // An exact model is written exactly, without fitting.
-    let l = d.path().join("l.json");
-    std::fs::write(
-        &l,
+    let l = write_file(
+        d.path(),
+        "l.json",
         json!({"model": "lambert", "params": {"rho_d": 0.4}}).to_string(),
-    )
-    .unwrap();
+    );
     let o = run_export(&l, &["--to", "pbrt", "--approximate"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("approximation:"), "{}", stderr(&o));
@@ -864,13 +805,9 @@ fn fit_for_a_renderer_writes_a_model_export_takes() {
         ("gltf", "gltf-", "pbrMetallicRoughness"),
     ] {
         let params = d.path().join(format!("{to}.json"));
-        let o = bin()
-            .arg("fit")
-            .arg(&table)
-            .args(["--for", to, "--starts", "2", "--quiet", "--out"])
-            .arg(&params)
-            .output()
-            .unwrap();
+        let o = fit_brdf!(
+            "fit", &table, "--for", to, "--starts", "2", "--quiet", "--out", &params
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         let text = String::from_utf8_lossy(&o.stdout);
         assert!(text.contains(&format!("best for {to}: {best}")), "{text}");
@@ -885,11 +822,6 @@ fn fit_for_a_renderer_writes_a_model_export_takes() {
         assert!(String::from_utf8_lossy(&o.stdout).contains(form));
     }
     // --for fixes the families: --model with it is a usage error.
-    let o = bin()
-        .arg("fit")
-        .arg(&table)
-        .args(["--for", "mitsuba", "--model", "lambert"])
-        .output()
-        .unwrap();
+    let o = fit_brdf!("fit", &table, "--for", "mitsuba", "--model", "lambert");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }

@@ -3,11 +3,14 @@
 //! writer's own accuracy and the Mitsuba checks are brdfkit-rgl's tests (tests/write.rs,
 //! tests/write_mitsuba.rs).
 
+#[macro_use]
 mod common;
 
 use brdfkit::core::{Brdf, Vec3};
 use brdfkit::rgl::RglBsdf;
-use common::{assert_bad_input, bin, stderr, synth_spec};
+use common::{
+    assert_bad_input, assert_bad_input_writes_nothing, bin, stderr, synth_spec, write_file,
+};
 use std::path::Path;
 
 fn export(src: &Path, out: &Path, args: &[&str]) -> std::process::Output {
@@ -64,12 +67,11 @@ fn nbrdf_and_table_to_rgl() {
 #[test]
 fn lambert_model_to_rgl() {
     let dir = tempfile::tempdir().unwrap();
-    let model = dir.path().join("lambert.json");
-    std::fs::write(
-        &model,
+    let model = write_file(
+        dir.path(),
+        "lambert.json",
         r#"{"model": "lambert", "params": {"rho_d": [0.6, 0.4, 0.2]}}"#,
-    )
-    .unwrap();
+    );
     let want = 0.6 / std::f64::consts::PI;
     let n = 5_000;
     // A deterministic spread of pairs: additive recurrences in (cos θ, φ).
@@ -123,38 +125,33 @@ fn lambert_model_to_rgl() {
 #[test]
 fn refusals() {
     let dir = tempfile::tempdir().unwrap();
-    let model = dir.path().join("m.json");
-    std::fs::write(&model, r#"{"model": "lambert", "params": {"rho_d": 0.5}}"#).unwrap();
-    let o = bin()
-        .args(["export", model.to_str().unwrap(), "--to", "rgl"])
-        .output()
-        .unwrap();
+    let model = write_file(
+        dir.path(),
+        "m.json",
+        r#"{"model": "lambert", "params": {"rho_d": 0.5}}"#,
+    );
+    let o = fit_brdf!("export", model.to_str().unwrap(), "--to", "rgl");
     assert_bad_input(&o, &["--out"]);
     let out = dir.path().join("x.bsdf");
     assert_bad_input(&export(&model, &out, &["--grid", "48"]), &["--grid"]);
-    let o = bin()
-        .args([
-            "export",
-            model.to_str().unwrap(),
-            "--to",
-            "mitsuba",
-            "--theta-i",
-            "8",
-        ])
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "export",
+        model.to_str().unwrap(),
+        "--to",
+        "mitsuba",
+        "--theta-i",
+        "8"
+    );
     assert_bad_input(&o, &["--to rgl only"]);
     assert!(export(&model, &out, &[]).status.success());
     let again = dir.path().join("y.bsdf");
     assert_bad_input(&export(&out, &again, &[]), &["already an RGL-EPFL .bsdf"]);
-    let aniso = dir.path().join("ward.json");
-    std::fs::write(
-        &aniso,
+    let aniso = write_file(
+        dir.path(),
+        "ward.json",
         r#"{"model": "ward", "params": {"rho_d": 0.2, "rho_s": 0.1, "alpha_x": 0.1, "alpha_y": 0.3}}"#,
-    )
-    .unwrap();
-    assert_bad_input(&export(&aniso, &again, &[]), &["anisotropic"]);
-    assert!(!again.exists(), "nothing written on refusal");
+    );
+    assert_bad_input_writes_nothing(&export(&aniso, &again, &[]), &["anisotropic"], &again);
     assert_bad_input(
         &export(&dir.path().join("nope.json"), &again, &[]),
         &["nope.json"],

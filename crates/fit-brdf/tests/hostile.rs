@@ -3,10 +3,11 @@
 //! message names the file and the problem, exit code 2, and no panic; a header's claim
 //! never makes the reader allocate beyond the file's size.
 
+#[macro_use]
 mod common;
 
 use brdfkit::merl::{MerlError, MerlTable};
-use common::{assert_bad_input, bin};
+use common::{assert_bad_input, bin, write_file};
 use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
 
@@ -32,7 +33,7 @@ fn with_value(dims: [i32; 3], at: usize, x: f64) -> Vec<u8> {
 /// Runs `fit-brdf info` on a file and checks the contract: exit 2, `error: ` first, the
 /// file named, `what` in the message, no panic.
 fn cli_rejects(path: &Path, what: &str) {
-    let o = bin().arg("info").arg(path).output().unwrap();
+    let o = fit_brdf!("info", path);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{}: {err}", path.display());
     assert!(err.starts_with("error: "), "{err}");
@@ -114,7 +115,7 @@ fn malformed_tables_are_typed_errors_in_the_library_and_exit_2_in_the_cli() {
         cli_rejects(&p, what);
     }
     // A directory, a path that does not exist.
-    let o = bin().arg("info").arg(d.path()).output().unwrap();
+    let o = fit_brdf!("info", d.path());
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("directory"));
     cli_rejects(&d.path().join("absent.binary"), "absent.binary");
@@ -129,7 +130,7 @@ fn an_unreadable_file_is_bad_input_not_a_panic() {
     let _listener = std::os::unix::net::UnixListener::bind(&p).unwrap();
     let e = MerlTable::read(&p).unwrap_err();
     assert!(matches!(e, MerlError::Io { .. }), "{e:?}");
-    let o = bin().arg("info").arg(&p).output().unwrap();
+    let o = fit_brdf!("info", &p);
     assert_bad_input(&o, &["socket.binary"]);
 }
 
@@ -159,7 +160,7 @@ fn a_non_utf8_path_is_handled() {
     let name = std::ffi::OsStr::from_bytes(b"caf\xe9-\xff.binary");
     let p: PathBuf = d.path().join(name);
     std::fs::write(&p, vec![0u8; 5]).unwrap();
-    let o = bin().arg("info").arg(&p).output().unwrap();
+    let o = fit_brdf!("info", &p);
     assert_bad_input(&o, &["caf", ".binary"]);
     // A good table under such a name reads fine.
     let good = d
@@ -236,8 +237,11 @@ fn bad_specs_are_rejected() {
 #[test]
 fn bad_model_descriptions_are_rejected() {
     let d = tempfile::tempdir().unwrap();
-    let dirs = d.path().join("dirs.csv");
-    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let dirs = write_file(
+        d.path(),
+        "dirs.csv",
+        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
+    );
     let cases = [
         (
             "types.json",

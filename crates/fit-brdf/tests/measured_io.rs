@@ -1,10 +1,11 @@
 //! Neural BRDFs as a source (`--nbrdf`) and the `.npy` contract of `eval`, through the
 //! binary: the same values whatever the format, typed errors with exit 2 for bad files.
 
+#[macro_use]
 mod common;
 
 use common::npy::npy_bytes;
-use common::{assert_bad_input, bin};
+use common::{assert_bad_input, assert_bad_input_writes_nothing, bin, write_file};
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {
@@ -113,14 +114,15 @@ fn csv_and_npy_agree(dir: &Path, source: &[&str]) -> Vec<f64> {
 fn nbrdf_resample_writes_a_merl_table_and_reports_clamping() {
     let d = tempfile::tempdir().unwrap();
     let t = d.path().join("fabric.binary");
-    let o = bin()
-        .arg("resample")
-        .arg("--nbrdf")
-        .arg(fabric())
-        .args(["--dims", "18,18,36", "--out"])
-        .arg(&t)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "resample",
+        "--nbrdf",
+        fabric(),
+        "--dims",
+        "18,18,36",
+        "--out",
+        &t
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("were negative and are stored as 0"), "{err}");
@@ -141,46 +143,44 @@ fn eval_gives_the_same_bits_from_csv_and_npy_for_every_source() {
     // Above the horizon a fabric reflects something; below it f_r is 0 (the Brdf contract).
     assert!(nb[..12].iter().all(|v| *v > 0.0), "{nb:?}");
     assert_eq!(&nb[12..], &[0.0, 0.0, 0.0]);
-    let model = d.path().join("m.json");
-    std::fs::write(
-        &model,
+    let model = write_file(
+        d.path(),
+        "m.json",
         r#"{"model": "cook-torrance", "params": {"rho_d": [0.3, 0.2, 0.1], "alpha": 0.2}}"#,
-    )
-    .unwrap();
+    );
     csv_and_npy_agree(d.path(), &["--model", model.to_str().unwrap()]);
 }
 
 #[test]
 fn bad_npy_and_nbrdf_inputs_exit_2_naming_the_file() {
     let d = tempfile::tempdir().unwrap();
-    let f32 = d.path().join("f32.npy");
-    std::fs::write(&f32, npy_bytes("<f4", "(1, 6)", &[0u8; 24])).unwrap();
-    let shape = d.path().join("shape.npy");
-    std::fs::write(&shape, npy_bytes("<f8", "(1, 3)", &[0u8; 24])).unwrap();
+    let f32 = write_file(d.path(), "f32.npy", npy_bytes("<f4", "(1, 6)", &[0u8; 24]));
+    let shape = write_file(
+        d.path(),
+        "shape.npy",
+        npy_bytes("<f8", "(1, 3)", &[0u8; 24]),
+    );
     let cases = [
         (f32.clone(), "dtype '<f4'"),
         (shape.clone(), "expected (N, 6)"),
     ];
     for (p, want) in cases {
-        let o = bin()
-            .arg("eval")
-            .arg("--nbrdf")
-            .arg(fabric())
-            .arg("--dirs")
-            .arg(&p)
-            .output()
-            .unwrap();
+        let o = fit_brdf!("eval", "--nbrdf", fabric(), "--dirs", &p);
         assert_bad_input(&o, &[p.to_str().unwrap(), want]);
     }
     let missing = d.path().join("no-such-material");
-    let o = bin()
-        .arg("resample")
-        .arg("--nbrdf")
-        .arg(&missing)
-        .args(["--dims", "9,9,18", "--out"])
-        .arg(d.path().join("t.binary"))
-        .output()
-        .unwrap();
-    assert_bad_input(&o, &["no-such-material_fc1.npy", "missing"]);
-    assert!(!d.path().join("t.binary").exists());
+    let o = fit_brdf!(
+        "resample",
+        "--nbrdf",
+        &missing,
+        "--dims",
+        "9,9,18",
+        "--out",
+        d.path().join("t.binary")
+    );
+    assert_bad_input_writes_nothing(
+        &o,
+        &["no-such-material_fc1.npy", "missing"],
+        &d.path().join("t.binary"),
+    );
 }

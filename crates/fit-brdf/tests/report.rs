@@ -1,10 +1,13 @@
 //! `fit-brdf report`: the files, their content, and the failure modes, driven as a user
 //! would.
 
+#[macro_use]
 mod common;
 
 use assert_cmd::Command;
-use common::{assert_bad_input, bin, names, stderr, synth_spec};
+use common::{
+    assert_bad_input, assert_bad_input_writes_nothing, bin, names, stderr, synth_spec, write_file,
+};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -124,28 +127,24 @@ fn text_output_names_the_files_and_options_of_fit_apply() {
     let d = tempfile::tempdir().unwrap();
     let t = small_table(d.path());
     let out = d.path().join("rep");
-    let o = bin()
-        .arg("report")
-        .arg(&t)
-        .args([
-            "--models",
-            "lambert,cook-torrance",
-            "--loss",
-            "log",
-            "--starts",
-            "1",
-        ])
-        .args([
-            "--sample-fraction",
-            "0.5",
-            "--distribution",
-            "ggx",
-            "--no-renders",
-        ])
-        .args(["--no-checks", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "report",
+        &t,
+        "--models",
+        "lambert,cook-torrance",
+        "--loss",
+        "log",
+        "--starts",
+        "1",
+        "--sample-fraction",
+        "0.5",
+        "--distribution",
+        "ggx",
+        "--no-renders",
+        "--no-checks",
+        "--out",
+        &out
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let s = String::from_utf8(o.stdout.clone()).unwrap();
     assert!(
@@ -176,11 +175,9 @@ fn bad_input_exits_2_naming_the_file() {
     let o = report(&missing, &out).output().unwrap();
     assert_bad_input(&o, &["nope.binary"]);
 
-    let garbage = d.path().join("garbage.binary");
-    std::fs::write(&garbage, b"not a table at all").unwrap();
+    let garbage = write_file(d.path(), "garbage.binary", b"not a table at all");
     let o = report(&garbage, &out).output().unwrap();
-    assert_bad_input(&o, &["garbage.binary"]);
-    assert!(!out.exists(), "nothing written on bad input");
+    assert_bad_input_writes_nothing(&o, &["garbage.binary"], &out);
 
     let t = small_table(d.path());
     for args in [
@@ -213,8 +210,7 @@ fn write_failures_exit_1_and_leave_no_partial_report() {
     };
 
     // The output "directory" is a file: it stays as it was.
-    let file = d.path().join("a-file");
-    std::fs::write(&file, "keep me").unwrap();
+    let file = write_file(d.path(), "a-file", "keep me");
     let mut c = report_of(&t, &file, "lambert");
     quick(&mut c);
     let o = c.output().unwrap();

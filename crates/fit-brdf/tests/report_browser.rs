@@ -17,7 +17,7 @@ mod common;
 #[macro_use]
 mod external_tools;
 
-use common::{bin, small_plastic_spec, synth_spec};
+use common::{bin, small_plastic_spec, synth_spec, write_file};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -52,21 +52,30 @@ fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
     Some(&tag[start..end])
 }
 
+/// `fit-brdf report` of the red plastic (named `name`, synthesised into `dir/t.binary`)
+/// against Lambert, Ward and Cook-Torrance, one start each, with `extra` arguments,
+/// into `dir/report`: the table and the report's directory.
+fn three_model_report(dir: &Path, name: &str, extra: &[&str]) -> (PathBuf, PathBuf) {
+    let spec = small_plastic_spec(name, [0.45, 0.08, 0.05], 0.12);
+    let table = synth_spec(dir, "t", &spec);
+    let out = dir.join("report");
+    bin()
+        .arg("report")
+        .arg(&table)
+        .args(["--models", "lambert,ward,cook-torrance", "--starts", "1"])
+        .args(extra)
+        .args(["--quiet", "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+    (table, out)
+}
+
 chromium_test! {
     fn the_report_renders_in_a_browser_with_every_image() {
         let exe = external_tools::require_chromium();
         let d = tempfile::tempdir().unwrap();
-        let spec = small_plastic_spec("browser-plastic", [0.45, 0.08, 0.05], 0.12);
-        let table = synth_spec(d.path(), "t", &spec);
-        let out = d.path().join("report");
-        bin()
-            .arg("report")
-            .arg(&table)
-            .args(["--models", "lambert,ward,cook-torrance", "--starts", "1"])
-            .args(["--render-size", "48", "--env-spp", "4", "--quiet", "--out"])
-            .arg(&out)
-            .assert()
-            .success();
+        let (_, out) = three_model_report(d.path(), "browser-plastic", &["--render-size", "48", "--env-spp", "4"]);
         let url = format!("file://{}", out.join("index.html").display());
 
         // The DOM after the page's load handler ran.
@@ -294,17 +303,8 @@ fn quantile(rel: &[f64], q: f64) -> f64 {
 browser_driver_test! {
     fn the_report_panels_move_and_plot_what_eval_gives() {
         let d = tempfile::tempdir().unwrap();
-        let spec = small_plastic_spec("panels-plastic", [0.45, 0.08, 0.05], 0.12);
-        let table = synth_spec(d.path(), "t", &spec);
-        let out = d.path().join("report");
-        bin()
-            .arg("report")
-            .arg(&table)
-            .args(["--models", "lambert,ward,cook-torrance", "--starts", "1", "--no-checks"])
-            .args(["--render-size", "32", "--env-spp", "2", "--quiet", "--out"])
-            .arg(&out)
-            .assert()
-            .success();
+        let args = ["--no-checks", "--render-size", "32", "--env-spp", "2"];
+        let (table, out) = three_model_report(d.path(), "panels-plastic", &args);
         let report: Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
         let v = drive(&out.join("index.html"), d.path());
@@ -358,8 +358,7 @@ browser_driver_test! {
         let d = tempfile::tempdir().unwrap();
         let spec = small_plastic_spec("view-plastic", [0.3, 0.2, 0.1], 0.2);
         let table = synth_spec(d.path(), "t", &spec);
-        let lam = d.path().join("lam.json");
-        std::fs::write(&lam, r#"{"model": "lambert", "params": {"rho_d": [0.3, 0.2, 0.1]}}"#).unwrap();
+        let lam = write_file(d.path(), "lam.json", r#"{"model": "lambert", "params": {"rho_d": [0.3, 0.2, 0.1]}}"#);
         let nbrdf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data-measured/merl/blue-rubber");
         let out = d.path().join("view");
         bin()

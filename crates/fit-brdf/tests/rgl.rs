@@ -2,62 +2,29 @@
 //! their name, `info`, `eval --bsdf` and `resample --bsdf` agree with the library, and a
 //! broken file is exit 2 naming the file and the field.
 
+#[macro_use]
 mod common;
 
 use brdfkit::core::Brdf;
 use brdfkit::merl::{Dims, MerlTable, cell_directions};
 use brdfkit::rgl::{RglBsdf, Tensor, TensorData, tensor};
 use common::npy::npy_bytes;
-use common::{assert_bad_input, bin, stderr};
+use common::{assert_bad_input, assert_bad_input_writes_nothing, stderr, write_file};
 use std::path::{Path, PathBuf};
 
-/// A small isotropic RGB file: 8 θi slices, 16 × 16 smooth values with negatives, and
-/// 22 of its 2048 `valid` bits set.
+#[path = "../../brdfkit-rgl/tests/common/felt.rs"]
+mod felt;
+
+/// The test felt with 22 of its 2048 `valid` bits set.
 fn fields() -> Vec<Tensor> {
-    let theta: Vec<f32> = (0..8).map(|k| (k as f32 * 11.0).to_radians()).collect();
-    let n = 16usize;
-    let mut rgb = Vec::new();
-    for t in 0..8 {
-        for c in 0..3 {
-            for y in 0..n {
-                for x in 0..n {
-                    let (u, v) = (x as f32 / 15.0, y as f32 / 15.0);
-                    rgb.push(
-                        0.3 + 0.4
-                            * (3.0 * u + c as f32 + t as f32).sin()
-                            * (2.0 * v + c as f32).sin(),
-                    );
-                }
-            }
-        }
-    }
-    let smooth = |len: usize, k: f32| -> Vec<f32> {
-        (0..len)
-            .map(|i| 1.0 + 0.3 * (k * i as f32 / len as f32).sin())
-            .collect()
-    };
-    let mut valid = vec![0u8; 8 * n * n / 8];
+    let mut valid = vec![0u8; 8 * 16 * 16 / 8];
     valid[0] = 0xff;
     valid[9] = 0b1010_1010;
     valid[100] = 0xff;
     valid[255] = 0b0000_0011;
-    vec![
-        Tensor::new("version", &[2], TensorData::U32(vec![1, 0])),
-        Tensor::new("description", &[9], TensorData::U8(b"test felt".to_vec())),
-        Tensor::new("phi_i", &[1], TensorData::F32(vec![0.0])),
-        Tensor::new("theta_i", &[8], TensorData::F32(theta)),
-        Tensor::new("sigma", &[2, 32], TensorData::F32(smooth(64, 3.0))),
-        Tensor::new("ndf", &[2, 32], TensorData::F32(smooth(64, 5.0))),
-        Tensor::new("vndf", &[1, 8, 16, 16], TensorData::F32(smooth(2048, 40.0))),
-        Tensor::new(
-            "luminance",
-            &[1, 8, 16, 16],
-            TensorData::F32(smooth(2048, 20.0)),
-        ),
-        Tensor::new("rgb", &[1, 8, 3, 16, 16], TensorData::F32(rgb)),
-        Tensor::new("jacobian", &[1], TensorData::U8(vec![1])),
-        Tensor::new("valid", &[256], TensorData::U8(valid)),
-    ]
+    let mut f = felt::fields();
+    f.push(Tensor::new("valid", &[256], TensorData::U8(valid)));
+    f
 }
 
 /// The file, under a name that says nothing of its kind.
@@ -88,7 +55,7 @@ fn library(p: &Path) -> Vec<f64> {
 fn info_recognises_the_file_by_its_bytes_and_reports_it() {
     let dir = tempfile::tempdir().unwrap();
     let p = file(dir.path());
-    let o = bin().arg("info").arg(&p).output().unwrap();
+    let o = fit_brdf!("info", &p);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8(o.stdout).unwrap();
     for needle in [
@@ -100,7 +67,7 @@ fn info_recognises_the_file_by_its_bytes_and_reports_it() {
     ] {
         assert!(text.contains(needle), "`{needle}` not in {text}");
     }
-    let o = bin().arg("info").arg(&p).arg("--json").output().unwrap();
+    let o = fit_brdf!("info", &p, "--json");
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let b = RglBsdf::read(&p).unwrap();
     let s = b.summary();
@@ -124,18 +91,9 @@ fn eval_bsdf_gives_the_library_values_in_csv_and_npy() {
         .flatten()
         .flat_map(|x| x.to_le_bytes())
         .collect();
-    let dirs = dir.path().join("pairs.npy");
-    std::fs::write(&dirs, npy_bytes("<f8", "(4, 6)", &body)).unwrap();
+    let dirs = write_file(dir.path(), "pairs.npy", npy_bytes("<f8", "(4, 6)", &body));
     let out = dir.path().join("v.npy");
-    let o = bin()
-        .args(["eval", "--bsdf"])
-        .arg(&p)
-        .arg("--dirs")
-        .arg(&dirs)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("eval", "--bsdf", &p, "--dirs", &dirs, "--out", &out);
     assert!(o.status.success(), "{}", stderr(&o));
     let b = std::fs::read(&out).unwrap();
     let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
@@ -150,13 +108,7 @@ fn eval_bsdf_gives_the_library_values_in_csv_and_npy() {
         csv += &(r.map(|x| x.to_string()).join(",") + "\n");
     }
     std::fs::write(dir.path().join("pairs.csv"), csv).unwrap();
-    let o = bin()
-        .args(["eval", "--bsdf"])
-        .arg(&p)
-        .arg("--dirs")
-        .arg(dir.path().join("pairs.csv"))
-        .output()
-        .unwrap();
+    let o = fit_brdf!("eval", "--bsdf", &p, "--dirs", dir.path().join("pairs.csv"));
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8(o.stdout).unwrap();
     let vals: Vec<f64> = text
@@ -178,13 +130,9 @@ fn resample_bsdf_writes_the_two_order_mean_and_says_what_it_clamped() {
     let dir = tempfile::tempdir().unwrap();
     let p = file(dir.path());
     let out = dir.path().join("t.binary");
-    let o = bin()
-        .args(["resample", "--bsdf"])
-        .arg(&p)
-        .args(["--dims", "12,12,24", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "resample", "--bsdf", &p, "--dims", "12,12,24", "--out", &out
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let dims = Dims::new(12, 12, 24).unwrap();
     let (lib_table, stats) = RglBsdf::read(&p).unwrap().to_table(dims).unwrap();
@@ -223,7 +171,7 @@ fn resample_bsdf_writes_the_two_order_mean_and_says_what_it_clamped() {
 fn table_verbs_take_a_bsdf_through_the_same_rule() {
     let dir = tempfile::tempdir().unwrap();
     let p = file(dir.path());
-    let o = bin().arg("check").arg(&p).output().unwrap();
+    let o = fit_brdf!("check", &p);
     assert!(
         o.status.code() == Some(0) || o.status.code() == Some(1),
         "{}",
@@ -241,32 +189,26 @@ fn table_verbs_take_a_bsdf_through_the_same_rule() {
 fn a_broken_bsdf_is_exit_2_naming_the_file_and_the_field() {
     let dir = tempfile::tempdir().unwrap();
     let good = std::fs::read(file(dir.path())).unwrap();
-    let cut = dir.path().join("cut.bsdf");
-    std::fs::write(&cut, &good[..good.len() - 100]).unwrap();
-    let o = bin().arg("info").arg(&cut).output().unwrap();
+    let cut = write_file(dir.path(), "cut.bsdf", &good[..good.len() - 100]);
+    let o = fit_brdf!("info", &cut);
     assert_bad_input(&o, &["cut.bsdf", "`valid`", "past the end"]);
-    let o = bin()
-        .args(["resample", "--bsdf"])
-        .arg(&cut)
-        .args(["--dims", "4,4,8", "--out"])
-        .arg(dir.path().join("x.binary"))
-        .output()
-        .unwrap();
-    assert_bad_input(&o, &["cut.bsdf", "`valid`"]);
-    assert!(!dir.path().join("x.binary").exists());
+    let o = fit_brdf!(
+        "resample",
+        "--bsdf",
+        &cut,
+        "--dims",
+        "4,4,8",
+        "--out",
+        dir.path().join("x.binary")
+    );
+    assert_bad_input_writes_nothing(&o, &["cut.bsdf", "`valid`"], &dir.path().join("x.binary"));
     let mut f = fields();
     f.retain(|t| t.name != "ndf");
     let missing = dir.path().join("missing.bsdf");
     tensor::write(&f, &missing).unwrap();
-    let o = bin()
-        .args(["eval", "--bsdf"])
-        .arg(&missing)
-        .arg("--dirs")
-        .arg(&missing)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("eval", "--bsdf", &missing, "--dirs", &missing);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let o = bin().arg("fit").arg(&missing).output().unwrap();
+    let o = fit_brdf!("fit", &missing);
     assert_bad_input(&o, &["missing.bsdf", "`ndf` is missing"]);
 }
 
@@ -278,21 +220,11 @@ fn compare_takes_a_bsdf_by_its_bytes_against_a_table_and_a_model() {
     let dir = tempfile::tempdir().unwrap();
     let p = file(dir.path());
     let table = dir.path().join("resampled.binary");
-    let o = bin()
-        .args(["resample", "--bsdf"])
-        .arg(&p)
-        .args(["--dims", "12,12,24", "-q", "--out"])
-        .arg(&table)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "resample", "--bsdf", &p, "--dims", "12,12,24", "-q", "--out", &table
+    );
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = bin()
-        .arg("compare")
-        .arg(&table)
-        .arg(&p)
-        .arg("--json")
-        .output()
-        .unwrap();
+    let o = fit_brdf!("compare", &table, &p, "--json");
     assert!(o.status.success(), "{}", stderr(&o));
     let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(c["b"]["kind"], "rgl-bsdf", "{c}");
@@ -302,19 +234,12 @@ fn compare_takes_a_bsdf_by_its_bytes_against_a_table_and_a_model() {
         c["b_on_grid"].as_str().unwrap().contains("both orders"),
         "{c}"
     );
-    let lam = dir.path().join("lam.json");
-    std::fs::write(
-        &lam,
+    let lam = write_file(
+        dir.path(),
+        "lam.json",
         r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.3, 0.2]}}"#,
-    )
-    .unwrap();
-    let o = bin()
-        .arg("compare")
-        .arg(&p)
-        .arg(&lam)
-        .args(["--dims", "12,12,24"])
-        .output()
-        .unwrap();
+    );
+    let o = fit_brdf!("compare", &p, &lam, "--dims", "12,12,24");
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("(RGL-EPFL .bsdf)"), "{text}");
@@ -322,7 +247,7 @@ fn compare_takes_a_bsdf_by_its_bytes_against_a_table_and_a_model() {
     let good = std::fs::read(&p).unwrap();
     let cut = dir.path().join("cut.json"); // the name says model; the bytes decide
     std::fs::write(&cut, &good[..good.len() - 100]).unwrap();
-    let o = bin().arg("compare").arg(&table).arg(&cut).output().unwrap();
+    let o = fit_brdf!("compare", &table, &cut);
     assert_bad_input(&o, &["cut.json", "`valid`"]);
 }
 
@@ -332,14 +257,7 @@ fn view_shows_a_bsdf_beside_a_table() {
     let p = file(dir.path());
     let (table, _) = common::plastic_and_lambert(dir.path());
     let out = dir.path().join("v");
-    let o = bin()
-        .arg("view")
-        .arg(&p)
-        .arg(&table)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("view", &p, &table, "--out", &out);
     assert!(o.status.success(), "{}", stderr(&o));
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(html.contains("\"kind\":\"rgl-bsdf\""));
@@ -361,27 +279,13 @@ fn render_takes_a_bsdf_scene_material() {
              [[light]]\ntype = \"point\"\nposition = [3.0, 3.0, 3.0]\nintensity = [30.0, 30.0, 30.0]\n"
         )
     };
-    let s = dir.path().join("s.toml");
-    std::fs::write(&s, scene("")).unwrap();
+    let s = write_file(dir.path(), "s.toml", scene(""));
     let png = dir.path().join("s.png");
-    let o = bin()
-        .arg("render")
-        .arg(&s)
-        .arg("--out")
-        .arg(&png)
-        .arg("--json")
-        .output()
-        .unwrap();
+    let o = fit_brdf!("render", &s, "--out", &png, "--json");
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(&std::fs::read(&png).unwrap()[..4], b"\x89PNG");
     std::fs::write(&s, scene("lookup = \"nearest\"\n")).unwrap();
-    let o = bin()
-        .arg("render")
-        .arg(&s)
-        .arg("--out")
-        .arg(&png)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("render", &s, "--out", &png);
     assert_bad_input(&o, &["s.toml", "material.lookup", ".bsdf"]);
     let good = std::fs::read(dir.path().join("material.binary")).unwrap();
     std::fs::write(
@@ -390,13 +294,7 @@ fn render_takes_a_bsdf_scene_material() {
     )
     .unwrap();
     std::fs::write(&s, scene("")).unwrap();
-    let o = bin()
-        .arg("render")
-        .arg(&s)
-        .arg("--out")
-        .arg(&png)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("render", &s, "--out", &png);
     assert_bad_input(
         &o,
         &["s.toml", "material.table", "material.binary", "`valid`"],

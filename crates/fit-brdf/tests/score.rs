@@ -1,9 +1,10 @@
 //! `fit-brdf score` and `fit-brdf report --given`: given models scored against a table
 //! without fitting, on the cells and weights of `fit`, driven as a user would.
 
+#[macro_use]
 mod common;
 
-use common::{bin, plastic_and_lambert, red_plastic, stderr, synth_spec};
+use common::{bin, plastic_and_lambert, red_plastic, stderr, synth_spec, write_file};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -126,7 +127,7 @@ fn score_reports_every_loss_and_the_settings() {
     assert!(c["losses"]["cells"].as_u64() < a["losses"]["cells"].as_u64());
     assert!(a["file"].as_str().unwrap().ends_with("lam.json"));
     // Text: the four losses, overall and per channel.
-    let o = bin().arg("score").arg(&t).arg(&m).output().unwrap();
+    let o = fit_brdf!("score", &t, &m);
     assert!(o.status.success());
     let text = String::from_utf8_lossy(&o.stdout);
     for loss in ["cbrt", "l2", "cosine", "log"] {
@@ -165,27 +166,16 @@ fn bad_input_exits_2_naming_the_file() {
         (d.path().join("missing.json"), "missing.json"),
     ];
     for (p, want) in &cases {
-        let o = bin().arg("score").arg(&t).arg(p).output().unwrap();
+        let o = fit_brdf!("score", &t, p);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(stderr(&o).contains(want), "{want}: {}", stderr(&o));
     }
     let ok = write("ok.json", r#"{"model": "lambert"}"#);
     // A missing table, an out-of-range cutoff.
-    let o = bin()
-        .arg("score")
-        .arg(d.path().join("none.binary"))
-        .arg(&ok)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("score", d.path().join("none.binary"), &ok);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("none.binary"), "{}", stderr(&o));
-    let o = bin()
-        .arg("score")
-        .arg(&t)
-        .arg(&ok)
-        .args(["--theta-d-max", "0"])
-        .output()
-        .unwrap();
+    let o = fit_brdf!("score", &t, &ok, "--theta-d-max", "0");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("theta-d-max"), "{}", stderr(&o));
 }
@@ -195,12 +185,11 @@ fn report_given_models_beside_fitted_ones() {
     let d = tempfile::tempdir().unwrap();
     let t = synth_spec(d.path(), "plastic", &red_plastic());
     let (p, _) = fit(d.path(), &t, "ward", &[], "ward");
-    let given = d.path().join("given.json");
-    std::fs::write(
-        &given,
+    let given = write_file(
+        d.path(),
+        "given.json",
         r#"{"model": "cook-torrance", "params": {"rho_d": [0.4, 0.1, 0.05], "rho_s": 1.0, "alpha": 0.15}}"#,
-    )
-    .unwrap();
+    );
     let run = |out: &Path, extra: &[&str]| {
         let o = bin()
             .arg("report")
@@ -262,13 +251,15 @@ fn report_given_models_beside_fitted_ones() {
     assert_eq!(origins, ["fitted", "given"]);
     assert!(r["fit_config"].is_object());
     // A bad given file: exit 2, named.
-    let o = bin()
-        .arg("report")
-        .arg(&t)
-        .args(["--given", "nope.json", "--quiet", "--out"])
-        .arg(d.path().join("bad"))
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "report",
+        &t,
+        "--given",
+        "nope.json",
+        "--quiet",
+        "--out",
+        d.path().join("bad")
+    );
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("nope.json"), "{}", stderr(&o));
 }

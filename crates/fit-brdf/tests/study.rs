@@ -4,9 +4,10 @@
 //! `--rewrite` reproduces the report from the stored figures, and that bad input is a
 //! clear error (exit 2) that leaves no output behind.
 
+#[macro_use]
 mod common;
 
-use common::{assert_bad_input, bin, stderr};
+use common::{assert_bad_input, assert_bad_input_writes_nothing, bin, stderr};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -139,11 +140,7 @@ fn tiny_study_writes_every_output_and_rewrites_identically() {
     // regenerates the same report from results.json.
     let edited = format!("{md}\nA reader's note.\n");
     std::fs::write(&md_path, &edited).unwrap();
-    let o = bin()
-        .args(["study", "--quiet", "--rewrite", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("study", "--quiet", "--rewrite", "--out", &out);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(&md_path).unwrap(), edited);
 }
@@ -186,11 +183,7 @@ fn bad_study_input_is_a_clear_error_and_writes_nothing() {
     }
 
     // --rewrite without a previous run names what is missing.
-    let o = bin()
-        .args(["study", "--rewrite", "--out"])
-        .arg(dir.path().join("never-run"))
-        .output()
-        .unwrap();
+    let o = fit_brdf!("study", "--rewrite", "--out", dir.path().join("never-run"));
     assert_bad_input(&o, &["results.json"]);
 }
 
@@ -223,8 +216,11 @@ fn the_measured_folder_is_found_or_named() {
         run(&["--measured-dir", missing.to_str().unwrap()], None),
         run(&[], Some(&missing)),
     ] {
-        assert_bad_input(&o, &["nowhere", "--measured-dir", "BRDFKIT_MEASURED_DIR"]);
-        assert!(!out.exists(), "no output directory for a failed run");
+        assert_bad_input_writes_nothing(
+            &o,
+            &["nowhere", "--measured-dir", "BRDFKIT_MEASURED_DIR"],
+            &out,
+        );
     }
     // From a folder of the checkout without the option: its data-measured/ is found,
     // and the name missing from it is the error.

@@ -2,9 +2,10 @@
 //! exit 2 naming the file, with nothing written. (The page in a browser:
 //! report_browser.rs.)
 
+#[macro_use]
 mod common;
 
-use common::{bin, plastic_and_lambert, stderr};
+use common::{bin, plastic_and_lambert, stderr, write_file};
 use std::path::Path;
 
 fn nbrdf() -> std::path::PathBuf {
@@ -16,15 +17,16 @@ fn view_writes_one_self_contained_page_with_every_source() {
     let d = tempfile::tempdir().unwrap();
     let (table, lam) = plastic_and_lambert(d.path());
     let out = d.path().join("v");
-    let o = bin()
-        .arg("view")
-        .arg(&table)
-        .arg(&lam)
-        .arg(nbrdf())
-        .args(["--title", "three sources", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!(
+        "view",
+        &table,
+        &lam,
+        nbrdf(),
+        "--title",
+        "three sources",
+        "--out",
+        &out
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(common::names(&out), ["index.html"]);
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
@@ -52,14 +54,12 @@ fn view_writes_one_self_contained_page_with_every_source() {
 fn bad_sources_are_exit_2_naming_the_file_and_nothing_is_written() {
     let d = tempfile::tempdir().unwrap();
     let (table, lam) = plastic_and_lambert(d.path());
-    let aniso = d.path().join("aniso.json");
-    std::fs::write(
-        &aniso,
+    let aniso = write_file(
+        d.path(),
+        "aniso.json",
         r#"{"model": "ward", "params": {"rho_d": [0.1, 0.1, 0.1], "rho_s": [0.1, 0.1, 0.1], "alpha_x": 0.1, "alpha_y": 0.3}}"#,
-    )
-    .unwrap();
-    let junk = d.path().join("junk.json");
-    std::fs::write(&junk, "{ not json").unwrap();
+    );
+    let junk = write_file(d.path(), "junk.json", "{ not json");
     let missing = d.path().join("missing.binary");
     for (sources, expect) in [
         (vec![table.clone(), missing.clone()], "missing.binary"),

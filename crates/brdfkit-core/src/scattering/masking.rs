@@ -42,20 +42,10 @@ pub enum BeckmannG1 {
     Rational,
 }
 
-impl BeckmannG1 {
-    /// Every evaluation of Beckmann's Λ.
-    pub const ALL: [BeckmannG1; 2] = [BeckmannG1::Exact, BeckmannG1::Rational];
-
-    /// The name used in the JSON contract (`"exact"`, `"rational"`).
-    pub fn name(self) -> &'static str {
-        match self {
-            BeckmannG1::Exact => "exact",
-            BeckmannG1::Rational => "rational",
-        }
-    }
-}
-
-crate::named_choice!(BeckmannG1, "beckmann_g1");
+crate::named_choice!(BeckmannG1, "beckmann_g1", {
+    Exact => "exact",
+    Rational => "rational",
+});
 
 /// The Smith Λ function of a distribution: GGX, or Beckmann exact or rational.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -227,22 +217,6 @@ pub enum Masking {
 }
 
 impl Masking {
-    /// Every masking term.
-    pub const ALL: [Masking; 3] = [
-        Masking::SmithSeparable,
-        Masking::SmithCorrelated,
-        Masking::VCavity,
-    ];
-
-    /// The name used in the JSON contract.
-    pub fn name(self) -> &'static str {
-        match self {
-            Masking::SmithSeparable => "smith-separable",
-            Masking::SmithCorrelated => "smith-correlated",
-            Masking::VCavity => "v-cavity",
-        }
-    }
-
     /// G(wi, wo, m) with its α derivatives. `wi_m`, `wo_m` are wi·m, wo·m; `m` is the
     /// unit microfacet normal (the half vector). Zero unless wi, wo and m are above the
     /// horizon and wi, wo on the front of m.
@@ -296,7 +270,11 @@ impl Masking {
     }
 }
 
-crate::named_choice!(Masking, "masking");
+crate::named_choice!(Masking, "masking", {
+    SmithSeparable => "smith-separable",
+    SmithCorrelated => "smith-correlated",
+    VCavity => "v-cavity",
+});
 
 /// The V-cavity masking of one direction, min(1, 2 (n·m)(n·v)/(v·m)) (Cook & Torrance
 /// 1982; Heitz 2014 eq. 94). Requires v·m > 0.

@@ -109,20 +109,12 @@ impl Distribution {
             Distribution::Ggx => ggx_grad(hx, hy, hz, ax, ay),
         }
     }
-
-    /// Every distribution.
-    pub const ALL: [Distribution; 2] = [Distribution::Beckmann, Distribution::Ggx];
-
-    /// The name used in the JSON contract (`"beckmann"`, `"ggx"`).
-    pub fn name(self) -> &'static str {
-        match self {
-            Distribution::Beckmann => "beckmann",
-            Distribution::Ggx => "ggx",
-        }
-    }
 }
 
-crate::named_choice!(Distribution, "distribution");
+crate::named_choice!(Distribution, "distribution", {
+    Beckmann => "beckmann",
+    Ggx => "ggx",
+});
 
 #[cfg(test)]
 mod tests {

@@ -1,17 +1,29 @@
-//! Helpers shared by the CLI test files: the binary, its stderr, a synthesised table
+//! Helpers shared by the CLI test files: the binary (and [`fit_brdf!`], one run of it), its stderr, a synthesised table
 //! from a spec text, the spec of a small plastic, and hand-built `.npy` files.
 
-#![allow(dead_code)] // each test file uses its own subset
+#![allow(dead_code, unused_macros)] // each test file uses its own subset
 
 #[path = "../../../brdfkit-io/tests/common/npy_bytes.rs"]
 pub mod npy;
 
 use assert_cmd::Command;
+use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
 /// The `fit-brdf` binary of this build.
 pub fn bin() -> Command {
     Command::cargo_bin("fit-brdf").unwrap()
+}
+
+/// Runs `fit-brdf` with these arguments (each anything [`Command::arg`] takes: `&str`,
+/// `&Path`, `PathBuf`, ...) and returns its output, whatever its status. The test files
+/// declare `#[macro_use] mod common;`.
+macro_rules! fit_brdf {
+    ($($arg:expr),+ $(,)?) => {{
+        let mut cmd = $crate::common::bin();
+        $(cmd.arg($arg);)+
+        cmd.output().unwrap()
+    }};
 }
 
 /// A finished command's stderr as text.
@@ -100,6 +112,19 @@ pub fn small_plastic_spec(name: &str, rho_d: [f64; 3], alpha: f64) -> String {
     plastic_spec(name, rho_d, alpha, "distribution = \"ggx\"\n")
 }
 
+/// [`assert_bad_input`], and `out` was not written.
+pub fn assert_bad_input_writes_nothing(o: &std::process::Output, needles: &[&str], out: &Path) {
+    assert_bad_input(o, needles);
+    assert!(!out.exists(), "{} written on bad input", out.display());
+}
+
+/// Writes `contents` to `dir/name`; returns the path.
+pub fn write_file(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, contents).unwrap();
+    p
+}
+
 /// The names of the entries of `dir`, sorted.
 pub fn names(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
@@ -119,4 +144,60 @@ pub fn assert_bad_input(o: &std::process::Output, needles: &[&str]) {
     for n in needles {
         assert!(err.contains(n), "`{n}` not in {err}");
     }
+}
+
+/// `fit-brdf export --to gltf` of the model description `model`, written to
+/// `dir/<name>.json`, into `dir/<name>.gltf`; asserts it succeeds.
+pub fn export_gltf(dir: &Path, name: &str, model: &Value) -> PathBuf {
+    let params = dir.join(format!("{name}.json"));
+    std::fs::write(&params, model.to_string()).unwrap();
+    let out = dir.join(format!("{name}.gltf"));
+    let o = fit_brdf!("export", &params, "--to", "gltf", "--quiet", "--out", &out);
+    assert!(o.status.success(), "export {name}: {}", stderr(&o));
+    out
+}
+
+/// The `gltf-pbr-ext` description of the glTF core parameters `core` with `extra`
+/// parameters (the extensions' list and factors) added.
+pub fn gltf_pbr_ext(core: &Value, extra: Value) -> Value {
+    let mut p = core.clone();
+    for (k, v) in extra.as_object().unwrap() {
+        p[k] = v.clone();
+    }
+    json!({"model": "gltf-pbr-ext", "params": p})
+}
+
+/// One `gltf-pbr-ext` over `core` per extension `fit --for gltf` chooses between
+/// ("sheen", "clearcoat", "specular", each with colours of unequal channels), then
+/// "all" three at once with grey colours given as one number.
+pub fn gltf_extension_variants(core: &Value) -> Vec<(&'static str, Value)> {
+    let ext = |extra| gltf_pbr_ext(core, extra);
+    vec![
+        (
+            "sheen",
+            ext(
+                json!({"extensions": ["sheen"], "sheen_color": [0.7, 0.5, 0.4], "sheen_roughness": 0.4}),
+            ),
+        ),
+        (
+            "clearcoat",
+            ext(
+                json!({"extensions": ["clearcoat"], "clearcoat": 0.8, "clearcoat_roughness": 0.15}),
+            ),
+        ),
+        (
+            "specular",
+            ext(
+                json!({"extensions": ["specular"], "specular": 0.6, "specular_color": [1.4, 1.0, 0.8], "ior": 1.6}),
+            ),
+        ),
+        (
+            "all",
+            ext(
+                json!({"extensions": ["sheen", "clearcoat", "specular"], "sheen_color": 0.5,
+                "sheen_roughness": 0.5, "clearcoat": 0.3, "clearcoat_roughness": 0.1,
+                "specular": 0.9, "specular_color": 1.2, "ior": 1.45}),
+            ),
+        ),
+    ]
 }
