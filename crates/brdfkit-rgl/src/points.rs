@@ -238,7 +238,11 @@ fn slice(p: &Parts, [a, b]: [usize; 2]) -> Slice {
     Slice {
         wi,
         params: [phi, theta],
-        phi_offset: if p.isotropic { wi.y.atan2(wi.x) } else { 0.0 },
+        phi_offset: if p.isotropic {
+            crate::fastmath::atan2_drjit(wi.y, wi.x)
+        } else {
+            0.0
+        },
     }
 }
 
@@ -293,7 +297,7 @@ fn slice_points(
     let theta_wi = f64::from(p.theta_i[ab[1]]);
     let u_wi = [
         (theta_wi * (2.0 / PI)).sqrt(),
-        (sl.wi.y.atan2(sl.wi.x) + PI) * (0.5 / PI),
+        (crate::fastmath::atan2_drjit(sl.wi.y, sl.wi.x) + PI) * (0.5 / PI),
     ];
     let sigma = p.sigma.eval(u_wi, &[]);
     let mut stored = vec![0.0; bsdf.stored_len()];
