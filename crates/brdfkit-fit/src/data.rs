@@ -8,6 +8,7 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -66,7 +67,7 @@ pub struct FitData {
     cbrt_targets: OnceLock<[Vec<f64>; 3]>,
     /// What scattered samples these cells were built from (`None`: a table, or a
     /// subset of cells), which a fit's record carries.
-    input: Option<crate::samples::SampleInput>,
+    input: Option<SampleInput>,
 }
 
 /// The stratified subsamples drawn from a cell set, by (fraction, seed): the warm-up
@@ -132,18 +133,18 @@ impl FitData {
     }
 
     /// These cells, described as built from `input` ([`FitData::from_samples`]).
-    pub(crate) fn with_input(mut self, input: crate::samples::SampleInput) -> FitData {
+    pub(crate) fn with_input(mut self, input: SampleInput) -> FitData {
         self.input = Some(input);
         self
     }
 
     /// What scattered samples the cells were built from; `None` for a table's cells
     /// and for subsets (cutoffs, subsamples).
-    pub fn input(&self) -> Option<&crate::samples::SampleInput> {
+    pub fn input(&self) -> Option<&SampleInput> {
         self.input.as_ref()
     }
 
-    pub(crate) fn input_mut(&mut self) -> Option<&mut crate::samples::SampleInput> {
+    pub(crate) fn input_mut(&mut self) -> Option<&mut SampleInput> {
         self.input.as_mut()
     }
 
@@ -622,4 +623,28 @@ impl FitData {
         let mult: Vec<f64> = order.iter().map(|&p| mult[p]).collect();
         self.select(&idx, Some(&mult))
     }
+}
+
+/// What a fit's input was, kept in its record (`input`): absent for a MERL table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SampleInput {
+    /// `samples` (a user's rows) or `bsdf-points` (a `.bsdf`'s measured points).
+    pub kind: String,
+    /// The file, when the caller names one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+    /// Rows given.
+    pub rows: usize,
+    /// Samples kept (the fit's cells before any cutoff).
+    pub samples: usize,
+    /// Rows dropped for a missing (NaN) value.
+    pub dropped_missing: usize,
+    /// Rows dropped by the producer before they got here (a `.bsdf`'s points whose wo
+    /// is below the horizon, or on a slice at θi = 90°).
+    #[serde(default)]
+    pub dropped_other: usize,
+    /// Negative channel values stored as 0.
+    pub negative_zeroed: usize,
+    /// `given` (the rows' own weights) or `uniform` (1 each).
+    pub weights: String,
 }

@@ -66,6 +66,7 @@ pub mod target;
 
 pub use config::{CellFilter, FitConfig, FullIters, Sharing, SolverKind};
 pub use data::FitData;
+pub use data::SampleInput;
 pub use error::FitError;
 pub use fit::{FitResult, StageTimes, fit, fit_table, prepare, resolve_free};
 pub use fitted::Fitted;
@@ -76,5 +77,5 @@ pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses, evalua
 pub use record::{
     FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,
 };
-pub use samples::{Sample, SampleError, SampleInput, SampleProblem, SamplesFileError};
+pub use samples::{Sample, SampleError, SampleProblem, SamplesFileError};
 pub use score::{Score, ScoreError, losses_of_values, score};

@@ -285,7 +285,7 @@ pub struct FitRecord {
     /// The scattered samples the fit's cells were built from (absent for a MERL
     /// table and in older records): kind, rows, kept, dropped ([`crate::samples`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub input: Option<crate::samples::SampleInput>,
+    pub input: Option<crate::data::SampleInput>,
 }
 
 impl FitRecord {

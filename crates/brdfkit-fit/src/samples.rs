@@ -22,11 +22,10 @@
 //!   both f(a, b) and f(b, a) sees both, which is the least-squares fit to their
 //!   (weighted) mean; nothing is symmetrised.
 
-use crate::data::FitData;
+use crate::data::{FitData, SampleInput};
 use crate::error::FitError;
 use brdfkit_core::direction::UNIT_TOLERANCE;
 use brdfkit_core::{GeometryBatch, Vec3};
-use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 /// One measured sample: a direction pair (both pointing away from the surface, local
@@ -106,30 +105,6 @@ pub enum SampleProblem {
         /// The first sample with one.
         first: usize,
     },
-}
-
-/// What a fit's input was, kept in its record (`input`): absent for a MERL table.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SampleInput {
-    /// `samples` (a user's rows) or `bsdf-points` (a `.bsdf`'s measured points).
-    pub kind: String,
-    /// The file, when the caller names one.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub source: Option<String>,
-    /// Rows given.
-    pub rows: usize,
-    /// Samples kept (the fit's cells before any cutoff).
-    pub samples: usize,
-    /// Rows dropped for a missing (NaN) value.
-    pub dropped_missing: usize,
-    /// Rows dropped by the producer before they got here (a `.bsdf`'s points whose wo
-    /// is below the horizon, or on a slice at θi = 90°).
-    #[serde(default)]
-    pub dropped_other: usize,
-    /// Negative channel values stored as 0.
-    pub negative_zeroed: usize,
-    /// `given` (the rows' own weights) or `uniform` (1 each).
-    pub weights: String,
 }
 
 /// The checks of one sample's directions.

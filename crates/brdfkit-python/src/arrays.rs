@@ -11,7 +11,7 @@
 use crate::errors;
 use brdfkit_core::direction::check_unit_pairs;
 use brdfkit_merl::Dims;
-use numpy::{PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 use rayon::prelude::*;
@@ -124,7 +124,7 @@ where
         let (rows, _) = out.as_chunks_mut::<3>();
         f(wi, wo, rows)
     })?;
-    crate::table::rows_array(py, out)
+    rows_array(py, out)
 }
 
 /// Grid dims from any sequence of three integers (a tuple, a list, a NumPy array).
@@ -143,4 +143,10 @@ pub(crate) fn dims_of(obj: &Bound<'_, PyAny>) -> PyResult<Dims> {
             v.len()
         ))),
     }
+}
+
+/// An (N, 3) float64 array that takes over `v` (3N values) without a copy.
+pub(crate) fn rows_array<'py>(py: Python<'py>, v: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
+    let n = v.len() / 3;
+    Ok(PyArray1::from_vec(py, v).reshape([n, 3])?.into_any())
 }

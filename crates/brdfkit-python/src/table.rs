@@ -49,12 +49,6 @@ pub(crate) fn lookup_mode(interp: &str) -> PyResult<Lookup> {
     }
 }
 
-/// An (N, 3) float64 array that takes over `v` (3N values) without a copy.
-pub(crate) fn rows_array<'py>(py: Python<'py>, v: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
-    let n = v.len() / 3;
-    Ok(PyArray1::from_vec(py, v).reshape([n, 3])?.into_any())
-}
-
 #[pymethods]
 impl PyTable {
     /// Reads a MERL binary table (any dims).
