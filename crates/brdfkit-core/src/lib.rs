@@ -41,6 +41,6 @@ pub use direction::Vec3;
 pub use geometry::{
     DirPairs, GeomSlice, GeomSliceF32, GeomSliceOf, Geometry, GeometryBatch, GeometryBatchF32,
 };
-pub use model::{AsAny, Model, ModelError, ParamRole, ParamSpec, downcast};
+pub use model::{AsAny, CloneModel, Model, ModelError, ParamRole, ParamSpec, downcast};
 pub use rgb::Rgb;
 pub use rusinkiewicz::{HalfDiff, from_half_diff, to_half_diff};

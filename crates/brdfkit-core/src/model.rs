@@ -233,13 +233,26 @@ pub fn downcast<T: Model>(m: &dyn Model) -> Option<&T> {
     m.as_any().downcast_ref::<T>()
 }
 
+/// A boxed copy of a model (models are small; a fit clones one per candidate
+/// parameter). Every `Clone` model has it, so no model writes it out.
+pub trait CloneModel {
+    /// `self`, boxed.
+    fn clone_box(&self) -> Box<dyn Model>;
+}
+
+impl<T: Model + Clone> CloneModel for T {
+    fn clone_box(&self) -> Box<dyn Model> {
+        Box::new(self.clone())
+    }
+}
+
 /// A parametric, differentiable BRDF model.
 ///
 /// Every implementation must keep four paths numerically identical: [`Brdf::eval`],
 /// [`Model::eval_grad`] (value part), [`Model::eval_batch`] and
 /// [`Model::eval_grad_batch`]; and return exactly 0 (value and gradient) for a pair
 /// with either direction at or below the horizon.
-pub trait Model: Brdf + fmt::Debug + AsAny {
+pub trait Model: Brdf + fmt::Debug + AsAny + CloneModel {
     /// The model's name in the JSON contract (`"cook-torrance"`).
     fn name(&self) -> &'static str;
 
@@ -311,9 +324,6 @@ pub trait Model: Brdf + fmt::Debug + AsAny {
 
     /// The model in the JSON contract: `{"model": name, "params": {...}}`.
     fn to_json(&self) -> serde_json::Value;
-
-    /// A boxed copy (models are small; a fit clones one per candidate parameter).
-    fn clone_box(&self) -> Box<dyn Model>;
 
     /// f(wi, wo) = f(wo, wi) for all parameters. The original Phong model does not.
     fn is_reciprocal(&self) -> bool {

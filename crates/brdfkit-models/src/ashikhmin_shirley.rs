@@ -181,8 +181,4 @@ impl Model for AshikhminShirley {
         let o = LAYOUT.write_json(self.rho_d, self.rho_s, self.n);
         json!({"model": "ashikhmin-shirley", "params": o})
     }
-
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
 }

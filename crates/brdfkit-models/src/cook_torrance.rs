@@ -754,10 +754,6 @@ impl Model for CookTorrance {
         json!({"model": "cook-torrance", "params": o})
     }
 
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
     /// True: with F ≤ 1 and ρd + ρs ≤ 1 the albedo is ≤ 1 for every distribution and
     /// masking (proof for the exact Smith forms and the V-cavity via the weak white
     /// furnace; measured for Walter's rational G1, see `docs/models.md`).

@@ -376,10 +376,6 @@ impl<K: LobeKind> Model for CosineLobeModel<K> {
         json!({"model": K::NAME, "params": p})
     }
 
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
     fn is_reciprocal(&self) -> bool {
         K::RECIPROCAL
     }

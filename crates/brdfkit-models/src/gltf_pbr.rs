@@ -264,10 +264,6 @@ impl Model for GltfPbr {
         }})
     }
 
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
     /// False: a white dielectric exceeds albedo 1 at grazing incidence (module doc).
     fn conserves_energy(&self) -> bool {
         false

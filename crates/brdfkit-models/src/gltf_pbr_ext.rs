@@ -628,10 +628,6 @@ impl Model for GltfPbrExt {
         json!({"model": M, "params": params})
     }
 
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
     /// False with a clear coat: its Fresnel weight is taken at N·V (module doc).
     fn is_reciprocal(&self) -> bool {
         self.clearcoat.is_none()

@@ -470,10 +470,6 @@ impl Model for Lafortune {
         }})
     }
 
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
     /// False: the lobes are not normalised; see [`Lafortune::albedo_bound`].
     fn conserves_energy(&self) -> bool {
         false

@@ -128,10 +128,6 @@ impl Model for Lambert {
     fn to_json(&self) -> Value {
         json!({"model": "lambert", "params": {"rho_d": json::rgb_value(self.rho_d)}})
     }
-
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
 }
 
 #[cfg(test)]

@@ -239,10 +239,6 @@ impl Model for OrenNayar {
         }})
     }
 
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
     /// False: the albedo reaches ρd (A + B/2), up to 1.0152 ρd, near grazing.
     fn conserves_energy(&self) -> bool {
         false

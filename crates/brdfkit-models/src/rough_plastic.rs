@@ -579,10 +579,6 @@ impl Model for RoughPlastic {
             "nonlinear": self.nonlinear,
         }})
     }
-
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
 }
 
 #[cfg(test)]

@@ -268,10 +268,6 @@ impl Model for Sum {
         json!({"model": "sum", "params": {"terms": terms}})
     }
 
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
-
     /// True iff every term is reciprocal.
     fn is_reciprocal(&self) -> bool {
         self.terms.iter().all(|t| t.is_reciprocal())
@@ -292,6 +288,7 @@ impl Model for Sum {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use brdfkit_core::CloneModel;
     use crate::blinn_phong::BlinnPhong;
     use crate::lafortune::{Lafortune, LafortuneLobe};
     use crate::lambert::Lambert;

@@ -272,9 +272,6 @@ impl brdfkit_core::Model for Broken {
     fn to_json(&self) -> serde_json::Value {
         serde_json::Value::Null
     }
-    fn clone_box(&self) -> Box<dyn brdfkit_core::Model> {
-        Box::new(self.clone())
-    }
 }
 
 #[test]

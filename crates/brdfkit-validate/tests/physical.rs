@@ -116,9 +116,6 @@ impl Model for Faulty {
     fn to_json(&self) -> serde_json::Value {
         serde_json::json!({"model": "faulty", "params": {"rho": self.rho, "fault": format!("{:?}", self.fault)}})
     }
-    fn clone_box(&self) -> Box<dyn Model> {
-        Box::new(self.clone())
-    }
 }
 
 /// Fewer pairs than the default, to keep the debug-build tests quick; the checks are the

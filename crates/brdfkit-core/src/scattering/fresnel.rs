@@ -107,6 +107,69 @@ pub struct ConductorFresnel {
     pub d_k: f64,
 }
 
+/// The powers of cos θi and sin θi that the conductor formula uses, shared by
+/// [`conductor`] and [`conductor_grad`] so both start from the same bits.
+struct Incidence {
+    c: f64,
+    c2: f64,
+    s2: f64,
+    s4: f64,
+}
+
+impl Incidence {
+    #[inline]
+    fn new(cos_theta_i: f64) -> Self {
+        // Round-off of a dot product of unit vectors can step outside [0, 1].
+        let c = cos_theta_i.clamp(0.0, 1.0);
+        let c2 = c * c;
+        let s2 = 1.0 - c2;
+        Incidence {
+            c,
+            c2,
+            s2,
+            s4: s2 * s2,
+        }
+    }
+
+    /// R_s and R_p/R_s, from a² + b² (`p`) and `a`, with the terms of their quotients
+    /// (the derivatives need them).
+    #[inline]
+    fn ratios(&self, p: f64, a: f64) -> Ratios {
+        let t1 = p + self.c2;
+        let t2 = 2.0 * self.c * a;
+        let t3 = p * self.c2 + self.s4;
+        let t4 = t2 * self.s2;
+        Ratios {
+            t1,
+            t2,
+            rs: (t1 - t2) / (t1 + t2),
+            t3,
+            t4,
+            ratio: (t3 - t4) / (t3 + t4),
+        }
+    }
+}
+
+/// R_s = (t1 − t2)/(t1 + t2) and R_p/R_s = (t3 − t4)/(t3 + t4) of [`conductor_grad`].
+#[derive(Clone, Copy)]
+struct Ratios {
+    t1: f64,
+    t2: f64,
+    rs: f64,
+    t3: f64,
+    t4: f64,
+    ratio: f64,
+}
+
+impl Ratios {
+    /// F = (R_s + R_p)/2.
+    #[inline]
+    fn f(&self) -> f64 {
+        let rp = self.rs * self.ratio;
+        0.5 * (self.rs + rp)
+    }
+}
+
 /// Exact Fresnel reflectance of a conductor with complex relative index η + i·k, for
 /// unpolarised light (see [`conductor_grad`] for the formula).
 ///
@@ -114,22 +177,11 @@ pub struct ConductorFresnel {
 /// the same operations in the same order, so both give the same bits (tested).
 #[inline]
 pub fn conductor(cos_theta_i: f64, eta: f64, k: f64) -> f64 {
-    // Round-off of a dot product of unit vectors can step outside [0, 1].
-    let c = cos_theta_i.clamp(0.0, 1.0);
-    let c2 = c * c;
-    let s2 = 1.0 - c2;
-    let s4 = s2 * s2;
-    let t = eta * eta - k * k - s2;
+    let inc = Incidence::new(cos_theta_i);
+    let t = eta * eta - k * k - inc.s2;
     let p = (t * t + 4.0 * eta * eta * k * k).sqrt();
     let a = (0.5 * (p + t)).max(0.0).sqrt();
-    let t1 = p + c2;
-    let t2 = 2.0 * c * a;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = p * c2 + s4;
-    let t4 = t2 * s2;
-    let ratio = (t3 - t4) / (t3 + t4);
-    let rp = rs * ratio;
-    0.5 * (rs + rp)
+    inc.ratios(p, a).f()
 }
 
 /// Conductor Fresnel reflectance and its derivatives with respect to η and k.
@@ -148,11 +200,8 @@ pub fn conductor(cos_theta_i: f64, eta: f64, k: f64) -> f64 {
 /// flat in η); there the a-dependent terms of the derivatives are dropped instead of
 /// dividing by zero.
 pub fn conductor_grad(cos_theta_i: f64, eta: f64, k: f64) -> ConductorFresnel {
-    // Round-off of a dot product of unit vectors can step outside [0, 1].
-    let c = cos_theta_i.clamp(0.0, 1.0);
-    let c2 = c * c;
-    let s2 = 1.0 - c2;
-    let s4 = s2 * s2;
+    let inc = Incidence::new(cos_theta_i);
+    let (c, c2, s2) = (inc.c, inc.c2, inc.s2);
 
     let t = eta * eta - k * k - s2;
     let (dt_de, dt_dk) = (2.0 * eta, -2.0 * k);
@@ -174,14 +223,16 @@ pub fn conductor_grad(cos_theta_i: f64, eta: f64, k: f64) -> ConductorFresnel {
         (0.0, 0.0)
     };
 
-    let t1 = p + c2;
-    let t2 = 2.0 * c * a;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = p * c2 + s4;
-    let t4 = t2 * s2;
-    let ratio = (t3 - t4) / (t3 + t4);
-    let rp = rs * ratio;
-    let f = 0.5 * (rs + rp);
+    let r = inc.ratios(p, a);
+    let Ratios {
+        t1,
+        t2,
+        rs,
+        t3,
+        t4,
+        ratio,
+    } = r;
+    let f = r.f();
 
     // d[(u − v)/(u + v)] = 2 (v du − u dv)/(u + v)².
     let d = |dp: f64, da: f64| {
