@@ -489,6 +489,16 @@ impl<'a, T> GeomSliceOf<'a, T> {
         self.wi_x.is_empty()
     }
 
+    /// The direction columns `[[wi x, y, z], [wo x, y, z]]`, each cut to [`Self::len`]
+    /// so that a loop over `0..len` indexes them without bounds checks.
+    pub fn dirs(&self) -> [[&'a [T]; 3]; 2] {
+        let n = self.len();
+        [
+            [&self.wi_x[..n], &self.wi_y[..n], &self.wi_z[..n]],
+            [&self.wo_x[..n], &self.wo_y[..n], &self.wo_z[..n]],
+        ]
+    }
+
     /// A sub-run of this slice.
     pub fn sub(&self, r: std::ops::Range<usize>) -> GeomSliceOf<'a, T> {
         let [wi_x, wi_y, wi_z, wo_x, wo_y, wo_z, h_x, h_y, h_z, cos_d] =

@@ -80,6 +80,7 @@ use std::f64::consts::FRAC_1_PI;
 
 #[path = "cook_torrance_ggx.rs"]
 mod ggx;
+pub(crate) use ggx::ggx_iso_dv;
 
 /// The roughness shape α or (αx, αy); defined in [`crate::shape`], shared with `ward`
 /// and `ashikhmin-shirley`.

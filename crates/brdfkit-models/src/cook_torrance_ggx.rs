@@ -397,28 +397,24 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
         so,
         dv,
     } = lobe::<T, A, C>(k, wi, wo, h);
-    // ∂ln vden/∂α for a direction-dependent ∂S: `dsi`, `dso` are ∂Si/∂α, ∂So/∂α.
-    let dln_vden = |dsi: T, dso: T| {
-        if C {
-            (zo * dsi + zi * dso) / (zo * si + zi * so)
-        } else {
-            dsi / (zi + si) + dso / (zo + so)
-        }
-    };
     let (dln_x, dln_y) = if A {
         let (ux, uy) = (hx2 * k.inv_ax2, hy2 * k.inv_ay2);
         let four = T::TWO + T::TWO;
         let dx = (four * ux - s) * k.inv_ax / s
-            - dln_vden(k.ax * wi[0] * wi[0] / si, k.ax * wo[0] * wo[0] / so);
+            - dln_vden::<T, C>(
+                [zi, zo, si, so],
+                k.ax * wi[0] * wi[0] / si,
+                k.ax * wo[0] * wo[0] / so,
+            );
         let dy = (four * uy - s) * k.inv_ay / s
-            - dln_vden(k.ay * wi[1] * wi[1] / si, k.ay * wo[1] * wo[1] / so);
+            - dln_vden::<T, C>(
+                [zi, zo, si, so],
+                k.ay * wi[1] * wi[1] / si,
+                k.ay * wo[1] * wo[1] / so,
+            );
         (dx, dy)
     } else {
-        let u = (hx2 + hy2) * k.inv_ax2;
-        let four = T::TWO + T::TWO;
-        let d = (four * u - T::TWO * s) * k.inv_ax / s
-            - dln_vden(k.ax * sin2::<T>(wi) / si, k.ax * sin2::<T>(wo) / so);
-        (d, z)
+        (dln_alpha_iso::<T, C>(k, wi, wo, hx2 + hy2, s, si, so), z)
     };
     let f = fresnel::<T, F>(k, cd);
     let w_comp = if F == F_SCHLICK {
@@ -452,6 +448,92 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
         }
     }
     std::array::from_fn(|c| select(up, k.diff[c] + k.spec[c] * dv * f[c], z))
+}
+
+/// ∂ln vden/∂α for a direction-dependent ∂S (`zs` = [zi, zo, Si, So]; `dsi`, `dso`
+/// are ∂Si/∂α, ∂So/∂α), in the two forms of [`value_grad`]'s doc.
+#[inline(always)]
+fn dln_vden<T: Real, const C: bool>(zs: [T; 4], dsi: T, dso: T) -> T {
+    let [zi, zo, si, so] = zs;
+    if C {
+        (zo * dsi + zi * dso) / (zo * si + zi * so)
+    } else {
+        dsi / (zi + si) + dso / (zo + so)
+    }
+}
+
+/// ∂ln(D·V)/∂α of the isotropic lobe ([`value_grad`]'s doc), from the lobe's
+/// hx² + hy², s, S(wi) and S(wo).
+#[inline(always)]
+fn dln_alpha_iso<T: Real, const C: bool>(
+    k: &Consts<T>,
+    wi: [T; 3],
+    wo: [T; 3],
+    hxy2: T,
+    s: T,
+    si: T,
+    so: T,
+) -> T {
+    let u = hxy2 * k.inv_ax2;
+    let four = T::TWO + T::TWO;
+    (four * u - T::TWO * s) * k.inv_ax / s
+        - dln_vden::<T, C>(
+            [wi[2], wo[2], si, so],
+            k.ax * sin2::<T>(wi) / si,
+            k.ax * sin2::<T>(wo) / so,
+        )
+}
+
+/// Isotropic GGX D·V of one pair above the horizon and ∂ln(D·V)/∂α, in `f64`: the
+/// lobe and log-derivative of this kernel, for the models that share it (`gltf-pbr`
+/// and its extensions' core and clear coat). `h` is the unit half vector; `correlated`
+/// picks the height-correlated Smith V, else the separable one.
+#[inline(always)]
+pub(crate) fn ggx_iso_dv(
+    alpha: f64,
+    correlated: bool,
+    wi: [f64; 3],
+    wo: [f64; 3],
+    h: [f64; 3],
+) -> (f64, f64) {
+    let k = Consts::isotropic(alpha);
+    let go = |l: Lobe<f64>, c: bool| {
+        let d = if c {
+            dln_alpha_iso::<f64, true>(&k, wi, wo, l.hx2 + l.hy2, l.s, l.si, l.so)
+        } else {
+            dln_alpha_iso::<f64, false>(&k, wi, wo, l.hx2 + l.hy2, l.s, l.si, l.so)
+        };
+        (l.dv, d)
+    };
+    if correlated {
+        go(lobe::<f64, false, true>(&k, wi, wo, h), true)
+    } else {
+        go(lobe::<f64, false, false>(&k, wi, wo, h), false)
+    }
+}
+
+impl Consts<f64> {
+    /// The constants of an isotropic lobe of roughness α (as
+    /// [`CookTorrance::ggx_consts`] sets them), and none of the colour's.
+    fn isotropic(alpha: f64) -> Self {
+        let z = [0.0; 3];
+        Consts {
+            inv_ax2: 1.0 / (alpha * alpha),
+            inv_ay2: 1.0 / (alpha * alpha),
+            ax2: alpha * alpha,
+            ay2: alpha * alpha,
+            ax: alpha,
+            ay: alpha,
+            inv_ax: 1.0 / alpha,
+            inv_ay: 1.0 / alpha,
+            d_norm: FRAC_1_PI / (alpha * alpha),
+            diff: z,
+            spec: z,
+            spec_d: z,
+            fa: z,
+            fb: z,
+        }
+    }
 }
 
 /// Calls `job.go` with `cfg` as constants, for the configurations of

@@ -51,11 +51,13 @@
 //! 1.03 at 69°, 1.12 at 86°); a metal (metallic 1) stays ≤ 1. This is the format's
 //! model, kept as written: a fit reproduces what glTF viewers render.
 
+use crate::cook_torrance::ggx_iso_dv;
 use crate::json;
 use crate::pair::PairGeom;
 use crate::params::{above_horizon, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::scattering::Masking;
+use brdfkit_core::scattering::fresnel::schlick_weight;
 use brdfkit_core::{Model, ModelError, ParamSpec, Rgb};
 use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
@@ -154,9 +156,7 @@ impl GltfPbr {
         let cd = p.cos_d;
         // Without `grad` the inlined derivative is dead code, and the compiler drops it.
         let (dv, d_r) = ggx_dv(self.roughness, self.masking, wi, wo, h);
-        let c = cd.clamp(0.0, 1.0);
-        let m1 = 1.0 - c;
-        let w = m1 * m1 * m1 * m1 * m1;
+        let w = schlick_weight(cd);
         let m = self.metallic;
         let diff_k = (1.0 - m) * (1.0 - DIELECTRIC_F0) * (1.0 - w) * FRAC_1_PI;
         let bc = self.base_color;
@@ -179,15 +179,10 @@ impl GltfPbr {
 
 /// glTF's GGX D·V (Appendix B: D with α = roughness², V the height-correlated or
 /// separable Smith term of `masking`) of the pair (wi, wo) with half vector `h`, and
-/// ∂ln(D·V)/∂roughness: the one kernel of the core model and of
-/// [`crate::gltf_pbr_ext`]'s core and clear coat.
-///
-/// With S(v) = √(cos²θv + α² sin²θv) and u = (h_x² + h_y²)/α², s = u + h_z²:
-/// D·V = 1 / (π α² s² · vden), vden = 2 (cos θo S(i) + cos θi S(o)) (correlated) or
-/// (cos θi + S(i))(cos θo + S(o)) (separable). Its log-derivative (isotropic GGX, as
-/// cook-torrance's kernel): ∂ln D/∂α = (4u − 2s)/(α s), and ∂S(v)/∂α = α sin²θv/S(v)
-/// enters through vden; α = roughness² gives ∂α/∂roughness = 2 roughness.
-/// Both directions must be above the horizon (the callers return 0 below it).
+/// ∂ln(D·V)/∂roughness = 2 roughness ∂ln(D·V)/∂α: `cook-torrance`'s GGX lobe
+/// ([`ggx_iso_dv`]), the one kernel of the core model and of
+/// [`crate::gltf_pbr_ext`]'s core and clear coat. Both directions must be above the
+/// horizon (the callers return 0 below it).
 #[inline(always)]
 pub(crate) fn ggx_dv(
     roughness: f64,
@@ -196,29 +191,8 @@ pub(crate) fn ggx_dv(
     wo: [f64; 3],
     h: [f64; 3],
 ) -> (f64, f64) {
-    let (zi, zo) = (wi[2], wo[2]);
-    let a = roughness * roughness;
-    let a2 = a * a;
-    let u = (h[0] * h[0] + h[1] * h[1]) / a2;
-    let s = u + h[2] * h[2];
-    let sin2_i = wi[0] * wi[0] + wi[1] * wi[1];
-    let sin2_o = wo[0] * wo[0] + wo[1] * wo[1];
-    let si = (zi * zi + a2 * sin2_i).sqrt();
-    let so = (zo * zo + a2 * sin2_o).sqrt();
     let correlated = masking == Masking::SmithCorrelated;
-    let vden = if correlated {
-        2.0 * (zo * si + zi * so)
-    } else {
-        (zi + si) * (zo + so)
-    };
-    let dv = FRAC_1_PI / (a2 * s * s * vden);
-    let (dsi, dso) = (a * sin2_i / si, a * sin2_o / so);
-    let dln_vden = if correlated {
-        (zo * dsi + zi * dso) / (zo * si + zi * so)
-    } else {
-        dsi / (zi + si) + dso / (zo + so)
-    };
-    let dln_a = (4.0 * u - 2.0 * s) / (a * s) - dln_vden;
+    let (dv, dln_a) = ggx_iso_dv(roughness * roughness, correlated, wi, wo, h);
     (dv, dln_a * 2.0 * roughness)
 }
 
@@ -327,19 +301,41 @@ mod tests {
         }
     }
 
+    /// Math once (issue 25): at metallic 1 the model is `cook-torrance` with GGX,
+    /// ρd = 0, ρs = 1, α = roughness² and Schlick's f0 = base colour, through the same
+    /// lobe code, so the values agree to the bit; the roughness derivative is
+    /// cook-torrance's α derivative × 2 roughness (one product apart).
     #[test]
-    fn metallic_one_is_a_schlick_ggx_conductor_and_zero_a_dielectric() {
-        let wi = spherical(0.4, 0.0);
-        let wo = spherical(0.7, 2.5);
-        let metal = GltfPbr::new(Rgb::new(0.9, 0.6, 0.2), 1.0, 0.3).unwrap();
-        let ct = crate::from_json_str(
-            r#"{"model": "cook-torrance", "params": {"rho_d": 0, "rho_s": 1, "alpha": 0.09,
-                "masking": "smith-correlated", "fresnel": {"schlick": {"f0": [0.9, 0.6, 0.2]}}}}"#,
-        )
-        .unwrap();
-        let (a, b) = (metal.eval(&wi, &wo), ct.eval(&wi, &wo));
-        for k in 0..3 {
-            assert!((a[k] - b[k]).abs() <= 1e-13 * b[k], "{a:?} {b:?}");
+    fn metallic_one_is_cook_torrance_ggx_to_the_bit() {
+        for masking in [Masking::SmithCorrelated, Masking::SmithSeparable] {
+            for r in [0.05, 0.3, 0.8] {
+                let metal = GltfPbr::new(Rgb::new(0.9, 0.6, 0.2), 1.0, r)
+                    .unwrap()
+                    .with_masking(masking)
+                    .unwrap();
+                let ct = crate::from_json_str(&format!(
+                    r#"{{"model": "cook-torrance", "params": {{"rho_d": 0, "rho_s": 1,
+                        "alpha": {}, "masking": "{}",
+                        "fresnel": {{"schlick": {{"f0": [0.9, 0.6, 0.2]}}}}}}}}"#,
+                    r * r,
+                    masking.name()
+                ))
+                .unwrap();
+                let ia = ct.param_specs().iter().position(|p| p.name == "alpha");
+                let ia = ia.expect("cook-torrance has alpha");
+                let (mut g1, mut g2) = ([Rgb::ZERO; 5], vec![Rgb::ZERO; ct.num_params()]);
+                for (wi, wo) in random_pairs(5, 400) {
+                    let (a, b) = (metal.eval(&wi, &wo), ct.eval(&wi, &wo));
+                    assert_eq!(a, b, "{masking:?} r {r}: {wi:?} {wo:?}");
+                    metal.eval_grad(&wi, &wo, &mut g1);
+                    ct.eval_grad(&wi, &wo, &mut g2);
+                    for k in 0..3 {
+                        let want = g2[ia][k] * 2.0 * r;
+                        let tol = 1e-14 * want.abs() + 1e-300;
+                        assert!((g1[4][k] - want).abs() <= tol, "{} {want}", g1[4][k]);
+                    }
+                }
+            }
         }
     }
 

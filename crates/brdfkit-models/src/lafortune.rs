@@ -395,8 +395,7 @@ impl Model for Lafortune {
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
         let n = g.len();
         let out = &mut out[..n];
-        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
-        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
+        let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
         for k in 0..n {
             out[k] = if iz[k] > 0.0 && oz[k] > 0.0 {
                 self.kernel(ix[k] * ox[k] + iy[k] * oy[k], iz[k] * oz[k])
@@ -412,8 +411,7 @@ impl Model for Lafortune {
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
         let n = g.len();
         let out = &mut out[..n];
-        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
-        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
+        let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
         let (g_rho_d, mut g_lobes) = grad[..self.num_params() * n].split_at_mut(3 * n);
         let (g0, rest) = g_rho_d.split_at_mut(n);
         let (g1, g2) = rest.split_at_mut(n);

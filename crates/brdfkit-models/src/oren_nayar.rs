@@ -193,8 +193,7 @@ impl Model for OrenNayar {
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
         let n = g.len();
         let out = &mut out[..n];
-        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
-        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
+        let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
         let (a, b, _, _) = coefficients(self.sigma);
         for k in 0..n {
             out[k] = if iz[k] > 0.0 && oz[k] > 0.0 {
@@ -209,8 +208,7 @@ impl Model for OrenNayar {
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
         let n = g.len();
         let out = &mut out[..n];
-        let (ix, iy, iz) = (&g.wi_x[..n], &g.wi_y[..n], &g.wi_z[..n]);
-        let (ox, oy, oz) = (&g.wo_x[..n], &g.wo_y[..n], &g.wo_z[..n]);
+        let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
         let (g_rho, g_sigma) = grad[..NP * n].split_at_mut(3 * n);
         let (a, b, da, db) = coefficients(self.sigma);
         for k in 0..n {

@@ -288,7 +288,6 @@ impl Model for Sum {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use brdfkit_core::CloneModel;
     use crate::blinn_phong::BlinnPhong;
     use crate::lafortune::{Lafortune, LafortuneLobe};
     use crate::lambert::Lambert;
@@ -296,6 +295,7 @@ mod tests {
     use crate::phong::Phong;
     use crate::plausible_phong::PlausiblePhong;
     use crate::testing::*;
+    use brdfkit_core::CloneModel;
     use brdfkit_core::GeometryBatch;
     use proptest::prelude::*;
 
