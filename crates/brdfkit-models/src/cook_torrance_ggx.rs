@@ -211,6 +211,7 @@ fn sin2<T: Real>(v: [T; 3]) -> T {
 }
 
 /// The specular factor DV = D·V of a pair and what its gradient reuses.
+#[derive(Clone, Copy)]
 struct Lobe<T> {
     hx2: T,
     hy2: T,
@@ -389,6 +390,7 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
     let (zi, zo) = (wi[2], wo[2]);
     let up = zi > T::ZERO && zo > T::ZERO;
     let z = T::ZERO;
+    let l = lobe::<T, A, C>(k, wi, wo, h);
     let Lobe {
         hx2,
         hy2,
@@ -396,7 +398,7 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
         si,
         so,
         dv,
-    } = lobe::<T, A, C>(k, wi, wo, h);
+    } = l;
     let (dln_x, dln_y) = if A {
         let (ux, uy) = (hx2 * k.inv_ax2, hy2 * k.inv_ay2);
         let four = T::TWO + T::TWO;
@@ -414,7 +416,7 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
             );
         (dx, dy)
     } else {
-        (dln_alpha_iso::<T, C>(k, wi, wo, hx2 + hy2, s, si, so), z)
+        (dln_alpha_iso::<T, C>(k, wi, wo, &l), z)
     };
     let f = fresnel::<T, F>(k, cd);
     let w_comp = if F == F_SCHLICK {
@@ -462,19 +464,11 @@ fn dln_vden<T: Real, const C: bool>(zs: [T; 4], dsi: T, dso: T) -> T {
     }
 }
 
-/// ∂ln(D·V)/∂α of the isotropic lobe ([`value_grad`]'s doc), from the lobe's
-/// hx² + hy², s, S(wi) and S(wo).
+/// ∂ln(D·V)/∂α of the isotropic lobe `l` of (wi, wo) ([`value_grad`]'s doc).
 #[inline(always)]
-fn dln_alpha_iso<T: Real, const C: bool>(
-    k: &Consts<T>,
-    wi: [T; 3],
-    wo: [T; 3],
-    hxy2: T,
-    s: T,
-    si: T,
-    so: T,
-) -> T {
-    let u = hxy2 * k.inv_ax2;
+fn dln_alpha_iso<T: Real, const C: bool>(k: &Consts<T>, wi: [T; 3], wo: [T; 3], l: &Lobe<T>) -> T {
+    let Lobe { s, si, so, .. } = *l;
+    let u = (l.hx2 + l.hy2) * k.inv_ax2;
     let four = T::TWO + T::TWO;
     (four * u - T::TWO * s) * k.inv_ax / s
         - dln_vden::<T, C>(
@@ -486,29 +480,17 @@ fn dln_alpha_iso<T: Real, const C: bool>(
 
 /// Isotropic GGX D·V of one pair above the horizon and ∂ln(D·V)/∂α, in `f64`: the
 /// lobe and log-derivative of this kernel, for the models that share it (`gltf-pbr`
-/// and its extensions' core and clear coat). `h` is the unit half vector; `correlated`
-/// picks the height-correlated Smith V, else the separable one.
+/// and its extensions' core and clear coat). `[wi, wo, h]` with h the unit half
+/// vector; `correlated` picks the height-correlated Smith V, else the separable one.
 #[inline(always)]
-pub(crate) fn ggx_iso_dv(
-    alpha: f64,
-    correlated: bool,
-    wi: [f64; 3],
-    wo: [f64; 3],
-    h: [f64; 3],
-) -> (f64, f64) {
+pub(crate) fn ggx_iso_dv(alpha: f64, correlated: bool, [wi, wo, h]: [[f64; 3]; 3]) -> (f64, f64) {
     let k = Consts::isotropic(alpha);
-    let go = |l: Lobe<f64>, c: bool| {
-        let d = if c {
-            dln_alpha_iso::<f64, true>(&k, wi, wo, l.hx2 + l.hy2, l.s, l.si, l.so)
-        } else {
-            dln_alpha_iso::<f64, false>(&k, wi, wo, l.hx2 + l.hy2, l.s, l.si, l.so)
-        };
-        (l.dv, d)
-    };
     if correlated {
-        go(lobe::<f64, false, true>(&k, wi, wo, h), true)
+        let l = lobe::<f64, false, true>(&k, wi, wo, h);
+        (l.dv, dln_alpha_iso::<f64, true>(&k, wi, wo, &l))
     } else {
-        go(lobe::<f64, false, false>(&k, wi, wo, h), false)
+        let l = lobe::<f64, false, false>(&k, wi, wo, h);
+        (l.dv, dln_alpha_iso::<f64, false>(&k, wi, wo, &l))
     }
 }
 

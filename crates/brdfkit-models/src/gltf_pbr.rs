@@ -155,7 +155,7 @@ impl GltfPbr {
         };
         let cd = p.cos_d;
         // Without `grad` the inlined derivative is dead code, and the compiler drops it.
-        let (dv, d_r) = ggx_dv(self.roughness, self.masking, wi, wo, h);
+        let (dv, d_r) = ggx_dv(self.roughness, self.masking, [wi, wo, h]);
         let w = schlick_weight(cd);
         let m = self.metallic;
         let diff_k = (1.0 - m) * (1.0 - DIELECTRIC_F0) * (1.0 - w) * FRAC_1_PI;
@@ -178,21 +178,15 @@ impl GltfPbr {
 }
 
 /// glTF's GGX D·V (Appendix B: D with α = roughness², V the height-correlated or
-/// separable Smith term of `masking`) of the pair (wi, wo) with half vector `h`, and
+/// separable Smith term of `masking`) of `[wi, wo, h]` (h the half vector), and
 /// ∂ln(D·V)/∂roughness = 2 roughness ∂ln(D·V)/∂α: `cook-torrance`'s GGX lobe
-/// ([`ggx_iso_dv`]), the one kernel of the core model and of
-/// [`crate::gltf_pbr_ext`]'s core and clear coat. Both directions must be above the
-/// horizon (the callers return 0 below it).
+/// ([`ggx_iso_dv`]), the one kernel of the core model and of [`crate::gltf_pbr_ext`]'s
+/// core and clear coat. Both directions must be above the horizon (the callers return
+/// 0 below it).
 #[inline(always)]
-pub(crate) fn ggx_dv(
-    roughness: f64,
-    masking: Masking,
-    wi: [f64; 3],
-    wo: [f64; 3],
-    h: [f64; 3],
-) -> (f64, f64) {
+pub(crate) fn ggx_dv(roughness: f64, masking: Masking, dirs: [[f64; 3]; 3]) -> (f64, f64) {
     let correlated = masking == Masking::SmithCorrelated;
-    let (dv, dln_a) = ggx_iso_dv(roughness * roughness, correlated, wi, wo, h);
+    let (dv, dln_a) = ggx_iso_dv(roughness * roughness, correlated, dirs);
     (dv, dln_a * 2.0 * roughness)
 }
 

@@ -318,7 +318,7 @@ impl GltfPbrExt {
     /// The GGX D·V of the core's masking at `roughness` and ∂(D·V)/∂roughness
     /// ([`crate::gltf_pbr`]'s kernel, [`gltf_pbr::ggx_dv`]).
     fn ggx_dv(&self, roughness: f64, wi: [f64; 3], wo: [f64; 3], h: [f64; 3]) -> (f64, f64) {
-        let (dv, dln_r) = gltf_pbr::ggx_dv(roughness, self.core.masking(), wi, wo, h);
+        let (dv, dln_r) = gltf_pbr::ggx_dv(roughness, self.core.masking(), [wi, wo, h]);
         (dv, dv * dln_r)
     }
 
