@@ -106,10 +106,11 @@ pub enum ExportError {
     #[error(
         "a per-channel fit (one model per colour channel, each with its own roughness) has no \
          single renderer material; export one channel's model (e.g. `jq '.per_channel[0]'`) or \
-         refit without --per-channel"
+         refit without the `per-channel` setting"
     )]
     PerChannel,
     /// A model the renderer has no material for (`ward`, `sum`, …).
+    /// (This and the next two end with [`APPROXIMATE_HINT`]: [`ExportError::hints_approximate`].)
     #[error("model `{model}` has no counterpart in {renderer} (supported: {}); {APPROXIMATE_HINT}", .renderer.supported())]
     UnsupportedModel {
         /// The model's name.
@@ -140,6 +141,19 @@ pub enum ExportError {
     /// `--approximate`: fitting the target's configurations to the model failed.
     #[error("approximating the model: {0}")]
     Approximation(#[from] FamilyFitError),
+}
+
+impl ExportError {
+    /// True for the refusals whose message suggests the `approximate` setting and a fit
+    /// for the renderer ([`APPROXIMATE_HINT`]), so a front end can add its own spelling.
+    pub fn hints_approximate(&self) -> bool {
+        matches!(
+            self,
+            ExportError::UnsupportedModel { .. }
+                | ExportError::Unsupported { .. }
+                | ExportError::NotGltf { .. }
+        )
+    }
 }
 
 /// An export: the text and the notes on what the renderer does differently.

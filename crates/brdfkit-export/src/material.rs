@@ -169,8 +169,9 @@ pub const PBRT_COATED_NOTE: &str = "APPROXIMATION: pbrt-v4's coateddiffuse is a 
      docs/export.md)";
 
 /// What a refusal suggests instead.
-pub const APPROXIMATE_HINT: &str = "export --approximate fits the nearest material the target \
-     has to the model and reports the error, and `fit --for` fits it to the measured table";
+pub const APPROXIMATE_HINT: &str = "the export setting `approximate` fits the nearest material \
+     the target has to the model and reports the error, and a fit `for` the renderer fits it \
+     to the measured table";
 
 pub(crate) fn rgb_text(c: Rgb, sep: &str) -> String {
     format!("{}{sep}{}{sep}{}", c.r(), c.g(), c.b())

@@ -179,8 +179,8 @@ fn refusals_are_typed_and_worded_in_full() {
          (-> diffuse), cook-torrance with conductor Fresnel, rho_d = 0, rho_s = 1, \
          smith-correlated masking, GGX, alpha >= 1e-3 (-> conductor) and rough-plastic with \
          rho_s = 1, nonlinear false, alpha >= 1e-3 (-> coateddiffuse, approximately)); \
-         export --approximate fits the nearest material the target has to the model and \
-         reports the error, and `fit --for` fits it to the measured table"
+         the export setting `approximate` fits the nearest material the target has to the model and \
+         reports the error, and a fit `for` the renderer fits it to the measured table"
     );
     let e =
         renderer_material(&json!({"model": "ward", "params": {}}), Renderer::Mitsuba).unwrap_err();
@@ -311,7 +311,7 @@ fn gltf_and_plastic_map_and_the_rest_is_refused() {
     }
     let e = export(&json!({"model": "lambert"}), ExportForm::Gltf, "l").unwrap_err();
     assert!(matches!(e, ExportError::NotGltf { .. }), "{e}");
-    assert!(e.to_string().contains("--approximate"), "{e}");
+    assert!(e.to_string().contains("setting `approximate`"), "{e}");
     let p = json!({"model": "rough-plastic", "params": {"rho_d": [0.6, 0.3, 0.1],
         "rho_s": 1, "alpha": 0.2, "eta": 1.5}});
     let d = renderer_material(&p, Renderer::Mitsuba)

@@ -234,7 +234,7 @@ const SIGNATURES: [(&[u8], &str); 5] = [
     ),
     (
         b"\x93NUMPY",
-        "it is a NumPy .npy array (a neural BRDF is read with --nbrdf)",
+        "it is a NumPy .npy array (a neural BRDF's weights are read as an NBRDF, not a table)",
     ),
     (b"\x89PNG", "it is a PNG image"),
     (b"v/1\x01", "it is an OpenEXR image"),

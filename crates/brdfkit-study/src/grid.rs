@@ -382,8 +382,8 @@ pub fn no_proxy(cfg: &StudyConfig, name: &str) -> StudyError {
         return StudyError::Config {
             option: "measured-dir",
             msg: format!(
-                "`{dir}` is not a folder: the proxies of --measured (here `{name}`) are read \
-                 from --measured-dir DIR (or ${MEASURED_DIR_ENV}; by default `data-measured/` \
+                "`{dir}` is not a folder: the proxies of `measured` (here `{name}`) are read \
+                 from `measured-dir` (or ${MEASURED_DIR_ENV}; by default `data-measured/` \
                  of the checkout, found from the current folder upwards)"
             ),
         };
@@ -391,7 +391,7 @@ pub fn no_proxy(cfg: &StudyConfig, name: &str) -> StudyError {
     StudyError::Config {
         option: "measured",
         msg: format!(
-            "no proxy `{name}` ({name}_fc1.npy …) in `{dir}` or a subfolder (--measured-dir \
+            "no proxy `{name}` ({name}_fc1.npy …) in `{dir}` or a subfolder (`measured-dir` \
              sets the folder)"
         ),
     }

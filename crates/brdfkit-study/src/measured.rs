@@ -484,7 +484,7 @@ pub fn run(
     let mats = read_fits(&cfg.fits, &cats)?;
     if mats.is_empty() {
         return Err(StudyError::Config {
-            option: "--fits",
+            option: "fits",
             msg: format!("{}: no finished batch table", cfg.fits.display()),
         });
     }

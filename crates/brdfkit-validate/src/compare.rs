@@ -101,7 +101,7 @@ pub enum CompareError {
     },
     /// Two tables on different grids, and no resampling asked for.
     #[error(
-        "{} is a {a_dims} grid and {} a {b_dims} grid: the cells differ; resample B onto A's grid explicitly (--resample nearest|linear)",
+        "{} is a {a_dims} grid and {} a {b_dims} grid: the cells differ; resample B onto A's grid explicitly (the `resample` setting: nearest or linear)",
         a.display(), b.display()
     )]
     GridMismatch {

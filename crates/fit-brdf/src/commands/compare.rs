@@ -4,7 +4,7 @@
 use super::score::loss_lines;
 use super::{cell_config, lookup_mode, parse_dims, render_options};
 use crate::cli::CompareArgs;
-use crate::error::{CliError, CliResult, bad_input, runtime};
+use crate::error::{CliError, CliResult, bad_input, bad_msg, runtime};
 use crate::output::{write_failed, write_text};
 use anyhow::Context;
 use brdfkit::core::atomic::FileSet;
@@ -15,7 +15,9 @@ use std::fmt::Write;
 use std::path::Path;
 
 fn failed(e: CompareError) -> CliError {
-    if e.is_bad_input() {
+    if matches!(e, CompareError::GridMismatch { .. }) {
+        bad_msg(format!("{e} (here: --resample nearest|linear)"))
+    } else if e.is_bad_input() {
         bad_input(e)
     } else {
         runtime(e)

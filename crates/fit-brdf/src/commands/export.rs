@@ -46,6 +46,10 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
     // evaluates differently; a failed approximation is a runtime failure (exit 1).
     let fail = |e: ExportError| match e {
         ExportError::Approximation(_) => runtime(anyhow::anyhow!("{path}: {e}")),
+        e if e.hints_approximate() => bad_msg(format!(
+            "{path}: {e} (here: `fit-brdf export --approximate`, `fit-brdf fit TABLE --for {}`)",
+            to.target().name()
+        )),
         e => bad_msg(format!("{path}: {e}")),
     };
     let v: serde_json::Value = serde_json::from_str(&text)
