@@ -20,7 +20,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -28,27 +27,11 @@ import numpy as np
 import brdfkit
 from brdfkit import _brdfkit
 
+from timing import median_time, unit_pairs  # noqa: E402 (beside this script)
+
 ROOT = Path(__file__).resolve().parents[3]
 
 
-def median_time(f, reps):
-    ts = []
-    for _ in range(reps):
-        t = time.perf_counter()
-        f()
-        ts.append(time.perf_counter() - t)
-    return statistics.median(ts)
-
-
-def pairs(n, seed=1):
-    rng = np.random.default_rng(seed)
-
-    def hemi():
-        v = rng.normal(size=(n, 3))
-        v[:, 2] = np.abs(v[:, 2])
-        return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-    return hemi(), hemi()
 
 
 def main():
@@ -60,7 +43,7 @@ def main():
     brdfkit.resample(nb, (90, 90, 180)).write(table_path)
     table = brdfkit.MerlTable.read(table_path)
 
-    wi, wo = pairs(1_458_000)
+    wi, wo = unit_pairs(1_458_000)
     for interp in ("nearest", "linear"):
         py = median_time(lambda: table.lookup(wi, wo, interp), 15)
         rs = statistics.median(_brdfkit._lookup_seconds(table, wi, wo, interp) for _ in range(15))

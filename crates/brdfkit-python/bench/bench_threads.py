@@ -22,37 +22,19 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
-import statistics
 import tempfile
-import time
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
+
+from timing import median_time, unit_pairs  # noqa: E402 (beside this script)
 
 ROOT = Path(__file__).resolve().parents[3]
 MATERIALS = ["gold-paint", "blue-rubber", "chrome-steel", "pink-fabric", "specular-red-phenolic"]
 DIMS = (45, 45, 90)
 
 
-def median_time(f, reps):
-    ts = []
-    for _ in range(reps):
-        t = time.perf_counter()
-        f()
-        ts.append(time.perf_counter() - t)
-    return statistics.median(ts)
-
-
-def unit_pairs(n, seed):
-    rng = np.random.default_rng(seed)
-
-    def hemi():
-        v = rng.normal(size=(n, 3))
-        v[:, 2] = np.abs(v[:, 2])
-        return v / np.linalg.norm(v, axis=1, keepdims=True)
-
-    return hemi(), hemi()
 
 
 def fit_one(path: str) -> float:
