@@ -341,13 +341,7 @@ fn read_body(
             .enumerate()
             .all(|(x, &v)| v == raw_valid(raw[x], raw[n + x], raw[2 * n + x]))
     );
-    Ok(MerlTable {
-        dims,
-        raw,
-        valid,
-        n_valid,
-        cells: Default::default(),
-    })
+    Ok(MerlTable::assemble(dims, raw, valid, n_valid))
 }
 
 impl MerlTable {

@@ -95,15 +95,19 @@ pub(crate) fn raw_valid(r: f64, g: f64, b: f64) -> bool {
 impl MerlTable {
     /// A table of `dims` with every cell missing (raw −1.0).
     pub fn all_missing(dims: Dims) -> Self {
+        let mut raw = alloc_raw(dims.cells());
+        raw.fill(MISSING_RAW);
+        MerlTable::assemble(dims, raw, vec![false; dims.cells()], 0)
+    }
+
+    /// The table of checked planes: `valid` is each cell's mask and `n_valid` its count
+    /// (the callers have just computed both); the cell geometry is built on first use.
+    pub(crate) fn assemble(dims: Dims, raw: Vec<f64>, valid: Vec<bool>, n_valid: usize) -> Self {
         MerlTable {
             dims,
-            raw: {
-                let mut raw = alloc_raw(dims.cells());
-                raw.fill(MISSING_RAW);
-                raw
-            },
-            valid: vec![false; dims.cells()],
-            n_valid: 0,
+            raw,
+            valid,
+            n_valid,
             cells: CellCache::default(),
         }
     }
@@ -142,13 +146,7 @@ impl MerlTable {
             });
         }
         let (valid, n_valid) = mask_of(&raw, n);
-        Ok(MerlTable {
-            dims,
-            raw,
-            valid,
-            n_valid,
-            cells: CellCache::default(),
-        })
+        Ok(MerlTable::assemble(dims, raw, valid, n_valid))
     }
 
     /// A table whose cell (i, j, k) is `f(i, j, k)` in physical units (`None`: missing),
@@ -191,13 +189,7 @@ impl MerlTable {
                 Ok(())
             })?;
         let n_valid = valid.par_iter().filter(|&&v| v).count();
-        Ok(MerlTable {
-            dims,
-            raw,
-            valid,
-            n_valid,
-            cells: CellCache::default(),
-        })
+        Ok(MerlTable::assemble(dims, raw, valid, n_valid))
     }
 
     /// Grid dimensions.
