@@ -191,17 +191,10 @@ pub enum RenderError {
 /// An image that cannot be written.
 #[derive(Debug, Error)]
 pub enum OutputError {
-    /// Creating, writing or renaming the file failed.
-    #[error("{}: {action}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The step that failed.
-        action: &'static str,
-        #[source]
-        /// The underlying error.
-        source: std::io::Error,
-    },
+    /// Creating, writing or renaming the file failed (the one writer's error: the
+    /// destination and the step).
+    #[error(transparent)]
+    Io(#[from] brdfkit_core::atomic::WriteError),
     /// The image encoder failed.
     #[error("{}: encoding failed: {source}", path.display())]
     Encode {

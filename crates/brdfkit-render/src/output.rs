@@ -61,11 +61,7 @@ pub fn tonemap_channel(c: f64, exposure: f64) -> u8 {
 /// Writes through brdfkit's one writer ([`brdfkit_core::atomic::write_bytes`]): a new
 /// image gets 0666 & ~umask like any other output, not a temporary file's 0600.
 fn write_image(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    brdfkit_core::atomic::write_bytes(path, bytes).map_err(|e| OutputError::Io {
-        path: e.path,
-        action: e.step,
-        source: e.source,
-    })
+    brdfkit_core::atomic::write_bytes(path, bytes).map_err(OutputError::Io)
 }
 
 impl RenderOutput {
