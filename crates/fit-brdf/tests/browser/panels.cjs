@@ -12,17 +12,12 @@
 'use strict';
 const path = require('path');
 const fs = require('fs');
-const { chromium } = require('playwright-core');
+const { launch } = require('./launch.cjs');
 
 const [page_path, out_path, exe, shots] = process.argv.slice(2);
 
 async function main() {
-  const browser = await chromium.launch({
-    executablePath: exe,
-    headless: true,
-    args: ['--no-sandbox', '--enable-unsafe-swiftshader', '--use-angle=swiftshader',
-      '--disable-background-networking', '--disable-component-update'],
-  });
+  const browser = await launch(exe);
   const errors = [];
   const page = await browser.newPage({ viewport: { width: 1320, height: 1000 } });
   page.on('console', (m) => { if (m.type() === 'error') errors.push('console: ' + m.text()); });

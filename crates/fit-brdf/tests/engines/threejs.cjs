@@ -22,7 +22,7 @@
 const fs = require('fs');
 const http = require('http');
 const path = require('path');
-const { chromium } = require('playwright-core');
+const { launch } = require('../browser/launch.cjs');
 
 const [scenePath, outPath, exe, shots] = process.argv.slice(2);
 // The package root (its main file is build/three.cjs; package.json is not exported).
@@ -112,12 +112,7 @@ async function main() {
   const server = http.createServer(serve);
   await new Promise((ok) => server.listen(0, '127.0.0.1', ok));
   const port = server.address().port;
-  const browser = await chromium.launch({
-    executablePath: exe,
-    headless: true,
-    args: ['--no-sandbox', '--enable-unsafe-swiftshader', '--use-angle=swiftshader',
-      '--disable-background-networking', '--disable-component-update'],
-  });
+  const browser = await launch(exe);
   const errors = [];
   try {
     const tab = await browser.newPage({ viewport: { width: scene.size, height: scene.size } });
