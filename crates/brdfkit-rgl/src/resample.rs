@@ -40,10 +40,10 @@ const ONE_ORDER_SHARE: f64 = 0.01;
 /// in a database file) equals the part that does. Chosen by measurement (docs/rgl.md,
 /// "Near the horizon"; `examples/grazing.rs`): on the tables of the Cook-Torrance surface
 /// and of gold-paint, pink-fabric and specular-red-phenolic written as `.bsdf` files and
-/// resampled back, c = 0.1 keeps the cells with both directions above 10° within 1 % of
+/// resampled back, c = 0.1 keeps the cells with both directions above 10° within 1.2 % of
 /// the plain mean's median and 90th-percentile error and gives the lowest or near-lowest
-/// error over all cells; c = 0 (the pure cos² weights of an error that does not shrink at
-/// all) raised the 90th percentile above 10° by 4–11 %, c = 0.4 by 3–6 %.
+/// 90th percentile over all cells; c = 0 (the pure cos² weights of an error that does not
+/// shrink at all) raised the 90th percentile above 10° by 4–11 %, c = 0.4 by 2–6 %.
 pub const ORDER_ERROR_COS: f64 = 0.1;
 
 /// The weight of the order whose outgoing direction (the one the reader divides by) has
