@@ -216,3 +216,26 @@ impl RglBsdf {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Equal elevations give the plain mean; an order on the horizon is left out even
+    /// when the reader's division made it infinite; both on it give 0.
+    #[test]
+    fn two_order_value_limits() {
+        let (a, b) = (Rgb([1.0, 2.0, 3.0]), Rgb([3.0, 2.0, 1.0]));
+        assert_eq!(two_order_value(a, b, 0.3, 0.3), Rgb([2.0, 2.0, 2.0]));
+        let inf = Rgb::splat(f64::INFINITY);
+        let close = |x: Rgb, y: Rgb| (0..3).all(|c| (x.0[c] - y.0[c]).abs() < 1e-12);
+        assert!(close(two_order_value(inf, b, 0.5, 0.0), b));
+        assert!(close(two_order_value(a, inf, 0.0, 0.5), a));
+        assert_eq!(two_order_value(a, b, 0.0, 0.0), Rgb::ZERO);
+        // Well above c the weights are within 4 % of each other: nearly the plain mean.
+        let v = two_order_value(a, b, 0.5, 1.0).0[0];
+        assert!((v - 2.0).abs() < 0.04, "{v}");
+        // f_io divided by cos θo = 1e-6, against f_oi divided by 0.5: one order holds it.
+        assert!(one_order(0.5, 1e-6) && !one_order(0.5, 0.2));
+    }
+}
