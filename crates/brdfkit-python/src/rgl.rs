@@ -17,7 +17,7 @@ const ASYMMETRY_PAIRS: usize = 200_000;
 /// its name); `eval(wi, wo)` is f_r in 1/sr without the cosine, linear RGB, 0 below the
 /// horizon, negative stored values kept, the file's θi being `wi`; `info` is what
 /// `fit-brdf info --json` reports; `resample(dims)` is the `MerlTable` that `fit-brdf
-/// resample --bsdf` writes (the mean of both orders of each pair, negatives as 0).
+/// resample --bsdf` writes (the weighted mean of both orders of each pair, negatives as 0; docs/rgl.md).
 #[pyclass(name = "RglBsdf", module = "brdfkit", frozen)]
 pub struct PyRglBsdf {
     inner: RglBsdf,

@@ -13,7 +13,8 @@
 //! - [`fastmath`]: the f32 `atan2`/`asin` polynomials of the batch evaluation, with
 //!   their error bounds.
 //! - [`cie`]: the conversion of spectral files to linear sRGB.
-//! - [`RglBsdf::to_table`]: the file as a MERL table (mean of both orders of a pair),
+//! - [`RglBsdf::to_table`]: the file as a MERL table (both orders of a pair in one value,
+//!   [`two_order_value`]),
 //!   and [`RglBsdf::asymmetry`], how far the data are from reciprocal.
 //!
 //! - [`MeasuredPoints`]: the file's measured points at their own directions, with the
@@ -43,6 +44,6 @@ pub use bsdf::{RglBsdf, Summary, Values};
 pub use error::RglError;
 pub use kind::InputKind;
 pub use points::{MIN_COS_I, MeasuredPoints, Point};
-pub use resample::{Asymmetry, TableStats};
+pub use resample::{Asymmetry, ORDER_ERROR_COS, TableStats, order_weight, two_order_value};
 pub use tensor::{Dtype, Tensor, TensorData, TensorFile, is_tensor_file};
 pub use warp::Warp2D;

@@ -88,8 +88,9 @@ pub enum Command {
                             fit-brdf resample --model params.json --dims 90,90,180 --out model.binary\n  \
                             fit-brdf resample --nbrdf data-measured/merl/red-fabric --dims 90,90,180 --out red-fabric.binary\n  \
                             fit-brdf resample --bsdf chm_mint_rgb.bsdf --dims 90,90,180 --out mint.binary\n\n\
-                            A .bsdf cell holds the mean of f(wi, wo) and f(wo, wi) (the data are not reciprocal; the \
-                            asymmetry is reported); negative means are stored as 0 and counted."
+                            A .bsdf cell holds the mean of f(wi, wo) and f(wo, wi) weighted by cos^2/(cos^2 + 0.1^2) of the \
+                            direction each divides by, so an order near grazing does not dominate (the data are not \
+                            reciprocal; the asymmetry is reported; docs/rgl.md); negative values are stored as 0 and counted."
     )]
     Resample(ResampleArgs),
     /// Generate the table of a synthetic material spec (data-synthetic/*.toml).

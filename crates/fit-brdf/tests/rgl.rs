@@ -151,12 +151,16 @@ fn resample_bsdf_writes_the_two_order_mean_and_says_what_it_clamped() {
     );
     let t = MerlTable::read(&out).unwrap();
     assert_eq!(t.valid_count(), lib_table.valid_count());
-    // One cell by hand: the mean of both orders, clamped at 0.
+    assert!(err.contains("held by one order"), "{err}");
+    // One cell by hand: the weighted mean of both orders (cos²/(cos² + c²) of the
+    // direction each divides by), clamped at 0.
     let b = RglBsdf::read(&p).unwrap();
     let (_, wi, wo, _) = cell_directions(dims, 6, 5, 7);
-    let m = b
-        .eval(&wi, &wo)
-        .zip(b.eval(&wo, &wi), |x, y| (0.5 * (x + y)).max(0.0));
+    let w = |x: f64| x * x / (x * x + brdfkit::rgl::ORDER_ERROR_COS.powi(2));
+    let (wa, wb) = (w(wo.z), w(wi.z));
+    let m = b.eval(&wi, &wo).zip(b.eval(&wo, &wi), |x, y| {
+        ((wa * x + wb * y) / (wa + wb)).max(0.0)
+    });
     let cell = t.get(6, 5, 7).unwrap();
     // The f64 path by hand; `resample` runs the f32 batch path: the bound.
     for c in 0..3 {

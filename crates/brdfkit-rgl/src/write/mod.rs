@@ -424,6 +424,47 @@ mod tests {
         assert!(worst < 1e-5, "worst relative error at the nodes {worst:e}");
     }
 
+    /// Every node whose `valid` bit is clear (wo on or below the horizon) stores 0 in
+    /// every channel, and every set one a positive value: f · cos θo at the horizon is 0,
+    /// and anything else there, divided by the D of the grid's last column (~1e-6 of its
+    /// maximum), leaks into the valid part of the last cell (docs/rgl.md, "Near the
+    /// horizon").
+    #[test]
+    fn nodes_below_the_horizon_store_zero() {
+        let src = Lobe {
+            exponent: 40.0,
+            shift: 0.5,
+        };
+        let opts = WriteOptions {
+            theta_i: 5,
+            grid: 12,
+            description: String::new(),
+        };
+        let (fields, report) = build(&src, &opts).unwrap();
+        let rgb = field(&fields, "rgb");
+        let TensorData::U8(bits) = &fields.iter().find(|f| f.name == "valid").unwrap().data else {
+            panic!("valid is not u8");
+        };
+        let nn = 12 * 12;
+        let (mut zero, mut valid) = (0, 0);
+        for node in 0..5 * nn {
+            let (slice, k) = (node / nn, node % nn);
+            let set = bits[node / 8] & (0x80 >> (node % 8)) != 0;
+            for c in 0..3 {
+                let v = rgb[(slice * 3 + c) * nn + k];
+                if set {
+                    assert!(v > 0.0, "valid node {node} channel {c}: {v}");
+                } else {
+                    assert_eq!(v, 0.0, "node {node} below the horizon, channel {c}");
+                }
+            }
+            valid += usize::from(set);
+            zero += usize::from(!set);
+        }
+        assert_eq!(valid, report.valid);
+        assert!(zero > 5 * 12, "{zero} nodes below the horizon");
+    }
+
     /// An anisotropic source, bad options and a NaN source are typed errors.
     #[test]
     fn refusals() {

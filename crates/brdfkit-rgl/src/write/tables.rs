@@ -30,8 +30,17 @@
 //!   proportional to the luminance of f · cos θo: Mitsuba's sample weights are then
 //!   nearly constant.
 //! - `valid` marks the nodes whose wo lies above the horizon. Below it there is no
-//!   measurement; those nodes hold the source at wo lifted to just above the horizon,
-//!   so the interpolation towards the horizon stays continuous.
+//!   measurement, and those nodes store 0: the value of f · cos θo at the horizon (its
+//!   limit for any bounded f), so the interpolated f · cos θo falls towards the horizon
+//!   instead of rising. Storing anything divided by D there is unsafe: the last column
+//!   of the grid (u_θ = 1, θm = 90°, where wo = 2⟨wi, m⟩m − wi is at or below the
+//!   horizon for every wi) has D at its floor, ~1e-6 of its maximum, and a stored value
+//!   g · 4σ/D of a node there is multiplied back by the reader with the D of the point
+//!   evaluated, up to 10³–10⁴ × larger inside the last cell. An earlier version stored
+//!   the source at wo lifted to 0.06° above the horizon (f · 1e-3 · 4σ/D, 10² – 5·10⁵
+//!   in the file of a Cook-Torrance table); read back, the file gave 70 × the source at
+//!   (θi 90°, θo 86°) and up to 300 × it at random pairs above 1° (issue 24,
+//!   docs/rgl.md "Near the horizon").
 
 use crate::warp::Warp2D;
 use brdfkit_core::{Brdf, Rgb, Vec3};
@@ -51,10 +60,6 @@ const UNIFORM_MIX: f64 = 1.0;
 
 /// Bisection steps of the inverse warp (2⁻⁴⁸ ≈ 4e-15 of the unit interval).
 const BISECT: usize = 48;
-
-/// The elevation below which wo counts as above the horizon when lifting an invalid
-/// node (cos ≈ 1e-3, 0.06°).
-const LIFT_Z: f64 = 1e-3;
 
 /// u_φ of a relative azimuth: (φ + π)/2π (`measured.cpp`'s `phi2u`).
 #[inline]
@@ -171,11 +176,12 @@ pub(crate) fn values_slice(spec: &SliceSpec) -> SliceValues {
             let (_, pdf_u) = spec.vndf.invert(um, &spec.params);
             let th_m = u2theta(um[0]);
             let m = spherical(th_m, u2phi(um[1]));
-            let mut wo = m * (2.0 * wi.dot(&m)) - wi;
+            let wo = m * (2.0 * wi.dot(&m)) - wi;
             out.valid[k] = wo.z > 0.0;
-            if wo.z < LIFT_Z {
-                wo.z = LIFT_Z;
-                wo = wo.normalize();
+            if !out.valid[k] {
+                // f · cos θo at the horizon (module notes); the luminance floor below
+                // keeps the node reachable by Mitsuba's sampling.
+                continue;
             }
             let f = spec.source.eval(&wi, &wo);
             if !f.is_finite() && out.non_finite.is_none() {

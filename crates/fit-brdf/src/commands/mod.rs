@@ -136,8 +136,8 @@ pub fn read_table(path: &Path) -> CliResult<MerlTable> {
         let bsdf = read_bsdf(path)?;
         let (table, stats) = bsdf.to_table(Dims::MERL).map_err(runtime)?;
         eprintln!(
-            "{}: an RGL-EPFL .bsdf file, resampled to a 90x90x180 MERL table (mean of both orders of \
-             each pair; {} negative values stored as 0); docs/rgl.md",
+            "{}: an RGL-EPFL .bsdf file, resampled to a 90x90x180 MERL table (weighted mean of both \
+             orders of each pair; {} negative values stored as 0); docs/rgl.md",
             path.display(),
             stats.clamped_values
         );

@@ -19,10 +19,14 @@ pub fn run(a: ResampleArgs) -> CliResult<()> {
         let (table, stats) = bsdf.to_table(dims).map_err(runtime)?;
         let asym = bsdf.asymmetry(ASYMMETRY_PAIRS, 5.0, 1);
         note = Some(format!(
-            "each cell holds the mean of f(wi, wo) and f(wo, wi): the file is not reciprocal \
+            "each cell holds the mean of f(wi, wo) and f(wo, wi), each order weighted by how \
+             well the file determines it (cos^2/(cos^2 + {}^2) of the direction it divides by; \
+             {} cells near grazing are held by one order): the file is not reciprocal \
              (|f(wi,wo) - f(wo,wi)| / mean over {} random pairs above 5°: median {:.1} %, \
              90th percentile {:.1} %); {} negative channel values stored as 0 (most negative \
              {:.3e} 1/sr); {} cells below the horizon are missing",
+            brdfkit::rgl::ORDER_ERROR_COS,
+            stats.one_order,
             asym.pairs,
             100.0 * asym.median,
             100.0 * asym.p90,
