@@ -42,6 +42,6 @@ pub use io::atomic_write;
 pub use lookup::{BATCH_RUN, Lookup, PairsError};
 #[cfg(unix)]
 pub use mapped::MappedF64;
-pub use resample::{Cell, CellBatch, cell_directions};
+pub use resample::{Cell, CellBatch, PresentCell, cell_directions};
 pub use stats::{AlbedoSample, ChannelStats, Quadrature, TableStats, gauss_legendre_01};
 pub use table::{MAX_ABS_RAW, MISSING_RAW, MerlTable, SCALES, zeroed_f64};

@@ -74,7 +74,39 @@ pub fn cell_directions(dims: Dims, i: usize, j: usize, k: usize) -> (HalfDiff, V
     (c, wi, wo, wi.z > 0.0 && wo.z > 0.0)
 }
 
+/// A present cell of a table: its indices (θh, θd, φd), its directions
+/// ([`cell_directions`]) and its value.
+#[derive(Clone, Copy, Debug)]
+pub struct PresentCell {
+    /// (i, j, k): the θh, θd and φd indices.
+    pub index: [usize; 3],
+    /// The incoming direction at the cell's angles.
+    pub wi: Vec3,
+    /// The outgoing direction at the cell's angles.
+    pub wo: Vec3,
+    /// The stored value.
+    pub value: Rgb,
+}
+
 impl MerlTable {
+    /// Every present cell in file order (φd fastest), with its directions: what a
+    /// comparison of the table against another BRDF walks.
+    pub fn present_cells(&self) -> impl Iterator<Item = PresentCell> + '_ {
+        let dims = self.dims();
+        let (nj, nk) = (dims.theta_d(), dims.phi_d());
+        (0..dims.cells()).filter_map(move |x| {
+            let value = self.get_flat(x)?;
+            let index = [x / (nj * nk), (x / nk) % nj, x % nk];
+            let (_, wi, wo, _) = cell_directions(dims, index[0], index[1], index[2]);
+            Some(PresentCell {
+                index,
+                wi,
+                wo,
+                value,
+            })
+        })
+    }
+
     /// Samples an analytic BRDF onto a grid of `dims`, in parallel.
     ///
     /// Each cell gets the model's value at the cell's angles (the lower bin edges, φh =

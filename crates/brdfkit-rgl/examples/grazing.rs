@@ -13,7 +13,7 @@
 //! that ratio over all cells and over the cells with both directions above 10°
 //! elevation, and the number of cells above 10 × the source table's largest value.
 use brdfkit_core::Rgb;
-use brdfkit_merl::{MerlTable, cell_directions};
+use brdfkit_merl::MerlTable;
 use brdfkit_nbrdf::HORIZON_Z;
 use brdfkit_rgl::{RglBsdf, two_order_value};
 
@@ -80,32 +80,25 @@ fn main() {
 
 /// Every cell above the horizon with a positive source, both orders by the batch kernel.
 fn cells(table: &MerlTable, bsdf: &RglBsdf) -> Vec<Cell> {
-    let dims = table.dims();
     let mut cells = Vec::new();
     let mut rows = Vec::new();
-    for i in 0..dims.theta_h() {
-        for j in 0..dims.theta_d() {
-            for k in 0..dims.phi_d() {
-                let (_, wi, wo, _) = cell_directions(dims, i, j, k);
-                let Some(src) = table.get(i, j, k) else {
-                    continue;
-                };
-                if wi.z <= HORIZON_Z || wo.z <= HORIZON_Z || src.0[0] <= 0.0 {
-                    continue;
-                }
-                let (a, b) = ([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]);
-                rows.extend_from_slice(&[a[0], a[1], a[2], b[0], b[1], b[2]]);
-                rows.extend_from_slice(&[b[0], b[1], b[2], a[0], a[1], a[2]]);
-                cells.push(Cell {
-                    ijk: (i, j, k),
-                    cos_i: wi.z,
-                    cos_o: wo.z,
-                    source: src.0[0],
-                    f_io: 0.0,
-                    f_oi: 0.0,
-                });
-            }
+    for c in table.present_cells() {
+        let (wi, wo, src) = (c.wi, c.wo, c.value);
+        if wi.z <= HORIZON_Z || wo.z <= HORIZON_Z || src.0[0] <= 0.0 {
+            continue;
         }
+        let (a, b) = ([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]);
+        rows.extend_from_slice(&[a[0], a[1], a[2], b[0], b[1], b[2]]);
+        rows.extend_from_slice(&[b[0], b[1], b[2], a[0], a[1], a[2]]);
+        let [i, j, k] = c.index;
+        cells.push(Cell {
+            ijk: (i, j, k),
+            cos_i: wi.z,
+            cos_o: wo.z,
+            source: src.0[0],
+            f_io: 0.0,
+            f_oi: 0.0,
+        });
     }
     let mut out = vec![0.0; rows.len() / 2];
     bsdf.eval_flat(&rows, &mut out);

@@ -223,25 +223,17 @@ fn below_the_horizon_is_zero_and_odd_lengths_are_whole() {
 /// the f64 path's two-order mean, clamped at 0, within the bound.
 #[test]
 fn to_table_holds_the_f64_two_order_mean() {
-    use brdfkit_merl::{Dims, cell_directions};
+    use brdfkit_merl::Dims;
     let (_dir, b) = file(spec(false, false, 32, 64, 8));
     let dims = Dims::new(12, 10, 24).unwrap();
     let (table, stats) = b.to_table(dims).unwrap();
     let mut t = Tally::default();
     let mut present = 0;
-    for i in 0..dims.theta_h() {
-        for j in 0..dims.theta_d() {
-            for k in 0..dims.phi_d() {
-                let (_, wi, wo, _) = cell_directions(dims, i, j, k);
-                let Some(got) = table.get(i, j, k) else {
-                    continue;
-                };
-                present += 1;
-                let want = b.symmetric(&wi, &wo).map(|x| x.max(0.0));
-                for (x, y) in got.0.iter().zip(want.0) {
-                    t.add(*x, y, false);
-                }
-            }
+    for c in table.present_cells() {
+        present += 1;
+        let want = b.symmetric(&c.wi, &c.wo).map(|x| x.max(0.0));
+        for (x, y) in c.value.0.iter().zip(want.0) {
+            t.add(*x, y, false);
         }
     }
     assert_eq!(
