@@ -16,7 +16,7 @@
 //! The grid: a table A is its own; a model, an NBRDF or a `.bsdf` A is tabulated at the cells'
 //! angles on B's grid when B is a table, else on [`CompareOptions::dims`]. B is
 //! brought onto A's grid: a model is evaluated at the cells' directions, an NBRDF
-//! or a `.bsdf` tabulated (a `.bsdf` as the mean of both orders of each pair, as
+//! or a `.bsdf` tabulated (a `.bsdf` as the weighted mean of both orders of each pair, as
 //! `RglBsdf::to_table` writes it: docs/rgl.md), a table of the same dims taken cell for cell; a table of other dims is
 //! refused ([`CompareError::GridMismatch`]) unless [`CompareOptions::resample`] names
 //! the lookup to resample it with ([`MerlTable::resample`]). Cells missing in B are
@@ -485,7 +485,8 @@ pub fn compare(
         ),
         Representation::RglBsdf(_) => (
             Some(b.tabulate(b_path, dims)?),
-            ".bsdf evaluated at the cells' angles (mean of both orders of each pair)".into(),
+            ".bsdf evaluated at the cells' angles (weighted mean of both orders of each pair)"
+                .into(),
         ),
         Representation::Table(t) if t.dims() == dims => (Some(t.clone()), "the same cells".into()),
         Representation::Table(t) => match o.resample {

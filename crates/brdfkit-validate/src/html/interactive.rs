@@ -240,7 +240,7 @@ pub fn exact(r: &Representation, pairs: &[(Vec3, Vec3)]) -> Vec<Option<Rgb>> {
             })
             .collect(),
         Representation::Nbrdf(n) => n.eval_pairs(pairs).into_iter().map(Some).collect(),
-        // The page holds a `.bsdf` as its table does (the mean of both orders of each
+        // The page holds a `.bsdf` as its table does (the weighted mean of both orders of each
         // pair, `RglBsdf::to_table`): that mean is what the embedding is checked against.
         Representation::RglBsdf(b) => pairs.iter().map(|(i, o)| Some(b.symmetric(i, o))).collect(),
     }
