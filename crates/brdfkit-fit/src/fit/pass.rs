@@ -12,7 +12,7 @@ use crate::config::FitConfig;
 use crate::energy::{AlbedoPenalty, AlbedoQuadrature, PENALTY_WEIGHT};
 use crate::error::FitError;
 use crate::loss::{Robust, RobustKind};
-use crate::observer::{FitObserver, StartDone};
+use brdfkit_core::progress::{Event, Observe, StartDone};
 use crate::problem::FitProblem;
 use crate::record::{StartRecord, WarmUpRecord};
 use crate::reparam::Transform;
@@ -61,7 +61,7 @@ const ROBUST_SCALE_FLOOR: f64 = 1e-9;
 /// albedo penalty and a given robust scale), the starts, the settings.
 struct Pass<'a> {
     config: &'a FitConfig,
-    observer: Option<&'a Arc<dyn FitObserver>>,
+    observer: Option<&'a Arc<dyn Observe>>,
     channel: Option<usize>,
     points: Vec<Vec<f64>>,
     ranked: bool,
@@ -108,7 +108,7 @@ impl<'a> Pass<'a> {
         free: &[usize],
         channels: &[usize],
         config: &'a FitConfig,
-        observer: Option<&'a Arc<dyn FitObserver>>,
+        observer: Option<&'a Arc<dyn Observe>>,
     ) -> Result<Pass<'a>, FitError> {
         let plain = FitProblem::new(
             cells.fit,
@@ -168,13 +168,13 @@ impl<'a> Pass<'a> {
     /// Reports a finished start to the observer.
     fn done(&self, k: usize, o: &Result<Outcome, FitError>) {
         if let (Some(obs), Ok(o)) = (self.observer, o) {
-            obs.on_start_done(&StartDone {
+            obs.observe(&Event::StartDone(StartDone {
                 start: k,
                 channel: self.channel,
                 loss: (2.0 * o.cost).sqrt(),
                 iterations: o.iterations,
                 termination: o.termination.clone(),
-            });
+            }));
         }
     }
 
@@ -260,13 +260,13 @@ impl<'a> Pass<'a> {
         if let Some(obs) = self.observer {
             for k in (0..n).filter(|k| !order.contains(k)) {
                 if let Ok(e) = &explored[k] {
-                    obs.on_start_done(&StartDone {
+                    obs.observe(&Event::StartDone(StartDone {
                         start: k,
                         channel: self.channel,
                         loss: (2.0 * e.rank_cost.unwrap_or(f64::NAN)).sqrt(),
                         iterations: 0,
                         termination: "not finished (ranked out after its exploration)".into(),
-                    });
+                    }));
                 }
             }
         }
@@ -450,7 +450,7 @@ pub(super) fn run_pass(
     free: Vec<usize>,
     channels: Vec<usize>,
     config: &FitConfig,
-    observer: Option<&Arc<dyn FitObserver>>,
+    observer: Option<&Arc<dyn Observe>>,
     times: &mut StageTimes,
 ) -> Result<PassResult, FitError> {
     let t = Instant::now();
