@@ -14,8 +14,8 @@
 
 use crate::config::{DEFAULT_EXPLORE_CELLS, DEFAULT_FINISH, DEFAULT_FULL_ITERS, DEFAULT_STARTS};
 use crate::{
-    FitConfig, FitData, FitError, FitRecord, FullIters, Loss, LossSet, RobustKind,
-    Sharing, SolverKind, Weighting, fit, resolve_free,
+    FitConfig, FitData, FitError, FitRecord, FullIters, Loss, LossSet, RobustKind, Sharing,
+    SolverKind, Weighting, fit, resolve_free,
 };
 use brdfkit_core::progress::{Event, FitSummary, Observe};
 use brdfkit_core::scattering::{Distribution, Masking};

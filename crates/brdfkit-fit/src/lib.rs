@@ -65,6 +65,7 @@ pub mod starts;
 pub mod synth;
 pub mod target;
 
+pub use brdfkit_core::progress::{Event, FitPlan, IterEvent, Observe, StartDone};
 pub use config::{CellFilter, FitConfig, FullIters, Sharing, SolverKind};
 pub use data::FitData;
 pub use data::SampleInput;
@@ -73,7 +74,6 @@ pub use fit::{FitResult, StageTimes, fit, fit_table, prepare, resolve_free};
 pub use fitted::Fitted;
 pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
 pub use loss::{ChannelLoss, Loss, LossReport, LossSet, Robust, RobustKind, Weighting};
-pub use brdfkit_core::progress::{Event, FitPlan, IterEvent, Observe, StartDone};
 pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses, evaluate_losses_of};
 pub use record::{
     FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,

@@ -54,8 +54,8 @@
 //! (the export's conditions are the held values above).
 
 use crate::families::{Family, FamilyFitError, Outcome, fit_each};
-use brdfkit_core::progress::Observe;
 use crate::{FitConfig, FitData, Fitted};
+use brdfkit_core::progress::Observe;
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking};
 use brdfkit_core::{Model, Rgb, downcast};
 use brdfkit_models::cook_torrance::{CookTorrance, Fresnel};

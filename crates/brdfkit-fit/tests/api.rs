@@ -3,8 +3,8 @@
 //! observer, multi-start determinism, typed errors.
 
 mod common;
-use brdfkit_fit::synth::Coverage;
 use brdfkit_core::progress::Recorder;
+use brdfkit_fit::synth::Coverage;
 use brdfkit_fit::{
     Event, FitConfig, FitData, FitError, FitRecord, Loss, Sharing, SolverKind, Weighting, fit,
 };
@@ -324,7 +324,11 @@ fn observer_sees_every_start_and_iteration() {
         match e {
             Event::Iteration(i) => {
                 assert!(i.cost.is_finite() && i.start < 4, "{i:?}");
-                assert!(!done[i.start], "an iteration of start {} after its end", i.start);
+                assert!(
+                    !done[i.start],
+                    "an iteration of start {} after its end",
+                    i.start
+                );
                 iters += 1;
             }
             Event::StartDone(d) => {

@@ -16,9 +16,9 @@ use crate::data::FitData;
 use crate::error::FitError;
 use crate::fitted::Fitted;
 use crate::loss::LossReport;
-use brdfkit_core::progress::{Event, FitPlan, Observe, StartDone, relay};
 use crate::problem::evaluate_losses_of;
 use crate::record::{FitRecord, PassSummary, RecordParts};
+use brdfkit_core::progress::{Event, FitPlan, Observe, StartDone, relay};
 use brdfkit_core::{Model, ParamRole};
 use brdfkit_merl::MerlTable;
 use cells::Cells;
@@ -141,7 +141,11 @@ fn fit_observed(
     }
     let passes = passes(model, &free, config);
     if let Some(o) = &observer {
-        o.observe(&Event::FitPlanned(plan(config, cells.fitset().len(), passes.len())));
+        o.observe(&Event::FitPlanned(plan(
+            config,
+            cells.fitset().len(),
+            passes.len(),
+        )));
     }
     let sets = cells.sets();
     let mut results: Vec<PassResult> = passes

@@ -6,7 +6,6 @@ use crate::config::{FitConfig, SolverKind};
 use crate::error::FitError;
 use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
 use crate::observer::Bridge;
-use brdfkit_core::progress::Observe;
 use crate::problem::{FitProblem, NormalEquations};
 use crate::record::WarmUpRecord;
 use argmin::core::observers::ObserverMode;
@@ -15,6 +14,7 @@ use argmin::solver::linesearch::MoreThuenteLineSearch as MoreThuente;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
 use argmin::solver::trustregion::{Steihaug, TrustRegion};
+use brdfkit_core::progress::Observe;
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
