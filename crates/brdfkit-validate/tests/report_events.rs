@@ -43,7 +43,11 @@ fn families_and_a_report_send_their_events_in_order() {
                 .position(|e| matches!(e, Event::FamilyDone { .. }))
                 .expect("a FamilyDone");
         let inner = &ev[at + 1..end];
-        assert!(matches!(&inner[0], Event::FitPlanned(p) if p.starts == 2), "{:?}", inner[0]);
+        assert!(
+            matches!(&inner[0], Event::FitPlanned(p) if p.starts == 2),
+            "{:?}",
+            inner[0]
+        );
         let mut ended: Vec<usize> = inner
             .iter()
             .filter_map(|e| match e {

@@ -1,6 +1,7 @@
 //! Progress on stderr: the one place where the command line draws the library's
 //! progress events ([`brdfkit::core::progress::Event`]) as indicatif bars and lines.
-//! Every verb that runs a long engine hands it a [`Progress`]; `--quiet` makes it draw
+//! Every verb that runs a long engine (fit, report, demo, batch, study, render) hands
+//! it a [`Progress`]; `--quiet` makes it draw
 //! nothing. Bars appear only once the work has run for a second, and only on a
 //! terminal (indicatif draws nothing otherwise).
 //!
@@ -75,16 +76,15 @@ impl FitBar {
     }
 }
 
-/// The bar over a batch's tables, shown by a timer once the batch has run for a second
-/// (so a first table that takes minutes gets its bar too).
-fn batch_bar(p: &BatchPlan) -> ProgressBar {
-    let bar = ProgressBar::with_draw_target(Some(p.to_fit as u64), ProgressDrawTarget::hidden());
+/// A bar of `len` steps shown by a timer once the work has run for a second (so a
+/// first batch table that takes minutes gets its bar too): a batch's tables, a render's
+/// rows.
+fn delayed_bar(len: usize, template: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(len as u64), ProgressDrawTarget::hidden());
     bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{bar:24}] {pos}/{len} tables, {elapsed}, eta {eta}: {msg}",
-        )
-        .expect("static template")
-        .progress_chars("=> "),
+        ProgressStyle::with_template(template)
+            .expect("static template")
+            .progress_chars("=> "),
     );
     let b = bar.clone();
     std::thread::spawn(move || {
@@ -102,6 +102,7 @@ fn batch_bar(p: &BatchPlan) -> ProgressBar {
 struct Bars {
     fit: Option<FitBar>,
     batch: Option<ProgressBar>,
+    rows: Option<ProgressBar>,
 }
 
 /// Draws progress events on stderr (nothing when quiet).
@@ -154,6 +155,9 @@ impl Progress {
         if let Some(f) = bars.fit.take() {
             f.bar.finish_and_clear();
         }
+        if let Some(b) = bars.rows.take() {
+            b.finish_and_clear();
+        }
     }
 
     /// The events of one family's fit.
@@ -192,7 +196,10 @@ impl Progress {
     }
 
     fn batch_planned(&self, p: &BatchPlan) {
-        self.bars().batch = Some(batch_bar(p));
+        self.bars().batch = Some(delayed_bar(
+            p.to_fit,
+            "{spinner} [{bar:24}] {pos}/{len} tables, {elapsed}, eta {eta}: {msg}",
+        ));
         if p.resumed > 0 {
             self.say(&format!(
                 "{} of {} tables already done with these options: skipped",
@@ -248,7 +255,16 @@ impl Observe for Progress {
             } => self.table_done(*index, *count, table, end),
             Event::Section(s) => self.say(&format!("report: {s}")),
             Event::Step(s) => self.say(s),
-            Event::Rows { .. } => {}
+            Event::Rows { done, total } => {
+                let mut bars = self.bars();
+                let bar = bars.rows.get_or_insert_with(|| {
+                    delayed_bar(
+                        *total,
+                        "{spinner} [{bar:24}] {pos}/{len} rows, {elapsed}, eta {eta}",
+                    )
+                });
+                bar.set_position(*done as u64);
+            }
         }
     }
 

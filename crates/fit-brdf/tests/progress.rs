@@ -13,10 +13,17 @@ fn report_args(t: &std::path::Path, out: &std::path::Path) -> Vec<String> {
         .map(|s| s.to_string())
         .collect();
     a.extend(
-        ["--models", "lambert", "--starts", "1", "--render-size", "16"]
-            .into_iter()
-            .chain(["--env-spp", "2", "--out", &out.display().to_string()])
-            .map(String::from),
+        [
+            "--models",
+            "lambert",
+            "--starts",
+            "1",
+            "--render-size",
+            "16",
+        ]
+        .into_iter()
+        .chain(["--env-spp", "2", "--out", &out.display().to_string()])
+        .map(String::from),
     );
     a
 }
@@ -25,11 +32,20 @@ fn report_args(t: &std::path::Path, out: &std::path::Path) -> Vec<String> {
 fn quiet_verbs_write_nothing_to_stderr_on_success() {
     let d = tempfile::tempdir().unwrap();
     let t = synth_spec(d.path(), "small", &common::red_plastic());
-    let o = fit_brdf!("fit", &t, "--model", "lambert,ward", "--starts", "2", "--quiet");
+    let o = fit_brdf!(
+        "fit",
+        &t,
+        "--model",
+        "lambert,ward",
+        "--starts",
+        "2",
+        "--quiet"
+    );
     assert!(o.status.success() && o.stderr.is_empty(), "{}", stderr(&o));
     assert!(!o.stdout.is_empty(), "results still on stdout");
     let mut c = common::bin();
-    c.args(report_args(&t, &d.path().join("rep"))).arg("--quiet");
+    c.args(report_args(&t, &d.path().join("rep")))
+        .arg("--quiet");
     let o = c.output().unwrap();
     assert!(o.status.success() && o.stderr.is_empty(), "{}", stderr(&o));
     assert!(!o.stdout.is_empty(), "results still on stdout");
