@@ -24,6 +24,16 @@ pub enum Event {
     Iteration(IterEvent),
     /// A start of a fit is done.
     StartDone(StartDone),
+    /// A stage of a fit is done (the stages of `brdfkit_fit::StageTimes`: `subsample`,
+    /// then per pass `prepare`, `explore`, `warm-up`, `finish`, then `losses`, `record`).
+    StageDone {
+        /// The stage's name.
+        stage: &'static str,
+        /// The channel of a per-channel pass's stage (`None`: shared, or not a pass's).
+        channel: Option<usize>,
+        /// Its wall time.
+        seconds: f64,
+    },
     /// Family `index` of `count` (0-based) starts its fit.
     FamilyStarted {
         /// Position among the families (0-based).

@@ -298,8 +298,8 @@ fn uniform_weighting_and_every_loss_recover_the_truth() {
     }
 }
 
-/// The events of a fit, recorded: the plan first, every iteration of every start, and
-/// each start's end after all of its iterations.
+/// The events of a fit, recorded: the plan first, every iteration of every start, each
+/// start's end after all of its iterations, and each stage's end in the order they run.
 #[test]
 fn observer_sees_every_start_and_iteration() {
     let data = ct_data((15, 15, 30));
@@ -320,6 +320,7 @@ fn observer_sees_every_start_and_iteration() {
     );
     let mut done = [false; 4];
     let mut iters = 0u64;
+    let mut stages = Vec::new();
     for e in &ev[1..] {
         match e {
             Event::Iteration(i) => {
@@ -336,10 +337,19 @@ fn observer_sees_every_start_and_iteration() {
                 assert!(!done[d.start], "start {} ended twice", d.start);
                 done[d.start] = true;
             }
+            Event::StageDone {
+                stage,
+                channel: None,
+                seconds,
+            } => {
+                stages.push((*stage, *seconds));
+            }
             other => panic!("a fit sent {other:?}"),
         }
     }
     assert_eq!(done, [true; 4]);
+    // The same figures as the result's stage times, bit for bit.
+    assert_eq!(stages, res.stages.stages());
     let total: u64 = res.record.starts.iter().map(|s| s.iterations).sum();
     assert_eq!(iters, total);
 }

@@ -140,7 +140,11 @@ impl Progress {
         if self.quiet {
             return;
         }
-        match &self.bars().batch {
+        let bars = self.bars();
+        let drawn = (bars.batch.as_ref())
+            .or(bars.rows.as_ref())
+            .or(bars.fit.as_ref().map(|f| &f.bar));
+        match drawn {
             Some(b) => b.suspend(|| eprintln!("{s}")),
             None => eprintln!("{s}"),
         }
@@ -231,6 +235,7 @@ impl Observe for Progress {
         }
         match e {
             Event::FitPlanned(_) | Event::Iteration(_) | Event::StartDone(_) => self.fit_event(e),
+            Event::StageDone { .. } => {}
             Event::FamilyStarted {
                 index,
                 count,

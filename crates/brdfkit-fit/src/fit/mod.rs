@@ -22,7 +22,7 @@ use brdfkit_core::progress::{Event, FitPlan, Observe, StartDone, relay};
 use brdfkit_core::{Model, ParamRole};
 use brdfkit_merl::MerlTable;
 use cells::Cells;
-use pass::{PassResult, run_pass};
+use pass::{PassResult, run_pass, stage_done};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -146,6 +146,12 @@ fn fit_observed(
             cells.fitset().len(),
             passes.len(),
         )));
+        // Told after the plan, which needs its cells.
+        o.observe(&Event::StageDone {
+            stage: "subsample",
+            channel: None,
+            seconds: times.subsample,
+        });
     }
     let sets = cells.sets();
     let mut results: Vec<PassResult> = passes
@@ -160,7 +166,7 @@ fn fit_observed(
     let t = Instant::now();
     let (losses_fit, losses_full) = loss_reports(&fitted, &cells, config);
     settle_deferred(&mut results, &losses_fit, config, observer.as_ref())?;
-    times.losses = t.elapsed().as_secs_f64();
+    times.losses = stage_done(observer.as_ref(), "losses", None, t);
     let t = Instant::now();
     let u: Vec<Vec<f64>> = results
         .iter()
@@ -194,7 +200,7 @@ fn fit_observed(
         losses_full,
         wall_time_s: 0.0,
     });
-    times.record = t.elapsed().as_secs_f64();
+    times.record = stage_done(observer.as_ref(), "record", None, t);
     record.wall_time_s = t0.elapsed().as_secs_f64();
     record.input = data.input().cloned();
     Ok(FitResult {

@@ -443,7 +443,25 @@ impl Pass<'_> {
     }
 }
 
-/// One pass: the stages in order, each timed into `times`.
+/// The seconds since `t`, told to the observer as stage `name` done.
+pub(super) fn stage_done(
+    observer: Option<&Arc<dyn Observe>>,
+    stage: &'static str,
+    channel: Option<usize>,
+    t: Instant,
+) -> f64 {
+    let seconds = t.elapsed().as_secs_f64();
+    if let Some(o) = observer {
+        o.observe(&Event::StageDone {
+            stage,
+            channel,
+            seconds,
+        });
+    }
+    seconds
+}
+
+/// One pass: the stages in order, each timed into `times` and told to the observer.
 pub(super) fn run_pass(
     cells: &CellSets<'_>,
     model: &dyn Model,
@@ -453,16 +471,20 @@ pub(super) fn run_pass(
     observer: Option<&Arc<dyn Observe>>,
     times: &mut StageTimes,
 ) -> Result<PassResult, FitError> {
+    let channel = (channels.len() == 1).then(|| channels[0]);
+    let stage = |name, t: Instant, total: &mut f64| {
+        *total += stage_done(observer, name, channel, t);
+    };
     let t = Instant::now();
     let pass = Pass::new(cells, model, &free, &channels, config, observer)?;
-    times.prepare += t.elapsed().as_secs_f64();
+    stage("prepare", t, &mut times.prepare);
     let t = Instant::now();
     let explored = pass.explore();
-    times.explore += t.elapsed().as_secs_f64();
+    stage("explore", t, &mut times.explore);
     let (finishers, rank_of) = pass.rank(&explored);
     let t = Instant::now();
     let warmed = pass.warm_up(&finishers, &explored);
-    times.warm_up += t.elapsed().as_secs_f64();
+    stage("warm-up", t, &mut times.warm_up);
     let t = Instant::now();
     let full_iters = config.full_iters.cap_for(model);
     let defer = defers_cost(&pass, full_iters, finishers.len());
@@ -473,7 +495,7 @@ pub(super) fn run_pass(
         finished = f;
         robust = r.or(robust);
     }
-    times.finish += t.elapsed().as_secs_f64();
+    stage("finish", t, &mut times.finish);
     let (starts, best) = start_records(&pass, &explored, finished, &rank_of, defer)?;
     Ok(PassResult {
         model: pass.full.model_at(&best.u)?,
