@@ -20,6 +20,7 @@
 //! - [`atomic`]: the one way every output file is written (whole, or not at all).
 //! - [`choice`]: structural choices parsed from their names.
 //! - [`scattering`]: Fresnel, microfacet distributions and masking, with derivatives.
+//! - [`progress`]: the one progress channel: [`progress::Event`] and [`progress::Observe`].
 
 #![warn(missing_docs)]
 
@@ -30,6 +31,7 @@ pub mod direction;
 pub mod geometry;
 pub mod model;
 pub mod par;
+pub mod progress;
 pub mod quadrature;
 pub mod rgb;
 pub mod rusinkiewicz;

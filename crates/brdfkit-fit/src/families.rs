@@ -14,9 +14,10 @@
 
 use crate::config::{DEFAULT_EXPLORE_CELLS, DEFAULT_FINISH, DEFAULT_FULL_ITERS, DEFAULT_STARTS};
 use crate::{
-    FitConfig, FitData, FitError, FitObserver, FitRecord, FullIters, Loss, LossSet, RobustKind,
-    Sharing, SolverKind, Weighting, fit, resolve_free,
+    FitConfig, FitData, FitError, FitRecord, FullIters, Loss, LossSet, RobustKind, Sharing,
+    SolverKind, Weighting, fit, resolve_free,
 };
+use brdfkit_core::progress::{Event, FitSummary, Observe};
 use brdfkit_core::scattering::{Distribution, Masking};
 use brdfkit_core::{Model, ModelError, downcast};
 use brdfkit_models::cook_torrance::{CookTorrance, FresnelKind};
@@ -24,7 +25,6 @@ use brdfkit_models::ward::{Normalization, Ward};
 use serde_json::Value;
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 pub use brdfkit_models::named::{
     DATABASE_MODELS, DEFAULT_FAMILY, NAMED_FAMILIES, REPORT_MODELS, named_family,
@@ -489,27 +489,15 @@ pub struct FamilyFitError {
     pub source: FitError,
 }
 
-/// Follows [`fit_each`] family by family.
-pub trait FamilyObserver {
-    /// Family `k` of `n` (0-based) starts; the returned observer, if any, follows its
-    /// fit.
-    fn on_family_start(&self, _k: usize, _n: usize, _f: &Family) -> Option<Arc<dyn FitObserver>> {
-        None
-    }
-    /// Family `k` of `n` ended (`None`: it failed; the error follows).
-    fn on_family_done(&self, _k: usize, _n: usize, _o: Option<&Outcome>) {}
-}
-
-/// An observer that observes nothing.
-impl FamilyObserver for () {}
-
 /// Fits every family, one after the other, on the same cells; stops at the first
-/// failure.
+/// failure. `obs` hears [`Event::FamilyStarted`], the family's fit events (see
+/// [`fit`]), then [`Event::FamilyDone`] (with no summary when the fit failed), for each
+/// family in turn.
 pub fn fit_each(
     data: &FitData,
     fams: &[Family],
     cfg: &FitConfig,
-    obs: &dyn FamilyObserver,
+    obs: &dyn Observe,
 ) -> Result<Vec<Outcome>, FamilyFitError> {
     let mut out = Vec::with_capacity(fams.len());
     // The model-independent preparation, once for all families (a failure here is
@@ -517,21 +505,30 @@ pub fn fit_each(
     if fams.len() > 1 {
         let _ = crate::prepare(data, cfg);
     }
-    for (k, f) in fams.iter().enumerate() {
-        let inner = obs.on_family_start(k, fams.len(), f);
-        match fit(&*f.model, data, cfg, inner) {
-            Ok(r) => {
-                let o = Outcome {
-                    label: f.label.clone(),
-                    fitted: r.fitted,
-                    record: r.record,
-                    stages: r.stages,
-                };
-                obs.on_family_done(k, fams.len(), Some(&o));
-                out.push(o);
-            }
+    let count = fams.len();
+    for (index, f) in fams.iter().enumerate() {
+        let label = f.label.clone();
+        obs.observe(&Event::FamilyStarted {
+            index,
+            count,
+            label: label.clone(),
+        });
+        let r = fit(&*f.model, data, cfg, Some(obs));
+        let summary = r.as_ref().ok().map(|r| summary(&r.record, cfg.loss));
+        obs.observe(&Event::FamilyDone {
+            index,
+            count,
+            label,
+            summary,
+        });
+        match r {
+            Ok(r) => out.push(Outcome {
+                label: f.label.clone(),
+                fitted: r.fitted,
+                record: r.record,
+                stages: r.stages,
+            }),
             Err(source) => {
-                obs.on_family_done(k, fams.len(), None);
                 return Err(FamilyFitError {
                     label: f.label.clone(),
                     source,
@@ -540,6 +537,18 @@ pub fn fit_each(
         }
     }
     Ok(out)
+}
+
+/// A family's fit in the figures of its progress line: the optimised loss over the
+/// full table, time, iterations by stage, convergence.
+fn summary(record: &FitRecord, loss: Loss) -> FitSummary {
+    FitSummary {
+        loss_name: loss.to_string(),
+        loss: record.losses_full.get(loss).overall,
+        wall_time_s: record.wall_time_s,
+        iterations: record.stage_iterations().summary(),
+        converged: record.converged,
+    }
 }
 
 /// The table of `fit --stage-times`: the table's own stages (`per_table`, e.g. read

@@ -29,7 +29,8 @@
 //! - [`problem`]: residuals, the normal equations in one parallel pass, argmin traits;
 //! - [`lm`]: Levenberg-Marquardt and Gauss-Newton as argmin solvers;
 //! - [`starts`]: the multi-start scheme;
-//! - [`config`], [`record`], [`observer`]: options, the JSON record, progress events;
+//! - [`config`], [`record`]: options, the JSON record (progress events are
+//!   [`brdfkit_core::progress`]'s, re-exported here: [`Event`], [`Observe`]);
 //! - [`synth`]: synthetic materials with known parameters: the `data-synthetic/` spec
 //!   format and its tables, cell sets from a model, seeded noise (tests, benchmarks);
 //! - [`score`](mod@score): every loss of given parameters on a fit's cells, without fitting;
@@ -54,7 +55,7 @@ mod fit;
 mod fitted;
 pub mod lm;
 pub mod loss;
-pub mod observer;
+mod observer;
 pub mod problem;
 pub mod record;
 pub mod reparam;
@@ -64,6 +65,7 @@ pub mod starts;
 pub mod synth;
 pub mod target;
 
+pub use brdfkit_core::progress::{Event, FitPlan, IterEvent, Observe, StartDone};
 pub use config::{CellFilter, FitConfig, FullIters, Sharing, SolverKind};
 pub use data::FitData;
 pub use data::SampleInput;
@@ -72,7 +74,6 @@ pub use fit::{FitResult, StageTimes, fit, fit_table, prepare, resolve_free};
 pub use fitted::Fitted;
 pub use lm::{GaussNewtonLs, LevenbergMarquardt, Stall, Tolerances};
 pub use loss::{ChannelLoss, Loss, LossReport, LossSet, Robust, RobustKind, Weighting};
-pub use observer::{FitObserver, FitPlan, IterEvent, OnIter, StartDone};
 pub use problem::{FitProblem, NormalEq, NormalEquations, evaluate_losses, evaluate_losses_of};
 pub use record::{
     FitRecord, ParamRecord, RobustRecord, StageIterations, StartRecord, WarmUpRecord,

@@ -53,8 +53,9 @@
 //! material's, not the start's. Every fitted model is one `export` writes without error
 //! (the export's conditions are the held values above).
 
-use crate::families::{Family, FamilyFitError, FamilyObserver, Outcome, fit_each};
+use crate::families::{Family, FamilyFitError, Outcome, fit_each};
 use crate::{FitConfig, FitData, Fitted};
+use brdfkit_core::progress::Observe;
 use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking};
 use brdfkit_core::{Model, Rgb, downcast};
 use brdfkit_models::cook_torrance::{CookTorrance, Fresnel};
@@ -283,7 +284,7 @@ fn as_ext(fitted: &Fitted) -> GltfPbrExt {
 fn fit_gltf(
     data: &FitData,
     cfg: &FitConfig,
-    obs: &dyn FamilyObserver,
+    obs: &dyn Observe,
 ) -> Result<Vec<Outcome>, FamilyFitError> {
     let loss = cfg.get_loss();
     let mut outcomes: Vec<Outcome> = Vec::with_capacity(GLTF_VARIANTS.len());
@@ -322,7 +323,7 @@ fn fit_gltf(
 fn fit_gltf_from(
     data: &FitData,
     cfg: &FitConfig,
-    obs: &dyn FamilyObserver,
+    obs: &dyn Observe,
     v: &GltfVariant,
     start: Box<dyn Model>,
 ) -> Result<Outcome, FamilyFitError> {
@@ -377,7 +378,7 @@ pub fn fit_for(
     data: &FitData,
     t: Target,
     cfg: &FitConfig,
-    obs: &dyn FamilyObserver,
+    obs: &dyn Observe,
 ) -> Result<TargetFit, FamilyFitError> {
     let outcomes = if t == Target::Gltf {
         fit_gltf(data, cfg, obs)?

@@ -3,13 +3,12 @@
 //! observer, multi-start determinism, typed errors.
 
 mod common;
+use brdfkit_core::progress::Recorder;
 use brdfkit_fit::synth::Coverage;
 use brdfkit_fit::{
-    FitConfig, FitData, FitError, FitObserver, FitRecord, IterEvent, Loss, Sharing, SolverKind,
-    StartDone, Weighting, fit,
+    Event, FitConfig, FitData, FitError, FitRecord, Loss, Sharing, SolverKind, Weighting, fit,
 };
 use common::*;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 const CT_TRUTH: &str = r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.15}}"#;
@@ -299,38 +298,60 @@ fn uniform_weighting_and_every_loss_recover_the_truth() {
     }
 }
 
-#[derive(Default)]
-struct Counter {
-    iters: AtomicUsize,
-    done: AtomicUsize,
-    plans: AtomicUsize,
-}
-
-impl FitObserver for Counter {
-    fn on_plan(&self, p: &brdfkit_fit::FitPlan) {
-        assert_eq!(p.starts, 4);
-        self.plans.fetch_add(1, Ordering::Relaxed);
-    }
-    fn on_iter(&self, ev: &IterEvent) {
-        assert!(ev.cost.is_finite() && ev.start < 4);
-        self.iters.fetch_add(1, Ordering::Relaxed);
-    }
-    fn on_start_done(&self, d: &StartDone) {
-        assert!(d.loss.is_finite());
-        self.done.fetch_add(1, Ordering::Relaxed);
-    }
-}
-
+/// The events of a fit, recorded: the plan first, every iteration of every start, each
+/// start's end after all of its iterations, and each stage's end in the order they run.
 #[test]
 fn observer_sees_every_start_and_iteration() {
     let data = ct_data((15, 15, 30));
-    let obs = Arc::new(Counter::default());
+    let rec = Recorder::new();
     let cfg = FitConfig::default().starts(4).unwrap();
-    let res = fit(model(CT_START).as_ref(), &data, &cfg, Some(obs.clone())).unwrap();
-    assert_eq!(obs.plans.load(Ordering::Relaxed), 1);
-    assert_eq!(obs.done.load(Ordering::Relaxed), 4);
+    let res = fit(model(CT_START).as_ref(), &data, &cfg, Some(&rec)).unwrap();
+    let ev = rec.events();
+    assert!(
+        matches!(&ev[0], Event::FitPlanned(p) if p.starts == 4 && p.passes == 1),
+        "{:?}",
+        ev[0]
+    );
+    assert_eq!(
+        ev.iter()
+            .filter(|e| matches!(e, Event::FitPlanned(_)))
+            .count(),
+        1
+    );
+    let mut done = [false; 4];
+    let mut iters = 0u64;
+    let mut stages = Vec::new();
+    for e in &ev[1..] {
+        match e {
+            Event::Iteration(i) => {
+                assert!(i.cost.is_finite() && i.start < 4, "{i:?}");
+                assert!(
+                    !done[i.start],
+                    "an iteration of start {} after its end",
+                    i.start
+                );
+                iters += 1;
+            }
+            Event::StartDone(d) => {
+                assert!(d.loss.is_finite(), "{d:?}");
+                assert!(!done[d.start], "start {} ended twice", d.start);
+                done[d.start] = true;
+            }
+            Event::StageDone {
+                stage,
+                channel: None,
+                seconds,
+            } => {
+                stages.push((*stage, *seconds));
+            }
+            other => panic!("a fit sent {other:?}"),
+        }
+    }
+    assert_eq!(done, [true; 4]);
+    // The same figures as the result's stage times, bit for bit.
+    assert_eq!(stages, res.stages.stages());
     let total: u64 = res.record.starts.iter().map(|s| s.iterations).sum();
-    assert_eq!(obs.iters.load(Ordering::Relaxed) as u64, total);
+    assert_eq!(iters, total);
 }
 
 #[test]
@@ -427,16 +448,17 @@ fn fit_a_table_read_from_disk() {
 #[test]
 fn a_closure_can_observe() {
     let data = ct_data((10, 10, 20));
-    let n = Arc::new(AtomicUsize::new(0));
-    let n2 = n.clone();
-    let obs = Arc::new(brdfkit_fit::OnIter(move |_: &IterEvent| {
-        n2.fetch_add(1, Ordering::Relaxed);
-    }));
+    let n = AtomicUsize::new(0);
+    let count = |e: &Event| {
+        if matches!(e, Event::Iteration(_)) {
+            n.fetch_add(1, Ordering::Relaxed);
+        }
+    };
     let res = fit(
         model(CT_START).as_ref(),
         &data,
         &FitConfig::default(),
-        Some(obs),
+        Some(&count),
     )
     .unwrap();
     assert_eq!(

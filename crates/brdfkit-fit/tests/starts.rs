@@ -6,9 +6,8 @@
 
 mod common;
 use brdfkit_fit::synth::Coverage;
-use brdfkit_fit::{FitConfig, FitData, FitObserver, FitRecord, Sharing, StartDone, fit};
+use brdfkit_fit::{Event, FitConfig, FitData, FitRecord, Observe, Sharing, fit};
 use common::*;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 const TRUTH: &str = r#"{"model":"cook-torrance","params":{"fresnel":{"schlick":{"f0":[0.9,0.6,0.3]}},"rho_d":[0.1,0.2,0.3],"rho_s":[0.5,0.4,0.3],"alpha":0.15}}"#;
@@ -158,11 +157,13 @@ fn one_start_or_finishing_all_is_the_unranked_fit() {
 #[derive(Default)]
 struct Done(AtomicUsize, AtomicUsize);
 
-impl FitObserver for Done {
-    fn on_start_done(&self, d: &StartDone) {
-        self.0.fetch_add(1, Ordering::Relaxed);
-        if d.iterations == 0 && d.termination.starts_with("not finished") {
-            self.1.fetch_add(1, Ordering::Relaxed);
+impl Observe for Done {
+    fn observe(&self, e: &Event) {
+        if let Event::StartDone(d) = e {
+            self.0.fetch_add(1, Ordering::Relaxed);
+            if d.iterations == 0 && d.termination.starts_with("not finished") {
+                self.1.fetch_add(1, Ordering::Relaxed);
+            }
         }
     }
 }
@@ -170,9 +171,9 @@ impl FitObserver for Done {
 #[test]
 fn per_channel_passes_rank_and_the_observer_sees_every_start() {
     let data = data();
-    let obs = Arc::new(Done::default());
+    let obs = Done::default();
     let c = cfg(3, 1).sharing(Sharing::PerChannel);
-    let res = fit(model(FAR).as_ref(), &data, &c, Some(obs.clone())).unwrap();
+    let res = fit(model(FAR).as_ref(), &data, &c, Some(&obs)).unwrap();
     let r = &res.record;
     assert_eq!(r.starts.len(), 9);
     assert_eq!(

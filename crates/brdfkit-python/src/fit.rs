@@ -6,17 +6,15 @@ use crate::model::PyModel;
 use crate::table::PyTable;
 use crate::{errors, json_to_py};
 use brdfkit_fit::config::DEFAULT_EXPLORE_CELLS;
-use brdfkit_fit::families::{
-    Family, FamilyObserver, FitSettings, Structure, check_free, families, fit_each,
-};
-use brdfkit_fit::{FitData, FitObserver, FitPlan, IterEvent, StartDone};
+use brdfkit_fit::families::{Family, FitSettings, Structure, check_free, families, fit_each};
+use brdfkit_fit::{Event, FitData, Observe};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 use serde_json::json;
 use std::path::PathBuf;
 use std::str::FromStr;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
 
 /// The argument `arg` (`loss = "cbrt"`, ...) parsed by the library's own `FromStr`,
 /// whose message names the value and the accepted names; the argument's name leads.
@@ -40,6 +38,8 @@ struct Progress {
     callback: Py<PyAny>,
     stopped: AtomicBool,
     error: Mutex<Option<PyErr>>,
+    /// The label of the family being fitted (families are fitted one after the other).
+    family: Mutex<String>,
 }
 
 impl Progress {
@@ -60,48 +60,38 @@ impl Progress {
             slot.get_or_insert(e);
         }
     }
-}
 
-/// The progress of one family's fit.
-struct FamilyProgress {
-    shared: Arc<Progress>,
-    family: String,
-}
-
-impl FitObserver for FamilyProgress {
-    fn on_plan(&self, p: &FitPlan) {
-        self.shared.send(
-            json!({"event": "plan", "family": self.family, "starts": p.starts,
-            "finish": p.finish, "passes": p.passes, "max_iters": p.max_iters, "cells": p.cells}),
-        );
-    }
-
-    fn on_iter(&self, e: &IterEvent) {
-        self.shared.send(
-            json!({"event": "iter", "family": self.family, "start": e.start,
-            "channel": e.channel, "iter": e.iter, "cost": e.cost, "best_cost": e.best_cost,
-            "warm_up": e.warm_up}),
-        );
-    }
-
-    fn on_start_done(&self, s: &StartDone) {
-        self.shared.send(
-            json!({"event": "start_done", "family": self.family, "start": s.start,
-            "channel": s.channel, "loss": s.loss, "iterations": s.iterations,
-            "termination": s.termination}),
-        );
+    fn family(&self) -> String {
+        self.family
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
     }
 }
 
-/// Hands each family's fit a [`FamilyProgress`].
-struct Families(Arc<Progress>);
-
-impl FamilyObserver for Families {
-    fn on_family_start(&self, _k: usize, _n: usize, f: &Family) -> Option<Arc<dyn FitObserver>> {
-        Some(Arc::new(FamilyProgress {
-            shared: Arc::clone(&self.0),
-            family: f.label.clone(),
-        }))
+impl Observe for Progress {
+    fn observe(&self, e: &Event) {
+        let family = self.family();
+        match e {
+            Event::FamilyStarted { label, .. } => {
+                *self.family.lock().unwrap_or_else(|p| p.into_inner()) = label.clone();
+            }
+            Event::FitPlanned(p) => self.send(
+                json!({"event": "plan", "family": family, "starts": p.starts,
+                "finish": p.finish, "passes": p.passes, "max_iters": p.max_iters, "cells": p.cells}),
+            ),
+            Event::Iteration(e) => self.send(
+                json!({"event": "iter", "family": family, "start": e.start,
+                "channel": e.channel, "iter": e.iter, "cost": e.cost, "best_cost": e.best_cost,
+                "warm_up": e.warm_up}),
+            ),
+            Event::StartDone(s) => self.send(
+                json!({"event": "start_done", "family": family, "start": s.start,
+                "channel": s.channel, "loss": s.loss, "iterations": s.iterations,
+                "termination": s.termination}),
+            ),
+            _ => {}
+        }
     }
 }
 
@@ -273,18 +263,17 @@ pub fn fit(
     let cfg = settings.config().map_err(errors::input)?;
     check_free(&fams, &cfg).map_err(errors::input)?;
     let t = table.get();
-    let observer = progress.map(|callback| {
-        Arc::new(Progress {
-            callback,
-            stopped: AtomicBool::new(false),
-            error: Mutex::new(None),
-        })
+    let observer = progress.map(|callback| Progress {
+        callback,
+        stopped: AtomicBool::new(false),
+        error: Mutex::new(None),
+        family: Mutex::new(String::new()),
     });
     let outcomes = py.detach(|| {
         let data = FitData::from_table(&t.inner)
             .map_err(|e| errors::value(format!("{}: {}", t.label(), errors::message(&e))))?;
         match &observer {
-            Some(o) => fit_each(&data, &fams, &cfg, &Families(Arc::clone(o))),
+            Some(o) => fit_each(&data, &fams, &cfg, o),
             None => fit_each(&data, &fams, &cfg, &()),
         }
         .map_err(errors::runtime)

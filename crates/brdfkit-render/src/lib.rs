@@ -39,6 +39,6 @@ pub mod stats;
 pub use error::{OutputError, RenderError, SceneError};
 pub use material::{MeasuredBrdf, SceneMaterial, TableBrdf};
 pub use output::RenderOutput;
-pub use render::render;
+pub use render::{render, render_observed};
 pub use scene::{Effect, Effects, Film, Light, Mis, PixelFilter, Scene};
 pub use stats::{EffectCost, RenderStats};

@@ -55,9 +55,11 @@ use crate::rng::{Pcg32, stratified_2d};
 use crate::sampling::LobeSampler;
 use crate::scene::{Light, Mis, PixelFilter, Scene};
 use crate::stats::{EffectCost, RenderStats};
+use brdfkit_core::progress::{Event, Observe};
 use brdfkit_core::quadrature::frame_around;
 use brdfkit_core::{Rgb, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 /// Per-chunk counters.
@@ -243,6 +245,12 @@ fn mis_weight(mis: Mis, a: f64, b: f64) -> f64 {
 
 /// Renders `scene`. Only the effects in `scene.effects` are computed.
 pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
+    render_observed(scene, &())
+}
+
+/// [`render`], telling `obs` of every finished row ([`Event::Rows`]: `done` counts the
+/// rows finished so far, whichever they are; rows finish in parallel).
+pub fn render_observed(scene: &Scene, obs: &dyn Observe) -> Result<RenderOutput, RenderError> {
     let start = Instant::now();
     let film = &scene.film;
     let (w, h, spp) = (film.width, film.height, film.spp);
@@ -322,6 +330,7 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
     let mut radiance = vec![Rgb::ZERO; w * h];
     let mut std_error = vec![Rgb::ZERO; w * h];
     let loop_start = Instant::now();
+    let rows_done = AtomicUsize::new(0);
     let counters = radiance
         .par_chunks_mut(w)
         .zip(std_error.par_chunks_mut(w))
@@ -341,6 +350,8 @@ pub fn render(scene: &Scene) -> Result<RenderOutput, RenderError> {
                 render_chunk(&ctx, &ch, scratch, &mut c, rad_row, se_row);
                 x0 = x1;
             }
+            let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
+            obs.observe(&Event::Rows { done, total: h });
             c
         })
         .reduce(Counters::default, Counters::merge);

@@ -290,3 +290,24 @@ fn a_material_returning_nan_is_a_render_error() {
         assert!(e.to_string().contains("not finite"), "{e}");
     }
 }
+
+/// Every row is reported finished once, the count reaching the image's height.
+#[test]
+fn a_render_reports_each_finished_row() {
+    let rec = brdfkit_core::progress::Recorder::new();
+    let out =
+        brdfkit_render::render_observed(&scene(r#"["direct"]"#, POINT).unwrap(), &rec).unwrap();
+    let mut done: Vec<usize> = rec
+        .events()
+        .iter()
+        .map(|e| match e {
+            brdfkit_core::progress::Event::Rows { done, total } => {
+                assert_eq!(*total, out.height);
+                *done
+            }
+            e => panic!("a render sent {e:?}"),
+        })
+        .collect();
+    done.sort();
+    assert_eq!(done, (1..=out.height).collect::<Vec<_>>());
+}

@@ -15,6 +15,7 @@
 
 use crate::{StudyConfig, StudyError, SynthMaterial};
 use brdfkit_core::direction::spherical;
+use brdfkit_core::progress::{Event, Observe};
 use brdfkit_core::scattering::{BeckmannG1, Masking};
 use brdfkit_core::{GeometryBatch, GeometryBatchF32, Model, ModelError, Rgb, Vec3};
 use brdfkit_fit::synth::SynthSpec;
@@ -144,7 +145,7 @@ pub fn random_pairs(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
 pub fn lookups(
     cfg: &StudyConfig,
     materials: &[SynthMaterial],
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<Vec<LookupRow>, StudyError> {
     let pairs = random_pairs(cfg.lookup_pairs, 0x4c4f4f4b);
     let one = pool(1);
@@ -184,10 +185,10 @@ pub fn lookups(
                 ns_1_thread: t1 / pairs.len() as f64 * 1e9,
                 ns_all_threads: ta / pairs.len() as f64 * 1e9,
             };
-            progress(&format!(
+            progress.observe(&Event::Step(format!(
                 "lookup {} {}: median rel {:.2e}, cbrt {:.2e}, {:.0} ns",
                 row.material, row.mode, row.err.rel_median, row.err.cbrt_rms, row.ns_1_thread
-            ));
+            )));
             rows.push(row);
         }
     }
@@ -261,7 +262,7 @@ fn built(m: Result<CookTorrance, ModelError>, what: &str) -> Result<CookTorrance
 
 /// Every Cook-Torrance variant against its reference: the Fresnel approximations on
 /// gold, the Beckmann G1 forms and the Smith masking forms, and float32 evaluation.
-pub fn variants(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<Vec<VariantRow>, StudyError> {
+pub fn variants(cfg: &StudyConfig, progress: &dyn Observe) -> Result<Vec<VariantRow>, StudyError> {
     let gold = VariantMaterial::read(cfg, "gold-ggx")?;
     let copper = VariantMaterial::read(cfg, "copper-beckmann")?;
     let mut rows = Rows {
@@ -336,7 +337,7 @@ impl VariantMaterial {
 /// The rows measured so far, and what measuring one needs.
 struct Rows<'a> {
     cfg: &'a StudyConfig,
-    progress: &'a dyn Fn(&str),
+    progress: &'a dyn Observe,
     rows: Vec<VariantRow>,
 }
 
@@ -362,10 +363,10 @@ impl Rows<'_> {
             ns_reference: time_model(self.cfg.reps, r, g),
             ns_variant: time_model(self.cfg.reps, v, g),
         };
-        (self.progress)(&format!(
+        self.progress.observe(&Event::Step(format!(
             "variant {choice} {vn} vs {rn}: max rel {:.2e}, cbrt {:.2e}, {:.1} vs {:.1} ns",
             row.err.rel_max, row.err.cbrt_rms, row.ns_variant, row.ns_reference
-        ));
+        )));
         self.rows.push(row);
     }
 }
@@ -423,7 +424,7 @@ fn fresnel_variants(rows: &mut Rows, gold: &VariantMaterial) -> Result<(), Study
 fn precision_variant(
     cfg: &StudyConfig,
     name: &str,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<VariantRow, StudyError> {
     let (s, data) = spec_cells(cfg, name)?;
     let m = &s.material;
@@ -453,9 +454,9 @@ fn precision_variant(
         ns_reference: ns_ref,
         ns_variant: t32 / n as f64 * 1e9,
     };
-    progress(&format!(
+    progress.observe(&Event::Step(format!(
         "variant precision {name} f32: max rel {:.2e}, {:.1} vs {:.1} ns",
         row.err.rel_max, row.ns_variant, row.ns_reference
-    ));
+    )));
     Ok(row)
 }

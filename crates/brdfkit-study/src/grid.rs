@@ -10,6 +10,7 @@
 //! the best loss the grid reached ([`baselines`], [`relative`]).
 
 use crate::{ModelChoice, StudyConfig, StudyError, SynthMaterial};
+use brdfkit_core::progress::{Event, Observe};
 use brdfkit_fit::{FitConfig, FitData, Loss, SolverKind, fit};
 use brdfkit_merl::{Dims, MerlTable};
 use serde::{Deserialize, Serialize};
@@ -223,7 +224,7 @@ fn timed_fit(
 pub fn run_grid(
     cfg: &StudyConfig,
     materials: &[SynthMaterial],
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<Vec<GridRow>, StudyError> {
     let jobs: Vec<(&str, &MerlTable, &ModelChoice)> = cfg
         .models
@@ -243,7 +244,7 @@ pub fn run_grid(
 pub fn run_measured_grid(
     cfg: &StudyConfig,
     tables: &[(String, MerlTable)],
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<Vec<GridRow>, StudyError> {
     let jobs: Vec<(&str, &MerlTable, &ModelChoice)> = tables
         .iter()
@@ -259,7 +260,7 @@ fn run_jobs(
     jobs: &[(&str, &MerlTable, &ModelChoice)],
     partial: &str,
     cli_default: bool,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<Vec<GridRow>, StudyError> {
     let confs = configurations(cfg);
     let total = (confs.len() + usize::from(cli_default)) * jobs.len();
@@ -304,7 +305,7 @@ fn run_jobs(
                 Some(c) => fit_one(cfg, name, &mc.label, start.as_ref(), &data, c)?,
                 None => fit_cli_default(cfg, name, &mc.label, start.as_ref(), &data)?,
             };
-            progress(&format!(
+            progress.observe(&Event::Step(format!(
                 "grid {}/{} ({:.0} s): {} {} {} {:.3} % x{}: {:.3} s (cpu {:.3} s), cbrt {:.4e}",
                 rows.len() + 1,
                 total,
@@ -317,7 +318,7 @@ fn run_jobs(
                 row.wall_s,
                 row.cpu_s,
                 row.cbrt
-            ));
+            )));
             rows.push(row);
         }
         // Saved after every job, so a stopped run can resume.
@@ -403,18 +404,18 @@ pub fn no_proxy(cfg: &StudyConfig, name: &str) -> StudyError {
 pub fn run_measured(
     cfg: &StudyConfig,
     res: &mut crate::StudyResults,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<(), StudyError> {
     let mut info = crate::RunInfo::start(cfg);
     // The references first: a bad file must not waste the grid.
     let refs = read_references(&cfg.measured_dir.join("reference-fits.json"), cfg)?;
     let t = Instant::now();
     let tables = load_measured(cfg)?;
-    progress(&format!(
+    progress.observe(&Event::Step(format!(
         "measured: {} proxies resampled in {:.1} s",
         tables.len(),
         t.elapsed().as_secs_f64()
-    ));
+    )));
     res.measured_references = refs;
     res.measured_grid = run_measured_grid(cfg, &tables, progress)?;
     info.grid_s = Some(t.elapsed().as_secs_f64());
@@ -858,7 +859,7 @@ mod tests {
         cfg.starts = vec![1];
         cfg.choices = false;
         cfg.scale = false;
-        let res = crate::run(&cfg, &|_| {}).unwrap();
+        let res = crate::run(&cfg, &()).unwrap();
         // 2 solvers × 2 fractions + fit-brdf's default, on one material and model.
         assert_eq!(res.measured_grid.len(), 5);
         assert!(res.grid.is_empty());
@@ -901,7 +902,7 @@ mod tests {
         assert!(image::open(out.join("pareto-measured-cook-torrance.png")).is_ok());
         // A proxy that does not exist is a configuration error naming it.
         cfg.measured = vec!["no-such-proxy".into()];
-        let e = crate::run(&cfg, &|_| {}).unwrap_err();
+        let e = crate::run(&cfg, &()).unwrap_err();
         assert!(matches!(e, StudyError::Config { .. }) && e.to_string().contains("no-such-proxy"));
     }
 

@@ -41,6 +41,7 @@ pub mod plot;
 pub mod scale;
 
 use brdfkit_core::Model as _;
+use brdfkit_core::progress::{Event, Observe};
 use brdfkit_fit::SolverKind;
 use brdfkit_fit::synth::SynthSpec;
 use serde::{Deserialize, Serialize};
@@ -462,7 +463,7 @@ pub fn read_results(out: &Path) -> Option<StudyResults> {
 
 /// Rewrites the plots and the report from the figures of the last run (`results.json`,
 /// `run.json`) without measuring anything.
-pub fn rewrite(out: &Path, progress: &dyn Fn(&str)) -> Result<(), StudyError> {
+pub fn rewrite(out: &Path, progress: &dyn Observe) -> Result<(), StudyError> {
     let missing = |f: &str| StudyError::Config {
         option: "rewrite",
         msg: format!("{}: missing or unreadable", out.join(f).display()),
@@ -520,7 +521,7 @@ pub struct StudyResults {
 
 /// Runs the study and writes the data, the plots and the report. `progress` receives
 /// one line per step.
-pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, StudyError> {
+pub fn run(cfg: &StudyConfig, progress: &dyn Observe) -> Result<StudyResults, StudyError> {
     cfg.validate()?;
     // Specs and proxies first: a bad one must not leave an empty output directory behind.
     let materials = load_materials(cfg)?;
@@ -533,11 +534,11 @@ pub fn run(cfg: &StudyConfig, progress: &dyn Fn(&str)) -> Result<StudyResults, S
     }
     std::fs::create_dir_all(&cfg.out).map_err(|e| StudyError::io(&cfg.out, e))?;
     let mut info = RunInfo::start(cfg);
-    progress(&format!(
+    progress.observe(&Event::Step(format!(
         "study: {} threads, load {:.2}",
         info.threads,
         info.load_start.unwrap_or(f64::NAN)
-    ));
+    )));
     // Parts not run keep the figures of the last run (results.json), so one part can be
     // re-measured alone and the report still has all of them.
     let mut res = read_results(&cfg.out).unwrap_or_default();

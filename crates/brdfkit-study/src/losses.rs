@@ -24,6 +24,7 @@ use crate::StudyError;
 use crate::files::{write, write_csv, write_json};
 use crate::markdown::{loss as fmt_loss, replace_section, secs};
 use crate::measured::{median, read_categories};
+use brdfkit_core::progress::{Event, Observe};
 use brdfkit_fit::families::{FitSettings, Structure, families};
 use brdfkit_fit::{FitData, Loss, fit};
 use brdfkit_merl::Dims;
@@ -340,7 +341,7 @@ pub struct LossesRun {
 /// `out/scores.csv`, `out/scores.json`, `out/sheet.png` and the generated sections of
 /// the report (`<!-- study:losses-NAME -->`; the hand-written reading around them is
 /// kept). Returns the rows.
-pub fn run(cfg: &LossesConfig, progress: &dyn Fn(&str)) -> Result<Vec<LossRow>, StudyError> {
+pub fn run(cfg: &LossesConfig, progress: &dyn Observe) -> Result<Vec<LossRow>, StudyError> {
     if cfg.materials.is_empty() || cfg.models.is_empty() {
         return Err(StudyError::Config {
             option: "losses",
@@ -367,11 +368,11 @@ pub fn run(cfg: &LossesConfig, progress: &dyn Fn(&str)) -> Result<Vec<LossRow>, 
     let mut rows = Vec::new();
     let mut sheet = Vec::new();
     for (k, (name, (db, cat))) in picks.iter().enumerate() {
-        progress(&format!(
+        progress.observe(&Event::Step(format!(
             "losses: {}/{} {name} ({db}, {cat})",
             k + 1,
             picks.len()
-        ));
+        )));
         let (r, strips) = measure(cfg, (name, db, cat))?;
         rows.extend(r);
         sheet.push((name.to_string(), strips));
@@ -891,7 +892,7 @@ mod tests {
             report: report.clone(),
             ..LossesConfig::new(&root, root.join("categories.csv"))
         };
-        let rows = run(&cfg, &|_| {}).unwrap();
+        let rows = run(&cfg, &()).unwrap();
         assert_eq!(rows.len(), 2 * LOSSES.len() * 2);
         for r in &rows {
             assert!(r.pixels > 100, "{r:?}");
@@ -940,7 +941,7 @@ mod tests {
             materials: vec!["no-such-proxy".into()],
             ..cfg
         };
-        let e = run(&bad, &|_| {}).unwrap_err();
+        let e = run(&bad, &()).unwrap_err();
         assert!(e.to_string().contains("`no-such-proxy`"), "{e}");
     }
 }

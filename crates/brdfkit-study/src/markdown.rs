@@ -9,6 +9,7 @@ use crate::files::{write, write_json};
 use crate::grid::{CLI_DEFAULT, GridRow, pareto};
 use crate::plot::{Axes, Panel, Series, figure};
 use crate::{RunInfo, StudyConfig, StudyError, StudyResults};
+use brdfkit_core::progress::{Event, Observe};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
@@ -866,11 +867,11 @@ pub fn write_all(
     cfg: &StudyConfig,
     info: &RunInfo,
     res: &StudyResults,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<(), StudyError> {
     let mut made = plots(cfg, res)?;
     made.extend(measured_plots(&cfg.out, res)?);
-    progress(&format!("plots: {}", made.join(", ")));
+    progress.observe(&Event::Step(format!("plots: {}", made.join(", "))));
     if let Some(sc) = &res.scale {
         write_json(&cfg.out.join("scale.json"), sc)?;
     }

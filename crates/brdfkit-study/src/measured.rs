@@ -13,6 +13,7 @@ use crate::StudyError;
 use crate::files::write;
 use crate::markdown::{loss, replace_section, secs};
 use crate::plot::{Axes, Panel, Series, figure};
+use brdfkit_core::progress::{Event, Observe};
 use brdfkit_fit::Fitted;
 use brdfkit_merl::Dims;
 use brdfkit_validate::html::renders::{Lighting, RenderOptions, render_set};
@@ -432,7 +433,7 @@ fn thumbnail(m: &MeasuredMaterial, size: usize) -> Result<(Vec<u8>, Vec<u8>, f64
 fn thumbnails(
     cfg: &MeasuredConfig,
     mats: &[MeasuredMaterial],
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<String, StudyError> {
     let r = ranked(mats);
     let n = cfg.thumbnails.min(r.len() / 2);
@@ -450,7 +451,7 @@ fn thumbnails(
         .map(|m| ("best", m))
         .chain(r[r.len() - n..].iter().map(|m| ("worst", m)));
     for (which, m) in picks {
-        progress(&format!("measured: thumbnail of {}", m.name));
+        progress.observe(&Event::Step(format!("measured: thumbnail of {}", m.name)));
         let (t, f, rms) = thumbnail(m, cfg.thumb_size)?;
         let (tp, fp) = (
             format!("{}-table.png", m.name),
@@ -478,7 +479,7 @@ fn thumbnails(
 /// document is kept).
 pub fn run(
     cfg: &MeasuredConfig,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<Vec<MeasuredMaterial>, StudyError> {
     let cats = read_categories(&cfg.categories)?;
     let mats = read_fits(&cfg.fits, &cats)?;

@@ -6,6 +6,7 @@
 
 use crate::choices::pool;
 use crate::{StudyConfig, StudyError, SynthMaterial};
+use brdfkit_core::progress::{Event, Observe};
 use brdfkit_fit::{FitConfig, FitData, Loss, fit, resolve_free};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -119,7 +120,7 @@ fn lobes_fixed(lobes: usize) -> Vec<String> {
 pub fn run_scale(
     cfg: &StudyConfig,
     materials: &[SynthMaterial],
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<ScaleResults, StudyError> {
     let mut res = ScaleResults::default();
     let pick = |name: &str| {
@@ -161,7 +162,7 @@ fn scale_cells(
     ct: &dyn brdfkit_core::Model,
     full: &FitData,
     reps: usize,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<Vec<ScalePoint>, StudyError> {
     let mut points = Vec::new();
     for f in [0.01, 0.02, 0.05, 0.1, 0.25, 0.5, 1.0] {
@@ -172,7 +173,10 @@ fn scale_cells(
         };
         let fc = FitConfig::default();
         let (wall_s, cbrt) = timed_fit(reps, ct, &data, &fc, "scale cells")?;
-        progress(&format!("scale cells {}: {wall_s:.3} s", data.len()));
+        progress.observe(&Event::Step(format!(
+            "scale cells {}: {wall_s:.3} s",
+            data.len()
+        )));
         points.push(ScalePoint {
             axis: "cells".into(),
             x: f,
@@ -192,7 +196,7 @@ fn scale_cells(
 fn scale_params(
     multi: &SynthMaterial,
     reps: usize,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<Vec<ScalePoint>, StudyError> {
     let mdata = FitData::from_table(&multi.table).map_err(fit_err("multi-lobe"))?;
     let mut points = Vec::new();
@@ -206,9 +210,9 @@ fn scale_params(
             .map_err(fit_err("lobes"))?
             .len();
         let (wall_s, cbrt) = timed_fit(reps, m.as_ref(), &mdata, &fc, "scale params")?;
-        progress(&format!(
+        progress.observe(&Event::Step(format!(
             "scale params {np}: {wall_s:.3} s, cbrt {cbrt:.3e}"
-        ));
+        )));
         points.push(ScalePoint {
             axis: "params".into(),
             x: np as f64,
@@ -228,7 +232,7 @@ fn scale_threads(
     ct: &dyn brdfkit_core::Model,
     full: &FitData,
     reps: usize,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<Vec<ScalePoint>, StudyError> {
     let threads = rayon::current_num_threads();
     let mut ts = vec![1, 2];
@@ -244,7 +248,9 @@ fn scale_threads(
             let params = resolve_free(ct, &fc).map_err(fit_err("threads"))?.len();
             let (wall_s, cbrt) =
                 pool(t).install(|| timed_fit(reps, ct, full, &fc, "scale threads"))?;
-            progress(&format!("scale threads {t} starts {starts}: {wall_s:.3} s"));
+            progress.observe(&Event::Step(format!(
+                "scale threads {t} starts {starts}: {wall_s:.3} s"
+            )));
             points.push(ScalePoint {
                 axis: "threads".into(),
                 x: t as f64,
@@ -267,7 +273,7 @@ fn scale_batch(
     cfg: &StudyConfig,
     materials: &[SynthMaterial],
     ct: &dyn brdfkit_core::Model,
-    progress: &dyn Fn(&str),
+    progress: &dyn Observe,
 ) -> Result<BatchPoint, StudyError> {
     let dir = tempfile::tempdir().map_err(|e| StudyError::io(Path::new("temp dir"), e))?;
     let n = cfg.batch_tables.max(1);
@@ -288,9 +294,9 @@ fn scale_batch(
         fit(ct, &data, &FitConfig::default(), None).map_err(fit_err("batch"))?;
     }
     let wall = t.elapsed().as_secs_f64();
-    progress(&format!(
+    progress.observe(&Event::Step(format!(
         "scale batch: {n} tables in {wall:.2} s (sequential)"
-    ));
+    )));
     Ok(BatchPoint {
         how: "sequential in-process (read + cook-torrance fit, 1 start)".into(),
         tables: n,

@@ -1,14 +1,19 @@
-//! Progress on stderr: the library's observers ([`FitObserver`], [`FamilyObserver`],
-//! [`BatchObserver`]) drawn as indicatif bars and lines. Bars appear only once the work
-//! has run for a second, and only on a terminal (indicatif draws nothing otherwise).
+//! Progress on stderr: the one place where the command line draws the library's
+//! progress events ([`brdfkit::core::progress::Event`]) as indicatif bars and lines.
+//! Every verb that runs a long engine (fit, report, demo, batch, study, render) hands
+//! it a [`Progress`]; `--quiet` makes it draw
+//! nothing. Bars appear only once the work has run for a second, and only on a
+//! terminal (indicatif draws nothing otherwise).
+//!
+//! What is progress and what is not: events, and the verb's own announcements of long
+//! work ([`Progress::say`]), are drawn here; results (stdout, `--stage-times` tables,
+//! "wrote FILE" lines) and notes about the input the user must see (a `.bsdf` file
+//! resampled, an export's approximations) are the verbs' to print.
 
-use brdfkit::fit::batch::{BatchObserver, Finished, Plan, Table};
-use brdfkit::fit::families::{Family, FamilyObserver, Outcome};
-use brdfkit::fit::{FitObserver, FitPlan, IterEvent, Loss, StartDone};
+use brdfkit::core::progress::{BatchPlan, Event, FitPlan, FitSummary, Observe, TableEnd};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::cell::RefCell;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 /// The bar of one family's fit: starts done, with the best loss so far.
@@ -18,11 +23,10 @@ struct FitBar {
     shown: AtomicBool,
     iters: AtomicU64,
     label: String,
-    quiet: bool,
 }
 
 impl FitBar {
-    fn new(label: &str, quiet: bool) -> Arc<Self> {
+    fn new(label: &str) -> Self {
         let bar = ProgressBar::with_draw_target(Some(1), ProgressDrawTarget::hidden());
         bar.set_style(
             ProgressStyle::with_template(
@@ -31,33 +35,28 @@ impl FitBar {
             .expect("static template")
             .progress_chars("=> "),
         );
-        Arc::new(FitBar {
+        FitBar {
             bar,
             t0: Instant::now(),
             shown: AtomicBool::new(false),
             iters: AtomicU64::new(0),
             label: label.to_string(),
-            quiet,
-        })
+        }
     }
 
     fn maybe_show(&self) {
-        if !self.quiet
-            && self.t0.elapsed() > Duration::from_secs(1)
-            && !self.shown.swap(true, Ordering::Relaxed)
-        {
+        if self.t0.elapsed() > Duration::from_secs(1) && !self.shown.swap(true, Ordering::Relaxed) {
             self.bar.set_draw_target(ProgressDrawTarget::stderr());
         }
     }
-}
 
-impl FitObserver for FitBar {
-    fn on_plan(&self, plan: &FitPlan) {
+    fn plan(&self, plan: &FitPlan) {
         self.bar.set_length((plan.starts * plan.passes) as u64);
         self.bar
             .set_message(format!("fitting {} on {} cells", self.label, plan.cells));
     }
-    fn on_iter(&self, ev: &IterEvent) {
+
+    fn iteration(&self, best_cost: f64) {
         let n = self.iters.fetch_add(1, Ordering::Relaxed) + 1;
         self.maybe_show();
         if n.is_multiple_of(8) {
@@ -65,158 +64,216 @@ impl FitObserver for FitBar {
                 "fitting {}: {} iterations, best loss {:.4e}",
                 self.label,
                 n,
-                (2.0 * ev.best_cost).sqrt()
+                (2.0 * best_cost).sqrt()
             ));
             self.bar.tick();
         }
     }
-    fn on_start_done(&self, _d: &StartDone) {
+
+    fn start_done(&self) {
         self.maybe_show();
         self.bar.inc(1);
     }
 }
 
-/// Progress of the families of `fit`, `report` and `demo`: a bar per fit and, with
-/// `lines`, a line before and after each family.
-pub struct Families {
+/// A bar of `len` steps shown by a timer once the work has run for a second (so a
+/// first batch table that takes minutes gets its bar too): a batch's tables, a render's
+/// rows.
+fn delayed_bar(len: usize, template: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(Some(len as u64), ProgressDrawTarget::hidden());
+    bar.set_style(
+        ProgressStyle::with_template(template)
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    let b = bar.clone();
+    std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_secs(1));
+        if !b.is_finished() {
+            b.set_draw_target(ProgressDrawTarget::stderr());
+            b.enable_steady_tick(Duration::from_millis(200));
+        }
+    });
+    bar
+}
+
+/// The bars being drawn.
+#[derive(Default)]
+struct Bars {
+    fit: Option<FitBar>,
+    batch: Option<ProgressBar>,
+    rows: Option<ProgressBar>,
+}
+
+/// Draws progress events on stderr (nothing when quiet).
+pub struct Progress {
     quiet: bool,
-    /// The optimised loss, shown after each family (None: no lines).
-    lines: Option<Loss>,
-    bar: RefCell<Option<Arc<FitBar>>>,
+    /// A line before and after each family (`report`, `demo`); bars only otherwise.
+    family_lines: bool,
+    bars: Mutex<Bars>,
 }
 
-impl Families {
-    /// Bars only (`fit`).
-    pub fn bars(quiet: bool) -> Self {
-        Families {
-            quiet,
-            lines: None,
-            bar: RefCell::new(None),
-        }
-    }
-
-    /// Bars and a line per family (`report`, `demo`).
-    pub fn with_lines(loss: Loss, quiet: bool) -> Self {
-        Families {
-            lines: Some(loss),
-            ..Families::bars(quiet)
-        }
-    }
-}
-
-impl FamilyObserver for Families {
-    fn on_family_start(&self, k: usize, n: usize, f: &Family) -> Option<Arc<dyn FitObserver>> {
-        if self.lines.is_some() && !self.quiet {
-            eprintln!("[{}/{n}] fitting {} ...", k + 1, f.label);
-        }
-        let bar = FitBar::new(&f.label, self.quiet);
-        *self.bar.borrow_mut() = Some(bar.clone());
-        Some(bar)
-    }
-
-    fn on_family_done(&self, _k: usize, _n: usize, o: Option<&Outcome>) {
-        if let Some(b) = self.bar.borrow_mut().take() {
-            b.bar.finish_and_clear();
-        }
-        if let (Some(loss), Some(o), false) = (self.lines, o, self.quiet) {
-            eprintln!(
-                "      {loss} loss {:.4e} in {:.2} s ({} iterations{})",
-                o.record.losses_full.get(loss).overall,
-                o.record.wall_time_s,
-                o.record.stage_iterations().summary(),
-                if o.record.converged {
-                    ""
-                } else {
-                    ", not converged"
-                }
-            );
-        }
-    }
-}
-
-/// Progress of a batch: a line per refit note and per table, and a bar over the tables,
-/// shown by a timer once the batch has run for a second (so a first table that takes
-/// minutes gets its bar too).
-pub struct Batch {
-    quiet: bool,
-    bar: RefCell<Option<ProgressBar>>,
-}
-
-impl Batch {
+impl Progress {
+    /// Bars, and the lines of batches, reports and studies.
     pub fn new(quiet: bool) -> Self {
-        Batch {
+        Progress {
             quiet,
-            bar: RefCell::new(None),
+            family_lines: false,
+            bars: Mutex::new(Bars::default()),
         }
     }
 
-    fn line(&self, s: &str) {
+    /// [`Progress::new`] with a line before and after each family's fit.
+    pub fn with_family_lines(quiet: bool) -> Self {
+        Progress {
+            family_lines: true,
+            ..Progress::new(quiet)
+        }
+    }
+
+    fn bars(&self) -> MutexGuard<'_, Bars> {
+        self.bars.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// A line of progress (above any bar being drawn).
+    pub fn say(&self, s: &str) {
         if self.quiet {
             return;
         }
-        match &*self.bar.borrow() {
+        let bars = self.bars();
+        let drawn = (bars.batch.as_ref())
+            .or(bars.rows.as_ref())
+            .or(bars.fit.as_ref().map(|f| &f.bar));
+        match drawn {
             Some(b) => b.suspend(|| eprintln!("{s}")),
             None => eprintln!("{s}"),
         }
     }
 
-    /// Removes the bar.
+    /// Removes the bars.
     pub fn finish(&self) {
-        if let Some(b) = self.bar.borrow_mut().take() {
+        let mut bars = self.bars();
+        if let Some(b) = bars.batch.take() {
+            b.finish_and_clear();
+        }
+        if let Some(f) = bars.fit.take() {
+            f.bar.finish_and_clear();
+        }
+        if let Some(b) = bars.rows.take() {
             b.finish_and_clear();
         }
     }
-}
 
-impl BatchObserver for Batch {
-    fn on_refit(&self, t: &Table, why: &str) {
-        self.line(&format!("{}: refitting: {why}", t.name));
+    /// The events of one family's fit.
+    fn fit_event(&self, e: &Event) {
+        let mut bars = self.bars();
+        let bar = bars.fit.get_or_insert_with(|| FitBar::new("the model"));
+        match e {
+            Event::FitPlanned(p) => bar.plan(p),
+            Event::Iteration(i) => bar.iteration(i.best_cost),
+            Event::StartDone(_) => bar.start_done(),
+            _ => {}
+        }
     }
 
-    fn on_plan(&self, p: &Plan) {
-        let bar =
-            ProgressBar::with_draw_target(Some(p.to_fit as u64), ProgressDrawTarget::hidden());
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{bar:24}] {pos}/{len} tables, {elapsed}, eta {eta}: {msg}",
-            )
-            .expect("static template")
-            .progress_chars("=> "),
-        );
-        if !self.quiet {
-            let b = bar.clone();
-            std::thread::spawn(move || {
-                std::thread::sleep(Duration::from_secs(1));
-                if !b.is_finished() {
-                    b.set_draw_target(ProgressDrawTarget::stderr());
-                    b.enable_steady_tick(Duration::from_millis(200));
-                }
-            });
+    fn family_started(&self, index: usize, count: usize, label: &str) {
+        if self.family_lines {
+            self.say(&format!("[{}/{count}] fitting {label} ...", index + 1));
         }
-        *self.bar.borrow_mut() = Some(bar);
+        self.bars().fit = Some(FitBar::new(label));
+    }
+
+    fn family_done(&self, s: Option<&FitSummary>) {
+        if let Some(b) = self.bars().fit.take() {
+            b.bar.finish_and_clear();
+        }
+        if let (Some(s), true) = (s, self.family_lines) {
+            self.say(&format!(
+                "      {} loss {:.4e} in {:.2} s ({} iterations{})",
+                s.loss_name,
+                s.loss,
+                s.wall_time_s,
+                s.iterations,
+                if s.converged { "" } else { ", not converged" }
+            ));
+        }
+    }
+
+    fn batch_planned(&self, p: &BatchPlan) {
+        self.bars().batch = Some(delayed_bar(
+            p.to_fit,
+            "{spinner} [{bar:24}] {pos}/{len} tables, {elapsed}, eta {eta}: {msg}",
+        ));
         if p.resumed > 0 {
-            self.line(&format!(
+            self.say(&format!(
                 "{} of {} tables already done with these options: skipped",
                 p.resumed, p.tables
             ));
         }
     }
 
-    fn on_table_start(&self, _k: usize, _n: usize, t: &Table) {
-        if let Some(b) = &*self.bar.borrow() {
-            b.set_message(t.name.clone());
+    fn table_done(&self, index: usize, count: usize, table: &str, end: &TableEnd) {
+        match end {
+            TableEnd::Fitted(dt) => self.say(&format!(
+                "[{}/{count}] {table}: fitted in {dt:.2} s",
+                index + 1
+            )),
+            TableEnd::Failed(e) => {
+                self.say(&format!("[{}/{count}] {table}: FAILED: {e}", index + 1))
+            }
+        }
+        if let Some(b) = &self.bars().batch {
+            b.inc(1);
+        }
+    }
+}
+
+impl Observe for Progress {
+    fn observe(&self, e: &Event) {
+        if self.quiet {
+            return;
+        }
+        match e {
+            Event::FitPlanned(_) | Event::Iteration(_) | Event::StartDone(_) => self.fit_event(e),
+            Event::StageDone { .. } => {}
+            Event::FamilyStarted {
+                index,
+                count,
+                label,
+            } => self.family_started(*index, *count, label),
+            Event::FamilyDone { summary, .. } => self.family_done(summary.as_ref()),
+            Event::TableRefit { table, reason } => {
+                self.say(&format!("{table}: refitting: {reason}"))
+            }
+            Event::TableSkipped { .. } => {}
+            Event::BatchPlanned(p) => self.batch_planned(p),
+            Event::TableStarted { table, .. } => {
+                if let Some(b) = &self.bars().batch {
+                    b.set_message(table.clone());
+                }
+            }
+            Event::TableDone {
+                index,
+                count,
+                table,
+                end,
+            } => self.table_done(*index, *count, table, end),
+            Event::Section(s) => self.say(&format!("report: {s}")),
+            Event::Step(s) => self.say(s),
+            Event::Rows { done, total } => {
+                let mut bars = self.bars();
+                let bar = bars.rows.get_or_insert_with(|| {
+                    delayed_bar(
+                        *total,
+                        "{spinner} [{bar:24}] {pos}/{len} rows, {elapsed}, eta {eta}",
+                    )
+                });
+                bar.set_position(*done as u64);
+            }
         }
     }
 
-    fn on_table_done(&self, k: usize, n: usize, t: &Table, how: Finished<'_>) {
-        match how {
-            Finished::Fitted(dt) => {
-                self.line(&format!("[{}/{n}] {}: fitted in {dt:.2} s", k + 1, t.name))
-            }
-            Finished::Failed(e) => self.line(&format!("[{}/{n}] {}: FAILED: {e}", k + 1, t.name)),
-        }
-        if let Some(b) = &*self.bar.borrow() {
-            b.inc(1);
-        }
+    fn is_silent(&self) -> bool {
+        self.quiet
     }
 }

@@ -27,7 +27,7 @@
 //! and every fit option: see [`options_value`]), the same number of fits, and was made
 //! from the same table: same size and either the same modification time or, when the
 //! time differs (a copy), the same FNV-1a 64 hash of its bytes. Anything else is refitted
-//! (and said so through [`BatchObserver::on_refit`]); `force` refits everything.
+//! (and said so through [`Event::TableRefit`]); `force` refits everything.
 //!
 //! **Shards** (`I/N`, 1 ≤ I ≤ N): a table belongs to shard
 //! `FNV-1a-64(file name) mod N + 1`. The file name, not the path, so every machine of a
@@ -54,6 +54,7 @@ pub use summary::{CSV_HEADER, Row, Status, csv_field, summary_csv};
 use crate::families::{FamilyError, check_free, fit_each};
 use crate::{FitConfig, FitData, FitError, families::Family};
 use brdfkit_core::atomic::{FileSet, WriteError};
+use brdfkit_core::progress::{BatchPlan, Event, Observe, TableEnd};
 use brdfkit_merl::MerlTable;
 use brdfkit_rgl::{InputKind, RglBsdf, TensorFile};
 use serde_json::{Value, json};
@@ -211,43 +212,6 @@ impl Cancel {
     }
 }
 
-/// The work of a run, known once the finished tables are checked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Plan {
-    /// Tables of the batch (of this shard).
-    pub tables: usize,
-    /// Already done with these options: skipped.
-    pub resumed: usize,
-    /// To fit.
-    pub to_fit: usize,
-}
-
-/// How a table's fit ended.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Finished<'a> {
-    /// Fitted in this many seconds.
-    Fitted(f64),
-    /// Failed; the message names the table file.
-    Failed(&'a str),
-}
-
-/// Follows a batch. Every method has an empty default.
-pub trait BatchObserver {
-    /// A table's earlier output cannot be reused, for this reason; it is refitted.
-    fn on_refit(&self, _t: &Table, _why: &str) {}
-    /// A table is already done with these options: skipped.
-    fn on_skipped(&self, _t: &Table) {}
-    /// The finished tables are known; fitting starts.
-    fn on_plan(&self, _plan: &Plan) {}
-    /// Table `k` of the `n` to fit (0-based) starts.
-    fn on_table_start(&self, _k: usize, _n: usize, _t: &Table) {}
-    /// Table `k` of `n` is done and its outputs are written.
-    fn on_table_done(&self, _k: usize, _n: usize, _t: &Table, _how: Finished<'_>) {}
-}
-
-/// An observer that observes nothing.
-impl BatchObserver for () {}
-
 /// A batch ready to run: its tables found and its options validated; nothing written
 /// yet.
 pub struct BatchJob {
@@ -352,7 +316,7 @@ impl BatchJob {
         &self,
         force: bool,
         cancel: &Cancel,
-        obs: &dyn BatchObserver,
+        obs: &dyn Observe,
     ) -> Result<BatchOutcome, BatchError> {
         let t0 = Instant::now();
         std::fs::create_dir_all(&self.out).map_err(|source| BatchError::CreateDir {
@@ -369,12 +333,17 @@ impl BatchJob {
         for (k, t) in self.tables.iter().enumerate() {
             match (force, prior(t, &hash, self.families.len())) {
                 (false, Prior::Done(r)) => {
-                    obs.on_skipped(t);
+                    obs.observe(&Event::TableSkipped {
+                        table: t.name.clone(),
+                    });
                     rows.push(r);
                 }
                 (_, p) => {
-                    if let (false, Prior::Todo(Some(why))) = (force, p) {
-                        obs.on_refit(t, &why);
+                    if let (false, Prior::Todo(Some(reason))) = (force, p) {
+                        obs.observe(&Event::TableRefit {
+                            table: t.name.clone(),
+                            reason,
+                        });
                     }
                     rows.push(vec![Row::bare(t, Status::Pending, String::new())]);
                     todo.push(k);
@@ -389,11 +358,11 @@ impl BatchJob {
             set.stage_bytes(&summary_path, csv(&rows).as_bytes())?;
             set.commit()?;
         }
-        obs.on_plan(&Plan {
+        obs.observe(&Event::BatchPlanned(BatchPlan {
             tables: self.tables.len(),
             resumed,
             to_fit: todo.len(),
-        });
+        }));
 
         // Phase 2: fit.
         let (mut fitted, mut failures, mut fit_time) = (0usize, Vec::new(), 0.0);
@@ -402,7 +371,11 @@ impl BatchJob {
                 break;
             }
             let t = &self.tables[k];
-            obs.on_table_start(done, todo.len(), t);
+            obs.observe(&Event::TableStarted {
+                index: done,
+                count: todo.len(),
+                table: t.name.clone(),
+            });
             let ts = Instant::now();
             let outcome = self.fit_one(t, &options, &hash)?;
             let dt = ts.elapsed().as_secs_f64();
@@ -413,12 +386,12 @@ impl BatchJob {
                     fit_time += dt;
                     rows[k] = r.clone();
                     set.stage_bytes(&t.out, text.as_bytes())?;
-                    Finished::Fitted(dt)
+                    TableEnd::Fitted(dt)
                 }
                 Err(e) => {
                     rows[k] = vec![Row::bare(t, Status::Failed, e.clone())];
                     failures.push((t.path.display().to_string(), e.clone()));
-                    Finished::Failed(e)
+                    TableEnd::Failed(e.clone())
                 }
             };
             {
@@ -426,7 +399,12 @@ impl BatchJob {
                 set.stage_bytes(&summary_path, csv(&rows).as_bytes())?;
                 set.commit()?;
             }
-            obs.on_table_done(done, todo.len(), t, how);
+            obs.observe(&Event::TableDone {
+                index: done,
+                count: todo.len(),
+                table: t.name.clone(),
+                end: how,
+            });
         }
         let pending = self.tables.len() - resumed - fitted - failures.len();
         Ok(BatchOutcome {

@@ -6,7 +6,6 @@ use crate::families::{FitSettings, Structure, families};
 use crate::{Loss, RobustKind};
 use brdfkit_core::Rgb;
 use brdfkit_merl::Dims;
-use std::cell::RefCell;
 
 /// A Lambertian table of 8 × 8 × 16 cells with albedo `a` (fitted in milliseconds).
 fn table_bytes(a: f64) -> Vec<u8> {
@@ -40,45 +39,49 @@ fn job(db: &Path, out: &Path, shard: Option<Shard>, loss: Loss) -> BatchJob {
     BatchJob::new(&[db.display().to_string()], out, shard, fams, cfg).unwrap()
 }
 
-/// Records the events; optionally requests a stop after `stop_after` finished tables.
+/// Records the events as short lines; optionally requests a stop after `stop_after`
+/// finished tables.
 #[derive(Default)]
 struct Log {
-    events: RefCell<Vec<String>>,
+    events: Mutex<Vec<String>>,
     stop_after: Option<(usize, &'static Cancel)>,
 }
 
-impl BatchObserver for Log {
-    fn on_refit(&self, t: &Table, why: &str) {
-        self.events
-            .borrow_mut()
-            .push(format!("refit {}: {why}", t.name));
+impl Log {
+    fn events(&self) -> std::sync::MutexGuard<'_, Vec<String>> {
+        self.events.lock().unwrap()
     }
-    fn on_skipped(&self, t: &Table) {
-        self.events.borrow_mut().push(format!("skip {}", t.name));
-    }
-    fn on_plan(&self, p: &Plan) {
-        self.events
-            .borrow_mut()
-            .push(format!("plan {} {} {}", p.tables, p.resumed, p.to_fit));
-    }
-    fn on_table_start(&self, k: usize, n: usize, t: &Table) {
-        self.events
-            .borrow_mut()
-            .push(format!("start {k}/{n} {}", t.name));
-    }
-    fn on_table_done(&self, k: usize, _n: usize, t: &Table, how: Finished<'_>) {
-        let what = match how {
-            Finished::Fitted(_) => "fitted",
-            Finished::Failed(_) => "failed",
+}
+
+impl Observe for Log {
+    fn observe(&self, e: &Event) {
+        let line = match e {
+            Event::TableRefit { table, reason } => format!("refit {table}: {reason}"),
+            Event::TableSkipped { table } => format!("skip {table}"),
+            Event::BatchPlanned(p) => format!("plan {} {} {}", p.tables, p.resumed, p.to_fit),
+            Event::TableStarted {
+                index,
+                count,
+                table,
+            } => format!("start {index}/{count} {table}"),
+            Event::TableDone {
+                index, table, end, ..
+            } => {
+                if let Some((after, cancel)) = self.stop_after
+                    && index + 1 == after
+                {
+                    cancel.request();
+                }
+                let what = match end {
+                    TableEnd::Fitted(_) => "fitted",
+                    TableEnd::Failed(_) => "failed",
+                };
+                format!("done {index} {table} {what}")
+            }
+            // A batch reports nothing else (its fits are silent).
+            other => panic!("a batch sent {other:?}"),
         };
-        self.events
-            .borrow_mut()
-            .push(format!("done {k} {} {what}", t.name));
-        if let Some((after, cancel)) = self.stop_after
-            && k + 1 == after
-        {
-            cancel.request();
-        }
+        self.events().push(line);
     }
 }
 
@@ -108,8 +111,22 @@ fn a_run_fits_reports_failures_and_a_rerun_resumes_only_what_is_unchanged() {
     assert_eq!(counts(&r), (3, 0, 1, 0));
     assert!(r.failures[0].0.ends_with("t3.binary"), "{:?}", r.failures);
     assert!(r.problem().unwrap().contains("1 of 4 tables failed"));
-    assert_eq!(log.events.borrow()[0], "plan 4 0 4");
-    assert_eq!(log.events.borrow()[8], "done 3 t3.binary failed");
+    // The plan, then every table started then finished (or failed) exactly once, in
+    // order.
+    assert_eq!(
+        *log.events(),
+        [
+            "plan 4 0 4",
+            "start 0/4 t0.binary",
+            "done 0 t0.binary fitted",
+            "start 1/4 t1.binary",
+            "done 1 t1.binary fitted",
+            "start 2/4 t2.binary",
+            "done 2 t2.binary fitted",
+            "start 3/4 t3.binary",
+            "done 3 t3.binary failed",
+        ]
+    );
     // The summary: one row per model of a fitted table, a bare row for the failure.
     let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
@@ -131,7 +148,7 @@ fn a_run_fits_reports_failures_and_a_rerun_resumes_only_what_is_unchanged() {
     let log = Log::default();
     let r = j.run(false, &cancel, &log).unwrap();
     assert_eq!(counts(&r), (0, 3, 1, 0));
-    assert_eq!(log.events.borrow()[0], "skip t0.binary");
+    assert_eq!(log.events()[0], "skip t0.binary");
     let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     assert_eq!(csv.matches(",resumed,").count(), 3, "{csv}");
 
@@ -146,7 +163,7 @@ fn a_run_fits_reports_failures_and_a_rerun_resumes_only_what_is_unchanged() {
     let r = j.run(false, &cancel, &log).unwrap();
     assert_eq!(counts(&r), (3, 1, 0, 0));
     assert!(r.problem().is_none());
-    let ev = log.events.borrow();
+    let ev = log.events();
     assert!(
         ev.contains(&"refit t1.binary: the table changed (contents)".to_string()),
         "{ev:?}"

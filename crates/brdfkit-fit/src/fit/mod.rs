@@ -16,13 +16,13 @@ use crate::data::FitData;
 use crate::error::FitError;
 use crate::fitted::Fitted;
 use crate::loss::LossReport;
-use crate::observer::{FitObserver, FitPlan, StartDone};
 use crate::problem::evaluate_losses_of;
 use crate::record::{FitRecord, PassSummary, RecordParts};
+use brdfkit_core::progress::{Event, FitPlan, Observe, StartDone, relay};
 use brdfkit_core::{Model, ParamRole};
 use brdfkit_merl::MerlTable;
 use cells::Cells;
-use pass::{PassResult, run_pass};
+use pass::{PassResult, run_pass, stage_done};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -107,13 +107,28 @@ fn passes(model: &dyn Model, free: &[usize], config: &FitConfig) -> Vec<(Vec<usi
 /// `model` fixes the family and its structural choices (distribution, Fresnel, lobe
 /// count) and gives start 0 and the values of the fixed parameters (normally
 /// [`brdfkit_models::default_model`] or a user's JSON). See the crate doc and
-/// `docs/fitting.md` for what happens; `observer` receives progress events (pass
-/// `None` for a silent fit).
+/// `docs/fitting.md` for what happens; `observer` receives progress events
+/// ([`Event::FitPlanned`], then [`Event::Iteration`]s and [`Event::StartDone`]s from the
+/// starts, all delivered before `fit` returns; pass `None` for a silent fit).
 pub fn fit(
     model: &dyn Model,
     data: &FitData,
     config: &FitConfig,
-    observer: Option<Arc<dyn FitObserver>>,
+    observer: Option<&dyn Observe>,
+) -> Result<FitResult, FitError> {
+    match observer.filter(|o| !o.is_silent()) {
+        None => fit_observed(model, data, config, None),
+        // The solvers' observers must be 'static: the events go through a relay.
+        Some(obs) => relay(obs, |o| fit_observed(model, data, config, Some(o))),
+    }
+}
+
+/// [`fit`] with its observer owned.
+fn fit_observed(
+    model: &dyn Model,
+    data: &FitData,
+    config: &FitConfig,
+    observer: Option<Arc<dyn Observe>>,
 ) -> Result<FitResult, FitError> {
     let t0 = Instant::now();
     let mut times = StageTimes::default();
@@ -126,7 +141,17 @@ pub fn fit(
     }
     let passes = passes(model, &free, config);
     if let Some(o) = &observer {
-        o.on_plan(&plan(config, cells.fitset().len(), passes.len()));
+        o.observe(&Event::FitPlanned(plan(
+            config,
+            cells.fitset().len(),
+            passes.len(),
+        )));
+        // Told after the plan, which needs its cells.
+        o.observe(&Event::StageDone {
+            stage: "subsample",
+            channel: None,
+            seconds: times.subsample,
+        });
     }
     let sets = cells.sets();
     let mut results: Vec<PassResult> = passes
@@ -141,7 +166,7 @@ pub fn fit(
     let t = Instant::now();
     let (losses_fit, losses_full) = loss_reports(&fitted, &cells, config);
     settle_deferred(&mut results, &losses_fit, config, observer.as_ref())?;
-    times.losses = t.elapsed().as_secs_f64();
+    times.losses = stage_done(observer.as_ref(), "losses", None, t);
     let t = Instant::now();
     let u: Vec<Vec<f64>> = results
         .iter()
@@ -175,7 +200,7 @@ pub fn fit(
         losses_full,
         wall_time_s: 0.0,
     });
-    times.record = t.elapsed().as_secs_f64();
+    times.record = stage_done(observer.as_ref(), "record", None, t);
     record.wall_time_s = t0.elapsed().as_secs_f64();
     record.input = data.input().cloned();
     Ok(FitResult {
@@ -242,7 +267,7 @@ fn settle_deferred(
     results: &mut [PassResult],
     losses_fit: &LossReport,
     config: &FitConfig,
-    observer: Option<&Arc<dyn FitObserver>>,
+    observer: Option<&Arc<dyn Observe>>,
 ) -> Result<(), FitError> {
     for r in results.iter_mut().filter(|r| r.deferred) {
         let l = losses_fit.get(config.loss);
@@ -258,13 +283,13 @@ fn settle_deferred(
         if let Some(s) = r.starts.iter_mut().find(|s| s.kept) {
             s.final_loss = Some(v);
             if let Some(o) = observer {
-                o.on_start_done(&StartDone {
+                o.observe(&Event::StartDone(StartDone {
                     start: s.index,
                     channel: r.channel,
                     loss: v,
                     iterations: r.best.iterations,
                     termination: r.best.termination.clone(),
-                });
+                }));
             }
         }
     }
@@ -276,7 +301,7 @@ pub fn fit_table(
     model: &dyn Model,
     table: &MerlTable,
     config: &FitConfig,
-    observer: Option<Arc<dyn FitObserver>>,
+    observer: Option<&dyn Observe>,
 ) -> Result<FitResult, FitError> {
     let data = FitData::from_table(table)?;
     fit(model, &data, config, observer)

@@ -12,12 +12,12 @@ use crate::config::FitConfig;
 use crate::energy::{AlbedoPenalty, AlbedoQuadrature, PENALTY_WEIGHT};
 use crate::error::FitError;
 use crate::loss::{Robust, RobustKind};
-use crate::observer::{FitObserver, StartDone};
 use crate::problem::FitProblem;
 use crate::record::{StartRecord, WarmUpRecord};
 use crate::reparam::Transform;
 use crate::starts::start_points;
 use brdfkit_core::Model;
+use brdfkit_core::progress::{Event, Observe, StartDone};
 use nalgebra::DVector;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -61,7 +61,7 @@ const ROBUST_SCALE_FLOOR: f64 = 1e-9;
 /// albedo penalty and a given robust scale), the starts, the settings.
 struct Pass<'a> {
     config: &'a FitConfig,
-    observer: Option<&'a Arc<dyn FitObserver>>,
+    observer: Option<&'a Arc<dyn Observe>>,
     channel: Option<usize>,
     points: Vec<Vec<f64>>,
     ranked: bool,
@@ -108,7 +108,7 @@ impl<'a> Pass<'a> {
         free: &[usize],
         channels: &[usize],
         config: &'a FitConfig,
-        observer: Option<&'a Arc<dyn FitObserver>>,
+        observer: Option<&'a Arc<dyn Observe>>,
     ) -> Result<Pass<'a>, FitError> {
         let plain = FitProblem::new(
             cells.fit,
@@ -168,13 +168,13 @@ impl<'a> Pass<'a> {
     /// Reports a finished start to the observer.
     fn done(&self, k: usize, o: &Result<Outcome, FitError>) {
         if let (Some(obs), Ok(o)) = (self.observer, o) {
-            obs.on_start_done(&StartDone {
+            obs.observe(&Event::StartDone(StartDone {
                 start: k,
                 channel: self.channel,
                 loss: (2.0 * o.cost).sqrt(),
                 iterations: o.iterations,
                 termination: o.termination.clone(),
-            });
+            }));
         }
     }
 
@@ -260,13 +260,13 @@ impl<'a> Pass<'a> {
         if let Some(obs) = self.observer {
             for k in (0..n).filter(|k| !order.contains(k)) {
                 if let Ok(e) = &explored[k] {
-                    obs.on_start_done(&StartDone {
+                    obs.observe(&Event::StartDone(StartDone {
                         start: k,
                         channel: self.channel,
                         loss: (2.0 * e.rank_cost.unwrap_or(f64::NAN)).sqrt(),
                         iterations: 0,
                         termination: "not finished (ranked out after its exploration)".into(),
-                    });
+                    }));
                 }
             }
         }
@@ -443,26 +443,48 @@ impl Pass<'_> {
     }
 }
 
-/// One pass: the stages in order, each timed into `times`.
+/// The seconds since `t`, told to the observer as stage `name` done.
+pub(super) fn stage_done(
+    observer: Option<&Arc<dyn Observe>>,
+    stage: &'static str,
+    channel: Option<usize>,
+    t: Instant,
+) -> f64 {
+    let seconds = t.elapsed().as_secs_f64();
+    if let Some(o) = observer {
+        o.observe(&Event::StageDone {
+            stage,
+            channel,
+            seconds,
+        });
+    }
+    seconds
+}
+
+/// One pass: the stages in order, each timed into `times` and told to the observer.
 pub(super) fn run_pass(
     cells: &CellSets<'_>,
     model: &dyn Model,
     free: Vec<usize>,
     channels: Vec<usize>,
     config: &FitConfig,
-    observer: Option<&Arc<dyn FitObserver>>,
+    observer: Option<&Arc<dyn Observe>>,
     times: &mut StageTimes,
 ) -> Result<PassResult, FitError> {
+    let channel = (channels.len() == 1).then(|| channels[0]);
+    let stage = |name, t: Instant, total: &mut f64| {
+        *total += stage_done(observer, name, channel, t);
+    };
     let t = Instant::now();
     let pass = Pass::new(cells, model, &free, &channels, config, observer)?;
-    times.prepare += t.elapsed().as_secs_f64();
+    stage("prepare", t, &mut times.prepare);
     let t = Instant::now();
     let explored = pass.explore();
-    times.explore += t.elapsed().as_secs_f64();
+    stage("explore", t, &mut times.explore);
     let (finishers, rank_of) = pass.rank(&explored);
     let t = Instant::now();
     let warmed = pass.warm_up(&finishers, &explored);
-    times.warm_up += t.elapsed().as_secs_f64();
+    stage("warm-up", t, &mut times.warm_up);
     let t = Instant::now();
     let full_iters = config.full_iters.cap_for(model);
     let defer = defers_cost(&pass, full_iters, finishers.len());
@@ -473,7 +495,7 @@ pub(super) fn run_pass(
         finished = f;
         robust = r.or(robust);
     }
-    times.finish += t.elapsed().as_secs_f64();
+    stage("finish", t, &mut times.finish);
     let (starts, best) = start_records(&pass, &explored, finished, &rank_of, defer)?;
     Ok(PassResult {
         model: pass.full.model_at(&best.u)?,

@@ -5,7 +5,7 @@
 use crate::config::{FitConfig, SolverKind};
 use crate::error::FitError;
 use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
-use crate::observer::{Bridge, FitObserver};
+use crate::observer::Bridge;
 use crate::problem::{FitProblem, NormalEquations};
 use crate::record::WarmUpRecord;
 use argmin::core::observers::ObserverMode;
@@ -14,6 +14,7 @@ use argmin::solver::linesearch::MoreThuenteLineSearch as MoreThuente;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
 use argmin::solver::trustregion::{Steihaug, TrustRegion};
+use brdfkit_core::progress::Observe;
 use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
@@ -71,7 +72,7 @@ pub(super) fn run_start(
     problem: FitProblem<'_>,
     u0: DVector<f64>,
     config: &FitConfig,
-    observer: Option<&Arc<dyn FitObserver>>,
+    observer: Option<&Arc<dyn Observe>>,
     start: usize,
     channel: Option<usize>,
     warm_up: bool,
@@ -215,7 +216,7 @@ pub(super) fn sub_stage(
     problem: &FitProblem<'_>,
     u0: DVector<f64>,
     config: &FitConfig,
-    observer: Option<&Arc<dyn FitObserver>>,
+    observer: Option<&Arc<dyn Observe>>,
     k: usize,
     channel: Option<usize>,
     restart: bool,

@@ -39,6 +39,7 @@ pub use files::{HTML_FILE, JSON_FILE};
 use crate::physical::{CheckOptions, PhysicalReport, check_model_with};
 use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_of};
 use analysis::{AlbedoCurves, ResidualMap, Slice};
+use brdfkit_core::progress::{Event, Observe};
 use brdfkit_fit::{FitConfig, FitData, FitRecord, Fitted, LossReport, Weighting};
 use brdfkit_merl::MerlTable;
 use rayon::prelude::*;
@@ -309,7 +310,7 @@ pub fn build_report(
     fits: &[ModelFit],
     config: Option<&FitConfig>,
     o: &ReportOptions,
-    progress: &(dyn Fn(&str) + Sync),
+    progress: &dyn Observe,
 ) -> Result<FitReport, ReportError> {
     if fits.is_empty() {
         return Err(ReportError::NoModels);
@@ -345,7 +346,7 @@ pub fn build_report_from(
     fits: &[ModelFit],
     config: Option<&FitConfig>,
     o: &ReportOptions,
-    progress: &(dyn Fn(&str) + Sync),
+    progress: &dyn Observe,
 ) -> Result<FitReport, ReportError> {
     if fits.is_empty() {
         return Err(ReportError::NoModels);
@@ -365,7 +366,9 @@ pub fn build_report_from(
     let mut timings = Timings::default();
     let fitted: Vec<&Fitted> = fits.iter().map(|f| &f.fitted).collect();
 
-    progress("fit quality: losses, bands, percentiles");
+    progress.observe(&Event::Section(
+        "fit quality: losses, bands, percentiles".into(),
+    ));
     let t = Instant::now();
     // The albedo comparison of `fit_quality` would integrate the table once per model:
     // the report integrates it once ([`analysis::albedo_curves`]).
@@ -389,7 +392,7 @@ pub fn build_report_from(
     let quality = fit_quality_of(&table, &cells, &known, &qopt)?;
     timings.quality_s = t.elapsed().as_secs_f64();
 
-    progress("θh slices and residual maps");
+    progress.observe(&Event::Section("θh slices and residual maps".into()));
     let t = Instant::now();
     let slices = analysis::slices(&table, &fitted, &o.slice_theta_d, o.slice_phi_d);
     let maps: Vec<ResidualMap> = fitted
@@ -400,7 +403,7 @@ pub fn build_report_from(
     drop(cells);
     timings.slices_and_maps_s = t.elapsed().as_secs_f64();
 
-    progress("albedo curves");
+    progress.observe(&Event::Section("albedo curves".into()));
     let t = Instant::now();
     let albedo = analysis::albedo_curves(&table, &fitted, &o.albedo_theta_o);
     timings.albedo_s = t.elapsed().as_secs_f64();
@@ -408,7 +411,9 @@ pub fn build_report_from(
     let t = Instant::now();
     let mut physical_reports: Vec<(Vec<PhysicalReport>, f64)> = Vec::new();
     if let Some(co) = &o.checks {
-        progress("physical checks of the fitted models");
+        progress.observe(&Event::Section(
+            "physical checks of the fitted models".into(),
+        ));
         physical_reports = fitted
             .par_iter()
             .map(|f| {
@@ -424,13 +429,16 @@ pub fn build_report_from(
     let mut render_sets = Vec::new();
     if let Some(ro) = &o.render {
         for l in Lighting::ALL {
-            progress(&format!("rendering spheres under the {}", l.title()));
+            progress.observe(&Event::Section(format!(
+                "rendering spheres under the {}",
+                l.title()
+            )));
             render_sets.push(renders::render_set(l, ro, &table, &fitted)?);
         }
     }
     timings.renders_s = t.elapsed().as_secs_f64();
 
-    progress("interactive panels: embedded grids");
+    progress.observe(&Event::Section("interactive panels: embedded grids".into()));
     let t = Instant::now();
     let panels = report_panels(&table, table_name, fits)?;
     timings.panels_s = t.elapsed().as_secs_f64();
@@ -456,7 +464,7 @@ pub fn build_report_from(
         view_precision: panels.precision,
         timings,
     };
-    progress("charts and page");
+    progress.observe(&Event::Section("charts and page".into()));
     let t = Instant::now();
     let html = page::page(&data, table.dims().theta_h(), &panels.markup)?;
     data.timings.page_s = t.elapsed().as_secs_f64();

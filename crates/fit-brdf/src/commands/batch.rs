@@ -59,7 +59,7 @@ pub fn run(a: BatchArgs) -> CliResult<()> {
     let job =
         BatchJob::new_from(&a.inputs, source, &a.out, a.shard, fams, cfg).map_err(batch_error)?;
     install_handler()?;
-    let bars = progress::Batch::new(a.quiet);
+    let bars = progress::Progress::new(a.quiet);
     let report = job.run(a.force, &CANCEL, &bars);
     bars.finish();
     let report = report.map_err(batch_error)?;

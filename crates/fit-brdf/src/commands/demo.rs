@@ -104,7 +104,7 @@ pub fn run(a: DemoArgs) -> CliResult<()> {
         &data,
         &fams,
         &cfg,
-        &progress::Families::with_lines(cfg.get_loss(), false),
+        &progress::Progress::with_family_lines(false),
     )
     .map_err(runtime)?;
     print!("{}", comparison_text(&outcomes, cfg.get_loss()));

@@ -55,12 +55,10 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
     let v: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| fail(ModelError::Invalid(format!("not valid JSON: {e}")).into()))?;
     let out = if a.approximate {
-        if !a.quiet {
-            eprintln!(
-                "export: fitting the {} configurations to the model if it has no exact counterpart ...",
-                to.target().name()
-            );
-        }
+        crate::progress::Progress::new(a.quiet).say(&format!(
+            "export: fitting the {} configurations to the model if it has no exact counterpart ...",
+            to.target().name()
+        ));
         export_approximate(&v, form, &name, &FitConfig::default())
             .map(|x| x.exported)
             .map_err(fail)?

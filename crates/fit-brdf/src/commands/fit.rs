@@ -27,7 +27,7 @@ pub fn run(a: FitArgs) -> CliResult<()> {
         ));
     }
     let (data, read_s, cells_s) = fit_data(a.table.as_deref(), a.samples.as_deref(), a.bsdf_input)?;
-    let bars = progress::Families::bars(a.quiet);
+    let bars = progress::Progress::new(a.quiet);
     let (outcomes, best) = match a.for_renderer {
         None => (fit_each(&data, &fams, &cfg, &bars).map_err(runtime)?, None),
         Some(r) => {

@@ -2,7 +2,7 @@
 
 use crate::cli::RenderArgs;
 use crate::error::{CliResult, bad_input, bad_msg, runtime};
-use brdfkit_render::{Scene, render};
+use brdfkit_render::{Scene, render_observed};
 use std::path::Path;
 
 fn extension(p: &Path) -> String {
@@ -48,7 +48,10 @@ pub fn run(a: RenderArgs) -> CliResult<()> {
         })?;
         scene.set_resolution(w, h).map_err(bad_input)?;
     }
-    let out = render(&scene).map_err(bad_input)?;
+    let progress = crate::progress::Progress::new(a.quiet);
+    let out = render_observed(&scene, &progress);
+    progress.finish();
+    let out = out.map_err(bad_input)?;
     if out_ext == "png" {
         out.write_png(&a.out).map_err(runtime)?;
     } else {

@@ -48,11 +48,7 @@ pub fn make_report(
     options: &ReportOptions,
     quiet: bool,
 ) -> CliResult<FitReport> {
-    let progress = |s: &str| {
-        if !quiet {
-            eprintln!("report: {s}");
-        }
-    };
+    let progress = progress::Progress::new(quiet);
     build_report_from(table, cells, table_name, fits, cfg, options, &progress)
         .map_err(|e| runtime(anyhow::anyhow!("{table_name}: the report failed: {e}")))
 }
@@ -109,17 +105,15 @@ pub fn run(a: ReportArgs) -> CliResult<()> {
     let table = read_table(&a.table)?;
     let data =
         FitData::from_table(&table).map_err(|e| bad_msg(format!("{}: {e}", a.table.display())))?;
-    if !a.quiet {
-        eprintln!(
-            "fitting {} model(s) to {} ({} valid cells); {} given",
-            fams.len(),
-            a.table.display(),
-            data.len(),
-            given.len()
-        );
-    }
-    let families = progress::Families::with_lines(cfg.get_loss(), a.quiet);
-    let outcomes = fit_each(&data, &fams, &cfg, &families).map_err(runtime)?;
+    let progress = progress::Progress::with_family_lines(a.quiet);
+    progress.say(&format!(
+        "fitting {} model(s) to {} ({} valid cells); {} given",
+        fams.len(),
+        a.table.display(),
+        data.len(),
+        given.len()
+    ));
+    let outcomes = fit_each(&data, &fams, &cfg, &progress).map_err(runtime)?;
     let t_fit = t0.elapsed().as_secs_f64();
     let name = a.table.file_name().map_or_else(
         || a.table.display().to_string(),

@@ -110,11 +110,7 @@ fn losses_config(a: &StudyArgs) -> CliResult<LossesConfig> {
 
 pub fn run(a: StudyArgs) -> CliResult<()> {
     let quiet = a.quiet;
-    let progress = move |s: &str| {
-        if !quiet {
-            eprintln!("{s}");
-        }
-    };
+    let progress = crate::progress::Progress::new(quiet);
     if a.rewrite {
         return brdfkit_study::rewrite(&a.out, &progress).map_err(|e| bad_msg(e.to_string()));
     }
