@@ -478,7 +478,7 @@ fn read_data(t: &Table) -> Result<(FitData, String), String> {
     let hash = hex(fnv1a64(&bytes));
     let table = match t.source {
         Source::Binary if InputKind::of_head(&bytes) == InputKind::Rgl => {
-            // Resampled in memory (each cell the mean of both orders of its pair), as
+            // Resampled in memory (each cell the weighted mean of both orders of its pair), as
             // `fit-brdf resample --bsdf` writes it.
             let tf = TensorFile::from_bytes(bytes, &t.path).map_err(|e| e.to_string())?;
             let bsdf = RglBsdf::from_tensor(&tf).map_err(|e| e.to_string())?;
