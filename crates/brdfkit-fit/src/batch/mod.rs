@@ -54,9 +54,9 @@ pub use shard::{Shard, ShardError, fnv1a64, hex};
 pub use summary::{CSV_HEADER, Row, Status, csv_field, summary_csv};
 
 use crate::families::{FamilyError, check_free, fit_each};
+use crate::input::{BsdfInput, Measured};
 use crate::{FitConfig, FitData, FitError, families::Family};
 use brdfkit_core::atomic::{FileSet, WriteError};
-use crate::input::{BsdfInput, Measured};
 use brdfkit_rgl::InputKind;
 use serde_json::{Value, json};
 use std::fmt::Write as _;

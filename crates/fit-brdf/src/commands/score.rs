@@ -58,14 +58,24 @@ pub fn run(a: ScoreArgs) -> CliResult<()> {
     let (input, models) = match (&a.samples, &a.files[..]) {
         (Some(_), m) => (None, m),
         (None, [t, m @ ..]) if !m.is_empty() => (Some(t.as_path()), m),
-        (None, _) => return Err(bad_msg("give a table (or --samples) and at least one model")),
+        (None, _) => {
+            return Err(bad_msg(
+                "give a table (or --samples) and at least one model",
+            ));
+        }
     };
     // Every model file is read before the measurement, so a bad one fails fast.
     let given = models
         .iter()
         .map(|p| Ok((p, read_fitted(p)?)))
         .collect::<CliResult<Vec<_>>>()?;
-    let m = measured(input, a.samples.as_deref(), a.bsdf.bsdf_input, false, a.json)?;
+    let m = measured(
+        input,
+        a.samples.as_deref(),
+        a.bsdf.bsdf_input,
+        false,
+        a.json,
+    )?;
     let info = m.info();
     let scores: Vec<(&PathBuf, Score)> = given
         .into_iter()
