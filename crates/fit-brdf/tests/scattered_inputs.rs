@@ -160,8 +160,10 @@ fn score_on_a_bsdf_takes_the_points_of_fit() {
             .arg(felt())
             .arg(&p)
             .args(extra)
-            .arg("--json");
-        json_of(&o.output().unwrap())
+            .arg("--json")
+            .output()
+            .unwrap();
+        json_of(&o)
     };
     let v = score(&[]);
     assert_eq!(v["input"]["kind"], "bsdf-points", "{v}");
