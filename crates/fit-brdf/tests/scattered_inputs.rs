@@ -53,7 +53,8 @@ fn lambert(dir: &Path) -> PathBuf {
 /// sqrt(Σ w (t(model) − t(measured))² / Σ w), t the loss's transform of f and cos θi,
 /// overall the RMS of the channels; the missing sample left out.
 fn by_hand(weighting_uniform: bool) -> [(&'static str, f64, [f64; 3]); 4] {
-    let t: [(&str, fn(f64, f64) -> f64); 4] = [
+    type Transform = fn(f64, f64) -> f64;
+    let t: [(&str, Transform); 4] = [
         ("l2", |f, _| f),
         ("cosine", |f, c| f * c),
         ("cbrt", |f, c| (f * c).cbrt()),

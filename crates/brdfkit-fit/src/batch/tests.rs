@@ -5,7 +5,7 @@ use super::*;
 use crate::families::{FitSettings, Structure, families};
 use crate::{Loss, RobustKind};
 use brdfkit_core::Rgb;
-use brdfkit_merl::Dims;
+use brdfkit_merl::{Dims, MerlTable};
 use std::cell::RefCell;
 
 /// A Lambertian table of 8 × 8 × 16 cells with albedo `a` (fitted in milliseconds).

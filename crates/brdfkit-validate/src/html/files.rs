@@ -64,9 +64,9 @@ impl FitReport {
 /// what `fit-brdf report` writes and prints, either way.
 pub enum AnyReport {
     /// On a MERL table.
-    Table(FitReport),
+    Table(Box<FitReport>),
     /// On scattered data.
-    Scattered(ScatteredReport),
+    Scattered(Box<ScatteredReport>),
 }
 
 impl AnyReport {

@@ -339,13 +339,13 @@ pub fn build_any_report(
                 o,
                 progress,
             )
-            .map(AnyReport::Table);
+            .map(|r| AnyReport::Table(Box::new(r)));
         }
         MeasuredSide::BsdfPoints(b) => ScatteredSide::Bsdf(Arc::new(*b)),
         MeasuredSide::Samples => ScatteredSide::Samples,
     };
     build_scattered_report(&m.data, &side, info, fits, config, o, progress)
-        .map(AnyReport::Scattered)
+        .map(|r| AnyReport::Scattered(Box::new(r)))
 }
 
 impl ScatteredReport {

@@ -37,10 +37,11 @@ fn scatter_chart(label: &str, measured: &[Rgb], model: &[Rgb]) -> Result<String,
             .draw_series(LineSeries::new([(lo, lo), (hi, hi)], BLACK.mix(0.5)))
             .map_err(err)?;
         for (c, col) in colours.iter().enumerate() {
-            let dots = measured.iter().zip(model).filter_map(|(m, f)| {
-                (m.0[c] > 0.0 && f.0[c] > 0.0)
-                    .then(|| Circle::new((m.0[c], f.0[c]), 2, col.mix(0.45).filled()))
-            });
+            let dots = measured
+                .iter()
+                .zip(model)
+                .filter(|(m, f)| m.0[c] > 0.0 && f.0[c] > 0.0)
+                .map(|(m, f)| Circle::new((m.0[c], f.0[c]), 2, col.mix(0.45).filled()));
             chart.draw_series(dots).map_err(err)?;
         }
         Ok(())
