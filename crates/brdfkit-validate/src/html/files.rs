@@ -48,8 +48,10 @@ fn given_losses(models: &[ModelSummary]) -> String {
 }
 
 impl FitReport {
-    /// Writes DIR/report.json and DIR/index.html ([`write_pair`]); returns their paths
-    /// (page, data).
+    /// Writes DIR/report.json and DIR/index.html as one [`FileSet`]: both are staged
+    /// whole beside their destinations, then renamed into place; if the second rename
+    /// fails the first is rolled back, so DIR never holds half a report. DIR may exist.
+    /// Returns the page's and the data's paths.
     pub fn write_to(&self, dir: &Path) -> Result<(PathBuf, PathBuf), WriteError> {
         write_pair(dir, &self.to_json_pretty(), &self.html)
     }
