@@ -110,7 +110,9 @@ pub struct Measured {
     /// What a command tells its user about how the input was read (stderr), if
     /// anything.
     pub note: Option<String>,
-    /// Seconds spent reading the file's bytes (0 when the caller gave them).
+    /// Seconds spent reading and parsing the file (a table's bytes into a table, a
+    /// `.bsdf` into its fields), before its cells are built: `fit --stage-times`'s
+    /// `read` (the rest is `cells`).
     pub read_s: f64,
 }
 
@@ -140,7 +142,10 @@ impl Measured {
         })?;
         let read_s = t.elapsed().as_secs_f64();
         let m = Measured::from_bytes(bytes, path, how, keep_table)?;
-        Ok(Measured { read_s, ..m })
+        Ok(Measured {
+            read_s: read_s + m.read_s,
+            ..m
+        })
     }
 
     /// A file of scattered samples ([`FitData::read_samples`]).
@@ -165,13 +170,20 @@ impl Measured {
             path: path.to_owned(),
             message: e.to_string(),
         };
+        let t = std::time::Instant::now();
         if InputKind::of_head(&bytes) != InputKind::Rgl {
             let table = MerlTable::from_bytes(&bytes, path)?;
             drop(bytes);
-            return Measured::of_table(table, path, None, keep_table, None);
+            let parse_s = t.elapsed().as_secs_f64();
+            let m = Measured::of_table(table, path, None, keep_table, None)?;
+            return Ok(Measured {
+                read_s: parse_s,
+                ..m
+            });
         }
         let tf = TensorFile::from_bytes(bytes, path)?;
         let bsdf = RglBsdf::from_tensor(&tf)?;
+        let parse_s = t.elapsed().as_secs_f64();
         if how == BsdfInput::Points && !bsdf.is_anisotropic() {
             // from_tensor has checked `valid`'s dtype and length.
             let valid = tf.get("valid").map(|f| tf.data(f));
@@ -191,7 +203,7 @@ impl Measured {
                 side: MeasuredSide::BsdfPoints(Box::new(bsdf)),
                 path: path.to_owned(),
                 note: Some(note),
-                read_s: 0.0,
+                read_s: parse_s,
             });
         }
         drop(tf);
@@ -207,13 +219,16 @@ impl Measured {
             path.display(),
             stats.clamped_values
         );
-        Measured::of_table(
+        // The resampling is part of reading the file as a table.
+        let read_s = t.elapsed().as_secs_f64();
+        let m = Measured::of_table(
             table,
             path,
             Some(stats.clamped_values),
             keep_table,
             Some(note),
-        )
+        )?;
+        Ok(Measured { read_s, ..m })
     }
 
     fn of_table(

@@ -169,8 +169,8 @@ pub fn measured(
     Ok(m)
 }
 
-/// The cells `fit` fits ([`measured`]) and the seconds spent reading the file and
-/// building the cells (a file's parse counts as the cells').
+/// The cells `fit` fits ([`measured`]) and the seconds spent reading the file (and
+/// parsing it: [`Measured::read_s`]) and building the cells.
 pub fn fit_data(
     table: Option<&Path>,
     samples: Option<&Path>,
