@@ -135,7 +135,8 @@ pub enum Command {
     Demo(DemoArgs),
     /// Fit models to a table and write the fit-quality report: DIR/index.html (one
     /// self-contained page: summary, interactive views, θh slices, residual maps, rendered
-    /// spheres, albedo, physical checks) and DIR/report.json.
+    /// spheres, albedo, physical checks) and DIR/report.json; on a `.bsdf`'s points or
+    /// scattered samples, the report on scattered data (nothing resampled).
     #[command(
         after_help = "Examples:\n  fit-brdf report gold.binary --out gold-report\n  \
                             fit-brdf report gold.binary --models lambert,cook-torrance --fresnel conductor --starts 4 --out r\n  \
@@ -205,8 +206,9 @@ pub enum Command {
                             <!-- study:NAME --> markers are replaced; the rest of OUT.md is kept). Details: docs/accuracy-vs-time.md."
     )]
     Study(Box<StudyArgs>),
-    /// Score given models against a table without fitting: every loss (l2, cosine,
-    /// cbrt, log) per channel and overall, on the cells and with the weights of `fit`.
+    /// Score given models against a table, a `.bsdf` or scattered samples without
+    /// fitting: every loss (l2, cosine, cbrt, log) per channel and overall, on the cells
+    /// and with the weights of `fit`.
     #[command(
         after_help = "Examples:\n  fit-brdf score gold.binary published.json\n  \
                             fit-brdf score gold.binary a.json b.json --weighting uniform --theta-d-max 80 --json\n  \
