@@ -172,6 +172,38 @@ fn profile(angle: &[f64], w: &[f64], measured: &[Vec<f64>; 3], model: &[Rgb]) ->
         .collect()
 }
 
+/// One model's summary line and its measurements at the samples (`w` their weights,
+/// `shown` the plotted ones).
+fn measure_model(
+    f: &ModelFit,
+    cells: &FitData,
+    w: &[f64],
+    shown: &[usize],
+    weighting: Weighting,
+) -> (ModelSummary, ScatteredModel) {
+    let vals = values_of(&f.fitted, cells);
+    let summary = ModelSummary {
+        label: f.label.clone(),
+        origin: f.origin,
+        params: f.fitted.to_json(),
+        losses: evaluate_losses(f.fitted.channel_models(), cells, weighting),
+        fit_time_s: f.record.as_ref().map(|r| r.wall_time_s),
+        iterations: f.record.as_ref().map(|r| r.iterations),
+        converged: f.record.as_ref().map(|r| r.converged),
+        physical_passed: None,
+    };
+    let model = ScatteredModel {
+        label: f.label.clone(),
+        origin: f.origin,
+        by_theta_h: profile(cells.theta_h(), w, cells.values(), &vals),
+        by_theta_d: profile(cells.theta_d(), w, cells.values(), &vals),
+        physical: Vec::new(),
+        record: f.record.clone(),
+        plotted: shown.iter().map(|&k| vals[k]).collect(),
+    };
+    (summary, model)
+}
+
 /// The samples the scatter charts draw: every k-th, at most [`MAX_PLOTTED`].
 fn plotted_indices(n: usize) -> Vec<usize> {
     let step = n.div_ceil(MAX_PLOTTED).max(1);
@@ -200,31 +232,10 @@ pub fn build_scattered_report(
     let t = Instant::now();
     let w = cells.weights(o.weighting);
     let shown = plotted_indices(cells.len());
-    let mut models = Vec::with_capacity(fits.len());
-    let mut summaries = Vec::with_capacity(fits.len());
-    for f in fits {
-        let vals = values_of(&f.fitted, cells);
-        let losses = evaluate_losses(f.fitted.channel_models(), cells, o.weighting);
-        summaries.push(ModelSummary {
-            label: f.label.clone(),
-            origin: f.origin,
-            params: f.fitted.to_json(),
-            losses,
-            fit_time_s: f.record.as_ref().map(|r| r.wall_time_s),
-            iterations: f.record.as_ref().map(|r| r.iterations),
-            converged: f.record.as_ref().map(|r| r.converged),
-            physical_passed: None,
-        });
-        models.push(ScatteredModel {
-            label: f.label.clone(),
-            origin: f.origin,
-            by_theta_h: profile(cells.theta_h(), &w, cells.values(), &vals),
-            by_theta_d: profile(cells.theta_d(), &w, cells.values(), &vals),
-            physical: Vec::new(),
-            record: f.record.clone(),
-            plotted: shown.iter().map(|&k| vals[k]).collect(),
-        });
-    }
+    let (mut summaries, mut models): (Vec<_>, Vec<_>) = fits
+        .iter()
+        .map(|f| measure_model(f, cells, &w, &shown, o.weighting))
+        .unzip();
     timings.quality_s = t.elapsed().as_secs_f64();
     run_checks(fits, o, &mut models, &mut summaries, &mut timings, progress);
     let renders = sphere_renders(side, fits, o, &mut timings, progress)?;
