@@ -212,22 +212,10 @@ impl Measured {
         } else {
             ""
         };
-        let (table, stats) = bsdf.to_table(Dims::MERL).map_err(|e| data_err(&e))?;
-        let note = format!(
-            "{}: an RGL-EPFL .bsdf file, {why}resampled to a 90x90x180 MERL table (mean of both \
-             orders of each pair; {} negative values stored as 0); docs/rgl.md",
-            path.display(),
-            stats.clamped_values
-        );
+        let (table, clamped, note) = resampled(&bsdf, path, why)?;
         // The resampling is part of reading the file as a table.
         let read_s = t.elapsed().as_secs_f64();
-        let m = Measured::of_table(
-            table,
-            path,
-            Some(stats.clamped_values),
-            keep_table,
-            Some(note),
-        )?;
+        let m = Measured::of_table(table, path, Some(clamped), keep_table, Some(note))?;
         Ok(Measured { read_s, ..m })
     }
 
@@ -283,6 +271,43 @@ impl Measured {
             samples: self.data.input().cloned(),
         }
     }
+}
+
+/// A `.bsdf` resampled to a 90 × 90 × 180 MERL table (each cell the mean of both orders
+/// of its pair, as `fit-brdf resample --bsdf` writes it), its negative values stored as
+/// 0, and the note that says so (`why` leads the verb: why it was resampled, if not
+/// asked for).
+fn resampled(
+    bsdf: &RglBsdf,
+    path: &Path,
+    why: &str,
+) -> Result<(MerlTable, usize, String), InputError> {
+    let (table, stats) = bsdf.to_table(Dims::MERL).map_err(|e| InputError::Data {
+        path: path.to_owned(),
+        message: e.to_string(),
+    })?;
+    let note = format!(
+        "{}: an RGL-EPFL .bsdf file, {why}resampled to a 90x90x180 MERL table (mean of both \
+         orders of each pair; {} negative values stored as 0); docs/rgl.md",
+        path.display(),
+        stats.clamped_values
+    );
+    Ok((table, stats.clamped_values, note))
+}
+
+/// A table for the commands that need a full grid (`info`, `check`, `eval --table`, …):
+/// a MERL table, or a `.bsdf` (by its first bytes) resampled to one with the note that
+/// says so.
+pub fn read_table(path: &Path) -> Result<(MerlTable, Option<String>), InputError> {
+    let io = |source| InputError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    if InputKind::of_file(path).map_err(io)? != InputKind::Rgl {
+        return Ok((MerlTable::read(path)?, None));
+    }
+    let (table, _, note) = resampled(&RglBsdf::read(path)?, path, "")?;
+    Ok((table, Some(note)))
 }
 
 impl InputInfo {

@@ -130,20 +130,13 @@ pub fn input_kind(path: &Path) -> CliResult<InputKind> {
 
 /// Reads a table; every read failure is the user's input (exit 2). A `.bsdf` file (by
 /// [`input_kind`]) is resampled in memory to a 90 × 90 × 180 MERL table, as `resample
-/// --bsdf` would write it, with a note on standard error.
+/// --bsdf` would write it, with a note on standard error ([`brdfkit::fit::input::read_table`]).
 pub fn read_table(path: &Path) -> CliResult<MerlTable> {
-    if input_kind(path)? == InputKind::Rgl {
-        let bsdf = read_bsdf(path)?;
-        let (table, stats) = bsdf.to_table(Dims::MERL).map_err(runtime)?;
-        eprintln!(
-            "{}: an RGL-EPFL .bsdf file, resampled to a 90x90x180 MERL table (mean of both orders of \
-             each pair; {} negative values stored as 0); docs/rgl.md",
-            path.display(),
-            stats.clamped_values
-        );
-        return Ok(table);
+    let (table, note) = brdfkit::fit::input::read_table(path).map_err(bad_input)?;
+    if let Some(n) = note {
+        eprintln!("{n}");
     }
-    MerlTable::read(path).map_err(bad_input)
+    Ok(table)
 }
 
 /// The measured input of `fit`, `score` and `report` by the library's one rule
