@@ -4,7 +4,7 @@ use brdfkit::core::scattering::{Distribution, Masking};
 use brdfkit::fit::batch::Shard;
 use brdfkit::fit::families::FitSettings;
 use brdfkit::fit::families::REPORT_MODELS;
-use brdfkit::fit::{FullIters, Loss, LossSet, RobustKind, SolverKind, Weighting};
+use brdfkit::fit::{BsdfInput, FullIters, Loss, LossSet, RobustKind, SolverKind, Weighting};
 use brdfkit::models::cook_torrance::FresnelKind;
 use brdfkit::models::ward::Normalization;
 use clap::builder::{ArgPredicate, PossibleValue, PossibleValuesParser, TypedValueParser};
@@ -136,12 +136,15 @@ pub enum Command {
     Demo(DemoArgs),
     /// Fit models to a table and write the fit-quality report: DIR/index.html (one
     /// self-contained page: summary, interactive views, θh slices, residual maps, rendered
-    /// spheres, albedo, physical checks) and DIR/report.json.
+    /// spheres, albedo, physical checks) and DIR/report.json; on a `.bsdf`'s points or
+    /// scattered samples, the report on scattered data (nothing resampled).
     #[command(
         after_help = "Examples:\n  fit-brdf report gold.binary --out gold-report\n  \
                             fit-brdf report gold.binary --models lambert,cook-torrance --fresnel conductor --starts 4 --out r\n  \
                             fit-brdf report t.binary --json --quiet > summary.json\n  \
-                            fit-brdf report gold.binary --given published.json --models cook-torrance --out r\n\n\
+                            fit-brdf report gold.binary --given published.json --models cook-torrance --out r\n  \
+                            fit-brdf report felt.bsdf --out r            # the measured points; spheres from the file\n  \
+                            fit-brdf report --samples lab.csv --out r    # scattered samples, plotted where measured\n\n\
                             Every option of `fit` applies. The page opens from disk (no server). \
                             What each section shows and how to read it: docs/report.md."
     )]
@@ -153,7 +156,8 @@ pub enum Command {
                             fit-brdf batch 'merl/*-paint.binary' --out fits/ --starts 4 --json\n  \
                             fit-brdf batch merl/ --out fits/ --shard 3/16     # one task of a 16-task job array\n  \
                             fit-brdf batch --nbrdf proxies/merl proxies/rgl-isotropic --models lafortune-2,cook-torrance-2 --out fits/\n\n\
-                            Inputs: a directory (its *.binary files), a glob pattern (quoted), or table files. \
+                            Inputs: a directory (its *.binary and *.bsdf files), a glob pattern (quoted), or table files; \
+                            a .bsdf (told by its first bytes) is fitted as --bsdf-input says (default: its measured points, as `fit`). \
                             Every option of `fit` applies. A table whose OUTDIR/<stem>.json exists and was made \
                             with the same options from the same table is skipped (resume); --force refits. \
                             --shard I/N takes the tables whose file name hashes to shard I (1-based); \
@@ -203,11 +207,14 @@ pub enum Command {
                             <!-- study:NAME --> markers are replaced; the rest of OUT.md is kept). Details: docs/accuracy-vs-time.md."
     )]
     Study(Box<StudyArgs>),
-    /// Score given models against a table without fitting: every loss (l2, cosine,
-    /// cbrt, log) per channel and overall, on the cells and with the weights of `fit`.
+    /// Score given models against a table, a `.bsdf` or scattered samples without
+    /// fitting: every loss (l2, cosine, cbrt, log) per channel and overall, on the cells
+    /// and with the weights of `fit`.
     #[command(
         after_help = "Examples:\n  fit-brdf score gold.binary published.json\n  \
-                            fit-brdf score gold.binary a.json b.json --weighting uniform --theta-d-max 80 --json\n\n\
+                            fit-brdf score gold.binary a.json b.json --weighting uniform --theta-d-max 80 --json\n  \
+                            fit-brdf score felt.bsdf a.json              # at the file's measured points (--bsdf-input)\n  \
+                            fit-brdf score --samples lab.csv a.json      # every positional file is a model\n\n\
                             MODEL.json: a model description ({\"model\": ..., \"params\": ...}), a per-channel fit \
                             ({\"per_channel\": [r, g, b]}) or a fit record (fit --record). The losses are those a fit \
                             with the same --weighting and --theta-d-max reports as losses_full, to the bit. \
@@ -349,13 +356,16 @@ pub struct SynthArgs {
     pub quiet: bool,
 }
 
-/// What `fit` fits of a `.bsdf` file.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BsdfInput {
-    /// The measured points (the `valid` bits) at their own directions.
-    Points,
-    /// The file resampled to a MERL table (as `resample --bsdf` writes it).
-    Table,
+/// What a `.bsdf` input is fitted, scored or reported on (`fit`, `score`, `report`,
+/// `batch`).
+#[derive(Args, Debug, Clone, Copy)]
+pub struct BsdfInputOption {
+    /// What a `.bsdf` input is taken as: its measured points at their own directions
+    /// (`points`), or its resampling to a 90 × 90 × 180 MERL table (`table`); the
+    /// default and why: docs/rgl.md, "The sample-set fit".
+    #[arg(long = "bsdf-input", value_name = "HOW", default_value = "points",
+          value_parser = choice::<BsdfInput>(BsdfInput::ALL.map(BsdfInput::name)))]
+    pub bsdf_input: BsdfInput,
 }
 
 #[derive(Args, Debug)]
@@ -369,11 +379,8 @@ pub struct FitArgs {
     /// (docs/fitting.md, "Scattered samples").
     #[arg(long, value_name = "S.npy|S.csv")]
     pub samples: Option<PathBuf>,
-    /// What a `.bsdf` input is fitted to: its measured points at their own directions
-    /// (`points`), or its resampling to a 90 × 90 × 180 MERL table (`table`); the
-    /// default and why: docs/rgl.md, "The sample-set fit".
-    #[arg(long, value_enum, default_value_t = BsdfInput::Points)]
-    pub bsdf_input: BsdfInput,
+    #[command(flatten)]
+    pub bsdf: BsdfInputOption,
     #[command(flatten)]
     pub opts: FitOptions,
     /// Fitted parameters (one model) or an output directory (several).
@@ -551,6 +558,8 @@ pub struct BatchArgs {
     #[arg(long)]
     pub nbrdf: bool,
     #[command(flatten)]
+    pub bsdf: BsdfInputOption,
+    #[command(flatten)]
     pub opts: FitOptions,
     /// Output directory: `<stem>.json` per table and the summary CSV.
     #[arg(long, value_name = "OUTDIR")]
@@ -695,8 +704,16 @@ pub struct DemoArgs {
     // With --given alone nothing is fitted (an empty list).
     .default_value_if("given", ArgPredicate::IsPresent, Some(""))))]
 pub struct ReportArgs {
-    /// The MERL binary table to fit and report on.
-    pub table: PathBuf,
+    /// The measurement to fit and report on: a MERL binary table or an RGL-EPFL `.bsdf`
+    /// file (told apart by their first bytes; a `.bsdf` as `--bsdf-input` says).
+    #[arg(required_unless_present = "samples", conflicts_with = "samples")]
+    pub table: Option<PathBuf>,
+    /// Scattered samples to fit and report on instead of a table (the format of `fit
+    /// --samples`); the page plots them at their own directions (docs/report.md).
+    #[arg(long, value_name = "S.npy|S.csv")]
+    pub samples: Option<PathBuf>,
+    #[command(flatten)]
+    pub bsdf: BsdfInputOption,
     #[command(flatten)]
     pub opts: FitOptions,
     /// Models to report as given, not fitted (comma-separated JSON files: model
@@ -737,11 +754,17 @@ pub struct SphereOptions {
 
 #[derive(Args, Debug)]
 pub struct ScoreArgs {
-    /// The MERL binary table to score against.
-    pub table: PathBuf,
-    /// The models (JSON), each scored on its own.
-    #[arg(required = true, value_name = "MODEL.json")]
-    pub models: Vec<PathBuf>,
+    /// The measurement to score against (a MERL binary table or an RGL-EPFL `.bsdf`
+    /// file, by their first bytes; none with `--samples`), then the models (JSON), each
+    /// scored on its own.
+    #[arg(required = true, value_name = "TABLE MODEL.json")]
+    pub files: Vec<PathBuf>,
+    /// Score on scattered samples (the format of `fit --samples`) instead of a table:
+    /// every positional file is then a model.
+    #[arg(long, value_name = "S.npy|S.csv")]
+    pub samples: Option<PathBuf>,
+    #[command(flatten)]
+    pub bsdf: BsdfInputOption,
     #[command(flatten)]
     pub cells: CellOptions,
     /// Print the scores as JSON.

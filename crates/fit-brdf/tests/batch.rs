@@ -538,8 +538,11 @@ fn an_empty_shard_says_so_plainly_and_exits_0() {
 }
 
 /// A directory of MERL tables and RGL-EPFL `.bsdf` files is one batch: the `.bsdf` is
-/// told by its content (the directory listing picks `*.binary` and `*.bsdf`), resampled
-/// in memory and fitted like a table, with the same fit as `fit` of the file itself.
+/// told by its content (the directory listing picks `*.binary` and `*.bsdf`) and fitted
+/// as `fit` fits it: at its measured points by default, resampled to a MERL table with
+/// `--bsdf-input table`; either way the batch's fit equals `fit`'s of the file itself,
+/// and the two differ (so the comparison can fail). Changing `--bsdf-input` refits the
+/// `.bsdf` (the option is in the options hash of a batch that holds one).
 #[test]
 fn a_bsdf_goes_into_a_batch_beside_tables() {
     let d = tempfile::tempdir().unwrap();
@@ -548,49 +551,52 @@ fn a_bsdf_goes_into_a_batch_beside_tables() {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data-synthetic/felt-synthetic.bsdf");
     std::fs::copy(&felt, db.join("felt.bsdf")).unwrap();
     let out = d.path().join("out");
-    let o = batch(&db, &out, &[]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let v = json_of(&o);
-    let tables: Vec<&str> = v["results"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["table"].as_str().unwrap())
-        .collect();
-    assert_eq!(tables.len(), 2, "{v}");
-    assert!(tables.iter().any(|t| t.contains("felt")), "{tables:?}");
-    assert!(
-        v["results"]
+    let mut params = Vec::new();
+    for how in ["points", "table"] {
+        let extra: &[&str] = if how == "points" {
+            &[]
+        } else {
+            &["--bsdf-input", "table"]
+        };
+        let o = batch(&db, &out, extra);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v = json_of(&o);
+        let results = v["results"].as_array().unwrap();
+        assert_eq!(results.len(), 2, "{v}");
+        let felt_row = results.iter().find(|r| r["table"] == "felt.bsdf").unwrap();
+        // The second run refits the .bsdf: its option changed.
+        assert_eq!(felt_row["status"], "fitted", "{how}: {v}");
+        let fit = fit_brdf!(
+            "fit",
+            &felt,
+            "--model",
+            "lambert",
+            "--starts",
+            "1",
+            "--bsdf-input",
+            how,
+            "--json",
+            "--quiet"
+        );
+        assert_eq!(fit.status.code(), Some(0), "{}", stderr(&fit));
+        let alone = json_of(&fit);
+        let rec: Value =
+            serde_json::from_slice(&std::fs::read(out.join("felt.json")).unwrap()).unwrap();
+        assert_eq!(rec["options"]["bsdf_input"], how, "{how}");
+        let lambert = rec["fits"]
             .as_array()
             .unwrap()
             .iter()
-            .all(|r| r["status"] == "fitted"),
-        "{v}"
+            .find(|f| f["label"] == "lambert")
+            .unwrap();
+        assert_eq!(
+            lambert["params"], alone[0]["params"],
+            "{how}: {lambert}\n{alone}"
+        );
+        params.push(lambert["params"].clone());
+    }
+    assert_ne!(
+        params[0], params[1],
+        "points and table give the same fit: {params:?}"
     );
-
-    // The batch's Lambert fit of the felt equals `fit`'s of the file's MERL
-    // resampling (a batch resamples a `.bsdf`; `fit` fits its points unless asked).
-    let fit = fit_brdf!(
-        "fit",
-        &felt,
-        "--model",
-        "lambert",
-        "--starts",
-        "1",
-        "--bsdf-input",
-        "table",
-        "--json",
-        "--quiet"
-    );
-    assert_eq!(fit.status.code(), Some(0), "{}", stderr(&fit));
-    let alone = json_of(&fit);
-    let rec: Value =
-        serde_json::from_slice(&std::fs::read(out.join("felt.json")).unwrap()).unwrap();
-    let lambert = rec["fits"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|f| f["label"] == "lambert")
-        .unwrap();
-    assert_eq!(lambert["params"], alone[0]["params"], "{lambert}\n{alone}");
 }

@@ -1,8 +1,8 @@
 //! The tables of a batch: inputs (directories, files, glob patterns) expanded into a
 //! fixed, duplicate-free list, each with its output file. The inputs are MERL binary
-//! tables and RGL-EPFL `.bsdf` files (told apart by their content, and the `.bsdf`
-//! resampled onto the MERL grid in memory), or neural BRDF proxies ([`Source::Nbrdf`]) that the engine resamples onto
-//! the MERL grid in memory.
+//! tables and RGL-EPFL `.bsdf` files (told apart by their content; a `.bsdf` is fitted
+//! as `fit` fits it, [`crate::input`]), or neural BRDF proxies ([`Source::Nbrdf`])
+//! that the engine resamples onto the MERL grid in memory.
 
 use super::BatchError;
 use std::collections::{BTreeMap, HashSet};

@@ -1,7 +1,9 @@
 //! The batch engine of `fit-brdf batch`: fit every table of a database, one table at a
 //! time, resumably, shardable over a job array, and stoppable between tables.
 //!
-//! The inputs are MERL tables, or neural BRDF proxies ([`Source::Nbrdf`], the six-file
+//! The inputs are MERL tables and RGL-EPFL `.bsdf` files (a `.bsdf` at its measured
+//! points by default, as `fit` takes it: [`BatchJob::with_bsdf_input`]), or neural BRDF
+//! proxies ([`Source::Nbrdf`], the six-file
 //! NBRDF layout) each resampled onto the MERL grid in memory: a whole database of
 //! proxies is fitted without writing a 35 MB table per material. A proxy's identity
 //! (size, time, hash below) is that of its six files together.
@@ -52,11 +54,11 @@ pub use shard::{Shard, ShardError, fnv1a64, hex};
 pub use summary::{CSV_HEADER, Row, Status, csv_field, summary_csv};
 
 use crate::families::{FamilyError, check_free, fit_each};
+use crate::input::{BsdfInput, Measured};
 use crate::{FitConfig, FitData, FitError, families::Family};
 use brdfkit_core::atomic::{FileSet, WriteError};
 use brdfkit_core::progress::{BatchPlan, Event, Observe, TableEnd};
-use brdfkit_merl::MerlTable;
-use brdfkit_rgl::{InputKind, RglBsdf, TensorFile};
+use brdfkit_rgl::InputKind;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -227,6 +229,8 @@ pub struct BatchJob {
     pub families: Vec<Family>,
     /// The fit configuration.
     pub config: FitConfig,
+    /// What a `.bsdf` input is fitted on (the rule of `fit`: [`crate::input`]).
+    pub bsdf_input: BsdfInput,
 }
 
 /// The result of a run.
@@ -297,7 +301,31 @@ impl BatchJob {
             shard,
             families,
             config,
+            bsdf_input: BsdfInput::default(),
         })
+    }
+
+    /// The job with `.bsdf` inputs fitted on `how` (default: their measured points).
+    pub fn with_bsdf_input(self, how: BsdfInput) -> BatchJob {
+        BatchJob {
+            bsdf_input: how,
+            ..self
+        }
+    }
+
+    /// The options of the per-table JSON and their hash: [`options_value`], and
+    /// `bsdf_input` when a table of the job is a `.bsdf` file (so that a change of it
+    /// refits them, and a batch of MERL tables keeps the hash it always had).
+    fn options(&self) -> Result<Value, BatchError> {
+        let mut options = options_value(&self.families, &self.config)?;
+        let is_rgl = |t: &Table| {
+            t.source == Source::Binary
+                && InputKind::of_file(&t.path).is_ok_and(|k| k == InputKind::Rgl)
+        };
+        if self.tables.iter().any(is_rgl) {
+            options["bsdf_input"] = json!(self.bsdf_input.name());
+        }
+        Ok(options)
     }
 
     /// `OUTDIR/summary.csv`, or `OUTDIR/summary-I-of-N.csv` for a shard.
@@ -324,7 +352,7 @@ impl BatchJob {
             source,
         })?;
         let summary_path = self.summary_path();
-        let options = options_value(&self.families, &self.config)?;
+        let options = self.options()?;
         let hash = options_hash(&options);
 
         // Phase 1: what is done already (cheap: small JSON files and file metadata).
@@ -438,7 +466,7 @@ impl BatchJob {
             Ok(s) => s,
             Err(e) => return Ok(Err(format!("{}: {e}", t.path.display()))),
         };
-        let (data, hash) = match read_data(t) {
+        let (data, hash) = match read_data(t, self.bsdf_input) {
             Ok(d) => d,
             Err(e) => return Ok(Err(e)),
         };
@@ -472,33 +500,31 @@ impl BatchJob {
 }
 
 /// The fitted cells of a table and the hash of its bytes, or the message of a table
-/// that cannot be read (naming its file).
-fn read_data(t: &Table) -> Result<(FitData, String), String> {
+/// that cannot be read (naming its file). A table or a `.bsdf` is read by the rule of
+/// `fit` ([`Measured::from_bytes`]: a `.bsdf` at its measured points or resampled, as
+/// `how` says); a proxy is resampled onto the MERL grid in memory.
+fn read_data(t: &Table, how: BsdfInput) -> Result<(FitData, String), String> {
     let bytes = table_bytes(t).map_err(|e| format!("{}: cannot read: {e}", t.path.display()))?;
     let hash = hex(fnv1a64(&bytes));
-    let table = match t.source {
-        Source::Binary if InputKind::of_head(&bytes) == InputKind::Rgl => {
-            // Resampled in memory (each cell the weighted mean of both orders of its pair), as
-            // `fit-brdf resample --bsdf` writes it.
-            let tf = TensorFile::from_bytes(bytes, &t.path).map_err(|e| e.to_string())?;
-            let bsdf = RglBsdf::from_tensor(&tf).map_err(|e| e.to_string())?;
-            let table = bsdf.to_table(brdfkit_merl::Dims::MERL);
-            table.map_err(|e| format!("{}: {e}", t.path.display()))?.0
+    let data = match t.source {
+        Source::Binary => {
+            Measured::from_bytes(bytes, &t.path, how, false)
+                .map_err(|e| e.to_string())?
+                .data
         }
-        Source::Binary => MerlTable::from_bytes(&bytes, &t.path).map_err(|e| e.to_string())?,
         Source::Nbrdf => {
             drop(bytes);
             // Resampled in memory: a proxy is a few KB, its table 35 MB.
             let net = brdfkit_nbrdf::Nbrdf::load(&t.path).map_err(|e| e.to_string())?;
-            net.to_table(brdfkit_merl::Dims::MERL)
+            let table = net
+                .to_table(brdfkit_merl::Dims::MERL)
                 .map_err(|e| e.to_string())?
-                .0
+                .0;
+            // The table is not needed after its cells: freeing it before the geometry
+            // is built keeps the table and the cells out of memory together.
+            FitData::from_owned_table(table).map_err(|e| format!("{}: {e}", t.path.display()))?
         }
     };
-    // The table is not needed after its cells: freeing it before the geometry is built
-    // keeps the table and the cells out of memory together.
-    let data =
-        FitData::from_owned_table(table).map_err(|e| format!("{}: {e}", t.path.display()))?;
     Ok((data, hash))
 }
 

@@ -5,7 +5,7 @@ use super::*;
 use crate::families::{FitSettings, Structure, families};
 use crate::{Loss, RobustKind};
 use brdfkit_core::Rgb;
-use brdfkit_merl::Dims;
+use brdfkit_merl::{Dims, MerlTable};
 
 /// A Lambertian table of 8 × 8 × 16 cells with albedo `a` (fitted in milliseconds).
 fn table_bytes(a: f64) -> Vec<u8> {

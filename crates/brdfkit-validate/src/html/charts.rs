@@ -86,9 +86,9 @@ pub fn model_colour_hex(m: usize) -> String {
     format!("#{r:02x}{g:02x}{b:02x}")
 }
 
-const CHANNELS: [&str; 3] = ["R", "G", "B"];
+pub(super) const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
-fn err<E: std::fmt::Debug>(e: E) -> ReportError {
+pub(super) fn err<E: std::fmt::Debug>(e: E) -> ReportError {
     ReportError::Chart(format!("{e:?}"))
 }
 
@@ -110,7 +110,7 @@ fn register_font() -> Result<(), ReportError> {
 }
 
 /// Draws into an SVG string of `size` pixels.
-fn svg(
+pub(super) fn svg(
     size: (u32, u32),
     draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<(), ReportError>,
 ) -> Result<String, ReportError> {
@@ -127,7 +127,7 @@ fn svg(
 
 /// The frame of a captioned chart: the caption, the margin and the axis label areas
 /// (the y one `y_labels` pixels wide).
-fn framed<'a, 'b>(
+pub(super) fn framed<'a, 'b>(
     area: &'a DrawingArea<SVGBackend<'b>, Shift>,
     caption: impl AsRef<str>,
     y_labels: u32,
@@ -141,7 +141,7 @@ fn framed<'a, 'b>(
 }
 
 /// The axis text of every chart: tick labels and axis descriptions.
-fn mesh<'m, 'a, 'b, X: Ranged, Y: Ranged, DB: DrawingBackend>(
+pub(super) fn mesh<'m, 'a, 'b, X: Ranged, Y: Ranged, DB: DrawingBackend>(
     m: &'m mut MeshStyle<'a, 'b, X, Y, DB>,
 ) -> &'m mut MeshStyle<'a, 'b, X, Y, DB> {
     m.label_style(("sans-serif", 12))
@@ -149,7 +149,7 @@ fn mesh<'m, 'a, 'b, X: Ranged, Y: Ranged, DB: DrawingBackend>(
 }
 
 /// A log-scale y range covering `values` (positive ones), with a margin.
-fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+pub(super) fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
     for v in values.filter(|v| *v > 0.0 && v.is_finite()) {
         lo = lo.min(v);

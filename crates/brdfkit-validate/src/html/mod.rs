@@ -19,7 +19,9 @@
 //!   ([`interactive`]), with what the embedding costs against `fit-brdf eval`.
 //!
 //! The caller fits (the CLI's `fit-brdf report` and `demo` use `brdfkit_fit::fit`) and
-//! writes the files; this module only computes and formats. Models can also be given
+//! writes the files; this module only computes and formats. A `.bsdf` file's measured
+//! points and a user's scattered samples have no grid: their report is
+//! [`build_scattered_report`] ([`scattered`]), which resamples nothing. Models can also be given
 //! ([`Origin::Given`]: published parameters, another tool's fit): they are measured the
 //! same way, labelled as given. What each section shows
 //! and how to read it: `docs/report.md`.
@@ -31,10 +33,13 @@ mod files;
 pub mod interactive;
 mod page;
 pub mod renders;
+pub mod scattered;
+mod scattered_page;
 mod style;
 
 pub use error::ReportError;
-pub use files::{HTML_FILE, JSON_FILE};
+pub use files::{AnyReport, HTML_FILE, JSON_FILE};
+pub use scattered::{ScatteredReport, ScatteredSide, build_any_report, build_scattered_report};
 
 use crate::physical::{CheckOptions, PhysicalReport, check_model_with};
 use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_of};

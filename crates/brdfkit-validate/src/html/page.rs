@@ -29,14 +29,14 @@ window.addEventListener('load', function () {
 });
 "#;
 
-fn png_uri(png: &[u8]) -> String {
+pub(super) fn png_uri(png: &[u8]) -> String {
     format!(
         "data:image/png;base64,{}",
         base64::engine::general_purpose::STANDARD.encode(png)
     )
 }
 
-fn verdict_class(label: &str) -> &'static str {
+pub(super) fn verdict_class(label: &str) -> &'static str {
     match label {
         "PASS" => "pass",
         "FAIL" => "fail",
@@ -45,7 +45,7 @@ fn verdict_class(label: &str) -> &'static str {
 }
 
 /// `name = value` lines of a model's parameters (nested objects flattened).
-fn params_text(v: &Value) -> String {
+pub(super) fn params_text(v: &Value) -> String {
     fn walk(prefix: &str, v: &Value, out: &mut Vec<String>) {
         match v {
             Value::Object(m) => {
@@ -96,7 +96,7 @@ fn nice_scale(x: f64) -> f64 {
     -LOG_RATIO_FLOOR
 }
 
-fn swatch(m: usize) -> Markup {
+pub(super) fn swatch(m: usize) -> Markup {
     html! { span.swatch style=(format!("background:{}", model_colour_hex(m))) {} }
 }
 
@@ -212,22 +212,30 @@ fn meta_section(d: &ReportData) -> Markup {
 
 /// The summary table; the best value of each loss column is bold.
 fn summary_section(d: &ReportData) -> Markup {
+    html! {
+    h2 id="summary" { "Summary" }
+    p.note { "Weighted RMS losses of the fitted model against the table, overall (hover a value for R · G · B); the best value of each column is bold. Lower is better; the losses are on different scales, compare models within a column." }
+    (summary_table(&d.summary.models))
+    }
+}
+
+/// The models' summary rows (`#summary-table`); the best value of each loss column is
+/// bold. Shared with the report on scattered data.
+pub(super) fn summary_table(models: &[super::ModelSummary]) -> Markup {
     let mut best = [f64::INFINITY; 4];
-    for m in &d.summary.models {
+    for m in models {
         for (k, loss) in Loss::ALL.iter().enumerate() {
             best[k] = best[k].min(m.losses.get(*loss).overall);
         }
     }
     html! {
-    h2 id="summary" { "Summary" }
-    p.note { "Weighted RMS losses of the fitted model against the table, overall (hover a value for R · G · B); the best value of each column is bold. Lower is better; the losses are on different scales, compare models within a column." }
     table id="summary-table" {
         thead { tr {
             th.l { "model" } th { "cbrt" } th { "l2" } th { "cosine" } th { "log" }
             th { "fit time (s)" } th { "iterations" } th { "physical checks" } th.l { "parameters" }
         } }
         tbody {
-            @for (m, s) in d.summary.models.iter().enumerate() {
+            @for (m, s) in models.iter().enumerate() {
                 tr {
                     td.l { (swatch(m)) (s.label) }
                     // Loss::ALL is l2, cosine, cbrt, log; the columns put cbrt first.
@@ -444,7 +452,7 @@ fn details_section(d: &ReportData) -> Markup {
 
 /// The summary's loss cells in the column order cbrt, l2, cosine, log; `best` is
 /// indexed like [`Loss::ALL`] (l2, cosine, cbrt, log).
-fn loss_cells_ordered(l: &LossReport, best: &[f64; 4]) -> Markup {
+pub(super) fn loss_cells_ordered(l: &LossReport, best: &[f64; 4]) -> Markup {
     html! {
         @for k in [2usize, 0, 1, 3] {
             @let loss = Loss::ALL[k];

@@ -8,9 +8,10 @@ use brdfkit_core::Vec3;
 use brdfkit_fit::Fitted;
 use brdfkit_merl::{Lookup, MerlTable};
 use brdfkit_render::env::{Environment, LatLong, uv_to_direction};
-use brdfkit_render::material::MaterialSource;
+use brdfkit_render::material::{MaterialSource, MeasuredBrdf};
 use brdfkit_render::output::tonemap_channel;
 use brdfkit_render::{RenderOutput, Scene, SceneMaterial, TableBrdf, render};
+use brdfkit_rgl::RglBsdf;
 use image::{ImageFormat, RgbImage};
 use serde::{Deserialize, Serialize};
 use std::io::Cursor;
@@ -243,6 +244,8 @@ pub(crate) enum Shown<'a> {
     Fitted(&'a Fitted),
     /// A table.
     Table(&'a Arc<MerlTable>),
+    /// An RGL-EPFL `.bsdf` file, evaluated directly (not resampled).
+    Measured(&'a Arc<RglBsdf>),
 }
 
 /// The material of channel `c` of `s` (a per-channel fit has one model per channel).
@@ -254,6 +257,10 @@ fn shown_material(s: Shown, c: usize) -> SceneMaterial {
     match s {
         Shown::Table(t) => SceneMaterial::Table {
             brdf: TableBrdf::new(t.clone(), Lookup::Interpolated),
+            source: MaterialSource::Inline,
+        },
+        Shown::Measured(b) => SceneMaterial::Measured {
+            brdf: MeasuredBrdf(b.clone()),
             source: MaterialSource::Inline,
         },
         Shown::Fitted(Fitted::Shared(m)) => model(m.as_ref()),
@@ -419,6 +426,18 @@ pub fn render_set(
 ) -> Result<RenderSet, ReportError> {
     let shown: Vec<Shown> = fits.iter().map(|f| Shown::Fitted(f)).collect();
     render_set_of(l, o, Shown::Table(table), &shown)
+}
+
+/// Renders a `.bsdf` file from its own evaluation (nothing resampled) and every
+/// fitted model under `l`: the spheres of the report on a file's measured points.
+pub fn render_set_measured(
+    l: Lighting,
+    o: &RenderOptions,
+    bsdf: &Arc<RglBsdf>,
+    fits: &[&Fitted],
+) -> Result<RenderSet, ReportError> {
+    let shown: Vec<Shown> = fits.iter().map(|f| Shown::Fitted(f)).collect();
+    render_set_of(l, o, Shown::Measured(bsdf), &shown)
 }
 
 /// Renders a reference (the set's `table_png`, which sets the exposure) and each of

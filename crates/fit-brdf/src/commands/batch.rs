@@ -56,8 +56,9 @@ pub fn run(a: BatchArgs) -> CliResult<()> {
     } else {
         Source::Binary
     };
-    let job =
-        BatchJob::new_from(&a.inputs, source, &a.out, a.shard, fams, cfg).map_err(batch_error)?;
+    let job = BatchJob::new_from(&a.inputs, source, &a.out, a.shard, fams, cfg)
+        .map_err(batch_error)?
+        .with_bsdf_input(a.bsdf.bsdf_input);
     install_handler()?;
     let bars = progress::Progress::new(a.quiet);
     let report = job.run(a.force, &CANCEL, &bars);

@@ -24,7 +24,7 @@ use crate::error::{CliResult, bad_input, bad_msg, bad_report_option, bad_setting
 use anyhow::Context;
 use brdfkit::core::Model;
 use brdfkit::fit::families::{Family, FitSettings, Structure, check_free, families};
-use brdfkit::fit::{FitConfig, FitData, Fitted};
+use brdfkit::fit::{BsdfInput, FitConfig, FitData, Fitted, Measured};
 use brdfkit::merl::{Dims, Lookup, MerlError, MerlTable};
 use brdfkit_validate::html::renders::RenderOptions;
 use std::path::Path;
@@ -130,68 +130,49 @@ pub fn input_kind(path: &Path) -> CliResult<InputKind> {
 
 /// Reads a table; every read failure is the user's input (exit 2). A `.bsdf` file (by
 /// [`input_kind`]) is resampled in memory to a 90 × 90 × 180 MERL table, as `resample
-/// --bsdf` would write it, with a note on standard error.
+/// --bsdf` would write it, with a note on standard error ([`brdfkit::fit::input::read_table`]).
 pub fn read_table(path: &Path) -> CliResult<MerlTable> {
-    if input_kind(path)? == InputKind::Rgl {
-        let bsdf = read_bsdf(path)?;
-        let (table, stats) = bsdf.to_table(Dims::MERL).map_err(runtime)?;
-        eprintln!(
-            "{}: an RGL-EPFL .bsdf file, resampled to a 90x90x180 MERL table (weighted mean of both \
-             orders of each pair; {} negative values stored as 0); docs/rgl.md",
-            path.display(),
-            stats.clamped_values
-        );
-        return Ok(table);
+    let (table, note) = brdfkit::fit::input::read_table(path).map_err(bad_input)?;
+    if let Some(n) = note {
+        eprintln!("{n}");
     }
-    MerlTable::read(path).map_err(bad_input)
+    Ok(table)
 }
 
-/// The cells `fit` fits, and the seconds spent reading and building them: a table's
-/// cells, a samples file's ([`FitData::read_samples`]) or a `.bsdf`'s, as its measured
-/// points ([`FitData::from_bsdf_points`]; isotropic files) or its resampling to a MERL
-/// table (`how`, and an anisotropic file). Every failure is the user's input (exit 2).
+/// The measured input of `fit`, `score` and `report` by the library's one rule
+/// ([`Measured`]): a table, a `.bsdf` (as `how` says) or a samples file; `keep_table`
+/// keeps a table beside its cells (the report draws from it). Its note goes to standard
+/// error unless `quiet`. Every failure is the user's input (exit 2).
+pub fn measured(
+    table: Option<&Path>,
+    samples: Option<&Path>,
+    how: BsdfInput,
+    keep_table: bool,
+    quiet: bool,
+) -> CliResult<Measured> {
+    let m = match (table, samples) {
+        (_, Some(s)) => Measured::read_samples(s),
+        (Some(p), None) => Measured::read(p, how, keep_table),
+        (None, None) => return Err(bad_msg("give a table, a .bsdf file or --samples")),
+    }
+    .map_err(bad_input)?;
+    if let (Some(n), false) = (&m.note, quiet) {
+        eprintln!("{n}");
+    }
+    Ok(m)
+}
+
+/// The cells `fit` fits ([`measured`]) and the seconds spent reading the file (and
+/// parsing it: [`Measured::read_s`]) and building the cells.
 pub fn fit_data(
     table: Option<&Path>,
     samples: Option<&Path>,
-    how: crate::cli::BsdfInput,
+    how: BsdfInput,
 ) -> CliResult<(FitData, f64, f64)> {
     let t = std::time::Instant::now();
-    let p = match (table, samples) {
-        (_, Some(s)) => {
-            let data = FitData::read_samples(s).map_err(bad_input)?;
-            return Ok((data, t.elapsed().as_secs_f64(), 0.0));
-        }
-        (Some(p), None) => p,
-        (None, None) => return Err(bad_msg("give a table, a .bsdf file or --samples")),
-    };
-    if how == crate::cli::BsdfInput::Points && input_kind(p)? == InputKind::Rgl {
-        let (bsdf, pts) = brdfkit::rgl::MeasuredPoints::read(p).map_err(bad_input)?;
-        if !bsdf.is_anisotropic() {
-            let data = FitData::from_bsdf_points(&pts).map_err(bad_input)?;
-            eprintln!(
-                "{}: an RGL-EPFL .bsdf file, fitted at its {} measured points ({} skipped, {} \
-                 sharing a direction merged; negative values stored as 0: {}); docs/rgl.md",
-                p.display(),
-                pts.points.len(),
-                pts.skipped,
-                pts.merged,
-                data.input().map_or(0, |i| i.negative_zeroed),
-            );
-            return Ok((data, t.elapsed().as_secs_f64(), 0.0));
-        }
-        eprintln!(
-            "{}: anisotropic: its measured points are not built yet, fitted as a table",
-            p.display()
-        );
-    }
-    let table = read_table(p)?;
-    let read_s = t.elapsed().as_secs_f64();
-    // The fit needs only the cells: the table (35 MB) is freed while they are built,
-    // before their geometry is allocated (FitData::from_owned_table).
-    let t = std::time::Instant::now();
-    let data =
-        FitData::from_owned_table(table).map_err(|e| bad_msg(format!("{}: {e}", p.display())))?;
-    Ok((data, read_s, t.elapsed().as_secs_f64()))
+    let m = measured(table, samples, how, false, false)?;
+    let total = t.elapsed().as_secs_f64();
+    Ok((m.data, m.read_s, total - m.read_s))
 }
 
 /// Reads an RGL-EPFL `.bsdf` file; every failure is the user's input (exit 2).

@@ -1,8 +1,9 @@
-//! `fit-brdf report TABLE --models ... [--given MODEL.json,...] --out DIR`: fit every
-//! model, add the given ones (not fitted), and write the fit-quality report
-//! (DIR/index.html, DIR/report.json) of `brdfkit_validate::html`.
+//! `fit-brdf report TABLE|X.bsdf|--samples S --models ... [--given MODEL.json,...] --out
+//! DIR`: fit every model, add the given ones (not fitted), and write the fit-quality
+//! report (DIR/index.html, DIR/report.json) of `brdfkit_validate::html`: the table
+//! report, or the report on scattered data for a `.bsdf`'s points and samples.
 
-use super::{cell_config, fit_setup, read_fitted, read_table, render_options};
+use super::{cell_config, fit_setup, measured, read_fitted, render_options};
 use crate::cli::ReportArgs;
 use crate::error::{CliResult, bad_msg, runtime};
 use crate::output::{write_failed, write_text};
@@ -11,7 +12,9 @@ use brdfkit::fit::families::{Outcome, comparison_text, fit_each};
 use brdfkit::fit::score::check_isotropic;
 use brdfkit::fit::{FitConfig, FitData};
 use brdfkit::merl::MerlTable;
-use brdfkit_validate::html::{FitReport, ModelFit, ReportOptions, build_report_from};
+use brdfkit_validate::html::{
+    AnyReport, FitReport, ModelFit, ReportOptions, build_any_report, build_report_from,
+};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -71,7 +74,7 @@ fn options(a: &ReportArgs, cfg: &FitConfig) -> CliResult<ReportOptions> {
 fn summary_text(
     outcomes: &[Outcome],
     cfg: &FitConfig,
-    report: &FitReport,
+    report: &AnyReport,
     at: &[PathBuf; 2],
     t_fit: f64,
 ) -> String {
@@ -86,7 +89,7 @@ fn summary_text(
         at[0].display(),
         at[1].display(),
         t_fit,
-        report.data.timings.total_s
+        report.total_s()
     );
     text
 }
@@ -102,35 +105,25 @@ pub fn run(a: ReportArgs) -> CliResult<()> {
         (Vec::new(), cell_config(&a.opts.cells)?)
     };
     let opts = options(&a, &cfg)?;
-    let table = read_table(&a.table)?;
-    let data =
-        FitData::from_table(&table).map_err(|e| bad_msg(format!("{}: {e}", a.table.display())))?;
+    let (table, samples) = (a.table.as_deref(), a.samples.as_deref());
+    let m = measured(table, samples, a.bsdf.bsdf_input, true, a.quiet)?;
     let progress = progress::Progress::with_family_lines(a.quiet);
+    let (n, info) = (fams.len(), m.info().text());
     progress.say(&format!(
-        "fitting {} model(s) to {} ({} valid cells); {} given",
-        fams.len(),
-        a.table.display(),
-        data.len(),
+        "fitting {n} model(s) to {info}; {} given",
         given.len()
     ));
-    let outcomes = fit_each(&data, &fams, &cfg, &progress).map_err(runtime)?;
+    let outcomes = fit_each(&m.data, &fams, &cfg, &progress).map_err(runtime)?;
     let t_fit = t0.elapsed().as_secs_f64();
-    let name = a.table.file_name().map_or_else(
-        || a.table.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    );
     let mut fits = model_fits(&outcomes)?;
     fits.extend(given);
-    // The report takes the table and the fits' cells over: it shares the cells' geometry
-    // across models and sections and frees it before the renders.
-    let table = (Arc::new(table), data);
-    let report = make_report(table, &name, &fits, fitting.then_some(&cfg), &opts, a.quiet)?;
+    let path = m.path.display().to_string();
+    let report = build_any_report(m, &fits, fitting.then_some(&cfg), &opts, &progress)
+        .map_err(|e| runtime(anyhow::anyhow!("{path}: the report failed: {e}")))?;
     let (html, json) = report.write_to(&a.out).map_err(write_failed)?;
     if a.json {
         return write_text(None, &report.summary_json_pretty());
     }
-    write_text(
-        None,
-        &summary_text(&outcomes, &cfg, &report, &[html, json], t_fit),
-    )
+    let at = [html, json];
+    write_text(None, &summary_text(&outcomes, &cfg, &report, &at, t_fit))
 }

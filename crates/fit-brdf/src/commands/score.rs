@@ -1,11 +1,13 @@
-//! `fit-brdf score TABLE MODEL.json...`: every loss of given parameters against a
-//! table, without fitting (the engine: `brdfkit::fit::score`).
+//! `fit-brdf score TABLE MODEL.json...` (or `--samples S MODEL.json...`): every loss of
+//! given parameters against the input kinds of `fit` (a table, a `.bsdf` as
+//! `--bsdf-input` says, scattered samples with their weights), without fitting (the
+//! engines: `brdfkit::fit::{Measured, score}`).
 
-use super::{cell_config, read_fitted, read_table};
+use super::{cell_config, measured, read_fitted};
 use crate::cli::ScoreArgs;
 use crate::error::{CliResult, bad_msg, runtime};
 use crate::output::write_text;
-use brdfkit::fit::{FitData, Loss, LossReport, Score, score};
+use brdfkit::fit::{Loss, LossReport, Score, score};
 use serde_json::{Value, json};
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -52,26 +54,35 @@ fn score_text(file: &str, s: &Score) -> String {
 
 pub fn run(a: ScoreArgs) -> CliResult<()> {
     let cfg = cell_config(&a.cells)?;
-    // Every model file is read before the table, so a bad one fails fast.
-    let given = a
-        .models
+    // Without --samples the first file is the measurement.
+    let (input, models) = match (&a.samples, &a.files[..]) {
+        (Some(_), m) => (None, m),
+        (None, [t, m @ ..]) if !m.is_empty() => (Some(t.as_path()), m),
+        (None, _) => {
+            return Err(bad_msg(
+                "give a table (or --samples) and at least one model",
+            ));
+        }
+    };
+    // Every model file is read before the measurement, so a bad one fails fast.
+    let given = models
         .iter()
         .map(|p| Ok((p, read_fitted(p)?)))
         .collect::<CliResult<Vec<_>>>()?;
-    let table = read_table(&a.table)?;
-    // The cells of `fit` (FitData::from_owned_table gives those of from_table).
-    let data = FitData::from_owned_table(table)
-        .map_err(|e| bad_msg(format!("{}: {e}", a.table.display())))?;
+    let m = measured(
+        input,
+        a.samples.as_deref(),
+        a.bsdf.bsdf_input,
+        false,
+        a.json,
+    )?;
+    let info = m.info();
     let scores: Vec<(&PathBuf, Score)> = given
         .into_iter()
         .map(|(p, f)| {
-            score(&f, &data, &cfg).map(|s| (p, s)).map_err(|e| {
-                bad_msg(format!(
-                    "{} against {}: {e}",
-                    p.display(),
-                    a.table.display()
-                ))
-            })
+            score(&f, &m.data, &cfg)
+                .map(|s| (p, s))
+                .map_err(|e| bad_msg(format!("{} against {}: {e}", p.display(), info.path)))
         })
         .collect::<CliResult<_>>()?;
     if a.json {
@@ -83,14 +94,17 @@ pub fn run(a: ScoreArgs) -> CliResult<()> {
                 Ok(v)
             })
             .collect::<CliResult<_>>()?;
-        let out = json!({"table": a.table.display().to_string(), "models": models});
+        // `table` (the file) is kept for the readers of older output.
+        let out = json!({"table": info.path, "input": info, "models": models});
         let text = serde_json::to_string_pretty(&out).map_err(runtime)? + "\n";
         write_text(None, &text)
     } else {
-        let text: String = scores
-            .iter()
-            .map(|(p, s)| score_text(&p.display().to_string(), s))
-            .collect();
+        let mut text = format!("scored on {}\n", info.text());
+        text.extend(
+            scores
+                .iter()
+                .map(|(p, s)| score_text(&p.display().to_string(), s)),
+        );
         write_text(None, &text)
     }
 }
