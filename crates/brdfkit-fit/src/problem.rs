@@ -48,7 +48,7 @@
 use crate::data::{FitData, PASS_CHUNK_CELLS};
 use crate::energy::AlbedoPenalty;
 use crate::error::FitError;
-use crate::loss::{Loss, LossSet, Robust, RobustKind, Weighting};
+use crate::loss::{Loss, LossSet, Robust, RobustKind, Weighting, cbrt_all};
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
 use brdfkit_core::model::Domain;
@@ -266,10 +266,8 @@ fn fill_scale_plain(
 fn fill_target(data: &FitData, loss: Loss, c: usize, start: usize, out: &mut [f64]) {
     let range = start..start + out.len();
     let f = &data.values()[c][range.clone()];
-    let ci = &data.geometry().wi_z[range];
-    for k in 0..out.len() {
-        out[k] = loss.transform(f[k], ci[k]);
-    }
+    out.copy_from_slice(f);
+    loss.transform_all(&data.geometry().wi_z[range], out);
 }
 
 struct Scratch {
@@ -651,9 +649,10 @@ impl<'a> FitProblem<'a> {
                         vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
                         vec![0.0; PASS_CHUNK_CELLS.min(n)],
                         vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
                     )
                 },
-                |(out, sbuf, tbuf), ci| {
+                |(out, sbuf, tbuf, xbuf), ci| {
                     let mut acc = 0.0;
                     let s = ci * PASS_CHUNK_CELLS;
                     let e = (s + PASS_CHUNK_CELLS).min(n);
@@ -663,18 +662,22 @@ impl<'a> FitProblem<'a> {
                     let sc = inn.scale_of(s, &mut sbuf[..len]);
                     for &c in &inn.channels {
                         let tg = inn.target_of(c, s, &mut tbuf[..len]);
+                        let t = &mut xbuf[..len];
+                        for (x, o) in t.iter_mut().zip(&out[..len]) {
+                            *x = o[c];
+                        }
+                        inn.loss.transform_all(cos_i, t);
                         let mut part = 0.0;
                         match robust {
                             None => {
                                 for k in 0..len {
-                                    let r =
-                                        sc[k] * (inn.loss.transform(out[k][c], cos_i[k]) - tg[k]);
+                                    let r = sc[k] * (t[k] - tg[k]);
                                     part += r * r;
                                 }
                             }
                             Some(rb) => {
                                 for k in 0..len {
-                                    let e = inn.loss.transform(out[k][c], cos_i[k]) - tg[k];
+                                    let e = t[k] - tg[k];
                                     part += sc[k] * sc[k] * rb.rho(e * e).0;
                                 }
                             }
@@ -750,12 +753,17 @@ impl<'a> FitProblem<'a> {
                     let scale = inn.scale_of(s, &mut sc.s[..len]);
                     for &c in &inn.channels {
                         let tg = inn.target_of(c, s, &mut sc.t[..len]);
+                        // t and ∂t/∂f of every cell, into r and d.
+                        for (x, o) in sc.r[..len].iter_mut().zip(&sc.out[..len]) {
+                            *x = o[c];
+                        }
+                        inn.loss
+                            .transform_deriv_all(cos_i, &mut sc.r[..len], &mut sc.d[..len]);
                         match robust {
                             None => {
                                 for k in 0..len {
-                                    let (t, dt) = inn.loss.transform_deriv(sc.out[k][c], cos_i[k]);
-                                    sc.r[k] = scale[k] * (t - tg[k]);
-                                    sc.d[k] = scale[k] * dt;
+                                    sc.r[k] = scale[k] * (sc.r[k] - tg[k]);
+                                    sc.d[k] *= scale[k];
                                 }
                             }
                             Some(rb) => {
@@ -763,7 +771,7 @@ impl<'a> FitProblem<'a> {
                                 // Jacobian row; the cost takes ρ itself.
                                 let mut part = 0.0;
                                 for k in 0..len {
-                                    let (t, dt) = inn.loss.transform_deriv(sc.out[k][c], cos_i[k]);
+                                    let (t, dt) = (sc.r[k], sc.d[k]);
                                     let e = t - tg[k];
                                     let (rho, w) = rb.rho(e * e);
                                     let sw = scale[k] * w.sqrt();
@@ -986,6 +994,9 @@ type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);
 struct LossScratch {
     out: [Vec<Rgb>; 2],
     xm: Vec<f64>,
+    /// Cube roots of the model's x, then of the measurement's.
+    tm: Vec<f64>,
+    tt: Vec<f64>,
     wb: Vec<f64>,
     gb: Vec<[f64; 4]>,
 }
@@ -1015,6 +1026,8 @@ pub fn evaluate_losses_of(
             || LossScratch {
                 out: [vec![Rgb::ZERO; cap], vec![Rgb::ZERO; cap]],
                 xm: vec![0.0; cap],
+                tm: vec![0.0; cap],
+                tt: vec![0.0; cap],
                 wb: vec![0.0; cap],
                 gb: vec![[0.0; 4]; cap],
             },
@@ -1090,20 +1103,22 @@ fn chunk_losses(
             let d = xm[k] - fm[k] * ci[k];
             acc[1][c] += ws[k] * d * d;
         }
-        match roots {
-            Some(roots) => {
-                let rt = &roots[c][r.clone()];
-                for k in 0..len {
-                    let d = crate::loss::cbrt(xm[k]) - rt[k];
-                    acc[2][c] += ws[k] * d * d;
-                }
-            }
+        // The cube roots in vectorised passes (`cbrt_all`, the same bits as `cbrt`).
+        let tm = &mut sc.tm[..len];
+        tm.copy_from_slice(xm);
+        cbrt_all(tm);
+        let rt: &[f64] = match roots {
+            Some(roots) => &roots[c][r.clone()],
             None => {
-                for k in 0..len {
-                    let d = crate::loss::cbrt(xm[k]) - crate::loss::cbrt(fm[k] * ci[k]);
-                    acc[2][c] += ws[k] * d * d;
-                }
+                let tt = &mut sc.tt[..len];
+                tt.copy_from_slice(fm);
+                crate::Loss::Cbrt.transform_all(ci, tt);
+                tt
             }
+        };
+        for k in 0..len {
+            let d = tm[k] - rt[k];
+            acc[2][c] += ws[k] * d * d;
         }
         for k in 0..len {
             let xt = fm[k] * ci[k];
