@@ -48,7 +48,7 @@
 use crate::data::{FitData, PASS_CHUNK_CELLS};
 use crate::energy::AlbedoPenalty;
 use crate::error::FitError;
-use crate::loss::{Loss, LossSet, Robust, RobustKind, Weighting, cbrt_all};
+use crate::loss::{Loss, LossSet, Robust, RobustKind, Weighting, cbrt_all, ln_1p_all};
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
 use brdfkit_core::model::Domain;
@@ -994,8 +994,9 @@ type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);
 struct LossScratch {
     out: [Vec<Rgb>; 2],
     xm: Vec<f64>,
-    /// Cube roots of the model's x, then of the measurement's.
+    /// Cube roots of the model's x.
     tm: Vec<f64>,
+    /// Cube roots of the measurement's x (when not stored), then the log residuals.
     tt: Vec<f64>,
     wb: Vec<f64>,
     gb: Vec<[f64; 4]>,
@@ -1120,11 +1121,17 @@ fn chunk_losses(
             let d = tm[k] - rt[k];
             acc[2][c] += ws[k] * d * d;
         }
+        // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm instead of two, and
+        // accurate when the two are close; the logarithms in one vectorised pass.
+        let lg = &mut sc.tt[..len];
         for k in 0..len {
             let xt = fm[k] * ci[k];
-            // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm instead of two,
-            // and accurate when the two are close.
-            let d = ((xm[k] - xt) / (1.0 + xt)).ln_1p();
+            lg[k] = (xm[k] - xt) / (1.0 + xt);
+        }
+        ln_1p_all(lg);
+        for k in 0..len {
+            let xt = fm[k] * ci[k];
+            let d = lg[k];
             acc[3][c] += ws[k] * d * d;
             if published {
                 // Ngan and Löw E1 on the cosine residual, Löw E2 and Bieron-Peers on
