@@ -44,7 +44,7 @@ const CBRT_FLOOR_CBRT: f64 = 1e-4;
 ///
 /// The standard `f64::cbrt` is a software routine (measured ≈ 30 ns a call here, a
 /// quarter of a normal-equation pass on a MERL table; this one ≈ 6 ns in a loop, and
-/// ≈ 1.5 ns a value in [`cbrt_all`]'s vectorised loop).
+/// a fraction of that in [`cbrt_all`]'s vectorised loop).
 /// It takes the classic bit-level first guess — the exponent divided by three through
 /// the integer representation, with Kahan's bias constant, ≈ 3 % off — and three
 /// Halley steps t ← t (t³ + 2a)/(2t³ + a), which converge cubically (relative error
@@ -84,25 +84,53 @@ fn cbrt_normal(x: f64) -> f64 {
 /// [`cbrt`] of every element in place, the same bits, vectorised.
 ///
 /// The branch of [`cbrt`] becomes a blend: the loop ([`brdfkit_core::lanes`]) keeps
-/// an input outside the fast domain as it is (its root would be garbage), and a scalar
-/// pass then takes `f64::cbrt` of those; the root of an input in the domain is itself
-/// normal and finite, so that pass finds exactly the kept inputs. The u64 division by
-/// 3 of the guess is a multiply-high, which the vector units do.
+/// an input outside the fast domain as it is (its root would be garbage; for ±0 the
+/// input is the root) and counts the others (subnormal, NaN, ∞), which a scalar pass
+/// then gives `f64::cbrt` only when there is one; the root of an input in the domain
+/// is itself normal and finite, so that pass finds exactly the kept inputs. The u64
+/// division by 3 of the guess is a multiply-high, which the vector units do.
 pub fn cbrt_all(x: &mut [f64]) {
-    struct Roots<'a>(&'a mut [f64]);
+    struct Roots<'a>(&'a mut [f64], usize);
     impl Run for Roots<'_> {
         #[inline(always)]
         fn run(&mut self) {
+            let mut odd = 0;
             for v in self.0.iter_mut() {
                 let r = cbrt_normal(*v);
-                *v = if cbrt_fast_domain(*v) { r } else { *v };
+                let fast = cbrt_fast_domain(*v);
+                odd += usize::from(!fast && *v != 0.0);
+                *v = if fast { r } else { *v };
             }
+            self.1 = odd;
         }
     }
-    dispatch(&mut Roots(x));
-    for v in x.iter_mut().filter(|v| !cbrt_fast_domain(**v)) {
-        *v = v.cbrt();
+    let mut roots = Roots(x, 0);
+    dispatch(&mut roots);
+    if roots.1 > 0 {
+        for v in x.iter_mut().filter(|v| !cbrt_fast_domain(**v)) {
+            *v = v.cbrt();
+        }
     }
+}
+
+/// Σₖ wₖ rₖ² as eight interleaved partial sums (cell k into sum k mod 8) added
+/// pairwise at the end: a fixed order, hence the same bits with any vector width and
+/// any thread count, without the serial chain of additions (one add's latency a cell)
+/// of a running sum.
+pub fn weighted_sq_sum(w: &[f64], r: &[f64]) -> f64 {
+    let (w, r) = (&w[..r.len()], r);
+    let (wc, wt) = w.as_chunks::<8>();
+    let (rc, rt) = r.as_chunks::<8>();
+    let mut p = [0.0f64; 8];
+    for (w8, r8) in wc.iter().zip(rc) {
+        for j in 0..8 {
+            p[j] += w8[j] * r8[j] * r8[j];
+        }
+    }
+    for (j, (w, r)) in wt.iter().zip(rt).enumerate() {
+        p[j] += w * r * r;
+    }
+    ((p[0] + p[1]) + (p[2] + p[3])) + ((p[4] + p[5]) + (p[6] + p[7]))
 }
 
 /// ln(1 + x), within 1 ulp of the correctly rounded value, without a library call and
@@ -115,8 +143,8 @@ pub fn cbrt_all(x: &mut [f64]) {
 /// minimax polynomial (|error| < 2⁻⁵⁸·⁴⁵), and k ln 2 in two parts. x close enough to
 /// 0 (√2/2 − 1 ≤ x < √2 − 1) takes k = 0, f = x, c = 0 directly. Each of fdlibm's
 /// branches is a select here: |x| < 2⁻⁵³ gives x, NaN and +∞ give x, −1 gives −∞,
-/// below −1 NaN. The libm `ln_1p` is a scalar call (≈ 20 ns here); this one is
-/// ≈ 2 ns a value in a vectorised loop. Within 2 ulp of `f64::ln_1p` (tested).
+/// below −1 NaN. The libm `ln_1p` is a scalar call in every lane of a loop; this one
+/// vectorises. Within 2 ulp of `f64::ln_1p` (tested).
 #[inline(always)]
 pub fn ln_1p(x: f64) -> f64 {
     const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-01;
@@ -944,6 +972,23 @@ mod tests {
                 .zip(&xs)
                 .all(|(a, &x)| a.to_bits() == ln_1p(x).to_bits() || a.is_nan())
         );
+    }
+
+    /// The interleaved sum is Σ w r² (to round-off, against the running sum), on
+    /// every length around the eight lanes.
+    #[test]
+    fn weighted_sq_sum_is_the_sum() {
+        for n in [0, 1, 7, 8, 9, 17, 1000] {
+            let w: Vec<f64> = (0..n).map(|k| 1.0 + (k % 5) as f64).collect();
+            let r: Vec<f64> = (0..n).map(|k| (k as f64 * 0.37).sin()).collect();
+            let exact: f64 = w.iter().zip(&r).map(|(w, r)| w * r * r).sum();
+            let s = weighted_sq_sum(&w, &r);
+            assert!(
+                (s - exact).abs() <= 1e-13 * exact.abs(),
+                "{n}: {s} vs {exact}"
+            );
+        }
+        assert_eq!(weighted_sq_sum(&[2.0; 9], &[3.0; 9]), 162.0);
     }
 
     #[test]

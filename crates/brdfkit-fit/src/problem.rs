@@ -48,7 +48,9 @@
 use crate::data::{FitData, PASS_CHUNK_CELLS};
 use crate::energy::AlbedoPenalty;
 use crate::error::FitError;
-use crate::loss::{Loss, LossSet, Robust, RobustKind, Weighting, cbrt_all, ln_1p_all};
+use crate::loss::{
+    Loss, LossSet, Robust, RobustKind, Weighting, cbrt_all, ln_1p_all, weighted_sq_sum,
+};
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
 use brdfkit_core::model::Domain;
@@ -996,6 +998,8 @@ struct LossScratch {
     xm: Vec<f64>,
     /// Cube roots of the model's x.
     tm: Vec<f64>,
+    /// One loss's residuals.
+    res: Vec<f64>,
     /// Cube roots of the measurement's x (when not stored), then the log residuals.
     tt: Vec<f64>,
     wb: Vec<f64>,
@@ -1028,6 +1032,7 @@ pub fn evaluate_losses_of(
                 out: [vec![Rgb::ZERO; cap], vec![Rgb::ZERO; cap]],
                 xm: vec![0.0; cap],
                 tm: vec![0.0; cap],
+                res: vec![0.0; cap],
                 tt: vec![0.0; cap],
                 wb: vec![0.0; cap],
                 gb: vec![[0.0; 4]; cap],
@@ -1090,20 +1095,24 @@ fn chunk_losses(
             models[c].eval_batch(&gs, &mut out1[..len]);
             &out1[..len]
         };
-        // One loop per loss over plain slices (so each vectorises), on x = f cos θi
-        // of model (xm) and measurement (xt).
+        // One pass per loss over plain slices (so each vectorises), on x = f cos θi
+        // of model (xm) and measurement (xt), the residuals into `res`, each summed by
+        // `weighted_sq_sum`.
         let fm = &data.values()[c][r.clone()];
         let ws = &sc.wb[..len];
         let ci = &g.wi_z[r.clone()];
         let xm = &mut sc.xm[..len];
+        let res = &mut sc.res[..len];
         for k in 0..len {
             xm[k] = vals[k][c];
-            let d = xm[k] - fm[k];
-            acc[0][c] += ws[k] * d * d;
-            xm[k] *= ci[k];
-            let d = xm[k] - fm[k] * ci[k];
-            acc[1][c] += ws[k] * d * d;
+            res[k] = xm[k] - fm[k];
         }
+        acc[0][c] = weighted_sq_sum(ws, res);
+        for k in 0..len {
+            xm[k] *= ci[k];
+            res[k] = xm[k] - fm[k] * ci[k];
+        }
+        acc[1][c] = weighted_sq_sum(ws, res);
         // The cube roots in vectorised passes (`cbrt_all`, the same bits as `cbrt`).
         let tm = &mut sc.tm[..len];
         tm.copy_from_slice(xm);
@@ -1118,9 +1127,9 @@ fn chunk_losses(
             }
         };
         for k in 0..len {
-            let d = tm[k] - rt[k];
-            acc[2][c] += ws[k] * d * d;
+            res[k] = tm[k] - rt[k];
         }
+        acc[2][c] = weighted_sq_sum(ws, res);
         // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm instead of two, and
         // accurate when the two are close; the logarithms in one vectorised pass.
         let lg = &mut sc.tt[..len];
@@ -1129,14 +1138,12 @@ fn chunk_losses(
             lg[k] = (xm[k] - xt) / (1.0 + xt);
         }
         ln_1p_all(lg);
-        for k in 0..len {
-            let xt = fm[k] * ci[k];
-            let d = lg[k];
-            acc[3][c] += ws[k] * d * d;
-            if published {
+        acc[3][c] = weighted_sq_sum(ws, lg);
+        if published {
+            for k in 0..len {
                 // Ngan and Löw E1 on the cosine residual, Löw E2 and Bieron-Peers on
                 // the log one (`Loss::base`).
-                let e = xm[k] - xt;
+                let (e, d) = (xm[k] - fm[k] * ci[k], lg[k]);
                 let [g0, g1, g2, g3] = sc.gb[k];
                 pacc[0][c] += g0 * e * e;
                 pacc[1][c] += g1 * e * e;
