@@ -64,7 +64,7 @@ pub fn cbrt(x: f64) -> f64 {
 #[inline(always)]
 fn cbrt_fast_domain(x: f64) -> bool {
     let a = x.abs();
-    a >= f64::MIN_POSITIVE && a < f64::INFINITY
+    (f64::MIN_POSITIVE..f64::INFINITY).contains(&a)
 }
 
 /// [`cbrt`]'s guess and Halley steps, without the branch (garbage outside
@@ -147,16 +147,17 @@ pub fn weighted_sq_sum(w: &[f64], r: &[f64]) -> f64 {
 /// vectorises. Within 2 ulp of `f64::ln_1p` (tested).
 #[inline(always)]
 pub fn ln_1p(x: f64) -> f64 {
-    const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-01;
-    const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+    // fdlibm's constants, by their bits: ln 2 in two parts, and Lg1 … Lg7.
+    const LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000);
+    const LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76);
     const LG: [f64; 7] = [
-        6.666_666_666_666_735_130e-01,
-        3.999_999_999_940_941_908e-01,
-        2.857_142_874_366_239_149e-01,
-        2.222_219_843_214_978_396e-01,
-        1.818_357_216_161_805_012e-01,
-        1.531_383_769_920_937_332e-01,
-        1.479_819_860_511_658_591e-01,
+        f64::from_bits(0x3fe5_5555_5555_5593),
+        f64::from_bits(0x3fd9_9999_9997_fa04),
+        f64::from_bits(0x3fd2_4924_9422_9359),
+        f64::from_bits(0x3fcc_71c5_1d8e_78af),
+        f64::from_bits(0x3fc7_4664_96cb_03de),
+        f64::from_bits(0x3fc3_9a09_d078_c69f),
+        f64::from_bits(0x3fc2_f112_df3e_5244),
     ];
     let hx = (x.to_bits() >> 32) as u32;
     // 1 + x near 1: no reduction (fdlibm's k = 0 case).
@@ -415,17 +416,13 @@ impl Loss {
         match self.base() {
             Loss::L2 => d.fill(1.0),
             Loss::Cosine => {
-                for k in 0..n {
-                    t[k] *= cos_i[k];
-                    d[k] = cos_i[k];
-                }
+                mul_assign(t, cos_i);
+                d.copy_from_slice(cos_i);
             }
             Loss::Cbrt => {
                 // x = f c kept in d for the floor's test, then replaced by the slope.
-                for k in 0..n {
-                    t[k] *= cos_i[k];
-                    d[k] = t[k];
-                }
+                mul_assign(t, cos_i);
+                d.copy_from_slice(t);
                 cbrt_all(t);
                 for k in 0..n {
                     let tf = if d[k].abs() >= CBRT_FLOOR {
