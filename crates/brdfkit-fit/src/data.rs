@@ -589,8 +589,9 @@ impl FitData {
     /// The stratum of cell `m`: its bin on the [`STRATA`] × [`STRATA`] grid over
     /// (√(θh/(π/2)), θd/(π/2)), as `a · STRATA + b`.
     ///
-    /// The bins are those of θh = acos h.z and θd = acos cos θd (see [`StrataEdges`]),
-    /// found by comparing the cosines with the bins' edges: no `acos` a cell.
+    /// The bins are those of θh = acos h.z and θd = acos cos θd, found by comparing the
+    /// cosines with the bins' edge cosines (computed once, by bisection on that
+    /// formula): no `acos` a cell, and the formula's bin for every cosine.
     #[inline]
     pub fn stratum_at(&self, m: usize) -> usize {
         let e = StrataEdges::get();
