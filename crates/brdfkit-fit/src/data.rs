@@ -1,7 +1,7 @@
 //! [`FitData`]: the cells a fit sees, precomputed once as a structure of arrays.
 
 use crate::error::FitError;
-use brdfkit_core::geometry::{pair_columns, split_runs};
+use brdfkit_core::geometry::split_runs;
 use brdfkit_core::{GeometryBatch, Model, Rgb};
 use brdfkit_merl::{CellBatch, CellDirections, Dims, MerlTable, cell_weight};
 use rand::SeedableRng;
@@ -325,20 +325,27 @@ impl FitData {
         let runs = split_runs(self.geometry.columns_mut(), counts);
         // cell_directions' values from per-axis sines and cosines (no trig per cell).
         let cells = CellDirections::new(dims);
-        // Row by row (θd) rather than unflattening each flat index: two integer
-        // divisions a cell were a visible part of this pass.
+        // Row by row (θd): every cell of the row in one vectorised pass
+        // (`CellDirections::row_columns`, the same bits as cell by cell), then the
+        // valid ones copied out.
         let np = dims.phi_d();
         runs.into_par_iter().enumerate().for_each(|(i, mut c)| {
+            let mut row: [Vec<f64>; 10] = std::array::from_fn(|_| vec![0.0; np]);
             let mut m = 0;
             for j in 0..dims.theta_d() {
-                let row = &mask[i * slab + j * np..i * slab + (j + 1) * np];
-                for k in (0..np).filter(|&k| row[k]) {
-                    let (wi, wo) = cells.get(i, j, k);
-                    for (col, v) in c.iter_mut().zip(pair_columns(&wi, &wo)) {
-                        col[m] = v;
-                    }
-                    m += 1;
+                let valid = &mask[i * slab + j * np..i * slab + (j + 1) * np];
+                if !valid.contains(&true) {
+                    continue;
                 }
+                cells.row_columns(i, j, row.each_mut().map(|v| &mut v[..]));
+                for (col, r) in c.iter_mut().zip(&row) {
+                    let mut at = m;
+                    for (x, _) in r.iter().zip(valid).filter(|(_, v)| **v) {
+                        col[at] = *x;
+                        at += 1;
+                    }
+                }
+                m += valid.iter().filter(|v| **v).count();
             }
             debug_assert_eq!(m, c[0].len());
         });
