@@ -338,14 +338,17 @@ impl FitData {
                     continue;
                 }
                 cells.row_columns(i, j, row.each_mut().map(|v| &mut v[..]));
-                for (col, r) in c.iter_mut().zip(&row) {
-                    let mut at = m;
-                    for (x, _) in r.iter().zip(valid).filter(|(_, v)| **v) {
-                        col[at] = *x;
-                        at += 1;
+                // The valid cells of a row come in a few runs: copied run by run.
+                let mut k = 0;
+                while k < np {
+                    let start = k + valid[k..].iter().take_while(|v| !**v).count();
+                    let end = start + valid[start..].iter().take_while(|v| **v).count();
+                    for (col, r) in c.iter_mut().zip(&row) {
+                        col[m..m + end - start].copy_from_slice(&r[start..end]);
                     }
+                    m += end - start;
+                    k = end;
                 }
-                m += valid.iter().filter(|v| **v).count();
             }
             debug_assert_eq!(m, c[0].len());
         });
