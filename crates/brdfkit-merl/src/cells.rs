@@ -129,13 +129,16 @@ mod tests {
                         unreachable!()
                     };
                     fast.row_columns(i, j, [c0, c1, c2, c3, c4, c5, c6, c7, c8, c9]);
-                    for k in 0..np {
-                        let (wi, wo) = fast.get(i, j, k);
-                        let want = brdfkit_core::geometry::pair_columns(&wi, &wo);
-                        for (m, w) in want.iter().enumerate() {
-                            assert_eq!(cols[m][k].to_bits(), w.to_bits(), "{i} {j} {k} col {m}");
-                        }
-                    }
+                    let want: Vec<[u64; 10]> = (0..np)
+                        .map(|k| {
+                            let (wi, wo) = fast.get(i, j, k);
+                            brdfkit_core::geometry::pair_columns(&wi, &wo).map(f64::to_bits)
+                        })
+                        .collect();
+                    let got: Vec<[u64; 10]> = (0..np)
+                        .map(|k| std::array::from_fn(|m| cols[m][k].to_bits()))
+                        .collect();
+                    assert_eq!(got, want, "row {i} {j}");
                 }
             }
         }
