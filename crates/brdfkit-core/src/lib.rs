@@ -29,6 +29,7 @@ pub mod brdf;
 pub mod choice;
 pub mod direction;
 pub mod geometry;
+pub mod lanes;
 pub mod model;
 pub mod par;
 pub mod progress;

@@ -1,7 +1,7 @@
 //! [`FitData`]: the cells a fit sees, precomputed once as a structure of arrays.
 
 use crate::error::FitError;
-use brdfkit_core::geometry::{pair_columns, split_runs};
+use brdfkit_core::geometry::split_runs;
 use brdfkit_core::{GeometryBatch, Model, Rgb};
 use brdfkit_merl::{CellBatch, CellDirections, Dims, MerlTable, cell_weight};
 use rand::SeedableRng;
@@ -91,6 +91,68 @@ impl std::fmt::Debug for SubsetCache {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let n = self.0.lock().map_or(0, |v| v.len());
         write!(f, "SubsetCache({n} subsamples)")
+    }
+}
+
+/// The strata's edges as cosines, so that a cell's bin needs no `acos`.
+///
+/// The bin of a cosine z is a = ⌊√(θ/(π/2)) · [`STRATA`]⌋ along θh and
+/// b = ⌊θ/(π/2) · [`STRATA`]⌋ along θd, with θ = acos z clamped ([`acos_clamped`]; a
+/// NaN θ counts as 0, θ > π/2 falls in the last bin). Both are non-increasing in z,
+/// so bin ≥ e exactly when z ≤ the largest z of bin ≥ e; that cosine is found once,
+/// by bisection over the ordered f64 values of [−1, 1] on the formula itself, so the
+/// edge test gives the formula's bin for every z, bit for bit (`tests` compares them
+/// on a whole table and beside every edge).
+struct StrataEdges {
+    /// `h[e − 1]`: the largest cos θh whose θh bin is ≥ e, for e = 1 … STRATA − 1.
+    h: [f64; STRATA - 1],
+    d: [f64; STRATA - 1],
+}
+
+impl StrataEdges {
+    fn get() -> &'static StrataEdges {
+        static EDGES: OnceLock<StrataEdges> = OnceLock::new();
+        EDGES.get_or_init(|| StrataEdges {
+            h: std::array::from_fn(|e| Self::edge(e + 1, Self::h_bin)),
+            d: std::array::from_fn(|e| Self::edge(e + 1, Self::d_bin)),
+        })
+    }
+
+    /// The θh bin of cos θh = z by the formula (not capped at STRATA − 1).
+    fn h_bin(z: f64) -> usize {
+        ((acos_clamped(z).max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize
+    }
+
+    /// The θd bin of cos θd = z by the formula (not capped).
+    fn d_bin(z: f64) -> usize {
+        ((acos_clamped(z).max(0.0) / FRAC_PI_2) * STRATA as f64) as usize
+    }
+
+    /// The largest z in [−1, 1] with `bin(z) ≥ e` (the bin is ≥ e at −1 and 0 at 1).
+    fn edge(e: usize, bin: fn(f64) -> usize) -> f64 {
+        // f64 → i64 keeping the order (`f64::total_cmp`'s key; its own inverse).
+        let key = |x: f64| {
+            let b = x.to_bits() as i64;
+            b ^ ((((b >> 63) as u64) >> 1) as i64)
+        };
+        let val = |k: i64| f64::from_bits((k ^ ((((k >> 63) as u64) >> 1) as i64)) as u64);
+        let (mut lo, mut hi) = (key(-1.0), key(1.0));
+        debug_assert!(bin(val(lo)) >= e && bin(val(hi)) < e);
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if bin(val(mid)) >= e {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        val(lo)
+    }
+
+    /// The bin of z: how many edges z is at or below (NaN: none, bin 0).
+    #[inline]
+    fn bin(edges: &[f64; STRATA - 1], z: f64) -> usize {
+        edges.iter().map(|&t| usize::from(z <= t)).sum()
     }
 }
 
@@ -263,19 +325,29 @@ impl FitData {
         let runs = split_runs(self.geometry.columns_mut(), counts);
         // cell_directions' values from per-axis sines and cosines (no trig per cell).
         let cells = CellDirections::new(dims);
-        // Row by row (θd) rather than unflattening each flat index: two integer
-        // divisions a cell were a visible part of this pass.
+        // Row by row (θd): every cell of the row in one vectorised pass
+        // (`CellDirections::row_columns`, the same bits as cell by cell), then the
+        // valid ones copied out.
         let np = dims.phi_d();
         runs.into_par_iter().enumerate().for_each(|(i, mut c)| {
+            let mut row: [Vec<f64>; 10] = std::array::from_fn(|_| vec![0.0; np]);
             let mut m = 0;
             for j in 0..dims.theta_d() {
-                let row = &mask[i * slab + j * np..i * slab + (j + 1) * np];
-                for k in (0..np).filter(|&k| row[k]) {
-                    let (wi, wo) = cells.get(i, j, k);
-                    for (col, v) in c.iter_mut().zip(pair_columns(&wi, &wo)) {
-                        col[m] = v;
+                let valid = &mask[i * slab + j * np..i * slab + (j + 1) * np];
+                if !valid.contains(&true) {
+                    continue;
+                }
+                cells.row_columns(i, j, row.each_mut().map(|v| &mut v[..]));
+                // The valid cells of a row come in a few runs: copied run by run.
+                let mut k = 0;
+                while k < np {
+                    let start = k + valid[k..].iter().take_while(|v| !**v).count();
+                    let end = start + valid[start..].iter().take_while(|v| **v).count();
+                    for (col, r) in c.iter_mut().zip(&row) {
+                        col[m..m + end - start].copy_from_slice(&r[start..end]);
                     }
-                    m += 1;
+                    m += end - start;
+                    k = end;
                 }
             }
             debug_assert_eq!(m, c[0].len());
@@ -382,11 +454,11 @@ impl FitData {
         self.cbrt_targets.get_or_init(|| {
             let ci = &self.geometry.wi_z;
             [0, 1, 2].map(|c| {
-                self.values[c]
-                    .par_iter()
-                    .zip(ci.par_iter())
-                    .map(|(f, c)| crate::loss::cbrt(f * c))
-                    .collect()
+                let mut t = self.values[c].clone();
+                t.par_chunks_mut(PASS_CHUNK_CELLS)
+                    .zip(ci.par_chunks(PASS_CHUNK_CELLS))
+                    .for_each(|(t, ci)| crate::Loss::Cbrt.transform_all(ci, t));
+                t
             })
         })
     }
@@ -395,12 +467,6 @@ impl FitData {
     /// (a single fit does not: it would keep 24 bytes a cell for one report).
     pub fn cbrt_targets_if_built(&self) -> Option<&[Vec<f64>; 3]> {
         self.cbrt_targets.get()
-    }
-
-    /// θh of cell m (the value [`theta_h`](Self::theta_h) holds, without the array).
-    #[inline]
-    fn theta_h_at(&self, m: usize) -> f64 {
-        acos_clamped(self.geometry.h_z[m])
     }
 
     /// θd of cell m.
@@ -532,11 +598,16 @@ impl FitData {
 
     /// The stratum of cell `m`: its bin on the [`STRATA`] × [`STRATA`] grid over
     /// (√(θh/(π/2)), θd/(π/2)), as `a · STRATA + b`.
+    ///
+    /// The bins are those of θh = acos h.z and θd = acos cos θd, found by comparing the
+    /// cosines with the bins' edge cosines (computed once, by bisection on that
+    /// formula): no `acos` a cell, and the formula's bin for every cosine.
+    #[inline]
     pub fn stratum_at(&self, m: usize) -> usize {
-        // θ > π/2 (below-horizon geometry) and round-off clamp into the last bin.
-        let a = ((self.theta_h_at(m).max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
-        let b = ((self.theta_d_at(m).max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
-        a.min(STRATA - 1) * STRATA + b.min(STRATA - 1)
+        let e = StrataEdges::get();
+        let a = StrataEdges::bin(&e.h, self.geometry.h_z[m]);
+        let b = StrataEdges::bin(&e.d, self.geometry.cos_d[m]);
+        a * STRATA + b
     }
 
     /// [`stratified_subsample`](Self::stratified_subsample), drawn on the first call

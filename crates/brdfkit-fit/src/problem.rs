@@ -48,7 +48,9 @@
 use crate::data::{FitData, PASS_CHUNK_CELLS};
 use crate::energy::AlbedoPenalty;
 use crate::error::FitError;
-use crate::loss::{Loss, LossSet, Robust, RobustKind, Weighting};
+use crate::loss::{
+    Loss, LossSet, Robust, RobustKind, Weighting, cbrt_all, ln_1p_all, weighted_sq_sum,
+};
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
 use brdfkit_core::model::Domain;
@@ -266,10 +268,8 @@ fn fill_scale_plain(
 fn fill_target(data: &FitData, loss: Loss, c: usize, start: usize, out: &mut [f64]) {
     let range = start..start + out.len();
     let f = &data.values()[c][range.clone()];
-    let ci = &data.geometry().wi_z[range];
-    for k in 0..out.len() {
-        out[k] = loss.transform(f[k], ci[k]);
-    }
+    out.copy_from_slice(f);
+    loss.transform_all(&data.geometry().wi_z[range], out);
 }
 
 struct Scratch {
@@ -651,9 +651,10 @@ impl<'a> FitProblem<'a> {
                         vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
                         vec![0.0; PASS_CHUNK_CELLS.min(n)],
                         vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
                     )
                 },
-                |(out, sbuf, tbuf), ci| {
+                |(out, sbuf, tbuf, xbuf), ci| {
                     let mut acc = 0.0;
                     let s = ci * PASS_CHUNK_CELLS;
                     let e = (s + PASS_CHUNK_CELLS).min(n);
@@ -663,18 +664,22 @@ impl<'a> FitProblem<'a> {
                     let sc = inn.scale_of(s, &mut sbuf[..len]);
                     for &c in &inn.channels {
                         let tg = inn.target_of(c, s, &mut tbuf[..len]);
+                        let t = &mut xbuf[..len];
+                        for (x, o) in t.iter_mut().zip(&out[..len]) {
+                            *x = o[c];
+                        }
+                        inn.loss.transform_all(cos_i, t);
                         let mut part = 0.0;
                         match robust {
                             None => {
                                 for k in 0..len {
-                                    let r =
-                                        sc[k] * (inn.loss.transform(out[k][c], cos_i[k]) - tg[k]);
+                                    let r = sc[k] * (t[k] - tg[k]);
                                     part += r * r;
                                 }
                             }
                             Some(rb) => {
                                 for k in 0..len {
-                                    let e = inn.loss.transform(out[k][c], cos_i[k]) - tg[k];
+                                    let e = t[k] - tg[k];
                                     part += sc[k] * sc[k] * rb.rho(e * e).0;
                                 }
                             }
@@ -750,12 +755,17 @@ impl<'a> FitProblem<'a> {
                     let scale = inn.scale_of(s, &mut sc.s[..len]);
                     for &c in &inn.channels {
                         let tg = inn.target_of(c, s, &mut sc.t[..len]);
+                        // t and ∂t/∂f of every cell, into r and d.
+                        for (x, o) in sc.r[..len].iter_mut().zip(&sc.out[..len]) {
+                            *x = o[c];
+                        }
+                        inn.loss
+                            .transform_deriv_all(cos_i, &mut sc.r[..len], &mut sc.d[..len]);
                         match robust {
                             None => {
                                 for k in 0..len {
-                                    let (t, dt) = inn.loss.transform_deriv(sc.out[k][c], cos_i[k]);
-                                    sc.r[k] = scale[k] * (t - tg[k]);
-                                    sc.d[k] = scale[k] * dt;
+                                    sc.r[k] = scale[k] * (sc.r[k] - tg[k]);
+                                    sc.d[k] *= scale[k];
                                 }
                             }
                             Some(rb) => {
@@ -763,7 +773,7 @@ impl<'a> FitProblem<'a> {
                                 // Jacobian row; the cost takes ρ itself.
                                 let mut part = 0.0;
                                 for k in 0..len {
-                                    let (t, dt) = inn.loss.transform_deriv(sc.out[k][c], cos_i[k]);
+                                    let (t, dt) = (sc.r[k], sc.d[k]);
                                     let e = t - tg[k];
                                     let (rho, w) = rb.rho(e * e);
                                     let sw = scale[k] * w.sqrt();
@@ -986,6 +996,12 @@ type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);
 struct LossScratch {
     out: [Vec<Rgb>; 2],
     xm: Vec<f64>,
+    /// Cube roots of the model's x.
+    tm: Vec<f64>,
+    /// One loss's residuals.
+    res: Vec<f64>,
+    /// Cube roots of the measurement's x (when not stored), then the log residuals.
+    tt: Vec<f64>,
     wb: Vec<f64>,
     gb: Vec<[f64; 4]>,
 }
@@ -1015,6 +1031,9 @@ pub fn evaluate_losses_of(
             || LossScratch {
                 out: [vec![Rgb::ZERO; cap], vec![Rgb::ZERO; cap]],
                 xm: vec![0.0; cap],
+                tm: vec![0.0; cap],
+                res: vec![0.0; cap],
+                tt: vec![0.0; cap],
                 wb: vec![0.0; cap],
                 gb: vec![[0.0; 4]; cap],
             },
@@ -1076,45 +1095,55 @@ fn chunk_losses(
             models[c].eval_batch(&gs, &mut out1[..len]);
             &out1[..len]
         };
-        // One loop per loss over plain slices (so each vectorises), on x = f cos θi
-        // of model (xm) and measurement (xt).
+        // One pass per loss over plain slices (so each vectorises), on x = f cos θi
+        // of model (xm) and measurement (xt), the residuals into `res`, each summed by
+        // `weighted_sq_sum`.
         let fm = &data.values()[c][r.clone()];
         let ws = &sc.wb[..len];
         let ci = &g.wi_z[r.clone()];
         let xm = &mut sc.xm[..len];
+        let res = &mut sc.res[..len];
         for k in 0..len {
             xm[k] = vals[k][c];
-            let d = xm[k] - fm[k];
-            acc[0][c] += ws[k] * d * d;
+            res[k] = xm[k] - fm[k];
+        }
+        acc[0][c] = weighted_sq_sum(ws, res);
+        for k in 0..len {
             xm[k] *= ci[k];
-            let d = xm[k] - fm[k] * ci[k];
-            acc[1][c] += ws[k] * d * d;
+            res[k] = xm[k] - fm[k] * ci[k];
         }
-        match roots {
-            Some(roots) => {
-                let rt = &roots[c][r.clone()];
-                for k in 0..len {
-                    let d = crate::loss::cbrt(xm[k]) - rt[k];
-                    acc[2][c] += ws[k] * d * d;
-                }
-            }
+        acc[1][c] = weighted_sq_sum(ws, res);
+        // The cube roots in vectorised passes (`cbrt_all`, the same bits as `cbrt`).
+        let tm = &mut sc.tm[..len];
+        tm.copy_from_slice(xm);
+        cbrt_all(tm);
+        let rt: &[f64] = match roots {
+            Some(roots) => &roots[c][r.clone()],
             None => {
-                for k in 0..len {
-                    let d = crate::loss::cbrt(xm[k]) - crate::loss::cbrt(fm[k] * ci[k]);
-                    acc[2][c] += ws[k] * d * d;
-                }
+                let tt = &mut sc.tt[..len];
+                tt.copy_from_slice(fm);
+                crate::Loss::Cbrt.transform_all(ci, tt);
+                tt
             }
+        };
+        for k in 0..len {
+            res[k] = tm[k] - rt[k];
         }
+        acc[2][c] = weighted_sq_sum(ws, res);
+        // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm instead of two, and
+        // accurate when the two are close; the logarithms in one vectorised pass.
+        let lg = &mut sc.tt[..len];
         for k in 0..len {
             let xt = fm[k] * ci[k];
-            // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm instead of two,
-            // and accurate when the two are close.
-            let d = ((xm[k] - xt) / (1.0 + xt)).ln_1p();
-            acc[3][c] += ws[k] * d * d;
-            if published {
+            lg[k] = (xm[k] - xt) / (1.0 + xt);
+        }
+        ln_1p_all(lg);
+        acc[3][c] = weighted_sq_sum(ws, lg);
+        if published {
+            for k in 0..len {
                 // Ngan and Löw E1 on the cosine residual, Löw E2 and Bieron-Peers on
                 // the log one (`Loss::base`).
-                let e = xm[k] - xt;
+                let (e, d) = (xm[k] - fm[k] * ci[k], lg[k]);
                 let [g0, g1, g2, g3] = sc.gb[k];
                 pacc[0][c] += g0 * e * e;
                 pacc[1][c] += g1 * e * e;

@@ -174,3 +174,68 @@ fn stratified_subsample_draws_the_reference_cells() {
     let mv = s.with_model_values(m.as_ref());
     assert!((0..s.len()).all(|k| mv.values()[0][k] == out[k][0]));
 }
+
+/// The stratum by the formula, through `acos` (what `stratum_at` computed per cell
+/// before it compared cosines with the bins' edges).
+fn stratum_by_acos(h_z: f64, cos_d: f64) -> usize {
+    let (th, td) = (h_z.clamp(-1.0, 1.0).acos(), cos_d.clamp(-1.0, 1.0).acos());
+    let a = ((th.max(0.0) / FRAC_PI_2).sqrt() * STRATA as f64) as usize;
+    let b = ((td.max(0.0) / FRAC_PI_2) * STRATA as f64) as usize;
+    a.min(STRATA - 1) * STRATA + b.min(STRATA - 1)
+}
+
+/// The strata from the edges' cosines are the formula's bins on every cell of a full
+/// MERL grid (90 × 90 × 180, the measured tables' cells), beside every edge (the
+/// cosines one ulp either side of each θ bin edge's), and outside [−1, 1] and NaN.
+#[test]
+fn strata_from_edges_are_the_formula_s_bins() {
+    let lambert = model(r#"{"model":"lambert","params":{"rho_d":[0.5,0.5,0.5]}}"#);
+    let t = MerlTable::from_brdf(lambert.as_ref(), dims(90, 90, 180)).unwrap();
+    let data = FitData::from_table(&t).unwrap();
+    let g = data.geometry();
+    for m in 0..data.len() {
+        assert_eq!(
+            data.stratum_at(m),
+            stratum_by_acos(g.h_z[m], g.cos_d[m]),
+            "cell {m}"
+        );
+    }
+    // Cells at and beside each edge: cosines of the θ edges, stepped by ulps.
+    let mut zs = vec![-1.5, -1.0, 1.0, 1.5, f64::NAN, 0.0, -0.0];
+    for e in 1..STRATA {
+        let f = e as f64 / STRATA as f64;
+        for theta in [f * f * FRAC_PI_2, f * FRAC_PI_2] {
+            let mut z = theta.cos();
+            for _ in 0..4 {
+                z = z.next_down();
+            }
+            for _ in 0..9 {
+                zs.push(z);
+                z = z.next_up();
+            }
+        }
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    zs.extend((0..5_000).map(|_| rand::Rng::random_range(&mut rng, -1.0..=1.0)));
+    let n = zs.len();
+    let mut gb = GeometryBatch::zeroed(n * n.min(64));
+    let mut cells = Vec::new();
+    for (p, &hz) in zs.iter().enumerate() {
+        for q in 0..n.min(64) {
+            let dz = zs[(p * 31 + q * 17) % n];
+            cells.push((hz, dz));
+        }
+    }
+    gb.h_z = cells.iter().map(|c| c.0).collect();
+    gb.cos_d = cells.iter().map(|c| c.1).collect();
+    let len = cells.len();
+    let ones = vec![1.0; len];
+    let d = FitData::from_parts(gb, [ones.clone(), ones.clone(), ones.clone()], ones).unwrap();
+    for (m, &(hz, dz)) in cells.iter().enumerate() {
+        assert_eq!(
+            d.stratum_at(m),
+            stratum_by_acos(hz, dz),
+            "h_z {hz:e}, cos_d {dz:e}"
+        );
+    }
+}

@@ -10,6 +10,8 @@
 
 use crate::grid::{Dims, phi_d_angle, theta_d_angle, theta_h_angle};
 use brdfkit_core::Vec3;
+use brdfkit_core::geometry::pair_columns_of;
+use brdfkit_core::lanes::{Run, dispatch};
 
 /// (cos, sin) of an angle.
 type CosSin = [f64; 2];
@@ -58,6 +60,7 @@ impl CellDirections {
 
     /// (wi, wo) of cell (i, j, k): [`cell_directions`](crate::cell_directions)'s, bit
     /// for bit. Panics when the cell is out of range.
+    #[inline(always)]
     pub fn get(&self, i: usize, j: usize, k: usize) -> (Vec3, Vec3) {
         let [ch, sh] = self.theta_h[i];
         let [cd, sd] = self.theta_d[j];
@@ -71,12 +74,75 @@ impl CellDirections {
         let wo = 2.0 * wi.dot(&h) * h - wi;
         (wi, wo)
     }
+
+    /// The ten geometry columns ([`pair_columns_of`]: wi, wo, h, cos θd) of every cell
+    /// (i, j, k) of row (i, j), into `cols[c][k]` (each column at least φd-count long):
+    /// [`get`](Self::get) and the columns cell by cell, the same bits, in one loop
+    /// compiled for the widest vector instructions the processor has
+    /// ([`brdfkit_core::lanes`]; every operation is branch-free IEEE arithmetic).
+    pub fn row_columns(&self, i: usize, j: usize, cols: [&mut [f64]; 10]) {
+        struct Row<'a> {
+            cells: &'a CellDirections,
+            i: usize,
+            j: usize,
+            cols: [&'a mut [f64]; 10],
+        }
+        impl Run for Row<'_> {
+            #[inline(always)]
+            fn run(&mut self) {
+                let n = self.cells.phi_d.len();
+                let mut cols = self.cols.each_mut().map(|c| &mut c[..n]);
+                for k in 0..n {
+                    let (wi, wo) = self.cells.get(self.i, self.j, k);
+                    let v = pair_columns_of([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]);
+                    for (c, x) in cols.iter_mut().zip(v) {
+                        c[k] = x;
+                    }
+                }
+            }
+        }
+        dispatch(&mut Row {
+            cells: self,
+            i,
+            j,
+            cols,
+        });
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::cell_directions;
+
+    /// A row's columns are `get`'s directions and `pair_columns`' numbers, bit for bit.
+    #[test]
+    fn row_columns_are_the_cells_columns() {
+        for (a, b, c) in [(90, 90, 180), (13, 17, 11), (1, 1, 1)] {
+            let dims = Dims::new(a, b, c).unwrap();
+            let fast = CellDirections::new(dims);
+            let np = dims.phi_d();
+            let mut cols = vec![vec![0.0; np + 3]; 10];
+            for i in 0..dims.theta_h() {
+                for j in 0..dims.theta_d() {
+                    let [c0, c1, c2, c3, c4, c5, c6, c7, c8, c9] = &mut cols[..] else {
+                        unreachable!()
+                    };
+                    fast.row_columns(i, j, [c0, c1, c2, c3, c4, c5, c6, c7, c8, c9]);
+                    let want: Vec<[u64; 10]> = (0..np)
+                        .map(|k| {
+                            let (wi, wo) = fast.get(i, j, k);
+                            brdfkit_core::geometry::pair_columns(&wi, &wo).map(f64::to_bits)
+                        })
+                        .collect();
+                    let got: Vec<[u64; 10]> = (0..np)
+                        .map(|k| std::array::from_fn(|m| cols[m][k].to_bits()))
+                        .collect();
+                    assert_eq!(got, want, "row {i} {j}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn same_bits_as_cell_directions_on_every_cell() {

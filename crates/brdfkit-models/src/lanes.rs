@@ -3,10 +3,11 @@
 //!
 //! A model's fast kernel is a `#[inline(always)]` function of one pair written against
 //! [`Real`] (no branches: a condition becomes a [`select`], so the loop that calls it
-//! vectorises), and a loop over slices implementing [`Run`]. [`dispatch`] runs that loop
-//! in a copy compiled for AVX-512 or AVX2 + FMA when the processor has them, chosen at
-//! run time (`is_x86_feature_detected!`): the crate itself is compiled for baseline
-//! x86-64 (SSE2: 2 `f64` or 4 `f32` lanes). Rust never contracts `a * b + c` into a fused
+//! vectorises), and a loop over slices implementing [`Run`]. [`dispatch`]
+//! ([`brdfkit_core::lanes`], shared with the fitter's loss kernels) runs that loop in a
+//! copy compiled for AVX-512 or AVX2 + FMA when the processor has them, chosen at run
+//! time (`is_x86_feature_detected!`): the crate itself is compiled for baseline x86-64
+//! (SSE2: 2 `f64` or 4 `f32` lanes). Rust never contracts `a * b + c` into a fused
 //! multiply-add, so every copy computes the same bits as the baseline loop and as the
 //! scalar call of the same kernel (tested), which is what keeps a model's `eval` and its
 //! batch paths identical.
@@ -74,44 +75,7 @@ pub(crate) fn clamp01<T: Real>(x: T) -> T {
     if lo < T::ONE { lo } else { T::ONE }
 }
 
-/// A loop over slices, run by [`dispatch`].
-pub(crate) trait Run {
-    /// The loop. Implementations mark it `#[inline(always)]`, so each copy made by
-    /// [`dispatch`] is compiled with that copy's instruction set.
-    fn run(&mut self);
-}
-
-/// Runs `r` with AVX-512 (F + VL), else AVX2 + FMA, else the baseline instructions.
-#[inline]
-pub(crate) fn dispatch<R: Run>(r: &mut R) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx512vl")
-        {
-            // SAFETY: the instruction sets the copy is compiled for are present.
-            return unsafe { run_avx512(r) };
-        }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: as above.
-            return unsafe { run_avx2(r) };
-        }
-    }
-    r.run()
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-fn run_avx512<R: Run>(r: &mut R) {
-    r.run()
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn run_avx2<R: Run>(r: &mut R) {
-    r.run()
-}
+pub(crate) use brdfkit_core::lanes::{Run, dispatch};
 
 #[cfg(test)]
 mod tests {
