@@ -34,6 +34,7 @@ pub mod interactive;
 mod page;
 pub mod renders;
 pub mod scattered;
+mod scattered_data;
 mod scattered_page;
 mod style;
 

@@ -6,7 +6,7 @@
 use super::ReportError;
 use super::charts::{CHANNELS, err, framed, log_range, mesh, model_colour, svg};
 use super::page::{png_uri, summary_table, swatch, verdict_class};
-use super::scattered::{BAND_DEG, Band, ScatteredData};
+use super::scattered_data::{BAND_DEG, Band, ScatteredData};
 use super::style::PAGE_CSS;
 use brdfkit_core::Rgb;
 use maud::{DOCTYPE, Markup, PreEscaped, html};
