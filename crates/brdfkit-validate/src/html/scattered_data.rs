@@ -24,7 +24,7 @@ pub struct Band {
     pub samples: usize,
     /// Weighted mean over the band's samples and channels of log10(f_model /
     /// f_measured) (channels where the measurement is 0 left out; a model value of 0
-    /// counts as [`LOG_RATIO_FLOOR`]); `None` for an empty band.
+    /// counts as [`LOG_RATIO_FLOOR`](super::analysis::LOG_RATIO_FLOOR)); `None` for an empty band.
     pub mean_log10_ratio: Option<f64>,
 }
 
