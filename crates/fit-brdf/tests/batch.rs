@@ -564,8 +564,11 @@ fn a_bsdf_goes_into_a_batch_beside_tables() {
         let results = v["results"].as_array().unwrap();
         assert_eq!(results.len(), 2, "{v}");
         let felt_row = results.iter().find(|r| r["table"] == "felt.bsdf").unwrap();
-        // The second run refits the .bsdf: its option changed.
+        // The second run refits the .bsdf (its option changed), and only the .bsdf.
         assert_eq!(felt_row["status"], "fitted", "{how}: {v}");
+        let other = results.iter().find(|r| r["table"] != "felt.bsdf").unwrap();
+        let want = if how == "points" { "fitted" } else { "resumed" };
+        assert_eq!(other["status"], want, "{how}: {v}");
         let fit = fit_brdf!(
             "fit",
             &felt,

@@ -242,7 +242,8 @@ pub struct BatchOutcome {
     pub summary_csv: PathBuf,
     /// The shard, if any.
     pub shard: Option<Shard>,
-    /// The hash of the options (see [`options_value`]).
+    /// The hash of the options (see [`options_value`]); a `.bsdf` file's JSON adds
+    /// `bsdf_input` to them, and has its own.
     pub options_hash: String,
     /// Tables the inputs matched, before sharding.
     pub tables_matched: usize,
@@ -313,19 +314,18 @@ impl BatchJob {
         }
     }
 
-    /// The options of the per-table JSON and their hash: [`options_value`], and
-    /// `bsdf_input` when a table of the job is a `.bsdf` file (so that a change of it
-    /// refits them, and a batch of MERL tables keeps the hash it always had).
-    fn options(&self) -> Result<Value, BatchError> {
-        let mut options = options_value(&self.families, &self.config)?;
-        let is_rgl = |t: &Table| {
-            t.source == Source::Binary
-                && InputKind::of_file(&t.path).is_ok_and(|k| k == InputKind::Rgl)
-        };
-        if self.tables.iter().any(is_rgl) {
+    /// The options of one table's JSON and their hash: the job's [`options_value`]
+    /// (`base`), and `bsdf_input` for a `.bsdf` file, so that a change of it refits the
+    /// `.bsdf` files and not the tables beside them (whose hash stays what it always was).
+    fn options_of(&self, base: &Value, t: &Table) -> (Value, String) {
+        let mut options = base.clone();
+        if t.source == Source::Binary
+            && InputKind::of_file(&t.path).is_ok_and(|k| k == InputKind::Rgl)
+        {
             options["bsdf_input"] = json!(self.bsdf_input.name());
         }
-        Ok(options)
+        let hash = options_hash(&options);
+        (options, hash)
     }
 
     /// `OUTDIR/summary.csv`, or `OUTDIR/summary-I-of-N.csv` for a shard.
@@ -352,14 +352,15 @@ impl BatchJob {
             source,
         })?;
         let summary_path = self.summary_path();
-        let options = self.options()?;
-        let hash = options_hash(&options);
+        let base = options_value(&self.families, &self.config)?;
+        let hash = options_hash(&base);
 
         // Phase 1: what is done already (cheap: small JSON files and file metadata).
         let mut rows: Vec<Vec<Row>> = Vec::with_capacity(self.tables.len());
         let mut todo: Vec<usize> = Vec::new();
         for (k, t) in self.tables.iter().enumerate() {
-            match (force, prior(t, &hash, self.families.len())) {
+            let (_, table_hash) = self.options_of(&base, t);
+            match (force, prior(t, &table_hash, self.families.len())) {
                 (false, Prior::Done(r)) => {
                     obs.observe(&Event::TableSkipped {
                         table: t.name.clone(),
@@ -405,7 +406,8 @@ impl BatchJob {
                 table: t.name.clone(),
             });
             let ts = Instant::now();
-            let outcome = self.fit_one(t, &options, &hash)?;
+            let (options, table_hash) = self.options_of(&base, t);
+            let outcome = self.fit_one(t, &options, &table_hash)?;
             let dt = ts.elapsed().as_secs_f64();
             let mut set = FileSet::new();
             let how = match &outcome {
