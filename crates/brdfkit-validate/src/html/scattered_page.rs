@@ -48,6 +48,28 @@ fn scatter_chart(label: &str, measured: &[Rgb], model: &[Rgb]) -> Result<String,
     })
 }
 
+/// The runs of adjacent bands that hold samples, as chart points (band centre, value):
+/// a profile's line joins the bands of a run and not across a band without samples,
+/// where there is no value to draw.
+fn runs(bands: &[Band]) -> Vec<Vec<(f64, f64)>> {
+    let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut last_lo = f64::NEG_INFINITY;
+    for b in bands {
+        let Some(r) = b.mean_log10_ratio else {
+            continue;
+        };
+        // 1.5 bands: adjacent bands' edges differ by one band up to round-off.
+        if out.is_empty() || b.lo_deg - last_lo > 1.5 * BAND_DEG {
+            out.push(Vec::new());
+        }
+        out.last_mut()
+            .expect("pushed above")
+            .push((b.lo_deg + 0.5 * BAND_DEG, r));
+        last_lo = b.lo_deg;
+    }
+    out
+}
+
 /// Every model's residual profile over one angle (lines, in the models' colours).
 fn profile_chart(axis: &str, profiles: &[(&str, &[Band])]) -> Result<String, ReportError> {
     let top = profiles
@@ -68,19 +90,19 @@ fn profile_chart(axis: &str, profiles: &[(&str, &[Band])]) -> Result<String, Rep
             .draw_series(LineSeries::new([(0.0, 0.0), (90.0, 0.0)], BLACK.mix(0.4)))
             .map_err(err)?;
         for (m, (label, bands)) in profiles.iter().enumerate() {
-            let pts: Vec<(f64, f64)> = bands
-                .iter()
-                .filter_map(|b| b.mean_log10_ratio.map(|r| (b.lo_deg + 0.5 * BAND_DEG, r)))
-                .collect();
             let col = model_colour(m);
-            chart
-                .draw_series(LineSeries::new(pts.clone(), col.stroke_width(2)))
-                .map_err(err)?
-                .label(label.to_string())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], col));
-            chart
-                .draw_series(pts.into_iter().map(|p| Circle::new(p, 3, col.filled())))
-                .map_err(err)?;
+            for (i, run) in runs(bands).into_iter().enumerate() {
+                let line = chart
+                    .draw_series(LineSeries::new(run.clone(), col.stroke_width(2)))
+                    .map_err(err)?;
+                if i == 0 {
+                    line.label(label.to_string())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], col));
+                }
+                chart
+                    .draw_series(run.into_iter().map(|p| Circle::new(p, 3, col.filled())))
+                    .map_err(err)?;
+            }
         }
         chart
             .configure_series_labels()
@@ -197,5 +219,38 @@ fn checks_section(d: &ScatteredData) -> Markup {
             }
         }
     }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn band(lo_deg: f64, r: Option<f64>) -> Band {
+        Band {
+            lo_deg,
+            samples: usize::from(r.is_some()),
+            mean_log10_ratio: r,
+        }
+    }
+
+    /// An empty band, listed or left out, splits the line; adjacent bands stay joined.
+    #[test]
+    fn a_line_does_not_cross_an_empty_band() {
+        let bands = [
+            band(0.0, Some(0.1)),
+            band(5.0, Some(0.2)),
+            band(10.0, None),
+            band(15.0, Some(0.3)),
+            band(30.0, Some(0.4)),
+            band(35.0, Some(0.5)),
+        ];
+        let r = runs(&bands);
+        let x: Vec<Vec<f64>> = r
+            .iter()
+            .map(|run| run.iter().map(|p| p.0).collect())
+            .collect();
+        assert_eq!(x, vec![vec![2.5, 7.5], vec![17.5], vec![32.5, 37.5]]);
+        assert!(runs(&[band(0.0, None)]).is_empty());
     }
 }
