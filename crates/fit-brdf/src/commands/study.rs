@@ -114,9 +114,10 @@ pub fn run(a: StudyArgs) -> CliResult<()> {
     if a.rewrite {
         return brdfkit_study::rewrite(&a.out, &progress).map_err(|e| bad_msg(e.to_string()));
     }
-    let study_error = |e: StudyError| match e.is_bad_input() {
-        true => bad_msg(e.to_string()),
-        false => runtime(e),
+    let study_error = |e: StudyError| match (&e, e.is_bad_input()) {
+        (StudyError::Config { option, .. }, _) => bad_msg(format!("{e} (here: --{option})")),
+        (_, true) => bad_msg(e.to_string()),
+        (_, false) => runtime(e),
     };
     if a.parts.contains(&StudyPart::Measured) {
         let (fits, doc) = (a.fits.clone(), a.measured_doc.clone());
