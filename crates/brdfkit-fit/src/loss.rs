@@ -130,7 +130,29 @@ pub fn weighted_sq_sum(w: &[f64], r: &[f64]) -> f64 {
     for (j, (w, r)) in wt.iter().zip(rt).enumerate() {
         p[j] += w * r * r;
     }
-    ((p[0] + p[1]) + (p[2] + p[3])) + ((p[4] + p[5]) + (p[6] + p[7]))
+    Lanes8(p).total()
+}
+
+/// The eight interleaved partial sums of [`weighted_sq_sum`] fed one term at a time,
+/// for a pass that meets a run's terms one by one (the report's bands): term k of the
+/// run goes to lane k mod 8, and [`Lanes8::total`] adds the lanes in the same pairwise
+/// order, so the sum has the same bits as `weighted_sq_sum` over the run.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Lanes8([f64; 8]);
+
+impl Lanes8 {
+    /// Adds term `x` at position `k` of its run.
+    #[inline]
+    pub fn add(&mut self, k: usize, x: f64) {
+        self.0[k & 7] += x;
+    }
+
+    /// The lanes added pairwise.
+    #[inline]
+    pub fn total(&self) -> f64 {
+        let p = &self.0;
+        ((p[0] + p[1]) + (p[2] + p[3])) + ((p[4] + p[5]) + (p[6] + p[7]))
+    }
 }
 
 /// ln(1 + x), within 1 ulp of the correctly rounded value, without a library call and
@@ -986,6 +1008,15 @@ mod tests {
             );
         }
         assert_eq!(weighted_sq_sum(&[2.0; 9], &[3.0; 9]), 162.0);
+        // Term by term through the lanes: the same bits.
+        let (w, r): (Vec<f64>, Vec<f64>) = (0..37)
+            .map(|k| (0.1 + k as f64 / 7.0, (k as f64).sin()))
+            .unzip();
+        let mut lanes = Lanes8::default();
+        for k in 0..r.len() {
+            lanes.add(k, w[k] * r[k] * r[k]);
+        }
+        assert_eq!(lanes.total().to_bits(), weighted_sq_sum(&w, &r).to_bits());
     }
 
     #[test]
