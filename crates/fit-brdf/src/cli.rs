@@ -368,19 +368,28 @@ pub struct BsdfInputOption {
     pub bsdf_input: BsdfInput,
 }
 
+/// The measurement `fit` and `report` work on: a table or `.bsdf` file, or scattered
+/// samples (the library's one rule: `brdfkit::fit::input::Measured`).
 #[derive(Args, Debug)]
-pub struct FitArgs {
-    /// The measurement to fit: a MERL binary table or an RGL-EPFL `.bsdf` file (told
-    /// apart by their first bytes; a `.bsdf` is fitted as `--bsdf-input` says).
+pub struct MeasuredArgs {
+    /// The measurement: a MERL binary table or an RGL-EPFL `.bsdf` file (told apart by
+    /// their first bytes; a `.bsdf` is taken as `--bsdf-input` says).
     #[arg(required_unless_present = "samples", conflicts_with = "samples")]
     pub table: Option<PathBuf>,
-    /// Scattered samples to fit instead of a table: a `.npy` array (float32 or float64)
-    /// or a CSV file, N rows of `wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,r,g,b[,weight]`
-    /// (docs/fitting.md, "Scattered samples").
+    /// Scattered samples instead of a table: a `.npy` array (float32 or float64) or a
+    /// CSV file, N rows of `wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,r,g,b[,weight]`
+    /// (docs/fitting.md, "Scattered samples"); `report` plots them at their own
+    /// directions (docs/report.md).
     #[arg(long, value_name = "S.npy|S.csv")]
     pub samples: Option<PathBuf>,
     #[command(flatten)]
     pub bsdf: BsdfInputOption,
+}
+
+#[derive(Args, Debug)]
+pub struct FitArgs {
+    #[command(flatten)]
+    pub input: MeasuredArgs,
     #[command(flatten)]
     pub opts: FitOptions,
     /// Fitted parameters (one model) or an output directory (several).
@@ -704,16 +713,8 @@ pub struct DemoArgs {
     // With --given alone nothing is fitted (an empty list).
     .default_value_if("given", ArgPredicate::IsPresent, Some(""))))]
 pub struct ReportArgs {
-    /// The measurement to fit and report on: a MERL binary table or an RGL-EPFL `.bsdf`
-    /// file (told apart by their first bytes; a `.bsdf` as `--bsdf-input` says).
-    #[arg(required_unless_present = "samples", conflicts_with = "samples")]
-    pub table: Option<PathBuf>,
-    /// Scattered samples to fit and report on instead of a table (the format of `fit
-    /// --samples`); the page plots them at their own directions (docs/report.md).
-    #[arg(long, value_name = "S.npy|S.csv")]
-    pub samples: Option<PathBuf>,
     #[command(flatten)]
-    pub bsdf: BsdfInputOption,
+    pub input: MeasuredArgs,
     #[command(flatten)]
     pub opts: FitOptions,
     /// Models to report as given, not fitted (comma-separated JSON files: model

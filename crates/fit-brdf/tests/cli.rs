@@ -4,8 +4,8 @@
 mod common;
 
 use common::{
-    assert_bad_input, bin, names, small_plastic_spec, spec_text, stderr, synth_output, synth_spec,
-    write_file,
+    assert_bad_input, bin, lambert_file, names, small_plastic_spec, spec_text, stderr,
+    synth_output, synth_spec, write_file,
 };
 use std::path::{Path, PathBuf};
 
@@ -112,11 +112,7 @@ fn eval_table_and_model_write_one_row_per_pair() {
         assert!((r - 0.5 / std::f64::consts::PI).abs() < 1e-12);
         assert_eq!(lines[3], ",,", "below the horizon there is no sample");
     }
-    let model = write_file(
-        d.path(),
-        "m.json",
-        r#"{"model": "lambert", "params": {"rho_d": 0.3}}"#,
-    );
+    let model = lambert_file(d.path(), "m.json", "0.3");
     let o = fit_brdf!("eval", "--model", &model, "--dirs", &dirs);
     assert!(o.status.success(), "{}", stderr(&o));
     let s = String::from_utf8(o.stdout).unwrap();
@@ -176,11 +172,7 @@ fn resample_table_and_model() {
         std::fs::metadata(&out).unwrap().len(),
         12 + 24 * 32 * 16 * 64
     );
-    let model = write_file(
-        d.path(),
-        "m.json",
-        r#"{"model": "lambert", "params": {"rho_d": [0.1, 0.2, 0.3]}}"#,
-    );
+    let model = lambert_file(d.path(), "m.json", "[0.1, 0.2, 0.3]");
     let mt = d.path().join("model.binary");
     bin()
         .args(["resample", "--model"])
@@ -242,11 +234,7 @@ fn unknown_subcommand_is_a_usage_error() {
 #[test]
 fn check_passes_lambert_fails_phong_and_checks_tables() {
     let d = tempfile::tempdir().unwrap();
-    let lambert = write_file(
-        d.path(),
-        "lambert.json",
-        r#"{"model": "lambert", "params": {"rho_d": 0.7}}"#,
-    );
+    let lambert = lambert_file(d.path(), "lambert.json", "0.7");
     let o = fit_brdf!("check", &lambert);
     assert!(o.status.success(), "{}", stderr(&o));
     let o = fit_brdf!("check", &lambert, "--json");

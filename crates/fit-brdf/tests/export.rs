@@ -18,8 +18,8 @@ use brdfkit::core::{Rgb, Vec3};
 use brdfkit::models::cook_torrance::Shape;
 use brdfkit_validate::mitsuba::{CrossConfig, Tolerance, cases, compare};
 use common::{
-    assert_bad_input, bin, gltf_extension_variants, gltf_pbr_ext, names, stderr, synth_spec,
-    write_file,
+    assert_bad_input, bin, gltf_extension_variants, gltf_pbr_ext, lambert_file, names, stderr,
+    synth_spec, write_file,
 };
 use serde_json::{Value, json};
 use std::io::Write;
@@ -501,11 +501,7 @@ fn unsupported_exports_are_refused_with_exit_2_and_a_reason() {
 #[test]
 fn export_writes_the_file_atomically_and_notes_on_stderr() {
     let d = tempfile::tempdir().unwrap();
-    let p = write_file(
-        d.path(),
-        "m.json",
-        r#"{"model": "lambert", "params": {"rho_d": 0.4}}"#,
-    );
+    let p = lambert_file(d.path(), "m.json", "0.4");
     let out = d.path().join("bsdf.xml");
     let o = fit_brdf!("export", &p, "--to", "mitsuba", "--out", &out);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -9,7 +9,8 @@ mod common;
 use brdfkit::core::{Brdf, Vec3};
 use brdfkit::rgl::RglBsdf;
 use common::{
-    assert_bad_input, assert_bad_input_writes_nothing, bin, stderr, synth_spec, write_file,
+    assert_bad_input, assert_bad_input_writes_nothing, bin, lambert_file, stderr, synth_spec,
+    write_file,
 };
 use std::path::Path;
 
@@ -67,11 +68,7 @@ fn nbrdf_and_table_to_rgl() {
 #[test]
 fn lambert_model_to_rgl() {
     let dir = tempfile::tempdir().unwrap();
-    let model = write_file(
-        dir.path(),
-        "lambert.json",
-        r#"{"model": "lambert", "params": {"rho_d": [0.6, 0.4, 0.2]}}"#,
-    );
+    let model = lambert_file(dir.path(), "lambert.json", "[0.6, 0.4, 0.2]");
     let want = 0.6 / std::f64::consts::PI;
     let n = 5_000;
     // A deterministic spread of pairs: additive recurrences in (cos θ, φ).
@@ -125,11 +122,7 @@ fn lambert_model_to_rgl() {
 #[test]
 fn refusals() {
     let dir = tempfile::tempdir().unwrap();
-    let model = write_file(
-        dir.path(),
-        "m.json",
-        r#"{"model": "lambert", "params": {"rho_d": 0.5}}"#,
-    );
+    let model = lambert_file(dir.path(), "m.json", "0.5");
     let o = fit_brdf!("export", model.to_str().unwrap(), "--to", "rgl");
     assert_bad_input(&o, &["--out"]);
     let out = dir.path().join("x.bsdf");

@@ -9,7 +9,7 @@ use brdfkit::core::Brdf;
 use brdfkit::merl::{Dims, MerlTable, cell_directions};
 use brdfkit::rgl::{RglBsdf, Tensor, TensorData, tensor};
 use common::npy::npy_bytes;
-use common::{assert_bad_input, assert_bad_input_writes_nothing, stderr, write_file};
+use common::{assert_bad_input, assert_bad_input_writes_nothing, lambert_file, stderr, write_file};
 use std::path::{Path, PathBuf};
 
 #[path = "../../brdfkit-rgl/tests/common/felt.rs"]
@@ -238,11 +238,7 @@ fn compare_takes_a_bsdf_by_its_bytes_against_a_table_and_a_model() {
         c["b_on_grid"].as_str().unwrap().contains("both orders"),
         "{c}"
     );
-    let lam = write_file(
-        dir.path(),
-        "lam.json",
-        r#"{"model": "lambert", "params": {"rho_d": [0.4, 0.3, 0.2]}}"#,
-    );
+    let lam = lambert_file(dir.path(), "lam.json", "[0.4, 0.3, 0.2]");
     let o = fit_brdf!("compare", &p, &lam, "--dims", "12,12,24");
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);

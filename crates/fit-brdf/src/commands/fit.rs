@@ -26,8 +26,7 @@ pub fn run(a: FitArgs) -> CliResult<()> {
             "--record takes one model; with several, --out DIR receives every record",
         ));
     }
-    let (data, read_s, cells_s) =
-        fit_data(a.table.as_deref(), a.samples.as_deref(), a.bsdf.bsdf_input)?;
+    let (data, read_s, cells_s) = fit_data(&a.input)?;
     let bars = progress::Progress::new(a.quiet);
     let (outcomes, best) = match a.for_renderer {
         None => (fit_each(&data, &fams, &cfg, &bars).map_err(runtime)?, None),

@@ -19,7 +19,7 @@ mod study;
 mod synth;
 mod view;
 
-use crate::cli::{CellOptions, Cli, Command, FitOptions, Interp, SphereOptions};
+use crate::cli::{CellOptions, Cli, Command, FitOptions, Interp, MeasuredArgs, SphereOptions};
 use crate::error::{CliResult, bad_input, bad_msg, bad_report_option, bad_settings, runtime};
 use anyhow::Context;
 use brdfkit::core::Model;
@@ -162,15 +162,19 @@ pub fn measured(
     Ok(m)
 }
 
+impl MeasuredArgs {
+    /// The measurement these arguments name ([`measured`]).
+    pub fn read(&self, keep_table: bool, quiet: bool) -> CliResult<Measured> {
+        let (table, samples) = (self.table.as_deref(), self.samples.as_deref());
+        measured(table, samples, self.bsdf.bsdf_input, keep_table, quiet)
+    }
+}
+
 /// The cells `fit` fits ([`measured`]) and the seconds spent reading the file (and
 /// parsing it: [`Measured::read_s`]) and building the cells.
-pub fn fit_data(
-    table: Option<&Path>,
-    samples: Option<&Path>,
-    how: BsdfInput,
-) -> CliResult<(FitData, f64, f64)> {
+pub fn fit_data(input: &MeasuredArgs) -> CliResult<(FitData, f64, f64)> {
     let t = std::time::Instant::now();
-    let m = measured(table, samples, how, false, false)?;
+    let m = input.read(false, false)?;
     let total = t.elapsed().as_secs_f64();
     Ok((m.data, m.read_s, total - m.read_s))
 }
@@ -183,6 +187,21 @@ pub fn read_bsdf(path: &Path) -> CliResult<brdfkit::rgl::RglBsdf> {
 /// Writes a table atomically; a failure is a runtime failure (exit 1).
 pub fn write_table(table: &MerlTable, path: &Path) -> CliResult<()> {
     table.write(path).map_err(|e: MerlError| runtime(e))
+}
+
+/// The line `synth` and `resample` print for a table they wrote: its path, its name
+/// when it has one, its grid and the share of valid cells.
+pub fn wrote_table(table: &MerlTable, path: &Path, name: Option<&str>) -> String {
+    let d = table.dims();
+    let name = name.map(|n| format!("{n}: ")).unwrap_or_default();
+    format!(
+        "wrote {} ({name}{} x {} x {}, {:.2} % valid)",
+        path.display(),
+        d.theta_h(),
+        d.theta_d(),
+        d.phi_d(),
+        100.0 * table.valid_fraction()
+    )
 }
 
 /// Loads a neural BRDF (DIR/NAME); every failure is the user's input (exit 2).

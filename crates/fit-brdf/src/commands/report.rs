@@ -3,7 +3,7 @@
 //! report (DIR/index.html, DIR/report.json) of `brdfkit_validate::html`: the table
 //! report, or the report on scattered data for a `.bsdf`'s points and samples.
 
-use super::{cell_config, fit_setup, measured, read_fitted, render_options};
+use super::{cell_config, fit_setup, read_fitted, render_options};
 use crate::cli::ReportArgs;
 use crate::error::{CliResult, bad_msg, runtime};
 use crate::output::{write_failed, write_text};
@@ -105,8 +105,7 @@ pub fn run(a: ReportArgs) -> CliResult<()> {
         (Vec::new(), cell_config(&a.opts.cells)?)
     };
     let opts = options(&a, &cfg)?;
-    let (table, samples) = (a.table.as_deref(), a.samples.as_deref());
-    let m = measured(table, samples, a.bsdf.bsdf_input, true, a.quiet)?;
+    let m = a.input.read(true, a.quiet)?;
     let progress = progress::Progress::with_family_lines(a.quiet);
     let (n, info) = (fams.len(), m.info().text());
     progress.say(&format!(

@@ -1,7 +1,10 @@
 //! `fit-brdf resample`: a table onto another grid, or a model, a neural BRDF or a `.bsdf`
 //! file written as a table.
 
-use super::{lookup_mode, parse_dims, read_bsdf, read_model, read_nbrdf, read_table, write_table};
+use super::{
+    lookup_mode, parse_dims, read_bsdf, read_model, read_nbrdf, read_table, write_table,
+    wrote_table,
+};
 use crate::cli::ResampleArgs;
 use crate::error::{CliResult, runtime};
 use brdfkit::merl::MerlTable;
@@ -55,14 +58,7 @@ pub fn run(a: ResampleArgs) -> CliResult<()> {
     if a.quiet {
         return Ok(());
     }
-    eprintln!(
-        "wrote {} ({} x {} x {}, {:.2} % valid)",
-        a.out.display(),
-        dims.theta_h(),
-        dims.theta_d(),
-        dims.phi_d(),
-        100.0 * out.valid_fraction()
-    );
+    eprintln!("{}", wrote_table(&out, &a.out, None));
     if let Some(n) = note {
         eprintln!("{n}");
     }

@@ -1,6 +1,6 @@
 //! `fit-brdf synth SPEC --out TABLE`: the table of a synthetic material.
 
-use super::write_table;
+use super::{write_table, wrote_table};
 use crate::cli::SynthArgs;
 use crate::error::{CliResult, bad_input, runtime};
 use brdfkit::synth::SynthSpec;
@@ -12,14 +12,6 @@ pub fn run(a: SynthArgs) -> CliResult<()> {
     if a.quiet {
         return Ok(());
     }
-    eprintln!(
-        "wrote {} ({}: {} x {} x {}, {:.2} % valid)",
-        a.out.display(),
-        spec.name,
-        spec.dims.theta_h(),
-        spec.dims.theta_d(),
-        spec.dims.phi_d(),
-        100.0 * table.valid_fraction()
-    );
+    eprintln!("{}", wrote_table(&table, &a.out, Some(&spec.name)));
     Ok(())
 }

@@ -125,6 +125,14 @@ pub fn write_file(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf
     p
 }
 
+/// Writes a Lambert model description `{"model": "lambert", "params": {"rho_d": RHO}}`
+/// to `dir/NAME` (`rho_d` as JSON text: a number, an RGB array or a bad value) and
+/// returns its path: the model file most CLI tests start from.
+pub fn lambert_file(dir: &Path, name: &str, rho_d: &str) -> PathBuf {
+    let text = format!(r#"{{"model": "lambert", "params": {{"rho_d": {rho_d}}}}}"#);
+    write_file(dir, name, text)
+}
+
 /// The names of the entries of `dir`, sorted.
 pub fn names(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
