@@ -1,9 +1,11 @@
 //! Mitsuba 3: the material as a `<bsdf>` XML element and as a `load_dict` dictionary.
 
 use crate::*;
-use brdfkit_models::cook_torrance::Shape;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
+
+/// Mitsuba's names for an isotropic α and for αu, αv.
+const MITSUBA_ALPHA: (&str, &str, &str) = ("alpha", "alpha_u", "alpha_v");
 
 impl RendererMaterial {
     /// The Mitsuba 3 XML `<bsdf>` element (loadable by `mitsuba.load_string`), with
@@ -39,14 +41,8 @@ impl RendererMaterial {
                     "    <string name=\"distribution\" value=\"{}\"/>",
                     distribution.name()
                 );
-                match *alpha {
-                    Shape::Isotropic(a) => {
-                        let _ = writeln!(s, "    <float name=\"alpha\" value=\"{a}\"/>");
-                    }
-                    Shape::Anisotropic(x, y) => {
-                        let _ = writeln!(s, "    <float name=\"alpha_u\" value=\"{x}\"/>");
-                        let _ = writeln!(s, "    <float name=\"alpha_v\" value=\"{y}\"/>");
-                    }
+                for (name, a) in alpha_entries(*alpha, MITSUBA_ALPHA) {
+                    let _ = writeln!(s, "    <float name=\"{name}\" value=\"{a}\"/>");
                 }
                 let _ = writeln!(
                     s,
@@ -107,12 +103,8 @@ impl RendererMaterial {
                 let mut d = json!({"type": "roughconductor", "distribution": distribution.name(),
                     "eta": rgb_value(*eta), "k": rgb_value(*k),
                     "specular_reflectance": rgb_value(*specular)});
-                match *alpha {
-                    Shape::Isotropic(a) => d["alpha"] = json!(a),
-                    Shape::Anisotropic(x, y) => {
-                        d["alpha_u"] = json!(x);
-                        d["alpha_v"] = json!(y);
-                    }
+                for (name, a) in alpha_entries(*alpha, MITSUBA_ALPHA) {
+                    d[name] = json!(a);
                 }
                 d
             }
