@@ -42,6 +42,21 @@ impl WriteError {
 /// Prefix of every temporary file, so leftovers of a killed process are recognisable.
 pub const TEMP_PREFIX: &str = ".brdfkit-";
 
+/// The names of the writer's temporary files in `dir` (those starting with
+/// [`TEMP_PREFIX`]), sorted: what a process killed mid-write leaves behind, and what
+/// a failed write must not.
+pub fn leftovers(dir: &Path) -> io::Result<Vec<String>> {
+    let mut v = Vec::new();
+    for e in std::fs::read_dir(dir)? {
+        let name = e?.file_name().to_string_lossy().into_owned();
+        if name.starts_with(TEMP_PREFIX) {
+            v.push(name);
+        }
+    }
+    v.sort();
+    Ok(v)
+}
+
 /// Writes `bytes` to `path` atomically.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     write_file(path, |f| f.write_all(bytes))
