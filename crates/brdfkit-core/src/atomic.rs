@@ -42,6 +42,21 @@ impl WriteError {
 /// Prefix of every temporary file, so leftovers of a killed process are recognisable.
 pub const TEMP_PREFIX: &str = ".brdfkit-";
 
+/// The names of the writer's temporary files in `dir` (those starting with
+/// [`TEMP_PREFIX`]), sorted: what a process killed mid-write leaves behind, and what
+/// a failed write must not.
+pub fn leftovers(dir: &Path) -> io::Result<Vec<String>> {
+    let mut v = Vec::new();
+    for e in std::fs::read_dir(dir)? {
+        let name = e?.file_name().to_string_lossy().into_owned();
+        if name.starts_with(TEMP_PREFIX) {
+            v.push(name);
+        }
+    }
+    v.sort();
+    Ok(v)
+}
+
 /// Writes `bytes` to `path` atomically.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     write_file(path, |f| f.write_all(bytes))
@@ -235,21 +250,32 @@ mod tests {
         0o666 & !mode(&p)
     }
 
+    /// A fresh directory holding one file `name` with `contents`, and that file's path.
+    fn dir_with(name: &str, contents: &str) -> (tempfile::TempDir, PathBuf) {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(name);
+        std::fs::write(&p, contents).unwrap();
+        (d, p)
+    }
+
+    /// `p` holds `contents` and is the only entry of its directory (no temporary file
+    /// left beside it).
+    fn assert_alone_with(p: &Path, contents: &str) {
+        assert_eq!(std::fs::read_to_string(p).unwrap(), contents);
+        let name = p.file_name().unwrap().to_str().unwrap();
+        assert_eq!(entries(p.parent().unwrap()), vec![name]);
+    }
+
     #[test]
     fn a_write_replaces_the_file_whole_and_leaves_nothing_else() {
-        let d = tempfile::tempdir().unwrap();
-        let p = d.path().join("a.csv");
-        std::fs::write(&p, "old").unwrap();
+        let (_d, p) = dir_with("a.csv", "old");
         write_bytes(&p, b"r,g,b\n").unwrap();
-        assert_eq!(std::fs::read_to_string(&p).unwrap(), "r,g,b\n");
-        assert_eq!(entries(d.path()), vec!["a.csv"]);
+        assert_alone_with(&p, "r,g,b\n");
     }
 
     #[test]
     fn a_write_failing_midway_keeps_the_old_file_and_leaves_no_temp_file() {
-        let d = tempfile::tempdir().unwrap();
-        let p = d.path().join("params.json");
-        std::fs::write(&p, "old contents").unwrap();
+        let (_d, p) = dir_with("params.json", "old contents");
         let e = write_file(&p, |w| {
             w.write_all(b"{\"model\": \"lamb")?;
             Err(io::Error::other("disk full (injected)"))
@@ -260,8 +286,7 @@ mod tests {
             msg.contains("params.json") && msg.contains("injected") && msg.contains("writing"),
             "{msg}"
         );
-        assert_eq!(std::fs::read_to_string(&p).unwrap(), "old contents");
-        assert_eq!(entries(d.path()), vec!["params.json"]);
+        assert_alone_with(&p, "old contents");
     }
 
     #[test]
@@ -305,9 +330,7 @@ mod tests {
     #[test]
     fn a_replaced_file_keeps_its_permissions() {
         use std::os::unix::fs::PermissionsExt;
-        let d = tempfile::tempdir().unwrap();
-        let p = d.path().join("t.binary");
-        std::fs::write(&p, "old").unwrap();
+        let (_d, p) = dir_with("t.binary", "old");
         std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
         write_bytes(&p, b"new").unwrap();
         assert_eq!(mode(&p), 0o640);

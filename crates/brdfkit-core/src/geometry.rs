@@ -103,25 +103,22 @@ pub trait Component:
     fn sqrt(self) -> Self;
 }
 
-impl Component for f64 {
-    const ZERO: Self = 0.0;
-    const ONE: Self = 1.0;
-    const DIVIDE_EACH: bool = true;
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
+/// The two float widths differ only in [`Component::DIVIDE_EACH`].
+macro_rules! impl_component {
+    ($($t:ident: $divide_each:literal),*) => {$(
+        impl Component for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const DIVIDE_EACH: bool = $divide_each;
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                $t::sqrt(self)
+            }
+        }
+    )*};
 }
 
-impl Component for f32 {
-    const ZERO: Self = 0.0;
-    const ONE: Self = 1.0;
-    const DIVIDE_EACH: bool = false;
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f32::sqrt(self)
-    }
-}
+impl_component!(f64: true, f32: false);
 
 /// `c ? a : b`, written so that LLVM emits a blend rather than a branch.
 #[inline(always)]

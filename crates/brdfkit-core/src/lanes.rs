@@ -15,13 +15,15 @@ pub trait Run {
     fn run(&mut self);
 }
 
-/// Runs `r` with AVX-512 (F + VL), else AVX2 + FMA, else the baseline instructions.
+/// Runs `r` with AVX-512 (F + VL + DQ: DQ converts between f64 and 64-bit integers in
+/// vectors, which bin indexing needs), else AVX2 + FMA, else the baseline instructions.
 #[inline]
 pub fn dispatch<R: Run>(r: &mut R) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512f")
             && std::arch::is_x86_feature_detected!("avx512vl")
+            && std::arch::is_x86_feature_detected!("avx512dq")
         {
             // SAFETY: the instruction sets the copy is compiled for are present.
             return unsafe { run_avx512(r) };
@@ -36,7 +38,7 @@ pub fn dispatch<R: Run>(r: &mut R) {
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
 fn run_avx512<R: Run>(r: &mut R) {
     r.run()
 }

@@ -373,6 +373,19 @@ pub fn notes(m: &RendererMaterial, to: Renderer) -> Vec<String> {
     n
 }
 
+/// A conductor's roughness as the renderer's entries: `names.0` for an isotropic α,
+/// `names.1` then `names.2` for an anisotropic (αu, αv); one rule for every exporter.
+pub(crate) fn alpha_entries(
+    alpha: brdfkit_models::cook_torrance::Shape,
+    names: (&'static str, &'static str, &'static str),
+) -> Vec<(&'static str, f64)> {
+    use brdfkit_models::cook_torrance::Shape;
+    match alpha {
+        Shape::Isotropic(a) => vec![(names.0, a)],
+        Shape::Anisotropic(x, y) => vec![(names.1, x), (names.2, y)],
+    }
+}
+
 pub(crate) fn rgb_value(c: Rgb) -> Value {
     json!({"type": "rgb", "value": [c.r(), c.g(), c.b()]})
 }

@@ -1,9 +1,20 @@
 //! Mitsuba 3: the material as a `<bsdf>` XML element and as a `load_dict` dictionary.
 
 use crate::*;
-use brdfkit_models::cook_torrance::Shape;
+use brdfkit_core::Rgb;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
+
+/// A Mitsuba plugin parameter, by its XML tag.
+enum Param {
+    Str(&'static str),
+    Float(f64),
+    Bool(bool),
+    Rgb(Rgb),
+}
+
+/// Mitsuba's names for an isotropic α and for αu, αv.
+const MITSUBA_ALPHA: (&str, &str, &str) = ("alpha", "alpha_u", "alpha_v");
 
 impl RendererMaterial {
     /// The Mitsuba 3 XML `<bsdf>` element (loadable by `mitsuba.load_string`), with
@@ -17,73 +28,18 @@ impl RendererMaterial {
         for n in notes {
             let _ = writeln!(s, "<!-- note: {} -->", safe(n));
         }
-        match self {
-            RendererMaterial::Diffuse { reflectance } => {
-                s += "<bsdf type=\"diffuse\" version=\"3.0.0\">\n";
-                let _ = writeln!(
-                    s,
-                    "    <rgb name=\"reflectance\" value=\"{}\"/>",
-                    rgb_text(*reflectance, ", ")
-                );
-            }
-            RendererMaterial::Conductor {
-                distribution,
-                alpha,
-                eta,
-                k,
-                specular,
-            } => {
-                s += "<bsdf type=\"roughconductor\" version=\"3.0.0\">\n";
-                let _ = writeln!(
-                    s,
-                    "    <string name=\"distribution\" value=\"{}\"/>",
-                    distribution.name()
-                );
-                match *alpha {
-                    Shape::Isotropic(a) => {
-                        let _ = writeln!(s, "    <float name=\"alpha\" value=\"{a}\"/>");
-                    }
-                    Shape::Anisotropic(x, y) => {
-                        let _ = writeln!(s, "    <float name=\"alpha_u\" value=\"{x}\"/>");
-                        let _ = writeln!(s, "    <float name=\"alpha_v\" value=\"{y}\"/>");
-                    }
+        let (kind, params) = self.mitsuba_params();
+        let _ = writeln!(s, "<bsdf type=\"{kind}\" version=\"3.0.0\">");
+        for (name, v) in params {
+            let _ = match v {
+                Param::Str(t) => writeln!(s, "    <string name=\"{name}\" value=\"{t}\"/>"),
+                Param::Float(x) => writeln!(s, "    <float name=\"{name}\" value=\"{x}\"/>"),
+                Param::Bool(b) => writeln!(s, "    <boolean name=\"{name}\" value=\"{b}\"/>"),
+                Param::Rgb(c) => {
+                    let c = rgb_text(c, ", ");
+                    writeln!(s, "    <rgb name=\"{name}\" value=\"{c}\"/>")
                 }
-                let _ = writeln!(
-                    s,
-                    "    <rgb name=\"eta\" value=\"{}\"/>",
-                    rgb_text(*eta, ", ")
-                );
-                let _ = writeln!(s, "    <rgb name=\"k\" value=\"{}\"/>", rgb_text(*k, ", "));
-                let _ = writeln!(
-                    s,
-                    "    <rgb name=\"specular_reflectance\" value=\"{}\"/>",
-                    rgb_text(*specular, ", ")
-                );
-            }
-            RendererMaterial::Plastic {
-                diffuse,
-                specular,
-                alpha,
-                eta,
-                nonlinear,
-            } => {
-                s += "<bsdf type=\"roughplastic\" version=\"3.0.0\">\n";
-                s += "    <string name=\"distribution\" value=\"ggx\"/>\n";
-                let _ = writeln!(s, "    <float name=\"alpha\" value=\"{alpha}\"/>");
-                let _ = writeln!(s, "    <float name=\"int_ior\" value=\"{eta}\"/>");
-                s += "    <float name=\"ext_ior\" value=\"1\"/>\n";
-                for (name, c) in [
-                    ("diffuse_reflectance", diffuse),
-                    ("specular_reflectance", specular),
-                ] {
-                    let _ = writeln!(
-                        s,
-                        "    <rgb name=\"{name}\" value=\"{}\"/>",
-                        rgb_text(*c, ", ")
-                    );
-                }
-                let _ = writeln!(s, "    <boolean name=\"nonlinear\" value=\"{nonlinear}\"/>");
-            }
+            };
         }
         s += "</bsdf>\n";
         s
@@ -93,9 +49,28 @@ impl RendererMaterial {
     /// these values is also a Python dict literal. For a material mapped for
     /// [`Renderer::Mitsuba`]; the cross-check evaluates exactly this dictionary.
     pub fn mitsuba_dict(&self) -> Value {
-        match self {
+        let (kind, params) = self.mitsuba_params();
+        let mut d = serde_json::Map::new();
+        d.insert("type".into(), json!(kind));
+        for (name, v) in params {
+            let v = match v {
+                Param::Str(t) => json!(t),
+                Param::Float(x) => json!(x),
+                Param::Bool(b) => json!(b),
+                Param::Rgb(c) => rgb_value(c),
+            };
+            d.insert(name.into(), v);
+        }
+        Value::Object(d)
+    }
+
+    /// The Mitsuba 3 plugin and its parameters in the XML's order: the one mapping that
+    /// [`mitsuba_xml`](Self::mitsuba_xml) and [`mitsuba_dict`](Self::mitsuba_dict)
+    /// both write, so the file and the cross-checked dictionary cannot differ.
+    fn mitsuba_params(&self) -> (&'static str, Vec<(&'static str, Param)>) {
+        match *self {
             RendererMaterial::Diffuse { reflectance } => {
-                json!({"type": "diffuse", "reflectance": rgb_value(*reflectance)})
+                ("diffuse", vec![("reflectance", Param::Rgb(reflectance))])
             }
             RendererMaterial::Conductor {
                 distribution,
@@ -104,17 +79,15 @@ impl RendererMaterial {
                 k,
                 specular,
             } => {
-                let mut d = json!({"type": "roughconductor", "distribution": distribution.name(),
-                    "eta": rgb_value(*eta), "k": rgb_value(*k),
-                    "specular_reflectance": rgb_value(*specular)});
-                match *alpha {
-                    Shape::Isotropic(a) => d["alpha"] = json!(a),
-                    Shape::Anisotropic(x, y) => {
-                        d["alpha_u"] = json!(x);
-                        d["alpha_v"] = json!(y);
-                    }
-                }
-                d
+                let mut v = vec![("distribution", Param::Str(distribution.name()))];
+                let alphas = alpha_entries(alpha, MITSUBA_ALPHA);
+                v.extend(alphas.into_iter().map(|(name, a)| (name, Param::Float(a))));
+                v.extend([
+                    ("eta", Param::Rgb(eta)),
+                    ("k", Param::Rgb(k)),
+                    ("specular_reflectance", Param::Rgb(specular)),
+                ]);
+                ("roughconductor", v)
             }
             RendererMaterial::Plastic {
                 diffuse,
@@ -122,9 +95,18 @@ impl RendererMaterial {
                 alpha,
                 eta,
                 nonlinear,
-            } => json!({"type": "roughplastic", "distribution": "ggx", "alpha": alpha,
-                "int_ior": eta, "ext_ior": 1.0, "diffuse_reflectance": rgb_value(*diffuse),
-                "specular_reflectance": rgb_value(*specular), "nonlinear": nonlinear}),
+            } => (
+                "roughplastic",
+                vec![
+                    ("distribution", Param::Str("ggx")),
+                    ("alpha", Param::Float(alpha)),
+                    ("int_ior", Param::Float(eta)),
+                    ("ext_ior", Param::Float(1.0)),
+                    ("diffuse_reflectance", Param::Rgb(diffuse)),
+                    ("specular_reflectance", Param::Rgb(specular)),
+                    ("nonlinear", Param::Bool(nonlinear)),
+                ],
+            ),
         }
     }
 }

@@ -1,7 +1,6 @@
 //! pbrt-v4: the material as a `Material` directive.
 
 use crate::*;
-use brdfkit_models::cook_torrance::Shape;
 use std::fmt::Write as _;
 
 impl RendererMaterial {
@@ -23,14 +22,9 @@ impl RendererMaterial {
             }
             RendererMaterial::Conductor { alpha, eta, k, .. } => {
                 s += "Material \"conductor\"\n";
-                match *alpha {
-                    Shape::Isotropic(a) => {
-                        let _ = writeln!(s, "    \"float roughness\" [ {a} ]");
-                    }
-                    Shape::Anisotropic(x, y) => {
-                        let _ = writeln!(s, "    \"float uroughness\" [ {x} ]");
-                        let _ = writeln!(s, "    \"float vroughness\" [ {y} ]");
-                    }
+                let names = ("roughness", "uroughness", "vroughness");
+                for (name, a) in alpha_entries(*alpha, names) {
+                    let _ = writeln!(s, "    \"float {name}\" [ {a} ]");
                 }
                 s += "    \"bool remaproughness\" false\n";
                 let _ = writeln!(s, "    \"rgb eta\" [ {} ]", rgb_text(*eta, " "));

@@ -139,18 +139,12 @@ pub fn read_f32(path: &Path) -> Result<ArrayF32, NpyError> {
 /// [`read_f32`] of a file's bytes already in memory (an embedded file); `path` names it
 /// in errors.
 pub fn parse_f32(bytes: &[u8], path: &Path) -> Result<ArrayF32, NpyError> {
-    let format = |source| NpyError::Format {
-        path: path.to_owned(),
-        source,
-    };
-    let npy = NpyFile::new(bytes).map_err(format)?;
-    let dtype = npy.dtype();
-    let is_f32 = matches!(&dtype, DType::Plain(t)
-        if t.type_char() == TypeChar::Float && t.size_field() == 4);
-    if !is_f32 || npy.uses_pickled_array() {
+    let format = |source| format_error(path, source);
+    let npy = open_bytes(bytes, path)?;
+    if float_size(&npy) != Some(4) {
         return Err(NpyError::Dtype {
             path: path.to_owned(),
-            found: dtype.descr(),
+            found: npy.dtype().descr(),
             expected: "float32 ('<f4')",
         });
     }
@@ -158,15 +152,7 @@ pub fn parse_f32(bytes: &[u8], path: &Path) -> Result<ArrayF32, NpyError> {
     let order = npy.order();
     let data: Vec<f32> = npy.into_vec().map_err(format)?;
     let data = if order == Order::Fortran && shape.len() == 2 {
-        // Column-major on disk: transpose into row-major.
-        let (rows, cols) = (shape[0] as usize, shape[1] as usize);
-        let mut c = vec![0.0f32; data.len()];
-        for r in 0..rows {
-            for k in 0..cols {
-                c[r * cols + k] = data[k * rows + r];
-            }
-        }
-        c
+        fortran_to_c(&data, shape[0] as usize, shape[1] as usize)
     } else if order == Order::Fortran && shape.len() > 2 {
         // The layout has no such arrays; refuse rather than guess an axis order.
         return Err(NpyError::Shape {
@@ -178,6 +164,41 @@ pub fn parse_f32(bytes: &[u8], path: &Path) -> Result<ArrayF32, NpyError> {
         data
     };
     Ok(ArrayF32 { shape, data })
+}
+
+/// [`NpyError::Format`] for `path`: not `.npy`, or a body shorter than its shape.
+pub(crate) fn format_error(path: &Path, source: std::io::Error) -> NpyError {
+    NpyError::Format {
+        path: path.to_owned(),
+        source,
+    }
+}
+
+/// A `.npy` file's bytes already in memory, its header parsed; `path` names it in errors.
+pub(crate) fn open_bytes<'a>(bytes: &'a [u8], path: &Path) -> Result<NpyFile<&'a [u8]>, NpyError> {
+    NpyFile::new(bytes).map_err(|source| format_error(path, source))
+}
+
+/// The element size in bytes of a plain float dtype (`<f4`, `>f8`, ...), or `None` for
+/// any other dtype and for pickled objects.
+pub(crate) fn float_size(npy: &NpyFile<&[u8]>) -> Option<u64> {
+    match npy.dtype() {
+        DType::Plain(t) if t.type_char() == TypeChar::Float && !npy.uses_pickled_array() => {
+            Some(t.size_field())
+        }
+        _ => None,
+    }
+}
+
+/// A Fortran-order (column-major) `rows` × `cols` body in C (row-major) order.
+pub(crate) fn fortran_to_c<T: Copy + Default>(data: &[T], rows: usize, cols: usize) -> Vec<T> {
+    let mut c = vec![T::default(); data.len()];
+    for r in 0..rows {
+        for k in 0..cols {
+            c[r * cols + k] = data[k * rows + r];
+        }
+    }
+    c
 }
 
 /// N rows of six values: the body of a `.npy` file mapped into memory, or an array.

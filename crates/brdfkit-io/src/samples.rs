@@ -12,8 +12,8 @@
 //! directions above the horizon, missing values, negatives, weights) are the fitter's
 //! (`brdfkit_fit::samples`), which names the row.
 
-use crate::npy::NpyError;
-use npyz::{DType, NpyFile, Order, TypeChar};
+use crate::npy::{self, NpyError};
+use npyz::Order;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -105,18 +105,10 @@ pub fn read_samples(path: &Path) -> Result<SampleRows, SamplesError> {
 
 /// The rows of a (N, 9) or (N, 10) float32 or float64 `.npy` array; `path` names it.
 pub fn parse_npy(bytes: &[u8], path: &Path) -> Result<SampleRows, NpyError> {
-    let format = |source| NpyError::Format {
-        path: path.to_owned(),
-        source,
-    };
-    let npy = NpyFile::new(bytes).map_err(format)?;
+    let format = |source| npy::format_error(path, source);
+    let npy = npy::open_bytes(bytes, path)?;
     let dtype = npy.dtype();
-    let size = match &dtype {
-        DType::Plain(t) if t.type_char() == TypeChar::Float && !npy.uses_pickled_array() => {
-            t.size_field()
-        }
-        _ => 0,
-    };
+    let size = npy::float_size(&npy);
     let shape = npy.shape().to_vec();
     if shape.len() != 2 || !(shape[1] == 9 || shape[1] == 10) {
         return Err(NpyError::Shape {
@@ -128,13 +120,13 @@ pub fn parse_npy(bytes: &[u8], path: &Path) -> Result<SampleRows, NpyError> {
     }
     let fortran = npy.order() == Order::Fortran;
     let data: Vec<f64> = match size {
-        4 => npy
+        Some(4) => npy
             .into_vec::<f32>()
             .map_err(format)?
             .into_iter()
             .map(f64::from)
             .collect(),
-        8 => npy.into_vec::<f64>().map_err(format)?,
+        Some(8) => npy.into_vec::<f64>().map_err(format)?,
         _ => {
             return Err(NpyError::Dtype {
                 path: path.to_owned(),
@@ -145,13 +137,7 @@ pub fn parse_npy(bytes: &[u8], path: &Path) -> Result<SampleRows, NpyError> {
     };
     let (rows, cols) = (shape[0] as usize, shape[1] as usize);
     let data = if fortran {
-        let mut c = vec![0.0; data.len()];
-        for r in 0..rows {
-            for k in 0..cols {
-                c[r * cols + k] = data[k * rows + r];
-            }
-        }
-        c
+        npy::fortran_to_c(&data, rows, cols)
     } else {
         data
     };

@@ -457,11 +457,7 @@ mod tests {
     use std::path::PathBuf;
 
     fn leftovers(dir: &Path) -> Vec<String> {
-        std::fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .filter(|n| n.starts_with(brdfkit_core::atomic::TEMP_PREFIX))
-            .collect()
+        brdfkit_core::atomic::leftovers(dir).unwrap()
     }
 
     use crate::table::{alloc_mask, alloc_raw};

@@ -2,6 +2,7 @@
 
 use crate::grid::{Dims, theta_d_bin, theta_h_bin, theta_h_coord};
 use crate::table::{CELL_STRIDE, MerlTable, SCALES, raw_valid};
+use brdfkit_core::lanes::{Run, dispatch};
 use brdfkit_core::{HalfDiff, Rgb, Vec3, to_half_diff};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI, FRAC_PI_2, PI};
@@ -26,6 +27,13 @@ pub enum Lookup {
 #[inline]
 fn usable(w: &Vec3) -> bool {
     w.z > 0.0 && w.x.is_finite() && w.y.is_finite() && w.z.is_finite()
+}
+
+/// The pair's Rusinkiewicz angles ([`to_half_diff`]) when both directions are
+/// [`usable`], else `None`: the one gate of every lookup by directions.
+#[inline]
+fn usable_half_diff(wi: &Vec3, wo: &Vec3) -> Option<HalfDiff> {
+    (usable(wi) && usable(wo)).then(|| to_half_diff(wi, wo))
 }
 
 /// A stencil along one axis: lower node, upper node, fraction towards the upper one.
@@ -85,10 +93,7 @@ impl MerlTable {
     /// to `lookup_brdf_val` of `BRDFRead.cpp`. `None` when either direction is at or
     /// below the horizon (z ≤ 0) or not finite, or the cell is missing.
     pub fn nearest(&self, wi: &Vec3, wo: &Vec3) -> Option<Rgb> {
-        if !(usable(wi) && usable(wo)) {
-            return None;
-        }
-        self.nearest_half_diff(&to_half_diff(wi, wo))
+        self.nearest_half_diff(&usable_half_diff(wi, wo)?)
     }
 
     /// Nearest lookup by Rusinkiewicz angles (no horizon test: angles carry none).
@@ -102,10 +107,7 @@ impl MerlTable {
     /// when either direction is at or below the horizon or not finite, or no cell of the
     /// stencil with a positive weight holds a sample.
     pub fn interpolated(&self, wi: &Vec3, wo: &Vec3) -> Option<Rgb> {
-        if !(usable(wi) && usable(wo)) {
-            return None;
-        }
-        self.interpolated_half_diff(&to_half_diff(wi, wo))
+        self.interpolated_half_diff(&usable_half_diff(wi, wo)?)
     }
 
     /// Interpolation by Rusinkiewicz angles (no horizon test).
@@ -226,8 +228,8 @@ impl MerlTable {
                         // NaN marks a pair with no lookup (below the horizon, not finite).
                         let mut coords = [[f64::NAN; 3]; BATCH_RUN];
                         for ((wi, wo), c) in pairs.iter().zip(coords.iter_mut()) {
-                            if usable(wi) && usable(wo) {
-                                *c = self.dims.coords(&to_half_diff(wi, wo));
+                            if let Some(hd) = usable_half_diff(wi, wo) {
+                                *c = self.dims.coords(&hd);
                             }
                         }
                         for (o, c) in out.iter_mut().zip(coords.iter()) {
@@ -360,26 +362,6 @@ impl MerlTable {
         let streams = Streams([Streams::of(wi), Streams::of(wo)]);
         self.fast_batch(mode, &pair, streams, out, rgb_or_nan);
         Ok(())
-    }
-
-    /// [`lookup_split`](Self::lookup_split) with [`Lookup::Nearest`].
-    pub fn lookup_nearest_batch(
-        &self,
-        wi: &[[f64; 3]],
-        wo: &[[f64; 3]],
-        out: &mut [[f64; 3]],
-    ) -> Result<(), PairsError> {
-        self.lookup_split(Lookup::Nearest, wi, wo, out)
-    }
-
-    /// [`lookup_split`](Self::lookup_split) with [`Lookup::Interpolated`].
-    pub fn lookup_interpolated_batch(
-        &self,
-        wi: &[[f64; 3]],
-        wo: &[[f64; 3]],
-        out: &mut [[f64; 3]],
-    ) -> Result<(), PairsError> {
-        self.lookup_split(Lookup::Interpolated, wi, wo, out)
     }
 
     /// The fast path over pairs `pair(0..out.len())`, each result converted by `conv`.
@@ -1169,47 +1151,28 @@ impl PrepRun {
         }
     }
 
-    /// [`compute`](Self::compute) in a copy compiled for AVX-512 or AVX2 when the
-    /// processor has them (the crate is compiled for baseline x86-64). Rust never fuses
-    /// a multiply and an add, and division and square root are correctly rounded in
-    /// every instruction set, so every copy computes the same bits (h.z included, which
-    /// must equal the reference's).
+    /// [`compute`](Self::compute) through [`brdfkit_core::lanes::dispatch`]: in a copy
+    /// compiled for AVX-512 or AVX2 when the processor has them (the crate is compiled
+    /// for baseline x86-64). Rust never fuses a multiply and an add, and division and
+    /// square root are correctly rounded in every instruction set, so every copy
+    /// computes the same bits (h.z included, which must equal the reference's).
     fn compute_dispatch<P: Fn(usize) -> ([f64; 3], [f64; 3]), A: Fn(&[usize], usize)>(
         &mut self,
         job: &Job<P, A>,
     ) {
-        #[cfg(target_arch = "x86_64")]
+        struct Compute<'r, 'j, 'a, P, A> {
+            run: &'r mut PrepRun,
+            job: &'j Job<'a, P, A>,
+        }
+        impl<P: Fn(usize) -> ([f64; 3], [f64; 3]), A: Fn(&[usize], usize)> Run
+            for Compute<'_, '_, '_, P, A>
         {
-            if std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx512dq")
-            {
-                // SAFETY: the instruction sets the copy is compiled for are present.
-                return unsafe { self.compute_avx512(job) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: as above.
-                return unsafe { self.compute_avx2(job) };
+            #[inline(always)]
+            fn run(&mut self) {
+                self.run.compute(self.job)
             }
         }
-        self.compute(job)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512dq,avx2")]
-    fn compute_avx512<P: Fn(usize) -> ([f64; 3], [f64; 3]), A: Fn(&[usize], usize)>(
-        &mut self,
-        job: &Job<P, A>,
-    ) {
-        self.compute(job)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn compute_avx2<P: Fn(usize) -> ([f64; 3], [f64; 3]), A: Fn(&[usize], usize)>(
-        &mut self,
-        job: &Job<P, A>,
-    ) {
-        self.compute(job)
+        dispatch(&mut Compute { run: self, job });
     }
 }
 
@@ -1273,15 +1236,24 @@ fn sector(pd: &[[f64; 2]], dx: f64, dy: f64, approx: f64, margin: f64) -> Option
 #[inline]
 fn acos_approx(x: f64) -> f64 {
     let x = x.clamp(0.0, 1.0);
-    let p = -0.001_262_491_1;
-    let p = p * x + 0.006_670_090_1;
-    let p = p * x - 0.017_088_125_6;
-    let p = p * x + 0.030_891_881_0;
-    let p = p * x - 0.050_174_304_6;
-    let p = p * x + 0.088_978_987_4;
-    let p = p * x - 0.214_598_801_6;
-    let p = p * x + 1.570_796_305_0;
-    (1.0 - x).sqrt() * p
+    let a = [
+        -0.001_262_491_1,
+        0.006_670_090_1,
+        -0.017_088_125_6,
+        0.030_891_881_0,
+        -0.050_174_304_6,
+        0.088_978_987_4,
+        -0.214_598_801_6,
+        1.570_796_305_0,
+    ];
+    (1.0 - x).sqrt() * horner(x, &a)
+}
+
+/// Σ cₖ xᵏ by Horner's rule, `coeffs` from the highest power down: p ← p·x + c at
+/// each step, the operations the series are written with.
+#[inline(always)]
+fn horner(x: f64, coeffs: &[f64]) -> f64 {
+    coeffs[1..].iter().fold(coeffs[0], |p, &c| p * x + c)
 }
 
 /// atan2(y, x) for y ≥ 0 (in [0, π]), absolute error ≤ 1.4e-8: Abramowitz & Stegun
@@ -1292,15 +1264,18 @@ fn atan2_upper_approx(y: f64, x: f64) -> f64 {
     let (num, den) = if y > ax { (ax, y) } else { (y, ax) };
     let t = num / den;
     let t2 = t * t;
-    let p = 0.002_866_225_7;
-    let p = p * t2 - 0.016_165_736_7;
-    let p = p * t2 + 0.042_909_613_8;
-    let p = p * t2 - 0.075_289_640_0;
-    let p = p * t2 + 0.106_562_639_3;
-    let p = p * t2 - 0.142_088_994_4;
-    let p = p * t2 + 0.199_935_508_5;
-    let p = p * t2 - 0.333_331_452_8;
-    let a = t * (p * t2 + 1.0);
+    let c = [
+        0.002_866_225_7,
+        -0.016_165_736_7,
+        0.042_909_613_8,
+        -0.075_289_640_0,
+        0.106_562_639_3,
+        -0.142_088_994_4,
+        0.199_935_508_5,
+        -0.333_331_452_8,
+        1.0,
+    ];
+    let a = t * horner(t2, &c);
     let a = if y > ax { FRAC_PI_2 - a } else { a };
     if x < 0.0 { PI - a } else { a }
 }
@@ -1313,13 +1288,16 @@ fn small_angle(s: f64, c: f64) -> f64 {
     let t = s / c;
     if c > 0.0 && t.abs() <= 0.05 {
         let t2 = t * t;
-        let p = 1.0 / 13.0;
-        let p = p * t2 - 1.0 / 11.0;
-        let p = p * t2 + 1.0 / 9.0;
-        let p = p * t2 - 1.0 / 7.0;
-        let p = p * t2 + 1.0 / 5.0;
-        let p = p * t2 - 1.0 / 3.0;
-        t * (p * t2 + 1.0)
+        let c = [
+            1.0 / 13.0,
+            -1.0 / 11.0,
+            1.0 / 9.0,
+            -1.0 / 7.0,
+            1.0 / 5.0,
+            -1.0 / 3.0,
+            1.0,
+        ];
+        t * horner(t2, &c)
     } else {
         s.atan2(c)
     }

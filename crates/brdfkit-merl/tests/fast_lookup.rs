@@ -218,7 +218,8 @@ fn batch_forms_agree_on_other_grids() {
         let wi: Vec<[f64; 3]> = pairs.iter().map(|p| [p.0.x, p.0.y, p.0.z]).collect();
         let wo: Vec<[f64; 3]> = pairs.iter().map(|p| [p.1.x, p.1.y, p.1.z]).collect();
         let mut split = vec![[0.0; 3]; pairs.len()];
-        t.lookup_nearest_batch(&wi, &wo, &mut split).unwrap();
+        t.lookup_split(Lookup::Nearest, &wi, &wo, &mut split)
+            .unwrap();
         let batch = t.lookup_batch(Lookup::Nearest, &pairs);
         for (k, (wi, wo)) in pairs.iter().enumerate() {
             let want = t.nearest(wi, wo);
@@ -247,7 +248,8 @@ fn assert_interpolated_within(t: &MerlTable, pairs: &[(Vec3, Vec3)], what: &str,
     let wi: Vec<[f64; 3]> = pairs.iter().map(|p| [p.0.x, p.0.y, p.0.z]).collect();
     let wo: Vec<[f64; 3]> = pairs.iter().map(|p| [p.1.x, p.1.y, p.1.z]).collect();
     let mut split = vec![[0.0; 3]; pairs.len()];
-    t.lookup_interpolated_batch(&wi, &wo, &mut split).unwrap();
+    t.lookup_split(Lookup::Interpolated, &wi, &wo, &mut split)
+        .unwrap();
     let d = t.dims();
     for (k, (wi, wo)) in pairs.iter().enumerate() {
         let want = row(t.interpolated(wi, wo));
@@ -315,7 +317,7 @@ fn shape_errors_are_typed() {
     );
     let mut o = vec![[0.0; 3]; 2];
     assert!(matches!(
-        t.lookup_nearest_batch(&[[0.0; 3]], &[[0.0; 3]], &mut o),
+        t.lookup_split(Lookup::Nearest, &[[0.0; 3]], &[[0.0; 3]], &mut o),
         Err(PairsError::Lengths {
             wi: 1,
             wo: 1,

@@ -129,6 +129,35 @@ fn read_dims_error(p: &Path, name: &str) -> DimsError {
     }
 }
 
+/// The error of reading `bytes` written as the file `name`, after checking that it
+/// names the file.
+fn read_error(name: &str, bytes: &[u8]) -> MerlError {
+    let dir = tempfile::tempdir().unwrap();
+    let e = MerlTable::read(write_file(dir.path(), name, bytes)).unwrap_err();
+    assert_names(&e, name);
+    e
+}
+
+/// The (expected, actual) byte counts of a body-size error: [`MerlError::Truncated`]
+/// when `short`, else [`MerlError::TrailingBytes`].
+fn size_error(e: &MerlError, short: bool) -> (u64, u64) {
+    match (e, short) {
+        (
+            MerlError::Truncated {
+                expected, actual, ..
+            },
+            true,
+        )
+        | (
+            MerlError::TrailingBytes {
+                expected, actual, ..
+            },
+            false,
+        ) => (*expected, *actual),
+        _ => panic!("expected a body-size error (short: {short}), got {e}"),
+    }
+}
+
 #[test]
 fn too_short_for_the_header() {
     let dir = tempfile::tempdir().unwrap();
@@ -238,68 +267,27 @@ fn dims_whose_size_overflows() {
 fn header_claiming_a_huge_table_is_refused_before_allocating() {
     // 2^20 x 2^10 x 2^5 cells = 824 GB of data claimed by a 36-byte file: the length
     // check against the metadata refuses it without trying to allocate.
-    let dir = tempfile::tempdir().unwrap();
-    let p = write_file(
-        dir.path(),
-        "liar.binary",
-        &image([1 << 20, 1 << 10, 1 << 5], &[1.0; 3]),
-    );
-    let e = MerlTable::read(&p).unwrap_err();
-    match &e {
-        MerlError::Truncated {
-            expected, actual, ..
-        } => {
-            assert_eq!(*expected, 12 + 24 * (1u64 << 35));
-            assert_eq!(*actual, 36);
-        }
-        other => panic!("{other}"),
-    }
-    assert_names(&e, "liar.binary");
+    let e = read_error("liar.binary", &image([1 << 20, 1 << 10, 1 << 5], &[1.0; 3]));
+    assert_eq!(size_error(&e, true), (12 + 24 * (1u64 << 35), 36));
 }
 
 #[test]
 fn data_shorter_than_the_dims_require() {
-    let dir = tempfile::tempdir().unwrap();
     let mut bytes = image([2, 3, 4], &[1.0; 72]);
     bytes.truncate(bytes.len() - 5);
-    let p = write_file(dir.path(), "trunc.binary", &bytes);
-    let e = MerlTable::read(&p).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MerlError::Truncated {
-                expected: 588,
-                actual: 583,
-                ..
-            }
-        ),
-        "{e}"
-    );
+    let e = read_error("trunc.binary", &bytes);
+    assert_eq!(size_error(&e, true), (588, 583));
     let msg = e.to_string();
     assert!(msg.contains("588") && msg.contains("583"), "{msg}");
-    assert_names(&e, "trunc.binary");
 }
 
 #[test]
 fn trailing_bytes() {
-    let dir = tempfile::tempdir().unwrap();
     let mut bytes = image([2, 3, 4], &[1.0; 72]);
     bytes.push(0);
-    let p = write_file(dir.path(), "trail.binary", &bytes);
-    let e = MerlTable::read(&p).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            MerlError::TrailingBytes {
-                expected: 588,
-                actual: 589,
-                ..
-            }
-        ),
-        "{e}"
-    );
+    let e = read_error("trail.binary", &bytes);
+    assert_eq!(size_error(&e, false), (588, 589));
     assert!(e.to_string().contains("1 trailing bytes"), "{e}");
-    assert_names(&e, "trail.binary");
     let e = MerlTable::from_bytes(&bytes, "trail-bytes").unwrap_err();
     assert!(matches!(e, MerlError::TrailingBytes { .. }));
 }
@@ -443,12 +431,9 @@ fn io_errors_name_the_path() {
     assert_names(&e, "a-directory.binary");
 }
 
+/// The atomic writer's temporary files left in `dir`.
 fn temp_leftovers(dir: &Path) -> Vec<String> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".tmp"))
-        .collect()
+    brdfkit_core::atomic::leftovers(dir).unwrap()
 }
 
 fn small_table() -> MerlTable {

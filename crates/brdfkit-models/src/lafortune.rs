@@ -41,6 +41,7 @@
 
 use crate::cosine_lobe::N_DOMAIN;
 use crate::json;
+use crate::pair::eval_above_horizon;
 use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
@@ -393,16 +394,9 @@ impl Model for Lafortune {
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
-        for k in 0..n {
-            out[k] = if iz[k] > 0.0 && oz[k] > 0.0 {
-                self.kernel(ix[k] * ox[k] + iy[k] * oy[k], iz[k] * oz[k])
-            } else {
-                Rgb::ZERO
-            };
-        }
+        eval_above_horizon(g, out, |[ix, iy, iz], [ox, oy, oz]| {
+            self.kernel(ix * ox + iy * oy, iz * oz)
+        });
     }
 
     /// Column by column: the ρd columns first, then each lobe's six columns, so every

@@ -36,6 +36,7 @@
 //! false; ρd ≤ 1/1.0152 = 0.985 suffices.
 
 use crate::json;
+use crate::pair::eval_above_horizon;
 use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
@@ -191,18 +192,11 @@ impl Model for OrenNayar {
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
         let (a, b, _, _) = coefficients(self.sigma);
-        for k in 0..n {
-            out[k] = if iz[k] > 0.0 && oz[k] > 0.0 {
-                let t = angular(ix[k], iy[k], iz[k], ox[k], oy[k], oz[k]);
-                self.rho_d * ((a + b * t) * FRAC_1_PI)
-            } else {
-                Rgb::ZERO
-            };
-        }
+        eval_above_horizon(g, out, |[ix, iy, iz], [ox, oy, oz]| {
+            let t = angular(ix, iy, iz, ox, oy, oz);
+            self.rho_d * ((a + b * t) * FRAC_1_PI)
+        });
     }
 
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {

@@ -3,7 +3,27 @@
 //! [`GeometryBatch`](brdfkit_core::GeometryBatch), so the slow and the fast paths of a
 //! model share every operation.
 
-use brdfkit_core::{GeomSlice, Vec3};
+use brdfkit_core::{GeomSlice, Rgb, Vec3};
+
+/// `f(wi, wo)` of every pair of `g` whose directions are both above the horizon, into
+/// `out` (the first `g.len()` entries), 0 for the others: the batch form of a
+/// model whose `eval` returns 0 below the horizon and otherwise evaluates the pair.
+#[inline(always)]
+pub(crate) fn eval_above_horizon(
+    g: &GeomSlice<'_>,
+    out: &mut [Rgb],
+    f: impl Fn([f64; 3], [f64; 3]) -> Rgb,
+) {
+    let n = g.len();
+    let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
+    for (k, o) in out[..n].iter_mut().enumerate() {
+        *o = if iz[k] > 0.0 && oz[k] > 0.0 {
+            f([ix[k], iy[k], iz[k]], [ox[k], oy[k], oz[k]])
+        } else {
+            Rgb::ZERO
+        };
+    }
+}
 
 /// One pair as a half-vector kernel takes it: the directions, the unit half vector
 /// h = (wi + wo)/|wi + wo| and cos θd = wi·h (Rusinkiewicz 1998).

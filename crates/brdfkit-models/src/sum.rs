@@ -465,17 +465,12 @@ mod tests {
     #[test]
     fn shared_checks() {
         let m = model();
-        let pairs = random_pairs(19, 300);
-        assert_paths_agree(&m, &pairs, 0.0);
-        assert_paths_agree(&m, &hard_case_pairs(), 0.0);
-        assert_reciprocal(&m, &pairs, 1e-12);
-        assert_reciprocal(&m, &dense_grid_pairs(20, 8), 1e-12);
-        assert_nonnegative(&m, &dense_grid_pairs(40, 16));
-        assert_zero_below_horizon(&m);
-        assert_gradient_matches_fd(&m, &pairs, 1e-6, 1e-6);
+        // Reciprocal, so the shared set checks reciprocity too.
+        assert!(m.is_reciprocal());
+        assert_shared_checks(&m, 19);
         assert_finite_everywhere(&m, &hard_case_pairs());
         let d = Sum::default();
-        assert_paths_agree(&d, &pairs, 0.0);
+        assert_paths_agree(&d, &random_pairs(19, 300), 0.0);
         assert_zero_below_horizon(&d);
     }
 

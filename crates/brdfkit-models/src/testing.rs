@@ -12,6 +12,21 @@ use brdfkit_core::{Brdf, GeometryBatch, Model, Rgb, Vec3};
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
+/// The relative error of a float32 f_r `got` (widened) against the float64 `want` of the
+/// same pair, the measure every float32 path is held to: a float64 zero must be exactly
+/// 0 in float32 (asserted, `at` naming the model and pair), and a value below float32's
+/// normal range (1e-30; it rounds to 0 or a subnormal) has no relative error (0).
+pub fn f32_relative_error(got: f64, want: f64, at: impl FnOnce() -> String) -> f64 {
+    if want == 0.0 {
+        assert_eq!(got, 0.0, "{}: zero in f64, {got} in f32", at());
+        0.0
+    } else if want < 1e-30 {
+        0.0
+    } else {
+        (got - want).abs() / want
+    }
+}
+
 /// A small deterministic generator (SplitMix64, Steele et al. 2014), so the checks need
 /// no RNG dependency and give the same pairs on every machine.
 #[derive(Debug, Clone)]

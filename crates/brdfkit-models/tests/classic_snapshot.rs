@@ -29,6 +29,7 @@ use brdfkit_models::lambert::Lambert;
 use brdfkit_models::oren_nayar::OrenNayar;
 use brdfkit_models::phong::Phong;
 use brdfkit_models::plausible_phong::PlausiblePhong;
+use brdfkit_models::shape::Shape;
 use brdfkit_models::testing::{SplitMix64, dense_grid_pairs, hard_case_pairs, random_pairs};
 use brdfkit_models::ward::{Normalization, Ward};
 use serde_json::Value;
@@ -246,6 +247,15 @@ fn rgb(r: f64, g: f64, b: f64) -> Rgb {
 /// A case: its label, the model and the model's `Debug` form.
 type Case = (String, Box<dyn Model>, String);
 
+/// Isotropic when the two values are equal, as the parameter sets below are written.
+fn shape(a: f64, b: f64) -> Shape {
+    if a == b {
+        Shape::Isotropic(a)
+    } else {
+        Shape::Anisotropic(a, b)
+    }
+}
+
 fn case<M: Model + Clone + std::fmt::Debug + 'static>(label: String, m: M) -> Case {
     let debug = format!("{m:?}");
     (label, Box::new(m), debug)
@@ -321,17 +331,10 @@ fn cases() -> Vec<Case> {
             .into_iter()
             .enumerate()
         {
-            let w = Ward::new()
-                .with_rho_d(rgb(0.1, 0.2, 0.3))
-                .unwrap()
-                .with_rho_s(rgb(0.4, 0.3, 0.2))
+            let m = Ward::new()
+                .with_lobes(rgb(0.1, 0.2, 0.3), rgb(0.4, 0.3, 0.2), shape(ax, ay))
                 .unwrap()
                 .with_normalization(norm);
-            let m = if ax == ay {
-                w.with_alpha(ax).unwrap()
-            } else {
-                w.with_alpha_xy(ax, ay).unwrap()
-            };
             v.push(case(format!("ward/{i}.{j}"), m));
         }
     }
@@ -339,16 +342,9 @@ fn cases() -> Vec<Case> {
         .into_iter()
         .enumerate()
     {
-        let a = AshikhminShirley::new()
-            .with_rho_d(rgb(0.1, 0.2, 0.3))
-            .unwrap()
-            .with_rho_s(rgb(0.4, 0.3, 0.05))
+        let m = AshikhminShirley::new()
+            .with_lobes(rgb(0.1, 0.2, 0.3), rgb(0.4, 0.3, 0.05), shape(nu, nv))
             .unwrap();
-        let m = if nu == nv {
-            a.with_n(nu).unwrap()
-        } else {
-            a.with_n_uv(nu, nv).unwrap()
-        };
         v.push(case(format!("ashikhmin-shirley/{j}"), m));
     }
     v

@@ -731,15 +731,8 @@ fn float32_path_is_the_model_in_float32() {
                 for c in 0..3 {
                     let got = p[c][k] as f64;
                     assert!(got.is_finite() && got >= 0.0, "{m:?} pair {k}");
-                    if w[c] == 0.0 {
-                        assert_eq!(got, 0.0, "{m:?}: zero in f64, {got} in f32 at {k}");
-                        continue;
-                    }
-                    // Below float32's normal range f_r rounds to 0 or a subnormal.
-                    if w[c] < 1e-30 {
-                        continue;
-                    }
-                    worst = worst.max((got - w[c]).abs() / w[c]);
+                    let e = f32_relative_error(got, w[c], || format!("{m:?} at {k}"));
+                    worst = worst.max(e);
                 }
             }
             assert!(worst < tol, "{m:?}: f32 off by {worst:e}");

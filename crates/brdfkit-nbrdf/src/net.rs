@@ -316,37 +316,42 @@ impl Nbrdf {
     /// Raw (unclamped) values at many (θh, θd, φd) triples, in parallel: equal bit for
     /// bit to [`raw`](Self::raw) of each.
     pub fn raw_angles(&self, angles: &[[f64; 3]]) -> Vec<Rgb> {
-        let mut out = vec![Rgb::ZERO; angles.len()];
-        out.par_chunks_mut(RUN)
-            .zip(angles.par_chunks(RUN))
-            .for_each_init(
-                || Scratch::<LANES>::new(self),
-                |s, (o, a)| {
-                    let xs: Vec<[f64; INPUTS]> =
-                        a.iter().map(|t| input(t[0], t[1], t[2])).collect();
-                    self.raw_block_into(&xs, o, s);
-                },
-            );
-        out
+        self.par_raw(angles, |t| input(t[0], t[1], t[2]), |_, _| {})
     }
 
     /// [`Brdf::eval`] of many direction pairs, in parallel: zero below the horizon,
     /// clamped otherwise; equal bit for bit to `eval` of each pair.
     pub fn eval_pairs(&self, pairs: &[(Vec3, Vec3)]) -> Vec<Rgb> {
-        let mut out = vec![Rgb::ZERO; pairs.len()];
+        // Below-horizon pairs are evaluated too (at their angles, harmless) and zeroed
+        // after: no compaction pass for what is usually a few.
+        self.par_raw(
+            pairs,
+            |(wi, wo)| pair_input(wi, wo),
+            |o, p| {
+                for (v, (wi, wo)) in o.iter_mut().zip(p) {
+                    *v = if above(wi, wo) { clamp(*v) } else { Rgb::ZERO };
+                }
+            },
+        )
+    }
+
+    /// Raw values at the inputs of many `items`, in parallel runs of [`RUN`] (one
+    /// [`Scratch`] per task), each run then passed to `finish` with its items.
+    fn par_raw<T: Sync>(
+        &self,
+        items: &[T],
+        to_input: impl Fn(&T) -> [f64; INPUTS] + Sync,
+        finish: impl Fn(&mut [Rgb], &[T]) + Sync,
+    ) -> Vec<Rgb> {
+        let mut out = vec![Rgb::ZERO; items.len()];
         out.par_chunks_mut(RUN)
-            .zip(pairs.par_chunks(RUN))
+            .zip(items.par_chunks(RUN))
             .for_each_init(
                 || Scratch::<LANES>::new(self),
-                |s, (o, p)| {
-                    // Below-horizon pairs are evaluated too (at their angles, harmless)
-                    // and zeroed after: no compaction pass for what is usually a few.
-                    let xs: Vec<[f64; INPUTS]> =
-                        p.iter().map(|(wi, wo)| pair_input(wi, wo)).collect();
+                |s, (o, run)| {
+                    let xs: Vec<[f64; INPUTS]> = run.iter().map(&to_input).collect();
                     self.raw_block_into(&xs, o, s);
-                    for (v, (wi, wo)) in o.iter_mut().zip(p) {
-                        *v = if above(wi, wo) { clamp(*v) } else { Rgb::ZERO };
-                    }
+                    finish(o, run);
                 },
             );
         out

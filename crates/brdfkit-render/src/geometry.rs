@@ -173,32 +173,24 @@ impl Plane {
 mod tests {
     use super::*;
 
+    fn ray(origin: Vec3, dir: Vec3) -> Ray {
+        Ray { origin, dir }
+    }
+
     #[test]
     fn sphere_hit_from_outside_and_inside() {
         let s = Sphere {
             center: Vec3::new(0.0, 0.0, -5.0),
             radius: 1.0,
         };
-        let r = Ray {
-            origin: Vec3::zeros(),
-            dir: Vec3::new(0.0, 0.0, -1.0),
-        };
+        let r = ray(Vec3::zeros(), Vec3::new(0.0, 0.0, -1.0));
         assert!((s.intersect(&r, f64::INFINITY).unwrap() - 4.0).abs() < 1e-14);
         assert!(s.intersect(&r, 3.9).is_none());
-        let inside = Ray {
-            origin: Vec3::new(0.0, 0.0, -5.0),
-            dir: Vec3::new(0.0, 1.0, 0.0),
-        };
+        let inside = ray(Vec3::new(0.0, 0.0, -5.0), Vec3::new(0.0, 1.0, 0.0));
         assert!((s.intersect(&inside, f64::INFINITY).unwrap() - 1.0).abs() < 1e-14);
-        let miss = Ray {
-            origin: Vec3::zeros(),
-            dir: Vec3::new(0.0, 1.0, 0.0),
-        };
+        let miss = ray(Vec3::zeros(), Vec3::new(0.0, 1.0, 0.0));
         assert!(s.intersect(&miss, f64::INFINITY).is_none());
-        let behind = Ray {
-            origin: Vec3::zeros(),
-            dir: Vec3::new(0.0, 0.0, 1.0),
-        };
+        let behind = ray(Vec3::zeros(), Vec3::new(0.0, 0.0, 1.0));
         assert!(s.intersect(&behind, f64::INFINITY).is_none());
     }
 
@@ -209,10 +201,7 @@ mod tests {
             center: Vec3::new(0.0, 0.0, -1e7),
             radius: 1e-2,
         };
-        let r = Ray {
-            origin: Vec3::zeros(),
-            dir: Vec3::new(0.5e-9, 0.0, -1.0).normalize(),
-        };
+        let r = ray(Vec3::zeros(), Vec3::new(0.5e-9, 0.0, -1.0).normalize());
         let t = s.intersect(&r, f64::INFINITY).unwrap();
         let p = r.origin + t * r.dir;
         assert!(((p - s.center).norm() - 1e-2).abs() < 1e-9);
@@ -224,20 +213,11 @@ mod tests {
             point: Vec3::new(0.0, -1.0, 0.0),
             normal: Vec3::new(0.0, 1.0, 0.0),
         };
-        let down = Ray {
-            origin: Vec3::zeros(),
-            dir: Vec3::new(0.0, -1.0, 0.0),
-        };
+        let down = ray(Vec3::zeros(), Vec3::new(0.0, -1.0, 0.0));
         assert_eq!(p.intersect(&down, f64::INFINITY), Some(1.0));
-        let up = Ray {
-            origin: Vec3::new(0.0, -3.0, 0.0),
-            dir: Vec3::new(0.0, 1.0, 0.0),
-        };
+        let up = ray(Vec3::new(0.0, -3.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
         assert_eq!(p.intersect(&up, f64::INFINITY), Some(2.0));
-        let parallel = Ray {
-            origin: Vec3::zeros(),
-            dir: Vec3::new(1.0, 0.0, 0.0),
-        };
+        let parallel = ray(Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0));
         assert!(p.intersect(&parallel, f64::INFINITY).is_none());
     }
 

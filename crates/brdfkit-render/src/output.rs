@@ -58,10 +58,19 @@ pub fn tonemap_channel(c: f64, exposure: f64) -> u8 {
     (linear_to_srgb(v) * 255.0).round() as u8
 }
 
-/// Writes through brdfkit's one writer ([`brdfkit_core::atomic::write_bytes`]): a new
+/// Encodes in memory with `encode`, then writes through brdfkit's one writer
+/// ([`brdfkit_core::atomic::write_bytes`]): an encoder failure leaves no file, and a new
 /// image gets 0666 & ~umask like any other output, not a temporary file's 0600.
-fn write_image(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    brdfkit_core::atomic::write_bytes(path, bytes).map_err(OutputError::Io)
+fn write_image(
+    path: &Path,
+    encode: impl FnOnce(&mut Cursor<Vec<u8>>) -> image::ImageResult<()>,
+) -> Result<(), OutputError> {
+    let mut buf = Cursor::new(Vec::new());
+    encode(&mut buf).map_err(|source| OutputError::Encode {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    brdfkit_core::atomic::write_bytes(path, buf.get_ref()).map_err(OutputError::Io)
 }
 
 impl RenderOutput {
@@ -99,28 +108,16 @@ impl RenderOutput {
 
     /// Writes the tone-mapped image (exposure `self.exposure`) as an 8-bit sRGB PNG.
     pub fn write_png(&self, path: impl AsRef<Path>) -> Result<(), OutputError> {
-        let path = path.as_ref();
-        let mut buf = Cursor::new(Vec::new());
-        self.to_srgb8(self.exposure)
-            .write_to(&mut buf, ImageFormat::Png)
-            .map_err(|source| OutputError::Encode {
-                path: path.to_path_buf(),
-                source,
-            })?;
-        write_image(path, buf.get_ref())
+        write_image(path.as_ref(), |buf| {
+            self.to_srgb8(self.exposure).write_to(buf, ImageFormat::Png)
+        })
     }
 
     /// Writes the linear radiance as a float32 RGB OpenEXR file.
     pub fn write_exr(&self, path: impl AsRef<Path>) -> Result<(), OutputError> {
-        let path = path.as_ref();
-        let mut buf = Cursor::new(Vec::new());
-        self.to_rgb32f()
-            .write_to(&mut buf, ImageFormat::OpenExr)
-            .map_err(|source| OutputError::Encode {
-                path: path.to_path_buf(),
-                source,
-            })?;
-        write_image(path, buf.get_ref())
+        write_image(path.as_ref(), |buf| {
+            self.to_rgb32f().write_to(buf, ImageFormat::OpenExr)
+        })
     }
 }
 

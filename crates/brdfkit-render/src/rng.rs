@@ -92,6 +92,20 @@ pub fn stratified_2d(rng: &mut Pcg32, n: usize, out: &mut Vec<[f64; 2]>) {
     }
 }
 
+/// The mean of `n` draws and its standard error √((E[x²] − mean²)/n): the Monte Carlo
+/// estimate the sampling tests compare with a closed form.
+#[cfg(test)]
+pub(crate) fn sample_mean(n: usize, mut draw: impl FnMut() -> f64) -> (f64, f64) {
+    let (mut sum, mut sum2) = (0.0, 0.0);
+    for _ in 0..n {
+        let v = draw();
+        sum += v;
+        sum2 += v * v;
+    }
+    let mean = sum / n as f64;
+    (mean, ((sum2 / n as f64 - mean * mean) / n as f64).sqrt())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -113,15 +127,13 @@ mod tests {
     #[test]
     fn uniform_is_in_unit_interval_with_the_right_mean() {
         let mut g = Pcg32::for_pixel(7, 3);
-        let n = 100_000;
-        let mut sum = 0.0;
-        for _ in 0..n {
+        let (mean, _) = sample_mean(100_000, || {
             let u = g.uniform();
             assert!((0.0..1.0).contains(&u));
-            sum += u;
-        }
+            u
+        });
         // Standard error of the mean: sqrt(1/12 / n) = 9.1e-4.
-        assert!((sum / n as f64 - 0.5).abs() < 5e-3);
+        assert!((mean - 0.5).abs() < 5e-3);
     }
 
     #[test]

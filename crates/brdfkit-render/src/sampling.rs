@@ -339,7 +339,7 @@ impl LobeSampler {
 mod tests {
     use super::*;
     use crate::material::MaterialSource;
-    use crate::rng::Pcg32;
+    use crate::rng::{Pcg32, sample_mean};
     use brdfkit_core::direction::spherical;
     use std::sync::Arc;
 
@@ -388,18 +388,12 @@ mod tests {
         let s = LobeSampler::build(&m);
         let wo = spherical(0.6, 0.4);
         let mut rng = Pcg32::new(3, 1);
-        let n = 400_000;
-        let (mut sum, mut sum2) = (0.0, 0.0);
-        for _ in 0..n {
+        let (mean, se) = sample_mean(400_000, || {
             let d = s.sample(&wo, rng.uniform(), [rng.uniform(), rng.uniform()]);
             assert!(d.pdf > 0.0, "a sampled direction has zero density");
             assert!((d.wi.norm() - 1.0).abs() < 1e-12);
-            let v = if d.wi.z > 0.0 { d.wi.z / d.pdf } else { 0.0 };
-            sum += v;
-            sum2 += v * v;
-        }
-        let mean = sum / n as f64;
-        let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+            if d.wi.z > 0.0 { d.wi.z / d.pdf } else { 0.0 }
+        });
         assert!(
             (mean - PI).abs() < 5.0 * se,
             "∫cos = {mean} ± {se}, expected π"
@@ -409,14 +403,12 @@ mod tests {
     #[test]
     fn cosine_warp_has_its_density() {
         let mut rng = Pcg32::new(9, 2);
-        let n = 200_000;
-        let mut sum = 0.0;
-        for _ in 0..n {
+        let (mean, _) = sample_mean(200_000, || {
             let w = sample_cosine(rng.uniform(), rng.uniform());
             assert!((w.norm() - 1.0).abs() < 1e-12 && w.z >= 0.0);
-            sum += w.z;
-        }
+            w.z
+        });
         // E[cos θ] under cos θ/π is 2/3.
-        assert!((sum / n as f64 - 2.0 / 3.0).abs() < 3e-3);
+        assert!((mean - 2.0 / 3.0).abs() < 3e-3);
     }
 }
