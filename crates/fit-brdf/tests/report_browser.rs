@@ -445,6 +445,8 @@ fn scattered_page(dir: &Path, input: &[&std::ffi::OsStr]) -> Value {
         let size = &s["size"];
         assert!(size[0].as_f64().unwrap() >= 300.0 && size[1].as_f64().unwrap() >= 200.0, "{s}");
         assert!(s["lines"].as_u64().unwrap() > 0 && !s["texts"].as_array().unwrap().is_empty(), "{s}");
+        assert!(s["clipped"].as_array().unwrap().is_empty(), "text cut off at the chart's edge: {}", s["clipped"]);
+        assert_eq!(s["hidden"], 0, "data points under a label or a legend: {}", s["texts"]);
     }
     for p in profiles {
         assert!(p["circles"].as_u64().unwrap() > 0, "a profile without points: {p}");

@@ -38,12 +38,27 @@ async function main() {
       for (let e = h.nextElementSibling; e && e.tagName !== 'H2'; e = e.nextElementSibling) els.push(e);
       return els;
     };
-    const svgs = (id) => section(id).flatMap((e) => [...e.querySelectorAll('svg')]).map((s) => ({
-      size: size(s),
-      circles: s.querySelectorAll('circle').length,
-      lines: s.querySelectorAll('polyline, path, line').length,
-      texts: [...s.querySelectorAll('text')].map((t) => t.textContent),
-    }));
+    const inside = (b, x, y) => x >= b.left && x <= b.right && y >= b.top && y <= b.bottom;
+    const centre = (e) => { const r = e.getBoundingClientRect(); return [(r.left + r.right) / 2, (r.top + r.bottom) / 2]; };
+    // What a chart draws, and what would spoil it: text cut off at the chart's edge,
+    // and data points under a text or a box drawn over the plot (a legend).
+    const chart = (s) => {
+      const sb = s.getBoundingClientRect();
+      const texts = [...s.querySelectorAll('text')];
+      const area = sb.width * sb.height;
+      const covers = texts.map((t) => t.getBoundingClientRect()).concat([...s.querySelectorAll('rect')]
+        .map((r) => r.getBoundingClientRect()).filter((b) => b.width * b.height < 0.3 * area));
+      const out = (b) => b.left < sb.left - 0.5 || b.right > sb.right + 0.5 || b.top < sb.top - 0.5 || b.bottom > sb.bottom + 0.5;
+      return {
+        size: size(s),
+        circles: s.querySelectorAll('circle').length,
+        lines: s.querySelectorAll('polyline, path, line').length,
+        texts: texts.map((t) => t.textContent.trim()),
+        clipped: texts.filter((t) => out(t.getBoundingClientRect())).map((t) => t.textContent.trim()),
+        hidden: [...s.querySelectorAll('circle')].filter((c) => { const [x, y] = centre(c); return covers.some((b) => inside(b, x, y)); }).length,
+      };
+    };
+    const svgs = (id) => section(id).flatMap((e) => [...e.querySelectorAll('svg')]).map(chart);
     const note = section('scatter').map((e) => e.textContent).join(' ');
     const drawn = note.match(/(\d+) of (\d+) samples drawn/);
     const table = (el) => el ? [...el.querySelectorAll('tbody tr')].map((tr) =>
