@@ -93,13 +93,25 @@ impl Tally {
 
 /// Mitsuba's `eval` of `file` at `pairs` in `variant` (with `wl`, 4 wavelengths a pair,
 /// for a spectral variant), run in `dir`.
-fn mitsuba_eval(dir: &Path, variant: &str, file: &Path, pairs: &[[f64; 6]], wl: &[f64]) -> Vec<f64> {
+fn mitsuba_eval(
+    dir: &Path,
+    variant: &str,
+    file: &Path,
+    pairs: &[[f64; 6]],
+    wl: &[f64],
+) -> Vec<f64> {
     let py = external_tools::require_mitsuba();
     write_f64(&dir.join("pairs.bin"), &pairs.concat());
     write_f64(&dir.join("wl.bin"), wl);
     let status = Command::new(&py)
         .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba_eval.py"))
-        .args([variant, file.to_str().unwrap(), "pairs.bin", "out.bin", "wl.bin"])
+        .args([
+            variant,
+            file.to_str().unwrap(),
+            "pairs.bin",
+            "out.bin",
+            "wl.bin",
+        ])
         .current_dir(dir)
         .status()
         .unwrap();

@@ -151,9 +151,17 @@ fn hand_built_anisotropic_and_spectral_points_are_the_readers_values() {
             let (set, _) = bsdf.summary().measured_points.unwrap();
             assert_eq!(pts.valid, set);
             assert_eq!(pts.points.len() + pts.skipped + pts.merged, set);
-            assert!(pts.points.len() > set / 3, "{name}: {} of {set}", pts.points.len());
+            assert!(
+                pts.points.len() > set / 3,
+                "{name}: {} of {set}",
+                pts.points.len()
+            );
             let slices: BTreeSet<usize> = pts.points.iter().map(|p| p.node[0]).collect();
-            assert_eq!(slices.len(), phi.len(), "{name}: every φi slice gives points");
+            assert_eq!(
+                slices.len(),
+                phi.len(),
+                "{name}: every φi slice gives points"
+            );
             let mut worst = 0.0f64;
             for p in &pts.points {
                 let e = bsdf.eval(&p.wi, &p.wo);
@@ -236,8 +244,16 @@ fn smooth_vndf(phi: &[f32], nt: usize, m: usize) -> Vec<f32> {
 fn phi_share(phi: &[f32], a: usize) -> f64 {
     let g = |k: usize| f64::from(phi[k]);
     let last = phi.len() - 1;
-    let lo = if a == 0 { g(0) } else { 0.5 * (g(a - 1) + g(a)) };
-    let hi = if a == last { g(last) } else { 0.5 * (g(a) + g(a + 1)) };
+    let lo = if a == 0 {
+        g(0)
+    } else {
+        0.5 * (g(a - 1) + g(a))
+    };
+    let hi = if a == last {
+        g(last)
+    } else {
+        0.5 * (g(a) + g(a + 1))
+    };
     (hi - lo) / (g(last) - g(0))
 }
 

@@ -17,7 +17,11 @@ const TRUTH: &str = r#"{"model":"cook-torrance","params":{"rho_d":[0.3,0.2,0.1],
 const N: usize = 32;
 
 fn spherical(theta: f64, phi: f64) -> Vec3 {
-    Vec3::new(phi.cos() * theta.sin(), phi.sin() * theta.sin(), theta.cos())
+    Vec3::new(
+        phi.cos() * theta.sin(),
+        phi.sin() * theta.sin(),
+        theta.cos(),
+    )
 }
 
 /// An anisotropic file (five φi slices over a quarter turn: a 4-fold reduction; nine
@@ -27,10 +31,10 @@ fn spherical(theta: f64, phi: f64) -> Vec3 {
 /// f · cos θo (Mitsuba's `eval` convention); `valid` marks the nodes with wo above the
 /// horizon. Everything is written as the format says, not by brdfkit's writer.
 fn anisotropic_file(m: &dyn Model, path: &Path) {
-    let phi: Vec<f32> = (0..5)
-        .map(|k| (-PI + k as f64 * PI / 8.0) as f32)
+    let phi: Vec<f32> = (0..5).map(|k| (-PI + k as f64 * PI / 8.0) as f32).collect();
+    let theta: Vec<f32> = (0..9)
+        .map(|k| (k as f64 * 10.0).to_radians() as f32)
         .collect();
-    let theta: Vec<f32> = (0..9).map(|k| (k as f64 * 10.0).to_radians() as f32).collect();
     let (np, nt, n) = (phi.len(), theta.len(), N as u64);
     let mut rgb = vec![0.0f32; np * nt * 3 * N * N];
     let mut valid = vec![0u8; (np * nt * N * N).div_ceil(8)];
@@ -87,7 +91,12 @@ fn an_anisotropic_bsdf_is_fitted_at_its_measured_points() {
     assert!(brdfkit::rgl::RglBsdf::read(&path).unwrap().is_anisotropic());
     let rec = dir.path().join("r.json");
     let o = bin()
-        .args(["fit", path.to_str().unwrap(), "--record", rec.to_str().unwrap()])
+        .args([
+            "fit",
+            path.to_str().unwrap(),
+            "--record",
+            rec.to_str().unwrap(),
+        ])
         .arg("--out")
         .arg(dir.path().join("fit.json"))
         .output()

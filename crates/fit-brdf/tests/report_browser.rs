@@ -418,49 +418,99 @@ fn scattered_page(dir: &Path, input: &[&std::ffi::OsStr]) -> Value {
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let errors = v["errors"].as_array().unwrap();
     assert!(errors.is_empty(), "errors in the page: {errors:?}");
-    let ids: Vec<&str> = v["ids"].as_array().unwrap().iter().filter_map(Value::as_str).collect();
-    for id in ["input", "not-resampled", "summary", "summary-table", "scatter", "profiles", "renders", "checks"] {
+    let ids: Vec<&str> = v["ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(Value::as_str)
+        .collect();
+    for id in [
+        "input",
+        "not-resampled",
+        "summary",
+        "summary-table",
+        "scatter",
+        "profiles",
+        "renders",
+        "checks",
+    ] {
         assert!(ids.contains(&id), "no #{id} on the page: {ids:?}");
     }
     for img in v["images"].as_array().unwrap() {
         let (nat, shown) = (&img["natural"], &img["shown"]);
         assert_eq!(img["complete"], true, "{img}");
-        assert!(nat[0].as_f64().unwrap() > 0.0 && nat[1].as_f64().unwrap() > 0.0, "not decoded: {img}");
-        assert!(shown[0].as_f64().unwrap() > 0.0 && shown[1].as_f64().unwrap() > 0.0, "not shown: {img}");
+        assert!(
+            nat[0].as_f64().unwrap() > 0.0 && nat[1].as_f64().unwrap() > 0.0,
+            "not decoded: {img}"
+        );
+        assert!(
+            shown[0].as_f64().unwrap() > 0.0 && shown[1].as_f64().unwrap() > 0.0,
+            "not shown: {img}"
+        );
     }
     // One scatter per model, each with a dot per drawn sample and channel (at most: a
     // value ≤ 0 has no place on the log axes) and the diagonal; two profiles (θh, θd)
     // with a line per model.
-    let drawn = v["drawn"][0].as_u64().expect("the scatter says how many samples it drew");
+    let drawn = v["drawn"][0]
+        .as_u64()
+        .expect("the scatter says how many samples it drew");
     assert!(drawn > 0, "{}", v["drawn"]);
     let scatter = v["scatter"].as_array().unwrap();
     assert_eq!(scatter.len(), 2, "{scatter:?}");
     for s in scatter {
         let dots = s["circles"].as_u64().unwrap();
-        assert!(dots > drawn && dots <= 3 * drawn, "{dots} dots for {drawn} samples");
+        assert!(
+            dots > drawn && dots <= 3 * drawn,
+            "{dots} dots for {drawn} samples"
+        );
     }
     let profiles = v["profiles"].as_array().unwrap();
     assert_eq!(profiles.len(), 2, "{profiles:?}");
     for s in scatter.iter().chain(profiles) {
         let size = &s["size"];
-        assert!(size[0].as_f64().unwrap() >= 300.0 && size[1].as_f64().unwrap() >= 200.0, "{s}");
-        assert!(s["lines"].as_u64().unwrap() > 0 && !s["texts"].as_array().unwrap().is_empty(), "{s}");
-        assert!(s["clipped"].as_array().unwrap().is_empty(), "text cut off at the chart's edge: {}", s["clipped"]);
-        assert_eq!(s["hidden"], 0, "data points under a label or a legend: {}", s["texts"]);
+        assert!(
+            size[0].as_f64().unwrap() >= 300.0 && size[1].as_f64().unwrap() >= 200.0,
+            "{s}"
+        );
+        assert!(
+            s["lines"].as_u64().unwrap() > 0 && !s["texts"].as_array().unwrap().is_empty(),
+            "{s}"
+        );
+        assert!(
+            s["clipped"].as_array().unwrap().is_empty(),
+            "text cut off at the chart's edge: {}",
+            s["clipped"]
+        );
+        assert_eq!(
+            s["hidden"], 0,
+            "data points under a label or a legend: {}",
+            s["texts"]
+        );
     }
     for p in profiles {
-        assert!(p["circles"].as_u64().unwrap() > 0, "a profile without points: {p}");
+        assert!(
+            p["circles"].as_u64().unwrap() > 0,
+            "a profile without points: {p}"
+        );
     }
     // The summary: a row per model, each loss cell's hover text its three channels.
     let summary = v["summary"].as_array().unwrap();
     assert_eq!(summary.len(), 2);
     for row in summary {
-        let titled = row.as_array().unwrap().iter().filter(|c| c["title"].is_string()).count();
+        let titled = row
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|c| c["title"].is_string())
+            .count();
         assert_eq!(titled, 4, "{row}");
     }
     let hover = &v["hover"];
     assert_eq!(hover["tag"], "TD", "{hover}");
-    assert!(hover["title"].as_str().unwrap().contains(" · B "), "{hover}");
+    assert!(
+        hover["title"].as_str().unwrap().contains(" · B "),
+        "{hover}"
+    );
     let checks = v["checks"].as_array().expect("the checks table");
     assert!(checks.len() >= 2, "{checks:?}");
     not_blank(&shot);
@@ -469,7 +519,9 @@ fn scattered_page(dir: &Path, input: &[&std::ffi::OsStr]) -> Value {
 
 /// The screenshot is a real picture: text, charts and colour, not a blank page.
 fn not_blank(shot: &Path) {
-    let img = image::open(shot).expect("the screenshot is a PNG").to_rgb8();
+    let img = image::open(shot)
+        .expect("the screenshot is a PNG")
+        .to_rgb8();
     let mut colours = std::collections::HashSet::new();
     let mut ink = 0usize;
     for p in img.pixels() {
@@ -493,13 +545,21 @@ fn samples_file(dir: &Path) -> PathBuf {
         let (r, phi) = ((1.0 - z * z).sqrt(), std::f64::consts::TAU * b);
         brdfkit::core::Vec3::new(r * phi.cos(), r * phi.sin(), z)
     };
-    let g = [0.618_033_988_749_895, 0.754_877_666_246_693, 0.569_840_290_998_053, 0.438_579_073_460_287];
+    let g = [
+        0.618_033_988_749_895,
+        0.754_877_666_246_693,
+        0.569_840_290_998_053,
+        0.438_579_073_460_287,
+    ];
     let mut s = String::from("wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,r,g,b\n");
     for k in 1..=400 {
         let u: Vec<f64> = g.iter().map(|x| (k as f64 * x).fract()).collect();
         let (wi, wo) = (dir_of(u[0], u[1]), dir_of(u[2], u[3]));
         let f = brdfkit::core::Brdf::eval(m.as_ref(), &wi, &wo).0;
-        s += &format!("{},{},{},{},{},{},{},{},{}\n", wi.x, wi.y, wi.z, wo.x, wo.y, wo.z, f[0], f[1], f[2]);
+        s += &format!(
+            "{},{},{},{},{},{},{},{},{}\n",
+            wi.x, wi.y, wi.z, wo.x, wo.y, wo.z, f[0], f[1], f[2]
+        );
     }
     let p = dir.join("lab.csv");
     std::fs::write(&p, s).unwrap();
