@@ -20,14 +20,19 @@ fn felt() -> PathBuf {
 }
 
 /// Every point equals `eval` at its pair (to 1e-7 relative: eval recomputes θi and the
-/// half vector from the directions, and the warp's inverse is found to 2⁻⁴⁸), and the points are the file's valid bits less the
-/// ones on the horizon.
-fn points_are_eval(path: &Path) -> (RglBsdf, MeasuredPoints) {
+/// half vector from the directions, and the warp's inverse is found to 2⁻⁴⁸), and the
+/// points are the file's valid bits less the ones skipped or merged: more than 1/`part`
+/// of them.
+fn points_are_eval(path: &Path, part: usize) -> (RglBsdf, MeasuredPoints) {
     let (bsdf, pts) = MeasuredPoints::read(path).unwrap();
     let (set, _) = bsdf.summary().measured_points.expect("a valid field");
     assert_eq!(pts.valid, set);
     assert_eq!(pts.points.len() + pts.skipped + pts.merged, set);
-    assert!(pts.points.len() > set / 2, "{} of {set}", pts.points.len());
+    assert!(
+        pts.points.len() > set / part,
+        "{} of {set}",
+        pts.points.len()
+    );
     let mut worst = 0.0f64;
     for p in &pts.points {
         let e = bsdf.eval(&p.wi, &p.wo);
@@ -74,7 +79,7 @@ fn ring_of(pts: &MeasuredPoints, k: usize) -> f64 {
 /// measurement, so its weights integrate nothing in particular).
 #[test]
 fn felt_points_are_the_readers_values() {
-    let (_, pts) = points_are_eval(&felt());
+    let (_, pts) = points_are_eval(&felt(), 2);
     assert!(
         pts.points
             .iter()
@@ -92,11 +97,11 @@ fn written_file_points_are_the_readers_values() {
         &path,
     )
     .unwrap();
-    let (_, pts) = points_are_eval(&path);
+    let (_, pts) = points_are_eval(&path, 2);
     weights_integrate_the_cosine(&pts);
     let path = dir.path().join("gold_rgb.bsdf");
     write(&proxy("gold-paint"), &WriteOptions::default(), &path).unwrap();
-    let (_, pts) = points_are_eval(&path);
+    let (_, pts) = points_are_eval(&path, 2);
     weights_integrate_the_cosine(&pts);
     // A file without `valid` would give every node: the bits here leave out the
     // nodes below the horizon, and the 90° slice is skipped.
@@ -146,33 +151,13 @@ fn hand_built_anisotropic_and_spectral_points_are_the_readers_values() {
             seed += 1;
             let path = dir.path().join(format!("{name}-{spectral}.bsdf"));
             write_fields(&hand_built(&phi, spectral, 16, seed), &path);
-            let (bsdf, pts) = MeasuredPoints::read(&path).unwrap();
+            let (bsdf, pts) = points_are_eval(&path, 3);
             assert_eq!(bsdf.is_anisotropic(), phi.len() > 2);
-            let (set, _) = bsdf.summary().measured_points.unwrap();
-            assert_eq!(pts.valid, set);
-            assert_eq!(pts.points.len() + pts.skipped + pts.merged, set);
-            assert!(
-                pts.points.len() > set / 3,
-                "{name}: {} of {set}",
-                pts.points.len()
-            );
             let slices: BTreeSet<usize> = pts.points.iter().map(|p| p.node[0]).collect();
             assert_eq!(
                 slices.len(),
                 phi.len(),
                 "{name}: every φi slice gives points"
-            );
-            let mut worst = 0.0f64;
-            for p in &pts.points {
-                let e = bsdf.eval(&p.wi, &p.wo);
-                for c in 0..3 {
-                    let d = (e.0[c] - p.rgb[c]).abs() / (1e-12 + e.0[c].abs());
-                    worst = worst.max(d);
-                }
-            }
-            assert!(
-                worst < 1e-7,
-                "{name}, spectral {spectral}: worst relative difference {worst}"
             );
         }
     }

@@ -6,7 +6,7 @@ mod common;
 
 use brdfkit::core::{Model, Vec3};
 use brdfkit::rgl::{Tensor, TensorData};
-use common::{bin, stderr};
+use common::{assert_alpha_rho_d, bin, param, stderr};
 use serde_json::Value;
 use std::f64::consts::PI;
 use std::path::Path;
@@ -77,11 +77,6 @@ fn anisotropic_file(m: &dyn Model, path: &Path) {
     brdfkit::rgl::tensor::write(&fields, path).unwrap();
 }
 
-fn param(r: &Value, k: &str, c: Option<usize>) -> f64 {
-    let v = &r["model"]["params"][k];
-    c.map_or(v, |c| &v[c]).as_f64().unwrap()
-}
-
 #[test]
 fn an_anisotropic_bsdf_is_fitted_at_its_measured_points() {
     let dir = tempfile::tempdir().unwrap();
@@ -108,12 +103,7 @@ fn an_anisotropic_bsdf_is_fitted_at_its_measured_points() {
     let r: Value = serde_json::from_slice(&std::fs::read(rec).unwrap()).unwrap();
     assert_eq!(r["input"]["kind"], "bsdf-points", "{}", r["input"]);
     assert_eq!(r["input"]["weights"], "given");
-    let a = param(&r, "alpha", None);
-    assert!((a - 0.2).abs() < 2e-3, "alpha {a}");
-    for (c, w) in [0.3, 0.2, 0.1].iter().enumerate() {
-        let v = param(&r, "rho_d", Some(c));
-        assert!((v - w).abs() < 2e-3, "rho_d[{c}] {v}");
-    }
+    assert_alpha_rho_d(&r, 0.2, [0.3, 0.2, 0.1], 2e-3, "points");
     for (c, w) in [0.4, 0.5, 0.6].iter().enumerate() {
         let v = param(&r, "rho_s", Some(c));
         assert!((v - w).abs() < 1e-2, "rho_s[{c}] {v}");

@@ -138,16 +138,21 @@ chromium_test! {
     }
 }
 
-/// Runs tests/browser/panels.cjs on `page`; the JSON it wrote.
-fn drive(page: &Path, dir: &Path) -> Value {
+/// Runs tests/browser/`script` under node on `page` (its arguments: the page, the JSON
+/// it writes into `dir`, the Chromium, then `extra`); the JSON, whose `errors` (console
+/// errors, exceptions, failed requests) must be none.
+fn run_driver(script: &str, page: &Path, dir: &Path, extra: &[&Path]) -> Value {
     let (driver, exe) = external_tools::require_browser_driver();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser/panels.cjs");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/browser")
+        .join(script);
     let out = dir.join("driven.json");
     let o = std::process::Command::new("node")
         .arg(&script)
         .arg(page)
         .arg(&out)
         .arg(&exe)
+        .args(extra)
         .env("NODE_PATH", driver.join("node_modules"))
         .output()
         .expect("node starts");
@@ -160,6 +165,12 @@ fn drive(page: &Path, dir: &Path) -> Value {
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     let errors = v["errors"].as_array().unwrap();
     assert!(errors.is_empty(), "errors in the page: {errors:?}");
+    v
+}
+
+/// Runs tests/browser/panels.cjs on `page`; the JSON it wrote.
+fn drive(page: &Path, dir: &Path) -> Value {
+    let v = run_driver("panels.cjs", page, dir, &[]);
     for (control, changed) in v["changed"].as_object().unwrap() {
         assert_eq!(
             changed,
@@ -397,27 +408,8 @@ fn scattered_page(dir: &Path, input: &[&std::ffi::OsStr]) -> Value {
         .arg(&out)
         .assert()
         .success();
-    let (driver, exe) = external_tools::require_browser_driver();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser/scattered.cjs");
-    let (json, shot) = (dir.join("scattered.json"), dir.join("scattered.png"));
-    let o = std::process::Command::new("node")
-        .arg(&script)
-        .arg(out.join("index.html"))
-        .arg(&json)
-        .arg(&exe)
-        .arg(&shot)
-        .env("NODE_PATH", driver.join("node_modules"))
-        .output()
-        .expect("node starts");
-    assert!(
-        o.status.success(),
-        "the browser driver failed: {}\n{}",
-        o.status,
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let errors = v["errors"].as_array().unwrap();
-    assert!(errors.is_empty(), "errors in the page: {errors:?}");
+    let shot = dir.join("scattered.png");
+    let v = run_driver("scattered.cjs", &out.join("index.html"), dir, &[&shot]);
     let ids: Vec<&str> = v["ids"]
         .as_array()
         .unwrap()
