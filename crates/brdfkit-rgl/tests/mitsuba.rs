@@ -205,23 +205,33 @@ const fn spec(anisotropic: bool, spectral: bool, n: u64, m: u64, seed: u64) -> S
     }
 }
 
+/// The files of the comparisons, (anisotropic, value grid, VNDF grid), for RGB and
+/// for spectral: isotropic and anisotropic, each at 32² and 64².
+const FILES: [(bool, u64, u64); 4] = [
+    (false, 32, 32),
+    (false, 64, 48),
+    (true, 32, 32),
+    (true, 64, 48),
+];
+
+/// The specs of [`FILES`], `spectral` or not, seeded from `seed` by tens.
+fn files(spectral: bool, seed: u64) -> impl Iterator<Item = Spec> {
+    (0u64..)
+        .zip(FILES)
+        .map(move |(k, (aniso, n, m))| spec(aniso, spectral, n, m, seed + 10 * k))
+}
+
 mitsuba_test! {
     /// 4 RGB files × 25,000 pairs = 100,000 pairs in `scalar_rgb`.
     fn rgb_files_match_mitsuba() {
-        check_rgb(spec(false, false, 32, 32, 10), 25_000);
-        check_rgb(spec(false, false, 64, 48, 20), 25_000);
-        check_rgb(spec(true, false, 32, 32, 30), 25_000);
-        check_rgb(spec(true, false, 64, 48, 40), 25_000);
+        files(false, 10).for_each(|s| check_rgb(s, 25_000));
     }
 }
 
 mitsuba_test! {
     /// 4 spectral files × 25,000 pairs (4 wavelengths each) in `scalar_spectral`.
     fn spectral_files_match_mitsuba() {
-        check_spectral(spec(false, true, 32, 32, 50), 25_000);
-        check_spectral(spec(false, true, 64, 48, 60), 25_000);
-        check_spectral(spec(true, true, 32, 32, 70), 25_000);
-        check_spectral(spec(true, true, 64, 48, 80), 25_000);
+        files(true, 50).for_each(|s| check_spectral(s, 25_000));
     }
 }
 
