@@ -58,7 +58,12 @@ pub enum Values {
 pub struct RglBsdf {
     name: String,
     description: String,
-    t: Tables,
+    phi_i: Vec<f32>,
+    theta_i: Vec<f32>,
+    ndf: Warp2D,
+    sigma: Warp2D,
+    vndf: Warp2D,
+    values: Values,
     isotropic: bool,
     jacobian: bool,
     /// 2 or 4 (or 1, a full φ range): the fold of wi into the stored φi range.
@@ -67,18 +72,6 @@ pub struct RglBsdf {
     summary: Summary,
     /// The tables by cell for the batch kernel ([`crate::batch`]), built on first use.
     packed: OnceLock<Packed>,
-}
-
-/// The tables of a file: the incident grids and the interpolants every evaluation
-/// reads (also the view of the measured points, [`Parts`]).
-#[derive(Clone, Debug)]
-pub(crate) struct Tables {
-    pub phi_i: Vec<f32>,
-    pub theta_i: Vec<f32>,
-    pub ndf: Warp2D,
-    pub sigma: Warp2D,
-    pub vndf: Warp2D,
-    pub values: Values,
 }
 
 /// The facts of a file that `info` reports.
@@ -166,14 +159,19 @@ impl RglBsdf {
         (wi, wo)
     }
 
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_parts(
         tf: &TensorFile,
         description: String,
-        t: Tables,
+        phi_i: Vec<f32>,
+        theta_i: Vec<f32>,
+        ndf: Warp2D,
+        sigma: Warp2D,
+        vndf: Warp2D,
+        values: Values,
         jacobian: bool,
         summary: Summary,
     ) -> RglBsdf {
-        let phi_i = &t.phi_i;
         let isotropic = phi_i.len() <= 2;
         // Isotropic files: Mitsuba 3.9.1 folds wi into y ≤ 0 as for a 2-fold reduction
         // (measured.cpp leaves `m_reduction` unset for them; measured against Mitsuba in
@@ -188,7 +186,12 @@ impl RglBsdf {
         RglBsdf {
             name: tf.path().display().to_string(),
             description,
-            t,
+            phi_i,
+            theta_i,
+            ndf,
+            sigma,
+            vndf,
+            values,
             isotropic,
             jacobian,
             reduction,
@@ -209,7 +212,7 @@ impl RglBsdf {
 
     /// Whether the file is spectral.
     pub fn is_spectral(&self) -> bool {
-        matches!(self.t.values, Values::Spectral { .. })
+        matches!(self.values, Values::Spectral { .. })
     }
 
     /// Whether f depends on φi (more than two φi slices).
@@ -219,7 +222,7 @@ impl RglBsdf {
 
     /// The wavelengths (nm) of a spectral file.
     pub fn wavelengths(&self) -> Option<&[f32]> {
-        match &self.t.values {
+        match &self.values {
             Values::Spectral { wavelengths, .. } => Some(wavelengths),
             Values::Rgb(_) => None,
         }
@@ -232,7 +235,7 @@ impl RglBsdf {
 
     /// The θi grid (radians) and the φi grid.
     pub fn grids(&self) -> (&[f32], &[f32]) {
-        (&self.t.theta_i, &self.t.phi_i)
+        (&self.theta_i, &self.phi_i)
     }
 
     /// Steps 1 to 3: the parameters (φi, θi) and their place on the grids, the sample
@@ -253,13 +256,13 @@ impl RglBsdf {
         ];
         u_m[1] -= u_m[1].floor();
         let params = [phi_i, theta_i];
-        let at = ParamPos::new([&self.t.phi_i, &self.t.theta_i], params);
-        let (sample, _) = self.t.vndf.invert_with(u_m, &self.t.vndf.weights_at(&at));
+        let at = ParamPos::new([&self.phi_i, &self.theta_i], params);
+        let (sample, _) = self.vndf.invert_with(u_m, &self.vndf.weights_at(&at));
         // The stored value times the Jacobian is what Mitsuba's `eval` returns, f · cos θo
         // by its `BSDF::eval` contract (the database's values carry the cosine): f_r is
         // that over cos θo, which is > 0 here.
         let jac = if self.jacobian {
-            self.t.ndf.eval_plain(u_m) / (4.0 * self.t.sigma.eval_plain(u_wi))
+            self.ndf.eval_plain(u_m) / (4.0 * self.sigma.eval_plain(u_wi))
         } else {
             1.0
         } / wo.z;
@@ -274,7 +277,7 @@ impl RglBsdf {
     /// The spectral value at wavelength `lambda` (nm), f_r without the cosine; `None`
     /// for an RGB file. Below the horizon, 0.
     pub fn eval_spectral(&self, wi: &Vec3, wo: &Vec3, lambda: f64) -> Option<f64> {
-        let Values::Spectral { warp, .. } = &self.t.values else {
+        let Values::Spectral { warp, .. } = &self.values else {
             return None;
         };
         Some(match self.locate(wi, wo) {
@@ -291,7 +294,7 @@ impl RglBsdf {
             out.fill(0.0);
             return;
         };
-        let warp = match &self.t.values {
+        let warp = match &self.values {
             Values::Rgb(w) => w,
             Values::Spectral { warp, .. } => warp,
         };
@@ -304,7 +307,7 @@ impl RglBsdf {
     /// allocates it once.
     #[inline]
     pub fn eval_rgb_into(&self, wi: &Vec3, wo: &Vec3, scratch: &mut Vec<f64>, out: &mut [f64]) {
-        match &self.t.values {
+        match &self.values {
             Values::Rgb(_) => self.eval_stored(wi, wo, &mut out[..3]),
             Values::Spectral { to_srgb, .. } => {
                 scratch.resize(to_srgb[0].len(), 0.0);
@@ -318,23 +321,21 @@ impl RglBsdf {
 
     /// The batch kernel's view of the file ([`crate::batch`]).
     fn kernel(&self) -> Kernel<'_> {
-        let values = match &self.t.values {
+        let values = match &self.values {
             Values::Rgb(w) => w,
             Values::Spectral { warp, .. } => warp,
         };
         Kernel {
-            vndf: &self.t.vndf,
-            ndf: &self.t.ndf,
-            sigma: &self.t.sigma,
+            vndf: &self.vndf,
+            ndf: &self.ndf,
+            sigma: &self.sigma,
             values,
-            phi_i: &self.t.phi_i,
-            theta_i: &self.t.theta_i,
+            phi_i: &self.phi_i,
+            theta_i: &self.theta_i,
             isotropic: self.isotropic,
             jacobian: self.jacobian,
             reduction: self.reduction,
-            packed: self
-                .packed
-                .get_or_init(|| Packed::new(&self.t.vndf, values)),
+            packed: self.packed.get_or_init(|| Packed::new(&self.vndf, values)),
         }
     }
 
@@ -345,12 +346,12 @@ impl RglBsdf {
     fn stored_rows(&self, rows: &[[f64; 6]], scratch: &mut Vec<f32>) {
         let k = self.stored_len();
         scratch.resize(rows.len() * k, 0.0);
-        let values = match &self.t.values {
+        let values = match &self.values {
             Values::Rgb(w) => w,
             Values::Spectral { warp, .. } => warp,
         };
         // Checked before `kernel()`, which builds the kernel's tables.
-        let fits = [&self.t.vndf, values, &self.t.ndf, &self.t.sigma]
+        let fits = [&self.vndf, values, &self.ndf, &self.sigma]
             .iter()
             .all(|w| w.w <= MAX_GRID && w.h <= MAX_GRID);
         if fits {
@@ -376,7 +377,7 @@ impl RglBsdf {
     ) {
         let k = self.stored_len();
         self.stored_rows(rows, scratch);
-        match &self.t.values {
+        match &self.values {
             Values::Rgb(_) => {
                 for (o, v) in out.iter_mut().zip(scratch.chunks_exact(3)) {
                     *o = [v[0], v[1], v[2]].map(f64::from);
@@ -464,28 +465,29 @@ impl Brdf for RglBsdf {
     }
 }
 
-/// The tables of a file and its flags, for the measured points
-/// ([`crate::MeasuredPoints`]): a view that leaves the evaluation's fields private to
-/// this file; the tables by [`Deref`](std::ops::Deref).
+/// The tables of a file, for the measured points ([`crate::MeasuredPoints`]): a view
+/// that leaves the evaluation's fields private to this file.
 pub(crate) struct Parts<'a> {
-    pub tables: &'a Tables,
+    pub phi_i: &'a [f32],
+    pub theta_i: &'a [f32],
+    pub ndf: &'a Warp2D,
+    pub sigma: &'a Warp2D,
+    pub vndf: &'a Warp2D,
+    pub values: &'a Values,
     pub isotropic: bool,
     pub jacobian: bool,
-}
-
-impl std::ops::Deref for Parts<'_> {
-    type Target = Tables;
-
-    fn deref(&self) -> &Tables {
-        self.tables
-    }
 }
 
 impl RglBsdf {
     /// The tables of the file ([`Parts`]).
     pub(crate) fn parts(&self) -> Parts<'_> {
         Parts {
-            tables: &self.t,
+            phi_i: &self.phi_i,
+            theta_i: &self.theta_i,
+            ndf: &self.ndf,
+            sigma: &self.sigma,
+            vndf: &self.vndf,
+            values: &self.values,
             isotropic: self.isotropic,
             jacobian: self.jacobian,
         }

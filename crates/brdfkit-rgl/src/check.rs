@@ -3,7 +3,7 @@
 //! failure names the file and the field (the checks of `measured.cpp`'s constructor, and
 //! those it leaves to chance: NaN or unsorted grids, a `valid` of the wrong length).
 
-use crate::bsdf::{RglBsdf, Summary, Tables, Values};
+use crate::bsdf::{RglBsdf, Summary, Values};
 use crate::cie;
 use crate::error::RglError;
 use crate::tensor::{Dtype, FieldInfo, TensorFile};
@@ -196,18 +196,15 @@ pub(crate) fn build(tf: &TensorFile) -> Result<RglBsdf, RglError> {
         measured_points: valid_bits(tf, phi_i.len() * theta_i.len() * n * m)?,
         jacobian,
     };
-    let tables = Tables {
-        phi_i,
-        theta_i,
-        ndf: ndf_w,
-        sigma: sigma_w,
-        vndf: vndf_w,
-        values,
-    };
     Ok(RglBsdf::from_parts(
         tf,
         description,
-        tables,
+        phi_i,
+        theta_i,
+        ndf_w,
+        sigma_w,
+        vndf_w,
+        values,
         jacobian,
         summary,
     ))

@@ -122,7 +122,7 @@ struct Slice {
 impl Slice {
     /// m and wo of sample position `s`, with |dω_o/ds| (module doc).
     fn map(&self, p: &Parts, s: [f64; 2]) -> (Vec3, Vec3, [f64; 2], f64) {
-        let um = forward(&p.vndf, s, &self.params);
+        let um = forward(p.vndf, s, &self.params);
         let (_, pdf) = p.vndf.invert(um, &self.params);
         let th = u2theta(um[0]);
         let m = spherical(th, u2phi(um[1]) + self.phi_offset);
@@ -261,14 +261,14 @@ fn slice(p: &Parts, bsdf: &RglBsdf, [a, b]: [usize; 2]) -> Slice {
 
 /// dω_i of slice (a, b) (module doc).
 fn incident_measure(p: &Parts, [a, b]: [usize; 2]) -> f64 {
-    let (t0, t1) = cell_of(&p.theta_i, b, 0.0, PI / 2.0);
+    let (t0, t1) = cell_of(p.theta_i, b, 0.0, PI / 2.0);
     let ring = 2.0 * PI * (t0.cos() - t1.cos());
     // At θi = 0 one slice stands for the whole cap: the pole is one incident direction.
     if p.isotropic || p.phi_i.len() < 2 || p.theta_i[b] == 0.0 {
         return ring;
     }
     let (lo, hi) = (f64::from(p.phi_i[0]), f64::from(p.phi_i[p.phi_i.len() - 1]));
-    let (f0, f1) = cell_of(&p.phi_i, a, lo, hi);
+    let (f0, f1) = cell_of(p.phi_i, a, lo, hi);
     ring * (f1 - f0) / (hi - lo)
 }
 
@@ -355,7 +355,7 @@ fn slice_points(
             row0[x] = Some(out.points.len());
             bsdf.eval(&sl.wi, &wo).0
         } else {
-            node_rgb(&p.values, s, &sl.params, &mut stored).map(|v| v * jac)
+            node_rgb(p.values, s, &sl.params, &mut stored).map(|v| v * jac)
         };
         out.points.push(point(wo, rgb, weight, y, x));
     }
