@@ -14,6 +14,7 @@ mod common;
 
 use brdfkit_core::{Brdf, Vec3};
 use brdfkit_rgl::RglBsdf;
+use common::tally::Tally;
 use common::{Spec, fields, pairs};
 use rand::{Rng, SeedableRng};
 use std::path::Path;
@@ -30,65 +31,6 @@ fn read_f64(path: &Path) -> Vec<f64> {
         .chunks_exact(8)
         .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
         .collect()
-}
-
-/// How brdfkit's values compare with Mitsuba's.
-///
-/// The criteria: ≥ 99.9 % within 1e-4 relative + 1e-6 absolute, and none off by
-/// more than 1 %. Mitsuba computes in f32: where a value crosses zero (the stored RGB
-/// and spectra have negatives), a result of ~1e-5 is the difference of O(1) terms and
-/// carries Mitsuba's f32 rounding of those terms, ~1e-6 absolute. So the 1 % bound is
-/// checked with a 1e-5 absolute allowance ([`CANCELLATION`]); the values beyond 1 % +
-/// 1e-6 are counted and printed (in the runs of docs/rgl.md: at most 1 in 100,000, all
-/// below 1e-4 in magnitude).
-#[derive(Default, Debug)]
-struct Tally {
-    values: usize,
-    within: usize,
-    /// Beyond 1 % + 1e-6.
-    beyond_1pct: usize,
-    /// Largest |ours − theirs| / |theirs| after the [`CANCELLATION`] allowance.
-    worst: f64,
-}
-
-/// The absolute allowance of the 1 % bound (see [`Tally`]).
-const CANCELLATION: f64 = 1e-5;
-
-impl Tally {
-    fn add(&mut self, ours: f64, theirs: f64) {
-        let err = (ours - theirs).abs();
-        self.values += 1;
-        if err <= 1e-4 * theirs.abs() + 1e-6 {
-            self.within += 1;
-        }
-        if err > 1e-2 * theirs.abs() + 1e-6 {
-            self.beyond_1pct += 1;
-            eprintln!("beyond 1 % + 1e-6: brdfkit {ours:e}, Mitsuba {theirs:e}");
-        }
-        let rel = (err - CANCELLATION).max(0.0) / theirs.abs().max(1e-12);
-        self.worst = self.worst.max(rel);
-    }
-
-    fn check(&self, what: &str) {
-        let frac = self.within as f64 / self.values as f64;
-        eprintln!(
-            "{what}: {} values, {:.4} % within 1e-4 rel + 1e-6, {} beyond 1 % + 1e-6, worst beyond 1e-5 abs {:.3e} rel",
-            self.values,
-            100.0 * frac,
-            self.beyond_1pct,
-            self.worst
-        );
-        assert!(
-            frac >= 0.999,
-            "{what}: only {:.4} % within 1e-4",
-            100.0 * frac
-        );
-        assert!(
-            self.worst <= 0.01,
-            "{what}: a value off by {:.3e} relative",
-            self.worst
-        );
-    }
 }
 
 /// Mitsuba's `eval` of `file` at `pairs` in `variant` (with `wl`, 4 wavelengths a pair,
@@ -357,7 +299,7 @@ mitsuba_test! {
                     t.add(v * p.wo.z, *m);
                 }
             }
-            let frac = t.within as f64 / t.values as f64;
+            let frac = t.fraction_within();
             eprintln!(
                 "points, seed {seed}: {t:?} ({:.4} % within 1e-4; {left_out} left out)",
                 100.0 * frac

@@ -5,6 +5,8 @@
 
 #![allow(dead_code)]
 
+pub mod tally;
+
 use brdfkit_rgl::{Tensor, TensorData};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
