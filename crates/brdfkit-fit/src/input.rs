@@ -7,8 +7,8 @@
 //! ([`BsdfInput::Points`], the default: docs/rgl.md "The sample-set fit" has the
 //! measurement that chose it) or its resampling to a 90 × 90 × 180 MERL table
 //! ([`BsdfInput::Table`], each cell the weighted mean of both orders of its pair, as `fit-brdf
-//! resample --bsdf` writes it). An anisotropic file has no measured points yet
-//! (`brdfkit_rgl::MeasuredPoints::of`): it is resampled, and [`Measured::note`] says so.
+//! resample --bsdf` writes it). Isotropic and anisotropic files alike
+//! (`brdfkit_rgl::MeasuredPoints::of`).
 
 use crate::data::FitData;
 use crate::error::FitError;
@@ -184,7 +184,7 @@ impl Measured {
         let tf = TensorFile::from_bytes(bytes, path)?;
         let bsdf = RglBsdf::from_tensor(&tf)?;
         let parse_s = t.elapsed().as_secs_f64();
-        if how == BsdfInput::Points && !bsdf.is_anisotropic() {
+        if how == BsdfInput::Points {
             // from_tensor has checked `valid`'s dtype and length.
             let valid = tf.get("valid").map(|f| tf.data(f));
             let pts = MeasuredPoints::of(&bsdf, valid);
@@ -207,12 +207,7 @@ impl Measured {
             });
         }
         drop(tf);
-        let why = if how == BsdfInput::Points {
-            "anisotropic: its measured points are not built yet, so it is "
-        } else {
-            ""
-        };
-        let (table, clamped, note) = resampled(&bsdf, path, why)?;
+        let (table, clamped, note) = resampled(&bsdf, path)?;
         // The resampling is part of reading the file as a table.
         let read_s = t.elapsed().as_secs_f64();
         let m = Measured::of_table(table, path, Some(clamped), keep_table, Some(note))?;
@@ -275,19 +270,14 @@ impl Measured {
 
 /// A `.bsdf` resampled to a 90 × 90 × 180 MERL table (each cell the weighted mean of both
 /// orders of its pair, as `fit-brdf resample --bsdf` writes it), its negative values stored as
-/// 0, and the note that says so (`why` leads the verb: why it was resampled, if not
-/// asked for).
-fn resampled(
-    bsdf: &RglBsdf,
-    path: &Path,
-    why: &str,
-) -> Result<(MerlTable, usize, String), InputError> {
+/// 0, and the note that says so.
+fn resampled(bsdf: &RglBsdf, path: &Path) -> Result<(MerlTable, usize, String), InputError> {
     let (table, stats) = bsdf.to_table(Dims::MERL).map_err(|e| InputError::Data {
         path: path.to_owned(),
         message: e.to_string(),
     })?;
     let note = format!(
-        "{}: an RGL-EPFL .bsdf file, {why}resampled to a 90x90x180 MERL table (weighted mean of \
+        "{}: an RGL-EPFL .bsdf file, resampled to a 90x90x180 MERL table (weighted mean of \
          both orders of each pair; {} negative values stored as 0); docs/rgl.md",
         path.display(),
         stats.clamped_values
@@ -306,7 +296,7 @@ pub fn read_table(path: &Path) -> Result<(MerlTable, Option<String>), InputError
     if InputKind::of_file(path).map_err(io)? != InputKind::Rgl {
         return Ok((MerlTable::read(path)?, None));
     }
-    let (table, _, note) = resampled(&RglBsdf::read(path)?, path, "")?;
+    let (table, _, note) = resampled(&RglBsdf::read(path)?, path)?;
     Ok((table, Some(note)))
 }
 

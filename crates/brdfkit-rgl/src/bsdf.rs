@@ -120,12 +120,12 @@ fn elevation(d: &Vec3) -> f64 {
 }
 
 #[inline]
-fn theta2u(theta: f64) -> f64 {
+pub(crate) fn theta2u(theta: f64) -> f64 {
     (theta * (2.0 / PI)).sqrt()
 }
 
 #[inline]
-fn phi2u(phi: f64) -> f64 {
+pub(crate) fn phi2u(phi: f64) -> f64 {
     (phi + PI) * (0.5 / PI)
 }
 
@@ -135,7 +135,30 @@ fn mulsign_neg(x: f64, s: f64) -> f64 {
     if s.is_sign_negative() { x } else { -x }
 }
 
+/// (φi, θi) of a folded wi as the reader (and Mitsuba) computes them: the parameters
+/// of every table lookup. φ by Dr.Jit's `atan2` conventions at signed zeros (wi at the
+/// pole gives 0; y = ±0 with x < 0 gives +π), as Mitsuba computes it.
+#[inline]
+pub(crate) fn incident_params(wi: &Vec3) -> [f64; 2] {
+    [atan2_drjit(wi.y, wi.x), elevation(wi)]
+}
+
 impl RglBsdf {
+    /// Step 1: wi and wo mirrored by wi's sign bits so that wi lies in the stored φi
+    /// range (y ≤ 0, and x ≤ 0 for a 4-fold reduction), as `measured.cpp` folds them.
+    #[inline]
+    pub(crate) fn fold(&self, mut wi: Vec3, mut wo: Vec3) -> (Vec3, Vec3) {
+        if self.reduction >= 2 {
+            let sy = wi.y;
+            let sx = if self.reduction == 4 { wi.x } else { sy };
+            wi.x = mulsign_neg(wi.x, sx);
+            wi.y = mulsign_neg(wi.y, sy);
+            wo.x = mulsign_neg(wo.x, sx);
+            wo.y = mulsign_neg(wo.y, sy);
+        }
+        (wi, wo)
+    }
+
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_parts(
         tf: &TensorFile,
@@ -222,19 +245,9 @@ impl RglBsdf {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return None;
         }
-        let (mut wi, mut wo) = (*wi, *wo);
-        if self.reduction >= 2 {
-            let sy = wi.y;
-            let sx = if self.reduction == 4 { wi.x } else { sy };
-            wi.x = mulsign_neg(wi.x, sx);
-            wi.y = mulsign_neg(wi.y, sy);
-            wo.x = mulsign_neg(wo.x, sx);
-            wo.y = mulsign_neg(wo.y, sy);
-        }
+        let (wi, wo) = self.fold(*wi, *wo);
         let m = (wi + wo).normalize();
-        // φ by Dr.Jit's `atan2` conventions at signed zeros (wi at the pole, or on the
-        // x axis after the fold), as Mitsuba computes it.
-        let (theta_i, phi_i) = (elevation(&wi), atan2_drjit(wi.y, wi.x));
+        let [phi_i, theta_i] = incident_params(&wi);
         let (theta_m, phi_m) = (elevation(&m), atan2_drjit(m.y, m.x));
         let u_wi = [theta2u(theta_i), phi2u(phi_i)];
         let mut u_m = [

@@ -42,12 +42,20 @@
 //! nodes', its value the reader's `eval` at the pair (which node the reader reads
 //! there is a matter of rounding).
 //!
+//! **Anisotropic files.** The same construction, with wi at the slice's own φi (the
+//! stored range: a half or a quarter turn, which the reader folds every wi into) and
+//! u_φ the half vector's absolute azimuth. wi is folded and its (φi, θi) taken exactly
+//! as the reader does (`slice`), so every table is read at the reader's parameters.
+//! At θi = 0 all φi slices are the one incident direction; the reader reads it from
+//! the φi its `atan2(0, 0) = 0` clamps to (the last slice of a stored range ending at
+//! −π/2 or 0), so that slice gives the pole's points, standing for the whole cap.
+//!
 //! Skipped (counted): slices with cos θi < [`MIN_COS_I`] (wi on the horizon, where
 //! f_r · cos θi vanishes and the files hold no measurement), an anisotropic file's
-//! θi = 0 slices but the first (one incident direction, which the reader evaluates from
-//! the first φi slice), and nodes whose wo is on or below the horizon.
+//! θi = 0 slices that the reader does not read, and nodes whose wo is on or below the
+//! horizon.
 
-use crate::bsdf::{Parts, RglBsdf, Values};
+use crate::bsdf::{Parts, RglBsdf, Values, incident_params, phi2u, theta2u};
 use crate::cie;
 use crate::error::RglError;
 use crate::tensor::TensorFile;
@@ -101,11 +109,14 @@ fn u2phi(u: f64) -> f64 {
     (2.0 * u - 1.0) * PI
 }
 
-/// One slice's geometry: wi, the warp's parameters and the azimuth offset of m.
+/// One slice's geometry: wi, the warp's parameters (the reader's (φi, θi) of wi) and
+/// the azimuth offset of m.
 struct Slice {
     wi: Vec3,
     params: [f64; 2],
     phi_offset: f64,
+    /// Whether the reader reads this slice's tables at wi (see [`slice`]).
+    read: bool,
 }
 
 impl Slice {
@@ -175,26 +186,12 @@ impl MeasuredPoints {
 
     /// The points of `bsdf` whose bit is set in `valid` (packed as the file's `valid`
     /// field; `None`: every node, as for a file without the field).
-    ///
-    /// Isotropic files only: an anisotropic file gives no point (every valid node is
-    /// counted in `skipped`). Its points, built the same way, do not yet equal the
-    /// reader's `eval` at their pairs (tests/points.rs), so they are not offered.
     pub fn of(bsdf: &RglBsdf, valid: Option<&[u8]>) -> MeasuredPoints {
         let p = bsdf.parts();
         let grid = bsdf.summary().value_grid;
         let n = grid[0] * grid[1];
         let (nphi, nth) = (p.phi_i.len(), p.theta_i.len());
         let is_valid = |k: usize| valid.is_none_or(|v| bit(v, k));
-        if !p.isotropic {
-            let valid = (0..nphi * nth * n).filter(|&k| is_valid(k)).count();
-            return MeasuredPoints {
-                name: bsdf.name().into(),
-                points: Vec::new(),
-                valid,
-                skipped: valid,
-                merged: 0,
-            };
-        }
         let slices: Vec<(usize, usize)> = (0..nphi)
             .flat_map(|a| (0..nth).map(move |b| (a, b)))
             .collect();
@@ -223,26 +220,42 @@ impl MeasuredPoints {
     }
 }
 
-/// The slice's incident geometry. The reader folds every wi into the stored φi range
-/// (y ≤ 0; x ≤ 0 too for a 4-fold anisotropic file) by the sign bits of its components;
-/// wi is built inside it (an isotropic file's at φ = −π), so the fold leaves the pair
-/// as it is and `eval` sees the pair built here.
-fn slice(p: &Parts, [a, b]: [usize; 2]) -> Slice {
+/// How far (rad) the reader's φi of a slice's wi, clamped to the φi grid, may lie from
+/// the slice's own φi for the slice to be the one the reader reads there: the f32
+/// rounding of the grid and the fold move it by ~1e-7; at the pole the reader's φi is 0,
+/// the far end of a stored range that ends at −π/2.
+const PHI_TOL: f64 = 1e-5;
+
+/// The slice's incident geometry, as the reader sees it. wi is built at the slice's
+/// (φi, θi) (an isotropic file's at φ = −π), then folded by the reader's own
+/// [`RglBsdf::fold`] and its parameters taken by the reader's own
+/// [`incident_params`]: so the pair built from them is the pair `eval` evaluates, and
+/// every table is read at the parameters `eval` reads it at.
+///
+/// This is where an anisotropic file went wrong before (the earlier 10× mismatch): the
+/// f32 grid value −π is −3.14159274, whose sine is +8.7e-8, so the wi built there had
+/// y > 0 and the reader mirrored the whole pair (4-fold: m's azimuth negated; 2-fold:
+/// turned by π, onto the other end of the range) before its lookup; and at θi = 0 the
+/// reader's φi is Dr.Jit's atan2(0, 0) = 0, which reads the *last* φi slice of the
+/// stored range, not the first. Now wi is built at the f64 −π (y < 0), exact zeros
+/// are put on the stored side (−0), the reader's fold is applied (a no-op then, kept so
+/// the pair is the reader's whatever the grid), and a slice whose wi the reader reads
+/// from another slice gives no point (`read`).
+fn slice(p: &Parts, bsdf: &RglBsdf, [a, b]: [usize; 2]) -> Slice {
     let (phi, theta) = (f64::from(p.phi_i[a]), f64::from(p.theta_i[b]));
-    let phi_wi = if p.isotropic { -PI } else { phi };
-    let mut wi = spherical(theta, phi_wi);
-    // A component that is zero but for round-off (θi = 0, φ = −π/2, −π) is −0: the
-    // reader folds by the components' sign bits, and −0 is on the stored side.
-    let signed_zero = |c: f64| if c.abs() < 1e-12 { -0.0 } else { c };
-    (wi.x, wi.y) = (signed_zero(wi.x), signed_zero(wi.y));
+    // The f64 −π, not the f32 grid's −3.14159274: inside the range, y < 0.
+    let mut built = spherical(theta, if p.isotropic { -PI } else { phi.max(-PI) });
+    // An exact +0 (φ = 0, or the pole) as −0: the stored side of the fold's sign bits.
+    let stored_side = |c: f64| if c == 0.0 { -0.0 } else { c };
+    (built.x, built.y) = (stored_side(built.x), stored_side(built.y));
+    let (wi, _) = bsdf.fold(built, built);
+    let params = incident_params(&wi);
+    let (lo, hi) = (f64::from(p.phi_i[0]), f64::from(p.phi_i[p.phi_i.len() - 1]));
     Slice {
         wi,
-        params: [phi, theta],
-        phi_offset: if p.isotropic {
-            crate::fastmath::atan2_drjit(wi.y, wi.x)
-        } else {
-            0.0
-        },
+        params,
+        phi_offset: if p.isotropic { params[0] } else { 0.0 },
+        read: p.isotropic || (params[0].clamp(lo, hi) - phi).abs() < PHI_TOL,
     }
 }
 
@@ -250,7 +263,8 @@ fn slice(p: &Parts, [a, b]: [usize; 2]) -> Slice {
 fn incident_measure(p: &Parts, [a, b]: [usize; 2]) -> f64 {
     let (t0, t1) = cell_of(p.theta_i, b, 0.0, PI / 2.0);
     let ring = 2.0 * PI * (t0.cos() - t1.cos());
-    if p.isotropic || p.phi_i.len() < 2 {
+    // At θi = 0 one slice stands for the whole cap: the pole is one incident direction.
+    if p.isotropic || p.phi_i.len() < 2 || p.theta_i[b] == 0.0 {
         return ring;
     }
     let (lo, hi) = (f64::from(p.phi_i[0]), f64::from(p.phi_i[p.phi_i.len() - 1]));
@@ -279,27 +293,23 @@ fn slice_points(
     grid: [usize; 2],
 ) -> SlicePoints {
     let [rows, cols] = grid;
-    let sl = slice(p, ab);
+    let sl = slice(p, bsdf, ab);
     let mut out = SlicePoints {
         points: Vec::with_capacity(nodes.len()),
         skipped: 0,
         merged: 0,
     };
-    // At θi = 0 every φi slice is the one incident direction, whose φi the reader
-    // takes as −π (the first slice): the others' nodes are not what it evaluates there.
-    let repeated_pole = !p.isotropic && ab[0] > 0 && p.theta_i[ab[1]] == 0.0;
-    if sl.wi.z < MIN_COS_I || repeated_pole {
+    // At θi = 0 every φi slice is the one incident direction, and the reader reads one
+    // of them there (see `slice`): the others' nodes are not what it evaluates.
+    if sl.wi.z < MIN_COS_I || !sl.read {
         out.skipped = nodes.len();
         return out;
     }
     let d_i = incident_measure(p, ab);
     let step = [1.0 / (cols - 1) as f64, 1.0 / (rows - 1) as f64];
-    let theta_wi = f64::from(p.theta_i[ab[1]]);
-    let u_wi = [
-        (theta_wi * (2.0 / PI)).sqrt(),
-        (crate::fastmath::atan2_drjit(sl.wi.y, sl.wi.x) + PI) * (0.5 / PI),
-    ];
-    let sigma = p.sigma.eval(u_wi, &[]);
+    let sigma = p
+        .sigma
+        .eval_plain([theta2u(sl.params[1]), phi2u(sl.params[0])]);
     let mut stored = vec![0.0; bsdf.stored_len()];
     let mut row0: Vec<Option<usize>> = vec![None; cols];
     let (mut pole, mut pole_nodes) = (0.0, 0);
@@ -336,7 +346,7 @@ fn slice_points(
             continue;
         }
         let jac = if p.jacobian {
-            p.ndf.eval(um, &[]) / (4.0 * sigma)
+            p.ndf.eval_plain(um) / (4.0 * sigma)
         } else {
             1.0
         } / wo.z;

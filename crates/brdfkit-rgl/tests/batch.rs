@@ -9,6 +9,7 @@ mod common;
 
 use brdfkit_core::{Brdf, Vec3};
 use brdfkit_rgl::RglBsdf;
+use common::tally::Tally;
 use common::{Spec, fields, pairs};
 
 fn file(spec: Spec) -> (tempfile::TempDir, RglBsdf) {
@@ -65,21 +66,6 @@ fn below_horizon() -> Vec<[f64; 6]> {
     .to_vec()
 }
 
-/// Counts the batch values within the bound of the f64 values, as tests/mitsuba.rs
-/// counts brdfkit's against Mitsuba's (which computes in f32 too): the 1 % bound with
-/// its 1e-5 absolute allowance for values that are the difference of O(1) terms (the
-/// stored values have negatives, so some results cross zero).
-#[derive(Default)]
-struct Tally {
-    n: usize,
-    within: usize,
-    beyond_1pc: usize,
-    worst: f64,
-    /// Values left out of `worst`: pairs whose half vector lies within 1e-6 rad of the
-    /// φ = ±π seam of an anisotropic file's tables (see [`on_seam`]).
-    seam: usize,
-}
-
 /// Whether the half vector of `p` lies within 1e-6 rad of φ = ±π (after any fold). An
 /// anisotropic file's VNDF and values are looked up at u = (φm + π)/2π: on either side
 /// of the seam u is near 0 or near 1, the two edges of the table. Within f32 rounding
@@ -93,39 +79,6 @@ fn on_seam(p: &[f64; 6]) -> bool {
     tiny(my) || tiny(mx)
 }
 
-impl Tally {
-    fn add(&mut self, batch: f64, f64_path: f64, seam: bool) {
-        let err = (batch - f64_path).abs();
-        self.n += 1;
-        self.within += usize::from(err <= 1e-4 * f64_path.abs() + 1e-6);
-        self.beyond_1pc += usize::from(err > 1e-2 * f64_path.abs() + 1e-6);
-        if seam && err > 1e-4 * f64_path.abs() + 1e-6 {
-            self.seam += 1;
-            return;
-        }
-        let rel = (err - 1e-5).max(0.0) / f64_path.abs().max(1e-12);
-        self.worst = self.worst.max(rel);
-    }
-
-    fn check(&self, what: &str) {
-        let frac = self.within as f64 / self.n as f64;
-        eprintln!(
-            "{what}: {} values, {:.4} % within 1e-4 rel + 1e-6, {} beyond 1 % + 1e-6 ({} on the φ seam), worst beyond 1e-5 abs {:.2e} rel",
-            self.n,
-            100.0 * frac,
-            self.beyond_1pc,
-            self.seam,
-            self.worst
-        );
-        assert!(frac >= 0.999, "{what}: only {:.4} % within", 100.0 * frac);
-        assert!(
-            self.worst <= 0.01,
-            "{what}: a value off by {:.3e}",
-            self.worst
-        );
-    }
-}
-
 fn check(spec: Spec) {
     let (_dir, b) = file(spec);
     let ps = test_pairs(spec.seed + 11);
@@ -136,7 +89,7 @@ fn check(spec: Spec) {
     for (p, o) in ps.iter().zip(out.chunks_exact(3)) {
         let want = b.eval(&Vec3::new(p[0], p[1], p[2]), &Vec3::new(p[3], p[4], p[5]));
         for (x, y) in o.iter().zip(want.0) {
-            t.add(*x, y, spec.anisotropic && on_seam(p));
+            t.add_seam(*x, y, spec.anisotropic && on_seam(p));
         }
     }
     t.check(&format!("RGB {spec:?}"));
@@ -152,7 +105,9 @@ fn check(spec: Spec) {
             &mut want,
         );
         let seam = spec.anisotropic && on_seam(p);
-        o.iter().zip(&want).for_each(|(x, y)| t.add(*x, *y, seam));
+        o.iter()
+            .zip(&want)
+            .for_each(|(x, y)| t.add_seam(*x, *y, seam));
     }
     t.check(&format!("stored {spec:?}"));
     // wi and wo apart: the same numbers as `eval_flat`.
@@ -175,21 +130,22 @@ fn spec(anisotropic: bool, spectral: bool, n: u64, m: u64, seed: u64) -> Spec {
     }
 }
 
-#[test]
-fn isotropic_rgb_agrees_with_the_f64_path() {
-    check(spec(false, false, 32, 128, 1));
-    check(spec(false, false, 64, 32, 2));
-}
+/// The files whose batch values are checked against the f64 path: (anisotropic,
+/// spectral, value grid, VNDF grid), seeded 1, 2, …: isotropic RGB on two grids,
+/// anisotropic RGB, isotropic and anisotropic spectral.
+const FILES: [(bool, bool, u64, u64); 5] = [
+    (false, false, 32, 128),
+    (false, false, 64, 32),
+    (true, false, 16, 32),
+    (false, true, 16, 32),
+    (true, true, 16, 16),
+];
 
 #[test]
-fn anisotropic_rgb_agrees_with_the_f64_path() {
-    check(spec(true, false, 16, 32, 3));
-}
-
-#[test]
-fn spectral_files_agree_with_the_f64_path() {
-    check(spec(false, true, 16, 32, 4));
-    check(spec(true, true, 16, 16, 5));
+fn rgb_and_spectral_files_agree_with_the_f64_path() {
+    for (seed, (aniso, spectral, n, m)) in (1u64..).zip(FILES) {
+        check(spec(aniso, spectral, n, m, seed));
+    }
 }
 
 #[test]
@@ -233,7 +189,7 @@ fn to_table_holds_the_f64_two_order_mean() {
         present += 1;
         let want = b.symmetric(&c.wi, &c.wo).map(|x| x.max(0.0));
         for (x, y) in c.value.0.iter().zip(want.0) {
-            t.add(*x, y, false);
+            t.add(*x, y);
         }
     }
     assert_eq!(

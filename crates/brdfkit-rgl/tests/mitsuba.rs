@@ -14,6 +14,7 @@ mod common;
 
 use brdfkit_core::{Brdf, Vec3};
 use brdfkit_rgl::RglBsdf;
+use common::tally::Tally;
 use common::{Spec, fields, pairs};
 use rand::{Rng, SeedableRng};
 use std::path::Path;
@@ -32,84 +33,18 @@ fn read_f64(path: &Path) -> Vec<f64> {
         .collect()
 }
 
-/// How brdfkit's values compare with Mitsuba's.
-///
-/// The issue's criteria: ≥ 99.9 % within 1e-4 relative + 1e-6 absolute, and none off by
-/// more than 1 %. Mitsuba computes in f32: where a value crosses zero (the stored RGB
-/// and spectra have negatives), a result of ~1e-5 is the difference of O(1) terms and
-/// carries Mitsuba's f32 rounding of those terms, ~1e-6 absolute. So the 1 % bound is
-/// checked with a 1e-5 absolute allowance ([`CANCELLATION`]); the values beyond 1 % +
-/// 1e-6 are counted and printed (in the runs of docs/rgl.md: at most 1 in 100,000, all
-/// below 1e-4 in magnitude).
-#[derive(Default, Debug)]
-struct Tally {
-    values: usize,
-    within: usize,
-    /// Beyond 1 % + 1e-6.
-    beyond_1pct: usize,
-    /// Largest |ours − theirs| / |theirs| after the [`CANCELLATION`] allowance.
-    worst: f64,
-}
-
-/// The absolute allowance of the 1 % bound (see [`Tally`]).
-const CANCELLATION: f64 = 1e-5;
-
-impl Tally {
-    fn add(&mut self, ours: f64, theirs: f64) {
-        let err = (ours - theirs).abs();
-        self.values += 1;
-        if err <= 1e-4 * theirs.abs() + 1e-6 {
-            self.within += 1;
-        }
-        if err > 1e-2 * theirs.abs() + 1e-6 {
-            self.beyond_1pct += 1;
-            eprintln!("beyond 1 % + 1e-6: brdfkit {ours:e}, Mitsuba {theirs:e}");
-        }
-        let rel = (err - CANCELLATION).max(0.0) / theirs.abs().max(1e-12);
-        self.worst = self.worst.max(rel);
-    }
-
-    fn check(&self, what: &str) {
-        let frac = self.within as f64 / self.values as f64;
-        eprintln!(
-            "{what}: {} values, {:.4} % within 1e-4 rel + 1e-6, {} beyond 1 % + 1e-6, worst beyond 1e-5 abs {:.3e} rel",
-            self.values,
-            100.0 * frac,
-            self.beyond_1pct,
-            self.worst
-        );
-        assert!(
-            frac >= 0.999,
-            "{what}: only {:.4} % within 1e-4",
-            100.0 * frac
-        );
-        assert!(
-            self.worst <= 0.01,
-            "{what}: a value off by {:.3e} relative",
-            self.worst
-        );
-    }
-}
-
-/// Runs Mitsuba on `pairs` of the file of `spec`; returns brdfkit's model, the pairs and
-/// Mitsuba's values (and the wavelengths, spectral).
-fn run(spec: Spec, count: usize) -> (RglBsdf, Vec<[f64; 6]>, Vec<f64>, Vec<f64>) {
+/// Mitsuba's `eval` of `file` at `pairs` in `variant` (with `wl`, 4 wavelengths a pair,
+/// for a spectral variant), run in `dir`.
+fn mitsuba_eval(
+    dir: &Path,
+    variant: &str,
+    file: &Path,
+    pairs: &[[f64; 6]],
+    wl: &[f64],
+) -> Vec<f64> {
     let py = external_tools::require_mitsuba();
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("test.bsdf");
-    brdfkit_rgl::tensor::write(&fields(spec), &file).unwrap();
-    let ps = pairs(count, 1.0, spec.seed + 1);
-    write_f64(&dir.path().join("pairs.bin"), &ps.concat());
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed + 2);
-    let wl: Vec<f64> = (0..4 * count)
-        .map(|_| rng.random_range(360.0..830.0))
-        .collect();
-    write_f64(&dir.path().join("wl.bin"), &wl);
-    let variant = if spec.spectral {
-        "scalar_spectral"
-    } else {
-        "scalar_rgb"
-    };
+    write_f64(&dir.join("pairs.bin"), &pairs.concat());
+    write_f64(&dir.join("wl.bin"), wl);
     let status = Command::new(&py)
         .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba_eval.py"))
         .args([
@@ -119,11 +54,30 @@ fn run(spec: Spec, count: usize) -> (RglBsdf, Vec<[f64; 6]>, Vec<f64>, Vec<f64>)
             "out.bin",
             "wl.bin",
         ])
-        .current_dir(dir.path())
+        .current_dir(dir)
         .status()
         .unwrap();
     assert!(status.success(), "mitsuba_eval.py failed");
-    let out = read_f64(&dir.path().join("out.bin"));
+    read_f64(&dir.join("out.bin"))
+}
+
+/// Runs Mitsuba on `pairs` of the file of `spec`; returns brdfkit's model, the pairs and
+/// Mitsuba's values (and the wavelengths, spectral).
+fn run(spec: Spec, count: usize) -> (RglBsdf, Vec<[f64; 6]>, Vec<f64>, Vec<f64>) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("test.bsdf");
+    brdfkit_rgl::tensor::write(&fields(spec), &file).unwrap();
+    let ps = pairs(count, 1.0, spec.seed + 1);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed + 2);
+    let wl: Vec<f64> = (0..4 * count)
+        .map(|_| rng.random_range(360.0..830.0))
+        .collect();
+    let variant = if spec.spectral {
+        "scalar_spectral"
+    } else {
+        "scalar_rgb"
+    };
+    let out = mitsuba_eval(dir.path(), variant, &file, &ps, &wl);
     (RglBsdf::read(&file).unwrap(), ps, out, wl)
 }
 
@@ -193,23 +147,33 @@ const fn spec(anisotropic: bool, spectral: bool, n: u64, m: u64, seed: u64) -> S
     }
 }
 
+/// The files of the comparisons, (anisotropic, value grid, VNDF grid), for RGB and
+/// for spectral: isotropic and anisotropic, each at 32² and 64².
+const FILES: [(bool, u64, u64); 4] = [
+    (false, 32, 32),
+    (false, 64, 48),
+    (true, 32, 32),
+    (true, 64, 48),
+];
+
+/// The specs of [`FILES`], `spectral` or not, seeded from `seed` by tens.
+fn files(spectral: bool, seed: u64) -> impl Iterator<Item = Spec> {
+    (0u64..)
+        .zip(FILES)
+        .map(move |(k, (aniso, n, m))| spec(aniso, spectral, n, m, seed + 10 * k))
+}
+
 mitsuba_test! {
     /// 4 RGB files × 25,000 pairs = 100,000 pairs in `scalar_rgb`.
     fn rgb_files_match_mitsuba() {
-        check_rgb(spec(false, false, 32, 32, 10), 25_000);
-        check_rgb(spec(false, false, 64, 48, 20), 25_000);
-        check_rgb(spec(true, false, 32, 32, 30), 25_000);
-        check_rgb(spec(true, false, 64, 48, 40), 25_000);
+        files(false, 10).for_each(|s| check_rgb(s, 25_000));
     }
 }
 
 mitsuba_test! {
     /// 4 spectral files × 25,000 pairs (4 wavelengths each) in `scalar_spectral`.
     fn spectral_files_match_mitsuba() {
-        check_spectral(spec(false, true, 32, 32, 50), 25_000);
-        check_spectral(spec(false, true, 64, 48, 60), 25_000);
-        check_spectral(spec(true, true, 32, 32, 70), 25_000);
-        check_spectral(spec(true, true, 64, 48, 80), 25_000);
+        files(true, 50).for_each(|s| check_spectral(s, 25_000));
     }
 }
 
@@ -226,21 +190,13 @@ mitsuba_test! {
                 _ => {}
             }
         }
-        let py = external_tools::require_mitsuba();
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("flat.bsdf");
         brdfkit_rgl::tensor::write(&f, &file).unwrap();
         let ps = pairs(200, 1.0, 91);
-        write_f64(&dir.path().join("pairs.bin"), &ps.concat());
-        let status = Command::new(&py)
-            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba_eval.py"))
-            .args(["scalar_rgb", file.to_str().unwrap(), "pairs.bin", "out.bin"])
-            .current_dir(dir.path())
-            .status()
-            .unwrap();
-        assert!(status.success());
+        let out = mitsuba_eval(dir.path(), "scalar_rgb", &file, &ps, &[]);
         let bsdf = RglBsdf::read(&file).unwrap();
-        for (p, m) in ps.iter().zip(read_f64(&dir.path().join("out.bin")).chunks_exact(3)) {
+        for (p, m) in ps.iter().zip(out.chunks_exact(3)) {
             let ours = bsdf.eval(&Vec3::new(p[0], p[1], p[2]), &Vec3::new(p[3], p[4], p[5]));
             for (o, m) in ours.0.iter().zip(m) {
                 assert!((m - 0.25).abs() < 1e-6, "Mitsuba {m}");
@@ -294,5 +250,64 @@ tensor_io.write(sys.argv[2], a=np.arange(6, dtype=np.int16).reshape(2, 3), b=np.
         assert_eq!(tf.get("a").unwrap().shape, [2, 3]);
         assert_eq!(tf.to_f64("b").unwrap(), [0.5, -1.0]);
         assert_eq!(tf.u8s("c").unwrap(), b"text");
+    }
+}
+
+mitsuba_test! {
+    /// The measured points of an isotropic file and of anisotropic files (both
+    /// reductions: a quarter turn of φi in five slices, a half turn in nine) against
+    /// Mitsuba's `eval` at the points' own pairs: value · cos θo as Mitsuba returns it.
+    /// None may be off by more than 1 %; at least 99 % within 1e-4 (+1e-6), below the
+    /// issue's 99.9 % for random pairs: 99.76 % (isotropic), 99.65 % (4-fold) and
+    /// 99.48 % (2-fold) here, worst 0.05 %, 0.04 % and 0.44 % (docs/rgl.md, "The
+    /// sample-set fit"). The misses are near the half vector's pole: of the anisotropic
+    /// files' 437, 299 at column 1 (θm = 1.6e-3 rad), 26 at column 2, 18 at column 3,
+    /// fewer further out, where Mitsuba's f32 φm = atan2(m.y, m.x) of components
+    /// ~sin θm is off by ~1e-7/θm rad; random pairs almost never come that close to the
+    /// pole, and the warped grid puts a column of nodes there.
+    fn measured_points_match_mitsuba() {
+        use std::f32::consts::PI;
+        let turn = |span: f32, n: usize| -> Vec<f32> {
+            (0..n).map(|k| -PI + k as f32 * span / (n - 1) as f32).collect()
+        };
+        for (seed, phi) in [(90, vec![0.0]), (100, turn(PI / 2.0, 5)), (110, turn(PI, 9))] {
+            let dir = tempfile::tempdir().unwrap();
+            let file = dir.path().join("aniso.bsdf");
+            let f = common::fields_with_phi(spec(phi.len() > 2, false, 32, 32, seed), phi);
+            brdfkit_rgl::tensor::write(&f, &file).unwrap();
+            let (_, pts) = brdfkit_rgl::MeasuredPoints::read(&file).unwrap();
+            assert!(pts.points.len() > 2_000, "{} points", pts.points.len());
+            let ps: Vec<[f64; 6]> = pts
+                .points
+                .iter()
+                .map(|p| [p.wi.x, p.wi.y, p.wi.z, p.wo.x, p.wo.y, p.wo.z])
+                .collect();
+            let out = mitsuba_eval(dir.path(), "scalar_rgb", &file, &ps, &[]);
+            let mut t = Tally::default();
+            let mut left_out = 0;
+            for (p, m) in pts.points.iter().zip(out.chunks_exact(3)) {
+                // Row n − 1 (u_φ = 1) is the half vector at φm = π, row 0's direction:
+                // Mitsuba's f32 atan2 gives π_f32 there, so u_φ = 1 wraps to row 0,
+                // while brdfkit's f64 u_φ stays below 1 and reads row n − 1. Column 0
+                // is the half vector at the pole, whose φm is the atan2 of round-off in
+                // either. A measured file holds one direction's value in those rows;
+                // these random tables differ. Left out, and counted.
+                if p.node[2] == 31 || p.node[3] == 0 {
+                    left_out += 1;
+                    continue;
+                }
+                for (v, m) in p.rgb.iter().zip(m) {
+                    t.add(v * p.wo.z, *m);
+                }
+            }
+            let frac = t.fraction_within();
+            eprintln!(
+                "points, seed {seed}: {t:?} ({:.4} % within 1e-4; {left_out} left out)",
+                100.0 * frac
+            );
+            assert!(left_out * 15 < pts.points.len(), "{left_out} left out");
+            assert!(t.beyond_1pct == 0 && t.worst <= 0.01, "{t:?}");
+            assert!(frac >= 0.99, "{t:?}");
+        }
     }
 }

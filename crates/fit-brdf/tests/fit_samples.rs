@@ -5,7 +5,7 @@
 mod common;
 
 use brdfkit::core::{Brdf, Model, Vec3};
-use common::{assert_bad_input, bin, stderr};
+use common::{assert_alpha_rho_d, assert_bad_input, bin, param, stderr};
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -71,11 +71,6 @@ fn fit_record(args: &[&str], dir: &Path) -> Value {
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     serde_json::from_slice(&std::fs::read(rec).unwrap()).unwrap()
-}
-
-fn param(r: &Value, k: &str, c: Option<usize>) -> f64 {
-    let v = &r["model"]["params"][k];
-    c.map_or(v, |c| &v[c]).as_f64().unwrap()
 }
 
 #[test]
@@ -185,12 +180,7 @@ fn fit_bsdf_at_its_points_and_as_a_table() {
     let r = fit_record(&["fit", f], dir.path());
     assert_eq!(r["input"]["kind"], "bsdf-points");
     assert_eq!(r["input"]["weights"], "given");
-    let a = param(&r, "alpha", None);
-    assert!((a - 0.2).abs() < 2e-3, "points: alpha {a}");
-    for (c, w) in [0.3, 0.2, 0.1].iter().enumerate() {
-        let v = param(&r, "rho_d", Some(c));
-        assert!((v - w).abs() < 2e-3, "points: rho_d {v}");
-    }
+    assert_alpha_rho_d(&r, 0.2, [0.3, 0.2, 0.1], 2e-3, "points");
     let r = fit_record(&["fit", f, "--bsdf-input", "table"], dir.path());
     assert!(r.get("input").is_none(), "a table's cells: no input record");
     assert!(r["cells_full"].as_u64().unwrap() > 1_000_000);

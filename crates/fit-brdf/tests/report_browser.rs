@@ -138,16 +138,21 @@ chromium_test! {
     }
 }
 
-/// Runs tests/browser/panels.cjs on `page`; the JSON it wrote.
-fn drive(page: &Path, dir: &Path) -> Value {
+/// Runs tests/browser/`script` under node on `page` (its arguments: the page, the JSON
+/// it writes into `dir`, the Chromium, then `extra`); the JSON, whose `errors` (console
+/// errors, exceptions, failed requests) must be none.
+fn run_driver(script: &str, page: &Path, dir: &Path, extra: &[&Path]) -> Value {
     let (driver, exe) = external_tools::require_browser_driver();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser/panels.cjs");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/browser")
+        .join(script);
     let out = dir.join("driven.json");
     let o = std::process::Command::new("node")
         .arg(&script)
         .arg(page)
         .arg(&out)
         .arg(&exe)
+        .args(extra)
         .env("NODE_PATH", driver.join("node_modules"))
         .output()
         .expect("node starts");
@@ -160,6 +165,12 @@ fn drive(page: &Path, dir: &Path) -> Value {
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     let errors = v["errors"].as_array().unwrap();
     assert!(errors.is_empty(), "errors in the page: {errors:?}");
+    v
+}
+
+/// Runs tests/browser/panels.cjs on `page`; the JSON it wrote.
+fn drive(page: &Path, dir: &Path) -> Value {
+    let v = run_driver("panels.cjs", page, dir, &[]);
     for (control, changed) in v["changed"].as_object().unwrap() {
         assert_eq!(
             changed,
@@ -378,5 +389,197 @@ browser_driver_test! {
             eprintln!("view source {k}: median {p50:.2e}, 95 % {p95:.2e}, max {:.2e}", rel.last().unwrap());
             assert!(p50 < 0.02 && p95 < 0.1, "source {k}: median {p50}, 95 % {p95}");
         }
+    }
+}
+
+/// `fit-brdf report` on scattered data (`input`: `--samples S` or a `.bsdf`, taken at
+/// its measured points) against Lambert and Cook-Torrance into `dir/report`, opened
+/// through tests/browser/scattered.cjs: what the page showed, after the checks every
+/// scattered page must pass (no error in the page, every image decoded, every chart the
+/// page promises drawn on screen, the summary's hover text, a screenshot that is not
+/// blank).
+fn scattered_page(dir: &Path, input: &[&std::ffi::OsStr]) -> Value {
+    let out = dir.join("report");
+    bin()
+        .arg("report")
+        .args(input)
+        .args(["--models", "lambert,cook-torrance", "--starts", "1"])
+        .args(["--render-size", "32", "--env-spp", "2", "--quiet", "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+    let shot = dir.join("scattered.png");
+    let v = run_driver("scattered.cjs", &out.join("index.html"), dir, &[&shot]);
+    let ids: Vec<&str> = v["ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(Value::as_str)
+        .collect();
+    for id in [
+        "input",
+        "not-resampled",
+        "summary",
+        "summary-table",
+        "scatter",
+        "profiles",
+        "renders",
+        "checks",
+    ] {
+        assert!(ids.contains(&id), "no #{id} on the page: {ids:?}");
+    }
+    for img in v["images"].as_array().unwrap() {
+        let (nat, shown) = (&img["natural"], &img["shown"]);
+        assert_eq!(img["complete"], true, "{img}");
+        assert!(
+            nat[0].as_f64().unwrap() > 0.0 && nat[1].as_f64().unwrap() > 0.0,
+            "not decoded: {img}"
+        );
+        assert!(
+            shown[0].as_f64().unwrap() > 0.0 && shown[1].as_f64().unwrap() > 0.0,
+            "not shown: {img}"
+        );
+    }
+    // One scatter per model, each with a dot per drawn sample and channel (at most: a
+    // value ≤ 0 has no place on the log axes) and the diagonal; two profiles (θh, θd)
+    // with a line per model.
+    let drawn = v["drawn"][0]
+        .as_u64()
+        .expect("the scatter says how many samples it drew");
+    assert!(drawn > 0, "{}", v["drawn"]);
+    let scatter = v["scatter"].as_array().unwrap();
+    assert_eq!(scatter.len(), 2, "{scatter:?}");
+    for s in scatter {
+        let dots = s["circles"].as_u64().unwrap();
+        assert!(
+            dots > drawn && dots <= 3 * drawn,
+            "{dots} dots for {drawn} samples"
+        );
+    }
+    let profiles = v["profiles"].as_array().unwrap();
+    assert_eq!(profiles.len(), 2, "{profiles:?}");
+    for s in scatter.iter().chain(profiles) {
+        let size = &s["size"];
+        assert!(
+            size[0].as_f64().unwrap() >= 300.0 && size[1].as_f64().unwrap() >= 200.0,
+            "{s}"
+        );
+        assert!(
+            s["lines"].as_u64().unwrap() > 0 && !s["texts"].as_array().unwrap().is_empty(),
+            "{s}"
+        );
+        assert!(
+            s["clipped"].as_array().unwrap().is_empty(),
+            "text cut off at the chart's edge: {}",
+            s["clipped"]
+        );
+        assert_eq!(
+            s["hidden"], 0,
+            "data points under a label or a legend: {}",
+            s["texts"]
+        );
+    }
+    for p in profiles {
+        assert!(
+            p["circles"].as_u64().unwrap() > 0,
+            "a profile without points: {p}"
+        );
+    }
+    // The summary: a row per model, each loss cell's hover text its three channels.
+    let summary = v["summary"].as_array().unwrap();
+    assert_eq!(summary.len(), 2);
+    for row in summary {
+        let titled = row
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|c| c["title"].is_string())
+            .count();
+        assert_eq!(titled, 4, "{row}");
+    }
+    let hover = &v["hover"];
+    assert_eq!(hover["tag"], "TD", "{hover}");
+    assert!(
+        hover["title"].as_str().unwrap().contains(" · B "),
+        "{hover}"
+    );
+    let checks = v["checks"].as_array().expect("the checks table");
+    assert!(checks.len() >= 2, "{checks:?}");
+    not_blank(&shot);
+    v
+}
+
+/// The screenshot is a real picture: text, charts and colour, not a blank page.
+fn not_blank(shot: &Path) {
+    let img = image::open(shot)
+        .expect("the screenshot is a PNG")
+        .to_rgb8();
+    let mut colours = std::collections::HashSet::new();
+    let mut ink = 0usize;
+    for p in img.pixels() {
+        colours.insert(p.0);
+        ink += usize::from(p.0.iter().any(|&c| c < 240));
+    }
+    let n = (img.width() * img.height()) as usize;
+    assert!(colours.len() > 100, "{} colours", colours.len());
+    assert!(ink * 50 > n, "{ink} of {n} pixels are not white");
+}
+
+/// 400 samples of a Cook-Torrance surface at golden-ratio directions above 5°, as the
+/// documented CSV.
+fn samples_file(dir: &Path) -> PathBuf {
+    let m = brdfkit::models::from_json_str(
+        r#"{"model":"cook-torrance","params":{"rho_d":[0.3,0.2,0.1],"rho_s":[0.4,0.5,0.6],"alpha":0.2}}"#,
+    )
+    .unwrap();
+    let dir_of = |a: f64, b: f64| {
+        let z = 0.0872 + (1.0 - 0.0872) * a;
+        let (r, phi) = ((1.0 - z * z).sqrt(), std::f64::consts::TAU * b);
+        brdfkit::core::Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    };
+    let g = [
+        0.618_033_988_749_895,
+        0.754_877_666_246_693,
+        0.569_840_290_998_053,
+        0.438_579_073_460_287,
+    ];
+    let mut s = String::from("wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,r,g,b\n");
+    for k in 1..=400 {
+        let u: Vec<f64> = g.iter().map(|x| (k as f64 * x).fract()).collect();
+        let (wi, wo) = (dir_of(u[0], u[1]), dir_of(u[2], u[3]));
+        let f = brdfkit::core::Brdf::eval(m.as_ref(), &wi, &wo).0;
+        s += &format!(
+            "{},{},{},{},{},{},{},{},{}\n",
+            wi.x, wi.y, wi.z, wo.x, wo.y, wo.z, f[0], f[1], f[2]
+        );
+    }
+    let p = dir.join("lab.csv");
+    std::fs::write(&p, s).unwrap();
+    p
+}
+
+browser_driver_test! {
+    fn the_scattered_report_on_samples_renders_in_a_browser() {
+        let d = tempfile::tempdir().unwrap();
+        let s = samples_file(d.path());
+        let v = scattered_page(d.path(), &["--samples".as_ref(), s.as_os_str()]);
+        assert_eq!(v["kind"], "samples");
+        let ids: Vec<&str> = v["ids"].as_array().unwrap().iter().filter_map(Value::as_str).collect();
+        assert!(ids.contains(&"no-measured-sphere") && !ids.contains(&"measured-sphere"), "{ids:?}");
+        assert!(v["images"].as_array().unwrap().is_empty(), "samples have no sphere");
+        assert_eq!(v["drawn"][1], 400);
+    }
+}
+
+browser_driver_test! {
+    fn the_scattered_report_on_a_bsdf_renders_in_a_browser_with_every_image() {
+        let d = tempfile::tempdir().unwrap();
+        let felt = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data-synthetic/felt-synthetic.bsdf");
+        let v = scattered_page(d.path(), &[felt.as_os_str()]);
+        assert_eq!(v["kind"], "bsdf-points");
+        let ids: Vec<&str> = v["ids"].as_array().unwrap().iter().filter_map(Value::as_str).collect();
+        assert!(ids.contains(&"measured-sphere") && !ids.contains(&"no-measured-sphere"), "{ids:?}");
+        // Two lightings × (the file + 2 models × (render, difference)).
+        assert_eq!(v["images"].as_array().unwrap().len(), 10, "{}", v["images"]);
     }
 }

@@ -342,6 +342,25 @@ mod tests {
         }
     }
 
+    impl Lobe {
+        /// The lobe the writer's tests write.
+        const SHARP: Lobe = Lobe {
+            exponent: 40.0,
+            shift: 0.5,
+        };
+    }
+
+    /// The fields and report of [`Lobe::SHARP`] written with `theta_i` slices on a
+    /// `grid`² value grid.
+    fn lobe_file(theta_i: usize, grid: usize, description: &str) -> (Vec<Tensor>, WriteReport) {
+        let opts = WriteOptions {
+            theta_i,
+            grid,
+            description: description.into(),
+        };
+        build(&Lobe::SHARP, &opts).unwrap()
+    }
+
     struct Tilted;
     impl Brdf for Tilted {
         fn eval(&self, _: &Vec3, _: &Vec3) -> Rgb {
@@ -377,16 +396,8 @@ mod tests {
     /// reader applies.
     #[test]
     fn nodes_read_back_exactly() {
-        let src = Lobe {
-            exponent: 40.0,
-            shift: 0.5,
-        };
-        let opts = WriteOptions {
-            theta_i: 6,
-            grid: 16,
-            description: "test lobe".into(),
-        };
-        let (fields, report) = build(&src, &opts).unwrap();
+        let src = Lobe::SHARP;
+        let (fields, report) = lobe_file(6, 16, "test lobe");
         assert_eq!(report.nodes, 6 * 16 * 16);
         assert_eq!(report.clamped, 0);
         let bsdf = read_back(&fields);
@@ -431,16 +442,7 @@ mod tests {
     /// horizon").
     #[test]
     fn nodes_below_the_horizon_store_zero() {
-        let src = Lobe {
-            exponent: 40.0,
-            shift: 0.5,
-        };
-        let opts = WriteOptions {
-            theta_i: 5,
-            grid: 12,
-            description: String::new(),
-        };
-        let (fields, report) = build(&src, &opts).unwrap();
+        let (fields, report) = lobe_file(5, 12, "");
         let rgb = field(&fields, "rgb");
         let TensorData::U8(bits) = &fields.iter().find(|f| f.name == "valid").unwrap().data else {
             panic!("valid is not u8");

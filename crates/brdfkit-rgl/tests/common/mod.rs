@@ -5,6 +5,8 @@
 
 #![allow(dead_code)]
 
+pub mod tally;
+
 use brdfkit_rgl::{Tensor, TensorData};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -22,15 +24,21 @@ pub struct Spec {
     pub seed: u64,
 }
 
-/// The fields of a file of `spec`.
+/// The fields of a file of `spec`. An anisotropic file stores a quarter turn of φi
+/// (a 4-fold reduction: Mitsuba folds wi into x, y ≤ 0) in five slices.
 pub fn fields(spec: Spec) -> Vec<Tensor> {
-    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
-    // Anisotropic files store a quarter of φi (Mitsuba folds wi into x, y ≤ 0).
     let phi_i: Vec<f32> = if spec.anisotropic {
         (0..5).map(|k| -PI + k as f32 * (PI / 2.0) / 4.0).collect()
     } else {
         vec![0.0]
     };
+    fields_with_phi(spec, phi_i)
+}
+
+/// [`fields`] with the given φi grid (more than two values: anisotropic; a half turn
+/// [−π, 0] is a 2-fold reduction, Mitsuba folding wi into y ≤ 0).
+pub fn fields_with_phi(spec: Spec, phi_i: Vec<f32>) -> Vec<Tensor> {
+    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
     let theta_i: Vec<f32> = [0.0f32, 12.0, 25.0, 38.0, 50.0, 61.0, 71.0, 80.0]
         .iter()
         .map(|d| d.to_radians())

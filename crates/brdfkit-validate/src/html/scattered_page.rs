@@ -70,18 +70,23 @@ fn runs(bands: &[Band]) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
-/// Every model's residual profile over one angle (lines, in the models' colours).
-fn profile_chart(axis: &str, profiles: &[(&str, &[Band])]) -> Result<String, ReportError> {
+/// Every model's residual profile over one angle (lines, in the models' colours, in
+/// model order). The legend is the page's, above the charts: a legend inside the chart
+/// covered the profile where it ends (at θd ≈ 70–90°, the bands that tell the models
+/// apart), as the browser test found (crates/fit-brdf/tests/report_browser.rs).
+fn profile_chart(axis: &str, profiles: &[&[Band]]) -> Result<String, ReportError> {
     let top = profiles
         .iter()
-        .flat_map(|(_, b)| b.iter().filter_map(|b| b.mean_log10_ratio))
+        .flat_map(|b| b.iter().filter_map(|b| b.mean_log10_ratio))
         .fold(0.05f64, |a, v| a.max(v.abs()))
         * 1.15;
     svg((420, 300), |root| {
         let mut chart = framed(root, format!("residual by {axis}"), 50)
             .build_cartesian_2d(0.0..90.0, -top..top)
             .map_err(err)?;
+        // Whole degrees: "90.0" at the right end was cut off by the chart's edge.
         mesh(&mut chart.configure_mesh())
+            .x_label_formatter(&|v| format!("{v:.0}"))
             .x_desc(format!("{axis} (degrees, {BAND_DEG:.0}° bands)"))
             .y_desc("mean log10(model / measured)")
             .draw()
@@ -89,28 +94,17 @@ fn profile_chart(axis: &str, profiles: &[(&str, &[Band])]) -> Result<String, Rep
         chart
             .draw_series(LineSeries::new([(0.0, 0.0), (90.0, 0.0)], BLACK.mix(0.4)))
             .map_err(err)?;
-        for (m, (label, bands)) in profiles.iter().enumerate() {
+        for (m, bands) in profiles.iter().enumerate() {
             let col = model_colour(m);
-            for (i, run) in runs(bands).into_iter().enumerate() {
-                let line = chart
+            for run in runs(bands) {
+                chart
                     .draw_series(LineSeries::new(run.clone(), col.stroke_width(2)))
                     .map_err(err)?;
-                if i == 0 {
-                    line.label(label.to_string())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], col));
-                }
                 chart
                     .draw_series(run.into_iter().map(|p| Circle::new(p, 3, col.filled())))
                     .map_err(err)?;
             }
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 11))
-            .draw()
-            .map_err(err)?;
         Ok(())
     })
 }
@@ -121,16 +115,8 @@ pub(crate) fn page(d: &ScatteredData, title: &str) -> Result<String, ReportError
     for m in &d.models {
         scatter.push(scatter_chart(&m.label, &d.plotted_measured, &m.plotted)?);
     }
-    let th: Vec<(&str, &[Band])> = d
-        .models
-        .iter()
-        .map(|m| (m.label.as_str(), &m.by_theta_h[..]))
-        .collect();
-    let td: Vec<(&str, &[Band])> = d
-        .models
-        .iter()
-        .map(|m| (m.label.as_str(), &m.by_theta_d[..]))
-        .collect();
+    let th: Vec<&[Band]> = d.models.iter().map(|m| &m.by_theta_h[..]).collect();
+    let td: Vec<&[Band]> = d.models.iter().map(|m| &m.by_theta_d[..]).collect();
     let profiles = [profile_chart("θh", &th)?, profile_chart("θd", &td)?];
     let i = &d.summary.input;
     let markup = html! {
@@ -156,6 +142,7 @@ pub(crate) fn page(d: &ScatteredData, title: &str) -> Result<String, ReportError
                 div.row { @for s in &scatter { (PreEscaped(s)) } }
                 h2 id="profiles" { "Residuals by θh and θd" }
                 p.note { "The weighted mean of log10(model / measured) over the samples in each " (BAND_DEG) "° band of the half vector's angle θh and of the difference angle θd (above 0: the model is too bright)." }
+                p.note id="profiles-legend" { @for (m, md) in d.models.iter().enumerate() { (swatch(m)) (md.label) " " } }
                 div.row { @for s in &profiles { (PreEscaped(s)) } }
                 (renders_section(d))
                 (checks_section(d))

@@ -12,17 +12,12 @@
 'use strict';
 const path = require('path');
 const fs = require('fs');
-const { launch } = require('./launch.cjs');
+const { openPage } = require('./launch.cjs');
 
 const [page_path, out_path, exe, shots] = process.argv.slice(2);
 
 async function main() {
-  const browser = await launch(exe);
-  const errors = [];
-  const page = await browser.newPage({ viewport: { width: 1320, height: 1000 } });
-  page.on('console', (m) => { if (m.type() === 'error') errors.push('console: ' + m.text()); });
-  page.on('pageerror', (e) => errors.push('exception: ' + e.message));
-  page.on('requestfailed', (r) => errors.push('request failed: ' + r.url()));
+  const { browser, page, errors } = await openPage(exe, { width: 1320, height: 1000 });
   await page.goto('file://' + path.resolve(page_path));
   await page.waitForFunction(() => window.brdfkitView && window.brdfkitView.ready, null, { timeout: 30000 });
   const out = { errors, changed: {}, timings: {}, sources: await page.evaluate(() => window.brdfkitView.sources) };

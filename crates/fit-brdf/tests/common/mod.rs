@@ -209,3 +209,20 @@ pub fn gltf_extension_variants(core: &Value) -> Vec<(&'static str, Value)> {
         ),
     ]
 }
+
+/// Parameter `k` of a fit record's model (channel `c` of a per-channel one).
+pub fn param(r: &Value, k: &str, c: Option<usize>) -> f64 {
+    let v = &r["model"]["params"][k];
+    c.map_or(v, |c| &v[c]).as_f64().unwrap()
+}
+
+/// A fit record's model has roughness `alpha` and diffuse albedo `rho_d` within `tol`
+/// (`what` names the fit in the message).
+pub fn assert_alpha_rho_d(r: &Value, alpha: f64, rho_d: [f64; 3], tol: f64, what: &str) {
+    let a = param(r, "alpha", None);
+    assert!((a - alpha).abs() < tol, "{what}: alpha {a}");
+    for (c, w) in rho_d.iter().enumerate() {
+        let v = param(r, "rho_d", Some(c));
+        assert!((v - w).abs() < tol, "{what}: rho_d[{c}] {v}");
+    }
+}
