@@ -5,7 +5,7 @@ mod common;
 
 use common::{
     assert_bad_input, bin, lambert_file, names, small_plastic_spec, spec_text, stderr,
-    synth_output, synth_spec, write_file,
+    synth_output, synth_spec, temp_file, write_file,
 };
 use std::path::{Path, PathBuf};
 
@@ -212,9 +212,7 @@ fn write_failure_is_exit_1_and_leaves_nothing_behind() {
 
 #[test]
 fn synth_rejects_a_bad_spec_with_exit_2() {
-    let d = tempfile::tempdir().unwrap();
-    let spec = write_file(
-        d.path(),
+    let (d, spec) = temp_file(
         "bad.toml",
         "name = \"x\"\ncolour = 1\n[material]\nmodel = \"lambert\"\n",
     );

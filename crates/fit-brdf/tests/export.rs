@@ -19,7 +19,7 @@ use brdfkit::models::cook_torrance::Shape;
 use brdfkit_validate::mitsuba::{CrossConfig, Tolerance, cases, compare};
 use common::{
     assert_bad_input, bin, gltf_extension_variants, gltf_pbr_ext, lambert_file, names, stderr,
-    synth_spec, write_file,
+    synth_spec, temp_file, write_file,
 };
 use serde_json::{Value, json};
 use std::io::Write;
@@ -729,9 +729,7 @@ gltf_validator_test! {
 
 #[test]
 fn approximate_fits_the_nearest_material_and_states_the_error() {
-    let d = tempfile::tempdir().unwrap();
-    let p = write_file(
-        d.path(),
+    let (d, p) = temp_file(
         "ward.json",
         json!({"model": "ward", "params": {"rho_d": [0.3, 0.2, 0.1], "rho_s": 0.1, "alpha": 0.15}})
             .to_string(),

@@ -7,7 +7,7 @@
 mod common;
 
 use brdfkit::merl::{MerlError, MerlTable};
-use common::{assert_bad_input, bin, write_file};
+use common::{assert_bad_input, bin, temp_file};
 use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
 
@@ -236,12 +236,7 @@ fn bad_specs_are_rejected() {
 
 #[test]
 fn bad_model_descriptions_are_rejected() {
-    let d = tempfile::tempdir().unwrap();
-    let dirs = write_file(
-        d.path(),
-        "dirs.csv",
-        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
-    );
+    let (d, dirs) = temp_file("dirs.csv", "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n");
     let cases = [
         (
             "types.json",

@@ -68,12 +68,22 @@ fn csv_rows(p: &Path) -> Vec<Vec<String>> {
         .collect()
 }
 
+/// A tiny study set up in `dir`: its arguments (specs written there), its output
+/// directory and the index in the arguments of its one material's name, which the
+/// error tests replace.
+fn tiny_study(dir: &Path) -> (Vec<String>, PathBuf, usize) {
+    let specs = small_specs(dir);
+    let out = dir.join("avt");
+    let args = tiny_args(&specs, &out);
+    let m = args.iter().position(|a| a == "lambert-white").unwrap();
+    (args, out, m)
+}
+
 #[test]
 fn tiny_study_writes_every_output_and_rewrites_identically() {
     let dir = tempfile::tempdir().unwrap();
-    let specs = small_specs(dir.path());
-    let out = dir.path().join("avt");
-    let o = bin().args(tiny_args(&specs, &out)).output().unwrap();
+    let (args, out, _) = tiny_study(dir.path());
+    let o = bin().args(args).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
 
     // The grid: 1 material × 2 models × 1 solver × 2 fractions × 1 start.
@@ -148,11 +158,9 @@ fn tiny_study_writes_every_output_and_rewrites_identically() {
 #[test]
 fn bad_study_input_is_a_clear_error_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let specs = small_specs(dir.path());
-    let out = dir.path().join("avt");
+    let (tiny, out, m) = tiny_study(dir.path());
 
-    let mut args = tiny_args(&specs, &out);
-    let m = args.iter().position(|a| a == "lambert-white").unwrap();
+    let mut args = tiny.clone();
     args[m] = "no-such-material".into();
     let o = bin().args(&args).output().unwrap();
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
@@ -169,7 +177,7 @@ fn bad_study_input_is_a_clear_error_and_writes_nothing() {
         ("--solvers", "newton", "newton"),
         ("--parts", "grid,everything", "everything"),
     ] {
-        let mut args = tiny_args(&specs, &out);
+        let mut args = tiny.clone();
         let i = args.iter().position(|a| a == flag).unwrap();
         args[i + 1] = bad.into();
         let o = bin().args(&args).output().unwrap();
@@ -193,10 +201,7 @@ fn bad_study_input_is_a_clear_error_and_writes_nothing() {
 #[test]
 fn the_measured_folder_is_found_or_named() {
     let dir = tempfile::tempdir().unwrap();
-    let specs = small_specs(dir.path());
-    let out = dir.path().join("avt");
-    let mut args = tiny_args(&specs, &out);
-    let m = args.iter().position(|a| a == "lambert-white").unwrap();
+    let (mut args, out, m) = tiny_study(dir.path());
     args.splice(
         m - 1..=m,
         ["--measured".to_string(), "no-such-proxy".into()],

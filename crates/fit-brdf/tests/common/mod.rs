@@ -125,6 +125,15 @@ pub fn write_file(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf
     p
 }
 
+/// A fresh temporary directory holding one file, `NAME` with these contents: the
+/// start of the tests that feed the CLI one hand-written file. Keep the directory
+/// alive as long as the file is used.
+pub fn temp_file(name: &str, contents: impl AsRef<[u8]>) -> (tempfile::TempDir, PathBuf) {
+    let d = tempfile::tempdir().unwrap();
+    let p = write_file(d.path(), name, contents);
+    (d, p)
+}
+
 /// Writes a Lambert model description `{"model": "lambert", "params": {"rho_d": RHO}}`
 /// to `dir/NAME` (`rho_d` as JSON text: a number, an RGB array or a bad value) and
 /// returns its path: the model file most CLI tests start from.
