@@ -895,48 +895,34 @@ impl NormalEquations for FitProblem<'_> {
     }
 }
 
-impl CostFunction for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Output = f64;
-    fn cost(&self, u: &DVector<f64>) -> Result<f64, ArgminError> {
-        Ok(self.cost_at(u))
-    }
+/// An argmin problem trait on [`FitProblem`], forwarding to the inherent method that
+/// computes it: `Trait, AssociatedType = Value, method(problem, u) => body`.
+macro_rules! argmin_trait {
+    ($tr:ident, $assoc:ident = $out:ty, $f:ident($p:ident, $u:ident) => $body:expr) => {
+        impl $tr for FitProblem<'_> {
+            type Param = DVector<f64>;
+            type $assoc = $out;
+            fn $f(&self, $u: &DVector<f64>) -> Result<$out, ArgminError> {
+                let $p = self;
+                $body
+            }
+        }
+    };
 }
 
-impl Gradient for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Gradient = DVector<f64>;
-    fn gradient(&self, u: &DVector<f64>) -> Result<DVector<f64>, ArgminError> {
-        Ok(self.normal_eq(u).jtr)
-    }
-}
-
-impl Hessian for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Hessian = DMatrix<f64>;
-    /// The Gauss-Newton approximation JᵀJ.
-    fn hessian(&self, u: &DVector<f64>) -> Result<DMatrix<f64>, ArgminError> {
-        Ok(self.normal_eq(u).jtj)
-    }
-}
-
-impl Operator for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Output = DVector<f64>;
-    fn apply(&self, u: &DVector<f64>) -> Result<DVector<f64>, ArgminError> {
-        self.cost_evals.fetch_add(1, Ordering::Relaxed);
-        Ok(self.residuals(u)?)
-    }
-}
-
-impl Jacobian for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Jacobian = DMatrix<f64>;
-    fn jacobian(&self, u: &DVector<f64>) -> Result<DMatrix<f64>, ArgminError> {
-        self.jac_evals.fetch_add(1, Ordering::Relaxed);
-        Ok(self.jacobian_dense(u)?)
-    }
-}
+argmin_trait!(CostFunction, Output = f64, cost(p, u) => Ok(p.cost_at(u)));
+argmin_trait!(Gradient, Gradient = DVector<f64>, gradient(p, u) => Ok(p.normal_eq(u).jtr));
+// The Gauss-Newton approximation JᵀJ.
+argmin_trait!(Hessian, Hessian = DMatrix<f64>, hessian(p, u) => Ok(p.normal_eq(u).jtj));
+// The dense residuals and Jacobian count as a cost and a Jacobian evaluation.
+argmin_trait!(Operator, Output = DVector<f64>, apply(p, u) => {
+    p.cost_evals.fetch_add(1, Ordering::Relaxed);
+    Ok(p.residuals(u)?)
+});
+argmin_trait!(Jacobian, Jacobian = DMatrix<f64>, jacobian(p, u) => {
+    p.jac_evals.fetch_add(1, Ordering::Relaxed);
+    Ok(p.jacobian_dense(u)?)
+});
 
 /// The normal equations from per-chunk partials (JᵀJ's lower triangle row-major, Jᵀr,
 /// cost), added in chunk order: the same sums, to the bit, whatever the number of

@@ -40,6 +40,19 @@ impl Verdict {
     }
 }
 
+/// `Display` for a check report with a `to_text(&self) -> String`: its text, the one
+/// way every report of this crate prints.
+macro_rules! display_as_text {
+    ($ty:ty) => {
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(&self.to_text())
+            }
+        }
+    };
+}
+pub(crate) use display_as_text;
+
 impl fmt::Display for Verdict {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.label())

@@ -30,7 +30,6 @@ use brdfkit_merl::{Lookup, MerlTable, cell_directions};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
-use std::fmt;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -586,11 +585,7 @@ impl TableReport {
     }
 }
 
-impl fmt::Display for TableReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.to_text())
-    }
-}
+crate::report::display_as_text!(TableReport);
 
 #[cfg(test)]
 mod tests {
