@@ -651,10 +651,7 @@ impl FitData {
                 continue;
             }
             let n = cells.len();
-            let take = ((fraction * n as f64).round() as usize).clamp(1, n);
-            let mut rng =
-                ChaCha8Rng::seed_from_u64(seed ^ (b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-            cells.shuffle(&mut rng);
+            let take = draw_stratum(cells, fraction, seed, b);
             let chosen = &mut cells[..take];
             chosen.sort_unstable();
             let w = n as f64 / take as f64;
@@ -672,6 +669,18 @@ impl FitData {
         let mult: Vec<f64> = order.iter().map(|&p| mult[p]).collect();
         self.select(&idx, Some(&mult))
     }
+}
+
+/// The draw within bin `b` of [`FitData::stratified_subsample`]: the bin's n `cells`
+/// shuffled by a ChaCha8 generator seeded with `seed` and the bin, of which the first
+/// max(1, round(fraction · n)) are the drawn ones; returns that count. `cells` must not
+/// be empty.
+pub fn draw_stratum<T>(cells: &mut [T], fraction: f64, seed: u64, b: usize) -> usize {
+    let n = cells.len();
+    let take = ((fraction * n as f64).round() as usize).clamp(1, n);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ (b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    cells.shuffle(&mut rng);
+    take
 }
 
 /// `values` hold one value per cell of `n` in every channel (the first channel that

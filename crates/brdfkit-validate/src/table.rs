@@ -486,16 +486,8 @@ fn energy_check(t: &MerlTable, o: &TableCheckOptions) -> TableEnergyCheck {
         }
         conv = conv.max(p.convergence);
     }
-    let bound = 1.0 + th.energy;
-    let verdict = if max.0 == f64::NEG_INFINITY {
-        Verdict::Inconclusive
-    } else if conv <= th.convergence {
-        Verdict::from_bool(max.0 <= bound)
-    } else if max.0 - conv > bound {
-        Verdict::Fail
-    } else {
-        Verdict::Inconclusive
-    };
+    let found = (max.0 != f64::NEG_INFINITY).then_some(max.0);
+    let verdict = Verdict::of_energy(found, conv, th.energy, th.convergence);
     TableEnergyCheck {
         verdict,
         max_albedo: max.0,
