@@ -29,27 +29,15 @@ pub enum SolverKind {
     NelderMead,
 }
 
+brdfkit_core::named_choice!(SolverKind, "solver", {
+    Lm => "lm",
+    GaussNewton => "gauss-newton",
+    TrustRegion => "trust-region",
+    Lbfgs => "lbfgs",
+    NelderMead => "nelder-mead",
+});
+
 impl SolverKind {
-    /// Every solver.
-    pub const ALL: [SolverKind; 5] = [
-        SolverKind::Lm,
-        SolverKind::GaussNewton,
-        SolverKind::TrustRegion,
-        SolverKind::Lbfgs,
-        SolverKind::NelderMead,
-    ];
-
-    /// The name on the command line and in records.
-    pub fn name(&self) -> &'static str {
-        match self {
-            SolverKind::Lm => "lm",
-            SolverKind::GaussNewton => "gauss-newton",
-            SolverKind::TrustRegion => "trust-region",
-            SolverKind::Lbfgs => "lbfgs",
-            SolverKind::NelderMead => "nelder-mead",
-        }
-    }
-
     /// Default iteration cap: derivative-free and first-order methods need many more
     /// (cheaper) iterations than the Newton-type ones.
     pub fn default_max_iters(&self) -> u64 {
@@ -59,24 +47,6 @@ impl SolverKind {
             SolverKind::Lbfgs => 2000,
             SolverKind::NelderMead => 5000,
         }
-    }
-}
-
-impl fmt::Display for SolverKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for SolverKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        SolverKind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| {
-                format!("unknown solver `{s}` (known: lm, gauss-newton, trust-region, lbfgs, nelder-mead)")
-            })
     }
 }
 
@@ -92,28 +62,10 @@ pub enum Sharing {
     PerChannel,
 }
 
-impl Sharing {
-    /// The name on the command line and in records.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Sharing::SharedShape => "shared-shape",
-            Sharing::PerChannel => "per-channel",
-        }
-    }
-}
-
-impl FromStr for Sharing {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "shared-shape" => Ok(Sharing::SharedShape),
-            "per-channel" => Ok(Sharing::PerChannel),
-            _ => Err(format!(
-                "unknown sharing `{s}` (known: shared-shape, per-channel)"
-            )),
-        }
-    }
-}
+brdfkit_core::named_choice!(Sharing, "sharing", {
+    SharedShape => "shared-shape",
+    PerChannel => "per-channel",
+});
 
 /// Options of a fit. Start from [`FitConfig::default`] and chain the builders; numeric
 /// options are validated and return [`FitError::InvalidOption`] when out of range.

@@ -162,6 +162,11 @@ fn acos_clamped(z: f64) -> f64 {
     z.clamp(-1.0, 1.0).acos()
 }
 
+/// The angles of `cosines` ([`acos_clamped`]), built into `cell` on first call.
+fn acos_column<'a>(cell: &'a OnceLock<Vec<f64>>, cosines: &[f64]) -> &'a [f64] {
+    cell.get_or_init(|| cosines.par_iter().map(|&z| acos_clamped(z)).collect())
+}
+
 impl FitData {
     /// A set of `n` cells with every column allocated (zeroed) and multiplicity 1.
     fn zeroed(n: usize, geometry: bool) -> FitData {
@@ -219,34 +224,19 @@ impl FitData {
         measure: Vec<f64>,
     ) -> Result<Self, FitError> {
         let n = geometry.len();
+        check_channel_lengths(&values, n)?;
         for (c, v) in values.iter().enumerate() {
-            if v.len() != n {
-                return Err(FitError::Data(format!(
-                    "channel {c} has {} values for {n} cells",
-                    v.len()
-                )));
-            }
-            if let Some((k, x)) = v
-                .iter()
-                .enumerate()
-                .find(|(_, x)| !(x.is_finite() && **x >= 0.0))
-            {
+            if let Some((k, x)) = first_bad(v, |x| x >= 0.0) {
                 return Err(FitError::Data(format!(
                     "channel {c} value {x} at cell {k} is not a finite non-negative number"
                 )));
             }
         }
         if measure.len() != n {
-            return Err(FitError::Data(format!(
-                "{} measures for {n} cells",
-                measure.len()
-            )));
+            let len = measure.len();
+            return Err(FitError::Data(format!("{len} measures for {n} cells")));
         }
-        if let Some((k, x)) = measure
-            .iter()
-            .enumerate()
-            .find(|(_, x)| !(x.is_finite() && **x > 0.0))
-        {
+        if let Some((k, x)) = first_bad(&measure, |x| x > 0.0) {
             return Err(FitError::Data(format!(
                 "measure {x} at cell {k} is not a finite positive number"
             )));
@@ -425,24 +415,12 @@ impl FitData {
 
     /// θh of each cell (built on first call; see the type's doc).
     pub fn theta_h(&self) -> &[f64] {
-        self.theta_h.get_or_init(|| {
-            self.geometry
-                .h_z
-                .par_iter()
-                .map(|&z| acos_clamped(z))
-                .collect()
-        })
+        acos_column(&self.theta_h, &self.geometry.h_z)
     }
 
     /// θd of each cell (built on first call; see the type's doc).
     pub fn theta_d(&self) -> &[f64] {
-        self.theta_d.get_or_init(|| {
-            self.geometry
-                .cos_d
-                .par_iter()
-                .map(|&z| acos_clamped(z))
-                .collect()
-        })
+        acos_column(&self.theta_d, &self.geometry.cos_d)
     }
 
     /// The cube-root targets ∛(f cos θi) of each channel, the measured side of the
@@ -673,10 +651,7 @@ impl FitData {
                 continue;
             }
             let n = cells.len();
-            let take = ((fraction * n as f64).round() as usize).clamp(1, n);
-            let mut rng =
-                ChaCha8Rng::seed_from_u64(seed ^ (b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-            cells.shuffle(&mut rng);
+            let take = draw_stratum(cells, fraction, seed, b);
             let chosen = &mut cells[..take];
             chosen.sort_unstable();
             let w = n as f64 / take as f64;
@@ -694,6 +669,38 @@ impl FitData {
         let mult: Vec<f64> = order.iter().map(|&p| mult[p]).collect();
         self.select(&idx, Some(&mult))
     }
+}
+
+/// The draw within bin `b` of [`FitData::stratified_subsample`]: the bin's n `cells`
+/// shuffled by a ChaCha8 generator seeded with `seed` and the bin, of which the first
+/// max(1, round(fraction · n)) are the drawn ones; returns that count. `cells` must not
+/// be empty.
+pub fn draw_stratum<T>(cells: &mut [T], fraction: f64, seed: u64, b: usize) -> usize {
+    let n = cells.len();
+    let take = ((fraction * n as f64).round() as usize).clamp(1, n);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ (b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    cells.shuffle(&mut rng);
+    take
+}
+
+/// `values` hold one value per cell of `n` in every channel (the first channel that
+/// does not is named).
+pub(crate) fn check_channel_lengths(values: &[Vec<f64>; 3], n: usize) -> Result<(), FitError> {
+    match (0..3).find(|&c| values[c].len() != n) {
+        Some(c) => Err(FitError::Data(format!(
+            "channel {c} has {} values for {n} cells",
+            values[c].len()
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// The first entry of `v` (cell, value) that is not finite or fails `ok`.
+fn first_bad(v: &[f64], ok: impl Fn(f64) -> bool) -> Option<(usize, f64)> {
+    v.iter()
+        .copied()
+        .enumerate()
+        .find(|&(_, x)| !(x.is_finite() && ok(x)))
 }
 
 /// What a fit's input was, kept in its record (`input`): absent for a MERL table.

@@ -29,28 +29,10 @@ pub enum BsdfInput {
     Table,
 }
 
-impl BsdfInput {
-    /// The name on the command line and in records.
-    pub fn name(self) -> &'static str {
-        match self {
-            BsdfInput::Points => "points",
-            BsdfInput::Table => "table",
-        }
-    }
-
-    /// Both, in the order of their names on the command line.
-    pub const ALL: [BsdfInput; 2] = [BsdfInput::Points, BsdfInput::Table];
-}
-
-impl std::str::FromStr for BsdfInput {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        BsdfInput::ALL
-            .into_iter()
-            .find(|b| b.name() == s)
-            .ok_or_else(|| format!("`{s}`: expected `points` or `table`"))
-    }
-}
+brdfkit_core::named_choice!(BsdfInput, "bsdf input", {
+    Points => "points",
+    Table => "table",
+});
 
 /// Why an input cannot be read; every variant names the file.
 #[derive(Debug, thiserror::Error)]

@@ -18,6 +18,10 @@ use nalgebra::{DMatrix, DVector};
 /// The state type of the least-squares solvers: parameter and gradient vectors.
 pub type LsState = IterState<DVector<f64>, DVector<f64>, (), (), (), f64>;
 
+/// What an argmin solver's `init` and `next_iter` return: the new state and the
+/// key-values the iteration reports.
+type Step<I = LsState> = Result<(I, Option<KV>), Error>;
+
 /// Stopping tolerances shared by the solvers.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tolerances {
@@ -58,9 +62,14 @@ fn gradient_cosine(ne: &NormalEq) -> f64 {
 /// saturation) would otherwise get no damping and a singular system.
 fn scaling(a: &DMatrix<f64>) -> DVector<f64> {
     let m = a.nrows();
-    let max = (0..m).map(|q| a[(q, q)]).fold(0.0, f64::max);
+    let max = max_diag(a);
     let floor = if max > 0.0 { 1e-12 * max } else { 1.0 };
     DVector::from_iterator(m, (0..m).map(|q| a[(q, q)].max(floor)))
+}
+
+/// The largest diagonal entry of `a` (0 for an empty or non-positive diagonal).
+fn max_diag(a: &DMatrix<f64>) -> f64 {
+    (0..a.nrows()).map(|q| a[(q, q)]).fold(0.0, f64::max)
 }
 
 /// Largest change of any reparameterised coordinate in one step. A Newton step can be
@@ -219,7 +228,7 @@ macro_rules! normal_equation_solver {
                 &mut self,
                 problem: &mut Problem<O>,
                 state: LsState,
-            ) -> Result<(LsState, Option<KV>), Error> {
+            ) -> Step {
                 let (u, ne) = start(problem, &state, $name)?;
                 self.started(&ne);
                 Ok((settle(&mut self.ne, state, u, ne, true), None))
@@ -229,7 +238,7 @@ macro_rules! normal_equation_solver {
                 &mut self,
                 problem: &mut Problem<O>,
                 state: LsState,
-            ) -> Result<(LsState, Option<KV>), Error> {
+            ) -> Step {
                 self.iterate(problem, state)
             }
 
@@ -297,19 +306,13 @@ impl LevenbergMarquardt {
 impl LevenbergMarquardt {
     /// μ = τ · max diag(JᵀJ) at the start point.
     fn started(&mut self, ne: &NormalEq) {
-        let max = (0..ne.jtj.nrows())
-            .map(|q| ne.jtj[(q, q)])
-            .fold(0.0, f64::max);
+        let max = max_diag(&ne.jtj);
         self.mu = self.tau * if max > 0.0 { max } else { 1.0 };
         self.nu = 2.0;
     }
 
     /// One accepted step (with the rejected trials it took), or a stop.
-    fn iterate<O>(
-        &mut self,
-        problem: &mut Problem<O>,
-        mut state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error>
+    fn iterate<O>(&mut self, problem: &mut Problem<O>, mut state: LsState) -> Step
     where
         O: NormalEquations + CostFunction<Param = DVector<f64>, Output = f64>,
     {
@@ -451,11 +454,7 @@ impl GaussNewtonLs {
     fn started(&mut self, _ne: &NormalEq) {}
 
     /// One step along the Gauss-Newton direction, its length from the line search.
-    fn iterate<O>(
-        &mut self,
-        problem: &mut Problem<O>,
-        mut state: LsState,
-    ) -> Result<(LsState, Option<KV>), Error>
+    fn iterate<O>(&mut self, problem: &mut Problem<O>, mut state: LsState) -> Step
     where
         O: NormalEquations
             + CostFunction<Param = DVector<f64>, Output = f64>
@@ -463,7 +462,7 @@ impl GaussNewtonLs {
     {
         let (u, ne) = resume(&mut state, &mut self.ne, "Gauss-Newton")?;
         let m = ne.jtj.nrows();
-        let maxd = (0..m).map(|q| ne.jtj[(q, q)]).fold(0.0, f64::max);
+        let maxd = max_diag(&ne.jtj);
         let ones = DVector::from_element(m, 1.0);
         let Some(h) = damped_step(&ne.jtj, &ne.jtr, &ones, 1e-12 * maxd.max(1e-300)) else {
             self.failed = Some("the Gauss-Newton system is not positive definite");
@@ -557,10 +556,10 @@ where
     fn name(&self) -> &str {
         self.inner.name()
     }
-    fn init(&mut self, problem: &mut Problem<O>, state: I) -> Result<(I, Option<KV>), Error> {
+    fn init(&mut self, problem: &mut Problem<O>, state: I) -> Step<I> {
         self.inner.init(problem, state)
     }
-    fn next_iter(&mut self, problem: &mut Problem<O>, state: I) -> Result<(I, Option<KV>), Error> {
+    fn next_iter(&mut self, problem: &mut Problem<O>, state: I) -> Step<I> {
         self.inner.next_iter(problem, state)
     }
     fn terminate(&mut self, state: &I) -> TerminationStatus {

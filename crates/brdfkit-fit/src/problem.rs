@@ -57,6 +57,7 @@ use brdfkit_core::model::Domain;
 use brdfkit_core::{Model, ParamRole, Rgb};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -208,6 +209,22 @@ fn min_len(nchunks: usize) -> usize {
     (nchunks / (4 * rayon::current_num_threads())).max(1)
 }
 
+/// The one way every pass splits `n` cells: chunks of [`PASS_CHUNK_CELLS`] as cell
+/// ranges, in order, at least [`min_len`] chunks a rayon job. A pass's per-chunk
+/// scratch holds [`chunk_cap`] cells.
+fn chunks(n: usize) -> impl IndexedParallelIterator<Item = Range<usize>> {
+    let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
+    (0..nchunks)
+        .into_par_iter()
+        .with_min_len(min_len(nchunks))
+        .map(move |ci| ci * PASS_CHUNK_CELLS..((ci + 1) * PASS_CHUNK_CELLS).min(n))
+}
+
+/// Cells of the largest chunk of [`chunks`]`(n)`.
+fn chunk_cap(n: usize) -> usize {
+    PASS_CHUNK_CELLS.min(n)
+}
+
 /// s_k = sqrt(w_k / (n_ch Σ w)) of the cells `start .. start + out.len()`. A set
 /// without stored multiplicities (all 1) skips the multiply by 1, which is exact, so
 /// the scales are the same bits either way. A published metric's weight factor g
@@ -328,18 +345,14 @@ impl Inner<'_> {
     fn target_ms(&self) -> f64 {
         *self.target_ms.get_or_init(|| {
             let n = self.data.len();
-            let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
-            let cap = PASS_CHUNK_CELLS.min(n);
+            let cap = chunk_cap(n);
             let mut ms = 0.0;
             for &c in &self.channels {
-                let parts: Vec<f64> = (0..nchunks)
-                    .into_par_iter()
-                    .with_min_len(min_len(nchunks))
+                let parts: Vec<f64> = chunks(n)
                     .map_init(
                         || (vec![0.0; cap], vec![0.0; cap]),
-                        |(sbuf, tbuf), ci| {
-                            let s = ci * PASS_CHUNK_CELLS;
-                            let len = (s + PASS_CHUNK_CELLS).min(n) - s;
+                        |(sbuf, tbuf), Range { start: s, end: e }| {
+                            let len = e - s;
                             let sb = self.scale_of(s, &mut sbuf[..len]);
                             let tb = self.target_of(c, s, &mut tbuf[..len]);
                             tb.iter()
@@ -496,21 +509,12 @@ impl<'a> FitProblem<'a> {
         let inn = &*self.inner;
         let n = inn.data.len();
         let g = inn.data.geometry();
-        let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
-        let mut e: Vec<f64> = (0..nchunks)
-            .into_par_iter()
-            .with_min_len(min_len(nchunks))
+        let cap = chunk_cap(n);
+        let mut e: Vec<f64> = chunks(n)
             .fold(
-                || {
-                    (
-                        vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
-                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                        Vec::new(),
-                    )
-                },
-                |(mut out, mut tbuf, mut acc): (Vec<Rgb>, Vec<f64>, Vec<f64>), ci| {
-                    let s = ci * PASS_CHUNK_CELLS;
-                    let e = (s + PASS_CHUNK_CELLS).min(n);
+                || (vec![Rgb::ZERO; cap], vec![0.0; cap], Vec::new()),
+                |(mut out, mut tbuf, mut acc): (Vec<Rgb>, Vec<f64>, Vec<f64>),
+                 Range { start: s, end: e }| {
                     m.eval_batch(&g.slice(s..e), &mut out[..e - s]);
                     for &c in &inn.channels {
                         let tg = inn.target_of(c, s, &mut tbuf[..e - s]);
@@ -641,23 +645,19 @@ impl<'a> FitProblem<'a> {
         let robust = self.robust;
         let n = inn.data.len();
         let g = inn.data.geometry();
-        let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
-        let parts: Vec<f64> = (0..nchunks)
-            .into_par_iter()
-            .with_min_len(min_len(nchunks))
+        let cap = chunk_cap(n);
+        let parts: Vec<f64> = chunks(n)
             .map_init(
                 || {
                     (
-                        vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
-                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                        vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                        vec![Rgb::ZERO; cap],
+                        vec![0.0; cap],
+                        vec![0.0; cap],
+                        vec![0.0; cap],
                     )
                 },
-                |(out, sbuf, tbuf, xbuf), ci| {
+                |(out, sbuf, tbuf, xbuf), Range { start: s, end: e }| {
                     let mut acc = 0.0;
-                    let s = ci * PASS_CHUNK_CELLS;
-                    let e = (s + PASS_CHUNK_CELLS).min(n);
                     let len = e - s;
                     m.eval_batch(&g.slice(s..e), &mut out[..len]);
                     let cos_i = &g.wi_z[s..e];
@@ -720,31 +720,27 @@ impl<'a> FitProblem<'a> {
         let n = inn.data.len();
         let np = inn.proto.num_params();
         let g = inn.data.geometry();
-        let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
+        let cap = chunk_cap(n);
         let maxcols = inn.cols.iter().map(Vec::len).max().unwrap_or(0);
-        let parts: Vec<(Vec<f64>, Vec<f64>, f64)> = (0..nchunks)
-            .into_par_iter()
-            .with_min_len(min_len(nchunks))
+        let parts: Vec<(Vec<f64>, Vec<f64>, f64)> = chunks(n)
             .map_init(
                 || Scratch {
-                    s: vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                    t: vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                    out: vec![Rgb::ZERO; PASS_CHUNK_CELLS.min(n)],
-                    grad: vec![Rgb::ZERO; np * PASS_CHUNK_CELLS.min(n)],
-                    jcol: vec![0.0; maxcols * PASS_CHUNK_CELLS.min(n)],
-                    r: vec![0.0; PASS_CHUNK_CELLS.min(n)],
-                    d: vec![0.0; PASS_CHUNK_CELLS.min(n)],
+                    s: vec![0.0; cap],
+                    t: vec![0.0; cap],
+                    out: vec![Rgb::ZERO; cap],
+                    grad: vec![Rgb::ZERO; np * cap],
+                    jcol: vec![0.0; maxcols * cap],
+                    r: vec![0.0; cap],
+                    d: vec![0.0; cap],
                     jtj: vec![0.0; mdim * mdim],
                     jtr: vec![0.0; mdim],
                     cost: 0.0,
                 },
-                |sc, ci| {
+                |sc, Range { start: s, end: e }| {
                     // This chunk's own sums (added up in chunk order below).
                     sc.jtj.fill(0.0);
                     sc.jtr.fill(0.0);
                     sc.cost = 0.0;
-                    let s = ci * PASS_CHUNK_CELLS;
-                    let e = (s + PASS_CHUNK_CELLS).min(n);
                     let len = e - s;
                     model.eval_grad_batch(
                         &g.slice(s..e),
@@ -899,48 +895,34 @@ impl NormalEquations for FitProblem<'_> {
     }
 }
 
-impl CostFunction for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Output = f64;
-    fn cost(&self, u: &DVector<f64>) -> Result<f64, ArgminError> {
-        Ok(self.cost_at(u))
-    }
+/// An argmin problem trait on [`FitProblem`], forwarding to the inherent method that
+/// computes it: `Trait, AssociatedType = Value, method(problem, u) => body`.
+macro_rules! argmin_trait {
+    ($tr:ident, $assoc:ident = $out:ty, $f:ident($p:ident, $u:ident) => $body:expr) => {
+        impl $tr for FitProblem<'_> {
+            type Param = DVector<f64>;
+            type $assoc = $out;
+            fn $f(&self, $u: &DVector<f64>) -> Result<$out, ArgminError> {
+                let $p = self;
+                $body
+            }
+        }
+    };
 }
 
-impl Gradient for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Gradient = DVector<f64>;
-    fn gradient(&self, u: &DVector<f64>) -> Result<DVector<f64>, ArgminError> {
-        Ok(self.normal_eq(u).jtr)
-    }
-}
-
-impl Hessian for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Hessian = DMatrix<f64>;
-    /// The Gauss-Newton approximation JᵀJ.
-    fn hessian(&self, u: &DVector<f64>) -> Result<DMatrix<f64>, ArgminError> {
-        Ok(self.normal_eq(u).jtj)
-    }
-}
-
-impl Operator for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Output = DVector<f64>;
-    fn apply(&self, u: &DVector<f64>) -> Result<DVector<f64>, ArgminError> {
-        self.cost_evals.fetch_add(1, Ordering::Relaxed);
-        Ok(self.residuals(u)?)
-    }
-}
-
-impl Jacobian for FitProblem<'_> {
-    type Param = DVector<f64>;
-    type Jacobian = DMatrix<f64>;
-    fn jacobian(&self, u: &DVector<f64>) -> Result<DMatrix<f64>, ArgminError> {
-        self.jac_evals.fetch_add(1, Ordering::Relaxed);
-        Ok(self.jacobian_dense(u)?)
-    }
-}
+argmin_trait!(CostFunction, Output = f64, cost(p, u) => Ok(p.cost_at(u)));
+argmin_trait!(Gradient, Gradient = DVector<f64>, gradient(p, u) => Ok(p.normal_eq(u).jtr));
+// The Gauss-Newton approximation JᵀJ.
+argmin_trait!(Hessian, Hessian = DMatrix<f64>, hessian(p, u) => Ok(p.normal_eq(u).jtj));
+// The dense residuals and Jacobian count as a cost and a Jacobian evaluation.
+argmin_trait!(Operator, Output = DVector<f64>, apply(p, u) => {
+    p.cost_evals.fetch_add(1, Ordering::Relaxed);
+    Ok(p.residuals(u)?)
+});
+argmin_trait!(Jacobian, Jacobian = DMatrix<f64>, jacobian(p, u) => {
+    p.jac_evals.fetch_add(1, Ordering::Relaxed);
+    Ok(p.jacobian_dense(u)?)
+});
 
 /// The normal equations from per-chunk partials (JᵀJ's lower triangle row-major, Jᵀr,
 /// cost), added in chunk order: the same sums, to the bit, whatever the number of
@@ -1021,12 +1003,9 @@ pub fn evaluate_losses_of(
     // order as before.
     let wsum = data.weight_sum(weighting);
     let roots = data.cbrt_targets_if_built();
-    let nchunks = n.div_ceil(PASS_CHUNK_CELLS);
-    let cap = PASS_CHUNK_CELLS.min(n);
+    let cap = chunk_cap(n);
     let published = set == LossSet::All;
-    let parts: Vec<Sums> = (0..nchunks)
-        .into_par_iter()
-        .with_min_len(min_len(nchunks))
+    let parts: Vec<Sums> = chunks(n)
         .map_init(
             || LossScratch {
                 out: [vec![Rgb::ZERO; cap], vec![Rgb::ZERO; cap]],
@@ -1037,11 +1016,7 @@ pub fn evaluate_losses_of(
                 wb: vec![0.0; cap],
                 gb: vec![[0.0; 4]; cap],
             },
-            |sc, ci| {
-                let s = ci * PASS_CHUNK_CELLS;
-                let e = (s + PASS_CHUNK_CELLS).min(n);
-                chunk_losses(models, data, roots, weighting, published, s..e, sc)
-            },
+            |sc, r| chunk_losses(models, data, roots, weighting, published, r, sc),
         )
         .collect();
     // In chunk order: the same report whatever the threads.
@@ -1067,7 +1042,7 @@ fn chunk_losses(
     roots: Option<&[Vec<f64>; 3]>,
     weighting: Weighting,
     published: bool,
-    r: std::ops::Range<usize>,
+    r: Range<usize>,
     sc: &mut LossScratch,
 ) -> Sums {
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);

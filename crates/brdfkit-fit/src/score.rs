@@ -113,12 +113,7 @@ pub fn losses_of_values(
     weighting: Weighting,
 ) -> Result<LossReport, FitError> {
     let n = data.len();
-    if let Some(c) = (0..3).find(|&c| values[c].len() != n) {
-        return Err(FitError::Data(format!(
-            "channel {c} has {} values for {n} cells",
-            values[c].len()
-        )));
-    }
+    crate::data::check_channel_lengths(values, n)?;
     let cos_i = &data.geometry().wi_z;
     let measured = data.values();
     type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);

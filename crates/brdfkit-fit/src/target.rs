@@ -233,32 +233,21 @@ fn gltf_start(exts: &[&str], base: Option<&GltfPbrExt>, donors: &[&GltfPbrExt]) 
     };
     let ok = "blocks of fitted models and the entry values are in their domains";
     let mut m = base.clone();
-    let donor = |f: fn(&GltfPbrExt) -> bool| donors.iter().copied().find(|d| f(d));
-    if exts.contains(&"sheen") && base.sheen().is_none() {
-        let roughness = donor(|d| d.sheen().is_some())
-            .and_then(|d| d.sheen())
-            .unwrap_or_default()
-            .roughness;
-        m = m
-            .with_sheen(Sheen {
-                color: Rgb::splat(GLTF_ENTRY_WEIGHT),
-                roughness,
-            })
-            .expect(ok);
+    let wanted = |ext: &str, present: bool| exts.contains(&ext) && !present;
+    // `find_map`: the first donor with the block (`donors` come in order of loss).
+    if wanted("sheen", base.sheen().is_some()) {
+        let donor = donors.iter().find_map(|d| d.sheen());
+        let roughness = donor.unwrap_or_default().roughness;
+        let color = Rgb::splat(GLTF_ENTRY_WEIGHT);
+        m = m.with_sheen(Sheen { color, roughness }).expect(ok);
     }
-    if exts.contains(&"clearcoat") && base.clearcoat().is_none() {
-        let roughness = donor(|d| d.clearcoat().is_some())
-            .and_then(|d| d.clearcoat())
-            .unwrap_or_default()
-            .roughness;
-        m = m
-            .with_clearcoat(Clearcoat {
-                factor: GLTF_ENTRY_WEIGHT,
-                roughness,
-            })
-            .expect(ok);
+    if wanted("clearcoat", base.clearcoat().is_some()) {
+        let donor = donors.iter().find_map(|d| d.clearcoat());
+        let roughness = donor.unwrap_or_default().roughness;
+        let factor = GLTF_ENTRY_WEIGHT;
+        m = m.with_clearcoat(Clearcoat { factor, roughness }).expect(ok);
     }
-    if exts.contains(&"specular") && base.specular().is_none() {
+    if wanted("specular", base.specular().is_some()) {
         m = m.with_specular(Specular::default()).expect(ok);
     }
     Box::new(m)

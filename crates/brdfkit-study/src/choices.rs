@@ -271,31 +271,34 @@ pub fn variants(cfg: &StudyConfig, progress: &dyn Observe) -> Result<Vec<Variant
         rows: Vec::new(),
     };
     fresnel_variants(&mut rows, &gold)?;
-    // Beckmann G1: Walter's rational form vs the exact erf form.
-    let cexact = copper.ct.clone().with_beckmann_g1(BeckmannG1::Exact);
-    let crational = copper.ct.clone().with_beckmann_g1(BeckmannG1::Rational);
-    rows.push(
-        "beckmann-g1",
-        &copper,
-        ("exact (erf)", &cexact),
-        ("rational (Walter 2007)", &crational),
-    );
-    // Smith: separable vs height-correlated (the reference), GGX and Beckmann.
-    let gcor = gold.ct.clone().with_masking(Masking::SmithCorrelated);
-    let gsep = gold.ct.clone().with_masking(Masking::SmithSeparable);
-    rows.push(
-        "smith",
-        &gold,
-        ("height-correlated", &gcor),
-        ("separable", &gsep),
-    );
-    let csep = copper.ct.clone().with_masking(Masking::SmithSeparable);
-    rows.push(
-        "smith",
-        &copper,
-        ("height-correlated", &cexact),
-        ("separable", &csep),
-    );
+    // Beckmann G1: Walter's rational form against the exact erf form. Smith: separable
+    // against height-correlated, on GGX (gold) and on Beckmann (copper).
+    let g1 = |m: &VariantMaterial, g| m.ct.clone().with_beckmann_g1(g);
+    let smith = |m: &VariantMaterial, s| m.ct.clone().with_masking(s);
+    let cexact = g1(&copper, BeckmannG1::Exact);
+    let structural = [
+        (
+            "beckmann-g1",
+            &copper,
+            ("exact (erf)", cexact.clone()),
+            ("rational (Walter 2007)", g1(&copper, BeckmannG1::Rational)),
+        ),
+        (
+            "smith",
+            &gold,
+            ("height-correlated", smith(&gold, Masking::SmithCorrelated)),
+            ("separable", smith(&gold, Masking::SmithSeparable)),
+        ),
+        (
+            "smith",
+            &copper,
+            ("height-correlated", cexact),
+            ("separable", smith(&copper, Masking::SmithSeparable)),
+        ),
+    ];
+    for (choice, mat, (rn, r), (vn, v)) in &structural {
+        rows.push(choice, mat, (rn, r), (vn, v));
+    }
     // Precision: on gold and on the near-mirror silver (the steepest D).
     let mut rows = rows.rows;
     for name in ["gold-ggx", "near-mirror-silver"] {

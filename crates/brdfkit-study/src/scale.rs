@@ -71,25 +71,6 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Median wall time and the loss of `reps` identical fits.
-fn timed_fit(
-    reps: usize,
-    start: &dyn brdfkit_core::Model,
-    data: &FitData,
-    fc: &FitConfig,
-    what: &str,
-) -> Result<(f64, f64), StudyError> {
-    let mut times = Vec::new();
-    let mut loss = f64::NAN;
-    for _ in 0..reps.max(1) {
-        let t = Instant::now();
-        let o = fit(start, data, fc, None).map_err(fit_err(what))?;
-        times.push(t.elapsed().as_secs_f64());
-        loss = o.record.losses_full.get(Loss::Cbrt).overall;
-    }
-    Ok((median(times), loss))
-}
-
 /// A Lambertian plus `lobes` Cook-Torrance lobes (GGX, Schlick) with their own ρd held
 /// at 0 (a sum's diffuse parts are not separately identifiable), started at
 /// α = 0.05, 0.2, 0.5.
@@ -134,12 +115,16 @@ pub fn run_scale(
     };
     let full = FitData::from_table(&plastic.table).map_err(fit_err("demo-plastic"))?;
     let ct = default_start()?;
-    let reps = cfg.reps.clamp(1, 3);
-    res.points = scale_cells(ct.as_ref(), &full, reps, progress)?;
+    let bench = Bench {
+        start: ct.as_ref(),
+        full: &full,
+        reps: cfg.reps.clamp(1, 3),
+        progress,
+    };
+    res.points = bench.cells()?;
     let multi = pick("lafortune-two-lobes").unwrap_or(plastic);
-    res.points.extend(scale_params(multi, reps, progress)?);
-    res.points
-        .extend(scale_threads(ct.as_ref(), &full, reps, progress)?);
+    res.points.extend(bench.params(multi)?);
+    res.points.extend(bench.threads()?);
     res.batch
         .push(scale_batch(cfg, materials, ct.as_ref(), progress)?);
     Ok(res)
@@ -155,115 +140,116 @@ fn default_start() -> Result<Box<dyn brdfkit_core::Model>, StudyError> {
     })
 }
 
-/// Fit time against the number of cells. The solver sees a stratified subset (the fit
-/// is then a full fit of a smaller table: no `subsample` option, so the losses are over
-/// that subset).
-fn scale_cells(
-    ct: &dyn brdfkit_core::Model,
-    full: &FitData,
+/// What the fit-time figures share: the single-model start ([`default_start`]) and the
+/// full table it is fitted to, the repetitions of each fit and where progress goes.
+struct Bench<'a> {
+    start: &'a dyn brdfkit_core::Model,
+    full: &'a FitData,
     reps: usize,
-    progress: &dyn Observe,
-) -> Result<Vec<ScalePoint>, StudyError> {
-    let mut points = Vec::new();
-    for f in [0.01, 0.02, 0.05, 0.1, 0.25, 0.5, 1.0] {
-        let data = if f < 1.0 {
-            full.stratified_subsample(f, 11)
-        } else {
-            full.clone()
-        };
-        let fc = FitConfig::default();
-        let (wall_s, cbrt) = timed_fit(reps, ct, &data, &fc, "scale cells")?;
-        progress.observe(&Event::Step(format!(
-            "scale cells {}: {wall_s:.3} s",
-            data.len()
-        )));
-        points.push(ScalePoint {
-            axis: "cells".into(),
-            x: f,
-            cells: data.len(),
-            params: resolve_free(ct, &fc).map_err(fit_err("ct"))?.len(),
-            threads: rayon::current_num_threads(),
-            starts: 1,
-            wall_s,
-            cbrt,
-        });
-    }
-    Ok(points)
+    progress: &'a dyn Observe,
 }
 
-/// Fit time against the number of free parameters: a Lambertian plus 1–3 lobes
-/// ([`lobes_model`]) on `multi` (the multi-lobe material when present).
-fn scale_params(
-    multi: &SynthMaterial,
-    reps: usize,
-    progress: &dyn Observe,
-) -> Result<Vec<ScalePoint>, StudyError> {
-    let mdata = FitData::from_table(&multi.table).map_err(fit_err("multi-lobe"))?;
-    let mut points = Vec::new();
-    for lobes in 1..=3 {
-        let m = brdfkit_models::from_json(&lobes_model(lobes)).map_err(|e| StudyError::Model {
-            what: format!("sum of {lobes} lobes"),
-            msg: e.to_string(),
-        })?;
-        let fc = FitConfig::default().fix_params(lobes_fixed(lobes));
-        let np = resolve_free(m.as_ref(), &fc)
-            .map_err(fit_err("lobes"))?
-            .len();
-        let (wall_s, cbrt) = timed_fit(reps, m.as_ref(), &mdata, &fc, "scale params")?;
-        progress.observe(&Event::Step(format!(
-            "scale params {np}: {wall_s:.3} s, cbrt {cbrt:.3e}"
-        )));
-        points.push(ScalePoint {
-            axis: "params".into(),
-            x: np as f64,
-            cells: mdata.len(),
-            params: np,
-            threads: rayon::current_num_threads(),
-            starts: 1,
-            wall_s,
-            cbrt,
-        });
-    }
-    Ok(points)
-}
-
-/// Fit time against threads: 1 and 2 (and all, if more), one start and four.
-fn scale_threads(
-    ct: &dyn brdfkit_core::Model,
-    full: &FitData,
-    reps: usize,
-    progress: &dyn Observe,
-) -> Result<Vec<ScalePoint>, StudyError> {
-    let threads = rayon::current_num_threads();
-    let mut ts = vec![1, 2];
-    if threads > 2 {
-        ts.push(threads);
-    }
-    let mut points = Vec::new();
-    for &t in &ts {
-        for starts in [1, 4] {
-            let fc = FitConfig::default()
-                .starts(starts)
-                .map_err(fit_err("threads"))?;
-            let params = resolve_free(ct, &fc).map_err(fit_err("threads"))?.len();
-            let (wall_s, cbrt) =
-                pool(t).install(|| timed_fit(reps, ct, full, &fc, "scale threads"))?;
-            progress.observe(&Event::Step(format!(
-                "scale threads {t} starts {starts}: {wall_s:.3} s"
-            )));
-            points.push(ScalePoint {
-                axis: "threads".into(),
-                x: t as f64,
-                cells: full.len(),
-                params,
-                threads: t,
-                starts,
-                wall_s,
-                cbrt,
-            });
+impl Bench<'_> {
+    /// One point of the figures: `reps` identical fits of `start` to `data` with `fc`,
+    /// on the calling rayon pool (its thread count is the point's `threads`): the median
+    /// wall time and the full-table cbrt loss. `what` names the measurement in errors.
+    fn point(
+        &self,
+        (axis, x): (&str, f64),
+        (start, data): (&dyn brdfkit_core::Model, &FitData),
+        fc: &FitConfig,
+        what: &str,
+    ) -> Result<ScalePoint, StudyError> {
+        let params = resolve_free(start, fc).map_err(fit_err(what))?.len();
+        let mut times = Vec::new();
+        let mut loss = f64::NAN;
+        for _ in 0..self.reps.max(1) {
+            let t = Instant::now();
+            let o = fit(start, data, fc, None).map_err(fit_err(what))?;
+            times.push(t.elapsed().as_secs_f64());
+            loss = o.record.losses_full.get(Loss::Cbrt).overall;
         }
+        Ok(ScalePoint {
+            axis: axis.into(),
+            x,
+            cells: data.len(),
+            params,
+            threads: rayon::current_num_threads(),
+            starts: fc.get_starts(),
+            wall_s: median(times),
+            cbrt: loss,
+        })
     }
-    Ok(points)
+
+    /// Fit time against the number of cells. The solver sees a stratified subset (the
+    /// fit is then a full fit of a smaller table: no `subsample` option, so the losses
+    /// are over that subset).
+    fn cells(&self) -> Result<Vec<ScalePoint>, StudyError> {
+        let mut points = Vec::new();
+        for f in [0.01, 0.02, 0.05, 0.1, 0.25, 0.5, 1.0] {
+            let data = if f < 1.0 {
+                self.full.stratified_subsample(f, 11)
+            } else {
+                self.full.clone()
+            };
+            let fc = FitConfig::default();
+            let p = self.point(("cells", f), (self.start, &data), &fc, "scale cells")?;
+            let (n, wall_s) = (p.cells, p.wall_s);
+            let msg = format!("scale cells {n}: {wall_s:.3} s");
+            self.progress.observe(&Event::Step(msg));
+            points.push(p);
+        }
+        Ok(points)
+    }
+
+    /// Fit time against the number of free parameters: a Lambertian plus 1–3 lobes
+    /// ([`lobes_model`]) on `multi` (the multi-lobe material when present).
+    fn params(&self, multi: &SynthMaterial) -> Result<Vec<ScalePoint>, StudyError> {
+        let mdata = FitData::from_table(&multi.table).map_err(fit_err("multi-lobe"))?;
+        let mut points = Vec::new();
+        for lobes in 1..=3 {
+            let m =
+                brdfkit_models::from_json(&lobes_model(lobes)).map_err(|e| StudyError::Model {
+                    what: format!("sum of {lobes} lobes"),
+                    msg: e.to_string(),
+                })?;
+            let fc = FitConfig::default().fix_params(lobes_fixed(lobes));
+            let np = resolve_free(m.as_ref(), &fc)
+                .map_err(fit_err("lobes"))?
+                .len();
+            let axis = ("params", np as f64);
+            let p = self.point(axis, (m.as_ref(), &mdata), &fc, "scale params")?;
+            let (wall_s, cbrt) = (p.wall_s, p.cbrt);
+            let msg = format!("scale params {np}: {wall_s:.3} s, cbrt {cbrt:.3e}");
+            self.progress.observe(&Event::Step(msg));
+            points.push(p);
+        }
+        Ok(points)
+    }
+
+    /// Fit time against threads: 1 and 2 (and all, if more), one start and four.
+    fn threads(&self) -> Result<Vec<ScalePoint>, StudyError> {
+        let threads = rayon::current_num_threads();
+        let mut ts = vec![1, 2];
+        if threads > 2 {
+            ts.push(threads);
+        }
+        let mut points = Vec::new();
+        for &t in &ts {
+            for starts in [1, 4] {
+                let fc = FitConfig::default()
+                    .starts(starts)
+                    .map_err(fit_err("threads"))?;
+                let on = (self.start, self.full);
+                let p = pool(t)
+                    .install(|| self.point(("threads", t as f64), on, &fc, "scale threads"))?;
+                let msg = format!("scale threads {t} starts {starts}: {:.3} s", p.wall_s);
+                self.progress.observe(&Event::Step(msg));
+                points.push(p);
+            }
+        }
+        Ok(points)
+    }
 }
 
 /// Throughput of fitting `cfg.batch_tables` tables in turn: each written to disk first,

@@ -60,7 +60,6 @@ use brdfkit_models::testing::SplitMix64;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 use std::f64::consts::PI;
-use std::fmt;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use thiserror::Error;
@@ -679,11 +678,7 @@ impl Comparison {
     }
 }
 
-impl fmt::Display for Comparison {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.to_text())
-    }
-}
+crate::report::display_as_text!(Comparison);
 
 #[cfg(test)]
 mod tests {

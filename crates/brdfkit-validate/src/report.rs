@@ -30,6 +30,22 @@ impl Verdict {
         self == Verdict::Pass
     }
 
+    /// The energy check's verdict from the largest directional albedo `max` found
+    /// (`None`: none was), the quadrature's convergence estimate `conv`, and the
+    /// thresholds (albedo ≤ 1 + `energy`, convergence ≤ `convergence`): with a converged
+    /// quadrature, pass or fail on the bound; otherwise a fail only when even
+    /// max − conv exceeds it (the excess is beyond the quadrature's error), else
+    /// inconclusive.
+    pub fn of_energy(max: Option<f64>, conv: f64, energy: f64, convergence: f64) -> Verdict {
+        let bound = 1.0 + energy;
+        match max {
+            None => Verdict::Inconclusive,
+            Some(max) if conv <= convergence => Verdict::from_bool(max <= bound),
+            Some(max) if max - conv > bound => Verdict::Fail,
+            Some(_) => Verdict::Inconclusive,
+        }
+    }
+
     /// `PASS`, `FAIL` or `INCONCLUSIVE`, for the text rendering.
     pub fn label(self) -> &'static str {
         match self {
@@ -39,6 +55,19 @@ impl Verdict {
         }
     }
 }
+
+/// `Display` for a check report with a `to_text(&self) -> String`: its text, the one
+/// way every report of this crate prints.
+macro_rules! display_as_text {
+    ($ty:ty) => {
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(&self.to_text())
+            }
+        }
+    };
+}
+pub(crate) use display_as_text;
 
 impl fmt::Display for Verdict {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -30,7 +30,6 @@ use brdfkit_merl::{Lookup, MerlTable, cell_directions};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
-use std::fmt;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -487,16 +486,8 @@ fn energy_check(t: &MerlTable, o: &TableCheckOptions) -> TableEnergyCheck {
         }
         conv = conv.max(p.convergence);
     }
-    let bound = 1.0 + th.energy;
-    let verdict = if max.0 == f64::NEG_INFINITY {
-        Verdict::Inconclusive
-    } else if conv <= th.convergence {
-        Verdict::from_bool(max.0 <= bound)
-    } else if max.0 - conv > bound {
-        Verdict::Fail
-    } else {
-        Verdict::Inconclusive
-    };
+    let found = (max.0 != f64::NEG_INFINITY).then_some(max.0);
+    let verdict = Verdict::of_energy(found, conv, th.energy, th.convergence);
     TableEnergyCheck {
         verdict,
         max_albedo: max.0,
@@ -586,11 +577,7 @@ impl TableReport {
     }
 }
 
-impl fmt::Display for TableReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.to_text())
-    }
-}
+crate::report::display_as_text!(TableReport);
 
 #[cfg(test)]
 mod tests {

@@ -357,8 +357,95 @@ fn source_select(id: &str, sources: &[SourcePrecision], first: usize) -> Markup 
     }
 }
 
+/// A labelled range input `id` over `[min, max, step, value]`, with its read-out
+/// `<output id="{id}-out">` showing `shown` until the script updates it.
+fn slider(id: &str, label: &str, [min, max, step, value]: [f64; 4], shown: &str) -> Markup {
+    html! {
+        label {
+            (label) " "
+            input id=(id) type="range" min=(min) max=(max) step=(step) value=(value);
+            output id=(format!("{id}-out")) { (shown) }
+        }
+    }
+}
+
 fn channel_select(id: &str) -> Markup {
     html! { select id=(id) { option value="0" { "R" } option value="1" selected { "G" } option value="2" { "B" } } }
+}
+
+/// One panel of the view: a title, its controls, what the script draws into (`view`)
+/// and a note on what it shows.
+fn panel(id: &str, title: &str, controls: Markup, view: Markup, note: &str) -> Markup {
+    html! {
+        div.panel id=(id) {
+            h3 { (title) }
+            div.controls { (controls) }
+            (view)
+            p.note { (note) }
+        }
+    }
+}
+
+/// The incidence-plane plot of f_r.
+fn incidence_panel() -> Markup {
+    let controls = html! {
+        (slider("inc-theta", "θi", [0.0, 89.0, 1.0, 45.0], "45°"))
+        (slider("inc-phi", "φ", [0.0, 180.0, 1.0, 0.0], "0°"))
+        label { "scale " select #inc-scale { option value="log" { "log" } option value="linear" { "linear" } } }
+        label { "channel " (channel_select("inc-channel")) }
+    };
+    let view = html! {
+        canvas #inc-canvas width="720" height="360" {}
+        div.legend #inc-legend {}
+    };
+    let note = "f_r (no cosine) along the plane at azimuth φ from the incidence plane: wi at (θi, 180°), wo at (θo, φ) for θo ≥ 0 and (|θo|, φ + 180°) for θo < 0. At φ = 0 the mirror direction is at θo = θi; the dashed line marks it. Click a legend entry to hide or show that source.";
+    panel("panel-incidence", "Incidence plane", controls, view, note)
+}
+
+/// The θh–θd image of one source at a chosen φd.
+fn slice_panel(p: &[SourcePrecision]) -> Markup {
+    let controls = html! {
+        (slider("slice-phi", "φd", [0.0, 180.0, 1.0, 90.0], "90°"))
+        label { "source " (source_select("slice-source", p, 0)) }
+        label { "show " select #slice-mode { option value="value" { "log10 f_r" } option value="ratio" { "log10(source / first source)" } } }
+        label { "channel " (channel_select("slice-channel")) }
+    };
+    let view = html! {
+        canvas #slice-canvas width="520" height="414" {}
+        div.readout #slice-readout { "move the cursor over the image" }
+    };
+    let note = "θh (x, 0 to 90°, √ axis as MERL's bins) and θd (y, 0 at the top, 90° at the bottom) at the chosen φd. The ratio is against the first source (the measured table in a report): red, the source is brighter; blue, darker; ±1 (a factor 10) saturates. Grey: no value (below the horizon).";
+    panel("panel-slice", "θh–θd slice", controls, view, note)
+}
+
+/// A lit sphere of one source, alone or against the first.
+fn sphere_panel(p: &[SourcePrecision], model: usize) -> Markup {
+    let controls = html! {
+        label { "source " (source_select("sphere-source", p, model)) }
+        label { "mode " select #sphere-mode { option value="single" { "single" } option value="side" { "side by side with the first source" } option value="diff" { "difference from the first source" } } }
+        (slider("sphere-exposure", "exposure", [-6.0, 6.0, 0.25, 0.0], "+0 EV"))
+        span { "drag on a sphere to move the light" }
+    };
+    let view = html! {
+        div.row { canvas #sphere-a width="256" height="256" {} canvas #sphere-b width="256" height="256" style="display:none" {} }
+        div.readout #sphere-readout {}
+    };
+    let note = "A sphere under one directional light of unit irradiance at normal incidence (radiance = f_r · cos θi · π, so a white Lambertian facing the light is 1), seen from straight above (orthographic), exposure 2^EV, then sRGB. The difference is |Δ| of the displayed values ×4, averaged over the channels.";
+    panel("panel-sphere", "Lit sphere", controls, view, note)
+}
+
+/// The directional albedo of every source against θo.
+fn albedo_panel() -> Markup {
+    let controls = html! {
+        (slider("albedo-theta", "θo", [0.0, 89.0, 1.0, 30.0], "30°"))
+        label { "channel " (channel_select("albedo-channel")) }
+    };
+    let view = html! {
+        canvas #albedo-canvas width="720" height="300" {}
+        table id="albedo-table" {}
+    };
+    let note = "a(θo) = ∫ f_r(wi, wo) cos θi dωi over the hemisphere, by a midpoint rule in cos²θi (40 steps) and φi (96 steps) on the embedded values (the curve at θo = 0, 10, …, 80, 85°): the fraction of a uniform white sky's light reflected towards θo. The table gives R, G, B at the chosen θo.";
+    panel("panel-albedo", "Directional albedo", controls, view, note)
 }
 
 /// The panels' markup; the script fills the canvases.
@@ -378,52 +465,10 @@ fn markup(json: &str, p: &[SourcePrecision], bytes: usize) -> Markup {
                 td { (format!("{:.1} %", s.max * 100.0)) } td { (format!("{:.1e}", s.quantisation)) }
             } } }
         }
-        div.panel id="panel-incidence" {
-            h3 { "Incidence plane" }
-            div.controls {
-                label { "θi " input #inc-theta type="range" min="0" max="89" step="1" value="45"; output #inc-theta-out { "45°" } }
-                label { "φ " input #inc-phi type="range" min="0" max="180" step="1" value="0"; output #inc-phi-out { "0°" } }
-                label { "scale " select #inc-scale { option value="log" { "log" } option value="linear" { "linear" } } }
-                label { "channel " (channel_select("inc-channel")) }
-            }
-            canvas #inc-canvas width="720" height="360" {}
-            div.legend #inc-legend {}
-            p.note { "f_r (no cosine) along the plane at azimuth φ from the incidence plane: wi at (θi, 180°), wo at (θo, φ) for θo ≥ 0 and (|θo|, φ + 180°) for θo < 0. At φ = 0 the mirror direction is at θo = θi; the dashed line marks it. Click a legend entry to hide or show that source." }
-        }
-        div.panel id="panel-slice" {
-            h3 { "θh–θd slice" }
-            div.controls {
-                label { "φd " input #slice-phi type="range" min="0" max="180" step="1" value="90"; output #slice-phi-out { "90°" } }
-                label { "source " (source_select("slice-source", p, 0)) }
-                label { "show " select #slice-mode { option value="value" { "log10 f_r" } option value="ratio" { "log10(source / first source)" } } }
-                label { "channel " (channel_select("slice-channel")) }
-            }
-            canvas #slice-canvas width="520" height="414" {}
-            div.readout #slice-readout { "move the cursor over the image" }
-            p.note { "θh (x, 0 to 90°, √ axis as MERL's bins) and θd (y, 0 at the top, 90° at the bottom) at the chosen φd. The ratio is against the first source (the measured table in a report): red, the source is brighter; blue, darker; ±1 (a factor 10) saturates. Grey: no value (below the horizon)." }
-        }
-        div.panel id="panel-sphere" {
-            h3 { "Lit sphere" }
-            div.controls {
-                label { "source " (source_select("sphere-source", p, model)) }
-                label { "mode " select #sphere-mode { option value="single" { "single" } option value="side" { "side by side with the first source" } option value="diff" { "difference from the first source" } } }
-                label { "exposure " input #sphere-exposure type="range" min="-6" max="6" step="0.25" value="0"; output #sphere-exposure-out { "+0 EV" } }
-                span { "drag on a sphere to move the light" }
-            }
-            div.row { canvas #sphere-a width="256" height="256" {} canvas #sphere-b width="256" height="256" style="display:none" {} }
-            div.readout #sphere-readout {}
-            p.note { "A sphere under one directional light of unit irradiance at normal incidence (radiance = f_r · cos θi · π, so a white Lambertian facing the light is 1), seen from straight above (orthographic), exposure 2^EV, then sRGB. The difference is |Δ| of the displayed values ×4, averaged over the channels." }
-        }
-        div.panel id="panel-albedo" {
-            h3 { "Directional albedo" }
-            div.controls {
-                label { "θo " input #albedo-theta type="range" min="0" max="89" step="1" value="30"; output #albedo-theta-out { "30°" } }
-                label { "channel " (channel_select("albedo-channel")) }
-            }
-            canvas #albedo-canvas width="720" height="300" {}
-            table id="albedo-table" {}
-            p.note { "a(θo) = ∫ f_r(wi, wo) cos θi dωi over the hemisphere, by a midpoint rule in cos²θi (40 steps) and φi (96 steps) on the embedded values (the curve at θo = 0, 10, …, 80, 85°): the fraction of a uniform white sky's light reflected towards θo. The table gives R, G, B at the chosen θo." }
-        }
+        (incidence_panel())
+        (slice_panel(p))
+        (sphere_panel(p, model))
+        (albedo_panel())
         details {
             summary { "Test hook" }
             p.note { "window.brdfkitView: ready (true once drawn), sources (labels), eval(source, wi, wo) → [r, g, b] or null (the embedded lookup), plotted.incidence / .slice / .sphere / .albedo (the values each panel drew last, with their directions), albedoCurveReady, timings (ms of the last draw of each panel; script_start, inflated, decode, load: ms from navigation to each step, load = ready). docs/report.md describes each. Used by the browser test (crates/fit-brdf/tests/report_browser.rs)." }
