@@ -671,11 +671,11 @@ impl FitData {
     }
 }
 
-/// The draw within bin `b` of [`FitData::stratified_subsample`]: the bin's n `cells`
+/// The draw within bin `b` of [`FitData::stratified_subsample`] (tests/data.rs restates it independently as its reference): the bin's n `cells`
 /// shuffled by a ChaCha8 generator seeded with `seed` and the bin, of which the first
 /// max(1, round(fraction · n)) are the drawn ones; returns that count. `cells` must not
 /// be empty.
-pub fn draw_stratum<T>(cells: &mut [T], fraction: f64, seed: u64, b: usize) -> usize {
+fn draw_stratum<T>(cells: &mut [T], fraction: f64, seed: u64, b: usize) -> usize {
     let n = cells.len();
     let take = ((fraction * n as f64).round() as usize).clamp(1, n);
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ (b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));

@@ -6,11 +6,12 @@
 
 mod common;
 use brdfkit_core::{GeometryBatch, Rgb};
-use brdfkit_fit::data::{STRATA, draw_stratum};
+use brdfkit_fit::data::STRATA;
 use brdfkit_fit::{FitData, Weighting};
 use brdfkit_merl::MerlTable;
 use common::*;
 use rand::SeedableRng;
+use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::FRAC_PI_2;
 
@@ -139,7 +140,10 @@ fn reference_subsample(data: &FitData, fraction: f64, seed: u64) -> (Vec<usize>,
             continue;
         }
         let n = cells.len();
-        let take = draw_stratum(cells, fraction, seed, b);
+        let take = ((fraction * n as f64).round() as usize).clamp(1, n);
+        let mut rng =
+            ChaCha8Rng::seed_from_u64(seed ^ (b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        cells.shuffle(&mut rng);
         for &m in &cells[..take] {
             picked.push((m, n as f64 / take as f64));
         }
