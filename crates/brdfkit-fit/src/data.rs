@@ -671,10 +671,10 @@ impl FitData {
     }
 }
 
-/// The draw within bin `b` of [`FitData::stratified_subsample`] (tests/data.rs restates it independently as its reference): the bin's n `cells`
+/// The draw within bin `b` of [`FitData::stratified_subsample`]: the bin's n `cells`
 /// shuffled by a ChaCha8 generator seeded with `seed` and the bin, of which the first
 /// max(1, round(fraction · n)) are the drawn ones; returns that count. `cells` must not
-/// be empty.
+/// be empty. tests/data.rs restates it on its own, as an independent reference.
 fn draw_stratum<T>(cells: &mut [T], fraction: f64, seed: u64, b: usize) -> usize {
     let n = cells.len();
     let take = ((fraction * n as f64).round() as usize).clamp(1, n);
