@@ -17,11 +17,10 @@ use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 use std::hint::black_box;
 use std::path::Path;
-use std::process::{Command, Stdio};
 
 #[path = "common/interleaved.rs"]
 mod interleaved;
-use interleaved::interleaved;
+use interleaved::{cat, read_vs_cat};
 use std::time::{Duration, Instant};
 
 /// Number of lookups per batch: as many pairs as the MERL grid has cells.
@@ -38,15 +37,6 @@ fn table() -> MerlTable {
         })
     })
     .expect("finite, non-negative values")
-}
-
-fn cat(path: &Path) {
-    let status = Command::new("cat")
-        .arg(path)
-        .stdout(Stdio::null())
-        .status()
-        .expect("spawn cat");
-    assert!(status.success());
 }
 
 fn random_pairs() -> Vec<(Vec3, Vec3)> {
@@ -154,17 +144,7 @@ fn main() {
 
     // The read/cat ratio, measured interleaved so both see the same machine state.
     let load0 = load_average();
-    let time_read = || {
-        let s = Instant::now();
-        black_box(MerlTable::read(&path).unwrap());
-        s.elapsed().as_secs_f64()
-    };
-    let time_cat = || {
-        let s = Instant::now();
-        cat(&path);
-        s.elapsed().as_secs_f64()
-    };
-    let (reads, cats, ratios) = interleaved(PAIRS_READ_CAT, time_read, time_cat);
+    let (reads, cats, ratios) = read_vs_cat(&path, PAIRS_READ_CAT);
     let ms = |v: &[f64], p: f64| quantile(v, p) * 1e3;
     let (r, k) = (ms(&reads, 0.5), ms(&cats, 0.5));
     println!(

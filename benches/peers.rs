@@ -35,7 +35,6 @@ use serde_json::json;
 use std::hint::black_box;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 use std::time::Instant;
 
 /// Gold as Mitsuba 3's `roughconductor` (ρd = 0, ρs = 1, GGX, separable Smith).
@@ -83,7 +82,7 @@ mod pairs;
 use pairs::merl_pairs;
 #[path = "common/interleaved.rs"]
 mod interleaved;
-use interleaved::interleaved;
+use interleaved::{cat, read_vs_cat};
 
 fn sums(v: &[Rgb]) -> [f64; 3] {
     let mut s = [0.0; 3];
@@ -197,30 +196,12 @@ fn main() {
     let table = MerlTable::from_brdf(m, Dims::MERL).expect("the gold table");
     let tpath = dir.join("table.binary");
     table.write(&tpath).expect("write the table");
-    let cat = || {
-        let st = Command::new("cat")
-            .arg(&tpath)
-            .stdout(Stdio::null())
-            .status()
-            .expect("spawn cat");
-        assert!(st.success());
-    };
     // Interleaved pairs, the order alternating so neither side always runs on a cache or
     // page state the other left; many pairs, because a fresh 35 MB allocation costs 2–3×
     // more in some stretches of time than in others on this VM (docs/merl-format.md).
     black_box(MerlTable::read(&tpath).unwrap());
-    cat();
-    let time_read = || {
-        let t = Instant::now();
-        black_box(MerlTable::read(&tpath).unwrap());
-        t.elapsed().as_secs_f64()
-    };
-    let time_cat = || {
-        let t = Instant::now();
-        cat();
-        t.elapsed().as_secs_f64()
-    };
-    let (rs, cs, ratios) = interleaved((14 * reps).max(100), time_read, time_cat);
+    cat(&tpath);
+    let (rs, cs, ratios) = read_vs_cat(&tpath, (14 * reps).max(100));
     let within = ratios.iter().filter(|&&x| x <= 1.5).count();
     let raw_sum: f64 = table.raw().iter().filter(|x| **x >= 0.0).sum();
     out["read"] = json!({

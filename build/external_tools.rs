@@ -332,19 +332,32 @@ pub fn require_blender() -> PathBuf {
     require(blender(), "Blender", "blender", BLENDER_ENABLE)
 }
 
-/// For build scripts: the Python, with the paths whose change redoes its probe.
-fn watch_python() -> PathBuf {
-    println!("cargo::rerun-if-env-changed=BRDFKIT_PYTHON");
-    let py = python();
-    let venv_lib = workspace().join(".venv/lib");
-    // Only paths that exist: a missing one would rerun this on every build and so
-    // rebuild the crate and all that depends on it.
-    for watched in [py.clone(), venv_lib] {
-        if watched.exists() {
-            println!("cargo::rerun-if-changed={}", watched.display());
-        }
+/// For build scripts: the probe is redone when one of `vars` changes, or `path`. Only a
+/// path that exists is watched: a missing one would rerun the script on every build and
+/// so rebuild the crate and all that depends on it.
+fn watch(vars: &[&str], path: &Path) {
+    for v in vars {
+        println!("cargo::rerun-if-env-changed={v}");
     }
+    if path.exists() {
+        println!("cargo::rerun-if-changed={}", path.display());
+    }
+}
+
+/// For build scripts: the Python, with the paths whose change redoes its probe (the
+/// executable, and the packages installed into the workspace's `.venv`).
+fn watch_python() -> PathBuf {
+    let py = python();
+    watch(&["BRDFKIT_PYTHON"], &py);
+    watch(&[], &workspace().join(".venv/lib"));
     py
+}
+
+/// For build scripts: a tool found on the `PATH` (or its standard place), watched where
+/// it was found, or `/usr/bin` where it will be installed.
+fn watch_found(var: &str, found: Option<PathBuf>) -> bool {
+    watch(&[var], found.as_deref().unwrap_or(Path::new("/usr/bin")));
+    found.is_some()
 }
 
 /// For build scripts: probes `tools` and sets `has_mitsuba` / `has_brdfkit_python` /
@@ -366,50 +379,21 @@ pub fn emit(tools: &[Tool]) {
                 "has_brdfkit_python",
                 ci || python_package_importable(&watch_python()),
             ),
-            Tool::Chromium => {
-                println!("cargo::rerun-if-env-changed=CHROMIUM");
-                let found = chromium();
-                let watched = found.clone().unwrap_or_else(|| PathBuf::from("/usr/bin"));
-                if watched.exists() {
-                    println!("cargo::rerun-if-changed={}", watched.display());
-                }
-                ("has_chromium", ci || found.is_some())
-            }
+            Tool::Chromium => ("has_chromium", watch_found("CHROMIUM", chromium()) || ci),
             Tool::GltfValidator => {
-                println!("cargo::rerun-if-env-changed=BRDFKIT_GLTF_VALIDATOR");
-                let dir = gltf_validator_dir();
-                if dir.exists() {
-                    println!("cargo::rerun-if-changed={}", dir.display());
-                }
+                watch(&["BRDFKIT_GLTF_VALIDATOR"], &gltf_validator_dir());
                 ("has_gltf_validator", ci || gltf_validator().is_some())
             }
             Tool::BrowserDriver => {
-                println!("cargo::rerun-if-env-changed=BRDFKIT_BROWSER_TEST");
-                println!("cargo::rerun-if-env-changed=CHROMIUM");
-                let dir = browser_driver_dir();
-                if dir.exists() {
-                    println!("cargo::rerun-if-changed={}", dir.display());
-                }
+                watch(&["BRDFKIT_BROWSER_TEST", "CHROMIUM"], &browser_driver_dir());
                 ("has_browser_driver", ci || browser_driver().is_some())
             }
             Tool::ThreeJs => {
-                println!("cargo::rerun-if-env-changed=BRDFKIT_BROWSER_TEST");
-                println!("cargo::rerun-if-env-changed=CHROMIUM");
-                let dir = browser_driver_dir().join("node_modules");
-                if dir.exists() {
-                    println!("cargo::rerun-if-changed={}", dir.display());
-                }
+                let modules = browser_driver_dir().join("node_modules");
+                watch(&["BRDFKIT_BROWSER_TEST", "CHROMIUM"], &modules);
                 ("has_threejs", ci || threejs().is_some())
             }
-            Tool::Blender => {
-                println!("cargo::rerun-if-env-changed=BLENDER");
-                let found = blender();
-                let watched = found.clone().unwrap_or_else(|| PathBuf::from("/usr/bin"));
-                if watched.exists() {
-                    println!("cargo::rerun-if-changed={}", watched.display());
-                }
-                ("has_blender", ci || found.is_some())
-            }
+            Tool::Blender => ("has_blender", watch_found("BLENDER", blender()) || ci),
         };
         println!("cargo::rustc-check-cfg=cfg({cfg})");
         if present {
