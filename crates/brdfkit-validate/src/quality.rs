@@ -22,7 +22,7 @@ use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
 use brdfkit_core::{Model, ModelError, Rgb};
 use brdfkit_fit::data::STRATA;
-use brdfkit_fit::loss::Lanes8;
+use brdfkit_fit::loss::{Lanes8, cbrt_all, ln_1p_all};
 use brdfkit_fit::{
     FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting, evaluate_losses, fit,
 };
@@ -646,28 +646,44 @@ fn block_terms(
     let bands: Vec<[u32; 2]> = (s..e)
         .map(|m| [cuts[0].band(g.h_z[m]), cuts[1].band(g.cos_d[m])])
         .collect();
+    // The terms of `evaluate_losses`, in its order, a channel at a time in passes over
+    // plain slices: the cube roots and logarithms in its vectorised loops (`cbrt_all`,
+    // `ln_1p_all`: the scalar functions' bits), the measured roots from the stored
+    // targets when the fit built them (`FitData::cbrt_targets`: the same roots).
+    let ci = &g.wi_z[s..e];
+    let roots = data.cbrt_targets_if_built();
+    let [mut xm, mut xt, mut tm, mut lg] = [(); 4].map(|_| vec![0.0; len]);
     let mut d = vec![0.0; len * 12];
     for (c, dst) in dst.into_iter().enumerate() {
+        let fm = &vals[c][s..e];
         let mut q = 0;
         for k in 0..len {
-            let fm = vals[c][s + k];
-            let ci = g.wi_z[s + k];
-            // The terms of `evaluate_losses`, in its order.
-            let mut xm = out[k][c];
-            if fm > 0.0 {
-                dst[q] = (xm - fm).abs() / fm;
+            let x = out[k][c];
+            if fm[k] > 0.0 {
+                dst[q] = (x - fm[k]).abs() / fm[k];
                 q += 1;
             }
-            let d0 = xm - fm;
-            xm *= ci;
-            let xt = fm * ci;
-            let d1 = xm - xt;
-            let d2 = brdfkit_fit::loss::cbrt(xm) - brdfkit_fit::loss::cbrt(xt);
-            let d3 = brdfkit_fit::loss::ln_1p((xm - xt) / (1.0 + xt));
-            let r = &mut d[k * 12..k * 12 + 12];
-            (r[c], r[3 + c], r[6 + c], r[9 + c]) = (d0, d1, d2, d3);
+            xm[k] = x * ci[k];
+            xt[k] = fm[k] * ci[k];
+            d[k * 12 + c] = x - fm[k];
+            d[k * 12 + 3 + c] = xm[k] - xt[k];
+            lg[k] = (xm[k] - xt[k]) / (1.0 + xt[k]);
         }
         debug_assert_eq!(q, dst.len());
+        tm.copy_from_slice(&xm);
+        cbrt_all(&mut tm);
+        ln_1p_all(&mut lg);
+        let rt: &[f64] = match roots {
+            Some(r) => &r[c][s..e],
+            None => {
+                cbrt_all(&mut xt);
+                &xt
+            }
+        };
+        for k in 0..len {
+            d[k * 12 + 6 + c] = tm[k] - rt[k];
+            d[k * 12 + 9 + c] = lg[k];
+        }
     }
     (s, d, bands)
 }
@@ -1060,6 +1076,25 @@ mod tests {
                 let models = models_of(&f);
                 let p = cell_pass(models, &data, &o, &BandCuts::of(&o), true);
                 assert_eq!(p.losses, Some(evaluate_losses(models, &data, w)));
+                // With the fit's stored cube-root targets: the same figures.
+                let stored = data.clone();
+                stored.cbrt_targets();
+                let q = cell_pass(models, &stored, &o, &BandCuts::of(&o), true);
+                assert!(stored.cbrt_targets_if_built().is_some());
+                assert_eq!(
+                    (
+                        &q.losses,
+                        &q.theta_h_bands,
+                        &q.theta_d_bands,
+                        &q.relative_error
+                    ),
+                    (
+                        &p.losses,
+                        &p.theta_h_bands,
+                        &p.theta_d_bands,
+                        &p.relative_error
+                    )
+                );
                 for (bands, angle, edges) in [
                     (&p.theta_h_bands, data.theta_h(), &o.theta_h_bands),
                     (&p.theta_d_bands, data.theta_d(), &o.theta_d_bands),
