@@ -79,10 +79,10 @@ fn gauss_legendre_shared(n: usize) -> Rule {
         return r;
     }
     let r = Arc::new(gauss_legendre(n));
-    if n <= KEPT_MAX {
-        if let Ok(mut m) = rules.lock() {
-            m.entry(n).or_insert_with(|| r.clone());
-        }
+    if n <= KEPT_MAX
+        && let Ok(mut m) = rules.lock()
+    {
+        m.entry(n).or_insert_with(|| r.clone());
     }
     r
 }
