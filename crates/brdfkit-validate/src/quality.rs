@@ -314,28 +314,13 @@ impl BandCuts {
 
     /// The largest z in [−1, 1] with θ(z) ≥ e; −∞ when none (e above π).
     fn cut(e: f64) -> f64 {
-        // f64 → i64 keeping the order (`f64::total_cmp`'s key; its own inverse).
-        let key = |x: f64| {
-            let b = x.to_bits() as i64;
-            b ^ ((((b >> 63) as u64) >> 1) as i64)
-        };
-        let val = |k: i64| f64::from_bits((k ^ ((((k >> 63) as u64) >> 1) as i64)) as u64);
         if theta_of(1.0) >= e {
             return 1.0;
         }
         if theta_of(-1.0) < e {
             return f64::NEG_INFINITY;
         }
-        let (mut lo, mut hi) = (key(-1.0), key(1.0));
-        while hi - lo > 1 {
-            let mid = lo + (hi - lo) / 2;
-            if theta_of(val(mid)) >= e {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        val(lo)
+        brdfkit_core::direction::last_cosine_where(|z| theta_of(z) >= e)
     }
 
     /// The band of a cell with cosine `z`; `None` as [`u32::MAX`].
