@@ -211,9 +211,9 @@ pub struct Timings {
     pub quality_s: f64,
     /// Slices and residual maps.
     pub slices_and_maps_s: f64,
-    /// Albedo curves (the table's and the models' times added). The parts from here
-    /// to the panels run beside each other and beside the quality and the slices: each
-    /// is its own wall time, and they overlap.
+    /// Albedo curves (the table's and the models' times added). The albedo, checks
+    /// and renders run beside each other and beside the quality, the slices and the
+    /// panels: each part's figure is its own wall time, and they overlap.
     pub albedo_s: f64,
     /// Physical checks.
     pub checks_s: f64,
@@ -372,8 +372,8 @@ pub fn build_report_from(
     }
     let t_all = Instant::now();
     let fitted: Vec<&Fitted> = fits.iter().map(|f| &f.fitted).collect();
-    // The sections that read the cells (quality, slices and maps) run beside the ones
-    // that read only the table and the models (albedo, checks, renders, panels): each
+    // The sections that read the cells (quality, slices and maps, then the panels) run
+    // beside the ones that read only the table and the models (albedo, checks, renders): each
     // alone leaves a core idle part of the time (a serial sum, the slowest θo, the last
     // model), and together rayon's work stealing keeps both busy. They are announced
     // in the report's order as they start together.
@@ -399,25 +399,27 @@ pub fn build_report_from(
     }
     progress.observe(&Event::Section("interactive panels: embedded grids".into()));
     let (cell_parts, table_parts) = rayon::join(
-        || cell_sections(&table, cells, fits, &fitted, o),
-        || table_sections(&table, table_name, fits, &fitted, o),
+        || cell_sections(&table, table_name, cells, fits, &fitted, o),
+        || table_sections(&table, &fitted, o),
     );
     let CellSections {
         quality,
         slices,
         maps,
+        panels,
         quality_s,
         slices_and_maps_s,
+        panels_s,
     } = cell_parts?;
     let TableSections {
         albedo,
         physical_reports,
         render_sets,
-        panels,
         mut timings,
     } = table_parts?;
     timings.quality_s = quality_s;
     timings.slices_and_maps_s = slices_and_maps_s;
+    timings.panels_s = panels_s;
 
     let summary = report_summary(
         &table,
@@ -455,14 +457,19 @@ struct CellSections {
     quality: Vec<QualityReport>,
     slices: Vec<Slice>,
     maps: Vec<ResidualMap>,
+    panels: interactive::Panels,
     quality_s: f64,
     slices_and_maps_s: f64,
+    panels_s: f64,
 }
 
 /// The sections that read the cells: every model's fit quality, then the slices and
-/// the residual maps. The cells are dropped on return (nothing else reads them).
+/// the residual maps; then, with the cells dropped (nothing else reads them), the
+/// interactive panels, whose embedded grids would otherwise add to the peak of the
+/// cells' passes.
 fn cell_sections(
-    table: &MerlTable,
+    table: &Arc<MerlTable>,
+    table_name: &str,
     cells: FitData,
     fits: &[ModelFit],
     fitted: &[&Fitted],
@@ -497,12 +504,16 @@ fn cell_sections(
         .map(|f| analysis::residual_map(table, &cells, f, o.residual_max_bins))
         .collect();
     drop(cells);
+    let slices_and_maps_s = t.elapsed().as_secs_f64();
+    let (panels, panels_s) = timed(|| report_panels(table, table_name, fits));
     Ok(CellSections {
         quality,
         slices,
         maps,
+        panels: panels?,
         quality_s,
-        slices_and_maps_s: t.elapsed().as_secs_f64(),
+        slices_and_maps_s,
+        panels_s,
     })
 }
 
@@ -543,33 +554,30 @@ fn sphere_renders(
         .collect()
 }
 
-/// What [`table_sections`] computes; `timings` holds the albedo, checks, renders and
-/// panels parts.
+/// What [`table_sections`] computes; `timings` holds the albedo, checks and renders
+/// parts.
 struct TableSections {
     albedo: AlbedoCurves,
     physical_reports: Vec<(Vec<PhysicalReport>, f64)>,
     render_sets: Vec<RenderSet>,
-    panels: interactive::Panels,
     timings: Timings,
 }
 
 /// The sections that read only the table and the models, each beside the others
-/// (`rayon::join`): the albedo curves, the physical checks, the renders and the
-/// interactive panels. Each part's time is its own wall time; they overlap.
+/// (`rayon::join`): the albedo curves, the physical checks and the renders. Each
+/// part's time is its own wall time; they overlap.
 fn table_sections(
     table: &Arc<MerlTable>,
-    table_name: &str,
-    fits: &[ModelFit],
     fitted: &[&Fitted],
     o: &ReportOptions,
 ) -> Result<TableSections, ReportError> {
     // The models' albedo curves take the values the checks' energy curves hold
     // ([`analysis::model_albedo_curves`]), so they follow the checks.
     let auto_pole = o.checks.as_ref().is_none_or(|c| c.pole == PoleChoice::Auto);
-    let ((table_albedo, (checks, models_albedo)), (renders, panels)) = rayon::join(
+    let (table_albedo, ((checks, models_albedo), renders)) = rayon::join(
+        || timed(|| analysis::table_albedo_curve(table, &o.albedo_theta_o)),
         || {
             rayon::join(
-                || timed(|| analysis::table_albedo_curve(table, &o.albedo_theta_o)),
                 || {
                     let checks = timed(|| physical_checks(fitted, o.checks.as_ref()));
                     let reports: Vec<Vec<PhysicalReport>> =
@@ -584,31 +592,19 @@ fn table_sections(
                     });
                     (checks, models)
                 },
-            )
-        },
-        || {
-            rayon::join(
                 || timed(|| sphere_renders(table, fitted, o)),
-                || timed(|| report_panels(table, table_name, fits)),
             )
         },
     );
-    let albedo = (
-        analysis::albedo_curves(&o.albedo_theta_o, table_albedo.0, models_albedo.0),
-        table_albedo.1 + models_albedo.1,
-    );
-    let (render_sets, renders_s) = (renders.0?, renders.1);
-    let (panels, panels_s) = (panels.0?, panels.1);
+    let albedo = analysis::albedo_curves(&o.albedo_theta_o, table_albedo.0, models_albedo.0);
     Ok(TableSections {
-        albedo: albedo.0,
+        albedo,
         physical_reports: checks.0,
-        render_sets,
-        panels,
+        render_sets: renders.0?,
         timings: Timings {
-            albedo_s: albedo.1,
+            albedo_s: table_albedo.1 + models_albedo.1,
             checks_s: checks.1,
-            renders_s,
-            panels_s,
+            renders_s: renders.1,
             ..Timings::default()
         },
     })
