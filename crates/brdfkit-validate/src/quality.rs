@@ -479,7 +479,6 @@ fn cell_pass(
     o: &QualityOptions,
     cuts: &[BandCuts; 2],
     all: bool,
-    rel: &mut Vec<f64>,
 ) -> CellPass {
     let n = data.len();
     let vals = data.values();
@@ -504,10 +503,7 @@ fn cell_pass(
     let zero = (0..3)
         .map(|c| vals[c].iter().filter(|m| **m == 0.0).count())
         .sum();
-    // The caller's buffer, of the same length for every model of a table: its pages
-    // are touched once, not once a model (27 MB for a MERL table).
-    rel.clear();
-    rel.resize(totals.iter().sum(), 0.0);
+    let mut rel = vec![0.0; totals.iter().sum()];
     let ranges = [
         0..totals[0],
         totals[0]..totals[0] + totals[1],
@@ -587,7 +583,7 @@ fn cell_pass(
     let relative_error = RelativeErrors {
         channels,
         samples: rel.len(),
-        overall: percentiles(rel),
+        overall: percentiles(&mut rel),
         zero_measured: zero,
     };
     CellPass {
@@ -818,11 +814,10 @@ pub(crate) fn fit_quality_of(
     check_edges("theta_h_bands", &o.theta_h_bands)?;
     check_edges("theta_d_bands", &o.theta_d_bands)?;
     let cuts = BandCuts::of(o);
-    let mut rel = Vec::new();
     fits.iter()
         .map(|(fitted, known)| {
             let models = models_of(fitted);
-            let pass = cell_pass(models, data, o, &cuts, known.is_none(), &mut rel);
+            let pass = cell_pass(models, data, o, &cuts, known.is_none());
             let losses = match (known, pass.losses) {
                 (Some(l), _) => **l,
                 (None, Some(l)) => l,
@@ -1064,19 +1059,12 @@ mod tests {
             };
             for f in fits() {
                 let models = models_of(&f);
-                let p = cell_pass(models, &data, &o, &BandCuts::of(&o), true, &mut Vec::new());
+                let p = cell_pass(models, &data, &o, &BandCuts::of(&o), true);
                 assert_eq!(p.losses, Some(evaluate_losses(models, &data, w)));
                 // With the fit's stored cube-root targets: the same figures.
                 let stored = data.clone();
                 stored.cbrt_targets();
-                let q = cell_pass(
-                    models,
-                    &stored,
-                    &o,
-                    &BandCuts::of(&o),
-                    true,
-                    &mut vec![1.0; 5],
-                );
+                let q = cell_pass(models, &stored, &o, &BandCuts::of(&o), true);
                 assert!(stored.cbrt_targets_if_built().is_some());
                 assert_eq!(
                     (
