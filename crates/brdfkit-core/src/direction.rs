@@ -115,6 +115,31 @@ pub fn check_unit_pairs(wi: &[[f64; 3]], wo: &[[f64; 3]]) -> Result<(), NotUnit>
     Ok(())
 }
 
+/// The largest z in [−1, 1] at which `holds(z)` is true, for a `holds` true at −1,
+/// false at 1 and monotone between (true, then false, along the f64 order): the exact
+/// cut of a formula of a cosine (such as acos z ≥ θ), found by bisection over the f64
+/// values themselves, so comparing z with the cut gives the formula's answer without
+/// computing it (no acos a cell in the fitter's strata and the report's bands).
+pub fn last_cosine_where(holds: impl Fn(f64) -> bool) -> f64 {
+    // f64 → i64 keeping the order (`f64::total_cmp`'s key; its own inverse).
+    let key = |x: f64| {
+        let b = x.to_bits() as i64;
+        b ^ ((((b >> 63) as u64) >> 1) as i64)
+    };
+    let val = |k: i64| f64::from_bits((k ^ ((((k >> 63) as u64) >> 1) as i64)) as u64);
+    let (mut lo, mut hi) = (key(-1.0), key(1.0));
+    debug_assert!(holds(val(lo)) && !holds(val(hi)));
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if holds(val(mid)) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    val(lo)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -14,6 +14,8 @@
 //! angle, grazing included (see the tests).
 
 use crate::{Brdf, Rgb, Vec3};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// Nodes and weights of the n-point Gauss-Legendre rule on [−1, 1].
 ///
@@ -55,6 +57,34 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
         w[n - 1 - k] = wk;
     }
     (x, w)
+}
+
+/// A Gauss-Legendre rule: nodes and weights.
+type Rule = Arc<(Vec<f64>, Vec<f64>)>;
+
+/// [`gauss_legendre`]`(n)`, computed once per n in the process and shared after.
+///
+/// [`directional_albedo`] takes an n_phi-point rule for every arc, and n_phi grows
+/// like 16/cos θ near grazing (thousands of nodes): Newton's iteration over the
+/// three-term recurrence costs O(n²) a rule, more than the integral itself for a cheap
+/// BRDF, and the same few orders (powers of two) come back for every direction. The
+/// rules are the function's own values (the same bits). Rules above 2¹⁶ nodes (a
+/// direction within 0.02° of the horizon) are not kept.
+fn gauss_legendre_shared(n: usize) -> Rule {
+    static RULES: OnceLock<Mutex<HashMap<usize, Rule>>> = OnceLock::new();
+    const KEPT_MAX: usize = 1 << 16;
+    let rules = RULES.get_or_init(|| Mutex::new(HashMap::new()));
+    // A poisoned lock only means another thread panicked while inserting: compute.
+    if let Some(r) = rules.lock().ok().and_then(|m| m.get(&n).cloned()) {
+        return r;
+    }
+    let r = Arc::new(gauss_legendre(n));
+    if n <= KEPT_MAX
+        && let Ok(mut m) = rules.lock()
+    {
+        m.entry(n).or_insert_with(|| r.clone());
+    }
+    r
 }
 
 /// Where the polar coordinates of the albedo quadrature are centred.
@@ -170,9 +200,11 @@ pub fn directional_albedo(brdf: &dyn Brdf, wo: &Vec3, q: &AlbedoQuadrature) -> R
     }
     edges.sort_by(f64::total_cmp);
 
-    let (gx, gw) = gauss_legendre(q.order);
+    let g_rule = gauss_legendre_shared(q.order);
+    let (gx, gw) = (&g_rule.0, &g_rule.1);
     let n_arc = q.n_phi.max(2);
-    let (ax, aw) = gauss_legendre(n_arc);
+    let a_rule = gauss_legendre_shared(n_arc);
+    let (ax, aw) = (&a_rule.0, &a_rule.1);
     let dphi = 2.0 * std::f64::consts::PI / q.n_phi as f64;
     let ring = |u: f64| -> Rgb {
         let (su, cu) = u.sin_cos();
@@ -205,7 +237,7 @@ pub fn directional_albedo(brdf: &dyn Brdf, wo: &Vec3, q: &AlbedoQuadrature) -> R
         } else {
             let half = c.acos();
             let mut s = Rgb::ZERO;
-            for (x, w) in ax.iter().zip(&aw) {
+            for (x, w) in ax.iter().zip(aw) {
                 s += at(phi0 + half * x) * *w;
             }
             s * half
@@ -221,7 +253,7 @@ pub fn directional_albedo(brdf: &dyn Brdf, wo: &Vec3, q: &AlbedoQuadrature) -> R
         // those segments take the smoothstep substitution u = a + (c − a)(3s² − 2s³),
         // whose vanishing end derivatives turn √ into a smooth function of s.
         let smooth = a == u_near || c == u_far;
-        for (x, w) in gx.iter().zip(&gw) {
+        for (x, w) in gx.iter().zip(gw) {
             let s01 = 0.5 * (x + 1.0);
             let (u, du) = if smooth {
                 let u = a + (c - a) * s01 * s01 * (3.0 - 2.0 * s01);

@@ -130,23 +130,7 @@ impl StrataEdges {
 
     /// The largest z in [−1, 1] with `bin(z) ≥ e` (the bin is ≥ e at −1 and 0 at 1).
     fn edge(e: usize, bin: fn(f64) -> usize) -> f64 {
-        // f64 → i64 keeping the order (`f64::total_cmp`'s key; its own inverse).
-        let key = |x: f64| {
-            let b = x.to_bits() as i64;
-            b ^ ((((b >> 63) as u64) >> 1) as i64)
-        };
-        let val = |k: i64| f64::from_bits((k ^ ((((k >> 63) as u64) >> 1) as i64)) as u64);
-        let (mut lo, mut hi) = (key(-1.0), key(1.0));
-        debug_assert!(bin(val(lo)) >= e && bin(val(hi)) < e);
-        while hi - lo > 1 {
-            let mid = lo + (hi - lo) / 2;
-            if bin(val(mid)) >= e {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        val(lo)
+        brdfkit_core::direction::last_cosine_where(|z| bin(z) >= e)
     }
 
     /// The bin of z: how many edges z is at or below (NaN: none, bin 0).

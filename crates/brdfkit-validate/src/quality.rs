@@ -22,7 +22,7 @@ use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
 use brdfkit_core::{Model, ModelError, Rgb};
 use brdfkit_fit::data::STRATA;
-use brdfkit_fit::loss::Lanes8;
+use brdfkit_fit::loss::{Lanes8, cbrt_all, ln_1p_all};
 use brdfkit_fit::{
     FitConfig, FitData, FitError, Fitted, Loss, LossReport, Weighting, evaluate_losses, fit,
 };
@@ -279,10 +279,62 @@ const WINDOW: usize = 16;
 
 /// The band of an angle: the `b` with lo ≤ θ < hi, the last band closed and taking the
 /// round-off above 90° too (θ computed by acos of a dot product); `None` below the
-/// first edge.
+/// first edge. The reference of [`BandCuts`].
+#[cfg(test)]
 fn band_of(edges: &[f64], theta: f64) -> Option<usize> {
     let last = edges.len() - 2;
     (0..=last).find(|&b| theta >= edges[b] && (theta < edges[b + 1] || b == last))
+}
+
+/// θ = acos z of a cell's cosine, as `FitData::theta_h` and `theta_d` compute it.
+fn theta_of(z: f64) -> f64 {
+    z.clamp(-1.0, 1.0).acos()
+}
+
+/// Band edges as cosines: the band of a cell from its cosine z by comparisons, with no
+/// acos a cell (two a cell and model were a fifth of the quality pass).
+///
+/// `cuts[b]` is the largest z in [−1, 1] with θ(z) = acos(clamp(z)) ≥ edges[b], found
+/// by bisection on the f64 order of [−1, 1] with the acos itself, so θ(z) ≥ edges[b]
+/// exactly when clamp(z) ≤ cuts[b] (acos is monotone), and the band of z is the
+/// reference's (`band_of` of θ(z)): how many edges θ reaches, less one, the last band
+/// taking everything above its edge; none below the first edge or for NaN. Tested on
+/// every cell of a 90 × 90 × 180 grid and one ulp either side of every cut.
+struct BandCuts(Vec<f64>);
+
+impl BandCuts {
+    fn new(edges: &[f64]) -> Self {
+        BandCuts(edges.iter().map(|&e| Self::cut(e)).collect())
+    }
+
+    /// The θh and the θd bands' cuts.
+    fn of(o: &QualityOptions) -> [BandCuts; 2] {
+        [Self::new(&o.theta_h_bands), Self::new(&o.theta_d_bands)]
+    }
+
+    /// The largest z in [−1, 1] with θ(z) ≥ e; −∞ when none (e above π).
+    fn cut(e: f64) -> f64 {
+        if theta_of(1.0) >= e {
+            return 1.0;
+        }
+        if theta_of(-1.0) < e {
+            return f64::NEG_INFINITY;
+        }
+        brdfkit_core::direction::last_cosine_where(|z| theta_of(z) >= e)
+    }
+
+    /// The band of a cell with cosine `z`; `None` as [`u32::MAX`].
+    #[inline]
+    fn band(&self, z: f64) -> u32 {
+        let zc = z.clamp(-1.0, 1.0);
+        let reached = self.0.iter().map(|&c| u32::from(zc <= c)).sum::<u32>();
+        let last = self.0.len() as u32 - 2;
+        if reached == 0 {
+            u32::MAX
+        } else {
+            (reached - 1).min(last)
+        }
+    }
 }
 
 /// The weighted sums of [`brdfkit_fit::evaluate_losses`] over one subset of the cells,
@@ -375,8 +427,33 @@ impl LossSums {
 }
 
 /// One block's first cell, its cells' loss differences `d[cell][loss][channel]` and
-/// their (θh, θd) bands.
-type BlockTerms = (usize, Vec<f64>, Vec<[Option<usize>; 2]>);
+/// their (θh, θd) bands ([`BandCuts::band`]).
+type BlockTerms = (usize, Vec<f64>, Vec<[u32; 2]>);
+
+/// Adds the cells of a window's blocks, in cell order, to the sums of their band on
+/// `axis` (0: θh, 1: θd) and, when given, to `full`.
+fn add_window(
+    diffs: &[BlockTerms],
+    axis: usize,
+    sums: &mut [LossSums],
+    mut full: Option<&mut LossSums>,
+    weight: &(dyn Fn(usize) -> f64 + Sync),
+    data: &FitData,
+) {
+    let g = data.geometry();
+    for (s, d, bands) in diffs {
+        for (k, (dk, b)) in d.chunks_exact(12).zip(bands).enumerate() {
+            let m = s + k;
+            let gk = Loss::PUBLISHED.map(|l| l.cell_factor(g.wi_z[m], g.wo_z[m]));
+            if let Some(sum) = sums.get_mut(b[axis] as usize) {
+                sum.add(weight(m), dk, gk);
+            }
+            if let Some(f) = full.as_deref_mut() {
+                f.add(weight(m), dk, gk);
+            }
+        }
+    }
+}
 
 /// What one pass over the cells measures of one model.
 struct CellPass {
@@ -396,11 +473,16 @@ struct CellPass {
 /// a test holds them together) without gathering them. The relative errors of the
 /// cell channels measured above 0 are written straight into one array (each block's
 /// place counted first from the measurements).
-fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: bool) -> CellPass {
+fn cell_pass(
+    models: [&dyn Model; 3],
+    data: &FitData,
+    o: &QualityOptions,
+    cuts: &[BandCuts; 2],
+    all: bool,
+) -> CellPass {
     let n = data.len();
     let vals = data.values();
     let measure = data.measure();
-    let g = data.geometry();
     let nblocks = n.div_ceil(BLOCK);
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
     let weight = |m: usize| match o.weighting {
@@ -463,24 +545,14 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
         // relative errors, into their places).
         let diffs: Vec<BlockTerms> = window
             .into_par_iter()
-            .map(|(k, dst)| block_terms(models, same, data, o, k, dst))
+            .map(|(k, dst)| block_terms(models, same, data, cuts, k, dst))
             .collect();
-        // In cell order: the sums.
-        for (s, d, bands) in diffs {
-            for (k, (dk, [bh, bd])) in d.chunks_exact(12).zip(bands).enumerate() {
-                let w = weight(s + k);
-                let gk = Loss::PUBLISHED.map(|l| l.cell_factor(g.wi_z[s + k], g.wo_z[s + k]));
-                if let Some(b) = bh {
-                    hs[b].add(w, dk, gk);
-                }
-                if let Some(b) = bd {
-                    ds[b].add(w, dk, gk);
-                }
-                if all {
-                    full.add(w, dk, gk);
-                }
-            }
-        }
+        // In cell order: the sums, the θh bands beside the θd bands and the whole set
+        // (each sum is still taken cell by cell in cell order: the same bits).
+        rayon::join(
+            || add_window(&diffs, 0, &mut hs, None, &weight, data),
+            || add_window(&diffs, 1, &mut ds, all.then_some(&mut full), &weight, data),
+        );
     }
     let bands = |edges: &[f64], sums: Vec<LossSums>| -> Vec<Band> {
         edges
@@ -494,7 +566,18 @@ fn cell_pass(models: [&dyn Model; 3], data: &FitData, o: &QualityOptions, all: b
             })
             .collect()
     };
-    let channels = ranges.map(|r| percentiles(&mut rel[r]));
+    // The channels' selections in parallel (disjoint ranges of `rel`).
+    let channels = {
+        let (r, rest) = rel.split_at_mut(ranges[0].end);
+        let (gr, b) = rest.split_at_mut(ranges[1].len());
+        let mut planes = [r, gr, b];
+        let mut out = [None; 3];
+        planes
+            .par_iter_mut()
+            .zip(out.par_iter_mut())
+            .for_each(|(p, o)| *o = percentiles(p));
+        out
+    };
     // Selection within a channel only reorders that channel's values: the pool is the
     // same multiset.
     let relative_error = RelativeErrors {
@@ -519,7 +602,7 @@ fn block_terms(
     models: [&dyn Model; 3],
     same: bool,
     data: &FitData,
-    o: &QualityOptions,
+    cuts: &[BandCuts; 2],
     k: usize,
     dst: [&mut [f64]; 3],
 ) -> BlockTerms {
@@ -543,39 +626,49 @@ fn block_terms(
             }
         }
     }
-    // The cells' bands, from θ = acos(z) as `FitData::theta_h` / `theta_d`
-    // compute it (no full-length angle arrays).
-    let theta = |z: f64| z.clamp(-1.0, 1.0).acos();
-    let bands: Vec<[Option<usize>; 2]> = (s..e)
-        .map(|m| {
-            [
-                band_of(&o.theta_h_bands, theta(g.h_z[m])),
-                band_of(&o.theta_d_bands, theta(g.cos_d[m])),
-            ]
-        })
+    // The cells' bands of θ = acos(z) as `FitData::theta_h` / `theta_d` compute it
+    // (no full-length angle arrays).
+    let bands: Vec<[u32; 2]> = (s..e)
+        .map(|m| [cuts[0].band(g.h_z[m]), cuts[1].band(g.cos_d[m])])
         .collect();
+    // The terms of `evaluate_losses`, in its order, a channel at a time in passes over
+    // plain slices: the cube roots and logarithms in its vectorised loops (`cbrt_all`,
+    // `ln_1p_all`: the scalar functions' bits), the measured roots from the stored
+    // targets when the fit built them (`FitData::cbrt_targets`: the same roots).
+    let ci = &g.wi_z[s..e];
+    let roots = data.cbrt_targets_if_built();
+    let [mut xm, mut xt, mut tm, mut lg] = [(); 4].map(|_| vec![0.0; len]);
     let mut d = vec![0.0; len * 12];
     for (c, dst) in dst.into_iter().enumerate() {
+        let fm = &vals[c][s..e];
         let mut q = 0;
         for k in 0..len {
-            let fm = vals[c][s + k];
-            let ci = g.wi_z[s + k];
-            // The terms of `evaluate_losses`, in its order.
-            let mut xm = out[k][c];
-            if fm > 0.0 {
-                dst[q] = (xm - fm).abs() / fm;
+            let x = out[k][c];
+            if fm[k] > 0.0 {
+                dst[q] = (x - fm[k]).abs() / fm[k];
                 q += 1;
             }
-            let d0 = xm - fm;
-            xm *= ci;
-            let xt = fm * ci;
-            let d1 = xm - xt;
-            let d2 = brdfkit_fit::loss::cbrt(xm) - brdfkit_fit::loss::cbrt(xt);
-            let d3 = brdfkit_fit::loss::ln_1p((xm - xt) / (1.0 + xt));
-            let r = &mut d[k * 12..k * 12 + 12];
-            (r[c], r[3 + c], r[6 + c], r[9 + c]) = (d0, d1, d2, d3);
+            xm[k] = x * ci[k];
+            xt[k] = fm[k] * ci[k];
+            d[k * 12 + c] = x - fm[k];
+            d[k * 12 + 3 + c] = xm[k] - xt[k];
+            lg[k] = (xm[k] - xt[k]) / (1.0 + xt[k]);
         }
         debug_assert_eq!(q, dst.len());
+        tm.copy_from_slice(&xm);
+        cbrt_all(&mut tm);
+        ln_1p_all(&mut lg);
+        let rt: &[f64] = match roots {
+            Some(r) => &r[c][s..e],
+            None => {
+                cbrt_all(&mut xt);
+                &xt
+            }
+        };
+        for k in 0..len {
+            d[k * 12 + 6 + c] = tm[k] - rt[k];
+            d[k * 12 + 9 + c] = lg[k];
+        }
     }
     (s, d, bands)
 }
@@ -720,10 +813,11 @@ pub(crate) fn fit_quality_of(
 ) -> Result<Vec<QualityReport>, QualityError> {
     check_edges("theta_h_bands", &o.theta_h_bands)?;
     check_edges("theta_d_bands", &o.theta_d_bands)?;
+    let cuts = BandCuts::of(o);
     fits.iter()
         .map(|(fitted, known)| {
             let models = models_of(fitted);
-            let pass = cell_pass(models, data, o, known.is_none());
+            let pass = cell_pass(models, data, o, &cuts, known.is_none());
             let losses = match (known, pass.losses) {
                 (Some(l), _) => **l,
                 (None, Some(l)) => l,
@@ -901,6 +995,40 @@ mod tests {
         ]
     }
 
+    /// The band of every cell of a MERL grid, and of cosines one ulp either side of
+    /// every cut (and ±0, ±1, beyond ±1, NaN), from the cuts equals the acos formula's.
+    #[test]
+    fn bands_from_cuts_are_the_acos_formula_s() {
+        let o = QualityOptions::default();
+        let lambert =
+            brdfkit_models::from_json_str(r#"{"model": "lambert", "params": {"rho_d": 0.5}}"#)
+                .unwrap();
+        let t = MerlTable::from_brdf(lambert.as_ref(), Dims::new(90, 90, 180).unwrap()).unwrap();
+        let data = FitData::from_table(&t).unwrap();
+        let g = data.geometry();
+        for edges in [&o.theta_h_bands, &o.theta_d_bands] {
+            let cuts = BandCuts::new(edges);
+            let want = |z: f64| band_of(edges, theta_of(z)).map_or(u32::MAX, |b| b as u32);
+            let mut zs = vec![-1.5, -1.0, -0.0, 0.0, 1.0, 1.5, f64::NAN];
+            for &c in &cuts.0 {
+                let mut z = c;
+                for _ in 0..4 {
+                    z = z.next_down();
+                }
+                for _ in 0..9 {
+                    zs.push(z);
+                    z = z.next_up();
+                }
+            }
+            zs.extend(g.h_z.iter().chain(&g.cos_d));
+            for z in zs {
+                assert_eq!(cuts.band(z), want(z), "z = {z:e}");
+            }
+        }
+        // An edge beyond π: no cosine reaches it.
+        assert_eq!(BandCuts::cut(4.0), f64::NEG_INFINITY);
+    }
+
     /// Sorting percentiles, as the nearest-rank definition reads.
     fn sorted_percentiles(v: &[f64]) -> Option<Percentiles> {
         let mut v = v.to_vec();
@@ -931,8 +1059,27 @@ mod tests {
             };
             for f in fits() {
                 let models = models_of(&f);
-                let p = cell_pass(models, &data, &o, true);
+                let p = cell_pass(models, &data, &o, &BandCuts::of(&o), true);
                 assert_eq!(p.losses, Some(evaluate_losses(models, &data, w)));
+                // With the fit's stored cube-root targets: the same figures.
+                let stored = data.clone();
+                stored.cbrt_targets();
+                let q = cell_pass(models, &stored, &o, &BandCuts::of(&o), true);
+                assert!(stored.cbrt_targets_if_built().is_some());
+                assert_eq!(
+                    (
+                        &q.losses,
+                        &q.theta_h_bands,
+                        &q.theta_d_bands,
+                        &q.relative_error
+                    ),
+                    (
+                        &p.losses,
+                        &p.theta_h_bands,
+                        &p.theta_d_bands,
+                        &p.relative_error
+                    )
+                );
                 for (bands, angle, edges) in [
                     (&p.theta_h_bands, data.theta_h(), &o.theta_h_bands),
                     (&p.theta_d_bands, data.theta_d(), &o.theta_d_bands),

@@ -1,7 +1,7 @@
 //! The figures behind the report's charts: θh slices, residual maps and albedo curves,
 //! computed over the table's own cells (the cells a fit sees).
 
-use crate::physical::{PoleChoice, albedo_converged, auto_pole, converged_with};
+use crate::physical::{PhysicalReport, PoleChoice, albedo_converged, auto_pole, converged_with};
 use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
 use brdfkit_core::rusinkiewicz::from_half_diff;
@@ -230,13 +230,43 @@ pub struct AlbedoCurves {
     pub models: Vec<Vec<Rgb>>,
 }
 
+/// The report's tolerance of a model's albedo ([`albedo_converged`]'s `good_enough`).
+const MODEL_ALBEDO_GOOD_ENOUGH: f64 = 1e-6;
+
 fn model_albedo(m: &dyn Model, theta_o: f64) -> Rgb {
-    albedo_converged(m, &spherical(theta_o, 0.0), PoleChoice::Auto, 1e-6).0
+    albedo_converged(
+        m,
+        &spherical(theta_o, 0.0),
+        PoleChoice::Auto,
+        MODEL_ALBEDO_GOOD_ENOUGH,
+    )
+    .0
 }
 
-/// The albedo curves at `thetas` (radians); the table's is computed once for all models.
-pub(crate) fn albedo_curves(table: &MerlTable, fits: &[&Fitted], thetas: &[f64]) -> AlbedoCurves {
-    let tab: Vec<(Option<Rgb>, f64)> = thetas
+/// The albedo at `theta_o` (φ = 0) that a physical check's energy curve already holds,
+/// when it is what [`model_albedo`] would compute to the bit: the same direction, the
+/// automatic pole, and a kept pole converged to [`MODEL_ALBEDO_GOOD_ENOUGH`]. The check
+/// stops its pole search at its own tolerance (1e-2 × the convergence threshold,
+/// 1.0000000000000002e-6 by default); with the kept estimate at or below 1e-6 the
+/// search here would stop at the same pole (every pole tried before it was above the
+/// check's tolerance, hence above 1e-6) and keep the same best one.
+fn checked_albedo(check: &PhysicalReport, auto_pole: bool, theta_o: f64) -> Option<Rgb> {
+    if !auto_pole {
+        return None;
+    }
+    check
+        .energy
+        .curve
+        .iter()
+        .find(|p| p.theta.to_bits() == theta_o.to_bits() && p.phi.to_bits() == 0)
+        .filter(|p| p.convergence <= MODEL_ALBEDO_GOOD_ENOUGH)
+        .map(|p| p.a_wo)
+}
+
+/// The table's albedo at `thetas` (radians): each value (`None` where no lookup found a
+/// sample) and the fraction of the hemisphere whose lookups were missing.
+pub(crate) fn table_albedo_curve(table: &MerlTable, thetas: &[f64]) -> Vec<(Option<Rgb>, f64)> {
+    thetas
         .par_iter()
         .map(|&t| {
             let wo = spherical(t, 0.0);
@@ -247,23 +277,50 @@ pub(crate) fn albedo_curves(table: &MerlTable, fits: &[&Fitted], thetas: &[f64])
             });
             res
         })
-        .collect();
-    let models = fits
-        .iter()
-        .map(|f| {
+        .collect()
+}
+
+/// Each model's albedo at `thetas` (outer: model). `checks[m]` holds model m's physical
+/// checks (one per channel model; empty when not run) and `auto_pole` whether they
+/// chose their poles automatically: a value a check's energy curve already holds is
+/// taken from it ([`checked_albedo`]: the same bits), the others are integrated.
+pub(crate) fn model_albedo_curves(
+    fits: &[&Fitted],
+    thetas: &[f64],
+    checks: &[Vec<PhysicalReport>],
+    auto_pole: bool,
+) -> Vec<Vec<Rgb>> {
+    let known = |m: usize, k: usize, t: f64| {
+        checks
+            .get(m)
+            .and_then(|r| r.get(k))
+            .and_then(|r| checked_albedo(r, auto_pole, t))
+    };
+    fits.iter()
+        .enumerate()
+        .map(|(m, f)| {
             thetas
                 .par_iter()
                 .map(|&t| match f {
-                    Fitted::Shared(m) => model_albedo(m.as_ref(), t),
-                    Fitted::PerChannel(ms) => Rgb([
-                        model_albedo(ms[0].as_ref(), t)[0],
-                        model_albedo(ms[1].as_ref(), t)[1],
-                        model_albedo(ms[2].as_ref(), t)[2],
-                    ]),
+                    Fitted::Shared(s) => {
+                        known(m, 0, t).unwrap_or_else(|| model_albedo(s.as_ref(), t))
+                    }
+                    Fitted::PerChannel(ms) => Rgb(std::array::from_fn(|c| {
+                        known(m, c, t).unwrap_or_else(|| model_albedo(ms[c].as_ref(), t))[c]
+                    })),
                 })
                 .collect()
         })
-        .collect();
+        .collect()
+}
+
+/// The albedo curves at `thetas` (radians) from the table's ([`table_albedo_curve`],
+/// computed once for all models) and the models' ([`model_albedo_curves`]).
+pub(crate) fn albedo_curves(
+    thetas: &[f64],
+    tab: Vec<(Option<Rgb>, f64)>,
+    models: Vec<Vec<Rgb>>,
+) -> AlbedoCurves {
     AlbedoCurves {
         theta_o: thetas.to_vec(),
         table: tab.iter().map(|x| x.0).collect(),
@@ -330,7 +387,12 @@ mod tests {
     #[test]
     fn albedo_of_a_lambertian_table_and_model_is_rho() {
         let t = lambert_table(0.5);
-        let c = albedo_curves(&t, &[&lambert(0.3)], &[0.0, 1.0]);
+        let thetas = [0.0, 1.0];
+        let c = albedo_curves(
+            &thetas,
+            table_albedo_curve(&t, &thetas),
+            model_albedo_curves(&[&lambert(0.3)], &thetas, &[], true),
+        );
         for k in 0..2 {
             assert!(
                 (c.table[k].unwrap()[1] - 0.5).abs() < 1e-3,
@@ -339,5 +401,35 @@ mod tests {
             );
             assert!((c.models[0][k][1] - 0.3).abs() < 1e-6);
         }
+    }
+
+    /// The model curves that take values from the physical checks' energy curves are
+    /// the integrated ones to the bit, for a shared and a per-channel model, and the
+    /// checks do supply some of them (θo = 0, 30, 60, 85° are on both grids).
+    #[test]
+    fn albedo_taken_from_the_checks_is_the_integrated_one() {
+        let m = |j: &str| brdfkit_models::from_json_str(j).unwrap();
+        let ct = r#"{"model": "cook-torrance", "params": {"rho_d": [0.2, 0.25, 0.3], "rho_s": 0.5, "alpha": 0.2}}"#;
+        let lam = |r: f64| format!(r#"{{"model": "lambert", "params": {{"rho_d": {r}}}}}"#);
+        let fits = [
+            Fitted::Shared(m(ct)),
+            Fitted::PerChannel([m(&lam(0.2)), m(ct), m(&lam(0.5))]),
+        ];
+        let fitted: Vec<&Fitted> = fits.iter().collect();
+        let co = crate::html::bounded_checks();
+        let checks: Vec<Vec<PhysicalReport>> = fitted
+            .iter()
+            .map(|f| crate::html::physical(f, &co))
+            .collect();
+        let thetas = crate::html::ReportOptions::default().albedo_theta_o;
+        let taken = thetas
+            .iter()
+            .filter(|t| checked_albedo(&checks[0][0], true, **t).is_some())
+            .count();
+        assert_eq!(taken, 4, "0, 30, 60 and 85° come from the checks");
+        let with = model_albedo_curves(&fitted, &thetas, &checks, true);
+        let without = model_albedo_curves(&fitted, &thetas, &[], true);
+        assert_eq!(with, without);
+        assert!(checked_albedo(&checks[0][0], false, 0.0).is_none());
     }
 }

@@ -42,7 +42,7 @@ pub use error::ReportError;
 pub use files::{AnyReport, HTML_FILE, JSON_FILE};
 pub use scattered::{ScatteredReport, ScatteredSide, build_any_report, build_scattered_report};
 
-use crate::physical::{CheckOptions, PhysicalReport, check_model_with};
+use crate::physical::{CheckOptions, PhysicalReport, PoleChoice, check_model_with};
 use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_of};
 use analysis::{AlbedoCurves, ResidualMap, Slice};
 use brdfkit_core::progress::{Event, Observe};
@@ -211,7 +211,9 @@ pub struct Timings {
     pub quality_s: f64,
     /// Slices and residual maps.
     pub slices_and_maps_s: f64,
-    /// Albedo curves.
+    /// Albedo curves (the table's and the models' times added). The albedo, checks
+    /// and renders run beside each other and beside the quality, the slices and the
+    /// panels: each part's figure is its own wall time, and they overlap.
     pub albedo_s: f64,
     /// Physical checks.
     pub checks_s: f64,
@@ -297,7 +299,7 @@ fn check_options(o: &ReportOptions) -> Result<(), ReportError> {
 }
 
 /// The physical checks of a fitted model: one per channel model.
-fn physical(f: &Fitted, o: &CheckOptions) -> Vec<PhysicalReport> {
+pub(crate) fn physical(f: &Fitted, o: &CheckOptions) -> Vec<PhysicalReport> {
     match f {
         Fitted::Shared(m) => vec![check_model_with(m.as_ref(), o)],
         Fitted::PerChannel(ms) => ms.iter().map(|m| check_model_with(m.as_ref(), o)).collect(),
@@ -369,85 +371,55 @@ pub fn build_report_from(
         });
     }
     let t_all = Instant::now();
-    let mut timings = Timings::default();
     let fitted: Vec<&Fitted> = fits.iter().map(|f| &f.fitted).collect();
-
-    progress.observe(&Event::Section(
-        "fit quality: losses, bands, percentiles".into(),
-    ));
-    let t = Instant::now();
-    // The albedo comparison of `fit_quality` would integrate the table once per model:
-    // the report integrates it once ([`analysis::albedo_curves`]).
-    let qopt = QualityOptions {
-        weighting: o.weighting,
-        albedo_thetas: Vec::new(),
-        ..QualityOptions::default()
-    };
-    let known: Vec<(&Fitted, Option<&LossReport>)> = fits
-        .iter()
-        .map(|f| {
-            let losses = f.record.as_ref().and_then(|r| {
-                (r.weighting == o.weighting
-                    && r.cells_full == cells.len()
-                    && r.model == f.fitted.to_json())
-                .then_some(&r.losses_full)
-            });
-            (&f.fitted, losses)
-        })
-        .collect();
-    let quality = fit_quality_of(&table, &cells, &known, &qopt)?;
-    timings.quality_s = t.elapsed().as_secs_f64();
-
-    progress.observe(&Event::Section("θh slices and residual maps".into()));
-    let t = Instant::now();
-    let slices = analysis::slices(&table, &fitted, &o.slice_theta_d, o.slice_phi_d);
-    let maps: Vec<ResidualMap> = fitted
-        .iter()
-        .map(|f| analysis::residual_map(&table, &cells, f, o.residual_max_bins))
-        .collect();
-    // Nothing below reads the cells: free them before the albedo and the renders.
-    drop(cells);
-    timings.slices_and_maps_s = t.elapsed().as_secs_f64();
-
-    progress.observe(&Event::Section("albedo curves".into()));
-    let t = Instant::now();
-    let albedo = analysis::albedo_curves(&table, &fitted, &o.albedo_theta_o);
-    timings.albedo_s = t.elapsed().as_secs_f64();
-
-    let t = Instant::now();
-    let mut physical_reports: Vec<(Vec<PhysicalReport>, f64)> = Vec::new();
-    if let Some(co) = &o.checks {
+    // The sections that read the cells (quality, slices and maps, then the panels) run
+    // beside the ones that read only the table and the models (albedo, checks, renders): each
+    // alone leaves a core idle part of the time (a serial sum, the slowest θo, the last
+    // model), and together rayon's work stealing keeps both busy. They are announced
+    // in the report's order as they start together.
+    for s in [
+        "fit quality: losses, bands, percentiles",
+        "θh slices and residual maps",
+        "albedo curves",
+    ] {
+        progress.observe(&Event::Section(s.into()));
+    }
+    if o.checks.is_some() {
         progress.observe(&Event::Section(
             "physical checks of the fitted models".into(),
         ));
-        physical_reports = fitted
-            .par_iter()
-            .map(|f| {
-                let t = Instant::now();
-                let r = physical(f, co);
-                (r, t.elapsed().as_secs_f64())
-            })
-            .collect();
     }
-    timings.checks_s = t.elapsed().as_secs_f64();
-
-    let t = Instant::now();
-    let mut render_sets = Vec::new();
-    if let Some(ro) = &o.render {
+    if o.render.is_some() {
         for l in Lighting::ALL {
             progress.observe(&Event::Section(format!(
                 "rendering spheres under the {}",
                 l.title()
             )));
-            render_sets.push(renders::render_set(l, ro, &table, &fitted)?);
         }
     }
-    timings.renders_s = t.elapsed().as_secs_f64();
-
     progress.observe(&Event::Section("interactive panels: embedded grids".into()));
-    let t = Instant::now();
-    let panels = report_panels(&table, table_name, fits)?;
-    timings.panels_s = t.elapsed().as_secs_f64();
+    let (cell_parts, table_parts) = rayon::join(
+        || cell_sections(&table, table_name, cells, fits, &fitted, o),
+        || table_sections(&table, &fitted, o),
+    );
+    let CellSections {
+        quality,
+        slices,
+        maps,
+        panels,
+        quality_s,
+        slices_and_maps_s,
+        panels_s,
+    } = cell_parts?;
+    let TableSections {
+        albedo,
+        physical_reports,
+        render_sets,
+        mut timings,
+    } = table_parts?;
+    timings.quality_s = quality_s;
+    timings.slices_and_maps_s = slices_and_maps_s;
+    timings.panels_s = panels_s;
 
     let summary = report_summary(
         &table,
@@ -472,10 +444,170 @@ pub fn build_report_from(
     };
     progress.observe(&Event::Section("charts and page".into()));
     let t = Instant::now();
+    // The page states the time the report took so far (its parts overlap).
+    data.timings.total_s = t_all.elapsed().as_secs_f64();
     let html = page::page(&data, table.dims().theta_h(), &panels.markup)?;
     data.timings.page_s = t.elapsed().as_secs_f64();
     data.timings.total_s = t_all.elapsed().as_secs_f64();
     Ok(FitReport { data, html })
+}
+
+/// What [`cell_sections`] measures, with the wall time of each part (s).
+struct CellSections {
+    quality: Vec<QualityReport>,
+    slices: Vec<Slice>,
+    maps: Vec<ResidualMap>,
+    panels: interactive::Panels,
+    quality_s: f64,
+    slices_and_maps_s: f64,
+    panels_s: f64,
+}
+
+/// The sections that read the cells: every model's fit quality, then the slices and
+/// the residual maps; then, with the cells dropped (nothing else reads them), the
+/// interactive panels, whose embedded grids would otherwise add to the peak of the
+/// cells' passes.
+fn cell_sections(
+    table: &Arc<MerlTable>,
+    table_name: &str,
+    cells: FitData,
+    fits: &[ModelFit],
+    fitted: &[&Fitted],
+    o: &ReportOptions,
+) -> Result<CellSections, ReportError> {
+    let t = Instant::now();
+    // The albedo comparison of `fit_quality` would integrate the table once per model:
+    // the report integrates it once ([`analysis::albedo_curves`]).
+    let qopt = QualityOptions {
+        weighting: o.weighting,
+        albedo_thetas: Vec::new(),
+        ..QualityOptions::default()
+    };
+    let known: Vec<(&Fitted, Option<&LossReport>)> = fits
+        .iter()
+        .map(|f| {
+            let losses = f.record.as_ref().and_then(|r| {
+                (r.weighting == o.weighting
+                    && r.cells_full == cells.len()
+                    && r.model == f.fitted.to_json())
+                .then_some(&r.losses_full)
+            });
+            (&f.fitted, losses)
+        })
+        .collect();
+    let quality = fit_quality_of(table, &cells, &known, &qopt)?;
+    let quality_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let slices = analysis::slices(table, fitted, &o.slice_theta_d, o.slice_phi_d);
+    let maps: Vec<ResidualMap> = fitted
+        .iter()
+        .map(|f| analysis::residual_map(table, &cells, f, o.residual_max_bins))
+        .collect();
+    drop(cells);
+    let slices_and_maps_s = t.elapsed().as_secs_f64();
+    let (panels, panels_s) = timed(|| report_panels(table, table_name, fits));
+    Ok(CellSections {
+        quality,
+        slices,
+        maps,
+        panels: panels?,
+        quality_s,
+        slices_and_maps_s,
+        panels_s,
+    })
+}
+
+/// `f`'s result and its wall time (s).
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let r = f();
+    (r, t.elapsed().as_secs_f64())
+}
+
+/// The physical checks of every model (in parallel) with each one's wall time; none
+/// when `checks` is `None`.
+fn physical_checks(
+    fitted: &[&Fitted],
+    checks: Option<&CheckOptions>,
+) -> Vec<(Vec<PhysicalReport>, f64)> {
+    let Some(co) = checks else {
+        return Vec::new();
+    };
+    fitted
+        .par_iter()
+        .map(|f| timed(|| physical(f, co)))
+        .collect()
+}
+
+/// The sphere renders under every lighting (none when `o.render` is `None`).
+fn sphere_renders(
+    table: &Arc<MerlTable>,
+    fitted: &[&Fitted],
+    o: &ReportOptions,
+) -> Result<Vec<RenderSet>, ReportError> {
+    let Some(ro) = &o.render else {
+        return Ok(Vec::new());
+    };
+    Lighting::ALL
+        .par_iter()
+        .map(|l| renders::render_set(*l, ro, table, fitted))
+        .collect()
+}
+
+/// What [`table_sections`] computes; `timings` holds the albedo, checks and renders
+/// parts.
+struct TableSections {
+    albedo: AlbedoCurves,
+    physical_reports: Vec<(Vec<PhysicalReport>, f64)>,
+    render_sets: Vec<RenderSet>,
+    timings: Timings,
+}
+
+/// The sections that read only the table and the models, each beside the others
+/// (`rayon::join`): the albedo curves, the physical checks and the renders. Each
+/// part's time is its own wall time; they overlap.
+fn table_sections(
+    table: &Arc<MerlTable>,
+    fitted: &[&Fitted],
+    o: &ReportOptions,
+) -> Result<TableSections, ReportError> {
+    // The models' albedo curves take the values the checks' energy curves hold
+    // ([`analysis::model_albedo_curves`]), so they follow the checks.
+    let auto_pole = o.checks.as_ref().is_none_or(|c| c.pole == PoleChoice::Auto);
+    let (table_albedo, ((checks, models_albedo), renders)) = rayon::join(
+        || timed(|| analysis::table_albedo_curve(table, &o.albedo_theta_o)),
+        || {
+            rayon::join(
+                || {
+                    let checks = timed(|| physical_checks(fitted, o.checks.as_ref()));
+                    let reports: Vec<Vec<PhysicalReport>> =
+                        checks.0.iter().map(|c| c.0.clone()).collect();
+                    let models = timed(|| {
+                        analysis::model_albedo_curves(
+                            fitted,
+                            &o.albedo_theta_o,
+                            &reports,
+                            auto_pole,
+                        )
+                    });
+                    (checks, models)
+                },
+                || timed(|| sphere_renders(table, fitted, o)),
+            )
+        },
+    );
+    let albedo = analysis::albedo_curves(&o.albedo_theta_o, table_albedo.0, models_albedo.0);
+    Ok(TableSections {
+        albedo,
+        physical_reports: checks.0,
+        render_sets: renders.0?,
+        timings: Timings {
+            albedo_s: table_albedo.1 + models_albedo.1,
+            checks_s: checks.1,
+            renders_s: renders.1,
+            ..Timings::default()
+        },
+    })
 }
 
 /// The report's summary: the table, the optimised loss and one row per model.

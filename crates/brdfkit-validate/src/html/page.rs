@@ -200,7 +200,7 @@ fn meta_section(d: &ReportData) -> Markup {
             @if let Some(td) = c.get_theta_d_max() { ", θd ≤ " (deg(td.to_degrees())) }
             ". "
         }
-        "Report computed in " (format!("{:.1}", d.timings.quality_s + d.timings.slices_and_maps_s + d.timings.albedo_s + d.timings.checks_s + d.timings.renders_s)) " s. Every loss below is over all valid cells ("
+        "Report computed in " (format!("{:.1}", d.timings.total_s)) " s. Every loss below is over all valid cells ("
         (d.summary.weighting.name()) " weights); how to read each section: docs/report.md."
     }
     nav {

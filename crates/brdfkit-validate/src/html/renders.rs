@@ -13,6 +13,7 @@ use brdfkit_render::output::tonemap_channel;
 use brdfkit_render::{RenderOutput, Scene, SceneMaterial, TableBrdf, render};
 use brdfkit_rgl::RglBsdf;
 use image::{ImageFormat, RgbImage};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::io::Cursor;
 use std::sync::Arc;
@@ -454,17 +455,21 @@ pub(crate) fn render_set_of(
     let ring = outline_mask(&scene_for(l, o, &shown_material(reference, 0))?);
     let exposure = auto_exposure(&tab.radiance);
     let tab8 = srgb8(&tab.radiance, exposure);
-    let mut models = Vec::new();
-    for f in others {
-        let r = render_shown(l, o, *f)?.radiance;
-        let r8 = srgb8(&r, exposure);
-        let (diff8, diff) = difference(o, (&tab.radiance, &tab8), (&r, &r8));
-        models.push(ModelRender {
-            png: png(o.size, &outlined(r8, &ring))?,
-            diff_png: png(o.size, &outlined(diff8, &ring))?,
-            diff,
-        });
-    }
+    // One model a task: a render fills both cores only while its pixels last, and the
+    // PNG encoding after it is serial.
+    let models = others
+        .par_iter()
+        .map(|f| {
+            let r = render_shown(l, o, *f)?.radiance;
+            let r8 = srgb8(&r, exposure);
+            let (diff8, diff) = difference(o, (&tab.radiance, &tab8), (&r, &r8));
+            Ok(ModelRender {
+                png: png(o.size, &outlined(r8, &ring))?,
+                diff_png: png(o.size, &outlined(diff8, &ring))?,
+                diff,
+            })
+        })
+        .collect::<Result<Vec<_>, ReportError>>()?;
     Ok(RenderSet {
         lighting: l,
         spp: tab.spp,
