@@ -16,7 +16,6 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 use std::hint::black_box;
-use std::path::Path;
 
 #[path = "common/interleaved.rs"]
 mod interleaved;
