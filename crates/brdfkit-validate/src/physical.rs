@@ -37,7 +37,6 @@ use brdfkit_models::testing::{dense_grid_pairs, hard_case_pairs, random_pairs};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
-use std::fmt;
 
 /// The limits the checks compare against. All are dimensionless.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -637,16 +636,8 @@ fn check_energy(m: &dyn Model, o: &CheckOptions, reciprocal: bool) -> EnergyChec
         conv = conv.max(p.convergence);
     }
     let t = &o.thresholds;
-    let bound = 1.0 + t.energy;
-    let verdict = if curve.is_empty() {
-        Verdict::Inconclusive
-    } else if conv <= t.convergence {
-        Verdict::from_bool(max.0 <= bound)
-    } else if max.0 - conv > bound {
-        Verdict::Fail
-    } else {
-        Verdict::Inconclusive
-    };
+    let measured = (!curve.is_empty()).then_some(max.0);
+    let verdict = Verdict::of_energy(measured, conv, t.energy, t.convergence);
     EnergyCheck {
         verdict,
         max_albedo: max.0,
@@ -894,8 +885,4 @@ impl PhysicalReport {
     }
 }
 
-impl fmt::Display for PhysicalReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.to_text())
-    }
-}
+crate::report::display_as_text!(PhysicalReport);

@@ -32,7 +32,6 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::f64::consts::FRAC_PI_2;
-use std::fmt;
 use thiserror::Error;
 
 /// Errors of the fit-quality computation.
@@ -952,11 +951,7 @@ impl QualityReport {
     }
 }
 
-impl fmt::Display for QualityReport {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.to_text())
-    }
-}
+crate::report::display_as_text!(QualityReport);
 
 #[cfg(test)]
 mod tests {

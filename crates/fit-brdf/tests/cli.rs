@@ -113,8 +113,7 @@ fn eval_table_and_model_write_one_row_per_pair() {
         assert_eq!(lines[3], ",,", "below the horizon there is no sample");
     }
     let model = lambert_file(d.path(), "m.json", "0.3");
-    let o = fit_brdf!("eval", "--model", &model, "--dirs", &dirs);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = fit_brdf_ok!("eval", "--model", &model, "--dirs", &dirs);
     let s = String::from_utf8(o.stdout).unwrap();
     let lines: Vec<&str> = s.lines().collect();
     assert_eq!(lines.len(), 4);
@@ -233,8 +232,7 @@ fn unknown_subcommand_is_a_usage_error() {
 fn check_passes_lambert_fails_phong_and_checks_tables() {
     let d = tempfile::tempdir().unwrap();
     let lambert = lambert_file(d.path(), "lambert.json", "0.7");
-    let o = fit_brdf!("check", &lambert);
-    assert!(o.status.success(), "{}", stderr(&o));
+    fit_brdf_ok!("check", &lambert);
     let o = fit_brdf!("check", &lambert, "--json");
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["passed"], true);
@@ -252,8 +250,7 @@ fn check_passes_lambert_fails_phong_and_checks_tables() {
     let s = String::from_utf8_lossy(&o.stdout);
     assert!(s.contains("reciprocity") && s.contains("FAIL"), "{s}");
     let t = small_table(d.path());
-    let o = fit_brdf!("check", &t, "--json");
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = fit_brdf_ok!("check", &t, "--json");
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["passed"], true);
     let o = fit_brdf!("check", d.path());
@@ -267,10 +264,9 @@ fn render_writes_png_and_exr_and_rejects_bad_scenes() {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/sphere-point.toml");
     let png = d.path().join("s.png");
     let exr = d.path().join("s.exr");
-    let o = fit_brdf!(
+    let o = fit_brdf_ok!(
         "render", &scene, "--out", &png, "--exr", &exr, "--size", "32x24"
     );
-    assert!(o.status.success(), "{}", stderr(&o));
     let s = stderr(&o);
     assert!(
         s.contains("direct") && s.contains("environment"),
@@ -298,7 +294,7 @@ fn fit_recovers_a_synthetic_plastic_and_writes_params_and_record() {
     let t = small_plastic(d.path());
     let params = d.path().join("params.json");
     let record = d.path().join("fit.json");
-    let o = fit_brdf!(
+    fit_brdf_ok!(
         "fit",
         &t,
         "--model",
@@ -314,7 +310,6 @@ fn fit_recovers_a_synthetic_plastic_and_writes_params_and_record() {
         "--record",
         &record
     );
-    assert!(o.status.success(), "{}", stderr(&o));
     let p: serde_json::Value = serde_json::from_slice(&std::fs::read(&params).unwrap()).unwrap();
     let alpha = p["params"]["alpha"].as_f64().unwrap();
     assert!((alpha - 0.15).abs() < 1e-6, "alpha {alpha}");
@@ -341,7 +336,7 @@ fn fit_compares_several_models() {
     let d = tempfile::tempdir().unwrap();
     let t = small_plastic(d.path());
     let out = d.path().join("fits");
-    let o = fit_brdf!(
+    let o = fit_brdf_ok!(
         "fit",
         &t,
         "--model",
@@ -353,7 +348,6 @@ fn fit_compares_several_models() {
         "--out",
         &out
     );
-    assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let losses: Vec<f64> = v
         .as_array()

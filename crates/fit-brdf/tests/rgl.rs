@@ -55,8 +55,7 @@ fn library(p: &Path) -> Vec<f64> {
 fn info_recognises_the_file_by_its_bytes_and_reports_it() {
     let dir = tempfile::tempdir().unwrap();
     let p = file(dir.path());
-    let o = fit_brdf!("info", &p);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = fit_brdf_ok!("info", &p);
     let text = String::from_utf8(o.stdout).unwrap();
     for needle in [
         "test felt",
@@ -93,8 +92,7 @@ fn eval_bsdf_gives_the_library_values_in_csv_and_npy() {
         .collect();
     let dirs = write_file(dir.path(), "pairs.npy", npy_bytes("<f8", "(4, 6)", &body));
     let out = dir.path().join("v.npy");
-    let o = fit_brdf!("eval", "--bsdf", &p, "--dirs", &dirs, "--out", &out);
-    assert!(o.status.success(), "{}", stderr(&o));
+    fit_brdf_ok!("eval", "--bsdf", &p, "--dirs", &dirs, "--out", &out);
     let b = std::fs::read(&out).unwrap();
     let hl = u16::from_le_bytes([b[8], b[9]]) as usize;
     let got: Vec<f64> = b[10 + hl..]
@@ -108,8 +106,7 @@ fn eval_bsdf_gives_the_library_values_in_csv_and_npy() {
         csv += &(r.map(|x| x.to_string()).join(",") + "\n");
     }
     std::fs::write(dir.path().join("pairs.csv"), csv).unwrap();
-    let o = fit_brdf!("eval", "--bsdf", &p, "--dirs", dir.path().join("pairs.csv"));
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = fit_brdf_ok!("eval", "--bsdf", &p, "--dirs", dir.path().join("pairs.csv"));
     let text = String::from_utf8(o.stdout).unwrap();
     let vals: Vec<f64> = text
         .lines()
@@ -130,10 +127,9 @@ fn resample_bsdf_writes_the_two_order_mean_and_says_what_it_clamped() {
     let dir = tempfile::tempdir().unwrap();
     let p = file(dir.path());
     let out = dir.path().join("t.binary");
-    let o = fit_brdf!(
+    let o = fit_brdf_ok!(
         "resample", "--bsdf", &p, "--dims", "12,12,24", "--out", &out
     );
-    assert!(o.status.success(), "{}", stderr(&o));
     let dims = Dims::new(12, 12, 24).unwrap();
     let (lib_table, stats) = RglBsdf::read(&p).unwrap().to_table(dims).unwrap();
     assert!(stats.clamped_values > 0);
@@ -224,12 +220,10 @@ fn compare_takes_a_bsdf_by_its_bytes_against_a_table_and_a_model() {
     let dir = tempfile::tempdir().unwrap();
     let p = file(dir.path());
     let table = dir.path().join("resampled.binary");
-    let o = fit_brdf!(
+    fit_brdf_ok!(
         "resample", "--bsdf", &p, "--dims", "12,12,24", "-q", "--out", &table
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = fit_brdf!("compare", &table, &p, "--json");
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = fit_brdf_ok!("compare", &table, &p, "--json");
     let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(c["b"]["kind"], "rgl-bsdf", "{c}");
     assert_eq!(c["losses"]["l2"]["overall"].as_f64(), Some(0.0), "{c}");
@@ -239,8 +233,7 @@ fn compare_takes_a_bsdf_by_its_bytes_against_a_table_and_a_model() {
         "{c}"
     );
     let lam = lambert_file(dir.path(), "lam.json", "[0.4, 0.3, 0.2]");
-    let o = fit_brdf!("compare", &p, &lam, "--dims", "12,12,24");
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = fit_brdf_ok!("compare", &p, &lam, "--dims", "12,12,24");
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("(RGL-EPFL .bsdf)"), "{text}");
     // A broken one is exit 2 naming the file and the field.
@@ -257,8 +250,7 @@ fn view_shows_a_bsdf_beside_a_table() {
     let p = file(dir.path());
     let (table, _) = common::plastic_and_lambert(dir.path());
     let out = dir.path().join("v");
-    let o = fit_brdf!("view", &p, &table, "--out", &out);
-    assert!(o.status.success(), "{}", stderr(&o));
+    fit_brdf_ok!("view", &p, &table, "--out", &out);
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(html.contains("\"kind\":\"rgl-bsdf\""));
     assert!(html.contains("\"kind\":\"table\""));
@@ -281,8 +273,7 @@ fn render_takes_a_bsdf_scene_material() {
     };
     let s = write_file(dir.path(), "s.toml", scene(""));
     let png = dir.path().join("s.png");
-    let o = fit_brdf!("render", &s, "--out", &png, "--json");
-    assert!(o.status.success(), "{}", stderr(&o));
+    fit_brdf_ok!("render", &s, "--out", &png, "--json");
     assert_eq!(&std::fs::read(&png).unwrap()[..4], b"\x89PNG");
     std::fs::write(&s, scene("lookup = \"nearest\"\n")).unwrap();
     let o = fit_brdf!("render", &s, "--out", &png);

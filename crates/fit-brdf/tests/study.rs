@@ -150,8 +150,7 @@ fn tiny_study_writes_every_output_and_rewrites_identically() {
     // regenerates the same report from results.json.
     let edited = format!("{md}\nA reader's note.\n");
     std::fs::write(&md_path, &edited).unwrap();
-    let o = fit_brdf!("study", "--quiet", "--rewrite", "--out", &out);
-    assert!(o.status.success(), "{}", stderr(&o));
+    fit_brdf_ok!("study", "--quiet", "--rewrite", "--out", &out);
     assert_eq!(std::fs::read_to_string(&md_path).unwrap(), edited);
 }
 

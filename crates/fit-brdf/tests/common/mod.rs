@@ -26,6 +26,16 @@ macro_rules! fit_brdf {
     }};
 }
 
+/// [`fit_brdf!`] for a run that must succeed: asserts its exit status, with its stderr
+/// as the failure message, and returns its output.
+macro_rules! fit_brdf_ok {
+    ($($arg:expr),+ $(,)?) => {{
+        let o = fit_brdf!($($arg),+);
+        assert!(o.status.success(), "{}", $crate::common::stderr(&o));
+        o
+    }};
+}
+
 /// A finished command's stderr as text.
 pub fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
