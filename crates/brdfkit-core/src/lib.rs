@@ -21,6 +21,8 @@
 //! - [`choice`]: structural choices parsed from their names.
 //! - [`scattering`]: Fresnel, microfacet distributions and masking, with derivatives.
 //! - [`progress`]: the one progress channel: [`progress::Event`] and [`progress::Observe`].
+//! - [`text`]: the one way a text input file is read (whole, as UTF-8, errors naming
+//!   the file and the first bad byte).
 
 #![warn(missing_docs)]
 
@@ -37,6 +39,7 @@ pub mod quadrature;
 pub mod rgb;
 pub mod rusinkiewicz;
 pub mod scattering;
+pub mod text;
 
 pub use brdf::Brdf;
 pub use choice::UnknownName;

@@ -63,15 +63,9 @@ use thiserror::Error;
 /// Errors reading or using a synthetic-material spec.
 #[derive(Debug, Error)]
 pub enum SpecError {
-    /// The file could not be read.
-    #[error("{path}: cannot read the spec: {source}")]
-    Io {
-        /// The spec file.
-        path: PathBuf,
-        /// Why it could not be read.
-        #[source]
-        source: std::io::Error,
-    },
+    /// The file could not be read, or is not UTF-8 text.
+    #[error(transparent)]
+    Text(#[from] brdfkit_core::text::TextFileError),
     /// The file is not valid TOML or not of the spec's shape.
     #[error("{path}: {msg}")]
     Invalid {
@@ -187,14 +181,7 @@ impl SynthSpec {
     /// Reads and validates a spec file.
     pub fn read(path: impl AsRef<Path>) -> Result<SynthSpec, SpecError> {
         let path = path.as_ref();
-        let text = std::fs::read(path).map_err(|source| SpecError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let text = String::from_utf8(text).map_err(|_| SpecError::Invalid {
-            path: path.to_path_buf(),
-            msg: "the spec is not valid UTF-8".into(),
-        })?;
+        let text = brdfkit_core::text::read_utf8(path, "the spec")?;
         SynthSpec::from_toml_str(&text, path)
     }
 

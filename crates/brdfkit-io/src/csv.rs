@@ -22,21 +22,9 @@ pub const HEADER: [&str; 6] = ["wi_x", "wi_y", "wi_z", "wo_x", "wo_y", "wo_z"];
 /// What is wrong with a direction-pair CSV file; lines count from 1, as editors do.
 #[derive(Debug, Error)]
 pub enum CsvError {
-    /// The file could not be read.
-    #[error("{}: cannot read the directions file: {source}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
-    /// Bytes that are not UTF-8 text.
-    #[error("{}: not valid UTF-8", path.display())]
-    Utf8 {
-        /// The file.
-        path: PathBuf,
-    },
+    /// The file could not be read, or is not UTF-8 text.
+    #[error(transparent)]
+    Text(#[from] brdfkit_core::text::TextFileError),
     /// No header line.
     #[error("{}: empty file, expected the header {}", path.display(), HEADER.join(","))]
     Empty {
@@ -89,13 +77,7 @@ pub enum CsvError {
 
 /// Reads the direction pairs of a CSV file.
 pub fn read_pairs(path: &Path) -> Result<Vec<(Vec3, Vec3)>, CsvError> {
-    let bytes = std::fs::read(path).map_err(|source| CsvError::Read {
-        path: path.to_owned(),
-        source,
-    })?;
-    let text = String::from_utf8(bytes).map_err(|_| CsvError::Utf8 {
-        path: path.to_owned(),
-    })?;
+    let text = brdfkit_core::text::read_utf8(path, "the directions file")?;
     parse_pairs(&text, path)
 }
 

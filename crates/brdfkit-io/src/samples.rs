@@ -74,6 +74,9 @@ pub enum SamplesError {
         #[source]
         source: std::io::Error,
     },
+    /// A CSV file that is not UTF-8 text.
+    #[error(transparent)]
+    Text(#[from] brdfkit_core::text::TextFileError),
     /// A CSV problem at a line (1-based).
     #[error("{}: line {line}: {what}", path.display())]
     Csv {
@@ -95,11 +98,7 @@ pub fn read_samples(path: &Path) -> Result<SampleRows, SamplesError> {
     if crate::npy::is_npy(path) {
         return Ok(parse_npy(&bytes, path)?);
     }
-    let text = String::from_utf8(bytes).map_err(|_| SamplesError::Csv {
-        path: path.to_owned(),
-        line: 1,
-        what: "not valid UTF-8 text".into(),
-    })?;
+    let text = brdfkit_core::text::utf8(bytes, path, "the samples file")?;
     parse_csv(&text, path)
 }
 

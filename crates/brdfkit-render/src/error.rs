@@ -11,15 +11,9 @@ use thiserror::Error;
 /// The CLI treats every variant as bad input (exit code 2).
 #[derive(Debug, Error)]
 pub enum SceneError {
-    /// The scene file itself cannot be read.
-    #[error("{}: cannot read the scene file: {source}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        #[source]
-        /// The underlying error.
-        source: std::io::Error,
-    },
+    /// The scene file itself cannot be read, or is not UTF-8 text.
+    #[error(transparent)]
+    Read(#[from] brdfkit_core::text::TextFileError),
 
     /// Not valid TOML, an unknown key, a value of the wrong type or a missing field.
     /// The message of the TOML parser names the key and the line.
@@ -128,9 +122,8 @@ impl SceneError {
     /// The scene file the error is about.
     pub fn scene_path(&self) -> &Path {
         match self {
-            SceneError::Read { path, .. }
-            | SceneError::Syntax { path, .. }
-            | SceneError::Invalid { path, .. } => path,
+            SceneError::Read(e) => e.path(),
+            SceneError::Syntax { path, .. } | SceneError::Invalid { path, .. } => path,
             SceneError::File { scene, .. }
             | SceneError::ModelJson { scene, .. }
             | SceneError::Model { scene, .. }
@@ -144,7 +137,7 @@ impl SceneError {
     /// applies.
     pub fn key(&self) -> Option<&str> {
         match self {
-            SceneError::Read { .. } | SceneError::Syntax { .. } => None,
+            SceneError::Read(_) | SceneError::Syntax { .. } => None,
             SceneError::Invalid { key, .. }
             | SceneError::File { key, .. }
             | SceneError::ModelJson { key, .. }

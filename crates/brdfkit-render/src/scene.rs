@@ -395,10 +395,7 @@ impl Scene {
     /// Reads and validates a scene file, loading the files it refers to.
     pub fn read(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = brdfkit_core::text::read_utf8(path, "the scene file")?;
         Scene::from_toml_str(&text, path)
     }
 

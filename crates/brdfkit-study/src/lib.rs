@@ -75,6 +75,9 @@ pub enum StudyError {
     /// A file could not be written (the atomic writer names the step).
     #[error(transparent)]
     Write(#[from] brdfkit_core::atomic::WriteError),
+    /// An input text file could not be read, or is not UTF-8 text.
+    #[error(transparent)]
+    Text(#[from] brdfkit_core::text::TextFileError),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {

@@ -14,6 +14,7 @@ use crate::files::write;
 use crate::markdown::{loss, replace_section, secs};
 use crate::plot::{Axes, Panel, Series, figure};
 use brdfkit_core::progress::{Event, Observe};
+use brdfkit_core::text::read_utf8;
 use brdfkit_fit::Fitted;
 use brdfkit_merl::Dims;
 use brdfkit_validate::html::renders::{Lighting, RenderOptions, render_set};
@@ -101,10 +102,6 @@ impl MeasuredMaterial {
 
 const LOSSES: [&str; 4] = ["cbrt", "l2", "cosine", "log"];
 
-fn read_text(path: &Path) -> Result<String, StudyError> {
-    std::fs::read_to_string(path).map_err(|e| StudyError::io(path, e))
-}
-
 fn bad(path: &Path, msg: impl Into<String>) -> StudyError {
     StudyError::Io {
         path: path.to_path_buf(),
@@ -115,7 +112,7 @@ fn bad(path: &Path, msg: impl Into<String>) -> StudyError {
 /// The categories file: name → (database, category).
 pub fn read_categories(path: &Path) -> Result<BTreeMap<String, (String, String)>, StudyError> {
     let mut m = BTreeMap::new();
-    for (k, line) in read_text(path)?.lines().enumerate() {
+    for (k, line) in read_utf8(path, "the categories file")?.lines().enumerate() {
         let line = line.trim();
         if k == 0 || line.is_empty() || line.starts_with('#') {
             continue;
@@ -146,8 +143,8 @@ pub fn read_fits(
         .collect();
     paths.sort();
     for p in paths {
-        let v: Value =
-            serde_json::from_str(&read_text(&p)?).map_err(|e| bad(&p, format!("not JSON: {e}")))?;
+        let v: Value = serde_json::from_str(&read_utf8(&p, "a fit record")?)
+            .map_err(|e| bad(&p, format!("not JSON: {e}")))?;
         if v["format"] != brdfkit_fit::batch::FORMAT {
             continue;
         }

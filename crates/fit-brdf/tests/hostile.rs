@@ -7,7 +7,7 @@
 mod common;
 
 use brdfkit::merl::{MerlError, MerlTable};
-use common::{assert_bad_input, bin, temp_file};
+use common::{assert_bad_input, bin, lambert_file, temp_file, write_file};
 use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
 
@@ -322,4 +322,72 @@ fn bad_scenes_are_rejected() {
     for (file, text, what) in cases {
         rejects_writing("render", &d.path().join(file), text, &out, what);
     }
+}
+
+/// Every text input (a spec, a scene, a model description, a directions CSV, a samples
+/// CSV) is read one way (`brdfkit_core::text`): bytes that are not UTF-8 are refused,
+/// naming the file, what it was read as and the offset of the first bad byte.
+#[test]
+fn text_inputs_that_are_not_utf8_name_the_file_and_the_byte() {
+    let d = tempfile::tempdir().unwrap();
+    let latin1 = |name: &str, start: &str| {
+        let p = d.path().join(name);
+        std::fs::write(&p, [start.as_bytes(), b"caf\xe9\n"].concat()).unwrap();
+        p
+    };
+    let at = |what: &str, offset: usize| {
+        format!("{what} is not valid UTF-8 text (the first invalid byte is at offset {offset})")
+    };
+    let out = d.path().join("out");
+    let spec = latin1("spec.toml", "name = ");
+    rejects_writing(
+        "synth",
+        &spec,
+        std::fs::read(&spec).unwrap(),
+        &out,
+        &at("the spec", 10),
+    );
+    let scene = latin1("scene.toml", "");
+    rejects_writing(
+        "render",
+        &scene,
+        std::fs::read(&scene).unwrap(),
+        &d.path().join("img.png"),
+        &at("the scene file", 3),
+    );
+    let dirs = write_file(
+        d.path(),
+        "dirs.csv",
+        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
+    );
+    let model = latin1("model.json", "{");
+    let eval = [
+        "eval".as_ref(),
+        "--model".as_ref(),
+        model.as_os_str(),
+        "--dirs".as_ref(),
+        dirs.as_os_str(),
+    ];
+    rejects(&eval, &model, &at("the model description", 4));
+    rejects(
+        &["check".as_ref(), model.as_os_str()],
+        &model,
+        &at("the model description", 4),
+    );
+    let csv = latin1("pairs.csv", "wi_x,");
+    let lambert = lambert_file(d.path(), "l.json", "0.5");
+    let eval = [
+        "eval".as_ref(),
+        "--model".as_ref(),
+        lambert.as_os_str(),
+        "--dirs".as_ref(),
+        csv.as_os_str(),
+    ];
+    rejects(&eval, &csv, &at("the directions file", 8));
+    let samples = latin1("samples.csv", "wi_x,");
+    rejects(
+        &["fit".as_ref(), "--samples".as_ref(), samples.as_os_str()],
+        &samples,
+        &at("the samples file", 8),
+    );
 }

@@ -8,9 +8,8 @@
 //! source as `brdfkit_validate::compare::Representation::as_brdf` reads it (docs/rgl.md).
 
 use crate::cli::{ExportArgs, ExportFormat, Renderer, RglGrid};
-use crate::error::{CliResult, bad_input, bad_msg, runtime};
+use crate::error::{CliResult, bad_msg, runtime};
 use crate::output::write_text;
-use anyhow::Context;
 use brdfkit::core::ModelError;
 use brdfkit::fit::FitConfig;
 use brdfkit_export::{ExportError, ExportForm, export, export_approximate};
@@ -34,10 +33,7 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
         (Renderer::Mitsuba, Some(ExportFormat::Dict)) => ExportForm::MitsubaDict,
     };
     let path = a.params.display();
-    let bytes = std::fs::read(&a.params)
-        .with_context(|| format!("{path}: cannot read the model description"))
-        .map_err(bad_input)?;
-    let text = String::from_utf8(bytes).map_err(|_| bad_msg(format!("{path}: not valid UTF-8")))?;
+    let text = super::read_model_text(&a.params)?;
     let name = a
         .params
         .file_name()

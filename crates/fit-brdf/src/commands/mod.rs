@@ -210,11 +210,8 @@ pub fn read_nbrdf(path: &Path) -> CliResult<brdfkit::nbrdf::Nbrdf> {
 }
 
 /// The text of a model description file; every failure is bad input.
-fn read_model_text(path: &Path) -> CliResult<String> {
-    let bytes = std::fs::read(path)
-        .with_context(|| format!("{}: cannot read the model description", path.display()))
-        .map_err(bad_input)?;
-    String::from_utf8(bytes).map_err(|_| bad_msg(format!("{}: not valid UTF-8", path.display())))
+pub(crate) fn read_model_text(path: &Path) -> CliResult<String> {
+    brdfkit::core::text::read_utf8(path, "the model description").map_err(bad_input)
 }
 
 /// Reads a model description (JSON) from a file.
