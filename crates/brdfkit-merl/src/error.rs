@@ -36,6 +36,86 @@ impl fmt::Display for Channel {
     }
 }
 
+/// A value that cannot go into a table, and where it sits: the one description of a
+/// bad cell that the file reader and the in-memory constructors report.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BadValue {
+    /// The colour channel.
+    pub channel: Channel,
+    /// θh index of the cell.
+    pub i: usize,
+    /// θd index of the cell.
+    pub j: usize,
+    /// φd index of the cell.
+    pub k: usize,
+    /// The value.
+    pub value: f64,
+}
+
+impl BadValue {
+    /// "in the red channel at cell (θh i, θd j, φd k)", for messages.
+    pub fn place(&self) -> String {
+        format!(
+            "in the {} channel at cell (θh {}, θd {}, φd {})",
+            self.channel, self.i, self.j, self.k
+        )
+    }
+
+    /// The first value of `raw` (three planes of `dims`' cells) that no table may hold,
+    /// `ok` being the rule, and its flat index within its plane.
+    pub(crate) fn first_in(
+        raw: &[f64],
+        dims: crate::Dims,
+        ok: impl Fn(f64) -> bool,
+    ) -> Option<(BadValue, usize)> {
+        let at = raw.iter().position(|&v| !ok(v))?;
+        Some(BadValue::at_flat(dims, at, raw[at]))
+    }
+
+    /// The bad value `value` at flat position `at` of three planes of `dims`' cells, and
+    /// its flat index within its plane.
+    pub(crate) fn at_flat(dims: crate::Dims, at: usize, value: f64) -> (BadValue, usize) {
+        let n = dims.cells();
+        let index = at % n;
+        let (i, j, k) = dims.unflatten(index);
+        let channel = Channel::ALL[at / n];
+        (
+            BadValue {
+                channel,
+                i,
+                j,
+                k,
+                value,
+            },
+            index,
+        )
+    }
+}
+
+/// A body whose length disagrees with its header's dims: what they require and what
+/// the file has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ByteCount {
+    /// The grid dims.
+    pub dims: crate::Dims,
+    /// Cells of the grid.
+    pub cells: usize,
+    /// What the dims require, bytes.
+    pub expected: u64,
+    /// What was found, bytes.
+    pub actual: u64,
+}
+
+impl fmt::Display for ByteCount {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "dims {} need {} bytes (12 + 3 x {} x 8), the file has {}",
+            self.dims, self.expected, self.cells, self.actual
+        )
+    }
+}
+
 /// Errors reading or writing a table file (or bytes given a name). Every message starts
 /// with the file's path (or the name given to [`from_bytes`](crate::MerlTable::from_bytes)).
 #[derive(Debug, Error)]
@@ -77,83 +157,49 @@ pub enum MerlError {
     },
 
     /// Fewer bytes than the header's dims require.
-    #[error(
-        "{}: truncated: dims {dims} need {expected} bytes (12 + 3 x {cells} x 8), the file has {actual}",
-        path.display()
-    )]
+    #[error("{}: truncated: {size}", path.display())]
     Truncated {
         /// The file.
         path: PathBuf,
-        /// The grid dims.
-        dims: crate::Dims,
-        /// Cells of the grid.
-        cells: usize,
-        /// What the dims require.
-        expected: u64,
-        /// What was found.
-        actual: u64,
+        /// What the dims require and what was found.
+        size: ByteCount,
     },
 
     /// More bytes than the header's dims account for.
-    #[error(
-        "{}: {} trailing bytes: dims {dims} need {expected} bytes (12 + 3 x {cells} x 8), the file has {actual}",
-        path.display(), actual - expected
-    )]
+    #[error("{}: {} trailing bytes: {size}", path.display(), size.actual - size.expected)]
     TrailingBytes {
         /// The file.
         path: PathBuf,
-        /// The grid dims.
-        dims: crate::Dims,
-        /// Cells of the grid.
-        cells: usize,
-        /// What the dims require.
-        expected: u64,
-        /// What was found.
-        actual: u64,
+        /// What the dims require and what was found.
+        size: ByteCount,
     },
 
     /// A NaN or infinite value (the first one in file order).
     #[error(
-        "{}: non-finite value {value} in the {channel} channel at cell (θh {i}, θd {j}, φd {k}) (flat index {index})",
-        path.display()
+        "{}: non-finite value {} {} (flat index {index})",
+        path.display(), bad.value, bad.place()
     )]
     NonFinite {
         /// The file.
         path: PathBuf,
-        /// The colour channel.
-        channel: Channel,
-        /// θh index of the cell.
-        i: usize,
-        /// θd index of the cell.
-        j: usize,
-        /// φd index of the cell.
-        k: usize,
+        /// The value and its cell.
+        bad: BadValue,
         /// Flat index of the cell.
         index: usize,
-        /// The value.
-        value: f64,
     },
 
     /// A value beyond ±[`crate::MAX_ABS_RAW`] (the first one in file order).
     #[error(
-        "{}: value {value:e} in the {channel} channel at cell (θh {i}, θd {j}, φd {k}) (flat index {index}) exceeds 1e30 in magnitude: corrupt data, not a measurement",
-        path.display()
+        "{}: value {:e} {} (flat index {index}) exceeds 1e30 in magnitude: corrupt data, not a measurement",
+        path.display(), bad.value, bad.place()
     )]
     TooLarge {
         /// The file.
         path: PathBuf,
-        /// The colour channel.
-        channel: Channel,
-        /// θh index of the cell.
-        i: usize,
-        /// θd index of the cell.
-        j: usize,
-        /// φd index of the cell.
-        k: usize,
+        /// The value and its cell.
+        bad: BadValue,
         /// Flat index of the cell.
         index: usize,
-        /// The offending value.
-        value: f64,
     },
 
     /// The path names a directory, not a table.
@@ -210,6 +256,17 @@ impl MerlError {
             dims,
             what: not_merl_what(header)?,
         })
+    }
+
+    /// The error for a raw value no table may hold: beyond ±1e30 if finite, else not
+    /// finite.
+    pub(crate) fn bad_raw(path: &std::path::Path, (bad, index): (BadValue, usize)) -> Self {
+        let path = path.to_path_buf();
+        if bad.value.is_finite() {
+            MerlError::TooLarge { path, bad, index }
+        } else {
+            MerlError::NonFinite { path, bad, index }
+        }
     }
 
     pub(crate) fn io(path: &std::path::Path, action: &'static str, source: std::io::Error) -> Self {
@@ -277,52 +334,18 @@ pub enum TableError {
         actual: usize,
     },
     /// A NaN or infinite value.
-    #[error("non-finite value {value} in the {channel} channel at cell ({i}, {j}, {k})")]
-    NonFinite {
-        /// The colour channel.
-        channel: Channel,
-        /// θh index of the cell.
-        i: usize,
-        /// θd index of the cell.
-        j: usize,
-        /// φd index of the cell.
-        k: usize,
-        /// The offending value.
-        value: f64,
-    },
+    #[error("non-finite value {} {}", .0.value, .0.place())]
+    NonFinite(BadValue),
     /// A value whose raw form would exceed ±[`crate::MAX_ABS_RAW`].
-    #[error(
-        "value {value:e} in the {channel} channel at cell ({i}, {j}, {k}) exceeds 1e30 in magnitude"
-    )]
-    TooLarge {
-        /// The colour channel.
-        channel: Channel,
-        /// θh index of the cell.
-        i: usize,
-        /// θd index of the cell.
-        j: usize,
-        /// φd index of the cell.
-        k: usize,
-        /// The offending value.
-        value: f64,
-    },
+    #[error("value {:e} {} exceeds 1e30 in magnitude", .0.value, .0.place())]
+    TooLarge(BadValue),
     /// A negative physical value: it would be stored as a negative raw value, which the
     /// format reserves for missing samples. Use `None` for a missing cell.
     #[error(
-        "negative value {value} in the {channel} channel at cell ({i}, {j}, {k}): negative raw values mean 'missing'; give None instead"
+        "negative value {} {}: negative raw values mean 'missing'; give None instead",
+        .0.value, .0.place()
     )]
-    Negative {
-        /// The colour channel.
-        channel: Channel,
-        /// θh index of the cell.
-        i: usize,
-        /// θd index of the cell.
-        j: usize,
-        /// φd index of the cell.
-        k: usize,
-        /// The offending value.
-        value: f64,
-    },
+    Negative(BadValue),
     /// A cell index outside the grid.
     #[error("cell ({i}, {j}, {k}) is outside the grid {dims}")]
     OutOfRange {
@@ -335,4 +358,16 @@ pub enum TableError {
         /// φd index of the cell.
         k: usize,
     },
+}
+
+impl TableError {
+    /// The error for a raw value no table may hold: beyond ±1e30 if finite, else not
+    /// finite.
+    pub(crate) fn bad_raw(bad: BadValue) -> Self {
+        if bad.value.is_finite() {
+            TableError::TooLarge(bad)
+        } else {
+            TableError::NonFinite(bad)
+        }
+    }
 }

@@ -15,7 +15,7 @@
 //! over the destination: a reader sees the old file or the new one, never a partial
 //! one, and a failed write removes its temporary file and leaves the old file intact.
 
-use crate::error::{Channel, MerlError};
+use crate::error::{BadValue, ByteCount, MerlError};
 use crate::grid::{Dims, HEADER_BYTES, IO_CHUNK_CELLS};
 use crate::table::{MerlTable, acceptable_raw, alloc_mask, alloc_raw, raw_valid, spread};
 use byteorder::{ByteOrder, LittleEndian};
@@ -196,27 +196,18 @@ fn header_dims(header: &[u8; 12], path: &Path) -> Result<Dims, MerlError> {
 
 /// Checks a total length in bytes against the dims.
 fn check_length(dims: Dims, len: u64, path: &Path) -> Result<(), MerlError> {
-    let expected = dims.file_bytes();
-    let (cells, path) = (dims.cells(), path.to_path_buf());
-    if len < expected {
-        return Err(MerlError::Truncated {
-            path,
-            dims,
-            cells,
-            expected,
-            actual: len,
-        });
+    let size = ByteCount {
+        dims,
+        cells: dims.cells(),
+        expected: dims.file_bytes(),
+        actual: len,
+    };
+    let path = path.to_path_buf();
+    match len.cmp(&size.expected) {
+        std::cmp::Ordering::Less => Err(MerlError::Truncated { path, size }),
+        std::cmp::Ordering::Greater => Err(MerlError::TrailingBytes { path, size }),
+        std::cmp::Ordering::Equal => Ok(()),
     }
-    if len > expected {
-        return Err(MerlError::TrailingBytes {
-            path,
-            dims,
-            cells,
-            expected,
-            actual: len,
-        });
-    }
-    Ok(())
 }
 
 /// Parses the header and checks it against the total length in bytes.
@@ -310,30 +301,7 @@ fn read_body(
         bad = earliest(bad, b);
     }
     if let Some((at, value)) = bad {
-        let (c, index) = (at / n, at % n);
-        let (i, j, k) = dims.unflatten(index);
-        let (path, channel) = (path.to_path_buf(), Channel::ALL[c]);
-        return Err(if value.is_finite() {
-            MerlError::TooLarge {
-                path,
-                channel,
-                i,
-                j,
-                k,
-                index,
-                value,
-            }
-        } else {
-            MerlError::NonFinite {
-                path,
-                channel,
-                i,
-                j,
-                k,
-                index,
-                value,
-            }
-        });
+        return Err(MerlError::bad_raw(path, BadValue::at_flat(dims, at, value)));
     }
     debug_assert!(
         valid
@@ -452,6 +420,7 @@ pub fn atomic_write(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::Channel;
     use crate::table::MAX_ABS_RAW;
     use rayon::prelude::*;
     use std::path::PathBuf;
@@ -584,12 +553,15 @@ mod tests {
             ] {
                 match e {
                     MerlError::TooLarge {
-                        channel: Channel::Red,
-                        i: ei,
-                        j: ej,
-                        k: ek,
+                        bad:
+                            BadValue {
+                                channel: Channel::Red,
+                                i: ei,
+                                j: ej,
+                                k: ek,
+                                value,
+                            },
                         index: 900,
-                        value,
                         ..
                     } => assert_eq!((ei, ej, ek, value), (i, j, k, -2e30)),
                     other => panic!("run of {chunk}: {other}"),
@@ -606,7 +578,10 @@ mod tests {
                 matches!(
                     e,
                     MerlError::NonFinite {
-                        channel: Channel::Green,
+                        bad: BadValue {
+                            channel: Channel::Green,
+                            ..
+                        },
                         index: 17,
                         ..
                     }

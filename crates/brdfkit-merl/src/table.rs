@@ -1,7 +1,7 @@
 //! [`MerlTable`]: the three channel planes, the missing-sample mask, access and
 //! in-memory construction.
 
-use crate::error::{Channel, TableError};
+use crate::error::{BadValue, Channel, TableError};
 use crate::grid::Dims;
 use brdfkit_core::Rgb;
 use rayon::prelude::*;
@@ -123,27 +123,8 @@ impl MerlTable {
                 actual: raw.len(),
             });
         }
-        if let Some((idx, value)) = raw.iter().enumerate().find(|(_, v)| !acceptable_raw(**v)) {
-            let (i, j, k) = dims.unflatten(idx % n);
-            let channel = Channel::ALL[idx / n];
-            let value = *value;
-            return Err(if value.is_finite() {
-                TableError::TooLarge {
-                    channel,
-                    i,
-                    j,
-                    k,
-                    value,
-                }
-            } else {
-                TableError::NonFinite {
-                    channel,
-                    i,
-                    j,
-                    k,
-                    value,
-                }
-            });
+        if let Some((bad, _)) = BadValue::first_in(&raw, dims, acceptable_raw) {
+            return Err(TableError::bad_raw(bad));
         }
         let (valid, n_valid) = mask_of(&raw, n);
         Ok(MerlTable::assemble(dims, raw, valid, n_valid))
@@ -472,32 +453,21 @@ fn to_raw(value: Option<Rgb>, i: usize, j: usize, k: usize) -> Result<[f64; 3], 
     let mut raw = [0.0; 3];
     for c in Channel::ALL {
         let x = v[c.index()];
+        let bad = BadValue {
+            channel: c,
+            i,
+            j,
+            k,
+            value: x,
+        };
         if !x.is_finite() {
-            return Err(TableError::NonFinite {
-                channel: c,
-                i,
-                j,
-                k,
-                value: x,
-            });
+            return Err(TableError::NonFinite(bad));
         }
         if (x / SCALES[c.index()]).abs() > MAX_ABS_RAW {
-            return Err(TableError::TooLarge {
-                channel: c,
-                i,
-                j,
-                k,
-                value: x,
-            });
+            return Err(TableError::TooLarge(bad));
         }
         if x < 0.0 {
-            return Err(TableError::Negative {
-                channel: c,
-                i,
-                j,
-                k,
-                value: x,
-            });
+            return Err(TableError::Negative(bad));
         }
         raw[c.index()] = x / SCALES[c.index()];
     }
