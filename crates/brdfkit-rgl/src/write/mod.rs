@@ -388,6 +388,13 @@ fn incidence(sym: Symmetry, phi: f32, theta: f32) -> Incidence {
 }
 
 /// Each (φi, θi) slice's VNDF table and value tables, φi-major.
+///
+/// The VNDF tables come first, and the values are placed through the warp of all of
+/// them at the reader's own parameters of each slice's direction, exactly as the reader
+/// interpolates it: the reader's (φi, θi), computed from a direction, differ from the
+/// f32 grid by ~1e-8 rad and mix in a sliver of the neighbouring slices, which a
+/// slice's own warp alone would miss (a shift of wo by ~1e-8, 1e-4 of f · cos θo / cos θo
+/// where wo is 1e-4 above the horizon).
 fn slices(
     source: &dyn Brdf,
     opts: &WriteOptions,
@@ -402,40 +409,44 @@ fn slices(
     let sigma_w = Warp2D::new(&t.sigma, NDF_RES, t.rows, vec![], false, false);
     let iso = sym == Symmetry::Isotropic;
     let d_u = |u: [f64; 2]| ndf_w.eval(if iso { [u[0], 0.0] } else { u }, &[]);
-    let grid: Vec<(f32, f32)> = phi_i
+    let grid: Vec<(Incidence, f64)> = phi_i
         .iter()
-        .flat_map(|&p| theta_i.iter().map(move |&t| (p, t)))
-        .collect();
-    let out: Vec<(Vec<f32>, SliceValues)> = grid
-        .par_iter()
-        .map(|&(p, t)| {
-            let inc = incidence(sym, p, t);
+        .flat_map(|&p| theta_i.iter().map(move |&t| incidence(sym, p, t)))
+        .map(|inc| {
             let sigma = sigma_w.eval(inc.u_wi, &[]);
-            let vndf = tables::vndf_slice(&d_u, sigma, inc.wi, VNDF_RES, VNDF_FLOOR);
-            let warp = Warp2D::new(
-                &vndf,
-                VNDF_RES,
-                VNDF_RES,
-                vec![vec![p], vec![t]],
-                true,
-                true,
-            );
+            (inc, sigma)
+        })
+        .collect();
+    let vndf: Vec<Vec<f32>> = grid
+        .par_iter()
+        .map(|(inc, sigma)| tables::vndf_slice(&d_u, *sigma, inc.wi, VNDF_RES, VNDF_FLOOR))
+        .collect();
+    let warp = Warp2D::new(
+        &vndf.concat(),
+        VNDF_RES,
+        VNDF_RES,
+        vec![phi_i.to_vec(), theta_i.to_vec()],
+        true,
+        true,
+    );
+    let values: Vec<SliceValues> = grid
+        .par_iter()
+        .map(|(inc, sigma)| {
             let jacobian = |um: [f64; 2]| ndf_w.eval(um, &[]) / (4.0 * sigma);
-            let values = tables::values_slice(&SliceSpec {
+            tables::values_slice(&SliceSpec {
                 source,
                 vndf: &warp,
                 params: inc.params,
                 wi: inc.wi,
                 jacobian: &jacobian,
                 n: opts.grid,
-            });
-            (vndf, values)
+            })
         })
         .collect();
-    if let Some((wi, wo)) = out.iter().find_map(|(_, v)| v.non_finite) {
+    if let Some((wi, wo)) = values.iter().find_map(|v| v.non_finite) {
         return Err(WriteError::NonFinite { wi, wo });
     }
-    Ok(out)
+    Ok(vndf.into_iter().zip(values).collect())
 }
 
 /// `valid`: one bit per value node over (φi, θi, y, x), packed most significant bit
