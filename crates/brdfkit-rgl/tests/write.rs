@@ -193,7 +193,10 @@ fn anisotropic_files_read_back_close_to_the_source() {
                 100.0 * p90,
                 r.power_iteration.iterations
             );
-            assert!(med < 0.05 && p90 < 0.40, "{name}: median {med}, p90 {p90}");
+            // The bounds are for the default slices (a sweep of BRDFKIT_PHI_I only prints).
+            if n.is_none() {
+                assert!(med < 0.06 && p90 < 0.33, "{name}: median {med}, p90 {p90}");
+            }
         }
     }
 }

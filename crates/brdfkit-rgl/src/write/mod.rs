@@ -69,7 +69,9 @@ pub const NDF_PHI_RES: usize = 65;
 /// the measurement behind it).
 pub const DEFAULT_PHI_STEP_DEG: f64 = 22.5;
 
-/// The most φi slices a file may have.
+/// The fewest and the most φi slices of an anisotropic file: readers take a file of one
+/// or two for isotropic (`measured.cpp`: `m_isotropic = phi_i.shape[0] <= 2`).
+pub const MIN_PHI_I: usize = 3;
 pub const MAX_PHI_I: usize = 64;
 
 /// Floors relative to the maximum: of D (so the stored values f · 4σ/D stay finite)
@@ -84,7 +86,8 @@ pub struct WriteOptions {
     /// u = √(2θ/π), from 0 to 90° as the database's 8); at least 2.
     pub theta_i: usize,
     /// Number of φi slices of an anisotropic source, uniform over the stored range (both
-    /// ends included; 2 to [`MAX_PHI_I`]); `None`: one per [`DEFAULT_PHI_STEP_DEG`].
+    /// ends included; 3 to [`MAX_PHI_I`]: Mitsuba and brdfkit's reader take a file of one
+    /// or two φi slices for isotropic); `None`: one per [`DEFAULT_PHI_STEP_DEG`].
     /// Refused for an isotropic source (its file has `phi_i` = \[0\]).
     pub phi_i: Option<usize>,
     /// The value grid, n × n (the database has 32 and 64); at least 2.
@@ -279,9 +282,10 @@ fn check_options(source: &dyn Brdf, opts: &WriteOptions) -> Result<Symmetry, Wri
                  phi_i slices apply to anisotropic sources only"
             )));
         }
-        if !(2..=MAX_PHI_I).contains(&n) {
+        if !(MIN_PHI_I..=MAX_PHI_I).contains(&n) {
             return Err(WriteError::Options(format!(
-                "{n} phi_i slices: need 2 to {MAX_PHI_I} (both ends of the stored range)"
+                "{n} phi_i slices: need {MIN_PHI_I} to {MAX_PHI_I} (both ends of the stored \
+                 range; a file of one or two is read as isotropic)"
             )));
         }
     }
@@ -654,7 +658,7 @@ mod tests {
     #[test]
     fn refusals() {
         let o = WriteOptions::default();
-        for n in [1, MAX_PHI_I + 1] {
+        for n in [1, 2, MAX_PHI_I + 1] {
             let bad = WriteOptions {
                 phi_i: Some(n),
                 ..o.clone()
