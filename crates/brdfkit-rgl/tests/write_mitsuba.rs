@@ -144,7 +144,7 @@ mitsuba_test! {
     /// and equals brdfkit's reader at 100,000 random pairs above 1° (≥ 99.9 % within
     /// 1e-4 relative + 1e-6, none beyond 1 % + 1e-5), and Mitsuba's eval ÷ cos θo
     /// against the source (median and p90 relative error, printed for docs/rgl.md;
-    /// bounds those of tests/write.rs).
+    /// bounds those of tests/write.rs's anisotropic read-back, ~1.5× the figures).
     fn mitsuba_reads_written_anisotropic_files_as_brdfkit_does() {
         let py = external_tools::require_mitsuba();
         let dir = tempfile::tempdir().unwrap();
@@ -167,7 +167,7 @@ mitsuba_test! {
                 100.0 * p90
             );
             assert!(within >= 0.999 && beyond == 0, "{name}: {within} within, {beyond} beyond");
-            assert!(med < 0.05 && p90 < 0.40, "{name}: median {med}, p90 {p90}");
+            assert!(med < 0.06 && p90 < 0.33, "{name}: median {med}, p90 {p90}");
         }
     }
 }
