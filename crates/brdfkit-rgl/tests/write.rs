@@ -136,7 +136,13 @@ fn anisotropic_files_keep_their_fold_and_their_points() {
         assert_eq!(reduction(&bsdf), i64::from(sym.reduction()), "{name}");
         let n_phi = write::default_phi_i(sym);
         assert_eq!(bsdf.summary().n_phi_i, n_phi, "{name}");
-        assert_eq!(n_phi, [5, 9, 17][[4, 2, 1].iter().position(|&k| k == sym.reduction()).unwrap()]);
+        assert_eq!(
+            n_phi,
+            [5, 9, 17][[4, 2, 1]
+                .iter()
+                .position(|&k| k == sym.reduction())
+                .unwrap()]
+        );
         // Relative error of f where wo is above 1°; below, the reader's (φi, θi) of a
         // slice's direction (f64) differ from the f32 grid by ~1e-7 of a slice spacing and
         // mix in that much of a neighbouring slice, whose f · cos θo at the same node is

@@ -21,7 +21,7 @@
 //! φi range their symmetry allows (`write/symmetry.rs`: a quarter, a half or the whole
 //! turn, the reader's fold `reduction` 4, 2 or 1), a 2-D NDF and σ over the half
 //! vector's absolute azimuth (rows) and u_θ (columns) by the 2-D power iteration
-//! ([`ndf::power_iteration_2d`]), and per slice the VNDF and values with u_φ absolute;
+//! (`ndf::power_iteration_2d`), and per slice the VNDF and values with u_φ absolute;
 //! both go through the same code, an isotropic file being the case of one φi slice.
 //!
 //! **Reciprocity.** The file stores f(wi, ·) per incident slice, wi being the light
@@ -203,7 +203,15 @@ pub fn build(
         clamped: values.iter().map(|v| v.clamped).sum(),
     };
     let description = description(opts, &report);
-    let fields = fields(description, phi_i, theta_i, tables, &vndf, &values, opts.grid);
+    let fields = fields(
+        description,
+        phi_i,
+        theta_i,
+        tables,
+        &vndf,
+        &values,
+        opts.grid,
+    );
     Ok((fields, report))
 }
 

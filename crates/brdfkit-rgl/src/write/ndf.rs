@@ -232,7 +232,11 @@ impl Quad {
 
     /// D · dm at the points.
     fn weights(&self, d: &Ndf2) -> Vec<f64> {
-        self.u.iter().zip(&self.dm).map(|(&u, &w)| d.eval(u) * w).collect()
+        self.u
+            .iter()
+            .zip(&self.dm)
+            .map(|(&u, &w)| d.eval(u) * w)
+            .collect()
     }
 
     /// σ(ω) = ∫ D(m) ⟨ω, m⟩₊ dm (Dupuy et al. 2015, eq. 4; Heitz 2014, "Understanding
@@ -266,7 +270,11 @@ impl Quad {
 
     /// ∫ D(m) cos θm dm.
     fn projected(&self, d: &Ndf2) -> f64 {
-        self.weights(d).iter().zip(&self.m).map(|(x, m)| x * m[2]).sum()
+        self.weights(d)
+            .iter()
+            .zip(&self.m)
+            .map(|(x, m)| x * m[2])
+            .sum()
     }
 }
 
@@ -504,7 +512,9 @@ mod tests {
         let (d2, _, _) = power_iteration_2d(&retro, rows, cols, 0.0);
         let peak = d1.values.iter().copied().fold(0.0, f64::max);
         let worst = (0..rows * cols)
-            .map(|k| (d2.values[k] - d1.values[k % cols]).abs() / (d1.values[k % cols] + 1e-6 * peak))
+            .map(|k| {
+                (d2.values[k] - d1.values[k % cols]).abs() / (d1.values[k % cols] + 1e-6 * peak)
+            })
             .fold(0.0, f64::max);
         eprintln!("2-D vs 1-D on an isotropic retro-reflection: within {worst:.2e}");
         assert!(worst < 5e-3, "rows differ from the 1-D D by {worst}");

@@ -15,9 +15,9 @@
 //!
 //! The writer stores the smallest range the source's symmetry allows. The symmetry is
 //! decided by evaluation, not by what the source says of itself (a sum of lobes, a fit,
-//! a `.bsdf` file have no typed symmetry): at [`PROBES`] fixed pseudo-random pairs above
+//! a `.bsdf` file have no typed symmetry): at 512 (`PROBES`) fixed pseudo-random pairs above
 //! 2° elevation, f(wi, wo) and f(T wi, T wo) for T = M_x, M_y, R must agree within
-//! [`REL_TOL`] relative (plus [`ABS_TOL`] of the largest value probed). Images differ by
+//! 1e-9 relative (`REL_TOL`; plus 1e-12 of the largest value probed, `ABS_TOL`). Images differ by
 //! floating-point rounding only (≲ 1e-14 relative) when the symmetry holds; a source
 //! that breaks it by less than 1e-9 relative at every probe is stored as symmetric, an
 //! error far below the format's interpolation (docs/rgl.md, "Anisotropic files").
@@ -40,7 +40,7 @@ const ABS_TOL: f64 = 1e-12;
 /// The symmetry of a source, as far as the format's fold can use it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Symmetry {
-    /// f depends on φo − φi only (`Brdf::is_isotropic`): one φi slice, `phi_i` = [0].
+    /// f depends on φo − φi only (`Brdf::is_isotropic`): one φi slice, `phi_i` = \[0\].
     Isotropic,
     /// Invariant under both mirrors M_x and M_y: a quarter of the φi range (4-fold).
     Mirrors,
@@ -99,7 +99,10 @@ pub fn symmetry(source: &dyn Brdf) -> Result<Symmetry, WriteError> {
         for k in 0..4 {
             v[k] = source.eval(&ii[k], &oo[k]);
             if !v[k].is_finite() {
-                return Err(WriteError::NonFinite { wi: ii[k], wo: oo[k] });
+                return Err(WriteError::NonFinite {
+                    wi: ii[k],
+                    wo: oo[k],
+                });
             }
         }
         values.push(v);

@@ -21,7 +21,9 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
         return run_rgl(&a);
     };
     if a.theta_i.is_some() || a.phi_i.is_some() || a.grid.is_some() {
-        return Err(bad_msg("--theta-i, --phi-i and --grid apply to --to rgl only"));
+        return Err(bad_msg(
+            "--theta-i, --phi-i and --grid apply to --to rgl only",
+        ));
     }
     let form = match (to, a.format) {
         (Renderer::Pbrt | Renderer::Gltf, Some(_)) => {
