@@ -47,7 +47,7 @@ use crate::warp::Warp2D;
 use brdfkit_core::{Brdf, Rgb, Vec3};
 use std::f64::consts::PI;
 
-use super::ndf::u2theta;
+use super::ndf::{u2phi, u2theta};
 
 /// The VNDF table is D_wi mixed with this much of the uniform density over the
 /// hemisphere of half vectors (1/2π, D_wi integrating to 1): a departure from the
@@ -61,12 +61,6 @@ const UNIFORM_MIX: f64 = 1.0;
 
 /// Bisection steps of the inverse warp (2⁻⁴⁸ ≈ 4e-15 of the unit interval).
 const BISECT: usize = 48;
-
-/// u_φ of a relative azimuth: (φ + π)/2π (`measured.cpp`'s `phi2u`).
-#[inline]
-fn u2phi(u: f64) -> f64 {
-    (2.0 * u - 1.0) * PI
-}
 
 /// A unit direction at elevation θ and azimuth φ.
 #[inline]
