@@ -258,9 +258,9 @@ impl Quad {
     }
 
     /// σ(ω) = ∫ D(m) ⟨ω, m⟩₊ dm (Dupuy et al. 2015, eq. 4; Heitz 2014, "Understanding
-    /// the Masking-Shadowing Function", eq. 2 for the anisotropic D) at `rows` × `cols`
-    /// nodes, from the point weights `wd` = D · dm. No closed form in φ here: D depends
-    /// on the half vector's azimuth.
+    /// the Masking-Shadowing Function": the projected area, for any D, anisotropic
+    /// included) at `rows` × `cols` nodes, from the point weights `wd` = D · dm. No
+    /// closed form in φ here: D depends on the half vector's azimuth.
     fn sigma(&self, wd: &[f64], rows: usize, cols: usize) -> Ndf2 {
         let mut grid = Ndf2 {
             rows,
@@ -291,7 +291,7 @@ impl Quad {
         self.weights(d)
             .iter()
             .zip(&self.m)
-            .map(|(x, m)| x * m[2])
+            .map(|(x, m)| x * m.z)
             .sum()
     }
 }
@@ -463,8 +463,9 @@ mod tests {
         }
     }
 
-    /// Anisotropic Beckmann D (Heitz 2014, eq. 83: the isotropic form with
-    /// 1/α² → cos²φ/αx² + sin²φ/αy², normalised by π αx αy), ∫ D cos θ dm = 1.
+    /// Anisotropic Beckmann D (Heitz 2014, "Understanding the Masking-Shadowing
+    /// Function": the isotropic form with 1/α² → cos²φ/αx² + sin²φ/αy², normalised by
+    /// π αx αy), ∫ D cos θ dm = 1.
     fn beckmann_aniso(ax: f64, ay: f64, th: f64, phi: f64) -> f64 {
         let e = th.tan().powi(2) * ((phi.cos() / ax).powi(2) + (phi.sin() / ay).powi(2));
         (-e).exp() / (PI * ax * ay * th.cos().powi(4))
@@ -472,7 +473,8 @@ mod tests {
 
     /// The retro-reflection F D G₁ / (4 cos²θ) of an anisotropic Beckmann surface at
     /// the nodes of a `rows` × `cols` grid, with Smith's σ = cos θ (1 + Λ) for the
-    /// projected roughness α(φ) = √(cos²φ αx² + sin²φ αy²) (Heitz 2014, eq. 80).
+    /// projected roughness α(φ) = √(cos²φ αx² + sin²φ αy²) (Heitz 2014, its anisotropic
+    /// Smith masking).
     fn retro_aniso(ax: f64, ay: f64, rows: usize, cols: usize) -> Vec<f64> {
         (0..rows * cols)
             .map(|k| {
