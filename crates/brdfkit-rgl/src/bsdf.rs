@@ -143,20 +143,27 @@ pub(crate) fn incident_params(wi: &Vec3) -> [f64; 2] {
     [atan2_drjit(wi.y, wi.x), elevation(wi)]
 }
 
+/// Step 1 for a file of `reduction` 4, 2 or 1 (see [`RglBsdf::fold`]); the writer folds
+/// its slices' directions by it too.
+#[inline]
+pub(crate) fn fold_pair(reduction: i32, mut wi: Vec3, mut wo: Vec3) -> (Vec3, Vec3) {
+    if reduction >= 2 {
+        let sy = wi.y;
+        let sx = if reduction == 4 { wi.x } else { sy };
+        wi.x = mulsign_neg(wi.x, sx);
+        wi.y = mulsign_neg(wi.y, sy);
+        wo.x = mulsign_neg(wo.x, sx);
+        wo.y = mulsign_neg(wo.y, sy);
+    }
+    (wi, wo)
+}
+
 impl RglBsdf {
     /// Step 1: wi and wo mirrored by wi's sign bits so that wi lies in the stored φi
     /// range (y ≤ 0, and x ≤ 0 for a 4-fold reduction), as `measured.cpp` folds them.
     #[inline]
-    pub(crate) fn fold(&self, mut wi: Vec3, mut wo: Vec3) -> (Vec3, Vec3) {
-        if self.reduction >= 2 {
-            let sy = wi.y;
-            let sx = if self.reduction == 4 { wi.x } else { sy };
-            wi.x = mulsign_neg(wi.x, sx);
-            wi.y = mulsign_neg(wi.y, sy);
-            wo.x = mulsign_neg(wo.x, sx);
-            wo.y = mulsign_neg(wo.y, sy);
-        }
-        (wi, wo)
+    pub(crate) fn fold(&self, wi: Vec3, wo: Vec3) -> (Vec3, Vec3) {
+        fold_pair(self.reduction, wi, wo)
     }
 
     #[allow(clippy::too_many_arguments)]

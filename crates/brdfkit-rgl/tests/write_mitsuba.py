@@ -1,8 +1,9 @@
 # Mitsuba 3 on files written by brdfkit's RGL writer: the reference of
 # tests/write_mitsuba.rs.
-#   python write_mitsuba.py chi2 FILE.bsdf THETA_DEG...
+#   python write_mitsuba.py chi2 FILE.bsdf THETA_DEG[@PHI_DEG]...
 #       Mitsuba's chi^2 test (mitsuba.chi2) of the `measured` plugin's sampling at each
-#       incident elevation; prints one JSON line per elevation.
+#       incident direction (elevation, azimuth; the azimuth defaults to 0.7 rad);
+#       prints one JSON line per direction.
 #   python write_mitsuba.py render TABLE.binary FILE.bsdf SPP_POINT SPP_ENV
 #       256x256 renders of a sphere under a point light and under a constant
 #       environment, the file through `measured` and the table through brdfkit's
@@ -35,14 +36,16 @@ def chi2(path, degrees):
     llvm()
     from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
 
-    for deg in degrees:
+    for arg in degrees:
+        deg, _, az = arg.partition("@")
         th = math.radians(float(deg))
-        wi = [math.sin(th) * math.cos(0.7), math.sin(th) * math.sin(0.7), math.cos(th)]
+        phi = math.radians(float(az)) if az else 0.7
+        wi = [math.sin(th) * math.cos(phi), math.sin(th) * math.sin(phi), math.cos(th)]
         sample, pdf = BSDFAdapter("measured", f'<string name="filename" value="{path}"/>', wi=wi)
         test = ChiSquareTest(domain=SphericalDomain(), sample_func=sample, pdf_func=pdf,
                              sample_dim=3, sample_count=1_000_000, res=101, ires=8)
         ok = bool(test.run(0.01, quiet=True))
-        print(json.dumps({"theta_deg": float(deg), "passed": ok, "p_value": float(test.p_value),
+        print(json.dumps({"theta_deg": float(deg), "phi_deg": math.degrees(phi), "passed": ok, "p_value": float(test.p_value),
                           "messages": "" if ok else test.messages}), flush=True)
 
 

@@ -667,6 +667,13 @@ pub struct ExportArgs {
     #[arg(long = "theta-i", value_name = "N",
           value_parser = clap::value_parser!(u16).range(2..=90))]
     pub theta_i: Option<u16>,
+    /// `--to rgl`, anisotropic sources only: the number of φi slices over the stored φi
+    /// range (a quarter, a half or the whole turn, by the source's symmetry; both ends
+    /// included; at least 3: readers take 1 or 2 for isotropic) [default: one per 22.5°:
+    /// 5, 9 or 17].
+    #[arg(long = "phi-i", value_name = "N",
+          value_parser = clap::value_parser!(u16).range(3..=64))]
+    pub phi_i: Option<u16>,
     /// `--to rgl`: the value grid, 32 × 32 or 64 × 64 [default: 32].
     #[arg(long, value_enum)]
     pub grid: Option<RglGrid>,

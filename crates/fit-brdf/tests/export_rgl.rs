@@ -118,7 +118,8 @@ fn lambert_model_to_rgl() {
 }
 
 /// Refused with exit 2 and a message: no `--out`, `--grid` outside 32|64, `--theta-i`
-/// without `--to rgl`, a `.bsdf` input, an anisotropic model, a missing input.
+/// without `--to rgl`, a `.bsdf` input, `--phi-i` for an isotropic model, a missing
+/// input.
 #[test]
 fn refusals() {
     let dir = tempfile::tempdir().unwrap();
@@ -139,14 +140,56 @@ fn refusals() {
     assert!(export(&model, &out, &[]).status.success());
     let again = dir.path().join("y.bsdf");
     assert_bad_input(&export(&out, &again, &[]), &["already an RGL-EPFL .bsdf"]);
-    let aniso = write_file(
-        dir.path(),
-        "ward.json",
-        r#"{"model": "ward", "params": {"rho_d": 0.2, "rho_s": 0.1, "alpha_x": 0.1, "alpha_y": 0.3}}"#,
+    assert_bad_input_writes_nothing(
+        &export(&model, &again, &["--phi-i", "5"]),
+        &["--phi-i applies to anisotropic sources", "isotropic"],
+        &again,
     );
-    assert_bad_input_writes_nothing(&export(&aniso, &again, &[]), &["anisotropic"], &again);
     assert_bad_input(
         &export(&dir.path().join("nope.json"), &again, &[]),
         &["nope.json"],
     );
+}
+
+/// An anisotropic model (GGX Cook-Torrance, αx 0.12, αy 0.45: mirror-symmetric) end to
+/// end: `--phi-i 3` writes 3 φi slices over a quarter turn (the reader's fold 4) and
+/// says so; `info` reports the file anisotropic with its grids; without `--phi-i`, the
+/// default 5 slices. A bad `--phi-i` (0, 1, 2: a file of two φi slices is read as
+/// isotropic, 65) is exit 2 naming the option, and writes nothing.
+#[test]
+fn anisotropic_model_to_rgl() {
+    let dir = tempfile::tempdir().unwrap();
+    let aniso = write_file(
+        dir.path(),
+        "aniso.json",
+        r#"{"model": "cook-torrance", "params": {"rho_d": [0.3, 0.2, 0.1], "rho_s": [0.4, 0.5, 0.6], "alpha_x": 0.12, "alpha_y": 0.45, "distribution": "ggx"}}"#,
+    );
+    let out = dir.path().join("aniso_rgb.bsdf");
+    let o = export(&aniso, &out, &["--phi-i", "3", "--theta-i", "6"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("Mirrors symmetry: 3 phi_i slices over 1/4 turn"),
+        "{}",
+        stderr(&o)
+    );
+    let b = RglBsdf::read(&out).unwrap();
+    assert!(b.is_anisotropic());
+    let (theta, phi) = b.grids();
+    assert_eq!((phi.len(), theta.len()), (3, 6));
+    let span = f64::from(phi[2]) - f64::from(phi[0]);
+    assert_eq!((std::f64::consts::TAU / span).round(), 4.0);
+    let info = fit_brdf!("info", out.to_str().unwrap());
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(info.status.success(), "{}", stderr(&info));
+    assert!(text.contains("RGB, anisotropic"), "{text}");
+    assert!(text.contains("3 φi x 6 θi slices"), "{text}");
+
+    let out = dir.path().join("default_rgb.bsdf");
+    assert!(export(&aniso, &out, &["--theta-i", "3"]).status.success());
+    assert_eq!(RglBsdf::read(&out).unwrap().summary().n_phi_i, 5);
+
+    let bad = dir.path().join("bad.bsdf");
+    for n in ["0", "1", "2", "65"] {
+        assert_bad_input_writes_nothing(&export(&aniso, &bad, &["--phi-i", n]), &["--phi-i"], &bad);
+    }
 }

@@ -1,25 +1,31 @@
 //! Writing RGL-EPFL `.bsdf` files from anything brdfkit evaluates (a MERL table, a
-//! model, an NBRDF: any [`Brdf`]), built the way Dupuy & Jakob 2018 ("An Adaptive
-//! Parameterization for Efficient Material Acquisition and Rendering", SIGGRAPH Asia)
-//! build the database's files, so Mitsuba 3's and pbrt-v4's `measured` materials render
-//! them with importance sampling and no plugin:
+//! model, an NBRDF, a `.bsdf` file: any [`Brdf`]), built the way Dupuy & Jakob 2018 ("An
+//! Adaptive Parameterization for Efficient Material Acquisition and Rendering",
+//! SIGGRAPH Asia) build the database's files, so Mitsuba 3's and pbrt-v4's `measured`
+//! materials render them with importance sampling and no plugin:
 //!
 //! 1. the NDF from the source's retro-reflection by power iteration (Dupuy et al. 2015;
 //!    `write/ndf.rs`) — for every source, models included: brdfkit has no typed accessor for a
 //!    whole model's D (a model is often a sum of lobes), and the power iteration gives
 //!    the D that the *whole* BRDF's retro-reflection implies, diffuse part included;
-//! 2. σ(θ) = ∫ D(m) ⟨ω, m⟩₊ dm from that D (the `sigma` table);
-//! 3. per θi slice, the VNDF table and the values on its warped grid (`write/tables.rs`):
-//!    `rgb` (f · cos θo · 4σ/D, the `jacobian` flag set: Mitsuba's `eval`, which
-//!    returns the stored value times D/(4σ), is f · cos θo by its contract), `luminance`,
-//!    `valid`;
-//! 4. `description`, `version` = 1.0, `phi_i` = \[0\] (isotropic), `theta_i`.
+//! 2. σ(ω) = ∫ D(m) ⟨ω, m⟩₊ dm from that D (the `sigma` table);
+//! 3. per (φi, θi) slice, the VNDF table and the values on its warped grid
+//!    (`write/tables.rs`): `rgb` (f · cos θo · 4σ/D, the `jacobian` flag set: Mitsuba's
+//!    `eval`, which returns the stored value times D/(4σ), is f · cos θo by its
+//!    contract), `luminance`, `valid`;
+//! 4. `description`, `version` = 1.0, `phi_i`, `theta_i`.
 //!
-//! Only isotropic sources are written (one φi slice), as the database's isotropic
-//! files; an anisotropic source is refused ([`WriteError::Anisotropic`]).
+//! **Isotropic sources** ([`Brdf::is_isotropic`]) give one φi slice (`phi_i` = \[0\]), a
+//! 1-D NDF (two identical u_φ rows) and u_φ relative to φi, as the database's isotropic
+//! files. **Anisotropic sources** give [`WriteOptions::phi_i`] slices over the smallest
+//! φi range their symmetry allows (`write/symmetry.rs`: a quarter, a half or the whole
+//! turn, the reader's fold `reduction` 4, 2 or 1), a 2-D NDF and σ over the half
+//! vector's absolute azimuth (rows) and u_θ (columns) by the 2-D power iteration
+//! (`ndf::power_iteration_2d`), and per slice the VNDF and values with u_φ absolute;
+//! both go through the same code, an isotropic file being the case of one φi slice.
 //!
-//! **Reciprocity.** The file stores f(wi, ·) per θi slice, wi being the light (Mitsuba's
-//! `si.wi`): the value at (wi, wo) is the source's f(wi, wo) in that order. A
+//! **Reciprocity.** The file stores f(wi, ·) per incident slice, wi being the light
+//! (Mitsuba's `si.wi`): the value at (wi, wo) is the source's f(wi, wo) in that order. A
 //! reciprocal source gives a file that is reciprocal up to the interpolation.
 //!
 //! **Negatives.** The file holds no negative value: a source value below 0 (an NBRDF
@@ -27,10 +33,13 @@
 //! ([`WriteReport::clamped`]).
 
 pub(crate) mod ndf;
+pub mod symmetry;
 pub(crate) mod tables;
 
 pub use ndf::PowerIteration;
+pub use symmetry::{Symmetry, symmetry};
 
+use crate::bsdf::{fold_pair, incident_params, phi2u, theta2u};
 use crate::error::RglError;
 use crate::tensor::{self, Tensor, TensorData};
 use crate::warp::Warp2D;
@@ -50,6 +59,21 @@ pub const MAX_EVAL_THETA_DEG: f64 = 89.5;
 pub const NDF_RES: usize = 128;
 pub const VNDF_RES: usize = 128;
 
+/// u_φ rows of an anisotropic file's `ndf` and `sigma` tables: 64 intervals of 5.6°
+/// over the full turn (the NDF is not folded: m takes every azimuth), a row on each
+/// tangent-frame axis (multiples of 90°).
+pub const NDF_PHI_RES: usize = 65;
+
+/// The φi spacing of the default slice count of an anisotropic file (degrees): 5, 9 or
+/// 17 slices over a quarter, half or whole turn (docs/rgl.md, "Anisotropic files", for
+/// the measurement behind it).
+pub const DEFAULT_PHI_STEP_DEG: f64 = 22.5;
+
+/// The fewest and the most φi slices of an anisotropic file: readers take a file of one
+/// or two for isotropic (`measured.cpp`: `m_isotropic = phi_i.shape[0] <= 2`).
+pub const MIN_PHI_I: usize = 3;
+pub const MAX_PHI_I: usize = 64;
+
 /// Floors relative to the maximum: of D (so the stored values f · 4σ/D stay finite)
 /// and of each VNDF slice (so each of its rows can be inverted).
 const NDF_FLOOR: f64 = 1e-6;
@@ -61,6 +85,11 @@ pub struct WriteOptions {
     /// Number of θi slices, at θ_k = (π/2)(k/(N − 1))² (uniform in the format's
     /// u = √(2θ/π), from 0 to 90° as the database's 8); at least 2.
     pub theta_i: usize,
+    /// Number of φi slices of an anisotropic source, uniform over the stored range (both
+    /// ends included; 3 to [`MAX_PHI_I`]: Mitsuba and brdfkit's reader take a file of one
+    /// or two φi slices for isotropic); `None`: one per [`DEFAULT_PHI_STEP_DEG`].
+    /// Refused for an isotropic source (its file has `phi_i` = \[0\]).
+    pub phi_i: Option<usize>,
     /// The value grid, n × n (the database has 32 and 64); at least 2.
     pub grid: usize,
     /// What the file is of (the `description` field starts with it).
@@ -71,6 +100,7 @@ impl Default for WriteOptions {
     fn default() -> Self {
         WriteOptions {
             theta_i: 8,
+            phi_i: None,
             grid: 32,
             description: String::new(),
         }
@@ -82,7 +112,10 @@ impl Default for WriteOptions {
 pub struct WriteReport {
     /// The NDF's power iteration.
     pub power_iteration: PowerIteration,
-    /// The θi grid (radians).
+    /// The source's symmetry, which sets the stored φi range (the reader's fold).
+    pub symmetry: Symmetry,
+    /// The φi grid (radians; \[0\] for an isotropic source) and the θi grid.
+    pub phi_i: Vec<f64>,
     pub theta_i: Vec<f64>,
     /// Value nodes whose wo is above the horizon (`valid` bits set), and all nodes.
     pub valid: usize,
@@ -94,12 +127,7 @@ pub struct WriteReport {
 /// Why a file could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum WriteError {
-    /// The source depends on the azimuth of wi; only isotropic files are written.
-    #[error(
-        "the source is anisotropic; the RGL writer builds isotropic files only (one phi_i slice)"
-    )]
-    Anisotropic,
-    /// An option out of range.
+    /// An option out of range, or one that does not apply to the source.
     #[error("{0}")]
     Options(String),
     /// The source returned NaN or infinity.
@@ -120,58 +148,114 @@ pub fn theta_grid(n: usize) -> Vec<f32> {
         .collect()
 }
 
+/// The φi grid of a source of symmetry `sym`: \[0\] if isotropic, else `n` slices
+/// uniform over [`Symmetry::phi_range`] (`None`: the default count).
+pub fn phi_grid(sym: Symmetry, n: Option<usize>) -> Vec<f32> {
+    if sym == Symmetry::Isotropic {
+        return vec![0.0];
+    }
+    let (lo, hi) = sym.phi_range();
+    let n = n.unwrap_or_else(|| default_phi_i(sym));
+    (0..n)
+        .map(|k| (lo + (hi - lo) * k as f64 / (n - 1) as f64) as f32)
+        .collect()
+}
+
+/// The default φi slice count of an anisotropic source: one per
+/// [`DEFAULT_PHI_STEP_DEG`] over its stored range, both ends included.
+pub fn default_phi_i(sym: Symmetry) -> usize {
+    let (lo, hi) = sym.phi_range();
+    1 + ((hi - lo).to_degrees() / DEFAULT_PHI_STEP_DEG).round() as usize
+}
+
+/// The `ndf` and `sigma` tables (rows u_φ × [`NDF_RES`] columns u_θ, f32, the same
+/// shape) and the power iteration that made them.
+struct NdfTables {
+    ndf: Vec<f32>,
+    sigma: Vec<f32>,
+    rows: usize,
+    power_iteration: PowerIteration,
+}
+
 /// The fields of a `.bsdf` file of `source`, in the database's order, and what was
 /// done.
 pub fn build(
     source: &dyn Brdf,
     opts: &WriteOptions,
 ) -> Result<(Vec<Tensor>, WriteReport), WriteError> {
-    check_options(source, opts)?;
-    let (ndf_t, sigma_t, pi) = ndf_and_sigma(source)?;
+    let sym = check_options(source, opts)?;
+    let tables = if sym == Symmetry::Isotropic {
+        ndf_and_sigma(source)?
+    } else {
+        ndf_and_sigma_2d(source)?
+    };
+    let phi_i = phi_grid(sym, opts.phi_i);
     let theta_i = theta_grid(opts.theta_i);
-    let slices = slices(source, opts, &ndf_t, &sigma_t, &theta_i)?;
-    let n = opts.grid as u64;
-    let nt = theta_i.len() as u64;
+    let slices = slices(source, opts, &tables, &phi_i, &theta_i, sym)?;
     let (vndf, values): (Vec<_>, Vec<_>) = slices.into_iter().unzip();
     let report = WriteReport {
-        power_iteration: pi,
+        power_iteration: tables.power_iteration,
+        symmetry: sym,
+        phi_i: phi_i.iter().map(|&p| f64::from(p)).collect(),
         theta_i: theta_i.iter().map(|&t| f64::from(t)).collect(),
         valid: values.iter().flat_map(|v| &v.valid).filter(|&&b| b).count(),
         nodes: values.len() * opts.grid * opts.grid,
         clamped: values.iter().map(|v| v.clamped).sum(),
     };
     let description = description(opts, &report);
-    let r = NDF_RES as u64;
-    let fields = vec![
+    let fields = fields(
+        description,
+        phi_i,
+        theta_i,
+        tables,
+        &vndf,
+        &values,
+        opts.grid,
+    );
+    Ok((fields, report))
+}
+
+/// The fields in the database's order; `vndf` and `values` per slice, (φi, θi) order.
+fn fields(
+    description: String,
+    phi_i: Vec<f32>,
+    theta_i: Vec<f32>,
+    t: NdfTables,
+    vndf: &[Vec<f32>],
+    values: &[SliceValues],
+    grid: usize,
+) -> Vec<Tensor> {
+    let (np, nt, n) = (phi_i.len() as u64, theta_i.len() as u64, grid as u64);
+    let (r, rows) = (NDF_RES as u64, t.rows as u64);
+    vec![
         Tensor::new("version", &[2], TensorData::U32(vec![1, 0])),
         Tensor::new(
             "description",
             &[description.len() as u64],
             TensorData::U8(description.into_bytes()),
         ),
-        Tensor::new("phi_i", &[1], TensorData::F32(vec![0.0])),
+        Tensor::new("phi_i", &[np], TensorData::F32(phi_i)),
         Tensor::new("theta_i", &[nt], TensorData::F32(theta_i)),
-        Tensor::new("sigma", &[2, r], TensorData::F32(sigma_t)),
-        Tensor::new("ndf", &[2, r], TensorData::F32(ndf_t)),
+        Tensor::new("sigma", &[rows, r], TensorData::F32(t.sigma)),
+        Tensor::new("ndf", &[rows, r], TensorData::F32(t.ndf)),
         Tensor::new(
             "vndf",
-            &[1, nt, VNDF_RES as u64, VNDF_RES as u64],
+            &[np, nt, VNDF_RES as u64, VNDF_RES as u64],
             TensorData::F32(vndf.concat()),
         ),
         Tensor::new(
             "luminance",
-            &[1, nt, n, n],
+            &[np, nt, n, n],
             TensorData::F32(values.iter().flat_map(|v| v.luminance.clone()).collect()),
         ),
         Tensor::new(
             "rgb",
-            &[1, nt, 3, n, n],
+            &[np, nt, 3, n, n],
             TensorData::F32(values.iter().flat_map(|v| v.rgb.clone()).collect()),
         ),
         Tensor::new("jacobian", &[1], TensorData::U8(vec![1])),
-        valid_field(&values),
-    ];
-    Ok((fields, report))
+        valid_field(values),
+    ]
 }
 
 /// Builds the file of `source` and writes it to `path` atomically.
@@ -185,10 +269,8 @@ pub fn write(
     Ok(report)
 }
 
-fn check_options(source: &dyn Brdf, opts: &WriteOptions) -> Result<(), WriteError> {
-    if !source.is_isotropic() {
-        return Err(WriteError::Anisotropic);
-    }
+/// Checks the options against each other and the source; the source's symmetry.
+fn check_options(source: &dyn Brdf, opts: &WriteOptions) -> Result<Symmetry, WriteError> {
     if opts.theta_i < 2 || opts.theta_i > 1024 {
         return Err(WriteError::Options(format!(
             "{} theta_i slices: need 2 to 1024",
@@ -201,7 +283,21 @@ fn check_options(source: &dyn Brdf, opts: &WriteOptions) -> Result<(), WriteErro
             opts.grid
         )));
     }
-    Ok(())
+    if let Some(n) = opts.phi_i {
+        if source.is_isotropic() {
+            return Err(WriteError::Options(format!(
+                "{n} phi_i slices for an isotropic source: its file has one (phi_i = [0]); \
+                 phi_i slices apply to anisotropic sources only"
+            )));
+        }
+        if !(MIN_PHI_I..=MAX_PHI_I).contains(&n) {
+            return Err(WriteError::Options(format!(
+                "{n} phi_i slices: need {MIN_PHI_I} to {MAX_PHI_I} (both ends of the stored \
+                 range; a file of one or two is read as isotropic)"
+            )));
+        }
+    }
+    symmetry(source)
 }
 
 /// The direction at elevation θ (clamped to [`MAX_EVAL_THETA_DEG`]) in the xz plane.
@@ -210,72 +306,159 @@ fn eval_dir(theta: f64) -> (f64, Vec3) {
     (th, spherical(th, 0.0))
 }
 
-/// The `ndf` and `sigma` tables (2 identical φ rows × [`NDF_RES`] u_θ nodes, f32).
-fn ndf_and_sigma(source: &dyn Brdf) -> Result<(Vec<f32>, Vec<f32>, PowerIteration), WriteError> {
+/// The luminance of the source's retro-reflection f(ω, ω) at ω (negatives as 0).
+fn retro(source: &dyn Brdf, w: Vec3) -> Result<f64, WriteError> {
+    let f = source.eval(&w, &w);
+    if !f.is_finite() {
+        return Err(WriteError::NonFinite { wi: w, wo: w });
+    }
+    Ok(tables::luminance(&f.map(|c| c.max(0.0))))
+}
+
+/// The tables of an isotropic source: 2 identical φ rows × [`NDF_RES`] u_θ nodes.
+fn ndf_and_sigma(source: &dyn Brdf) -> Result<NdfTables, WriteError> {
     let us: Vec<f64> = (0..NDF_RES)
         .map(|k| k as f64 / (NDF_RES - 1) as f64)
         .collect();
-    let mut retro = Vec::with_capacity(NDF_RES);
-    for &u in &us {
-        let (_, w) = eval_dir(ndf::u2theta(u));
-        let f = source.eval(&w, &w);
-        if !f.is_finite() {
-            return Err(WriteError::NonFinite { wi: w, wo: w });
-        }
-        retro.push(tables::luminance(&f.map(|c| c.max(0.0))));
-    }
+    let retro = us
+        .iter()
+        .map(|&u| retro(source, eval_dir(ndf::u2theta(u)).1))
+        .collect::<Result<Vec<f64>, _>>()?;
     let (d, pi) = ndf::power_iteration(&retro, NDF_FLOOR);
     let sigma: Vec<f64> = us.par_iter().map(|&u| d.sigma(ndf::u2theta(u))).collect();
     let row = |v: &[f64]| -> Vec<f32> { v.iter().chain(v).map(|&x| x as f32).collect() };
-    Ok((row(&d.values), row(&sigma), pi))
+    Ok(NdfTables {
+        ndf: row(&d.values),
+        sigma: row(&sigma),
+        rows: 2,
+        power_iteration: pi,
+    })
 }
 
-/// Each θi slice's VNDF table and value tables.
+/// The tables of an anisotropic source: [`NDF_PHI_RES`] rows over the absolute u_φ ×
+/// [`NDF_RES`] u_θ columns, by the 2-D power iteration.
+fn ndf_and_sigma_2d(source: &dyn Brdf) -> Result<NdfTables, WriteError> {
+    let (rows, cols) = (NDF_PHI_RES, NDF_RES);
+    let mut retro_v = Vec::with_capacity(rows * cols);
+    for r in 0..rows {
+        // The last row is φ = π, the first again: the same directions.
+        let phi = (2.0 * (r % (rows - 1)) as f64 / (rows - 1) as f64 - 1.0) * PI;
+        for c in 0..cols {
+            let th = ndf::u2theta(c as f64 / (cols - 1) as f64);
+            let (th, _) = eval_dir(th);
+            retro_v.push(retro(source, spherical(th, phi))?);
+        }
+    }
+    let (d, sigma, pi) = ndf::power_iteration_2d(&retro_v, rows, cols, NDF_FLOOR);
+    let f32s = |v: &[f64]| -> Vec<f32> { v.iter().map(|&x| x as f32).collect() };
+    Ok(NdfTables {
+        ndf: f32s(&d.values),
+        sigma: f32s(&sigma.values),
+        rows,
+        power_iteration: pi,
+    })
+}
+
+/// One (φi, θi) slice's incident geometry: the direction the source is evaluated at,
+/// the reader's parameters (φi, θi) of the slice's own direction and σ's lookup
+/// coordinates u(wi).
+struct Incidence {
+    wi: Vec3,
+    params: [f64; 2],
+    u_wi: [f64; 2],
+}
+
+/// The geometry of slice (φ, θ). Isotropic: wi at φ = 0 (u_φ is relative; the reader
+/// folds wi to φi = −π, where σ is read at u_φ = 0). Anisotropic: wi at the slice's φi
+/// (the f64 −π at the range's start: the f32 grid's −3.14159274 has sin > 0 and would
+/// be folded onto the other side), exact zeros on the stored side (−0) and folded as
+/// the reader folds, so the parameters are those the reader computes for it
+/// (`points.rs`, `slice`, builds the measured points the same way).
+fn incidence(sym: Symmetry, phi: f32, theta: f32) -> Incidence {
+    let theta = f64::from(theta);
+    let (th_eval, wi_iso) = eval_dir(theta);
+    if sym == Symmetry::Isotropic {
+        return Incidence {
+            wi: wi_iso,
+            params: [-PI, theta],
+            u_wi: [(theta * 2.0 / PI).sqrt(), 0.0],
+        };
+    }
+    let phi = f64::from(phi).max(-PI);
+    let stored = |th: f64| {
+        let mut w = spherical(th, phi);
+        let side = |c: f64| if c == 0.0 { -0.0 } else { c };
+        (w.x, w.y) = (side(w.x), side(w.y));
+        fold_pair(sym.reduction(), w, w).0
+    };
+    let params = incident_params(&stored(theta));
+    Incidence {
+        wi: stored(th_eval),
+        params,
+        u_wi: [theta2u(params[1]), phi2u(params[0])],
+    }
+}
+
+/// Each (φi, θi) slice's VNDF table and value tables, φi-major.
+///
+/// The VNDF tables come first, and the values are placed through the warp of all of
+/// them at the reader's own parameters of each slice's direction, exactly as the reader
+/// interpolates it: the reader's (φi, θi), computed from a direction, differ from the
+/// f32 grid by ~1e-8 rad and mix in a sliver of the neighbouring slices, which a
+/// slice's own warp alone would miss (a shift of wo by ~1e-8, 1e-4 of f · cos θo / cos θo
+/// where wo is 1e-4 above the horizon).
 fn slices(
     source: &dyn Brdf,
     opts: &WriteOptions,
-    ndf_t: &[f32],
-    sigma_t: &[f32],
+    t: &NdfTables,
+    phi_i: &[f32],
     theta_i: &[f32],
+    sym: Symmetry,
 ) -> Result<Vec<(Vec<f32>, SliceValues)>, WriteError> {
     // The reader's own interpolants of the written tables: the stored values divide by
     // exactly what it will multiply by.
-    let ndf_w = Warp2D::new(ndf_t, NDF_RES, 2, vec![], false, false);
-    let sigma_w = Warp2D::new(sigma_t, NDF_RES, 2, vec![], false, false);
-    let d_u = |u: f64| ndf_w.eval([u, 0.0], &[]);
-    let out: Vec<(Vec<f32>, SliceValues)> = theta_i
-        .par_iter()
-        .map(|&t| {
-            let theta = f64::from(t);
-            let (th_eval, _) = eval_dir(theta);
-            // Reader: wi is folded to φi = −π, so u_φ(wi) = 0.
-            let u_wi = [(theta * 2.0 / PI).sqrt(), 0.0];
-            let sigma = sigma_w.eval(u_wi, &[]);
-            let vndf = tables::vndf_slice(&d_u, sigma, th_eval, VNDF_RES, VNDF_FLOOR);
-            let warp = Warp2D::new(
-                &vndf,
-                VNDF_RES,
-                VNDF_RES,
-                vec![vec![0.0], vec![t]],
-                true,
-                true,
-            );
-            let jacobian = |um: [f64; 2]| ndf_w.eval(um, &[]) / (4.0 * sigma);
-            let values = tables::values_slice(&SliceSpec {
-                source,
-                vndf: &warp,
-                params: [-PI, theta],
-                theta_eval: th_eval,
-                jacobian: &jacobian,
-                n: opts.grid,
-            });
-            (vndf, values)
+    let ndf_w = Warp2D::new(&t.ndf, NDF_RES, t.rows, vec![], false, false);
+    let sigma_w = Warp2D::new(&t.sigma, NDF_RES, t.rows, vec![], false, false);
+    let iso = sym == Symmetry::Isotropic;
+    let d_u = |u: [f64; 2]| ndf_w.eval(if iso { [u[0], 0.0] } else { u }, &[]);
+    let grid: Vec<(Incidence, f64)> = phi_i
+        .iter()
+        .flat_map(|&p| theta_i.iter().map(move |&t| incidence(sym, p, t)))
+        .map(|inc| {
+            let sigma = sigma_w.eval(inc.u_wi, &[]);
+            (inc, sigma)
         })
         .collect();
-    if let Some((wi, wo)) = out.iter().find_map(|(_, v)| v.non_finite) {
+    let vndf: Vec<Vec<f32>> = grid
+        .par_iter()
+        .map(|(inc, sigma)| tables::vndf_slice(&d_u, *sigma, inc.wi, VNDF_RES, VNDF_FLOOR))
+        .collect();
+    let warp = Warp2D::new(
+        &vndf.concat(),
+        VNDF_RES,
+        VNDF_RES,
+        vec![phi_i.to_vec(), theta_i.to_vec()],
+        true,
+        true,
+    );
+    let values: Vec<SliceValues> = grid
+        .par_iter()
+        .map(|(inc, sigma)| {
+            let jacobian = |um: [f64; 2]| ndf_w.eval(um, &[]) / (4.0 * sigma);
+            tables::values_slice(&SliceSpec {
+                source,
+                vndf: &warp,
+                params: inc.params,
+                wi: inc.wi,
+                jacobian: &jacobian,
+                n: opts.grid,
+            })
+        })
+        .collect();
+    if let Some((wi, wo)) = values.iter().find_map(|v| v.non_finite) {
         return Err(WriteError::NonFinite { wi, wo });
     }
-    Ok(out)
+    Ok(vndf.into_iter().zip(values).collect())
 }
 
 /// `valid`: one bit per value node over (φi, θi, y, x), packed most significant bit
@@ -303,8 +486,18 @@ fn description(opts: &WriteOptions, r: &WriteReport) -> String {
     } else {
         opts.description.clone()
     };
+    let phi = if r.symmetry == Symmetry::Isotropic {
+        String::new()
+    } else {
+        format!(
+            "anisotropic ({:?} symmetry: phi_i over 1/{} turn, {} slices), 2-D ",
+            r.symmetry,
+            r.symmetry.reduction(),
+            r.phi_i.len()
+        )
+    };
     format!(
-        "{what}; written by brdfkit {} (brdfkit-rgl): NDF from the retro-reflection by power \
+        "{what}; written by brdfkit {} (brdfkit-rgl): {phi}NDF from the retro-reflection by power \
          iteration (Dupuy et al. 2015, {} steps), {} theta_i slices, {} x {} values, \
          {} of {} nodes above the horizon, {} negative source values stored as 0",
         env!("CARGO_PKG_VERSION"),
@@ -357,6 +550,7 @@ mod tests {
             theta_i,
             grid,
             description: description.into(),
+            ..WriteOptions::default()
         };
         build(&Lobe::SHARP, &opts).unwrap()
     }
@@ -467,11 +661,24 @@ mod tests {
         assert!(zero > 5 * 12, "{zero} nodes below the horizon");
     }
 
-    /// An anisotropic source, bad options and a NaN source are typed errors.
+    /// φi slices for an isotropic source or out of range, bad options and a NaN source
+    /// are typed errors.
     #[test]
     fn refusals() {
         let o = WriteOptions::default();
-        assert!(matches!(build(&Tilted, &o), Err(WriteError::Anisotropic)));
+        for n in [1, 2, MAX_PHI_I + 1] {
+            let bad = WriteOptions {
+                phi_i: Some(n),
+                ..o.clone()
+            };
+            assert!(matches!(build(&Tilted, &bad), Err(WriteError::Options(_))));
+        }
+        let iso = WriteOptions {
+            phi_i: Some(5),
+            ..o.clone()
+        };
+        let e = build(&Lobe::SHARP, &iso).unwrap_err();
+        assert!(e.to_string().contains("isotropic"), "{e}");
         let bad = WriteOptions {
             grid: 1,
             ..o.clone()

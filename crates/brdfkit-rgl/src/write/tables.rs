@@ -6,7 +6,8 @@
 //! - The VNDF of wi is D_wi(m) = D(m) ⟨wi, m⟩₊ / σ(wi) (Heitz 2014, "Understanding the
 //!   Masking-Shadowing Function", eq. 38, with G₁ = cos θi / σ). The `vndf` table holds
 //!   it as a density over the unit square of (u_θm, u_φm), u_θ = √(2θ/π) and
-//!   u_φ = (φm − φi + π)/2π: times the Jacobian |dω/du| = 2π² u_θ sin θm of that map
+//!   u_φ = (φm − φi + π)/2π in an isotropic file, (φm + π)/2π (the absolute azimuth)
+//!   in an anisotropic one (`measured.cpp`): times the Jacobian |dω/du| = 2π² u_θ sin θm of that map
 //!   (the factor `measured.cpp` divides its pdf by). The reader normalises it.
 //!   It is mixed with a uniform density ([`UNIFORM_MIX`]).
 //! - Sample node s = (x, y)/(n − 1) of the value grid stands for the half vector
@@ -46,7 +47,7 @@ use crate::warp::Warp2D;
 use brdfkit_core::{Brdf, Rgb, Vec3};
 use std::f64::consts::PI;
 
-use super::ndf::u2theta;
+use super::ndf::{u2phi, u2theta};
 
 /// The VNDF table is D_wi mixed with this much of the uniform density over the
 /// hemisphere of half vectors (1/2π, D_wi integrating to 1): a departure from the
@@ -61,12 +62,6 @@ const UNIFORM_MIX: f64 = 1.0;
 /// Bisection steps of the inverse warp (2⁻⁴⁸ ≈ 4e-15 of the unit interval).
 const BISECT: usize = 48;
 
-/// u_φ of a relative azimuth: (φ + π)/2π (`measured.cpp`'s `phi2u`).
-#[inline]
-fn u2phi(u: f64) -> f64 {
-    (2.0 * u - 1.0) * PI
-}
-
 /// A unit direction at elevation θ and azimuth φ.
 #[inline]
 pub(crate) fn spherical(theta: f64, phi: f64) -> Vec3 {
@@ -75,27 +70,29 @@ pub(crate) fn spherical(theta: f64, phi: f64) -> Vec3 {
     Vec3::new(cp * st, sp * st, ct)
 }
 
-/// The VNDF density of one slice on a `res` × `res` grid (rows u_φ, columns u_θ),
-/// mixed with the uniform density ([`UNIFORM_MIX`]), in f32, floored at `floor` × its maximum so every
-/// row can be inverted.
+/// The VNDF density of the slice of incident direction `wi` on a `res` × `res` grid
+/// (rows u_φ, columns u_θ; u_φ relative to wi's azimuth in an isotropic file, where wi
+/// is at φ = 0, absolute in an anisotropic one), with `d` the NDF at (u_θ, u_φ), mixed
+/// with the uniform density ([`UNIFORM_MIX`]), in f32, floored at `floor` × its maximum
+/// so every row can be inverted.
 pub(crate) fn vndf_slice(
-    d: &dyn Fn(f64) -> f64,
+    d: &dyn Fn([f64; 2]) -> f64,
     sigma: f64,
-    theta_i: f64,
+    wi: Vec3,
     res: usize,
     floor: f64,
 ) -> Vec<f32> {
-    let wi = spherical(theta_i, 0.0);
     let step = 1.0 / (res - 1) as f64;
     let mut out: Vec<f64> = Vec::with_capacity(res * res);
     for y in 0..res {
-        let phi = u2phi(y as f64 * step);
+        let uy = y as f64 * step;
+        let phi = u2phi(uy);
         for x in 0..res {
             let u = x as f64 * step;
             let th = u2theta(u);
             let m = spherical(th, phi);
             let jac = 2.0 * PI * PI * u * th.sin();
-            let d_wi = d(u) * wi.dot(&m).max(0.0) / sigma;
+            let d_wi = d([u, uy]) * wi.dot(&m).max(0.0) / sigma;
             out.push((d_wi + UNIFORM_MIX / (2.0 * PI)) * jac);
         }
     }
@@ -147,9 +144,10 @@ pub(crate) struct SliceSpec<'a> {
     /// The slice's VNDF warp and its parameters (φi, θi) as the reader passes them.
     pub vndf: &'a Warp2D,
     pub params: [f64; 2],
-    /// The elevation the source is evaluated at (the slice's θi, or just below the
-    /// horizon for a θi = 90° slice).
-    pub theta_eval: f64,
+    /// The incident direction the source is evaluated at (the slice's, or just above
+    /// the horizon for a θi = 90° slice): at φ = 0 in an isotropic file (u_φ relative),
+    /// at the slice's φi in an anisotropic one (u_φ absolute).
+    pub wi: Vec3,
     /// D(u_m) / (4σ(wi)) of the reader, from u_m.
     pub jacobian: &'a dyn Fn([f64; 2]) -> f64,
     /// The value grid, n × n.
@@ -159,7 +157,7 @@ pub(crate) struct SliceSpec<'a> {
 /// The value tables of one slice (see the module's notes).
 pub(crate) fn values_slice(spec: &SliceSpec) -> SliceValues {
     let n = spec.n;
-    let wi = spherical(spec.theta_eval, 0.0);
+    let wi = spec.wi;
     let step = 1.0 / (n - 1) as f64;
     let mut out = SliceValues {
         rgb: vec![0.0; 3 * n * n],

@@ -4,8 +4,9 @@
 //! glue: arguments, file, output.
 //!
 //! `fit-brdf export TABLE|MODEL.json|NBRDF --to rgl --out X_rgb.bsdf [--theta-i N]
-//! [--grid 32|64]`: an RGL-EPFL measured file, written by `brdfkit_rgl::write` from the
-//! source as `brdfkit_validate::compare::Representation::as_brdf` reads it (docs/rgl.md).
+//! [--phi-i N] [--grid 32|64]`: an RGL-EPFL measured file, written by `brdfkit_rgl::write`
+//! from the source as `brdfkit_validate::compare::Representation::as_brdf` reads it; an
+//! anisotropic source gives an anisotropic file (docs/rgl.md).
 
 use crate::cli::{ExportArgs, ExportFormat, Renderer, RglGrid};
 use crate::error::{CliResult, bad_msg, runtime};
@@ -18,8 +19,10 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
     let Some(to) = a.to.renderer() else {
         return run_rgl(&a);
     };
-    if a.theta_i.is_some() || a.grid.is_some() {
-        return Err(bad_msg("--theta-i and --grid apply to --to rgl only"));
+    if a.theta_i.is_some() || a.phi_i.is_some() || a.grid.is_some() {
+        return Err(bad_msg(
+            "--theta-i, --phi-i and --grid apply to --to rgl only",
+        ));
     }
     let form = match (to, a.format) {
         (Renderer::Pbrt | Renderer::Gltf, Some(_)) => {
@@ -77,7 +80,7 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
 
 /// `--to rgl`: the source (a MERL table, a model, an NBRDF) as a `.bsdf` file.
 fn run_rgl(a: &ExportArgs) -> CliResult<()> {
-    use brdfkit::rgl::write::{WriteError, WriteOptions, write};
+    use brdfkit::rgl::write::{Symmetry, WriteError, WriteOptions, write};
     use brdfkit_validate::compare::Representation;
     if a.format.is_some() || a.approximate {
         return Err(bad_msg(
@@ -99,12 +102,20 @@ fn run_rgl(a: &ExportArgs) -> CliResult<()> {
     }
     let rep = Representation::load(&a.params).map_err(|e| bad_msg(e.to_string()))?;
     let source = rep.as_brdf();
+    if a.phi_i.is_some() && source.is_isotropic() {
+        return Err(bad_msg(format!(
+            "{path}: --phi-i applies to anisotropic sources; this {} is isotropic, and its file \
+             has one phi_i slice (phi_i = [0])",
+            kind_name(&rep)
+        )));
+    }
     let name = a
         .params
         .file_name()
         .map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned());
     let opts = WriteOptions {
         theta_i: a.theta_i.map_or(8, usize::from),
+        phi_i: a.phi_i.map(usize::from),
         grid: match a.grid {
             Some(RglGrid::G64) => 64,
             _ => 32,
@@ -117,6 +128,15 @@ fn run_rgl(a: &ExportArgs) -> CliResult<()> {
     })?;
     if !a.quiet {
         let pi = report.power_iteration;
+        if report.symmetry != Symmetry::Isotropic {
+            eprintln!(
+                "note: anisotropic source, {:?} symmetry: {} phi_i slices over 1/{} turn \
+                 (the reader's fold), 2-D NDF",
+                report.symmetry,
+                report.phi_i.len(),
+                report.symmetry.reduction()
+            );
+        }
         eprintln!(
             "note: NDF from the retro-reflection by power iteration ({} steps, last change {:.1e}); \
              {} theta_i slices, {} x {} values, {} of {} nodes above the horizon; \
