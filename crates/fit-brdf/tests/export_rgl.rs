@@ -10,7 +10,7 @@ use brdfkit::core::{Brdf, Vec3};
 use brdfkit::rgl::RglBsdf;
 use common::{
     assert_bad_input, assert_bad_input_writes_nothing, bin, lambert_file, stderr, synth_spec,
-    write_file,
+    temp_file,
 };
 use std::path::Path;
 
@@ -158,9 +158,7 @@ fn refusals() {
 /// isotropic, 65) is exit 2 naming the option, and writes nothing.
 #[test]
 fn anisotropic_model_to_rgl() {
-    let dir = tempfile::tempdir().unwrap();
-    let aniso = write_file(
-        dir.path(),
+    let (dir, aniso) = temp_file(
         "aniso.json",
         r#"{"model": "cook-torrance", "params": {"rho_d": [0.3, 0.2, 0.1], "rho_s": [0.4, 0.5, 0.6], "alpha_x": 0.12, "alpha_y": 0.45, "distribution": "ggx"}}"#,
     );
@@ -168,7 +166,9 @@ fn anisotropic_model_to_rgl() {
     let o = export(&aniso, &out, &["--phi-i", "3", "--theta-i", "6"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("Mirrors symmetry: 3 phi_i slices over 1/4 turn"),
+        stderr(&o).contains(
+            "anisotropic (mirror-symmetric in x and in y: phi_i over a quarter turn, 3 slices)"
+        ),
         "{}",
         stderr(&o)
     );

@@ -482,33 +482,43 @@ fn valid_field(values: &[SliceValues]) -> Tensor {
 /// The `description`: what the file is of, what wrote it and how.
 fn description(opts: &WriteOptions, r: &WriteReport) -> String {
     let what = if opts.description.is_empty() {
-        "a brdfkit source".to_string()
+        "a brdfkit source"
     } else {
-        opts.description.clone()
-    };
-    let phi = if r.symmetry == Symmetry::Isotropic {
-        String::new()
-    } else {
-        format!(
-            "anisotropic ({:?} symmetry: phi_i over 1/{} turn, {} slices), 2-D ",
-            r.symmetry,
-            r.symmetry.reduction(),
-            r.phi_i.len()
-        )
+        &opts.description
     };
     format!(
-        "{what}; written by brdfkit {} (brdfkit-rgl): {phi}NDF from the retro-reflection by power \
-         iteration (Dupuy et al. 2015, {} steps), {} theta_i slices, {} x {} values, \
-         {} of {} nodes above the horizon, {} negative source values stored as 0",
+        "{what}; written by brdfkit {} (brdfkit-rgl): {}",
         env!("CARGO_PKG_VERSION"),
-        r.power_iteration.iterations,
-        opts.theta_i,
-        opts.grid,
-        opts.grid,
-        r.valid,
-        r.nodes,
-        r.clamped
+        r.how(opts)
     )
+}
+
+impl WriteReport {
+    /// How the file was built from its source, in words: what the `description` field
+    /// says after "written by", and what `fit-brdf export` tells the user.
+    pub fn how(&self, opts: &WriteOptions) -> String {
+        let phi = if self.symmetry == Symmetry::Isotropic {
+            String::new()
+        } else {
+            format!(
+                "anisotropic ({}, {} slices), 2-D ",
+                self.symmetry.describe(),
+                self.phi_i.len()
+            )
+        };
+        format!(
+            "{phi}NDF from the retro-reflection by power iteration (Dupuy et al. 2015, {} \
+             steps), {} theta_i slices, {} x {} values, {} of {} nodes above the horizon, {} \
+             negative source values stored as 0",
+            self.power_iteration.iterations,
+            opts.theta_i,
+            opts.grid,
+            opts.grid,
+            self.valid,
+            self.nodes,
+            self.clamped
+        )
+    }
 }
 
 #[cfg(test)]

@@ -61,6 +61,16 @@ impl Symmetry {
         }
     }
 
+    /// The symmetry and the φi range it lets a file store, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Symmetry::Isotropic => "isotropic: one phi_i slice",
+            Symmetry::Mirrors => "mirror-symmetric in x and in y: phi_i over a quarter turn",
+            Symmetry::HalfTurn => "symmetric under a half turn only: phi_i over half a turn",
+            Symmetry::None => "no mirror or half-turn symmetry: phi_i over the full turn",
+        }
+    }
+
     /// The stored φi range [−π, −π + 2π / reduction] (radians) of an anisotropic file.
     pub fn phi_range(self) -> (f64, f64) {
         (-PI, -PI + 2.0 * PI / f64::from(self.reduction()))

@@ -80,7 +80,7 @@ pub fn run(a: ExportArgs) -> CliResult<()> {
 
 /// `--to rgl`: the source (a MERL table, a model, an NBRDF) as a `.bsdf` file.
 fn run_rgl(a: &ExportArgs) -> CliResult<()> {
-    use brdfkit::rgl::write::{Symmetry, WriteError, WriteOptions, write};
+    use brdfkit::rgl::write::{WriteError, WriteOptions, write};
     use brdfkit_validate::compare::Representation;
     if a.format.is_some() || a.approximate {
         return Err(bad_msg(
@@ -127,28 +127,10 @@ fn run_rgl(a: &ExportArgs) -> CliResult<()> {
         e => bad_msg(format!("{path}: {e}")),
     })?;
     if !a.quiet {
-        let pi = report.power_iteration;
-        if report.symmetry != Symmetry::Isotropic {
-            eprintln!(
-                "note: anisotropic source, {:?} symmetry: {} phi_i slices over 1/{} turn \
-                 (the reader's fold), 2-D NDF",
-                report.symmetry,
-                report.phi_i.len(),
-                report.symmetry.reduction()
-            );
-        }
+        let change = report.power_iteration.change;
         eprintln!(
-            "note: NDF from the retro-reflection by power iteration ({} steps, last change {:.1e}); \
-             {} theta_i slices, {} x {} values, {} of {} nodes above the horizon; \
-             {} negative source values stored as 0",
-            pi.iterations,
-            pi.change,
-            opts.theta_i,
-            opts.grid,
-            opts.grid,
-            report.valid,
-            report.nodes,
-            report.clamped
+            "note: {} (last change of the iteration {change:.1e})",
+            report.how(&opts)
         );
         eprintln!("wrote {}", out.display());
     }
