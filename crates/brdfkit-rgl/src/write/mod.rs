@@ -114,11 +114,13 @@ pub struct WriteReport {
     pub power_iteration: PowerIteration,
     /// The source's symmetry, which sets the stored φi range (the reader's fold).
     pub symmetry: Symmetry,
-    /// The φi grid (radians; \[0\] for an isotropic source) and the θi grid.
+    /// The φi grid (radians; \[0\] for an isotropic source).
     pub phi_i: Vec<f64>,
+    /// The θi grid (radians).
     pub theta_i: Vec<f64>,
-    /// Value nodes whose wo is above the horizon (`valid` bits set), and all nodes.
+    /// Value nodes whose wo is above the horizon (`valid` bits set).
     pub valid: usize,
+    /// All value nodes: slices × grid².
     pub nodes: usize,
     /// Negative source values stored as 0.
     pub clamped: usize,
