@@ -650,8 +650,9 @@ mod tests {
     use super::*;
     use brdfkit_merl::{Dims, MerlTable};
 
-    /// Lambertian cells with ρd = (0.3, 0.4, 0.5), a ranked config of 4 starts.
-    fn setup() -> (FitData, FitConfig) {
+    /// Lambertian cells with ρd = (0.3, 0.4, 0.5), a ranked config of 4 starts, and the
+    /// Lambert model to fit with its free parameters.
+    fn setup() -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
         let truth = brdfkit_models::from_json(&serde_json::json!(
             {"model": "lambert", "params": {"rho_d": [0.3, 0.4, 0.5]}}
         ))
@@ -662,14 +663,14 @@ mod tests {
             .unwrap()
             .warm_up(Some(2000))
             .unwrap();
-        (FitData::from_table(&t).unwrap(), cfg)
+        let model = brdfkit_models::default_model("lambert").unwrap();
+        let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
+        (FitData::from_table(&t).unwrap(), cfg, model, free)
     }
 
     #[test]
     fn the_stages_explore_rank_warm_up_and_finish() {
-        let (d, cfg) = setup();
-        let model = brdfkit_models::default_model("lambert").unwrap();
-        let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
+        let (d, cfg, model, free) = setup();
         let cells = Cells::of(&d, &cfg).unwrap();
         let sets = cells.sets();
         assert!(sets.ranked);
@@ -712,9 +713,7 @@ mod tests {
 
     #[test]
     fn only_a_plain_single_finisher_evaluated_once_defers_its_cost() {
-        let (d, cfg) = setup();
-        let model = brdfkit_models::default_model("lambert").unwrap();
-        let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
+        let (d, cfg, model, free) = setup();
         let cells = Cells::of(&d, &cfg).unwrap();
         let sets = cells.sets();
         let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
