@@ -464,7 +464,7 @@ impl GeometryBatchF32 {
 
 impl<'a, T> GeomSliceOf<'a, T> {
     /// The ten columns, in declaration order.
-    fn columns(&self) -> [&'a [T]; 10] {
+    pub fn columns(&self) -> [&'a [T]; 10] {
         [
             self.wi_x, self.wi_y, self.wi_z, self.wo_x, self.wo_y, self.wo_z, self.h_x, self.h_y,
             self.h_z, self.cos_d,
