@@ -173,7 +173,12 @@ impl FitData {
         } else {
             GeometryBatch::default()
         };
-        FitData::assemble(g, [0, 1, 2].map(|_| zeroed_f64_exact(n)), zeroed_f64_exact(n), None)
+        FitData::assemble(
+            g,
+            [0, 1, 2].map(|_| zeroed_f64_exact(n)),
+            zeroed_f64_exact(n),
+            None,
+        )
     }
 
     fn assemble(
@@ -526,7 +531,11 @@ impl FitData {
         let sources: Vec<&[f64]> = (self.geometry.as_slice().columns().into_iter())
             .chain([&r[..], g, b, &self.measure])
             .collect();
-        let mut picked = sources.into_par_iter().map(pick).collect::<Vec<_>>().into_iter();
+        let mut picked = sources
+            .into_par_iter()
+            .map(pick)
+            .collect::<Vec<_>>()
+            .into_iter();
         let mut next = || picked.next().expect("14 columns");
         let geometry = GeometryBatch::from_column_fn(&mut next);
         let values = [next(), next(), next()];
