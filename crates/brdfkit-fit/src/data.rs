@@ -287,22 +287,23 @@ impl FitData {
         let slab = dims.theta_d() * dims.phi_d();
         let [r, g, b] = &mut self.values;
         let runs = split_runs([r, g, b, &mut self.measure], counts);
+        let np = dims.phi_d();
         runs.into_par_iter()
             .enumerate()
             .for_each(|(i, [r, g, b, w])| {
                 let mut m = 0;
-                // The weight is one per (i, j) row (four sines): computed per row.
-                let mut row = (usize::MAX, 0.0);
-                for x in i * slab..(i + 1) * slab {
-                    // `get_flat` is `Some` exactly for valid cells.
-                    if let Some(v) = t.get_flat(x) {
-                        let (_, j, _) = dims.unflatten(x);
-                        if row.0 != j {
-                            row = (j, cell_weight(dims, i, j));
+                // Row by row, so that no cell's (i, j) is recovered from its index (two
+                // integer divisions a cell). The weight is one per (i, j) row (four
+                // sines): computed at the row's first valid cell.
+                for j in 0..dims.theta_d() {
+                    let mut weight = None;
+                    for x in i * slab + j * np..i * slab + (j + 1) * np {
+                        // `get_flat` is `Some` exactly for valid cells.
+                        if let Some(v) = t.get_flat(x) {
+                            (r[m], g[m], b[m]) = (v[0], v[1], v[2]);
+                            w[m] = *weight.get_or_insert_with(|| cell_weight(dims, i, j));
+                            m += 1;
                         }
-                        (r[m], g[m], b[m]) = (v[0], v[1], v[2]);
-                        w[m] = row.1;
-                        m += 1;
                     }
                 }
                 debug_assert_eq!(m, r.len());
