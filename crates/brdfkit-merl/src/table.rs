@@ -353,11 +353,11 @@ pub fn zeroed_f64(len: usize) -> Vec<f64> {
     zeroed_f64_on_pages(len, huge_capacity(len * 8) / 8)
 }
 
-/// [`zeroed_f64`] without the rounding up of [`huge_capacity`]: the 2 MiB regions
+/// [`zeroed_f64`] without its rounding up to whole huge pages: the 2 MiB regions
 /// wholly inside the buffer get huge pages, its two ends 4 KiB ones. For the many
 /// long-lived columns of a fit's cells, where the rounding's whole huge pages past
-/// each column's end added 22 MB to a default fit's peak (14 columns), for 1,000 or
-/// so fewer 4 KiB faults a column.
+/// each column's end added 22 MB to a default fit's peak (14 columns), for about 500
+/// fewer 4 KiB faults a column.
 pub fn zeroed_f64_exact(len: usize) -> Vec<f64> {
     zeroed_f64_on_pages(len, len)
 }
