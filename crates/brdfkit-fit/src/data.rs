@@ -65,6 +65,9 @@ pub struct FitData {
     subsets: SubsetCache,
     /// ∛(f cos θi) per channel ([`FitData::cbrt_targets`]).
     cbrt_targets: OnceLock<[Vec<f64>; 3]>,
+    /// Σ of the weights under solid-angle and uniform weighting
+    /// ([`FitData::weight_sum`]), formed on first use.
+    weight_sums: [OnceLock<f64>; 2],
     /// What scattered samples these cells were built from (`None`: a table, or a
     /// subset of cells), which a fit's record carries.
     input: Option<SampleInput>,
@@ -197,6 +200,7 @@ impl FitData {
             theta_d: OnceLock::new(),
             subsets: SubsetCache::default(),
             cbrt_targets: OnceLock::new(),
+            weight_sums: Default::default(),
             input: None,
         }
     }
@@ -466,9 +470,15 @@ impl FitData {
         }
     }
 
-    /// Σ of the cells' weights, summed in cell order.
+    /// Σ of the cells' weights, summed in cell order: formed on first use and kept (the
+    /// weights never change), so the loss reports of the families of a batch, a
+    /// report or `fit --model a,b,c` do not each repeat a serial pass over every cell.
     pub(crate) fn weight_sum(&self, w: crate::Weighting) -> f64 {
-        (0..self.len()).map(|m| self.weight_at(w, m)).sum()
+        let at = match w {
+            crate::Weighting::SolidAngle => 0,
+            crate::Weighting::Uniform => 1,
+        };
+        *self.weight_sums[at].get_or_init(|| (0..self.len()).map(|m| self.weight_at(w, m)).sum())
     }
 
     /// The weight factor g(θi, θo) of a loss at cell m ([`crate::Loss::cell_factor`]).
