@@ -3,7 +3,7 @@
 use crate::error::FitError;
 use brdfkit_core::geometry::split_runs;
 use brdfkit_core::{GeometryBatch, Model, Rgb};
-use brdfkit_merl::{CellBatch, CellDirections, Dims, MerlTable, cell_weight};
+use brdfkit_merl::{CellBatch, CellDirections, Dims, MerlTable, cell_weight, zeroed_f64_exact};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -65,6 +65,9 @@ pub struct FitData {
     subsets: SubsetCache,
     /// ∛(f cos θi) per channel ([`FitData::cbrt_targets`]).
     cbrt_targets: OnceLock<[Vec<f64>; 3]>,
+    /// Σ of the weights under solid-angle and uniform weighting
+    /// ([`FitData::weight_sum`]), formed on first use.
+    weight_sums: [OnceLock<f64>; 2],
     /// What scattered samples these cells were built from (`None`: a table, or a
     /// subset of cells), which a fit's record carries.
     input: Option<SampleInput>,
@@ -138,6 +141,20 @@ impl StrataEdges {
     fn bin(edges: &[f64; STRATA - 1], z: f64) -> usize {
         edges.iter().map(|&t| usize::from(z <= t)).sum()
     }
+
+    /// The stratum `a · STRATA + b` of a cell with cos θh = `hz` and cos θd = `cd`.
+    #[inline]
+    fn stratum(&self, hz: f64, cd: f64) -> usize {
+        Self::bin(&self.h, hz) * STRATA + Self::bin(&self.d, cd)
+    }
+}
+
+/// `n` zeroed geometry pairs whose columns lie on huge pages where the system allows
+/// ([`zeroed_f64_exact`]): a MERL table's cells are 124 MB of fresh columns, and with 4 KiB
+/// pages their 30,000 first-touch faults cost more CPU than filling them
+/// (docs/performance.md, "Issue 28, session 11").
+fn zeroed_geometry(n: usize) -> GeometryBatch {
+    GeometryBatch::from_column_fn(|| zeroed_f64_exact(n))
 }
 
 /// acos with its argument clamped to [−1, 1]: normalisation can land a ulp beyond 1.
@@ -154,13 +171,17 @@ fn acos_column<'a>(cell: &'a OnceLock<Vec<f64>>, cosines: &[f64]) -> &'a [f64] {
 impl FitData {
     /// A set of `n` cells with every column allocated (zeroed) and multiplicity 1.
     fn zeroed(n: usize, geometry: bool) -> FitData {
-        let z = || vec![0.0; n];
         let g = if geometry {
-            GeometryBatch::zeroed(n)
+            zeroed_geometry(n)
         } else {
             GeometryBatch::default()
         };
-        FitData::assemble(g, [z(), z(), z()], z(), None)
+        FitData::assemble(
+            g,
+            [0, 1, 2].map(|_| zeroed_f64_exact(n)),
+            zeroed_f64_exact(n),
+            None,
+        )
     }
 
     fn assemble(
@@ -179,6 +200,7 @@ impl FitData {
             theta_d: OnceLock::new(),
             subsets: SubsetCache::default(),
             cbrt_targets: OnceLock::new(),
+            weight_sums: Default::default(),
             input: None,
         }
     }
@@ -257,7 +279,7 @@ impl FitData {
         let mask = t.valid_mask().to_vec();
         drop(t);
         let n = data.measure.len();
-        data.geometry = GeometryBatch::zeroed(n);
+        data.geometry = zeroed_geometry(n);
         data.fill_geometry(dims, &mask, &counts);
         Ok(data)
     }
@@ -269,22 +291,23 @@ impl FitData {
         let slab = dims.theta_d() * dims.phi_d();
         let [r, g, b] = &mut self.values;
         let runs = split_runs([r, g, b, &mut self.measure], counts);
+        let np = dims.phi_d();
         runs.into_par_iter()
             .enumerate()
             .for_each(|(i, [r, g, b, w])| {
                 let mut m = 0;
-                // The weight is one per (i, j) row (four sines): computed per row.
-                let mut row = (usize::MAX, 0.0);
-                for x in i * slab..(i + 1) * slab {
-                    // `get_flat` is `Some` exactly for valid cells.
-                    if let Some(v) = t.get_flat(x) {
-                        let (_, j, _) = dims.unflatten(x);
-                        if row.0 != j {
-                            row = (j, cell_weight(dims, i, j));
+                // Row by row, so that no cell's (i, j) is recovered from its index (two
+                // integer divisions a cell). The weight is one per (i, j) row (four
+                // sines): computed at the row's first valid cell.
+                for j in 0..dims.theta_d() {
+                    let mut weight = None;
+                    for x in i * slab + j * np..i * slab + (j + 1) * np {
+                        // `get_flat` is `Some` exactly for valid cells.
+                        if let Some(v) = t.get_flat(x) {
+                            (r[m], g[m], b[m]) = (v[0], v[1], v[2]);
+                            w[m] = *weight.get_or_insert_with(|| cell_weight(dims, i, j));
+                            m += 1;
                         }
-                        (r[m], g[m], b[m]) = (v[0], v[1], v[2]);
-                        w[m] = row.1;
-                        m += 1;
                     }
                 }
                 debug_assert_eq!(m, r.len());
@@ -447,9 +470,15 @@ impl FitData {
         }
     }
 
-    /// Σ of the cells' weights, summed in cell order.
+    /// Σ of the cells' weights, summed in cell order: formed on first use and kept (the
+    /// weights never change), so the loss reports of the families of a batch, a
+    /// report or `fit --model a,b,c` do not each repeat a serial pass over every cell.
     pub(crate) fn weight_sum(&self, w: crate::Weighting) -> f64 {
-        (0..self.len()).map(|m| self.weight_at(w, m)).sum()
+        let at = match w {
+            crate::Weighting::SolidAngle => 0,
+            crate::Weighting::Uniform => 1,
+        };
+        *self.weight_sums[at].get_or_init(|| (0..self.len()).map(|m| self.weight_at(w, m)).sum())
     }
 
     /// The weight factor g(θi, θo) of a loss at cell m ([`crate::Loss::cell_factor`]).
@@ -505,20 +534,23 @@ impl FitData {
 
     /// The cells `idx`, with multiplicities multiplied by `mult` when given.
     fn select(&self, idx: &[usize], mult: Option<&[f64]>) -> FitData {
-        let g = &self.geometry;
-        let pick = |v: &Vec<f64>| idx.iter().map(|&m| v[m]).collect::<Vec<f64>>();
-        let geometry = GeometryBatch {
-            wi_x: pick(&g.wi_x),
-            wi_y: pick(&g.wi_y),
-            wi_z: pick(&g.wi_z),
-            wo_x: pick(&g.wo_x),
-            wo_y: pick(&g.wo_y),
-            wo_z: pick(&g.wo_z),
-            h_x: pick(&g.h_x),
-            h_y: pick(&g.h_y),
-            h_z: pick(&g.h_z),
-            cos_d: pick(&g.cos_d),
-        };
+        let pick = |v: &[f64]| idx.iter().map(|&m| v[m]).collect::<Vec<f64>>();
+        // The 14 columns gathered in parallel: each gather reads a cache line a value
+        // (the cells are scattered), so it waits on memory, and one core left the
+        // other idle for 6 % of a default fit's CPU time.
+        let [r, g, b] = &self.values;
+        let sources: Vec<&[f64]> = (self.geometry.as_slice().columns().into_iter())
+            .chain([&r[..], g, b, &self.measure])
+            .collect();
+        let mut picked = sources
+            .into_par_iter()
+            .map(pick)
+            .collect::<Vec<_>>()
+            .into_iter();
+        let mut next = || picked.next().expect("14 columns");
+        let geometry = GeometryBatch::from_column_fn(&mut next);
+        let values = [next(), next(), next()];
+        let measure = next();
         let m = match (&self.mult, mult) {
             (None, None) => None,
             (Some(a), None) => Some(pick(a)),
@@ -529,16 +561,7 @@ impl FitData {
                     .collect(),
             ),
         };
-        FitData::assemble(
-            geometry,
-            [
-                pick(&self.values[0]),
-                pick(&self.values[1]),
-                pick(&self.values[2]),
-            ],
-            pick(&self.measure),
-            m,
-        )
+        FitData::assemble(geometry, values, measure, m)
     }
 
     /// The cells with θd ≤ `max_theta_d` (radians): the grazing cells, the least
@@ -566,10 +589,26 @@ impl FitData {
     /// formula): no `acos` a cell, and the formula's bin for every cosine.
     #[inline]
     pub fn stratum_at(&self, m: usize) -> usize {
+        StrataEdges::get().stratum(self.geometry.h_z[m], self.geometry.cos_d[m])
+    }
+
+    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes, a chunk of plain
+    /// slices per task (no per-cell indexing or lookup of the edges), so the edge
+    /// comparisons vectorise.
+    fn strata(&self) -> Vec<u8> {
+        const _: () = assert!(STRATA * STRATA <= 256);
         let e = StrataEdges::get();
-        let a = StrataEdges::bin(&e.h, self.geometry.h_z[m]);
-        let b = StrataEdges::bin(&e.d, self.geometry.cos_d[m]);
-        a * STRATA + b
+        let (hz, cd) = (&self.geometry.h_z, &self.geometry.cos_d);
+        let mut ids = vec![0u8; self.len()];
+        ids.par_chunks_mut(PASS_CHUNK_CELLS)
+            .zip(hz.par_chunks(PASS_CHUNK_CELLS))
+            .zip(cd.par_chunks(PASS_CHUNK_CELLS))
+            .for_each(|((ids, hz), cd)| {
+                for ((id, &h), &d) in ids.iter_mut().zip(hz).zip(cd) {
+                    *id = e.stratum(h, d) as u8;
+                }
+            });
+        ids
     }
 
     /// [`stratified_subsample`](Self::stratified_subsample), drawn on the first call
@@ -608,11 +647,7 @@ impl FitData {
         // within a bin, and a shuffle's swaps depend only on the length, so the draw is
         // the same as with any other element type. u32: a set of 2³² cells would need
         // over 450 GB of columns.
-        const _: () = assert!(STRATA * STRATA <= 256);
-        let ids: Vec<u8> = (0..self.len())
-            .into_par_iter()
-            .map(|m| self.stratum_at(m) as u8)
-            .collect();
+        let ids = self.strata();
         let mut start = vec![0usize; STRATA * STRATA + 1];
         for &b in &ids {
             start[b as usize + 1] += 1;
@@ -627,30 +662,33 @@ impl FitData {
             next[b as usize] += 1;
         }
         drop(ids);
-        let mut idx = Vec::new();
-        let mut mult = Vec::new();
+        // The bins drawn in parallel: each draw depends only on its bin's cells, the
+        // seed and the bin, and the drawn cells are put in file order below, so the
+        // result is the serial loop's, bit for bit (1.1 M swaps and draws on one core
+        // were a third of the subsample stage).
+        let mut bins = Vec::with_capacity(STRATA * STRATA);
+        let mut rest = &mut members[..];
         for b in 0..STRATA * STRATA {
-            let cells = &mut members[start[b]..start[b + 1]];
-            if cells.is_empty() {
-                continue;
-            }
-            let n = cells.len();
-            let take = draw_stratum(cells, fraction, seed, b);
-            let chosen = &mut cells[..take];
-            chosen.sort_unstable();
-            let w = n as f64 / take as f64;
-            for &m in chosen.iter() {
-                idx.push(m as usize);
-                mult.push(w);
-            }
+            let (bin, tail) = rest.split_at_mut(start[b + 1] - start[b]);
+            bins.push(bin);
+            rest = tail;
         }
+        let mut drawn: Vec<(u32, f64)> = bins
+            .into_par_iter()
+            .enumerate()
+            .filter(|(_, cells)| !cells.is_empty())
+            .flat_map_iter(|(b, cells)| {
+                let take = draw_stratum(cells, fraction, seed, b);
+                let w = cells.len() as f64 / take as f64;
+                cells[..take].iter().map(move |&m| (m, w))
+            })
+            .collect();
         // Freed before the columns of the subsample are allocated (peak memory).
         drop(members);
         // File order keeps the geometry columns' memory access sequential.
-        let mut order: Vec<usize> = (0..idx.len()).collect();
-        order.sort_unstable_by_key(|&p| idx[p]);
-        let idx: Vec<usize> = order.iter().map(|&p| idx[p]).collect();
-        let mult: Vec<f64> = order.iter().map(|&p| mult[p]).collect();
+        drawn.sort_unstable_by_key(|&(m, _)| m);
+        let idx: Vec<usize> = drawn.iter().map(|&(m, _)| m as usize).collect();
+        let mult: Vec<f64> = drawn.iter().map(|&(_, w)| w).collect();
         self.select(&idx, Some(&mult))
     }
 }

@@ -116,8 +116,22 @@ pub struct InputInfo {
 impl Measured {
     /// Reads a table or a `.bsdf` file (`how` for the latter); `keep_table` keeps a
     /// table beside its cells (else it is freed before their geometry is built).
+    ///
+    /// A MERL table in a regular file is read by [`MerlTable::read`] straight into the
+    /// table (positional reads into a buffer on huge pages), not through a copy of the
+    /// whole file: that copy cost 35 MB of fresh 4 KiB pages and a second pass over
+    /// the bytes, about 30 ms of a default fit's 0.2 s (docs/performance.md, "Issue
+    /// 28, session 11"). Anything else (a `.bsdf`, a pipe) is read whole, as before.
     pub fn read(path: &Path, how: BsdfInput, keep_table: bool) -> Result<Measured, InputError> {
         let t = std::time::Instant::now();
+        if std::fs::metadata(path).is_ok_and(|m| m.is_file())
+            && InputKind::of_file(path).is_ok_and(|k| k != InputKind::Rgl)
+        {
+            let table = MerlTable::read(path)?;
+            let read_s = t.elapsed().as_secs_f64();
+            let m = Measured::of_table(table, path, None, keep_table, None)?;
+            return Ok(Measured { read_s, ..m });
+        }
         let bytes = std::fs::read(path).map_err(|source| InputError::Io {
             path: path.to_owned(),
             source,

@@ -239,3 +239,47 @@ fn strata_from_edges_are_the_formula_s_bins() {
         );
     }
 }
+
+/// `Measured::read` reads a MERL table file straight into the table (positional reads,
+/// no copy of the whole file): the same cells, bit for bit, as parsing the file's
+/// bytes, the same table when it is kept, and for a damaged file the same error,
+/// naming the file.
+#[test]
+fn reading_a_table_file_gives_the_cells_of_its_bytes() {
+    use brdfkit_fit::{BsdfInput, Measured, MeasuredSide};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.binary");
+    let t = table();
+    t.write(&path).unwrap();
+    let how = BsdfInput::Points;
+    let bytes = std::fs::read(&path).unwrap();
+    let read = Measured::read(&path, how, false).unwrap();
+    let parsed = Measured::from_bytes(bytes.clone(), &path, how, false).unwrap();
+    assert_same(&read.data, &parsed.data, "read against from_bytes");
+    assert_same(
+        &read.data,
+        &FitData::from_table(&t).unwrap(),
+        "read against the table",
+    );
+    assert_eq!(read.kind(), "table");
+    match Measured::read(&path, how, true).unwrap().side {
+        MeasuredSide::Table {
+            table: Some(kept),
+            resampled_from_bsdf: None,
+        } => assert_eq!(kept, t),
+        _ => panic!("the table is kept"),
+    }
+    // One value short, and one value bad: the table reader's errors either way.
+    let short = &bytes[..bytes.len() - 8];
+    let mut nan = bytes.clone();
+    nan[12 + 8 * 40..12 + 8 * 41].copy_from_slice(&f64::NAN.to_le_bytes());
+    for damaged in [short, &nan[..]] {
+        std::fs::write(&path, damaged).unwrap();
+        let e = Measured::read(&path, how, false).err().expect("an error");
+        let e2 = Measured::from_bytes(damaged.to_vec(), &path, how, false)
+            .err()
+            .expect("an error");
+        assert_eq!(e.to_string(), e2.to_string());
+        assert!(e.to_string().contains("t.binary"), "{e}");
+    }
+}

@@ -602,6 +602,9 @@ mod tests {
             let mask = alloc_mask(n);
             assert_eq!(mask.len(), n);
             assert!(mask.iter().all(|v| !v));
+            let exact = crate::table::zeroed_f64_exact(n);
+            assert_eq!((exact.len(), exact.capacity()), (n, n));
+            assert!(exact.iter().all(|x| x.to_bits() == 0));
         }
     }
 

@@ -44,4 +44,4 @@ pub use lookup::{BATCH_RUN, Lookup, PairsError};
 pub use mapped::MappedF64;
 pub use resample::{Cell, CellBatch, PresentCell, cell_directions};
 pub use stats::{AlbedoSample, ChannelStats, Quadrature, TableStats, gauss_legendre_01};
-pub use table::{MAX_ABS_RAW, MISSING_RAW, MerlTable, SCALES, zeroed_f64};
+pub use table::{MAX_ABS_RAW, MISSING_RAW, MerlTable, SCALES, zeroed_f64, zeroed_f64_exact};

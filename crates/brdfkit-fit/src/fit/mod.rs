@@ -211,9 +211,9 @@ fn fit_observed(
 }
 
 /// Builds what every fit of `data` under `config` shares whatever the model: the
-/// warm-up and exploration subsamples and the cube-root targets of the loss report
-/// (see `docs/fitting.md`, "The fit's rooms"). [`fit`] builds them on first use
-/// anyway; calling this first (as [`crate::families::fit_each`] does) pays them once
+/// warm-up and exploration subsamples, the cube-root targets and the weight sum of the
+/// loss report (see `docs/fitting.md`, "The fit's rooms"). [`fit`] builds them on first
+/// use anyway; calling this first (as [`crate::families::fit_each`] does) pays them once
 /// per table, outside every family's `wall_time_s`. Errors are the ones `fit` would
 /// give (no cell within the cutoffs).
 pub fn prepare(data: &FitData, config: &FitConfig) -> Result<(), FitError> {
@@ -224,6 +224,7 @@ pub fn prepare(data: &FitData, config: &FitConfig) -> Result<(), FitError> {
     let cells = Cells::of(data, config)?;
     cells.fitset().cbrt_targets();
     data.cbrt_targets();
+    data.weight_sum(config.weighting);
     Ok(())
 }
 
