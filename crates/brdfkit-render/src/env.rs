@@ -75,14 +75,20 @@ pub fn uv_to_direction(u: f64, v: f64) -> Vec3 {
     Vec3::new(st * sp, ct, -st * cp)
 }
 
+/// The row-major index of the texel of a w × h lat-long image that `d` falls in.
+#[inline]
+fn texel_index(d: &Vec3, w: usize, h: usize) -> usize {
+    let (u, v) = direction_to_uv(d);
+    // u < 1 and v ≤ 1: the min keeps v = 1 (straight down) in the last row.
+    let x = ((u * w as f64) as usize).min(w - 1);
+    let y = ((v * h as f64) as usize).min(h - 1);
+    y * w + x
+}
+
 impl LatLong {
     #[inline]
     fn texel_of(&self, d: &Vec3) -> usize {
-        let (u, v) = direction_to_uv(d);
-        // u < 1 and v ≤ 1: the min keeps v = 1 (straight down) in the last row.
-        let x = ((u * self.width as f64) as usize).min(self.width - 1);
-        let y = ((v * self.height as f64) as usize).min(self.height - 1);
-        y * self.width + x
+        texel_index(d, self.width, self.height)
     }
 }
 
@@ -222,16 +228,12 @@ impl EnvDistribution {
                 let uu = (x as f64 + rx) / w as f64;
                 let vv = (y as f64 + ry) / h as f64;
                 let dir = uv_to_direction(uu, vv);
-                let pdf = self.pdf(&dir);
+                let (radiance, pdf) = self.radiance_and_pdf(env, &dir);
                 if pdf <= 0.0 {
                     // Only at the exact poles (sin θ = 0), a set of measure zero.
                     return None;
                 }
-                Some(EnvSample {
-                    dir,
-                    radiance: env.radiance(&dir),
-                    pdf,
-                })
+                Some(EnvSample { dir, radiance, pdf })
             }
         }
     }
@@ -244,23 +246,44 @@ impl EnvDistribution {
             EnvDistribution::Uniform => 0.25 / PI,
             EnvDistribution::Image {
                 width, height, pmf, ..
-            } => {
-                let (w, h) = (*width, *height);
-                // |d.y| can exceed 1 by an ulp after normalisation.
-                let sin_theta = (1.0 - d.y * d.y).max(0.0).sqrt();
-                if sin_theta < 1e-12 {
-                    // At the poles the density in (u, v) maps to an infinite solid-angle
-                    // density; such directions have measure zero, report none.
-                    return 0.0;
-                }
-                let (u, v) = direction_to_uv(d);
-                // As in `texel_of`: v = 1 (straight down) belongs to the last row.
-                let x = ((u * w as f64) as usize).min(w - 1);
-                let y = ((v * h as f64) as usize).min(h - 1);
-                pmf[y * w + x] * (w * h) as f64 / (2.0 * PI * PI * sin_theta)
-            }
+            } => image_pdf(pmf, *width, *height, d, || texel_index(d, *width, *height)),
         }
     }
+
+    /// [`Environment::radiance`] and [`pdf`](Self::pdf) of `d` together: for an image
+    /// and its own distribution the texel of `d` is found once (one `atan2` and one
+    /// `acos` rather than two of each), with the same bits as the two calls.
+    #[inline]
+    pub fn radiance_and_pdf(&self, env: &Environment, d: &Vec3) -> (Rgb, f64) {
+        match (self, env) {
+            (
+                EnvDistribution::Image {
+                    width, height, pmf, ..
+                },
+                Environment::Image(img),
+            ) if img.width == *width && img.height == *height => {
+                let texel = img.texel_of(d);
+                let pdf = image_pdf(pmf, *width, *height, d, || texel);
+                (img.texels[texel], pdf)
+            }
+            _ => (env.radiance(d), self.pdf(d)),
+        }
+    }
+}
+
+/// The density (solid angle) of a w × h image distribution at `d`, whose texel `texel`
+/// gives (asked only off the poles): pmf · w h / (2π² sin θ), the (u, v) density's
+/// Jacobian to solid angle.
+#[inline]
+fn image_pdf(pmf: &[f64], w: usize, h: usize, d: &Vec3, texel: impl FnOnce() -> usize) -> f64 {
+    // |d.y| can exceed 1 by an ulp after normalisation.
+    let sin_theta = (1.0 - d.y * d.y).max(0.0).sqrt();
+    if sin_theta < 1e-12 {
+        // At the poles the density in (u, v) maps to an infinite solid-angle
+        // density; such directions have measure zero, report none.
+        return 0.0;
+    }
+    pmf[texel()] * (w * h) as f64 / (2.0 * PI * PI * sin_theta)
 }
 
 /// For tests: a random direction estimate of ∫ L dω over the sphere through this
