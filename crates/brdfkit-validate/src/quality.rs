@@ -463,19 +463,9 @@ impl LossSums {
     }
 }
 
-/// What [`block_terms`] computes of one block's cells, for the sums taken in cell order.
-struct BlockTerms {
-    /// The block's first cell.
-    start: usize,
-    /// The loss differences d[cell][loss][channel].
-    d: Vec<f64>,
-    /// The (θh, θd) bands ([`BandCuts::band`]).
-    bands: Vec<[u32; 2]>,
-    /// The published metrics' factors ([`Loss::cell_factor`]), computed once here in
-    /// the parallel part rather than once per band axis in the ordered sums (two
-    /// square roots and two divisions a cell).
-    factors: Vec<[f64; 4]>,
-}
+/// One block's first cell, its cells' loss differences `d[cell][loss][channel]` and
+/// their (θh, θd) bands ([`BandCuts::band`]).
+type BlockTerms = (usize, Vec<f64>, Vec<[u32; 2]>);
 
 /// Adds the cells of a window's blocks, in cell order, to the sums of their band on
 /// `axis` (0: θh, 1: θd) and, when given, to `full`.
@@ -485,16 +475,18 @@ fn add_window(
     sums: &mut [LossSums],
     mut full: Option<&mut LossSums>,
     weight: &(dyn Fn(usize) -> f64 + Sync),
+    data: &FitData,
 ) {
-    for t in diffs {
-        let cells = t.d.chunks_exact(12).zip(&t.bands).zip(&t.factors);
-        for (k, ((dk, b), gk)) in cells.enumerate() {
-            let m = t.start + k;
+    let g = data.geometry();
+    for (s, d, bands) in diffs {
+        for (k, (dk, b)) in d.chunks_exact(12).zip(bands).enumerate() {
+            let m = s + k;
+            let gk = Loss::PUBLISHED.map(|l| l.cell_factor(g.wi_z[m], g.wo_z[m]));
             if let Some(sum) = sums.get_mut(b[axis] as usize) {
-                sum.add(weight(m), dk, *gk);
+                sum.add(weight(m), dk, gk);
             }
             if let Some(f) = full.as_deref_mut() {
-                f.add(weight(m), dk, *gk);
+                f.add(weight(m), dk, gk);
             }
         }
     }
@@ -595,8 +587,8 @@ fn cell_pass(
         // In cell order: the sums, the θh bands beside the θd bands and the whole set
         // (each sum is still taken cell by cell in cell order: the same bits).
         rayon::join(
-            || add_window(&diffs, 0, &mut hs, None, &weight),
-            || add_window(&diffs, 1, &mut ds, all.then_some(&mut full), &weight),
+            || add_window(&diffs, 0, &mut hs, None, &weight, data),
+            || add_window(&diffs, 1, &mut ds, all.then_some(&mut full), &weight, data),
         );
     }
     let bands = |edges: &[f64], sums: Vec<LossSums>| -> Vec<Band> {
@@ -712,15 +704,7 @@ fn block_terms(
             d[k * 12 + 9 + c] = lg[k];
         }
     }
-    let factors = (s..e)
-        .map(|m| Loss::PUBLISHED.map(|l| l.cell_factor(g.wi_z[m], g.wo_z[m])))
-        .collect();
-    BlockTerms {
-        start: s,
-        d,
-        bands,
-        factors,
-    }
+    (s, d, bands)
 }
 
 fn albedo_comparison(
