@@ -302,7 +302,10 @@ fn kth_smallest<const K: usize>(v: &[f64], ranks: [usize; K]) -> [f64; K] {
         }
     }
     at.map(|(b, r)| {
-        let i = buckets.iter().position(|&c| c == b).expect("a rank's bucket");
+        let i = buckets
+            .iter()
+            .position(|&c| c == b)
+            .expect("a rank's bucket");
         *members[i].select_nth_unstable_by(r, f64::total_cmp).1
     })
 }
@@ -1202,7 +1205,11 @@ mod tests {
             }
             v.reverse();
             let bits = |p: Option<Percentiles>| p.map(|p| [p.p50, p.p90, p.p99].map(f64::to_bits));
-            assert_eq!(bits(percentiles(&v)), bits(sorted_percentiles(&v)), "n = {n}");
+            assert_eq!(
+                bits(percentiles(&v)),
+                bits(sorted_percentiles(&v)),
+                "n = {n}"
+            );
         }
     }
 }
