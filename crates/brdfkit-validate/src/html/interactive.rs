@@ -20,7 +20,7 @@
 //! against the source's own evaluation (`fit-brdf eval`, a table with `--interp
 //! linear`) on the incidence planes, and the page states it per source.
 //! A five-model report's 6 × 45·45·90 cells × 3 channels × 2 bytes = 6.6 MB of codes are
-//! packed (`pack`: differences along the grid, bytes split, zlib) to 0.42 MB (0.57 MB in
+//! packed (`pack`: differences along the grid, bytes split, zlib) to 0.44 MB (0.58 MB in
 //! base64) on the demo's material; the page inflates them with the browser's
 //! `DecompressionStream` (docs/report.md).
 
