@@ -206,17 +206,30 @@ pub fn directional_albedo(brdf: &dyn Brdf, wo: &Vec3, q: &AlbedoQuadrature) -> R
     let a_rule = gauss_legendre_shared(n_arc);
     let (ax, aw) = (&a_rule.0, &a_rule.1);
     let dphi = 2.0 * std::f64::consts::PI / q.n_phi as f64;
+    // The whole rings (u < u_near) all sample the same azimuths φ0 + (m + ½) Δφ: their
+    // in-plane directions cos φ t + sin φ b are computed once, not once a ring (a
+    // sin_cos a node was a third of a cheap BRDF's integral). The same bits: each node
+    // is still su · (cos φ t + sin φ b) + cu · p, in that order.
+    let ring_dirs: Vec<Vec3> = (0..q.n_phi)
+        .map(|m| {
+            let (sp, cp) = (phi0 + (m as f64 + 0.5) * dphi).sin_cos();
+            cp * t + sp * b
+        })
+        .collect();
     let ring = |u: f64| -> Rgb {
         let (su, cu) = u.sin_cos();
-        let at = |phi: f64| -> Rgb {
-            let (sp, cp) = phi.sin_cos();
-            let wi = su * (cp * t + sp * b) + cu * pole;
+        let node = |d: &Vec3| -> Rgb {
+            let wi = su * d + cu * pole;
             // Round-off can put a node at an arc end a hair below the horizon.
             if wi.z <= 0.0 {
                 Rgb::ZERO
             } else {
                 brdf.eval(&wi, wo) * wi.z
             }
+        };
+        let at = |phi: f64| -> Rgb {
+            let (sp, cp) = phi.sin_cos();
+            node(&(cp * t + sp * b))
         };
         // cos(φ − φ0) > c on the visible part of the ring.
         let c = if su * amp > 0.0 {
@@ -228,8 +241,8 @@ pub fn directional_albedo(brdf: &dyn Brdf, wo: &Vec3, q: &AlbedoQuadrature) -> R
         };
         if c <= -1.0 {
             let mut s = Rgb::ZERO;
-            for m in 0..q.n_phi {
-                s += at(phi0 + (m as f64 + 0.5) * dphi);
+            for d in &ring_dirs {
+                s += node(d);
             }
             s * dphi
         } else if c >= 1.0 {

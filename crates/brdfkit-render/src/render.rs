@@ -52,7 +52,7 @@ use crate::error::RenderError;
 use crate::geometry::Ray;
 use crate::output::RenderOutput;
 use crate::rng::{Pcg32, stratified_2d};
-use crate::sampling::LobeSampler;
+use crate::sampling::{LobeFrame, LobeSampler};
 use crate::scene::{Light, Mis, PixelFilter, Scene};
 use crate::stats::{EffectCost, RenderStats};
 use brdfkit_core::progress::{Event, Observe};
@@ -98,6 +98,8 @@ struct Shading {
     b: Vec3,
     n: Vec3,
     wo: Vec3,
+    /// wo's node and mirror frame for the lobe sampler: once per point, not per sample.
+    lobe: LobeFrame,
     obj: Obj,
     material: usize,
 }
@@ -194,6 +196,7 @@ impl Ctx<'_> {
             b: bb,
             n,
             wo,
+            lobe: LobeFrame::of(&wo),
             obj,
             material,
         })
@@ -624,7 +627,7 @@ impl EnvSampler<'_> {
             let (f, miss) = self.ctx.scene.materials[sh.material].eval(&wi, &sh.wo);
             c.table_misses += miss as u64;
             let lobe = &self.ctx.lobes[sh.material];
-            let wgt = mis_weight(self.ctx.scene.film.mis, ls.pdf, lobe.pdf(&wi, &sh.wo));
+            let wgt = mis_weight(self.ctx.scene.film.mis, ls.pdf, lobe.pdf_in(&wi, &sh.lobe));
             let value = f * ls.radiance * (wi.z * wgt / ls.pdf);
             sink.push(sh, ls.dir, value, target);
         }
@@ -642,7 +645,7 @@ impl EnvSampler<'_> {
         sink: &mut Sink,
         c: &mut Counters,
     ) {
-        let bs = self.ctx.lobes[sh.material].sample(&sh.wo, pick, u);
+        let bs = self.ctx.lobes[sh.material].sample_in(&sh.lobe, pick, u);
         let e = &mut c.environment;
         e.samples += 1;
         if !(bs.wi.z > 0.0 && bs.pdf > 0.0) {
@@ -650,13 +653,13 @@ impl EnvSampler<'_> {
         }
         let dir = sh.world(&bs.wi);
         e.lookups += 1;
-        let le = self.env.radiance(&dir);
+        let (le, env_pdf) = self.dist.radiance_and_pdf(self.env, &dir);
         if le.max_channel() > 0.0 {
             e.brdf_evals += 1;
             let (f, miss) = self.ctx.scene.materials[sh.material].eval(&bs.wi, &sh.wo);
             c.table_misses += miss as u64;
             let wgt = if self.dist.can_sample() {
-                mis_weight(self.ctx.scene.film.mis, bs.pdf, self.dist.pdf(&dir))
+                mis_weight(self.ctx.scene.film.mis, bs.pdf, env_pdf)
             } else {
                 1.0
             };

@@ -264,15 +264,6 @@ impl LobeSampler {
         s
     }
 
-    #[inline]
-    fn node(wo: &Vec3) -> usize {
-        // acos is coarse near the pole, but a node spans 3.75°; the clamp keeps a unit
-        // vector's z that rounds past 1 out of NaN, the min puts θo = π/2 (or a direction
-        // below the horizon, never asked for) in the last node.
-        let theta_o = wo.z.clamp(-1.0, 1.0).acos();
-        ((theta_o / FRAC_PI_2 * Self::NODES as f64) as usize).min(Self::NODES - 1)
-    }
-
     fn nt(&self) -> usize {
         self.theta_edges.len() - 1
     }
@@ -283,7 +274,13 @@ impl LobeSampler {
     /// [`pdf`](Self::pdf); wi may lie below the horizon (the integrand is zero there).
     #[inline]
     pub fn sample(&self, wo: &Vec3, choice: f64, u: [f64; 2]) -> DirSample {
-        let k = Self::node(wo);
+        self.sample_in(&LobeFrame::of(wo), choice, u)
+    }
+
+    /// [`sample`](Self::sample) for the outgoing direction of `f`.
+    #[inline]
+    pub fn sample_in(&self, f: &LobeFrame, choice: f64, u: [f64; 2]) -> DirSample {
+        let k = f.node;
         let wi = if choice < Self::DEFENSIVE || !self.usable[k] {
             sample_cosine(u[0], u[1])
         } else {
@@ -297,12 +294,11 @@ impl LobeSampler {
             // |ct| ≤ 1; the max only guards the root against round-off.
             let st = (1.0 - ct * ct).max(0.0).sqrt();
             let phi = (j as f64 + r2) * (2.0 * PI / np as f64);
-            let (e1, e2, m) = mirror_frame(wo);
-            st * phi.cos() * e1 + st * phi.sin() * e2 + ct * m
+            st * phi.cos() * f.e1 + st * phi.sin() * f.e2 + ct * f.m
         };
         DirSample {
             wi,
-            pdf: self.pdf(&wi, wo),
+            pdf: self.pdf_in(&wi, f),
         }
     }
 
@@ -310,12 +306,17 @@ impl LobeSampler {
     /// `wi` for `wo`.
     #[inline]
     pub fn pdf(&self, wi: &Vec3, wo: &Vec3) -> f64 {
-        let k = Self::node(wo);
+        self.pdf_in(wi, &LobeFrame::of(wo))
+    }
+
+    /// [`pdf`](Self::pdf) for the outgoing direction of `f`.
+    #[inline]
+    pub fn pdf_in(&self, wi: &Vec3, f: &LobeFrame) -> f64 {
+        let k = f.node;
         if !self.usable[k] {
             return cosine_pdf(wi);
         }
-        let (e1, e2, m) = mirror_frame(wo);
-        let (x1, x2, x3) = (wi.dot(&e1), wi.dot(&e2), wi.dot(&m));
+        let (x1, x2, x3) = (wi.dot(&f.e1), wi.dot(&f.e2), wi.dot(&f.m));
         let mut phi = x2.atan2(x1);
         if phi < 0.0 {
             phi += 2.0 * PI;
@@ -332,6 +333,33 @@ impl LobeSampler {
         let j = ((phi / (2.0 * PI) * np as f64) as usize).min(np - 1);
         let tab = self.density[(k * nt + i) * np + j];
         (1.0 - Self::DEFENSIVE) * tab + Self::DEFENSIVE * cosine_pdf(wi)
+    }
+}
+
+/// What [`LobeSampler`]'s draws and densities need of an outgoing direction wo: its θo
+/// node and the frame about its mirror direction. Every sample of a shading point shares
+/// one wo, so a renderer computes this once per point rather than an `acos` and a
+/// frame per draw and per density (the same bits either way).
+#[derive(Clone, Copy, Debug)]
+pub struct LobeFrame {
+    node: usize,
+    e1: Vec3,
+    e2: Vec3,
+    m: Vec3,
+}
+
+impl LobeFrame {
+    /// The node and frame of `wo` (local frame).
+    #[inline]
+    pub fn of(wo: &Vec3) -> Self {
+        // acos is coarse near the pole, but a node spans 3.75°; the clamp keeps a unit
+        // vector's z that rounds past 1 out of NaN, the min puts θo = π/2 (or a direction
+        // below the horizon, never asked for) in the last node.
+        let theta_o = wo.z.clamp(-1.0, 1.0).acos();
+        let n = LobeSampler::NODES;
+        let node = ((theta_o / FRAC_PI_2 * n as f64) as usize).min(n - 1);
+        let (e1, e2, m) = mirror_frame(wo);
+        LobeFrame { node, e1, e2, m }
     }
 }
 

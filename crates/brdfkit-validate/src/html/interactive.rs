@@ -20,7 +20,7 @@
 //! against the source's own evaluation (`fit-brdf eval`, a table with `--interp
 //! linear`) on the incidence planes, and the page states it per source.
 //! A five-model report's 6 × 45·45·90 cells × 3 channels × 2 bytes = 6.6 MB of codes are
-//! packed (`pack`: differences along the grid, bytes split, zlib) to 0.42 MB (0.57 MB in
+//! packed (`pack`: differences along the grid, bytes split, zlib) to 0.44 MB (0.58 MB in
 //! base64) on the demo's material; the page inflates them with the browser's
 //! `DecompressionStream` (docs/report.md).
 
@@ -169,9 +169,17 @@ fn quantise(t: &MerlTable, range: &[(f64, f64); 3]) -> Vec<u16> {
     out
 }
 
+/// zlib's level for the packed grids. Level 7, not 9: on the five-model report of
+/// pink-fabric the six grids (6.56 MB) pack to 533,694 bytes instead of 526,228
+/// (+1.4 %) in under half the time (miniz_oxide's level 9 searches 768 match
+/// candidates a position, 7 256), the deflate having been the largest single part of
+/// the report's CPU after the albedo integrals; the page inflates any level alike
+/// (docs/performance.md, "Issue 28, session 11").
+const PACK_LEVEL: u32 = 7;
+
 /// The bytes the page carries: each plane's codes as differences from the previous cell
 /// (mod 2¹⁶; neighbours along φd are close, so the differences are small), all low bytes
-/// then all high bytes, zlib-compressed.
+/// then all high bytes, zlib-compressed ([`PACK_LEVEL`]).
 fn pack(codes: &[u16]) -> Vec<u8> {
     use std::io::Write;
     let n = codes.len() / 3;
@@ -186,7 +194,7 @@ fn pack(codes: &[u16]) -> Vec<u8> {
     }
     let mut bytes: Vec<u8> = delta.iter().map(|d| d.to_le_bytes()[0]).collect();
     bytes.extend(delta.iter().map(|d| d.to_le_bytes()[1]));
-    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::new(PACK_LEVEL));
     z.write_all(&bytes).expect("writing to memory");
     z.finish().expect("writing to memory")
 }
