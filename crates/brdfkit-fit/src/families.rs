@@ -621,13 +621,53 @@ pub fn comparison_text(outcomes: &[Outcome], optimised: Loss) -> String {
                 o.record.active_bounds.join(", ")
             );
         }
+        if let Some(a) = reflects_more_than_it_receives(&o.record) {
+            s += &format!(
+                "note: {}: not energy-conserving: its directional albedo reaches {a:.3} (it \
+                 reflects more light than it receives at some incidence); an energy-conserving \
+                 fit keeps it at most 1\n",
+                o.label
+            );
+        }
     }
     s
+}
+
+/// The albedo above which an unconstrained fit is called not energy-conserving: 1 plus
+/// a margin for the quadrature's error (its estimate of a white Lambertian's albedo,
+/// exactly 1, is off by up to 5.3e-4), so that only a real excess is reported.
+const ALBEDO_NOTE: f64 = 1.0 + 1e-2;
+
+/// The fitted model's largest directional albedo when it exceeds 1 and the fit was not
+/// held under a bound: a physically impossible answer the user should hear about (a
+/// flat lobe trading ρs against α far along a degenerate direction gives one, as the
+/// Cook-Torrance fit of a felt's measured points does).
+fn reflects_more_than_it_receives(r: &FitRecord) -> Option<f64> {
+    r.max_albedo
+        .filter(|&a| a > ALBEDO_NOTE && r.albedo_max.is_none())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The note's margin over 1 is far above the quadrature's error on a white
+    /// Lambertian, whose albedo is exactly 1 at every incidence.
+    #[test]
+    fn the_albedo_note_margin_is_above_the_quadrature_error() {
+        let white = brdfkit_models::from_json(&serde_json::json!(
+            {"model": "lambert", "params": {"rho_d": 1.0}}
+        ))
+        .unwrap();
+        let worst = crate::energy::AlbedoQuadrature::new()
+            .albedos(white.as_ref())
+            .iter()
+            .flat_map(|a| a.0)
+            .map(|a| (a - 1.0).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-3, "quadrature error {worst}");
+        assert!(ALBEDO_NOTE - 1.0 > 10.0 * worst, "quadrature error {worst}");
+    }
 
     fn json_of(f: &Family) -> Value {
         f.model.to_json()

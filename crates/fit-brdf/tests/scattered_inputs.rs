@@ -304,3 +304,40 @@ fn bad_sample_files_are_exit_2_naming_file_and_row_in_score_and_report() {
     let o = bin().arg("score").arg(&m).output().unwrap();
     assert_bad_input(&o, &["give a table (or --samples) and at least one model"]);
 }
+
+/// A fit whose answer reflects more light than it receives is said to be so: the
+/// Cook-Torrance fit of the felt's measured points runs along a nearly flat lobe (α ≈ 10,
+/// ρs in the tens of thousands) to a directional albedo of about 5.6; the
+/// energy-conserving fit of the same points keeps it under 1 and has no such note.
+#[test]
+fn a_fit_that_is_not_energy_conserving_says_so() {
+    let note = "not energy-conserving: its directional albedo reaches";
+    let fit = |extra: &[&str]| {
+        let o = bin()
+            .arg("fit")
+            .arg(felt())
+            .args(["--model", "cook-torrance", "--quiet"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let free = fit(&[]);
+    let line = free
+        .lines()
+        .find(|l| l.contains(note))
+        .unwrap_or_else(|| panic!("{free}"));
+    let reached: f64 = line
+        .split(note)
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(reached > 2.0, "{line}");
+    let held = fit(&["--energy-conserving"]);
+    assert!(!held.contains(note), "{held}");
+}

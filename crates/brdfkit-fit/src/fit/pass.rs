@@ -110,14 +110,7 @@ impl<'a> Pass<'a> {
         config: &'a FitConfig,
         observer: Option<&'a Arc<dyn Observe>>,
     ) -> Result<Pass<'a>, FitError> {
-        let plain = FitProblem::new(
-            cells.fit,
-            model,
-            free.to_vec(),
-            channels.to_vec(),
-            config.loss,
-            config.weighting,
-        )?;
+        let plain = problem_on(cells.fit, model, free, channels, config, &None)?;
         // Energy conservation: the albedo penalty on every stage's problem (λ relative
         // to the full set's targets, so the stages share it).
         let penalty = config.albedo_max.map(|a| {
