@@ -28,7 +28,7 @@ use brdfkit_core::progress::{Event, Observe};
 use brdfkit_fit::families::{FitSettings, Structure, families};
 use brdfkit_fit::{FitData, Loss, fit};
 use brdfkit_merl::Dims;
-use brdfkit_validate::html::renders::{Lighting, OUTLINE, RenderOptions, render_set};
+use brdfkit_validate::html::renders::{Lighting, OUTLINE, RenderOptions, Shown, render_set};
 use palette::color_difference::Ciede2000;
 use palette::{IntoColor, Lab, LinSrgb, Srgb, white_point::D65};
 use serde::{Deserialize, Serialize};
@@ -281,7 +281,7 @@ fn measure(
         }
         let fitted: Vec<&brdfkit_fit::Fitted> = fits.iter().map(|r| &r.fitted).collect();
         for lighting in Lighting::ALL {
-            let set = render_set(lighting, &cfg.render, &table, &fitted)
+            let set = render_set(lighting, &cfg.render, Shown::Table(&table), &fitted)
                 .map_err(|e| err(e.to_string()))?;
             let timg = decode(&set.table_png, name)?;
             let mut strip = vec![timg.clone()];

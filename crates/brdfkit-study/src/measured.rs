@@ -17,7 +17,7 @@ use brdfkit_core::progress::{Event, Observe};
 use brdfkit_core::text::read_utf8;
 use brdfkit_fit::Fitted;
 use brdfkit_merl::Dims;
-use brdfkit_validate::html::renders::{Lighting, RenderOptions, render_set};
+use brdfkit_validate::html::renders::{Lighting, RenderOptions, Shown, render_set};
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -415,8 +415,8 @@ fn thumbnail(m: &MeasuredMaterial, size: usize) -> Result<(Vec<u8>, Vec<u8>, f64
         size,
         ..RenderOptions::default()
     };
-    let set =
-        render_set(Lighting::Point, &o, &table, &[&fitted]).map_err(|e| err(e.to_string()))?;
+    let set = render_set(Lighting::Point, &o, Shown::Table(&table), &[&fitted])
+        .map_err(|e| err(e.to_string()))?;
     let r = set
         .models
         .into_iter()

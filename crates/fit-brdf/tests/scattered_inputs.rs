@@ -4,6 +4,7 @@
 //! data and claims no measured sphere for samples; bad files are exit 2 naming the file
 //! and the row.
 
+#[macro_use]
 mod common;
 
 use common::{assert_bad_input, bin, stderr};
@@ -119,13 +120,7 @@ fn score_on_samples_equals_the_losses_computed_by_hand() {
         }
     }
     // The text names the input and its counts.
-    let o = bin()
-        .args(["score", "--samples"])
-        .arg(&s)
-        .arg(&m)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = fit_brdf_ok!("score", "--samples", &s, &m);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
         text.contains("lab.csv (scattered samples): 3 samples of 4 rows (1 missing"),
@@ -144,16 +139,19 @@ fn felt() -> PathBuf {
 fn score_on_a_bsdf_takes_the_points_of_fit() {
     let d = tempfile::tempdir().unwrap();
     let (p, r) = (d.path().join("p.json"), d.path().join("r.json"));
-    let o = bin()
-        .arg("fit")
-        .arg(felt())
-        .args(["--model", "lambert", "--starts", "1", "-q", "--out"])
-        .arg(&p)
-        .arg("--record")
-        .arg(&r)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    fit_brdf_ok!(
+        "fit",
+        felt(),
+        "--model",
+        "lambert",
+        "--starts",
+        "1",
+        "-q",
+        "--out",
+        &p,
+        "--record",
+        &r
+    );
     let rec: Value = serde_json::from_slice(&std::fs::read(&r).unwrap()).unwrap();
     let score = |extra: &[&str]| {
         let o = bin()
@@ -281,27 +279,16 @@ fn bad_sample_files_are_exit_2_naming_file_and_row_in_score_and_report() {
     )
     .unwrap();
     let needles = ["bad.csv: line 3: wo has z = -0.8", "below the horizon"];
-    let o = bin()
-        .args(["score", "--samples"])
-        .arg(&p)
-        .arg(&m)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("score", "--samples", &p, &m);
     assert_bad_input(&o, &needles);
     let out = d.path().join("r");
-    let o = bin()
-        .args(["report", "--samples"])
-        .arg(&p)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = fit_brdf!("report", "--samples", &p, "--out", &out);
     assert_bad_input(&o, &needles);
     assert!(!out.exists(), "a report written on bad input");
     // score with --samples needs a model; without, a table and a model.
-    let o = bin().args(["score", "--samples"]).arg(&p).output().unwrap();
+    let o = fit_brdf!("score", "--samples", &p);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let o = bin().arg("score").arg(&m).output().unwrap();
+    let o = fit_brdf!("score", &m);
     assert_bad_input(&o, &["give a table (or --samples) and at least one model"]);
 }
 

@@ -550,7 +550,7 @@ fn sphere_renders(
     };
     Lighting::ALL
         .par_iter()
-        .map(|l| renders::render_set(*l, ro, table, fitted))
+        .map(|l| renders::render_set(*l, ro, renders::Shown::Table(table), fitted))
         .collect()
 }
 

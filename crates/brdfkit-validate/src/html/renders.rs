@@ -240,7 +240,7 @@ fn run(scene: &Scene) -> Result<RenderOutput, ReportError> {
 
 /// What a render shows: a model (fitted or given) or a table (interpolated lookups).
 #[derive(Clone, Copy)]
-pub(crate) enum Shown<'a> {
+pub enum Shown<'a> {
     /// A model, or one per channel.
     Fitted(&'a Fitted),
     /// A table.
@@ -417,28 +417,17 @@ fn difference(
     )
 }
 
-/// Renders the table and every fitted model under `l` (the report's spheres; also what
-/// `brdfkit-study` draws its thumbnails and image scores with).
+/// Renders the measured reference (a table, or a `.bsdf` file from its own evaluation,
+/// nothing resampled) and every fitted model under `l`: the report's spheres, and what
+/// `brdfkit-study` draws its thumbnails and image scores with.
 pub fn render_set(
     l: Lighting,
     o: &RenderOptions,
-    table: &Arc<MerlTable>,
+    reference: Shown,
     fits: &[&Fitted],
 ) -> Result<RenderSet, ReportError> {
     let shown: Vec<Shown> = fits.iter().map(|f| Shown::Fitted(f)).collect();
-    render_set_of(l, o, Shown::Table(table), &shown)
-}
-
-/// Renders a `.bsdf` file from its own evaluation (nothing resampled) and every
-/// fitted model under `l`: the spheres of the report on a file's measured points.
-pub fn render_set_measured(
-    l: Lighting,
-    o: &RenderOptions,
-    bsdf: &Arc<RglBsdf>,
-    fits: &[&Fitted],
-) -> Result<RenderSet, ReportError> {
-    let shown: Vec<Shown> = fits.iter().map(|f| Shown::Fitted(f)).collect();
-    render_set_of(l, o, Shown::Measured(bsdf), &shown)
+    render_set_of(l, o, reference, &shown)
 }
 
 /// Renders a reference (the set's `table_png`, which sets the exposure) and each of
@@ -515,7 +504,7 @@ mod tests {
             size: 64,
             ..Default::default()
         };
-        let s = render_set(Lighting::Point, &o, &table, &[&lam]).unwrap();
+        let s = render_set(Lighting::Point, &o, Shown::Table(&table), &[&lam]).unwrap();
         // The silhouette's radius in pixels, from the scene's camera alone: a unit
         // sphere seen from 4.2 spans asin(1 / 4.2) off axis; the 31° field of view
         // spans the image's width.
@@ -578,7 +567,7 @@ mod tests {
             ..Default::default()
         };
         for l in Lighting::ALL {
-            let s = render_set(l, &o, &table, &[&lam(rho), &lam(2.0 * rho)]).unwrap();
+            let s = render_set(l, &o, Shown::Table(&table), &[&lam(rho), &lam(2.0 * rho)]).unwrap();
             assert!(s.table_png.starts_with(b"\x89PNG"));
             // A constant table is the Lambertian exactly: the same image up to the
             // interpolation's round-off.

@@ -19,7 +19,7 @@
 
 use super::AnyReport;
 use super::analysis::LOG_RATIO_FLOOR;
-use super::renders::{Lighting, RenderSet, render_set_measured};
+use super::renders::{Lighting, RenderSet, Shown, render_set};
 pub use super::scattered_data::{
     BAND_DEG, Band, MAX_PLOTTED, ScatteredData, ScatteredModel, ScatteredSummary,
 };
@@ -237,7 +237,7 @@ fn sphere_renders(
             "rendering spheres under the {}",
             l.title()
         )));
-        sets.push(render_set_measured(l, ro, bsdf, &fitted)?);
+        sets.push(render_set(l, ro, Shown::Measured(bsdf), &fitted)?);
     }
     timings.renders_s = t.elapsed().as_secs_f64();
     Ok(sets)
