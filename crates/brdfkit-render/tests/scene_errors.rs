@@ -24,7 +24,9 @@ intensity = 10
 "#;
 
 /// Writes `text` as bad.toml in a temp dir (with `files` beside it) and reads it.
-fn read(text: &str, files: &[(&str, &[u8])]) -> (SceneError, String) {
+/// Reads `text` as a scene file beside `files`, which must be rejected with an error
+/// that starts with the scene's path and holds each of `words`.
+fn rejected(text: &str, files: &[(&str, &[u8])], words: &[&str]) -> SceneError {
     let dir = tempfile::tempdir().unwrap();
     for (name, bytes) in files {
         std::fs::write(dir.path().join(name), bytes).unwrap();
@@ -38,7 +40,10 @@ fn read(text: &str, files: &[(&str, &[u8])]) -> (SceneError, String) {
         "no scene path in: {msg}"
     );
     assert_eq!(e.scene_path(), path.as_path());
-    (e, msg)
+    for w in words {
+        assert!(msg.contains(w), "`{w}` not in: {msg}");
+    }
+    e
 }
 
 fn edit(from: &str, to: &str) -> String {
@@ -47,12 +52,11 @@ fn edit(from: &str, to: &str) -> String {
 }
 
 fn assert_invalid(text: &str, key: &str, words: &str) {
-    let (e, msg) = read(text, &[]);
+    let e = rejected(text, &[], &[words]);
     assert!(
         matches!(&e, SceneError::Invalid { key: k, .. } if k == key),
-        "expected Invalid at `{key}`, got: {msg}"
+        "expected Invalid at `{key}`, got: {e}"
     );
-    assert!(msg.contains(words), "`{words}` not in: {msg}");
 }
 
 /// [`assert_invalid`] of the good scene with `from` replaced by `to`.
@@ -66,14 +70,11 @@ fn syntax_after(from: &str, to: &str, words: &[&str]) {
 }
 
 fn assert_syntax(text: &str, words: &[&str]) {
-    let (e, msg) = read(text, &[]);
+    let e = rejected(text, &[], words);
     assert!(
         matches!(e, SceneError::Syntax { .. }),
-        "expected Syntax, got: {msg}"
+        "expected Syntax, got: {e}"
     );
-    for w in words {
-        assert!(msg.contains(w), "`{w}` not in: {msg}");
-    }
 }
 
 #[test]
@@ -289,20 +290,18 @@ fn out_of_domain_values_are_rejected_with_the_value() {
         "not both",
     );
     // A model parameter outside its domain: the model crate's error, with the key.
-    let (e, msg) = read(&edit("rho_d = 0.5", "rho_d = 2"), &[]);
+    let e = rejected(
+        &edit("rho_d = 0.5", "rho_d = 2"),
+        &[],
+        &["rho_d", "outside its domain"],
+    );
     assert!(
         matches!(&e, SceneError::Model { key, .. } if key == "material.model"),
-        "{msg}"
+        "{e}"
     );
-    assert!(
-        msg.contains("rho_d") && msg.contains("outside its domain"),
-        "{msg}"
-    );
-    let (e, msg) = read(&edit("model = \"lambert\"", "model = \"lambertian\""), &[]);
-    assert!(
-        matches!(e, SceneError::Model { .. }) && msg.contains("unknown model `lambertian`"),
-        "{msg}"
-    );
+    let lambertian = edit("model = \"lambert\"", "model = \"lambertian\"");
+    let e = rejected(&lambertian, &[], &["unknown model `lambertian`"]);
+    assert!(matches!(e, SceneError::Model { .. }), "{e}");
 }
 
 #[test]
@@ -326,66 +325,60 @@ fn missing_and_broken_referenced_files_name_the_file() {
             &format!("model = \"{p}\""),
         )
     };
-    let (e, msg) = read(&by_path("nope.json"), &[]);
+    let e = rejected(&by_path("nope.json"), &[], &["nope.json", "cannot read"]);
     assert!(
         matches!(&e, SceneError::File { key, .. } if key == "material.model"),
-        "{msg}"
-    );
-    assert!(
-        msg.contains("nope.json") && msg.contains("cannot read"),
-        "{msg}"
+        "{e}"
     );
 
-    let (e, msg) = read(&by_path("m.json"), &[("m.json", b"{\"model\": ")]);
-    assert!(matches!(e, SceneError::ModelJson { .. }), "{msg}");
-    assert!(
-        msg.contains("m.json") && msg.contains("not valid JSON"),
-        "{msg}"
-    );
-
-    let (e, msg) = read(
+    let broken: &[u8] = b"{\"model\": ";
+    let e = rejected(
         &by_path("m.json"),
-        &[("m.json", br#"{"model":"lambert","params":{"rho":0.5}}"#)],
+        &[("m.json", broken)],
+        &["m.json", "not valid JSON"],
+    );
+    assert!(matches!(e, SceneError::ModelJson { .. }), "{e}");
+
+    let unknown_key: &[u8] = br#"{"model":"lambert","params":{"rho":0.5}}"#;
+    let e = rejected(
+        &by_path("m.json"),
+        &[("m.json", unknown_key)],
+        &["m.json", "rho"],
     );
     assert!(
         matches!(&e, SceneError::Model { file: Some(f), .. } if f.ends_with("m.json")),
-        "{msg}"
+        "{e}"
     );
-    assert!(msg.contains("m.json") && msg.contains("rho"), "{msg}");
 
     let table = edit(
         "model = { model = \"lambert\", params = { rho_d = 0.5 } }",
         "table = \"nope.binary\"",
     );
-    let (e, msg) = read(&table, &[]);
-    assert!(matches!(e, SceneError::Table { .. }), "{msg}");
-    assert!(msg.contains("nope.binary"), "{msg}");
-    let (e, msg) = read(
+    let e = rejected(&table, &[], &["nope.binary"]);
+    assert!(matches!(e, SceneError::Table { .. }), "{e}");
+    let e = rejected(
         &table.replace("nope.binary", "short.binary"),
         &[("short.binary", b"12345")],
+        &["short.binary", "shorter than the 12-byte header"],
     );
-    assert!(matches!(e, SceneError::Table { .. }), "{msg}");
-    assert!(
-        msg.contains("short.binary") && msg.contains("shorter than the 12-byte header"),
-        "{msg}"
-    );
+    assert!(matches!(e, SceneError::Table { .. }), "{e}");
 
     let env = edit(
         "effects = [\"direct\"]",
         "effects = [\"direct\", \"environment\"]",
     );
-    let (e, msg) = read(&format!("{env}[environment]\nfile = \"sky.exr\"\n"), &[]);
+    let sky = |name: &str| format!("{env}[environment]\nfile = \"{name}\"\n");
+    let e = rejected(&sky("sky.exr"), &[], &["sky.exr"]);
     assert!(
         matches!(&e, SceneError::File { key, .. } if key == "environment.file"),
-        "{msg}"
+        "{e}"
     );
-    assert!(msg.contains("sky.exr"), "{msg}");
-    let (e, msg) = read(
-        &format!("{env}[environment]\nfile = \"sky.png\"\n"),
+    let e = rejected(
+        &sky("sky.png"),
         &[("sky.png", b"not an image")],
+        &["sky.png"],
     );
-    assert!(matches!(e, SceneError::Image { .. }), "{msg}");
-    assert!(msg.contains("sky.png"), "{msg}");
+    assert!(matches!(e, SceneError::Image { .. }), "{e}");
 }
 
 #[test]
@@ -404,15 +397,12 @@ fn an_environment_with_negative_texels_is_rejected() {
         "effects = [\"direct\"]",
         "effects = [\"direct\", \"environment\"]",
     );
-    let (e, msg) = read(
+    let e = rejected(
         &format!("{env}[environment]\nfile = \"neg.exr\"\n"),
         &[("neg.exr", &bytes)],
+        &["texel (3, 1)", "non-negative"],
     );
-    assert!(matches!(e, SceneError::Image { .. }), "{msg}");
-    assert!(
-        msg.contains("texel (3, 1)") && msg.contains("non-negative"),
-        "{msg}"
-    );
+    assert!(matches!(e, SceneError::Image { .. }), "{e}");
 }
 
 #[test]
