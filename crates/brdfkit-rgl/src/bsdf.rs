@@ -129,6 +129,20 @@ pub(crate) fn phi2u(phi: f64) -> f64 {
     (phi + PI) * (0.5 / PI)
 }
 
+/// θ of the format's u coordinate: θ = (π/2) u² (`measured.cpp`'s `u2theta`; the inverse
+/// of [`theta2u`]).
+#[inline]
+pub(crate) fn u2theta(u: f64) -> f64 {
+    u * u * (PI / 2.0)
+}
+
+/// The azimuth of u_φ = (φ + π)/2π: (2u − 1)π (`measured.cpp`'s `u2phi`, the inverse of
+/// [`phi2u`]; relative to φi in an isotropic file, absolute in an anisotropic one).
+#[inline]
+pub(crate) fn u2phi(u: f64) -> f64 {
+    (2.0 * u - 1.0) * PI
+}
+
 /// `x` with its sign flipped unless `s`'s sign bit is set (Dr.Jit's `mulsign_neg`).
 #[inline]
 fn mulsign_neg(x: f64, s: f64) -> f64 {

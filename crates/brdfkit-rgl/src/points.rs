@@ -55,12 +55,13 @@
 //! θi = 0 slices that the reader does not read, and nodes whose wo is on or below the
 //! horizon.
 
+use crate::bsdf::u2theta;
 use crate::bsdf::{Parts, RglBsdf, Values, incident_params, phi2u, theta2u};
 use crate::cie;
 use crate::error::RglError;
 use crate::tensor::TensorFile;
-use crate::write::ndf::u2theta;
-use crate::write::tables::{forward, spherical};
+use crate::write::tables::forward;
+use brdfkit_core::direction::spherical;
 use brdfkit_core::{Brdf, Vec3};
 use rayon::prelude::*;
 use std::f64::consts::PI;

@@ -35,7 +35,7 @@ fn synth_then_info_text_and_json() {
     let o = fit_brdf!("info", &t);
     assert!(o.status.success());
     let s = String::from_utf8(o.stdout).unwrap();
-    assert!(s.contains("16 x 16 x 32"), "{s}");
+    common::assert_mentions(&s, &["16 x 16 x 32"]);
     let o = fit_brdf!("info", &t, "--json");
     assert!(o.status.success());
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -146,7 +146,7 @@ fn eval_rejects_bad_input_with_exit_2() {
         let o = fit_brdf!("eval", "--model", &model, "--dirs", &good);
         assert_eq!(o.status.code(), Some(2), "{text}");
         let e = stderr(&o);
-        assert!(e.contains("m.json") && e.contains(what), "{e}");
+        common::assert_mentions(&e, &["m.json", what]);
     }
     // Both sources, or none: usage errors.
     let o = fit_brdf!("eval", "--dirs", "x.csv");
@@ -218,7 +218,7 @@ fn synth_rejects_a_bad_spec_with_exit_2() {
     let o = synth_output(&spec, &d.path().join("t.binary"));
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
-    assert!(e.contains("bad.toml") && e.contains("colour"), "{e}");
+    common::assert_mentions(&e, &["bad.toml", "colour"]);
     assert!(!d.path().join("t.binary").exists());
 }
 
@@ -248,7 +248,7 @@ fn check_passes_lambert_fails_phong_and_checks_tables() {
         "the original Phong fails its physical checks"
     );
     let s = String::from_utf8_lossy(&o.stdout);
-    assert!(s.contains("reciprocity") && s.contains("FAIL"), "{s}");
+    common::assert_mentions(&s, &["reciprocity", "FAIL"]);
     let t = small_table(d.path());
     let o = fit_brdf_ok!("check", &t, "--json");
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();

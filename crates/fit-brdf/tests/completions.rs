@@ -122,7 +122,7 @@ fn install_creates_the_folder_and_writes_where_each_shell_looks() {
             let o = run(&["completions", shell, "--install"], xdg.as_deref());
             assert!(o.status.success(), "{shell}: {}", stderr(&o));
             let said = String::from_utf8_lossy(&o.stdout);
-            assert!(said.contains(&want.display().to_string()), "{said}");
+            common::assert_mentions(&said, &[&want.display().to_string()]);
             assert_eq!(std::fs::read(&want).unwrap(), script(shell), "{shell}");
         }
         // Nothing but the script in its folder (no temporary file left).
@@ -132,7 +132,7 @@ fn install_creates_the_folder_and_writes_where_each_shell_looks() {
     // No known place, or no HOME: bad input, nothing written.
     let o = run(&["completions", "elvish", "--install"], None);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("elvish"), "{}", stderr(&o));
+    common::assert_mentions(&stderr(&o), &["elvish"]);
     let o = bin()
         .args(["completions", "bash", "--install"])
         .env_remove("HOME")

@@ -28,7 +28,7 @@ fn demo(dir: &Path, extra: &[&str]) -> (String, Value) {
     assert!(at("identical to what was written") < at("fitting 5 model families"));
     assert!(at("optimised: cbrt") < at("report written"));
     let page = out.join("report").join("index.html");
-    assert!(s.contains(&page.display().to_string()), "{s}");
+    common::assert_mentions(&s, &[&page.display().to_string()]);
     let names = names(&out.join("report"));
     assert_eq!(names, ["index.html", "report.json"]);
     let html = std::fs::read_to_string(&page).unwrap();
@@ -39,14 +39,15 @@ fn demo(dir: &Path, extra: &[&str]) -> (String, Value) {
     assert_eq!(json["summary"]["models"].as_array().unwrap().len(), 5);
     // The interactive panels, with the table and the five models embedded, well under
     // the 15 MB a five-model report may take.
-    for panel in [
-        "panel-incidence",
-        "panel-slice",
-        "panel-sphere",
-        "panel-albedo",
-    ] {
-        assert!(html.contains(panel), "no {panel}");
-    }
+    common::assert_mentions(
+        &html,
+        &[
+            "panel-incidence",
+            "panel-slice",
+            "panel-sphere",
+            "panel-albedo",
+        ],
+    );
     assert_eq!(json["view_precision"].as_array().unwrap().len(), 6);
     assert!(html.len() < 15_000_000, "{} bytes", html.len());
     assert_eq!(
@@ -66,10 +67,7 @@ fn cbrt(json: &Value, k: usize) -> f64 {
 fn the_default_demo_fits_a_measured_material_that_no_model_fits_exactly() {
     let d = tempfile::tempdir().unwrap();
     let (s, json) = demo(d.path(), &[]);
-    assert!(
-        s.contains("specular-red-phenolic") && s.contains("MERL"),
-        "{s}"
-    );
+    common::assert_mentions(&s, &["specular-red-phenolic", "MERL"]);
     // Measured reflectance: every family leaves a visible residual (the synthetic
     // material's own family reaches 1e-6 and below, see the other test).
     for k in 0..5 {

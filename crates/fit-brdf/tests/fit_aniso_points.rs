@@ -98,7 +98,7 @@ fn an_anisotropic_bsdf_is_fitted_at_its_measured_points() {
         .unwrap();
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("measured points"), "{err}");
+    common::assert_mentions(&err, &["measured points"]);
     assert!(!err.contains("resampled"), "{err}");
     let r: Value = serde_json::from_slice(&std::fs::read(rec).unwrap()).unwrap();
     assert_eq!(r["input"]["kind"], "bsdf-points", "{}", r["input"]);

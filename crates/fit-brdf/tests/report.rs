@@ -99,19 +99,20 @@ fn report_writes_the_page_and_the_json_of_every_model_and_loss() {
     }
 
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
-    for id in [
-        "id=\"summary\"",
-        "id=\"summary-table\"",
-        "id=\"slices\"",
-        "id=\"residuals\"",
-        "id=\"renders\"",
-        "id=\"albedo\"",
-        "id=\"checks\"",
-        "id=\"details\"",
-        "id=\"page-check\"",
-    ] {
-        assert!(html.contains(id), "missing {id}");
-    }
+    common::assert_mentions(
+        &html,
+        &[
+            "id=\"summary\"",
+            "id=\"summary-table\"",
+            "id=\"slices\"",
+            "id=\"residuals\"",
+            "id=\"renders\"",
+            "id=\"albedo\"",
+            "id=\"checks\"",
+            "id=\"details\"",
+            "id=\"page-check\"",
+        ],
+    );
     // Self-contained: charts inline, images embedded, nothing fetched.
     assert!(html.matches("<svg").count() >= 4 * 3 + 5 + 1 + 3);
     // 2 lightings × (table + 5 × (fit, difference)).
@@ -146,16 +147,9 @@ fn text_output_names_the_files_and_options_of_fit_apply() {
         &out
     );
     let s = String::from_utf8(o.stdout.clone()).unwrap();
-    assert!(
-        s.contains("index.html") && s.contains("optimised: log"),
-        "{s}"
-    );
+    common::assert_mentions(&s, &["index.html", "optimised: log"]);
     // Progress on stderr without --quiet.
-    assert!(
-        stderr(&o).contains("[2/2] fitting cook-torrance"),
-        "{}",
-        stderr(&o)
-    );
+    common::assert_mentions(&stderr(&o), &["[2/2] fitting cook-torrance"]);
     let json: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(json["summary"]["loss_optimised"], "log");
@@ -214,7 +208,7 @@ fn write_failures_exit_1_and_leave_no_partial_report() {
     quick(&mut c);
     let o = c.output().unwrap();
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("a-file"), "{}", stderr(&o));
+    common::assert_mentions(&stderr(&o), &["a-file"]);
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
 
     // index.html cannot be replaced (a directory is in the way): report.json, renamed
@@ -225,7 +219,7 @@ fn write_failures_exit_1_and_leave_no_partial_report() {
     quick(&mut c);
     let o = c.output().unwrap();
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("index.html"), "{}", stderr(&o));
+    common::assert_mentions(&stderr(&o), &["index.html"]);
     assert_eq!(names(&out), ["index.html"]);
 
     // The directory may exist: a second run replaces both files.

@@ -122,9 +122,9 @@ fn score_on_samples_equals_the_losses_computed_by_hand() {
     // The text names the input and its counts.
     let o = fit_brdf_ok!("score", "--samples", &s, &m);
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        text.contains("lab.csv (scattered samples): 3 samples of 4 rows (1 missing"),
-        "{text}"
+    common::assert_mentions(
+        &text,
+        &["lab.csv (scattered samples): 3 samples of 4 rows (1 missing"],
     );
 }
 

@@ -68,11 +68,8 @@ fn the_losses_part_writes_its_page_scores_and_sheet() {
     assert!(de.is_finite() && de >= 0.0, "{de}");
     assert!(image::open(out.join("sheet.png")).is_ok());
     let page = std::fs::read_to_string(&doc).unwrap();
-    assert!(page.contains("2 proxies (1 merl, 1 nielsen)"), "{page}");
-    assert!(
-        page.contains("| blue-rubber | merl | other | point |"),
-        "{page}"
-    );
+    common::assert_mentions(&page, &["2 proxies (1 merl, 1 nielsen)"]);
+    common::assert_mentions(&page, &["| blue-rubber | merl | other | point |"]);
 }
 
 #[test]

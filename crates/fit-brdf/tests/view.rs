@@ -29,19 +29,20 @@ fn view_writes_one_self_contained_page_with_every_source() {
     );
     assert_eq!(common::names(&out), ["index.html"]);
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
-    for needle in [
-        "<title>three sources</title>",
-        "id=\"view-data\"",
-        "panel-incidence",
-        "panel-slice",
-        "panel-sphere",
-        "panel-albedo",
-        "\"kind\":\"table\"",
-        "\"kind\":\"model\"",
-        "\"kind\":\"nbrdf\"",
-    ] {
-        assert!(html.contains(needle), "no {needle}");
-    }
+    common::assert_mentions(
+        &html,
+        &[
+            "<title>three sources</title>",
+            "id=\"view-data\"",
+            "panel-incidence",
+            "panel-slice",
+            "panel-sphere",
+            "panel-albedo",
+            "\"kind\":\"table\"",
+            "\"kind\":\"model\"",
+            "\"kind\":\"nbrdf\"",
+        ],
+    );
     // Nothing fetched from anywhere: no external script, style or image.
     assert!(!html.contains("src=\"http") && !html.contains("href=\"http"));
     assert!(!html.contains("type=\"module\""));

@@ -39,15 +39,16 @@ pub(crate) mod tables;
 pub use ndf::PowerIteration;
 pub use symmetry::{Symmetry, symmetry};
 
-use crate::bsdf::{fold_pair, incident_params, phi2u, theta2u};
+use crate::bsdf::{fold_pair, incident_params, phi2u, theta2u, u2theta};
 use crate::error::RglError;
 use crate::tensor::{self, Tensor, TensorData};
 use crate::warp::Warp2D;
+use brdfkit_core::direction::spherical;
 use brdfkit_core::{Brdf, Vec3};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::path::Path;
-use tables::{SliceSpec, SliceValues, spherical};
+use tables::{SliceSpec, SliceValues};
 
 /// The highest elevation the source is evaluated at: a θi = 90° slice (the database
 /// grids end there) is filled with the source at 89.5°, where a table or a model is
@@ -146,7 +147,7 @@ pub enum WriteError {
 /// The θi grid of `n` slices: uniform in u = √(2θ/π) from 0 to π/2.
 pub fn theta_grid(n: usize) -> Vec<f32> {
     (0..n)
-        .map(|k| ndf::u2theta(k as f64 / (n - 1) as f64) as f32)
+        .map(|k| u2theta(k as f64 / (n - 1) as f64) as f32)
         .collect()
 }
 
@@ -324,10 +325,10 @@ fn ndf_and_sigma(source: &dyn Brdf) -> Result<NdfTables, WriteError> {
         .collect();
     let retro = us
         .iter()
-        .map(|&u| retro(source, eval_dir(ndf::u2theta(u)).1))
+        .map(|&u| retro(source, eval_dir(u2theta(u)).1))
         .collect::<Result<Vec<f64>, _>>()?;
     let (d, pi) = ndf::power_iteration(&retro, NDF_FLOOR);
-    let sigma: Vec<f64> = us.par_iter().map(|&u| d.sigma(ndf::u2theta(u))).collect();
+    let sigma: Vec<f64> = us.par_iter().map(|&u| d.sigma(u2theta(u))).collect();
     let row = |v: &[f64]| -> Vec<f32> { v.iter().chain(v).map(|&x| x as f32).collect() };
     Ok(NdfTables {
         ndf: row(&d.values),
@@ -346,7 +347,7 @@ fn ndf_and_sigma_2d(source: &dyn Brdf) -> Result<NdfTables, WriteError> {
         // The last row is φ = π, the first again: the same directions.
         let phi = (2.0 * (r % (rows - 1)) as f64 / (rows - 1) as f64 - 1.0) * PI;
         for c in 0..cols {
-            let th = ndf::u2theta(c as f64 / (cols - 1) as f64);
+            let th = u2theta(c as f64 / (cols - 1) as f64);
             let (th, _) = eval_dir(th);
             retro_v.push(retro(source, spherical(th, phi))?);
         }
@@ -622,7 +623,7 @@ mod tests {
                 for x in 0..16 {
                     let s = [x as f64 / 15.0, y as f64 / 15.0];
                     let um = tables::forward(&warp, s, &[]);
-                    let m = spherical(ndf::u2theta(um[0]), (2.0 * um[1] - 1.0) * PI);
+                    let m = spherical(u2theta(um[0]), (2.0 * um[1] - 1.0) * PI);
                     let wo = m * (2.0 * wi.dot(&m)) - wi;
                     if wo.z < 1f64.to_radians().sin() {
                         continue;

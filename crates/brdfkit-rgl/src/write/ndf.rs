@@ -15,23 +15,11 @@
 //! format's coordinate u = √(2θ/π) (Dupuy & Jakob 2018, §4) and linear in u between
 //! them — exactly what the reader's bilinear interpolant of the `ndf` table evaluates.
 
-use super::tables::spherical;
+use crate::bsdf::{u2phi, u2theta};
 use brdfkit_core::Vec3;
+use brdfkit_core::direction::spherical;
 use rayon::prelude::*;
 use std::f64::consts::PI;
-
-/// θ of the format's u coordinate: θ = (π/2) u² (`measured.cpp`'s `u2theta`).
-#[inline]
-pub(crate) fn u2theta(u: f64) -> f64 {
-    u * u * (PI / 2.0)
-}
-
-/// The azimuth of u_φ = (φ + π)/2π: (2u − 1)π (`measured.cpp`'s `u2phi`; relative to φi
-/// in an isotropic file, absolute in an anisotropic one).
-#[inline]
-pub(crate) fn u2phi(u: f64) -> f64 {
-    (2.0 * u - 1.0) * PI
-}
 
 /// Quadrature points over u ∈ [0, 1] for σ and the normalisation (midpoint rule; D is
 /// piecewise linear in u with at most a few hundred pieces, so this is exact to ~1e-6).

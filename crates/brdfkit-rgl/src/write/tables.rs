@@ -47,7 +47,8 @@ use crate::warp::Warp2D;
 use brdfkit_core::{Brdf, Rgb, Vec3};
 use std::f64::consts::PI;
 
-use super::ndf::{u2phi, u2theta};
+use crate::bsdf::{u2phi, u2theta};
+use brdfkit_core::direction::spherical;
 
 /// The VNDF table is D_wi mixed with this much of the uniform density over the
 /// hemisphere of half vectors (1/2π, D_wi integrating to 1): a departure from the
@@ -61,14 +62,6 @@ const UNIFORM_MIX: f64 = 1.0;
 
 /// Bisection steps of the inverse warp (2⁻⁴⁸ ≈ 4e-15 of the unit interval).
 const BISECT: usize = 48;
-
-/// A unit direction at elevation θ and azimuth φ.
-#[inline]
-pub(crate) fn spherical(theta: f64, phi: f64) -> Vec3 {
-    let (st, ct) = theta.sin_cos();
-    let (sp, cp) = phi.sin_cos();
-    Vec3::new(cp * st, sp * st, ct)
-}
 
 /// The VNDF density of the slice of incident direction `wi` on a `res` × `res` grid
 /// (rows u_φ, columns u_θ; u_φ relative to wi's azimuth in an isotropic file, where wi

@@ -168,8 +168,20 @@ pub fn assert_bad_input(o: &std::process::Output, needles: &[&str]) {
     let err = stderr(o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(!err.contains("panicked"), "{err}");
+    assert_mentions(&err, needles);
+}
+
+/// Asserts that `text` (a command's output, a page) holds every one of `needles`,
+/// failing with the first one missing and the text (its first 4 kB: a page is large).
+pub fn assert_mentions(text: &str, needles: &[&str]) {
     for n in needles {
-        assert!(err.contains(n), "`{n}` not in {err}");
+        if !text.contains(n) {
+            let end = (0..=text.len().min(4096))
+                .rev()
+                .find(|&i| text.is_char_boundary(i))
+                .unwrap_or(0);
+            panic!("`{n}` not in {} ({} bytes)", &text[..end], text.len());
+        }
     }
 }
 
