@@ -363,13 +363,12 @@ impl FitData {
         let n = self.len();
         let vals: Vec<Rgb> = {
             let mut v = vec![Rgb::ZERO; n];
-            v.par_chunks_mut(PASS_CHUNK_CELLS).enumerate().for_each_init(
-                GeometryBatch::default,
-                |scratch, (ci, o)| {
+            v.par_chunks_mut(PASS_CHUNK_CELLS)
+                .enumerate()
+                .for_each_init(GeometryBatch::default, |scratch, (ci, o)| {
                     let s = ci * PASS_CHUNK_CELLS;
                     model.eval_batch(&self.geometry_of(s..s + o.len(), scratch), o);
-                },
-            );
+                });
             v
         };
         for (c, v) in out.values_mut().iter_mut().enumerate() {

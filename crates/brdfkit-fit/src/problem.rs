@@ -281,12 +281,16 @@ fn fill_scale_plain(
 }
 
 /// The targets t(f̂, cos θi) of channel c for the cells `start .. start + out.len()`.
+/// A table's cells whose whole-set geometry is not built compute the chunk's here
+/// ([`FitData::geometry_of`]): the default fit's one pass over the full set (the
+/// targets' RMS that scales the albedo penalty) builds no full-set columns.
 #[inline]
 fn fill_target(data: &FitData, loss: Loss, c: usize, start: usize, out: &mut [f64]) {
     let range = start..start + out.len();
     let f = &data.values()[c][range.clone()];
     out.copy_from_slice(f);
-    loss.transform_all(&data.geometry().wi_z[range], out);
+    let mut scratch = brdfkit_core::GeometryBatch::default();
+    loss.transform_all(data.geometry_of(range, &mut scratch).wi_z, out);
 }
 
 struct Scratch {

@@ -236,7 +236,8 @@ impl CellRuns {
             let at = m - cells.start..end - cells.start;
             let out = cols.each_mut().map(|c| &mut c[at.clone()]);
             let ks = k..k + (end - m);
-            self.dirs.row_columns(run.i as usize, run.j as usize, ks, out);
+            self.dirs
+                .row_columns(run.i as usize, run.j as usize, ks, out);
             m = end;
             r += 1;
         }
