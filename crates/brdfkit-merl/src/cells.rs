@@ -63,9 +63,12 @@ impl CellDirections {
     /// for bit. Panics when the cell is out of range.
     #[inline(always)]
     pub fn get(&self, i: usize, j: usize, k: usize) -> (Vec3, Vec3) {
-        let [ch, sh] = self.theta_h[i];
-        let [cd, sd] = self.theta_d[j];
-        let [cp, sp] = self.phi_d[k];
+        Self::dirs(self.theta_h[i], self.theta_d[j], self.phi_d[k])
+    }
+
+    /// (wi, wo) of the cell with these (cos, sin) of θh, θd and φd ([`get`](Self::get)).
+    #[inline(always)]
+    fn dirs([ch, sh]: CosSin, [cd, sd]: CosSin, [cp, sp]: CosSin) -> (Vec3, Vec3) {
         // from_half_diff with φh = 0: d = spherical(θd, φd), rotated by θh about the
         // binormal, then by φh = 0 about the normal (cos 0 = 1, sin 0 = 0 exactly).
         let d = [sd * cp, sd * sp, cd];
@@ -82,7 +85,13 @@ impl CellDirections {
     /// builds them.
     #[inline(always)]
     pub fn columns(&self, i: usize, j: usize, k: usize) -> [f64; 10] {
-        let (wi, wo) = self.get(i, j, k);
+        Self::columns_cs(self.theta_h[i], self.theta_d[j], self.phi_d[k])
+    }
+
+    /// [`columns`](Self::columns) from the cell's (cos, sin) of θh, θd and φd.
+    #[inline(always)]
+    fn columns_cs(th: CosSin, td: CosSin, ph: CosSin) -> [f64; 10] {
+        let (wi, wo) = Self::dirs(th, td, ph);
         pair_columns_of([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z])
     }
 
@@ -102,14 +111,36 @@ impl CellDirections {
         impl Run for Row<'_> {
             #[inline(always)]
             fn run(&mut self) {
-                let n = self.ks.len();
-                let k0 = self.ks.start;
-                let mut cols = self.cols.each_mut().map(|c| &mut c[..n]);
-                for k in 0..n {
-                    let v = self.cells.columns(self.i, self.j, k0 + k);
-                    for (c, x) in cols.iter_mut().zip(v) {
-                        c[k] = x;
+                // Blocks of B cells computed into a local buffer, then copied out: with
+                // ten output columns the compiler cannot prove they do not overlap
+                // the tables (too many pairs to check at run time), and left the
+                // direct loop scalar; a local buffer overlaps nothing, so the block's
+                // loop runs in vector lanes.
+                const B: usize = 16;
+                let c = self.cells;
+                let (th, td) = (c.theta_h[self.i], c.theta_d[self.j]);
+                let phi = &c.phi_d[self.ks.clone()];
+                let mut buf = [[0.0f64; B]; 10];
+                let mut at = 0;
+                let (blocks, tail) = phi.as_chunks::<B>();
+                for ph in blocks {
+                    for q in 0..B {
+                        let v = CellDirections::columns_cs(th, td, ph[q]);
+                        for (col, x) in buf.iter_mut().zip(v) {
+                            col[q] = x;
+                        }
                     }
+                    for (col, x) in self.cols.iter_mut().zip(&buf) {
+                        col[at..at + B].copy_from_slice(x);
+                    }
+                    at += B;
+                }
+                for &ph in tail {
+                    let v = CellDirections::columns_cs(th, td, ph);
+                    for (col, x) in self.cols.iter_mut().zip(v) {
+                        col[at] = x;
+                    }
+                    at += 1;
                 }
             }
         }
