@@ -683,17 +683,23 @@ impl FitData {
         StrataEdges::get().stratum(p[8], p[9])
     }
 
-    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes, a chunk of plain
-    /// slices per task (no per-cell indexing or lookup of the edges), so the edge
-    /// comparisons vectorise; a table's geometry is computed chunk by chunk
-    /// ([`geometry_of`](Self::geometry_of)), not built whole.
+    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes, a chunk per task (a
+    /// table's geometry computed chunk by chunk, [`geometry_of`](Self::geometry_of), not
+    /// built whole). A bin is the count of edges a cosine is at or below
+    /// ([`StrataEdges::bin`]), counted edge by edge over the chunk's cells, so the
+    /// comparisons run across cells in vector lanes (cell by cell, the 15 comparisons
+    /// and their sum were 7 % of a default fit's CPU).
     fn strata(&self) -> Vec<u8> {
         const _: () = assert!(STRATA * STRATA <= 256);
         let e = StrataEdges::get();
         let mut ids = vec![0u8; self.len()];
         self.for_chunks(&mut ids, |g, ids| {
-            for ((id, &h), &d) in ids.iter_mut().zip(g.h_z).zip(g.cos_d) {
-                *id = e.stratum(h, d) as u8;
+            let mut b = [0u8; PASS_CHUNK_CELLS];
+            let b = &mut b[..ids.len()];
+            count_at_or_below(&e.h, g.h_z, ids);
+            count_at_or_below(&e.d, g.cos_d, b);
+            for (id, &b) in ids.iter_mut().zip(b.iter()) {
+                *id = *id * STRATA as u8 + b;
             }
         });
         ids
@@ -778,6 +784,17 @@ impl FitData {
         let idx: Vec<usize> = drawn.iter().map(|&(m, _)| m as usize).collect();
         let mult: Vec<f64> = drawn.iter().map(|&(_, w)| w).collect();
         self.select(&idx, Some(&mult))
+    }
+}
+
+/// `out[k]` = how many of `edges` `z[k]` is at or below ([`StrataEdges::bin`], NaN: 0),
+/// edge by edge over all k.
+fn count_at_or_below(edges: &[f64; STRATA - 1], z: &[f64], out: &mut [u8]) {
+    out.fill(0);
+    for &t in edges {
+        for (o, &z) in out.iter_mut().zip(z) {
+            *o += u8::from(z <= t);
+        }
     }
 }
 
