@@ -1096,6 +1096,12 @@ mod tests {
         let t = table();
         let data = FitData::from_table(&t).unwrap();
         assert!(data.len() > 4 * brdfkit_fit::data::PASS_CHUNK_CELLS);
+        // The first pass below runs on a table's cells whose whole-set geometry is not
+        // built (each block's computed where read), the later ones on the built columns
+        // (the relative errors' check builds them): the same figures either way.
+        let o = QualityOptions::default();
+        cell_pass(models_of(&fits()[0]), &data, &o, &BandCuts::of(&o), true);
+        assert!(data.geometry_if_built().is_none());
         for w in [Weighting::SolidAngle, Weighting::Uniform] {
             let o = QualityOptions {
                 weighting: w,
