@@ -301,8 +301,9 @@ impl<T> Geometry<T> {
 }
 
 impl<T: Component> Geometry<T> {
-    /// Sets every column to `n` rows (new rows zero), keeping the capacity.
-    fn set_len(&mut self, n: usize) {
+    /// Sets every column to `n` rows (new rows zero), keeping the capacity: scratch
+    /// to fill in place ([`columns_mut`](Self::columns_mut)).
+    pub fn resize(&mut self, n: usize) {
         for c in self.column_vecs() {
             c.resize(n, T::ZERO);
         }
@@ -345,7 +346,7 @@ impl<T: Component> Geometry<T> {
     /// columns of [`pair_columns_of`].
     #[inline(always)]
     pub fn fill_with(&mut self, n: usize, pair: impl Fn(usize) -> ([T; 3], [T; 3])) {
-        self.set_len(n);
+        self.resize(n);
         // Cut every column to exactly n rows so the loop below has no bounds checks.
         let [c0, c1, c2, c3, c4, c5, c6, c7, c8, c9] = self.columns_mut().map(|c| &mut c[..n]);
         for k in 0..n {

@@ -2,14 +2,15 @@
 
 use crate::error::FitError;
 use brdfkit_core::geometry::split_runs;
-use brdfkit_core::{GeometryBatch, Model, Rgb};
-use brdfkit_merl::{CellBatch, CellDirections, Dims, MerlTable, cell_weight, zeroed_f64_exact};
+use brdfkit_core::{GeomSlice, GeometryBatch, Model, Rgb};
+use brdfkit_merl::{CellBatch, CellRuns, MerlTable, cell_weight, zeroed_f64_exact};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
+use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
 
 /// Valid cells of each θh slab of a table (an error when there is none).
@@ -43,16 +44,23 @@ pub const PASS_CHUNK_CELLS: usize = 2048;
 /// `theta_h()[m]`, `theta_d()[m]` (radians).
 ///
 /// # Memory
-/// Only what every pass of a fit reads is stored: the ten geometry columns, the three
-/// value planes and the measures (14 f64 per cell: 156 MB for a MERL table with all
-/// 1,458,000 cells valid). Multiplicities are stored only for a subsample (a full set's
-/// are all 1), and the angles, which only subsampling, the θd cutoff and reports need,
-/// are recomputed from the geometry (θh = acos h.z, θd = acos cos_d) where used;
+/// Only what every pass of a fit reads is stored: the three value planes and the
+/// measures, and the geometry: ten columns for cells given by their directions
+/// ([`from_parts`](Self::from_parts)) and for subsets, but for a table's cells
+/// ([`from_table`](Self::from_table)) only what identifies each cell ([`CellRuns`]:
+/// its grid row and φd index, 0.4 MB for a MERL table, where the ten columns take
+/// 89 MB). A default fit reads a table's full geometry only in single passes (the
+/// subsample's strata, the targets' RMS, the loss report), which build it chunk by chunk
+/// ([`geometry_of`](Self::geometry_of)) in cache-sized scratch; the whole-set
+/// columns are built on the first call of [`geometry`](Self::geometry) and kept.
+/// Multiplicities are stored only for a subsample (a full set's are all 1), and the
+/// angles, which only subsampling, the θd cutoff and reports need, are recomputed from
+/// the geometry (θh = acos h.z, θd = acos cos_d) where used;
 /// [`theta_h`](Self::theta_h), [`theta_d`](Self::theta_d) and
 /// [`multiplicity`](Self::multiplicity) build their arrays on first call and keep them.
 #[derive(Debug, Clone)]
 pub struct FitData {
-    geometry: GeometryBatch,
+    geometry: Geometry,
     values: [Vec<f64>; 3],
     measure: Vec<f64>,
     /// `None`: every cell stands for itself (multiplicity 1).
@@ -71,6 +79,37 @@ pub struct FitData {
     /// What scattered samples these cells were built from (`None`: a table, or a
     /// subset of cells), which a fit's record carries.
     input: Option<SampleInput>,
+}
+
+/// The geometry of a [`FitData`]'s cells.
+#[derive(Debug, Clone)]
+enum Geometry {
+    /// The ten columns, given (cells from directions, subsets).
+    Given(GeometryBatch),
+    /// A table's valid cells, whose columns are computed where read and built whole on
+    /// first use of [`FitData::geometry`].
+    Table {
+        cells: Arc<CellRuns>,
+        built: OnceLock<GeometryBatch>,
+    },
+}
+
+impl Geometry {
+    /// The whole-set columns if they exist.
+    fn built(&self) -> Option<&GeometryBatch> {
+        match self {
+            Geometry::Given(g) => Some(g),
+            Geometry::Table { built, .. } => built.get(),
+        }
+    }
+
+    /// A table's cells, while their columns are not built.
+    fn lazy(&self) -> Option<&CellRuns> {
+        match self {
+            Geometry::Table { cells, built } if built.get().is_none() => Some(cells),
+            _ => None,
+        }
+    }
 }
 
 /// The stratified subsamples drawn from a cell set, by (fraction, seed): the warm-up
@@ -149,12 +188,25 @@ impl StrataEdges {
     }
 }
 
-/// `n` zeroed geometry pairs whose columns lie on huge pages where the system allows
-/// ([`zeroed_f64_exact`]): a MERL table's cells are 124 MB of fresh columns, and with 4 KiB
-/// pages their 30,000 first-touch faults cost more CPU than filling them
+/// The geometry of all the valid cells of a table, built in parallel chunks of
+/// [`PASS_CHUNK_CELLS`] ([`CellRuns::fill`]), on columns that lie on huge pages where the
+/// system allows ([`zeroed_f64_exact`]): a MERL table's cells are 89 MB of fresh columns,
+/// and with 4 KiB pages their 22,000 first-touch faults cost more CPU than filling them
 /// (docs/performance.md, "Issue 28, session 11").
-fn zeroed_geometry(n: usize) -> GeometryBatch {
-    GeometryBatch::from_column_fn(|| zeroed_f64_exact(n))
+fn table_geometry(cells: &CellRuns) -> GeometryBatch {
+    let n = cells.len();
+    let mut g = GeometryBatch::from_column_fn(|| zeroed_f64_exact(n));
+    let lens: Vec<usize> = (0..n.div_ceil(PASS_CHUNK_CELLS))
+        .map(|c| PASS_CHUNK_CELLS.min(n - c * PASS_CHUNK_CELLS))
+        .collect();
+    split_runs(g.columns_mut(), &lens)
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(c, cols)| {
+            let s = c * PASS_CHUNK_CELLS;
+            cells.fill(s..s + cols[0].len(), cols);
+        });
+    g
 }
 
 /// acos with its argument clamped to [−1, 1]: normalisation can land a ulp beyond 1.
@@ -163,21 +215,16 @@ fn acos_clamped(z: f64) -> f64 {
     z.clamp(-1.0, 1.0).acos()
 }
 
-/// The angles of `cosines` ([`acos_clamped`]), built into `cell` on first call.
-fn acos_column<'a>(cell: &'a OnceLock<Vec<f64>>, cosines: &[f64]) -> &'a [f64] {
-    cell.get_or_init(|| cosines.par_iter().map(|&z| acos_clamped(z)).collect())
-}
-
 impl FitData {
-    /// A set of `n` cells with every column allocated (zeroed) and multiplicity 1.
-    fn zeroed(n: usize, geometry: bool) -> FitData {
-        let g = if geometry {
-            zeroed_geometry(n)
-        } else {
-            GeometryBatch::default()
-        };
+    /// The valid cells of a table with their values and measures allocated (zeroed) and
+    /// multiplicity 1.
+    fn zeroed(cells: CellRuns) -> FitData {
+        let n = cells.len();
         FitData::assemble(
-            g,
+            Geometry::Table {
+                cells: Arc::new(cells),
+                built: OnceLock::new(),
+            },
             [0, 1, 2].map(|_| zeroed_f64_exact(n)),
             zeroed_f64_exact(n),
             None,
@@ -185,7 +232,7 @@ impl FitData {
     }
 
     fn assemble(
-        geometry: GeometryBatch,
+        geometry: Geometry,
         values: [Vec<f64>; 3],
         measure: Vec<f64>,
         mult: Option<Vec<f64>>,
@@ -247,7 +294,12 @@ impl FitData {
                 "measure {x} at cell {k} is not a finite positive number"
             )));
         }
-        Ok(FitData::assemble(geometry, values, measure, None))
+        Ok(FitData::assemble(
+            Geometry::Given(geometry),
+            values,
+            measure,
+            None,
+        ))
     }
 
     /// The valid cells of a table batch ([`MerlTable::cell_batch`]).
@@ -257,31 +309,21 @@ impl FitData {
 
     /// The valid cells of a table (only they take part in a fit), in file order: the
     /// same cells, values, measures and geometry as [`MerlTable::cell_batch`], built in
-    /// place (the peak is the table plus the cells; no cell list or index array).
+    /// place (the peak is the table plus the cells' values and measures). The geometry
+    /// is kept as the cells' grid indices ([`CellRuns`]), its columns computed where
+    /// they are read (see the type's doc).
     pub fn from_table(t: &MerlTable) -> Result<Self, FitError> {
         let counts = valid_per_slab(t)?;
-        let mut data = FitData::zeroed(counts.iter().sum(), true);
+        let mut data = FitData::zeroed(CellRuns::new(t.dims(), t.valid_mask()));
+        debug_assert_eq!(data.len(), counts.iter().sum::<usize>());
         data.fill_values(t, &counts);
-        data.fill_geometry(t.dims(), t.valid_mask(), &counts);
         Ok(data)
     }
 
     /// [`from_table`](Self::from_table) for a table the caller no longer needs: the
-    /// values and measures are taken first, the table is freed, and only then is the
-    /// geometry built, so the table and the geometry are never in memory together
-    /// (peak: the cells plus a one-byte-per-cell validity mask; for a MERL table with
-    /// every cell valid 158 MB instead of 191 MB). Identical result.
+    /// table is freed as soon as its values are taken. Identical result.
     pub fn from_owned_table(t: MerlTable) -> Result<Self, FitError> {
-        let counts = valid_per_slab(&t)?;
-        let mut data = FitData::zeroed(counts.iter().sum(), false);
-        data.fill_values(&t, &counts);
-        let dims = t.dims();
-        let mask = t.valid_mask().to_vec();
-        drop(t);
-        let n = data.measure.len();
-        data.geometry = zeroed_geometry(n);
-        data.fill_geometry(dims, &mask, &counts);
-        Ok(data)
+        FitData::from_table(&t)
     }
 
     /// Values and measures of the valid cells, one θh slab (`counts[i]` valid cells)
@@ -314,43 +356,6 @@ impl FitData {
             });
     }
 
-    /// Geometry of the valid cells (`mask`), as [`GeometryBatch::push`] computes it
-    /// for the directions of [`brdfkit_merl::cell_directions`], one θh slab per parallel
-    /// task.
-    fn fill_geometry(&mut self, dims: Dims, mask: &[bool], counts: &[usize]) {
-        let slab = dims.theta_d() * dims.phi_d();
-        let runs = split_runs(self.geometry.columns_mut(), counts);
-        // cell_directions' values from per-axis sines and cosines (no trig per cell).
-        let cells = CellDirections::new(dims);
-        // Row by row (θd): every cell of the row in one vectorised pass
-        // (`CellDirections::row_columns`, the same bits as cell by cell), then the
-        // valid ones copied out.
-        let np = dims.phi_d();
-        runs.into_par_iter().enumerate().for_each(|(i, mut c)| {
-            let mut row: [Vec<f64>; 10] = std::array::from_fn(|_| vec![0.0; np]);
-            let mut m = 0;
-            for j in 0..dims.theta_d() {
-                let valid = &mask[i * slab + j * np..i * slab + (j + 1) * np];
-                if !valid.contains(&true) {
-                    continue;
-                }
-                cells.row_columns(i, j, row.each_mut().map(|v| &mut v[..]));
-                // The valid cells of a row come in a few runs: copied run by run.
-                let mut k = 0;
-                while k < np {
-                    let start = k + valid[k..].iter().take_while(|v| !**v).count();
-                    let end = start + valid[start..].iter().take_while(|v| **v).count();
-                    for (col, r) in c.iter_mut().zip(&row) {
-                        col[m..m + end - start].copy_from_slice(&r[start..end]);
-                    }
-                    m += end - start;
-                    k = end;
-                }
-            }
-            debug_assert_eq!(m, c[0].len());
-        });
-    }
-
     /// A table's cells with values replaced by a model's at the cells' directions (a
     /// synthetic table for tests and benchmarks). Equivalent to fitting
     /// `MerlTable::from_brdf(model)` but keeps full f64 values.
@@ -361,9 +366,9 @@ impl FitData {
             let mut v = vec![Rgb::ZERO; n];
             v.par_chunks_mut(PASS_CHUNK_CELLS)
                 .enumerate()
-                .for_each(|(ci, o)| {
+                .for_each_init(GeometryBatch::default, |scratch, (ci, o)| {
                     let s = ci * PASS_CHUNK_CELLS;
-                    model.eval_batch(&self.geometry.slice(s..s + o.len()), o);
+                    model.eval_batch(&self.geometry_of(s..s + o.len(), scratch), o);
                 });
             v
         };
@@ -383,9 +388,48 @@ impl FitData {
         self.measure.is_empty()
     }
 
-    /// Per-cell geometry.
+    /// Per-cell geometry: for a table's cells, built on the first call (ten columns,
+    /// 80 bytes a cell) and kept. Passes that read each cell once take
+    /// [`geometry_of`](Self::geometry_of) instead.
     pub fn geometry(&self) -> &GeometryBatch {
-        &self.geometry
+        match &self.geometry {
+            Geometry::Given(g) => g,
+            Geometry::Table { cells, built } => built.get_or_init(|| table_geometry(cells)),
+        }
+    }
+
+    /// The whole-set geometry if it is built (always, for cells not from a table).
+    pub fn geometry_if_built(&self) -> Option<&GeometryBatch> {
+        self.geometry.built()
+    }
+
+    /// The geometry of the cells `r`, the same bits as `geometry().slice(r)`: that slice
+    /// when the whole-set columns are built, otherwise computed into `scratch` (its
+    /// columns reused; at [`PASS_CHUNK_CELLS`] cells, 160 kB, they stay in the L2
+    /// cache). Panics when `r` reaches past [`len`](Self::len).
+    pub fn geometry_of<'a>(
+        &'a self,
+        r: Range<usize>,
+        scratch: &'a mut GeometryBatch,
+    ) -> GeomSlice<'a> {
+        match self.geometry.lazy() {
+            None => self.geometry().slice(r),
+            Some(cells) => {
+                scratch.resize(r.len());
+                cells.fill(r, scratch.columns_mut());
+                scratch.as_slice()
+            }
+        }
+    }
+
+    /// The ten geometry columns of cell m ([`brdfkit_core::geometry::pair_columns`]'s
+    /// order), from the whole-set columns when built.
+    #[inline]
+    fn pair_at(&self, m: usize) -> [f64; 10] {
+        match self.geometry.lazy() {
+            None => self.geometry().as_slice().columns().map(|c| c[m]),
+            Some(cells) => cells.cell(m),
+        }
     }
 
     /// Measured values, one plane per channel.
@@ -422,12 +466,37 @@ impl FitData {
 
     /// θh of each cell (built on first call; see the type's doc).
     pub fn theta_h(&self) -> &[f64] {
-        acos_column(&self.theta_h, &self.geometry.h_z)
+        self.acos_column(&self.theta_h, 8)
     }
 
     /// θd of each cell (built on first call; see the type's doc).
     pub fn theta_d(&self) -> &[f64] {
-        acos_column(&self.theta_d, &self.geometry.cos_d)
+        self.acos_column(&self.theta_d, 9)
+    }
+
+    /// The angles of geometry column `col` ([`acos_clamped`]), built into `cell` on
+    /// first call, chunk by chunk ([`geometry_of`](Self::geometry_of)).
+    fn acos_column<'a>(&'a self, cell: &'a OnceLock<Vec<f64>>, col: usize) -> &'a [f64] {
+        cell.get_or_init(|| {
+            let mut out = vec![0.0; self.len()];
+            self.for_chunks(&mut out, |g, o| {
+                for (o, &z) in o.iter_mut().zip(g.columns()[col]) {
+                    *o = acos_clamped(z);
+                }
+            });
+            out
+        })
+    }
+
+    /// `f(geometry of the chunk, the chunk of out)` for each [`PASS_CHUNK_CELLS`]
+    /// chunk of the cells, in parallel (`out` holds one entry per cell).
+    fn for_chunks<T: Send>(&self, out: &mut [T], f: impl Fn(GeomSlice<'_>, &mut [T]) + Sync) {
+        out.par_chunks_mut(PASS_CHUNK_CELLS)
+            .enumerate()
+            .for_each_init(GeometryBatch::default, |scratch, (ci, o)| {
+                let s = ci * PASS_CHUNK_CELLS;
+                f(self.geometry_of(s..s + o.len(), scratch), o)
+            });
     }
 
     /// The cube-root targets ∛(f cos θi) of each channel, the measured side of the
@@ -437,12 +506,9 @@ impl FitData {
     /// once per table. The same expression as the report's, so the same bits.
     pub fn cbrt_targets(&self) -> &[Vec<f64>; 3] {
         self.cbrt_targets.get_or_init(|| {
-            let ci = &self.geometry.wi_z;
             [0, 1, 2].map(|c| {
                 let mut t = self.values[c].clone();
-                t.par_chunks_mut(PASS_CHUNK_CELLS)
-                    .zip(ci.par_chunks(PASS_CHUNK_CELLS))
-                    .for_each(|(t, ci)| crate::Loss::Cbrt.transform_all(ci, t));
+                self.for_chunks(&mut t, |g, t| crate::Loss::Cbrt.transform_all(g.wi_z, t));
                 t
             })
         })
@@ -457,7 +523,7 @@ impl FitData {
     /// θd of cell m.
     #[inline]
     pub(crate) fn theta_d_at(&self, m: usize) -> f64 {
-        acos_clamped(self.geometry.cos_d[m])
+        acos_clamped(self.pair_at(m)[9])
     }
 
     /// Weight of cell m under a weighting: multiplicity × (measure or 1).
@@ -484,7 +550,8 @@ impl FitData {
     /// The weight factor g(θi, θo) of a loss at cell m ([`crate::Loss::cell_factor`]).
     #[inline]
     pub(crate) fn loss_factor_at(&self, loss: crate::Loss, m: usize) -> f64 {
-        loss.cell_factor(self.geometry.wi_z[m], self.geometry.wo_z[m])
+        let g = self.geometry();
+        loss.cell_factor(g.wi_z[m], g.wo_z[m])
     }
 
     /// Σ of the cells' weights under a loss (weight × the loss's factor), in cell
@@ -508,7 +575,13 @@ impl FitData {
     pub fn heap_bytes(&self) -> usize {
         let f = std::mem::size_of::<f64>();
         let opt = |v: Option<&Vec<f64>>| v.map_or(0, |v| v.capacity() * f);
-        self.geometry.heap_bytes()
+        let geometry = match &self.geometry {
+            Geometry::Given(g) => g.heap_bytes(),
+            Geometry::Table { cells, built } => {
+                cells.heap_bytes() + built.get().map_or(0, GeometryBatch::heap_bytes)
+            }
+        };
+        geometry
             + self.values.iter().map(|v| v.capacity() * f).sum::<usize>()
             + self.measure.capacity() * f
             + opt(self.mult.as_ref())
@@ -539,18 +612,15 @@ impl FitData {
         // (the cells are scattered), so it waits on memory, and one core left the
         // other idle for 6 % of a default fit's CPU time.
         let [r, g, b] = &self.values;
-        let sources: Vec<&[f64]> = (self.geometry.as_slice().columns().into_iter())
-            .chain([&r[..], g, b, &self.measure])
-            .collect();
-        let mut picked = sources
-            .into_par_iter()
-            .map(pick)
-            .collect::<Vec<_>>()
-            .into_iter();
-        let mut next = || picked.next().expect("14 columns");
-        let geometry = GeometryBatch::from_column_fn(&mut next);
-        let values = [next(), next(), next()];
-        let measure = next();
+        let (geometry, [r, g, b, measure]) = rayon::join(
+            || self.select_geometry(idx),
+            || {
+                let sources = [&r[..], g, b, &self.measure];
+                let picked: Vec<Vec<f64>> = sources.into_par_iter().map(pick).collect();
+                <[Vec<f64>; 4]>::try_from(picked).expect("4 columns")
+            },
+        );
+        let values = [r, g, b];
         let m = match (&self.mult, mult) {
             (None, None) => None,
             (Some(a), None) => Some(pick(a)),
@@ -561,13 +631,34 @@ impl FitData {
                     .collect(),
             ),
         };
-        FitData::assemble(geometry, values, measure, m)
+        FitData::assemble(Geometry::Given(geometry), values, measure, m)
+    }
+
+    /// The geometry of the cells `idx`: gathered from the whole-set columns when built,
+    /// otherwise computed cell by cell ([`CellRuns::gather`], the same bits), in
+    /// parallel chunks.
+    fn select_geometry(&self, idx: &[usize]) -> GeometryBatch {
+        let Some(cells) = self.geometry.lazy() else {
+            let g = self.geometry();
+            let pick = |v: &[f64]| idx.iter().map(|&m| v[m]).collect::<Vec<f64>>();
+            let cols: Vec<Vec<f64>> = g.as_slice().columns().into_par_iter().map(pick).collect();
+            let mut cols = cols.into_iter();
+            return GeometryBatch::from_column_fn(|| cols.next().expect("10 columns"));
+        };
+        let mut g = GeometryBatch::zeroed(idx.len());
+        let lens: Vec<usize> = idx.chunks(PASS_CHUNK_CELLS).map(<[usize]>::len).collect();
+        split_runs(g.columns_mut(), &lens)
+            .into_par_iter()
+            .zip(idx.par_chunks(PASS_CHUNK_CELLS))
+            .for_each(|(cols, idx)| cells.gather(idx, cols));
+        g
     }
 
     /// The cells with θd ≤ `max_theta_d` (radians): the grazing cells, the least
     /// reliable measurements, are left out.
     pub fn with_theta_d_max(&self, max_theta_d: f64) -> FitData {
-        self.filter(|m| self.theta_d_at(m) <= max_theta_d)
+        let cd = &self.geometry().cos_d;
+        self.filter(|m| acos_clamped(cd[m]) <= max_theta_d)
     }
 
     /// The cells whose incident and outgoing directions are both within `max_theta`
@@ -577,7 +668,7 @@ impl FitData {
     /// (θh, θd, φd) centre), compared through their cosines.
     pub fn with_theta_max(&self, max_theta: f64) -> FitData {
         let c = max_theta.cos();
-        let g = &self.geometry;
+        let g = self.geometry();
         self.filter(|m| g.wi_z[m] >= c && g.wo_z[m] >= c)
     }
 
@@ -589,25 +680,29 @@ impl FitData {
     /// formula): no `acos` a cell, and the formula's bin for every cosine.
     #[inline]
     pub fn stratum_at(&self, m: usize) -> usize {
-        StrataEdges::get().stratum(self.geometry.h_z[m], self.geometry.cos_d[m])
+        let p = self.pair_at(m);
+        StrataEdges::get().stratum(p[8], p[9])
     }
 
-    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes, a chunk of plain
-    /// slices per task (no per-cell indexing or lookup of the edges), so the edge
-    /// comparisons vectorise.
+    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes, a chunk per task (a
+    /// table's geometry computed chunk by chunk, [`geometry_of`](Self::geometry_of), not
+    /// built whole). A bin is the count of edges a cosine is at or below
+    /// ([`StrataEdges::bin`]), counted edge by edge over the chunk's cells, so the
+    /// comparisons run across cells in vector lanes (cell by cell, the 15 comparisons
+    /// and their sum were 7 % of a default fit's CPU).
     fn strata(&self) -> Vec<u8> {
         const _: () = assert!(STRATA * STRATA <= 256);
         let e = StrataEdges::get();
-        let (hz, cd) = (&self.geometry.h_z, &self.geometry.cos_d);
         let mut ids = vec![0u8; self.len()];
-        ids.par_chunks_mut(PASS_CHUNK_CELLS)
-            .zip(hz.par_chunks(PASS_CHUNK_CELLS))
-            .zip(cd.par_chunks(PASS_CHUNK_CELLS))
-            .for_each(|((ids, hz), cd)| {
-                for ((id, &h), &d) in ids.iter_mut().zip(hz).zip(cd) {
-                    *id = e.stratum(h, d) as u8;
-                }
-            });
+        self.for_chunks(&mut ids, |g, ids| {
+            let mut b = [0u8; PASS_CHUNK_CELLS];
+            let b = &mut b[..ids.len()];
+            count_at_or_below(&e.h, g.h_z, ids);
+            count_at_or_below(&e.d, g.cos_d, b);
+            for (id, &b) in ids.iter_mut().zip(b.iter()) {
+                *id = *id * STRATA as u8 + b;
+            }
+        });
         ids
     }
 
@@ -690,6 +785,17 @@ impl FitData {
         let idx: Vec<usize> = drawn.iter().map(|&(m, _)| m as usize).collect();
         let mult: Vec<f64> = drawn.iter().map(|&(_, w)| w).collect();
         self.select(&idx, Some(&mult))
+    }
+}
+
+/// `out[k]` = how many of `edges` `z[k]` is at or below ([`StrataEdges::bin`], NaN: 0),
+/// edge by edge over all k.
+fn count_at_or_below(edges: &[f64; STRATA - 1], z: &[f64], out: &mut [u8]) {
+    out.fill(0);
+    for &t in edges {
+        for (o, &z) in out.iter_mut().zip(z) {
+            *o += u8::from(z <= t);
+        }
     }
 }
 

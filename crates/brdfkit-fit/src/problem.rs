@@ -281,12 +281,16 @@ fn fill_scale_plain(
 }
 
 /// The targets t(f̂, cos θi) of channel c for the cells `start .. start + out.len()`.
+/// A table's cells whose whole-set geometry is not built compute the chunk's here
+/// ([`FitData::geometry_of`]): the default fit's one pass over the full set (the
+/// targets' RMS that scales the albedo penalty) builds no full-set columns.
 #[inline]
 fn fill_target(data: &FitData, loss: Loss, c: usize, start: usize, out: &mut [f64]) {
     let range = start..start + out.len();
     let f = &data.values()[c][range.clone()];
     out.copy_from_slice(f);
-    loss.transform_all(&data.geometry().wi_z[range], out);
+    let mut scratch = brdfkit_core::GeometryBatch::default();
+    loss.transform_all(data.geometry_of(range, &mut scratch).wi_z, out);
 }
 
 struct Scratch {
@@ -986,6 +990,8 @@ struct LossScratch {
     tt: Vec<f64>,
     wb: Vec<f64>,
     gb: Vec<[f64; 4]>,
+    /// A table's chunk geometry ([`FitData::geometry_of`]).
+    geom: brdfkit_core::GeometryBatch,
 }
 
 /// The losses of `set` (brdfkit's own four, or all eight) of per-channel models
@@ -1015,6 +1021,7 @@ pub fn evaluate_losses_of(
                 tt: vec![0.0; cap],
                 wb: vec![0.0; cap],
                 gb: vec![[0.0; 4]; cap],
+                geom: Default::default(),
             },
             |sc, r| chunk_losses(models, data, roots, weighting, published, r, sc),
         )
@@ -1046,8 +1053,10 @@ fn chunk_losses(
     sc: &mut LossScratch,
 ) -> Sums {
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
-    let g = data.geometry();
     let (s, len) = (r.start, r.len());
+    // The chunk's geometry: a slice of the whole set's columns, or for a table's cells
+    // computed here into the task's scratch (the same bits either way).
+    let gs = data.geometry_of(r.clone(), &mut sc.geom);
     let mut acc = [[0.0f64; 3]; 4];
     let mut pacc = [[0.0f64; 3]; 4];
     let mut pw = [0.0f64; 4];
@@ -1055,12 +1064,11 @@ fn chunk_losses(
         *x = data.weight_at(weighting, s + k);
         if published {
             for (l, loss) in crate::Loss::PUBLISHED.into_iter().enumerate() {
-                sc.gb[k][l] = *x * data.loss_factor_at(loss, s + k);
+                sc.gb[k][l] = *x * loss.cell_factor(gs.wi_z[k], gs.wo_z[k]);
                 pw[l] += sc.gb[k][l];
             }
         }
     }
-    let gs = g.slice(r.clone());
     let [out0, out1] = &mut sc.out;
     models[0].eval_batch(&gs, &mut out0[..len]);
     for c in 0..3 {
@@ -1075,7 +1083,7 @@ fn chunk_losses(
         // `weighted_sq_sum`.
         let fm = &data.values()[c][r.clone()];
         let ws = &sc.wb[..len];
-        let ci = &g.wi_z[r.clone()];
+        let ci = gs.wi_z;
         let xm = &mut sc.xm[..len];
         let res = &mut sc.res[..len];
         for k in 0..len {

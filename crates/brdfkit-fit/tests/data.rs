@@ -99,18 +99,27 @@ fn table_builders_agree_with_an_independent_construction() {
 fn lazy_views_hold_the_angles_and_unit_multiplicities() {
     let data = FitData::from_table(&table()).unwrap();
     let before = data.heap_bytes();
-    assert_eq!(
-        before,
-        data.len() * 14 * 8,
-        "14 columns of f64, nothing else"
+    // Values and measures, and the cells' grid runs (a few kB), not their geometry.
+    let stored = data.len() * 4 * 8;
+    assert!(
+        before > stored && before < stored + 64 * 1024,
+        "{before} bytes for {} cells",
+        data.len()
     );
+    // The angles are built without the whole-set geometry.
+    let (th, td) = (data.theta_h().to_vec(), data.theta_d().to_vec());
+    assert!(data.geometry_if_built().is_none());
+    let with_angles = data.heap_bytes();
+    assert_eq!(with_angles, before + 2 * data.len() * 8);
     let g = data.geometry();
+    assert_eq!(data.heap_bytes(), with_angles + data.len() * 10 * 8);
     for m in 0..data.len() {
-        assert_eq!(data.theta_h()[m], g.h_z[m].clamp(-1.0, 1.0).acos());
-        assert_eq!(data.theta_d()[m], g.cos_d[m].clamp(-1.0, 1.0).acos());
+        assert_eq!(th[m], g.h_z[m].clamp(-1.0, 1.0).acos());
+        assert_eq!(td[m], g.cos_d[m].clamp(-1.0, 1.0).acos());
     }
+    let built = data.heap_bytes();
     assert!(data.multiplicity().iter().all(|&x| x == 1.0));
-    assert_eq!(data.heap_bytes(), before + 3 * data.len() * 8);
+    assert_eq!(data.heap_bytes(), built + data.len() * 8);
     let w = data.weights(Weighting::SolidAngle);
     assert_eq!(w, data.measure());
     assert_eq!(data.weights(Weighting::Uniform), vec![1.0; data.len()]);
@@ -173,6 +182,101 @@ fn stratified_subsample_draws_the_reference_cells() {
     m.eval_batch(&s.geometry().as_slice(), &mut out);
     let mv = s.with_model_values(m.as_ref());
     assert!((0..s.len()).all(|k| mv.values()[0][k] == out[k][0]));
+}
+
+/// A table's cells hold their geometry as grid runs and compute it where read; every
+/// way of reading it gives the bits of the whole-set columns, and those are the
+/// independent construction's (each valid cell's directions from `cell_directions`,
+/// pushed into a `GeometryBatch`) on a whole MERL grid: `geometry()` itself, chunks
+/// (`geometry_of`) before anything is built, the strata and the subsample drawn from
+/// them, a filtered set, the cube-root targets, model values and the loss report.
+#[test]
+fn a_tables_geometry_computed_where_read_is_the_materialised_one() {
+    let mut t = MerlTable::from_brdf(model(CT).as_ref(), dims(90, 90, 180)).unwrap();
+    // Some extra holes, so runs end mid-row.
+    for x in (0..t.cells()).step_by(13) {
+        let (i, j, k) = t.dims().unflatten(x);
+        t.set(i, j, k, None).unwrap();
+    }
+    let lazy = FitData::from_table(&t).unwrap();
+    let mut g = GeometryBatch::with_capacity(t.valid_count());
+    for c in t.valid_cells() {
+        g.push(&c.wi, &c.wo);
+    }
+    let given = FitData::from_parts(g, lazy.values().clone(), lazy.measure().to_vec()).unwrap();
+    let bits = |s: brdfkit_core::GeomSlice<'_>| -> Vec<u64> {
+        s.columns()
+            .iter()
+            .flat_map(|c| c.iter().map(|x| x.to_bits()))
+            .collect()
+    };
+    let n = lazy.len();
+    let whole = given.geometry();
+    // Chunks of the pass size and an odd size, computed without building the columns.
+    for size in [brdfkit_fit::data::PASS_CHUNK_CELLS, 1000] {
+        let mut scratch = GeometryBatch::default();
+        for s in (0..n).step_by(size) {
+            let r = s..(s + size).min(n);
+            let got = bits(lazy.geometry_of(r.clone(), &mut scratch));
+            assert_eq!(got, bits(whole.slice(r.clone())), "cells {r:?}");
+        }
+    }
+    let ct = model(CT);
+    let ms = [ct.as_ref(); 3];
+    let report = |d: &FitData| {
+        format!(
+            "{:?}",
+            brdfkit_fit::evaluate_losses(ms, d, Weighting::SolidAngle)
+        )
+    };
+    assert_eq!(report(&lazy), report(&given), "the loss report");
+    assert_eq!(lazy.cbrt_targets(), given.cbrt_targets());
+    assert_eq!(lazy.theta_d(), given.theta_d());
+    let s_lazy = lazy.stratified_subsample(0.05, 11);
+    assert_same(&s_lazy, &given.stratified_subsample(0.05, 11), "subsample");
+    assert!(s_lazy.len() > 1000);
+    assert_same(
+        &lazy.with_model_values(ct.as_ref()),
+        &given.with_model_values(ct.as_ref()),
+        "model values",
+    );
+    assert_eq!(
+        (0..n)
+            .step_by(97)
+            .map(|m| lazy.stratum_at(m))
+            .collect::<Vec<_>>(),
+        (0..n)
+            .step_by(97)
+            .map(|m| given.stratum_at(m))
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        lazy.geometry_if_built().is_none(),
+        "none of these passes builds the whole set"
+    );
+    // A filtered set (its geometry gathered cell by cell), then the whole set.
+    let keep = |m: usize| m % 3 != 1 && !m.is_multiple_of(101);
+    assert_same(&lazy.filter(keep), &given.filter(keep), "a filtered set");
+    assert!(lazy.geometry_if_built().is_none());
+    assert_same(&lazy, &given, "the whole table");
+    assert!(lazy.geometry_if_built().is_some());
+}
+
+/// A default fit of a table's cells (the command line's settings: the warm-up
+/// optimum evaluated on all cells, no iteration there) never builds their whole-set
+/// geometry: the subsamples, the targets' RMS and the loss report compute it chunk by
+/// chunk.
+#[test]
+fn a_default_fit_does_not_build_the_tables_geometry() {
+    let t = MerlTable::from_brdf(model(CT).as_ref(), dims(90, 90, 180)).unwrap();
+    let data = FitData::from_table(&t).unwrap();
+    let start = brdfkit_models::default_model("cook-torrance").unwrap();
+    let config = brdfkit_fit::families::FitSettings::default()
+        .config()
+        .unwrap();
+    let r = brdfkit_fit::fit(start.as_ref(), &data, &config, None).unwrap();
+    assert!(r.record.losses_full.get(brdfkit_fit::Loss::Cbrt).overall < 1e-3);
+    assert!(data.geometry_if_built().is_none());
 }
 
 /// The stratum by the formula, through `acos` (what `stratum_at` computed per cell

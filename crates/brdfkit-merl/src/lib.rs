@@ -32,7 +32,7 @@ pub mod resample;
 pub mod stats;
 pub mod table;
 
-pub use cells::CellDirections;
+pub use cells::{CellDirections, CellRuns};
 pub use error::{BadValue, ByteCount, Channel, MerlError, TableError};
 pub use grid::{
     Dims, DimsError, IO_CHUNK_CELLS, cell_weight, phi_d_angle, phi_d_bin, phi_d_coord, snap_coord,

@@ -20,7 +20,7 @@ use crate::physical::{PoleChoice, albedo_converged, auto_pole, converged_with};
 use crate::report::{deg, num, rgb};
 use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
-use brdfkit_core::{Model, ModelError, Rgb};
+use brdfkit_core::{GeometryBatch, Model, ModelError, Rgb};
 use brdfkit_fit::data::STRATA;
 use brdfkit_fit::loss::{Lanes8, cbrt_all, ln_1p_all};
 use brdfkit_fit::{
@@ -466,9 +466,14 @@ impl LossSums {
     }
 }
 
-/// One block's first cell, its cells' loss differences `d[cell][loss][channel]` and
-/// their (θh, θd) bands ([`BandCuts::band`]).
+/// One block's first cell, its cells' terms (per cell, [`TERMS`] numbers: the loss
+/// differences `d[loss][channel]`, then the published metrics' weight factors
+/// [`Loss::cell_factor`], so the sums need no geometry) and their (θh, θd) bands
+/// ([`BandCuts::band`]).
 type BlockTerms = (usize, Vec<f64>, Vec<[u32; 2]>);
+
+/// Numbers a cell of [`BlockTerms`]: 4 losses × 3 channels, then 4 factors.
+const TERMS: usize = 16;
 
 /// Adds the cells of a window's blocks, in cell order, to the sums of their band on
 /// `axis` (0: θh, 1: θd) and, when given, to `full`.
@@ -478,13 +483,12 @@ fn add_window(
     sums: &mut [LossSums],
     mut full: Option<&mut LossSums>,
     weight: &(dyn Fn(usize) -> f64 + Sync),
-    data: &FitData,
 ) {
-    let g = data.geometry();
     for (s, d, bands) in diffs {
-        for (k, (dk, b)) in d.chunks_exact(12).zip(bands).enumerate() {
+        for (k, (dk, b)) in d.chunks_exact(TERMS).zip(bands).enumerate() {
             let m = s + k;
-            let gk = Loss::PUBLISHED.map(|l| l.cell_factor(g.wi_z[m], g.wo_z[m]));
+            let (dk, gk) = dk.split_at(12);
+            let gk: [f64; 4] = gk.try_into().expect("four factors");
             if let Some(sum) = sums.get_mut(b[axis] as usize) {
                 sum.add(weight(m), dk, gk);
             }
@@ -590,8 +594,8 @@ fn cell_pass(
         // In cell order: the sums, the θh bands beside the θd bands and the whole set
         // (each sum is still taken cell by cell in cell order: the same bits).
         rayon::join(
-            || add_window(&diffs, 0, &mut hs, None, &weight, data),
-            || add_window(&diffs, 1, &mut ds, all.then_some(&mut full), &weight, data),
+            || add_window(&diffs, 0, &mut hs, None, &weight),
+            || add_window(&diffs, 1, &mut ds, all.then_some(&mut full), &weight),
         );
     }
     let bands = |edges: &[f64], sums: Vec<LossSums>| -> Vec<Band> {
@@ -643,11 +647,14 @@ fn block_terms(
     k: usize,
     dst: [&mut [f64]; 3],
 ) -> BlockTerms {
-    let (n, vals, g) = (data.len(), data.values(), data.geometry());
+    let (n, vals) = (data.len(), data.values());
     let s = k * BLOCK;
     let e = (s + BLOCK).min(n);
     let len = e - s;
-    let gs = g.slice(s..e);
+    // The block's geometry, computed here for a table's cells whose whole-set columns
+    // are not built (`FitData::geometry_of`: the same bits).
+    let mut scratch = GeometryBatch::default();
+    let gs = data.geometry_of(s..e, &mut scratch);
     let mut out = vec![Rgb::ZERO; len];
     let mut tmp = if same {
         Vec::new()
@@ -665,17 +672,21 @@ fn block_terms(
     }
     // The cells' bands of θ = acos(z) as `FitData::theta_h` / `theta_d` compute it
     // (no full-length angle arrays).
-    let bands: Vec<[u32; 2]> = (s..e)
-        .map(|m| [cuts[0].band(g.h_z[m]), cuts[1].band(g.cos_d[m])])
+    let bands: Vec<[u32; 2]> = (0..len)
+        .map(|k| [cuts[0].band(gs.h_z[k]), cuts[1].band(gs.cos_d[k])])
         .collect();
     // The terms of `evaluate_losses`, in its order, a channel at a time in passes over
     // plain slices: the cube roots and logarithms in its vectorised loops (`cbrt_all`,
     // `ln_1p_all`: the scalar functions' bits), the measured roots from the stored
     // targets when the fit built them (`FitData::cbrt_targets`: the same roots).
-    let ci = &g.wi_z[s..e];
+    let ci = gs.wi_z;
     let roots = data.cbrt_targets_if_built();
     let [mut xm, mut xt, mut tm, mut lg] = [(); 4].map(|_| vec![0.0; len]);
-    let mut d = vec![0.0; len * 12];
+    let mut d = vec![0.0; len * TERMS];
+    for (k, dk) in d.chunks_exact_mut(TERMS).enumerate() {
+        let f = Loss::PUBLISHED.map(|l| l.cell_factor(gs.wi_z[k], gs.wo_z[k]));
+        dk[12..].copy_from_slice(&f);
+    }
     for (c, dst) in dst.into_iter().enumerate() {
         let fm = &vals[c][s..e];
         let mut q = 0;
@@ -687,8 +698,8 @@ fn block_terms(
             }
             xm[k] = x * ci[k];
             xt[k] = fm[k] * ci[k];
-            d[k * 12 + c] = x - fm[k];
-            d[k * 12 + 3 + c] = xm[k] - xt[k];
+            d[k * TERMS + c] = x - fm[k];
+            d[k * TERMS + 3 + c] = xm[k] - xt[k];
             lg[k] = (xm[k] - xt[k]) / (1.0 + xt[k]);
         }
         debug_assert_eq!(q, dst.len());
@@ -703,8 +714,8 @@ fn block_terms(
             }
         };
         for k in 0..len {
-            d[k * 12 + 6 + c] = tm[k] - rt[k];
-            d[k * 12 + 9 + c] = lg[k];
+            d[k * TERMS + 6 + c] = tm[k] - rt[k];
+            d[k * TERMS + 9 + c] = lg[k];
         }
     }
     (s, d, bands)
@@ -1085,6 +1096,12 @@ mod tests {
         let t = table();
         let data = FitData::from_table(&t).unwrap();
         assert!(data.len() > 4 * brdfkit_fit::data::PASS_CHUNK_CELLS);
+        // The first pass below runs on a table's cells whose whole-set geometry is not
+        // built (each block's computed where read), the later ones on the built columns
+        // (the relative errors' check builds them): the same figures either way.
+        let o = QualityOptions::default();
+        cell_pass(models_of(&fits()[0]), &data, &o, &BandCuts::of(&o), true);
+        assert!(data.geometry_if_built().is_none());
         for w in [Weighting::SolidAngle, Weighting::Uniform] {
             let o = QualityOptions {
                 weighting: w,

@@ -5,7 +5,7 @@ use crate::physical::{PhysicalReport, PoleChoice, albedo_converged, auto_pole, c
 use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
 use brdfkit_core::rusinkiewicz::from_half_diff;
-use brdfkit_core::{Model, Rgb};
+use brdfkit_core::{GeometryBatch, Model, Rgb};
 use brdfkit_fit::{FitData, Fitted};
 use brdfkit_merl::{Lookup, MerlTable};
 use rayon::prelude::*;
@@ -147,7 +147,7 @@ pub(crate) fn residual_map(
     debug_assert_eq!(start, data.len());
     let models = [0, 1, 2].map(|c| fitted.channel_model(c));
     let same = matches!(fitted, Fitted::Shared(_));
-    let (g, vals) = (data.geometry(), data.values());
+    let vals = data.values();
     // Per (i, j): (sum of log ratios, count, model zeros), in parallel over θh.
     let per_ij: Vec<Vec<(f64, usize, usize)>> = runs
         .into_par_iter()
@@ -156,7 +156,10 @@ pub(crate) fn residual_map(
             // The model at the slab's cells: channel c from the channel-c model.
             let mut f = vec![Rgb::ZERO; n];
             let mut tmp = if same { Vec::new() } else { vec![Rgb::ZERO; n] };
-            let gs = g.slice(s..s + n);
+            // The slab's geometry, computed here for a table's cells whose whole-set
+            // columns are not built (`FitData::geometry_of`).
+            let mut scratch = GeometryBatch::default();
+            let gs = data.geometry_of(s..s + n, &mut scratch);
             models[0].eval_batch(&gs, &mut f);
             if !same {
                 for c in 1..3 {
