@@ -50,7 +50,21 @@ struct Explored {
     explore: Option<WarmUpRecord>,
     warm: Option<WarmUpRecord>,
     rank_cost: Option<f64>,
+    /// Its exploration stopped at the ranking tolerance ([`RANKING_FTOL`]): a finisher
+    /// goes on converging on the exploration set first ([`Pass::settle`]).
+    loose: bool,
+    /// Not run: its start point is that of this earlier start, which ran.
+    same_as: Option<usize>,
 }
+
+/// Relative cost decrease below which a start's exploration is done when it only needs
+/// a rank: the ranking cost is the warm-up set's at the exploration's end point, which
+/// differs from the exploration set's own optimum by the subsample's error, 0.5–2 % of
+/// the loss on the measured tables; stopping ~1e-5 short of that optimum (linear
+/// convergence, up to ~30 accepted steps a decade: a gap of at most ~3e-4 of the cost)
+/// moves every rank cost by far less. Only the finishers then converge to the
+/// configured tolerance (docs/fitting.md, "Explore, rank, finish").
+pub(super) const RANKING_FTOL: f64 = 1e-5;
 
 /// Floor of the automatic robust scale, relative to the targets' RMS: a plain fit that
 /// is exact (median |e| = 0) would otherwise give c = 0. Any c gives the same optimum
@@ -75,6 +89,37 @@ struct Pass<'a> {
     full: FitProblem<'a>,
     warm: Option<FitProblem<'a>>,
     explore: Option<FitProblem<'a>>,
+    /// Per start: the earlier start with the same point, if any (see [`same_starts`]).
+    same_as: Vec<Option<usize>>,
+    /// The config of a start's exploration: the ranking tolerance when the starts are
+    /// ranked (see [`RANKING_FTOL`]), else the fit's own.
+    explore_cfg: FitConfig,
+}
+
+/// For each start, the first earlier start whose point is the same, bit for bit: a
+/// family without a free shape parameter (Lambert) has nothing to spread its starts
+/// over, and every start is start 0. One run per point is enough: the others would
+/// repeat it step for step.
+fn same_starts(points: &[Vec<f64>]) -> Vec<Option<usize>> {
+    let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    (0..points.len())
+        .map(|k| (0..k).find(|&j| bits(&points[j]) == bits(&points[k])))
+        .collect()
+}
+
+/// The config of the exploration of a ranked pass with `distinct` different starts: the
+/// fit's with ftol raised to [`RANKING_FTOL`] when there is a ranking to make (more
+/// different starts than finishers); otherwise (or when the fit's ftol is already
+/// looser) the fit's own.
+fn exploration_config(config: &FitConfig, ranked: bool, distinct: usize) -> FitConfig {
+    let t = config.get_tolerances();
+    if !ranked || distinct <= config.finish || t.ftol >= RANKING_FTOL {
+        return config.clone();
+    }
+    config
+        .clone()
+        .tolerances(RANKING_FTOL, t.xtol, t.gtol)
+        .unwrap_or_else(|_| config.clone())
 }
 
 /// The problem of one pass on the cells `d`: `model`, its free parameters and channels,
@@ -142,7 +187,11 @@ impl<'a> Pass<'a> {
             config.starts,
             config.seed,
         );
+        let same_as = same_starts(&points);
+        let distinct = same_as.iter().filter(|s| s.is_none()).count();
         Ok(Pass {
+            explore_cfg: exploration_config(config, cells.ranked, distinct),
+            same_as,
             config,
             observer,
             channel: (channels.len() == 1).then(|| channels[0]),
@@ -179,38 +228,66 @@ impl<'a> Pass<'a> {
         self.explore.is_some() && self.warm.is_some()
     }
 
-    /// Stage 1, every start in parallel. Unranked: its warm-up. Ranked: it converges on
-    /// the exploration set (restarted while it hits the iteration cap, see
-    /// [`sub_stage`]), and the optimised cost where it ended is its rank (a fresh clone
-    /// of the problem, so the pass is counted for this start).
+    /// Whether the starts' exploration stopped at the ranking tolerance.
+    fn loose(&self) -> bool {
+        self.explore_cfg.get_tolerances().ftol != self.config.get_tolerances().ftol
+    }
+
+    /// Whether there is a ranking to make: a ranked pass with more different starts
+    /// than finishers. Otherwise no start needs a ranking cost pass.
+    fn ranks(&self) -> bool {
+        self.ranked && self.same_as.iter().filter(|s| s.is_none()).count() > self.config.finish
+    }
+
+    /// Stage 1, every start in parallel (a start whose point an earlier start has is
+    /// not run: it is recorded as that start's). Unranked: its warm-up. Ranked: it
+    /// converges on the exploration set (restarted while it hits the iteration cap, see
+    /// [`sub_stage`]; to the ranking tolerance when there is a ranking to make, see
+    /// [`RANKING_FTOL`]), and the optimised cost where it ended is its rank (a fresh
+    /// clone of the problem, so the pass is counted for this start).
     fn explore(&self) -> Vec<Result<Explored, FitError>> {
         let first = self.explore.as_ref().or(self.warm.as_ref());
+        let ranks = self.ranks();
+        let loose = self.loose();
         self.points
             .par_iter()
             .enumerate()
             .map(|(k, x)| {
+                if let Some(j) = self.same_as[k] {
+                    return Ok(Explored {
+                        u: self.full.to_u(x),
+                        explore: None,
+                        warm: None,
+                        rank_cost: None,
+                        loose: false,
+                        same_as: Some(j),
+                    });
+                }
                 let u0 = self.full.to_u(x);
                 let (u, rec) = match first {
                     Some(p) => {
-                        let (u, rec) = sub_stage(
+                        let (u, mut rec) = sub_stage(
                             p,
                             u0,
-                            self.config,
+                            &self.explore_cfg,
                             self.observer,
                             k,
                             self.channel,
                             self.ranked,
                         )?;
+                        if loose {
+                            rec.termination += &format!(
+                                " (the ranking's tolerance, ftol {RANKING_FTOL:e})"
+                            );
+                        }
                         (u, Some(rec))
                     }
                     None => (u0, None),
                 };
-                let rank_cost = self
-                    .ranked
-                    .then(|| match (&self.warm, self.rank_on_warm()) {
-                        (Some(wp), true) => wp.clone().cost_at(&u),
-                        _ => self.full.clone().cost_at(&u),
-                    });
+                let rank_cost = ranks.then(|| match (&self.warm, self.rank_on_warm()) {
+                    (Some(wp), true) => wp.clone().cost_at(&u),
+                    _ => self.full.clone().cost_at(&u),
+                });
                 // With a separate exploration set the start has not warmed up yet.
                 let (explore, warm) = match self.explore {
                     Some(_) => (rec, None),
@@ -221,6 +298,8 @@ impl<'a> Pass<'a> {
                     explore,
                     warm,
                     rank_cost,
+                    loose,
+                    same_as: None,
                 })
             })
             .collect()
@@ -239,7 +318,8 @@ impl<'a> Pass<'a> {
                 .unwrap_or(f64::INFINITY),
             Err(_) => f64::NAN,
         };
-        let mut order: Vec<usize> = (0..n).filter(|&k| explored[k].is_ok()).collect();
+        let ran = |k: usize| explored[k].as_ref().is_ok_and(|e| e.same_as.is_none());
+        let mut order: Vec<usize> = (0..n).filter(|&k| ran(k)).collect();
         if self.ranked {
             order.sort_by(|&a, &b| rank_key(a).total_cmp(&rank_key(b)).then(a.cmp(&b)));
         }
@@ -252,7 +332,9 @@ impl<'a> Pass<'a> {
         }
         if let Some(obs) = self.observer {
             for k in (0..n).filter(|k| !order.contains(k)) {
-                if let Ok(e) = &explored[k] {
+                if let Ok(e) = &explored[k]
+                    && e.same_as.is_none()
+                {
                     obs.observe(&Event::StartDone(StartDone {
                         start: k,
                         channel: self.channel,
@@ -266,21 +348,56 @@ impl<'a> Pass<'a> {
         (order, rank_of)
     }
 
-    /// Stage 2a: after a separate exploration, the finishers warm up from where they
-    /// got to, restarted with fresh damping while a run hits the iteration cap and
-    /// still improves ([`sub_stage`]). A warm-up that converges within the cap is
-    /// unchanged by this; one that does not used to end "maximum iterations reached"
-    /// with LM's damping grown and its steps shrunk (plausible-Phong on MERL's steel,
-    /// n ≈ 1,200: linear convergence along the valley where n and ρs trade off).
-    fn warm_up(
+    /// Stage 1b: a finisher whose exploration stopped at the ranking tolerance goes on
+    /// converging on the same set with the fit's own tolerances (restarted like an
+    /// exploration), so it leaves for the warm-up from the exploration set's optimum,
+    /// as every start did before [`RANKING_FTOL`]: a slow tail (a lobe creeping to a
+    /// bound) is paid on the small set, not on the warm-up set. Its exploration record
+    /// counts both runs. Returns the finishers' states, in `finishers`' order.
+    fn settle(
         &self,
         finishers: &[usize],
         explored: &[Result<Explored, FitError>],
     ) -> Vec<Result<Explored, FitError>> {
+        let first = self.explore.as_ref().or(self.warm.as_ref());
         finishers
             .par_iter()
             .map(|&k| {
                 let e = explored[k].as_ref().expect("finishers explored fine");
+                let Some(p) = first.filter(|_| e.loose) else {
+                    return Ok(e.clone());
+                };
+                let (u, rec) =
+                    sub_stage(p, e.u.clone(), self.config, self.observer, k, self.channel, true)?;
+                let join = |r: &Option<WarmUpRecord>| r.as_ref().map(|a| joined(a, &rec));
+                Ok(Explored {
+                    u,
+                    explore: join(&e.explore),
+                    warm: join(&e.warm),
+                    loose: false,
+                    ..e.clone()
+                })
+            })
+            .collect()
+    }
+
+    /// Stage 2a: after a separate exploration, the finishers warm up from where they
+    /// got to (`settled`, in `finishers`' order), restarted with fresh damping while a
+    /// run hits the iteration cap and still improves ([`sub_stage`]). A warm-up that
+    /// converges within the cap is unchanged by this; one that does not used to end
+    /// "maximum iterations reached" with LM's damping grown and its steps shrunk
+    /// (plausible-Phong on MERL's steel, n ≈ 1,200: linear convergence along the
+    /// valley where n and ρs trade off).
+    fn warm_up(
+        &self,
+        finishers: &[usize],
+        settled: Vec<Result<Explored, FitError>>,
+    ) -> Vec<Result<Explored, FitError>> {
+        finishers
+            .par_iter()
+            .zip(settled)
+            .map(|(&k, e)| {
+                let e = e?;
                 match (&self.warm, e.warm.is_none() && e.explore.is_some()) {
                     (Some(wp), true) => {
                         let (u, rec) = sub_stage(
@@ -295,13 +412,25 @@ impl<'a> Pass<'a> {
                         Ok(Explored {
                             u,
                             warm: Some(rec),
-                            ..e.clone()
+                            ..e
                         })
                     }
-                    _ => Ok(e.clone()),
+                    _ => Ok(e),
                 }
             })
             .collect()
+    }
+}
+
+/// Two runs on the same set, `a` then `b`, as one stage: the counts of both, where `b`
+/// ended.
+fn joined(a: &WarmUpRecord, b: &WarmUpRecord) -> WarmUpRecord {
+    WarmUpRecord {
+        iterations: a.iterations + b.iterations,
+        cost_evals: a.cost_evals + b.cost_evals,
+        jacobian_evals: a.jacobian_evals + b.jacobian_evals,
+        rounds: a.rounds + b.rounds,
+        ..b.clone()
     }
 }
 
@@ -473,10 +602,11 @@ pub(super) fn run_pass(
     stage("prepare", t, &mut times.prepare);
     let t = Instant::now();
     let explored = pass.explore();
-    stage("explore", t, &mut times.explore);
     let (finishers, rank_of) = pass.rank(&explored);
+    let settled = pass.settle(&finishers, &explored);
+    stage("explore", t, &mut times.explore);
     let t = Instant::now();
-    let warmed = pass.warm_up(&finishers, &explored);
+    let warmed = pass.warm_up(&finishers, settled);
     stage("warm-up", t, &mut times.warm_up);
     let t = Instant::now();
     let full_iters = config.full_iters.cap_for(model);
@@ -536,7 +666,10 @@ fn start_records(
                 }
                 rec.finished(o)
             }
-            (Ok(x), None) => rec.ranked_out(x, rank_of[k], n, pass.config.finish),
+            (Ok(x), None) => match x.same_as {
+                Some(j) => rec.same_as(j),
+                None => rec.ranked_out(x, rank_of[k], n, pass.config.finish),
+            },
         });
     }
     let Some((b, _)) = best else {
@@ -619,6 +752,14 @@ impl StartFacts {
             explore: o.explore.clone(),
             ..self.record(o.termination.clone(), true)
         }
+    }
+
+    fn same_as(self, j: usize) -> StartRecord {
+        let termination = format!(
+            "not run: the same start point as start {j} (nothing to spread the starts \
+             over), which ran"
+        );
+        self.record(termination, false)
     }
 
     fn ranked_out(self, x: &Explored, rank: Option<usize>, n: usize, finish: usize) -> StartRecord {
