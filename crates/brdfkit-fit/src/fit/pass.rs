@@ -6,7 +6,7 @@
 //! strings them together and [`start_records`] says what became of every start.
 
 use super::cells::CellSets;
-use super::solve::{Outcome, run_on, run_start, sub_stage};
+use super::solve::{Outcome, SubStage, Where, run_on, run_start, sub_stage, sub_stage_on};
 use super::timing::StageTimes;
 use crate::config::FitConfig;
 use crate::energy::{AlbedoPenalty, AlbedoQuadrature, PENALTY_WEIGHT};
@@ -50,20 +50,21 @@ struct Explored {
     explore: Option<WarmUpRecord>,
     warm: Option<WarmUpRecord>,
     rank_cost: Option<f64>,
-    /// Its exploration stopped at the ranking tolerance ([`RANKING_FTOL`]): a finisher
-    /// goes on converging on the exploration set first ([`Pass::settle`]).
-    loose: bool,
+    /// Its exploration, when it stopped at the ranking tolerance ([`RANKING_FTOL`]): a
+    /// finisher goes on from there on the exploration set first ([`Pass::settle`]).
+    stopped: Option<SubStage>,
     /// Not run: its start point is that of this earlier start, which ran.
     same_as: Option<usize>,
 }
 
-/// Relative cost decrease below which a start's exploration is done when it only needs
-/// a rank: the ranking cost is the warm-up set's at the exploration's end point, which
-/// differs from the exploration set's own optimum by the subsample's error, 0.5–2 % of
-/// the loss on the measured tables; stopping ~1e-5 short of that optimum (linear
-/// convergence, up to ~30 accepted steps a decade: a gap of at most ~3e-4 of the cost)
-/// moves every rank cost by far less. Only the finishers then converge to the
-/// configured tolerance (docs/fitting.md, "Explore, rank, finish").
+/// Relative cost decrease below which a start's exploration stops when it only needs a
+/// rank (Levenberg-Marquardt's two ftol rules at this tolerance, see
+/// [`crate::LevenbergMarquardt::stopping_early`]): the ranking cost is the warm-up
+/// set's at the exploration's end point, which differs from the exploration set's own
+/// optimum by the subsample's error (0.5–2 % of the loss on the measured tables), so the
+/// last decades of the cost's convergence there do not make an order. The finishers
+/// then go on from where they stopped exactly as an uninterrupted run would
+/// ([`Pass::settle`]; docs/fitting.md, "Explore, rank, finish").
 pub(super) const RANKING_FTOL: f64 = 1e-5;
 
 /// Floor of the automatic robust scale, relative to the targets' RMS: a plain fit that
@@ -91,9 +92,9 @@ struct Pass<'a> {
     explore: Option<FitProblem<'a>>,
     /// Per start: the earlier start with the same point, if any (see [`same_starts`]).
     same_as: Vec<Option<usize>>,
-    /// The config of a start's exploration: the ranking tolerance when the starts are
-    /// ranked (see [`RANKING_FTOL`]), else the fit's own.
-    explore_cfg: FitConfig,
+    /// The early ftol of the explorations: [`RANKING_FTOL`] when there is a ranking to
+    /// make (see [`Pass::ranks`]).
+    early: Option<f64>,
 }
 
 /// For each start, the first earlier start whose point is the same, bit for bit: a
@@ -105,21 +106,6 @@ fn same_starts(points: &[Vec<f64>]) -> Vec<Option<usize>> {
     (0..points.len())
         .map(|k| (0..k).find(|&j| bits(&points[j]) == bits(&points[k])))
         .collect()
-}
-
-/// The config of the exploration of a ranked pass with `distinct` different starts: the
-/// fit's with ftol raised to [`RANKING_FTOL`] when there is a ranking to make (more
-/// different starts than finishers); otherwise (or when the fit's ftol is already
-/// looser) the fit's own.
-fn exploration_config(config: &FitConfig, ranked: bool, distinct: usize) -> FitConfig {
-    let t = config.get_tolerances();
-    if !ranked || distinct <= config.finish || t.ftol >= RANKING_FTOL {
-        return config.clone();
-    }
-    config
-        .clone()
-        .tolerances(RANKING_FTOL, t.xtol, t.gtol)
-        .unwrap_or_else(|_| config.clone())
 }
 
 /// The problem of one pass on the cells `d`: `model`, its free parameters and channels,
@@ -190,7 +176,7 @@ impl<'a> Pass<'a> {
         let same_as = same_starts(&points);
         let distinct = same_as.iter().filter(|s| s.is_none()).count();
         Ok(Pass {
-            explore_cfg: exploration_config(config, cells.ranked, distinct),
+            early: (cells.ranked && distinct > config.finish).then_some(RANKING_FTOL),
             same_as,
             config,
             observer,
@@ -228,15 +214,20 @@ impl<'a> Pass<'a> {
         self.explore.is_some() && self.warm.is_some()
     }
 
-    /// Whether the starts' exploration stopped at the ranking tolerance.
-    fn loose(&self) -> bool {
-        self.explore_cfg.get_tolerances().ftol != self.config.get_tolerances().ftol
-    }
-
     /// Whether there is a ranking to make: a ranked pass with more different starts
     /// than finishers. Otherwise no start needs a ranking cost pass.
     fn ranks(&self) -> bool {
-        self.ranked && self.same_as.iter().filter(|s| s.is_none()).count() > self.config.finish
+        self.early.is_some()
+    }
+
+    /// Who start k's runs on a subsample are.
+    fn at(&self, k: usize) -> Where<'a> {
+        Where {
+            observer: self.observer,
+            start: k,
+            channel: self.channel,
+            warm_up: true,
+        }
     }
 
     /// Stage 1, every start in parallel (a start whose point an earlier start has is
@@ -248,7 +239,6 @@ impl<'a> Pass<'a> {
     fn explore(&self) -> Vec<Result<Explored, FitError>> {
         let first = self.explore.as_ref().or(self.warm.as_ref());
         let ranks = self.ranks();
-        let loose = self.loose();
         self.points
             .par_iter()
             .enumerate()
@@ -259,30 +249,22 @@ impl<'a> Pass<'a> {
                         explore: None,
                         warm: None,
                         rank_cost: None,
-                        loose: false,
+                        stopped: None,
                         same_as: Some(j),
                     });
                 }
                 let u0 = self.full.to_u(x);
-                let (u, rec) = match first {
+                let (u, rec, stopped) = match first {
                     Some(p) => {
-                        let (u, mut rec) = sub_stage(
-                            p,
-                            u0,
-                            &self.explore_cfg,
-                            self.observer,
-                            k,
-                            self.channel,
-                            self.ranked,
-                        )?;
-                        if loose {
-                            rec.termination += &format!(
-                                " (the ranking's tolerance, ftol {RANKING_FTOL:e})"
-                            );
+                        let st = sub_stage(p, u0, self.config, self.at(k), self.ranked, self.early)?;
+                        let mut rec = st.record(p);
+                        let stopped = st.w.early.is_some().then(|| st.clone());
+                        if stopped.is_some() {
+                            rec.termination += &format!(" (ftol {RANKING_FTOL:e})");
                         }
-                        (u, Some(rec))
+                        (st.w.u, Some(rec), stopped)
                     }
-                    None => (u0, None),
+                    None => (u0, None, None),
                 };
                 let rank_cost = ranks.then(|| match (&self.warm, self.rank_on_warm()) {
                     (Some(wp), true) => wp.clone().cost_at(&u),
@@ -298,7 +280,7 @@ impl<'a> Pass<'a> {
                     explore,
                     warm,
                     rank_cost,
-                    loose,
+                    stopped,
                     same_as: None,
                 })
             })
@@ -332,15 +314,17 @@ impl<'a> Pass<'a> {
         }
         if let Some(obs) = self.observer {
             for k in (0..n).filter(|k| !order.contains(k)) {
-                if let Ok(e) = &explored[k]
-                    && e.same_as.is_none()
-                {
+                if let Ok(e) = &explored[k] {
+                    let termination = match e.same_as {
+                        Some(j) => same_start_words(j),
+                        None => "not finished (ranked out after its exploration)".into(),
+                    };
                     obs.observe(&Event::StartDone(StartDone {
                         start: k,
                         channel: self.channel,
                         loss: (2.0 * e.rank_cost.unwrap_or(f64::NAN)).sqrt(),
                         iterations: 0,
-                        termination: "not finished (ranked out after its exploration)".into(),
+                        termination,
                     }));
                 }
             }
@@ -364,17 +348,17 @@ impl<'a> Pass<'a> {
             .par_iter()
             .map(|&k| {
                 let e = explored[k].as_ref().expect("finishers explored fine");
-                let Some(p) = first.filter(|_| e.loose) else {
+                let (Some(p), Some(st)) = (first, &e.stopped) else {
                     return Ok(e.clone());
                 };
-                let (u, rec) =
-                    sub_stage(p, e.u.clone(), self.config, self.observer, k, self.channel, true)?;
-                let join = |r: &Option<WarmUpRecord>| r.as_ref().map(|a| joined(a, &rec));
+                let st = sub_stage_on(p, st.clone(), self.config, self.at(k), true)?;
+                let rec = Some(st.record(p));
+                let sep = self.explore.is_some();
                 Ok(Explored {
-                    u,
-                    explore: join(&e.explore),
-                    warm: join(&e.warm),
-                    loose: false,
+                    u: st.w.u,
+                    explore: if sep { rec.clone() } else { None },
+                    warm: if sep { None } else { rec },
+                    stopped: None,
                     ..e.clone()
                 })
             })
@@ -400,18 +384,10 @@ impl<'a> Pass<'a> {
                 let e = e?;
                 match (&self.warm, e.warm.is_none() && e.explore.is_some()) {
                     (Some(wp), true) => {
-                        let (u, rec) = sub_stage(
-                            wp,
-                            e.u.clone(),
-                            self.config,
-                            self.observer,
-                            k,
-                            self.channel,
-                            true,
-                        )?;
+                        let st = sub_stage(wp, e.u.clone(), self.config, self.at(k), true, None)?;
                         Ok(Explored {
-                            u,
-                            warm: Some(rec),
+                            warm: Some(st.record(wp)),
+                            u: st.w.u,
                             ..e
                         })
                     }
@@ -422,16 +398,9 @@ impl<'a> Pass<'a> {
     }
 }
 
-/// Two runs on the same set, `a` then `b`, as one stage: the counts of both, where `b`
-/// ended.
-fn joined(a: &WarmUpRecord, b: &WarmUpRecord) -> WarmUpRecord {
-    WarmUpRecord {
-        iterations: a.iterations + b.iterations,
-        cost_evals: a.cost_evals + b.cost_evals,
-        jacobian_evals: a.jacobian_evals + b.jacobian_evals,
-        rounds: a.rounds + b.rounds,
-        ..b.clone()
-    }
+/// Why a start whose point start `j` has did not run (see [`same_starts`]).
+fn same_start_words(j: usize) -> String {
+    format!("not run: the same start point as start {j}, which ran (no free shape parameter to spread the starts over)")
 }
 
 /// Whether the kept start's cost over the fitted cells is left to the fit's loss
@@ -518,6 +487,7 @@ impl Pass<'_> {
             converged: w.termination.starts_with("converged"),
             warm: None,
             explore: None,
+            early: None,
         }
     }
 
@@ -755,11 +725,7 @@ impl StartFacts {
     }
 
     fn same_as(self, j: usize) -> StartRecord {
-        let termination = format!(
-            "not run: the same start point as start {j} (nothing to spread the starts \
-             over), which ran"
-        );
-        self.record(termination, false)
+        self.record(same_start_words(j), false)
     }
 
     fn ranked_out(self, x: &Explored, rank: Option<usize>, n: usize, finish: usize) -> StartRecord {
@@ -781,30 +747,47 @@ impl StartFacts {
 #[cfg(test)]
 mod tests {
     use super::super::cells::Cells;
+    use super::super::timing::StageTimes;
     use super::*;
     use brdfkit_merl::{Dims, MerlTable};
 
-    /// Lambertian cells with ρd = (0.3, 0.4, 0.5), a ranked config of 4 starts, and the
-    /// Lambert model to fit with its free parameters.
-    fn setup() -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
-        let truth = brdfkit_models::from_json(&serde_json::json!(
-            {"model": "lambert", "params": {"rho_d": [0.3, 0.4, 0.5]}}
-        ))
-        .unwrap();
+    /// The cells of `truth` on a 30 × 30 × 60 grid, a ranked config of 4 starts (a
+    /// 2,000-cell warm-up set, explored directly), and `family` at its default start
+    /// with its free parameters.
+    fn setup_of(truth: &str, family: &str) -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
+        let truth = brdfkit_models::from_json_str(truth).unwrap();
         let t = MerlTable::from_brdf(truth.as_ref(), Dims::new(30, 30, 60).unwrap()).unwrap();
         let cfg = FitConfig::default()
             .starts(4)
             .unwrap()
             .warm_up(Some(2000))
             .unwrap();
-        let model = brdfkit_models::default_model("lambert").unwrap();
+        let model = brdfkit_models::default_model(family).unwrap();
         let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
         (FitData::from_table(&t).unwrap(), cfg, model, free)
     }
 
+    /// Lambertian cells with ρd = (0.3, 0.4, 0.5) and the Lambert family.
+    fn setup() -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
+        setup_of(
+            r#"{"model": "lambert", "params": {"rho_d": [0.3, 0.4, 0.5]}}"#,
+            "lambert",
+        )
+    }
+
+    /// Cook-Torrance cells (α = 0.15) and the Cook-Torrance family, whose starts spread
+    /// over α.
+    fn setup_ct() -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
+        setup_of(
+            r#"{"model": "cook-torrance", "params": {"rho_d": [0.1, 0.2, 0.3],
+                "rho_s": [0.5, 0.4, 0.3], "alpha": 0.15}}"#,
+            "cook-torrance",
+        )
+    }
+
     #[test]
     fn the_stages_explore_rank_warm_up_and_finish() {
-        let (d, cfg, model, free) = setup();
+        let (d, cfg, model, free) = setup_ct();
         let cells = Cells::of(&d, &cfg).unwrap();
         let sets = cells.sets();
         assert!(sets.ranked);
@@ -820,18 +803,19 @@ mod tests {
         let best = finishers[0];
         assert_eq!(rank_of[best], Some(0));
         assert!(costs.iter().all(|&c| costs[best] <= c), "{costs:?}");
-        // No separate exploration set here: the warm-up stage passes the start on.
-        let warmed = pass.warm_up(&finishers, &explored);
+        let settled = pass.settle(&finishers, &explored);
+        // The warm-up set was explored directly: the warm-up stage passes the start on.
+        let warmed = pass.warm_up(&finishers, settled.clone());
         assert_eq!(
             warmed[0].as_ref().unwrap().u,
-            explored[best].as_ref().unwrap().u
+            settled[0].as_ref().unwrap().u
         );
         let finished = pass.finish(&finishers, warmed, None, false);
         let o = finished[0].1.as_ref().unwrap();
         assert!(o.converged, "{}", o.termination);
         assert!(
             (2.0 * o.cost).sqrt() < 1e-6,
-            "a Lambertian table is fitted exactly"
+            "a table of the family is fitted exactly"
         );
         let end = o.u.clone();
         let (starts, kept) = start_records(&pass, &explored, finished, &rank_of, false).unwrap();
@@ -843,6 +827,100 @@ mod tests {
             "{}",
             out.termination
         );
+    }
+
+    /// Ranking needs an order, not an optimum: every start explores to the ranking's
+    /// tolerance, and only the finisher then converges to the fit's own, on the same
+    /// set; its record counts both runs and ends where the second ended.
+    #[test]
+    fn starts_explore_to_the_ranking_tolerance_and_the_finisher_settles() {
+        let (d, cfg, model, free) = setup_ct();
+        let cells = Cells::of(&d, &cfg).unwrap();
+        let pass = Pass::new(&cells.sets(), model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
+        assert!(pass.loose() && pass.ranks());
+        assert_eq!(pass.explore_cfg.get_tolerances().ftol, RANKING_FTOL);
+        let explored = pass.explore();
+        // The warm-up set is explored directly here: its record is `warm`.
+        let first = |e: &Explored| e.warm.clone().unwrap();
+        for e in explored.iter().map(|e| e.as_ref().unwrap()) {
+            assert!(e.loose);
+            let t = first(e).termination;
+            assert!(t.ends_with("(the ranking's tolerance, ftol 1e-5)"), "{t}");
+        }
+        let (finishers, _) = pass.rank(&explored);
+        let k = finishers[0];
+        let before = first(explored[k].as_ref().unwrap());
+        let settled = pass.settle(&finishers, &explored);
+        let after = settled[0].as_ref().unwrap();
+        assert!(!after.loose);
+        let rec = first(after);
+        // The settling run on its own, from where the exploration stopped.
+        let (u, own) = sub_stage(
+            pass.warm.as_ref().unwrap(),
+            explored[k].as_ref().unwrap().u.clone(),
+            &cfg,
+            None,
+            k,
+            None,
+            true,
+        )
+        .unwrap();
+        assert_eq!(after.u, u);
+        assert_eq!(rec.iterations, before.iterations + own.iterations);
+        assert_eq!(rec.jacobian_evals, before.jacobian_evals + own.jacobian_evals);
+        assert_eq!(rec.rounds, before.rounds + own.rounds);
+        assert_eq!((rec.final_loss, &rec.termination), (own.final_loss, &own.termination));
+        assert!(rec.termination.starts_with("converged") && !rec.termination.contains("ranking"));
+        assert!(rec.final_loss <= before.final_loss);
+    }
+
+    /// No ranking to make (one start, or no more starts than finishers), or a fit whose
+    /// own ftol is looser: the exploration keeps the fit's tolerances.
+    #[test]
+    fn the_ranking_tolerance_applies_only_to_a_ranking() {
+        let cfg = FitConfig::default().starts(8).unwrap();
+        assert_eq!(exploration_config(&cfg, true, 8).get_tolerances().ftol, RANKING_FTOL);
+        assert_eq!(exploration_config(&cfg, false, 8), cfg);
+        assert_eq!(exploration_config(&cfg, true, 1), cfg);
+        let loose = cfg.clone().tolerances(1e-3, 1e-10, 1e-10).unwrap();
+        assert_eq!(exploration_config(&loose, true, 8), loose);
+    }
+
+    /// Lambert has no shape parameter: its four starts are one point, which explores
+    /// once, is finished without a ranking pass, and the others are recorded as that
+    /// start's; the fit is the same as one start's.
+    #[test]
+    fn a_family_whose_starts_cannot_differ_explores_once() {
+        let (d, cfg, model, free) = setup();
+        let cells = Cells::of(&d, &cfg).unwrap();
+        let sets = cells.sets();
+        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
+        assert_eq!(pass.same_as, vec![None, Some(0), Some(0), Some(0)]);
+        assert!(!pass.ranks() && !pass.loose());
+        let explored = pass.explore();
+        let ran: Vec<bool> = explored
+            .iter()
+            .map(|e| e.as_ref().unwrap().warm.is_some())
+            .collect();
+        assert_eq!(ran, [true, false, false, false], "one exploration");
+        assert!(explored.iter().all(|e| e.as_ref().unwrap().rank_cost.is_none()));
+        let (finishers, rank_of) = pass.rank(&explored);
+        assert_eq!(finishers, [0]);
+        let warmed = pass.warm_up(&finishers, pass.settle(&finishers, &explored));
+        let finished = pass.finish(&finishers, warmed, None, false);
+        let (starts, kept) = start_records(&pass, &explored, finished, &rank_of, false).unwrap();
+        assert!(starts[0].kept && starts[0].rank_loss.is_none());
+        for s in &starts[1..] {
+            assert!(!s.finished && s.warm_up.is_none() && s.final_loss.is_none());
+            assert!(s.termination.starts_with("not run: the same start point as start 0"));
+        }
+        // The same fit as a single start's.
+        let one = cfg.clone().starts(1).unwrap();
+        let cells1 = Cells::of(&d, &one).unwrap();
+        let mut times = StageTimes::default();
+        let r = run_pass(&cells1.sets(), model.as_ref(), free, vec![0, 1, 2], &one, None, &mut times)
+            .unwrap();
+        assert_eq!(kept.u, r.best.u);
     }
 
     #[test]
