@@ -720,6 +720,39 @@ mod tests {
         assert!(state.get_iter() < 100);
     }
 
+    /// A run stopped at an early tolerance and resumed with its damping takes the
+    /// uninterrupted run's steps: the same end point, bit for bit.
+    #[test]
+    fn lm_stopped_early_and_resumed_ends_where_an_uninterrupted_run_ends() {
+        // From inside the domain, the cost falls toward its value at the bound by a
+        // factor ≈ e⁻³ a step: a relative decrease that shrinks, as on a lobe collapsing.
+        let run = |lm: LevenbergMarquardt, u: DVector<f64>| {
+            Executor::new(AtBound, lm)
+                .configure(|s: LsState| s.param(u).max_iters(200))
+                .run()
+                .unwrap()
+        };
+        let u0 = DVector::from_vec(vec![0.0, 0.0]);
+        let tol = Tolerances::default();
+        let whole = run(LevenbergMarquardt::new(1e-3, tol), u0.clone());
+        let first = run(
+            LevenbergMarquardt::new(1e-3, tol).stopping_early(Some(1e-2)),
+            u0,
+        );
+        assert!(first.solver.stopped_early);
+        assert_eq!(first.solver.criterion, Some(EARLY_STOP));
+        assert!(first.state.get_iter() < whole.state.get_iter());
+        let u1 = first.state.get_best_param().unwrap().clone();
+        let memory = first.solver.memory();
+        let second = run(LevenbergMarquardt::new(1e-3, tol).resumed(Some(memory)), u1);
+        assert!(!second.solver.stopped_early);
+        assert_eq!(second.state.get_best_param(), whole.state.get_best_param());
+        assert_eq!(second.state.get_best_cost(), whole.state.get_best_cost());
+        // One iteration more at most: a stop on the predicted decrease counts an
+        // iteration without a step.
+        assert!(first.state.get_iter() + second.state.get_iter() <= whole.state.get_iter() + 1);
+    }
+
     #[test]
     fn gauss_newton_solves_rosenbrock() {
         solves_rosenbrock(GaussNewtonLs::new(Tolerances::default()));

@@ -298,7 +298,18 @@ pub(super) fn sub_stage(
     };
     let w = run_start_with(problem.clone(), u0, config, at, lm)?;
     let cost = w.cost;
-    rounds(problem, SubStage { w, rounds: 1, round_start: cost }, config, at, restart, early)
+    rounds(
+        problem,
+        SubStage {
+            w,
+            rounds: 1,
+            round_start: cost,
+        },
+        config,
+        at,
+        restart,
+        early,
+    )
 }
 
 /// A sub-stage that stopped at the early ftol, gone on with the config's own
