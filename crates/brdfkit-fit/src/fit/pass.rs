@@ -914,35 +914,33 @@ mod tests {
     #[test]
     fn a_family_whose_starts_cannot_differ_explores_once() {
         let (d, cfg, model, free) = setup();
-        let cells = Cells::of(&d, &cfg).unwrap();
-        let sets = cells.sets();
-        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
-        assert_eq!(pass.same_as, vec![None, Some(0), Some(0), Some(0)]);
-        assert!(!pass.ranks() && pass.early.is_none());
-        let explored = pass.explore();
-        let ran: Vec<bool> = explored
-            .iter()
-            .map(|e| e.as_ref().unwrap().warm.is_some())
-            .collect();
-        assert_eq!(ran, [true, false, false, false], "one exploration");
-        assert!(
-            explored
+        let kept_u = with_pass(&d, &cfg, model.as_ref(), &free, |pass| {
+            assert_eq!(pass.same_as, vec![None, Some(0), Some(0), Some(0)]);
+            assert!(!pass.ranks() && pass.early.is_none());
+            let explored = pass.explore();
+            let ran: Vec<bool> = explored
                 .iter()
-                .all(|e| e.as_ref().unwrap().rank_cost.is_none())
-        );
-        let (finishers, rank_of) = pass.rank(&explored);
-        assert_eq!(finishers, [0]);
-        let warmed = pass.warm_up(&finishers, pass.settle(&finishers, &explored));
-        let finished = pass.finish(&finishers, warmed, None, false);
-        let (starts, kept) = start_records(&pass, &explored, finished, &rank_of, false).unwrap();
-        assert!(starts[0].kept && starts[0].rank_loss.is_none());
-        for s in &starts[1..] {
-            assert!(!s.finished && s.warm_up.is_none() && s.final_loss.is_none());
-            assert!(
-                s.termination
-                    .starts_with("not run: the same start point as start 0")
-            );
-        }
+                .map(|e| e.as_ref().unwrap().warm.is_some())
+                .collect();
+            assert_eq!(ran, [true, false, false, false], "one exploration");
+            let no_rank = |e: &Result<Explored, FitError>| e.as_ref().unwrap().rank_cost.is_none();
+            assert!(explored.iter().all(no_rank));
+            let (finishers, rank_of) = pass.rank(&explored);
+            assert_eq!(finishers, [0]);
+            let warmed = pass.warm_up(&finishers, pass.settle(&finishers, &explored));
+            let finished = pass.finish(&finishers, warmed, None, false);
+            let (starts, kept) = start_records(pass, &explored, finished, &rank_of, false).unwrap();
+            assert!(starts[0].kept && starts[0].rank_loss.is_none());
+            for s in &starts[1..] {
+                assert!(!s.finished && s.warm_up.is_none() && s.final_loss.is_none());
+                let t = &s.termination;
+                assert!(
+                    t.starts_with("not run: the same start point as start 0"),
+                    "{t}"
+                );
+            }
+            kept.u
+        });
         // The same fit as a single start's.
         let one = cfg.clone().starts(1).unwrap();
         let cells1 = Cells::of(&d, &one).unwrap();
@@ -957,23 +955,36 @@ mod tests {
             &mut times,
         )
         .unwrap();
-        assert_eq!(kept.u, r.best.u);
+        assert_eq!(kept_u, r.best.u);
     }
 
     #[test]
     fn only_a_plain_single_finisher_evaluated_once_defers_its_cost() {
         let (d, cfg, model, free) = setup();
-        let cells = Cells::of(&d, &cfg).unwrap();
-        let sets = cells.sets();
-        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
-        assert!(defers_cost(&pass, Some(0), 1));
-        assert!(!defers_cost(&pass, Some(0), 2));
-        assert!(!defers_cost(&pass, None, 1));
+        with_pass(&d, &cfg, model.as_ref(), &free, |pass| {
+            assert!(defers_cost(pass, Some(0), 1));
+            assert!(!defers_cost(pass, Some(0), 2));
+            assert!(!defers_cost(pass, None, 1));
+        });
         let penalised = cfg.clone().albedo_max(Some(1.0)).unwrap();
-        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &penalised, None).unwrap();
-        assert!(
-            !defers_cost(&pass, Some(0), 1),
-            "a penalty is not in the report"
-        );
+        with_pass(&d, &penalised, model.as_ref(), &free, |pass| {
+            assert!(
+                !defers_cost(pass, Some(0), 1),
+                "a penalty is not in the report"
+            );
+        });
+    }
+
+    /// `f` of the shared pass of `model` over the cells of `d` under `cfg`.
+    fn with_pass<R>(
+        d: &FitData,
+        cfg: &FitConfig,
+        model: &dyn Model,
+        free: &[usize],
+        f: impl FnOnce(&Pass<'_>) -> R,
+    ) -> R {
+        let cells = Cells::of(d, cfg).unwrap();
+        let pass = Pass::new(&cells.sets(), model, free, &[0, 1, 2], cfg, None).unwrap();
+        f(&pass)
     }
 }
