@@ -317,7 +317,7 @@ impl<'a> Pass<'a> {
             for k in (0..n).filter(|k| !order.contains(k)) {
                 if let Ok(e) = &explored[k] {
                     let termination = match e.same_as {
-                        Some(j) => same_start_words(j),
+                        Some(j) => same_start_words(self, j),
                         None => "not finished (ranked out after its exploration)".into(),
                     };
                     obs.observe(&Event::StartDone(StartDone {
@@ -400,10 +400,13 @@ impl<'a> Pass<'a> {
 }
 
 /// Why a start whose point start `j` has did not run (see [`same_starts`]).
-fn same_start_words(j: usize) -> String {
-    format!(
-        "not run: the same start point as start {j}, which ran (no free shape parameter to spread the starts over)"
-    )
+fn same_start_words(pass: &Pass<'_>, j: usize) -> String {
+    let why = if pass.same_as.iter().skip(1).all(|&s| s == Some(0)) {
+        " (no free shape parameter to spread the starts over)"
+    } else {
+        ""
+    };
+    format!("not run: the same start point as start {j}, which ran{why}")
 }
 
 /// Whether the kept start's cost over the fitted cells is left to the fit's loss
@@ -640,7 +643,7 @@ fn start_records(
                 rec.finished(o)
             }
             (Ok(x), None) => match x.same_as {
-                Some(j) => rec.same_as(j),
+                Some(j) => rec.same_as(same_start_words(pass, j)),
                 None => rec.ranked_out(x, rank_of[k], n, pass.config.finish),
             },
         });
@@ -727,8 +730,8 @@ impl StartFacts {
         }
     }
 
-    fn same_as(self, j: usize) -> StartRecord {
-        self.record(same_start_words(j), false)
+    fn same_as(self, words: String) -> StartRecord {
+        self.record(words, false)
     }
 
     fn ranked_out(self, x: &Explored, rank: Option<usize>, n: usize, finish: usize) -> StartRecord {
@@ -938,6 +941,7 @@ mod tests {
                     t.starts_with("not run: the same start point as start 0"),
                     "{t}"
                 );
+                assert!(t.ends_with("(no free shape parameter to spread the starts over)"));
             }
             kept.u
         });
