@@ -285,7 +285,25 @@ pub struct LevenbergMarquardt {
     pub criterion: Option<&'static str>,
     failed: Option<&'static str>,
     last_accepted: bool,
+    /// A looser ftol at which to stop early (see [`LevenbergMarquardt::stopping_early`]).
+    early: Option<f64>,
+    /// The damping to begin with instead of τ's (see [`LevenbergMarquardt::resumed`]).
+    resume: Option<LmMemory>,
+    /// True when the run stopped at the early tolerance, not at ftol.
+    pub stopped_early: bool,
 }
+
+/// The damping state of a Levenberg-Marquardt run: with it, a run that stopped can be
+/// continued step for step as if it had not (see [`LevenbergMarquardt::resumed`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LmMemory {
+    mu: f64,
+    nu: f64,
+    last_accepted: bool,
+}
+
+/// The words of a stop at the early tolerance.
+pub const EARLY_STOP: &str = "cost decrease below the ranking's tolerance";
 
 impl LevenbergMarquardt {
     /// With the initial damping factor τ (1e-3 for a start believed close; 1 when far).
@@ -299,16 +317,57 @@ impl LevenbergMarquardt {
             criterion: None,
             failed: None,
             last_accepted: true,
+            early: None,
+            resume: None,
+            stopped_early: false,
         }
     }
-}
 
-impl LevenbergMarquardt {
-    /// μ = τ · max diag(JᵀJ) at the start point.
+    /// Also stops where one of the two ftol rules holds at `ftol` (looser than the
+    /// tolerances' own), saying so ([`EARLY_STOP`], `stopped_early`): the state is then
+    /// exactly that of a run with the tolerances alone at that step, so
+    /// [`resumed`](Self::resumed) with its [`memory`](Self::memory) goes on as that
+    /// run would have.
+    pub fn stopping_early(mut self, ftol: Option<f64>) -> Self {
+        self.early = ftol.filter(|&e| e > self.tol.ftol);
+        self
+    }
+
+    /// Begins with the damping of `memory` (a run that stopped) instead of τ's.
+    pub fn resumed(mut self, memory: Option<LmMemory>) -> Self {
+        self.resume = memory;
+        self
+    }
+
+    /// The damping state now.
+    pub fn memory(&self) -> LmMemory {
+        LmMemory {
+            mu: self.mu,
+            nu: self.nu,
+            last_accepted: self.last_accepted,
+        }
+    }
+
+    /// μ = τ · max diag(JᵀJ) at the start point, or a resumed run's damping.
     fn started(&mut self, ne: &NormalEq) {
+        if let Some(m) = self.resume.take() {
+            (self.mu, self.nu, self.last_accepted) = (m.mu, m.nu, m.last_accepted);
+            return;
+        }
         let max = max_diag(&ne.jtj);
         self.mu = self.tau * if max > 0.0 { max } else { 1.0 };
         self.nu = 2.0;
+    }
+
+    /// Whether a decrease `dec` (predicted or actual) of `cost` is below the early
+    /// tolerance while above ftol: then the run stops early, saying so.
+    fn early_stop(&mut self, dec: f64, cost: f64) -> bool {
+        let hit = self.early.is_some_and(|e| dec <= e * cost) && dec > self.tol.ftol * cost;
+        if hit {
+            self.criterion = Some(EARLY_STOP);
+            self.stopped_early = true;
+        }
+        hit
     }
 
     /// One accepted step (with the rejected trials it took), or a stop.
@@ -349,6 +408,10 @@ impl LevenbergMarquardt {
                 let kv = argmin::kv!("rejected" => rejected;);
                 return Ok((settle(&mut self.ne, state, u, ne, false), Some(kv)));
             }
+            if !clipped && pred >= 0.0 && self.mu <= maxd && self.early_stop(pred, ne.cost) {
+                let kv = argmin::kv!("rejected" => rejected;);
+                return Ok((settle(&mut self.ne, state, u, ne, false), Some(kv)));
+            }
             let un = &u + &h;
             // After an accepted step the next trial is usually accepted too: evaluate
             // the normal equations there at once (one pass instead of a cost pass and
@@ -379,6 +442,8 @@ impl LevenbergMarquardt {
                     self.criterion = Some("step below xtol");
                 } else if !clipped && actual <= self.tol.ftol * ne.cost {
                     self.criterion = Some("relative cost decrease below ftol");
+                } else if !clipped {
+                    self.early_stop(actual, ne.cost);
                 }
                 let kv = argmin::kv!("mu" => self.mu; "rejected" => rejected;);
                 return Ok((settle(&mut self.ne, state, un, ne2, true), Some(kv)));
@@ -653,6 +718,39 @@ mod tests {
             Some(&TerminationReason::SolverConverged)
         );
         assert!(state.get_iter() < 100);
+    }
+
+    /// A run stopped at an early tolerance and resumed with its damping takes the
+    /// uninterrupted run's steps: the same end point, bit for bit.
+    #[test]
+    fn lm_stopped_early_and_resumed_ends_where_an_uninterrupted_run_ends() {
+        // From inside the domain, the cost falls toward its value at the bound by a
+        // factor ≈ e⁻³ a step: a relative decrease that shrinks, as on a lobe collapsing.
+        let run = |lm: LevenbergMarquardt, u: DVector<f64>| {
+            Executor::new(AtBound, lm)
+                .configure(|s: LsState| s.param(u).max_iters(200))
+                .run()
+                .unwrap()
+        };
+        let u0 = DVector::from_vec(vec![0.0, 0.0]);
+        let tol = Tolerances::default();
+        let whole = run(LevenbergMarquardt::new(1e-3, tol), u0.clone());
+        let first = run(
+            LevenbergMarquardt::new(1e-3, tol).stopping_early(Some(1e-2)),
+            u0,
+        );
+        assert!(first.solver.stopped_early);
+        assert_eq!(first.solver.criterion, Some(EARLY_STOP));
+        assert!(first.state.get_iter() < whole.state.get_iter());
+        let u1 = first.state.get_best_param().unwrap().clone();
+        let memory = first.solver.memory();
+        let second = run(LevenbergMarquardt::new(1e-3, tol).resumed(Some(memory)), u1);
+        assert!(!second.solver.stopped_early);
+        assert_eq!(second.state.get_best_param(), whole.state.get_best_param());
+        assert_eq!(second.state.get_best_cost(), whole.state.get_best_cost());
+        // One iteration more at most: a stop on the predicted decrease counts an
+        // iteration without a step.
+        assert!(first.state.get_iter() + second.state.get_iter() <= whole.state.get_iter() + 1);
     }
 
     #[test]

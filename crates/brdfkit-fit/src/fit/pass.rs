@@ -6,7 +6,7 @@
 //! strings them together and [`start_records`] says what became of every start.
 
 use super::cells::CellSets;
-use super::solve::{Outcome, run_on, run_start, sub_stage};
+use super::solve::{Outcome, SubStage, Where, run_on, run_start, sub_stage, sub_stage_on};
 use super::timing::StageTimes;
 use crate::config::FitConfig;
 use crate::energy::{AlbedoPenalty, AlbedoQuadrature, PENALTY_WEIGHT};
@@ -50,7 +50,22 @@ struct Explored {
     explore: Option<WarmUpRecord>,
     warm: Option<WarmUpRecord>,
     rank_cost: Option<f64>,
+    /// Its exploration, when it stopped at the ranking tolerance ([`RANKING_FTOL`]): a
+    /// finisher goes on from there on the exploration set first ([`Pass::settle`]).
+    stopped: Option<SubStage>,
+    /// Not run: its start point is that of this earlier start, which ran.
+    same_as: Option<usize>,
 }
+
+/// Relative cost decrease below which a start's exploration stops when it only needs a
+/// rank (Levenberg-Marquardt's two ftol rules at this tolerance, see
+/// [`crate::LevenbergMarquardt::stopping_early`]): the ranking cost is the warm-up
+/// set's at the exploration's end point, which differs from the exploration set's own
+/// optimum by the subsample's error (median 1.3 % of the loss over the database's
+/// explorations), so the last decades of the cost's convergence there do not make an
+/// order. The finishers then go on from where they stopped exactly as an uninterrupted
+/// run would ([`Pass::settle`]; docs/fitting.md, "Explore, rank, finish").
+pub(super) const RANKING_FTOL: f64 = 1e-5;
 
 /// Floor of the automatic robust scale, relative to the targets' RMS: a plain fit that
 /// is exact (median |e| = 0) would otherwise give c = 0. Any c gives the same optimum
@@ -75,6 +90,22 @@ struct Pass<'a> {
     full: FitProblem<'a>,
     warm: Option<FitProblem<'a>>,
     explore: Option<FitProblem<'a>>,
+    /// Per start: the earlier start with the same point, if any (see [`same_starts`]).
+    same_as: Vec<Option<usize>>,
+    /// The early ftol of the explorations: [`RANKING_FTOL`] when there is a ranking to
+    /// make (see [`Pass::ranks`]).
+    early: Option<f64>,
+}
+
+/// For each start, the first earlier start whose point is the same, bit for bit: a
+/// family without a free shape parameter (Lambert) has nothing to spread its starts
+/// over, and every start is start 0. One run per point is enough: the others would
+/// repeat it step for step.
+fn same_starts(points: &[Vec<f64>]) -> Vec<Option<usize>> {
+    let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    (0..points.len())
+        .map(|k| (0..k).find(|&j| bits(&points[j]) == bits(&points[k])))
+        .collect()
 }
 
 /// The problem of one pass on the cells `d`: `model`, its free parameters and channels,
@@ -142,7 +173,11 @@ impl<'a> Pass<'a> {
             config.starts,
             config.seed,
         );
+        let same_as = same_starts(&points);
+        let distinct = same_as.iter().filter(|s| s.is_none()).count();
         Ok(Pass {
+            early: (cells.ranked && distinct > config.finish).then_some(RANKING_FTOL),
+            same_as,
             config,
             observer,
             channel: (channels.len() == 1).then(|| channels[0]),
@@ -179,38 +214,63 @@ impl<'a> Pass<'a> {
         self.explore.is_some() && self.warm.is_some()
     }
 
-    /// Stage 1, every start in parallel. Unranked: its warm-up. Ranked: it converges on
-    /// the exploration set (restarted while it hits the iteration cap, see
-    /// [`sub_stage`]), and the optimised cost where it ended is its rank (a fresh clone
-    /// of the problem, so the pass is counted for this start).
+    /// Whether there is a ranking to make: a ranked pass with more different starts
+    /// than finishers. Otherwise no start needs a ranking cost pass.
+    fn ranks(&self) -> bool {
+        self.early.is_some()
+    }
+
+    /// Who start k's runs on a subsample are.
+    fn at(&self, k: usize) -> Where<'a> {
+        Where {
+            observer: self.observer,
+            start: k,
+            channel: self.channel,
+            warm_up: true,
+        }
+    }
+
+    /// Stage 1, every start in parallel (a start whose point an earlier start has is
+    /// not run: it is recorded as that start's). Unranked: its warm-up. Ranked: it
+    /// converges on the exploration set (restarted while it hits the iteration cap, see
+    /// [`sub_stage`]; to the ranking tolerance when there is a ranking to make, see
+    /// [`RANKING_FTOL`]), and the optimised cost where it ended is its rank (a fresh
+    /// clone of the problem, so the pass is counted for this start).
     fn explore(&self) -> Vec<Result<Explored, FitError>> {
         let first = self.explore.as_ref().or(self.warm.as_ref());
+        let ranks = self.ranks();
         self.points
             .par_iter()
             .enumerate()
             .map(|(k, x)| {
-                let u0 = self.full.to_u(x);
-                let (u, rec) = match first {
-                    Some(p) => {
-                        let (u, rec) = sub_stage(
-                            p,
-                            u0,
-                            self.config,
-                            self.observer,
-                            k,
-                            self.channel,
-                            self.ranked,
-                        )?;
-                        (u, Some(rec))
-                    }
-                    None => (u0, None),
-                };
-                let rank_cost = self
-                    .ranked
-                    .then(|| match (&self.warm, self.rank_on_warm()) {
-                        (Some(wp), true) => wp.clone().cost_at(&u),
-                        _ => self.full.clone().cost_at(&u),
+                if let Some(j) = self.same_as[k] {
+                    return Ok(Explored {
+                        u: self.full.to_u(x),
+                        explore: None,
+                        warm: None,
+                        rank_cost: None,
+                        stopped: None,
+                        same_as: Some(j),
                     });
+                }
+                let u0 = self.full.to_u(x);
+                let (u, rec, stopped) = match first {
+                    Some(p) => {
+                        let st =
+                            sub_stage(p, u0, self.config, self.at(k), self.ranked, self.early)?;
+                        let mut rec = st.record(p);
+                        let stopped = st.w.early.is_some().then(|| st.clone());
+                        if stopped.is_some() {
+                            rec.termination += &format!(" (ftol {RANKING_FTOL:e})");
+                        }
+                        (st.w.u, Some(rec), stopped)
+                    }
+                    None => (u0, None, None),
+                };
+                let rank_cost = ranks.then(|| match (&self.warm, self.rank_on_warm()) {
+                    (Some(wp), true) => wp.clone().cost_at(&u),
+                    _ => self.full.clone().cost_at(&u),
+                });
                 // With a separate exploration set the start has not warmed up yet.
                 let (explore, warm) = match self.explore {
                     Some(_) => (rec, None),
@@ -221,6 +281,8 @@ impl<'a> Pass<'a> {
                     explore,
                     warm,
                     rank_cost,
+                    stopped,
+                    same_as: None,
                 })
             })
             .collect()
@@ -239,7 +301,8 @@ impl<'a> Pass<'a> {
                 .unwrap_or(f64::INFINITY),
             Err(_) => f64::NAN,
         };
-        let mut order: Vec<usize> = (0..n).filter(|&k| explored[k].is_ok()).collect();
+        let ran = |k: usize| explored[k].as_ref().is_ok_and(|e| e.same_as.is_none());
+        let mut order: Vec<usize> = (0..n).filter(|&k| ran(k)).collect();
         if self.ranked {
             order.sort_by(|&a, &b| rank_key(a).total_cmp(&rank_key(b)).then(a.cmp(&b)));
         }
@@ -253,12 +316,16 @@ impl<'a> Pass<'a> {
         if let Some(obs) = self.observer {
             for k in (0..n).filter(|k| !order.contains(k)) {
                 if let Ok(e) = &explored[k] {
+                    let termination = match e.same_as {
+                        Some(j) => same_start_words(self, j),
+                        None => "not finished (ranked out after its exploration)".into(),
+                    };
                     obs.observe(&Event::StartDone(StartDone {
                         start: k,
                         channel: self.channel,
                         loss: (2.0 * e.rank_cost.unwrap_or(f64::NAN)).sqrt(),
                         iterations: 0,
-                        termination: "not finished (ranked out after its exploration)".into(),
+                        termination,
                     }));
                 }
             }
@@ -266,43 +333,80 @@ impl<'a> Pass<'a> {
         (order, rank_of)
     }
 
-    /// Stage 2a: after a separate exploration, the finishers warm up from where they
-    /// got to, restarted with fresh damping while a run hits the iteration cap and
-    /// still improves ([`sub_stage`]). A warm-up that converges within the cap is
-    /// unchanged by this; one that does not used to end "maximum iterations reached"
-    /// with LM's damping grown and its steps shrunk (plausible-Phong on MERL's steel,
-    /// n ≈ 1,200: linear convergence along the valley where n and ρs trade off).
-    fn warm_up(
+    /// Stage 1b: a finisher whose exploration stopped at the ranking tolerance goes on
+    /// converging on the same set with the fit's own tolerances (restarted like an
+    /// exploration), so it leaves for the warm-up from the exploration set's optimum,
+    /// as every start did before [`RANKING_FTOL`]: a slow tail (a lobe creeping to a
+    /// bound) is paid on the small set, not on the warm-up set. Its exploration record
+    /// counts both runs. Returns the finishers' states, in `finishers`' order.
+    fn settle(
         &self,
         finishers: &[usize],
         explored: &[Result<Explored, FitError>],
     ) -> Vec<Result<Explored, FitError>> {
+        let first = self.explore.as_ref().or(self.warm.as_ref());
         finishers
             .par_iter()
             .map(|&k| {
                 let e = explored[k].as_ref().expect("finishers explored fine");
+                let (Some(p), Some(st)) = (first, &e.stopped) else {
+                    return Ok(e.clone());
+                };
+                let st = sub_stage_on(p, st.clone(), self.config, self.at(k), true)?;
+                let rec = Some(st.record(p));
+                let sep = self.explore.is_some();
+                Ok(Explored {
+                    u: st.w.u,
+                    explore: if sep { rec.clone() } else { None },
+                    warm: if sep { None } else { rec },
+                    stopped: None,
+                    ..e.clone()
+                })
+            })
+            .collect()
+    }
+
+    /// Stage 2a: after a separate exploration, the finishers warm up from where they
+    /// got to (`settled`, in `finishers`' order), restarted with fresh damping while a
+    /// run hits the iteration cap and still improves ([`sub_stage`]). A warm-up that
+    /// converges within the cap is unchanged by this; one that does not used to end
+    /// "maximum iterations reached" with LM's damping grown and its steps shrunk
+    /// (plausible-Phong on MERL's steel, n ≈ 1,200: linear convergence along the
+    /// valley where n and ρs trade off).
+    fn warm_up(
+        &self,
+        finishers: &[usize],
+        settled: Vec<Result<Explored, FitError>>,
+    ) -> Vec<Result<Explored, FitError>> {
+        finishers
+            .par_iter()
+            .zip(settled)
+            .map(|(&k, e)| {
+                let e = e?;
                 match (&self.warm, e.warm.is_none() && e.explore.is_some()) {
                     (Some(wp), true) => {
-                        let (u, rec) = sub_stage(
-                            wp,
-                            e.u.clone(),
-                            self.config,
-                            self.observer,
-                            k,
-                            self.channel,
-                            true,
-                        )?;
+                        let st = sub_stage(wp, e.u.clone(), self.config, self.at(k), true, None)?;
                         Ok(Explored {
-                            u,
-                            warm: Some(rec),
-                            ..e.clone()
+                            warm: Some(st.record(wp)),
+                            u: st.w.u,
+                            ..e
                         })
                     }
-                    _ => Ok(e.clone()),
+                    _ => Ok(e),
                 }
             })
             .collect()
     }
+}
+
+/// Why a start whose point start `j` has did not run (see [`same_starts`]).
+fn same_start_words(pass: &Pass<'_>, j: usize) -> String {
+    let why = if pass.same_as.iter().skip(1).all(|&s| s == Some(0)) {
+        " (no free shape parameter to spread the starts over)"
+    } else {
+        ""
+    };
+    format!("not run: the same start point as start {j}, which ran{why}")
 }
 
 /// Whether the kept start's cost over the fitted cells is left to the fit's loss
@@ -389,6 +493,7 @@ impl Pass<'_> {
             converged: w.termination.starts_with("converged"),
             warm: None,
             explore: None,
+            early: None,
         }
     }
 
@@ -473,10 +578,11 @@ pub(super) fn run_pass(
     stage("prepare", t, &mut times.prepare);
     let t = Instant::now();
     let explored = pass.explore();
-    stage("explore", t, &mut times.explore);
     let (finishers, rank_of) = pass.rank(&explored);
+    let settled = pass.settle(&finishers, &explored);
+    stage("explore", t, &mut times.explore);
     let t = Instant::now();
-    let warmed = pass.warm_up(&finishers, &explored);
+    let warmed = pass.warm_up(&finishers, settled);
     stage("warm-up", t, &mut times.warm_up);
     let t = Instant::now();
     let full_iters = config.full_iters.cap_for(model);
@@ -536,7 +642,10 @@ fn start_records(
                 }
                 rec.finished(o)
             }
-            (Ok(x), None) => rec.ranked_out(x, rank_of[k], n, pass.config.finish),
+            (Ok(x), None) => match x.same_as {
+                Some(j) => rec.same_as(same_start_words(pass, j)),
+                None => rec.ranked_out(x, rank_of[k], n, pass.config.finish),
+            },
         });
     }
     let Some((b, _)) = best else {
@@ -621,6 +730,10 @@ impl StartFacts {
         }
     }
 
+    fn same_as(self, words: String) -> StartRecord {
+        self.record(words, false)
+    }
+
     fn ranked_out(self, x: &Explored, rank: Option<usize>, n: usize, finish: usize) -> StartRecord {
         let termination = format!(
             "not finished: ranked {} of {n} by the loss over the fitted cells after its \
@@ -640,30 +753,47 @@ impl StartFacts {
 #[cfg(test)]
 mod tests {
     use super::super::cells::Cells;
+    use super::super::timing::StageTimes;
     use super::*;
     use brdfkit_merl::{Dims, MerlTable};
 
-    /// Lambertian cells with ρd = (0.3, 0.4, 0.5), a ranked config of 4 starts, and the
-    /// Lambert model to fit with its free parameters.
-    fn setup() -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
-        let truth = brdfkit_models::from_json(&serde_json::json!(
-            {"model": "lambert", "params": {"rho_d": [0.3, 0.4, 0.5]}}
-        ))
-        .unwrap();
+    /// The cells of `truth` on a 30 × 30 × 60 grid, a ranked config of 4 starts (a
+    /// 2,000-cell warm-up set, explored directly), and `family` at its default start
+    /// with its free parameters.
+    fn setup_of(truth: &str, family: &str) -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
+        let truth = brdfkit_models::from_json_str(truth).unwrap();
         let t = MerlTable::from_brdf(truth.as_ref(), Dims::new(30, 30, 60).unwrap()).unwrap();
         let cfg = FitConfig::default()
             .starts(4)
             .unwrap()
             .warm_up(Some(2000))
             .unwrap();
-        let model = brdfkit_models::default_model("lambert").unwrap();
+        let model = brdfkit_models::default_model(family).unwrap();
         let free = crate::resolve_free(model.as_ref(), &cfg).unwrap();
         (FitData::from_table(&t).unwrap(), cfg, model, free)
     }
 
+    /// Lambertian cells with ρd = (0.3, 0.4, 0.5) and the Lambert family.
+    fn setup() -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
+        setup_of(
+            r#"{"model": "lambert", "params": {"rho_d": [0.3, 0.4, 0.5]}}"#,
+            "lambert",
+        )
+    }
+
+    /// Cook-Torrance cells (α = 0.15) and the Cook-Torrance family, whose starts spread
+    /// over α.
+    fn setup_ct() -> (FitData, FitConfig, Box<dyn Model>, Vec<usize>) {
+        setup_of(
+            r#"{"model": "cook-torrance", "params": {"rho_d": [0.1, 0.2, 0.3],
+                "rho_s": [0.5, 0.4, 0.3], "alpha": 0.15}}"#,
+            "cook-torrance",
+        )
+    }
+
     #[test]
     fn the_stages_explore_rank_warm_up_and_finish() {
-        let (d, cfg, model, free) = setup();
+        let (d, cfg, model, free) = setup_ct();
         let cells = Cells::of(&d, &cfg).unwrap();
         let sets = cells.sets();
         assert!(sets.ranked);
@@ -679,18 +809,17 @@ mod tests {
         let best = finishers[0];
         assert_eq!(rank_of[best], Some(0));
         assert!(costs.iter().all(|&c| costs[best] <= c), "{costs:?}");
-        // No separate exploration set here: the warm-up stage passes the start on.
-        let warmed = pass.warm_up(&finishers, &explored);
-        assert_eq!(
-            warmed[0].as_ref().unwrap().u,
-            explored[best].as_ref().unwrap().u
-        );
+        let settled = pass.settle(&finishers, &explored);
+        // The warm-up set was explored directly: the warm-up stage passes the start on.
+        let settled_u = settled[0].as_ref().unwrap().u.clone();
+        let warmed = pass.warm_up(&finishers, settled);
+        assert_eq!(warmed[0].as_ref().unwrap().u, settled_u);
         let finished = pass.finish(&finishers, warmed, None, false);
         let o = finished[0].1.as_ref().unwrap();
         assert!(o.converged, "{}", o.termination);
         assert!(
             (2.0 * o.cost).sqrt() < 1e-6,
-            "a Lambertian table is fitted exactly"
+            "a table of the family is fitted exactly"
         );
         let end = o.u.clone();
         let (starts, kept) = start_records(&pass, &explored, finished, &rank_of, false).unwrap();
@@ -704,20 +833,162 @@ mod tests {
         );
     }
 
+    /// Ranking needs an order, not an optimum: every start's exploration stops at the
+    /// ranking's tolerance, and the finisher then goes on from there exactly as a run
+    /// with the fit's own tolerances goes: the same end point, bit for bit, and its
+    /// record counts the iterations of both runs.
+    #[test]
+    fn starts_explore_to_the_ranking_tolerance_and_the_finisher_resumes_exactly() {
+        // Another family's table: an optimum with a residual, approached linearly at
+        // the end, where the ranking's tolerance stops a run before ftol.
+        let (d, cfg, model, free) = setup_of(r#"{"model": "ward"}"#, "cook-torrance");
+        let cells = Cells::of(&d, &cfg).unwrap();
+        let pass = Pass::new(&cells.sets(), model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
+        assert!(pass.ranks());
+        assert_eq!(pass.early, Some(RANKING_FTOL));
+        let explored = pass.explore();
+        // The warm-up set is explored directly here: its record is `warm`.
+        let first = |e: &Explored| e.warm.clone().unwrap();
+        let early: Vec<bool> = explored
+            .iter()
+            .map(|e| e.as_ref().unwrap().stopped.is_some())
+            .collect();
+        assert!(early.iter().any(|&x| x), "{early:?}");
+        for e in explored.iter().map(|e| e.as_ref().unwrap()) {
+            let t = first(e).termination;
+            assert_eq!(
+                e.stopped.is_some(),
+                t == "converged: cost decrease below the ranking's tolerance (ftol 1e-5)",
+                "{t}"
+            );
+        }
+        let (finishers, _) = pass.rank(&explored);
+        let settled = pass.settle(&finishers, &explored);
+        let wp = pass.warm.as_ref().unwrap();
+        // Every start resumed against its uninterrupted run with the fit's tolerances.
+        for (k, x) in pass.points.iter().enumerate() {
+            let e = explored[k].as_ref().unwrap();
+            let whole = sub_stage(wp, pass.full.to_u(x), &cfg, pass.at(k), true, None).unwrap();
+            let resumed = match &e.stopped {
+                Some(st) => sub_stage_on(wp, st.clone(), &cfg, pass.at(k), true).unwrap(),
+                None => continue,
+            };
+            assert_eq!(resumed.w.u, whole.w.u, "start {k}");
+            assert_eq!(resumed.w.cost, whole.w.cost);
+            assert!(resumed.w.termination.starts_with("converged"));
+            assert!(resumed.w.early.is_none());
+            let (a, b) = (first(e), resumed.record(wp));
+            // One iteration more than the whole run at most: a stop on the predicted
+            // decrease counts an iteration without a step.
+            assert!(b.iterations > a.iterations);
+            assert!(
+                b.iterations <= whole.w.iterations + 1,
+                "{} vs {}",
+                b.iterations,
+                whole.w.iterations
+            );
+            if finishers.contains(&k) {
+                let s = settled[0].as_ref().unwrap();
+                assert_eq!(s.u, whole.w.u);
+                assert_eq!(first(s), b);
+            }
+        }
+    }
+
+    /// No ranking to make (no more different starts than finishers): the explorations
+    /// keep the fit's tolerances.
+    #[test]
+    fn the_ranking_tolerance_applies_only_to_a_ranking() {
+        let (d, cfg, model, free) = setup_ct();
+        let all = cfg.clone().finish(4).unwrap();
+        let cells = Cells::of(&d, &all).unwrap();
+        let pass = Pass::new(&cells.sets(), model.as_ref(), &free, &[0, 1, 2], &all, None).unwrap();
+        assert_eq!(pass.early, None);
+        assert!(
+            pass.explore()
+                .iter()
+                .all(|e| e.as_ref().unwrap().stopped.is_none())
+        );
+    }
+
+    /// Lambert has no shape parameter: its four starts are one point, which explores
+    /// once, is finished without a ranking pass, and the others are recorded as that
+    /// start's; the fit is the same as one start's.
+    #[test]
+    fn a_family_whose_starts_cannot_differ_explores_once() {
+        let (d, cfg, model, free) = setup();
+        let kept_u = with_pass(&d, &cfg, model.as_ref(), &free, |pass| {
+            assert_eq!(pass.same_as, vec![None, Some(0), Some(0), Some(0)]);
+            assert!(!pass.ranks() && pass.early.is_none());
+            let explored = pass.explore();
+            let ran: Vec<bool> = explored
+                .iter()
+                .map(|e| e.as_ref().unwrap().warm.is_some())
+                .collect();
+            assert_eq!(ran, [true, false, false, false], "one exploration");
+            let no_rank = |e: &Result<Explored, FitError>| e.as_ref().unwrap().rank_cost.is_none();
+            assert!(explored.iter().all(no_rank));
+            let (finishers, rank_of) = pass.rank(&explored);
+            assert_eq!(finishers, [0]);
+            let warmed = pass.warm_up(&finishers, pass.settle(&finishers, &explored));
+            let finished = pass.finish(&finishers, warmed, None, false);
+            let (starts, kept) = start_records(pass, &explored, finished, &rank_of, false).unwrap();
+            assert!(starts[0].kept && starts[0].rank_loss.is_none());
+            for s in &starts[1..] {
+                assert!(!s.finished && s.warm_up.is_none() && s.final_loss.is_none());
+                let t = &s.termination;
+                assert!(
+                    t.starts_with("not run: the same start point as start 0"),
+                    "{t}"
+                );
+                assert!(t.ends_with("(no free shape parameter to spread the starts over)"));
+            }
+            kept.u
+        });
+        // The same fit as a single start's.
+        let one = cfg.clone().starts(1).unwrap();
+        let cells1 = Cells::of(&d, &one).unwrap();
+        let mut times = StageTimes::default();
+        let r = run_pass(
+            &cells1.sets(),
+            model.as_ref(),
+            free,
+            vec![0, 1, 2],
+            &one,
+            None,
+            &mut times,
+        )
+        .unwrap();
+        assert_eq!(kept_u, r.best.u);
+    }
+
     #[test]
     fn only_a_plain_single_finisher_evaluated_once_defers_its_cost() {
         let (d, cfg, model, free) = setup();
-        let cells = Cells::of(&d, &cfg).unwrap();
-        let sets = cells.sets();
-        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
-        assert!(defers_cost(&pass, Some(0), 1));
-        assert!(!defers_cost(&pass, Some(0), 2));
-        assert!(!defers_cost(&pass, None, 1));
+        with_pass(&d, &cfg, model.as_ref(), &free, |pass| {
+            assert!(defers_cost(pass, Some(0), 1));
+            assert!(!defers_cost(pass, Some(0), 2));
+            assert!(!defers_cost(pass, None, 1));
+        });
         let penalised = cfg.clone().albedo_max(Some(1.0)).unwrap();
-        let pass = Pass::new(&sets, model.as_ref(), &free, &[0, 1, 2], &penalised, None).unwrap();
-        assert!(
-            !defers_cost(&pass, Some(0), 1),
-            "a penalty is not in the report"
-        );
+        with_pass(&d, &penalised, model.as_ref(), &free, |pass| {
+            assert!(
+                !defers_cost(pass, Some(0), 1),
+                "a penalty is not in the report"
+            );
+        });
+    }
+
+    /// `f` of the shared pass of `model` over the cells of `d` under `cfg`.
+    fn with_pass<R>(
+        d: &FitData,
+        cfg: &FitConfig,
+        model: &dyn Model,
+        free: &[usize],
+        f: impl FnOnce(&Pass<'_>) -> R,
+    ) -> R {
+        let cells = Cells::of(d, cfg).unwrap();
+        let pass = Pass::new(&cells.sets(), model, free, &[0, 1, 2], cfg, None).unwrap();
+        f(&pass)
     }
 }

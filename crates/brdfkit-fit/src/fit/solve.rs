@@ -4,7 +4,7 @@
 
 use crate::config::{FitConfig, SolverKind};
 use crate::error::FitError;
-use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LsState, Stall};
+use crate::lm::{GaussNewtonLs, LevenbergMarquardt, LmMemory, LsState, Stall};
 use crate::observer::Bridge;
 use crate::problem::{FitProblem, NormalEquations};
 use crate::record::WarmUpRecord;
@@ -30,6 +30,18 @@ pub(super) struct Outcome {
     pub(super) converged: bool,
     pub(super) warm: Option<WarmUpRecord>,
     pub(super) explore: Option<WarmUpRecord>,
+    /// A Levenberg-Marquardt run that stopped at the early tolerance: its damping, to
+    /// go on from exactly ([`LmRun`]).
+    pub(super) early: Option<LmMemory>,
+}
+
+/// How a Levenberg-Marquardt run begins and ends beyond the config: an early, looser
+/// ftol to stop at (see [`LevenbergMarquardt::stopping_early`]), and the damping of a
+/// run to go on from. Other solvers ignore it.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct LmRun {
+    pub(super) early: Option<f64>,
+    pub(super) resume: Option<LmMemory>,
 }
 
 /// Most solver runs of one warm-up when the starts are ranked (see `run_pass`).
@@ -77,6 +89,38 @@ pub(super) fn run_start(
     channel: Option<usize>,
     warm_up: bool,
 ) -> Result<Outcome, FitError> {
+    let at = Where {
+        observer,
+        start,
+        channel,
+        warm_up,
+    };
+    run_start_with(problem, u0, config, at, LmRun::default())
+}
+
+/// Who a run is: what its observer is told.
+#[derive(Clone, Copy)]
+pub(super) struct Where<'o> {
+    pub(super) observer: Option<&'o Arc<dyn Observe>>,
+    pub(super) start: usize,
+    pub(super) channel: Option<usize>,
+    pub(super) warm_up: bool,
+}
+
+/// [`run_start`] with an [`LmRun`].
+pub(super) fn run_start_with(
+    problem: FitProblem<'_>,
+    u0: DVector<f64>,
+    config: &FitConfig,
+    at: Where<'_>,
+    lm: LmRun,
+) -> Result<Outcome, FitError> {
+    let Where {
+        observer,
+        start,
+        channel,
+        warm_up,
+    } = at;
     let mi = config.get_max_iters();
     let tol = config.get_tolerances();
     let floor = problem.cost_floor();
@@ -123,13 +167,14 @@ pub(super) fn run_start(
             )
         }};
     }
+    let mut early = None;
     let (u, cost, iters, term, evals) = match config.solver {
         SolverKind::Lm => {
-            let r = run!(
-                LevenbergMarquardt::new(config.tau, tol),
-                LsState,
-                |s: LsState| s.param(u0.clone())
-            );
+            let lmr = LevenbergMarquardt::new(config.tau, tol)
+                .stopping_early(lm.early)
+                .resumed(lm.resume);
+            let r = run!(lmr, LsState, |s: LsState| s.param(u0.clone()));
+            early = r.solver.stopped_early.then(|| r.solver.memory());
             summary!(r)
         }
         SolverKind::GaussNewton => {
@@ -201,11 +246,38 @@ pub(super) fn run_start(
         converged: term.1,
         warm: None,
         explore: None,
+        early,
     })
 }
 
-/// A start's run on a subsample (`problem`) from `u0`: where it ended and the stage's
-/// record.
+/// Where a sub-stage stopped: the outcome so far (counts of every run), its rounds and
+/// the cost where its last round began. A sub-stage stopped at the early tolerance goes
+/// on from here exactly ([`sub_stage_on`]).
+#[derive(Debug, Clone)]
+pub(super) struct SubStage {
+    pub(super) w: Outcome,
+    rounds: u64,
+    round_start: f64,
+}
+
+impl SubStage {
+    /// The stage's record on `problem`'s cells.
+    pub(super) fn record(&self, problem: &FitProblem<'_>) -> WarmUpRecord {
+        let w = &self.w;
+        WarmUpRecord {
+            cells: problem.num_residuals() / problem.channels().len(),
+            iterations: w.iterations,
+            cost_evals: w.cost_evals,
+            jacobian_evals: w.jac_evals,
+            final_loss: (2.0 * w.cost).sqrt(),
+            termination: w.termination.clone(),
+            rounds: self.rounds,
+        }
+    }
+}
+
+/// A start's run on a subsample (`problem`) from `u0`, stopping at the early ftol
+/// `early` if given (see [`LmRun`]).
 ///
 /// With `restart`, a run that stopped at the iteration cap is run again from where it
 /// stopped (fresh damping), up to [`WARM_UP_ROUNDS`] runs, while it improves by more
@@ -216,40 +288,92 @@ pub(super) fn sub_stage(
     problem: &FitProblem<'_>,
     u0: DVector<f64>,
     config: &FitConfig,
-    observer: Option<&Arc<dyn Observe>>,
-    k: usize,
-    channel: Option<usize>,
+    at: Where<'_>,
     restart: bool,
-) -> Result<(DVector<f64>, WarmUpRecord), FitError> {
-    let mut w = run_start(problem.clone(), u0, config, observer, k, channel, true)?;
-    let mut rounds = 1;
-    while restart
-        && rounds < WARM_UP_ROUNDS
-        && !w.converged
-        && w.iterations >= config.get_max_iters() * rounds
-    {
-        let r = run_on(&w, |u| {
-            run_start(problem.clone(), u, config, observer, k, channel, true)
-        })?;
-        rounds += 1;
-        let gain = w.cost - r.cost;
-        // This round alone ran into the iteration cap.
-        let capped = r.iterations - w.iterations >= config.get_max_iters();
-        w = r;
-        // Stop unless it improved by more than ftol (relative); a NaN gain stops too.
-        let improved = gain > config.get_tolerances().ftol * w.cost;
-        if !improved || !capped {
-            break;
-        }
-    }
-    let rec = WarmUpRecord {
-        cells: problem.num_residuals() / problem.channels().len(),
-        iterations: w.iterations,
-        cost_evals: w.cost_evals,
-        jacobian_evals: w.jac_evals,
-        final_loss: (2.0 * w.cost).sqrt(),
-        termination: w.termination.clone(),
-        rounds,
+    early: Option<f64>,
+) -> Result<SubStage, FitError> {
+    let lm = LmRun {
+        early,
+        resume: None,
     };
-    Ok((w.u, rec))
+    let w = run_start_with(problem.clone(), u0, config, at, lm)?;
+    let cost = w.cost;
+    rounds(
+        problem,
+        SubStage {
+            w,
+            rounds: 1,
+            round_start: cost,
+        },
+        config,
+        at,
+        restart,
+        early,
+    )
+}
+
+/// A sub-stage that stopped at the early ftol, gone on with the config's own
+/// tolerances: its round resumed with the damping it stopped with (the rest of the
+/// round's iteration cap), then the rounds as [`sub_stage`]'s. The steps are the ones
+/// an uninterrupted run with the config's tolerances takes, so it ends where that
+/// run ends. A sub-stage that did not stop early is returned as it is.
+pub(super) fn sub_stage_on(
+    problem: &FitProblem<'_>,
+    s: SubStage,
+    config: &FitConfig,
+    at: Where<'_>,
+    restart: bool,
+) -> Result<SubStage, FitError> {
+    let Some(memory) = s.w.early else {
+        return Ok(s);
+    };
+    let m = config.get_max_iters();
+    let in_round = s.w.iterations - m * (s.rounds - 1);
+    let w = if in_round < m {
+        let cfg = config.clone().max_iters(m - in_round)?;
+        let lm = LmRun {
+            early: None,
+            resume: Some(memory),
+        };
+        run_on(&s.w, |u| run_start_with(problem.clone(), u, &cfg, at, lm))?
+    } else {
+        s.w
+    };
+    rounds(problem, SubStage { w, ..s }, config, at, restart, None)
+}
+
+/// The restarted rounds of a sub-stage from `s` (see [`sub_stage`]): another round
+/// while the last one hit the iteration cap and (after the first) improved by more
+/// than ftol.
+fn rounds(
+    problem: &FitProblem<'_>,
+    mut s: SubStage,
+    config: &FitConfig,
+    at: Where<'_>,
+    restart: bool,
+    early: Option<f64>,
+) -> Result<SubStage, FitError> {
+    let m = config.get_max_iters();
+    let ftol = config.get_tolerances().ftol;
+    // A NaN gain stops too.
+    let more = |s: &SubStage| {
+        restart
+            && s.rounds < WARM_UP_ROUNDS
+            && !s.w.converged
+            && s.w.iterations >= m * s.rounds
+            && (s.rounds == 1 || s.round_start - s.w.cost > ftol * s.w.cost)
+    };
+    while more(&s) {
+        let lm = LmRun {
+            early,
+            resume: None,
+        };
+        let r = run_on(&s.w, |u| run_start_with(problem.clone(), u, config, at, lm))?;
+        s = SubStage {
+            round_start: s.w.cost,
+            w: r,
+            rounds: s.rounds + 1,
+        };
+    }
+    Ok(s)
 }
