@@ -461,6 +461,10 @@ fn conductor_value<T: Real, const A: bool, const C: bool>(
 /// Largest parameter count of the gradient kernel: 3 ρd + 3 ρs + 2 α + 3 f0.
 pub(super) const GRAD_P: usize = 11;
 
+/// Pairs per block of the batch gradient loop (`LoopGrad64`): its planes, 11 × 64
+/// values, stay in the first-level cache.
+const GRAD_BLOCK: usize = 64;
+
 /// f_r of one pair and its gradient, F ∈ {none, Schlick}; `g[p][c]` = ∂f_c/∂param_p in
 /// the model's parameter order (ρd, ρs, α or αx αy, f0), the first
 /// `6 + (1 or 2) + (0 or 3)` entries written.
@@ -649,26 +653,38 @@ struct LoopGrad64<'a, 'g, const A: bool, const C: bool, const F: u8, const B: bo
 impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
     for LoopGrad64<'_, '_, A, C, F, B>
 {
+    /// Block by block: within a block the loop over pairs has no inner loop (the
+    /// parameter count is a constant of the configuration, so the copy of a pair's
+    /// gradient into the block's planes unrolls) and vectorises; then each plane of the
+    /// block is copied out. (With the count read at run time the copy stayed a loop, and
+    /// the loop over pairs ran scalar: for Beckmann, five scalar `exp`/`erf` a pair.)
     #[inline(always)]
     fn run(&mut self) {
         let b = &mut self.0;
         let n = b.g.len();
-        let np = b.np.min(GRAD_P);
-        let g = b.g.sub(0..n);
-        let out = &mut b.out[..n];
-        let grad = &mut b.grad[..np * n];
+        // ρd, ρs, α or (αx, αy), and f0 with Schlick ([`CookTorrance::kernel_grad_config`]).
+        let np = 7 + usize::from(A) + if F == F_SCHLICK { 3 } else { 0 };
+        debug_assert_eq!(np, b.np);
+        let mut planes = [[Rgb::ZERO; GRAD_BLOCK]; GRAD_P];
         let mut gk = [[0.0; 3]; GRAD_P];
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = Rgb(value_grad::<f64, A, C, F, B>(
-                b.k,
-                [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
-                [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
-                [g.h_x[i], g.h_y[i], g.h_z[i]],
-                g.cos_d[i],
-                &mut gk,
-            ));
-            for (p, v) in gk.iter().enumerate().take(np) {
-                grad[p * n + i] = Rgb(*v);
+        for s in (0..n).step_by(GRAD_BLOCK) {
+            let len = GRAD_BLOCK.min(n - s);
+            let g = b.g.sub(s..s + len);
+            for (i, o) in b.out[s..s + len].iter_mut().enumerate() {
+                *o = Rgb(value_grad::<f64, A, C, F, B>(
+                    b.k,
+                    [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
+                    [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
+                    [g.h_x[i], g.h_y[i], g.h_z[i]],
+                    g.cos_d[i],
+                    &mut gk,
+                ));
+                for p in 0..np {
+                    planes[p][i] = Rgb(gk[p]);
+                }
+            }
+            for (p, plane) in planes.iter().enumerate().take(np) {
+                b.grad[p * n + s..p * n + s + len].copy_from_slice(&plane[..len]);
             }
         }
     }

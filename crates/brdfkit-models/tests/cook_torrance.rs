@@ -702,13 +702,15 @@ fn beckmann_kernel_matches_the_generic_formulas() {
             .iter()
             .map(|(a, b)| (f32_round(a), f32_round(b))),
     );
-    for t in [0.0, 0.3, 1.0, 1.4, 1.55, 1.5706, 1.57069] {
+    // Grazing and mirror pairs (θ up to 89.9994°).
+    let g = std::f64::consts::FRAC_PI_2;
+    for t in [0.0, 0.3, 1.0, 1.4, 1.55, g - 2e-4, g - 1e-5] {
         for (u, p) in [
             (0.0, 0.0),
             (0.3, 3.0),
-            (1.5707, 3.14),
+            (g - 1e-4, PI - 3e-3),
             (1.2, 1.0),
-            (t, 3.14159),
+            (t, PI),
         ] {
             pairs.push((spherical(t, 0.0), spherical(u, p)));
         }
