@@ -665,18 +665,20 @@ impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
         // ρd, ρs, α or (αx, αy), and f0 with Schlick ([`CookTorrance::kernel_grad_config`]).
         let np = 7 + usize::from(A) + if F == F_SCHLICK { 3 } else { 0 };
         debug_assert_eq!(np, b.np);
-        let mut planes = [[Rgb::ZERO; GRAD_BLOCK]; GRAD_P];
+        let mut block = [[Rgb::ZERO; GRAD_BLOCK]; GRAD_P];
         let mut gk = [[0.0; 3]; GRAD_P];
         for s in (0..n).step_by(GRAD_BLOCK) {
             let len = GRAD_BLOCK.min(n - s);
-            let g = b.g.sub(s..s + len);
+            // Every slice cut to the block here, so the loop has no bounds checks.
+            let [wx, wy, wz, ox, oy, oz, hx, hy, hz, cd] = b.g.columns().map(|c| &c[s..s + len]);
+            let planes = block.each_mut().map(|p| &mut p[..len]);
             for (i, o) in b.out[s..s + len].iter_mut().enumerate() {
                 *o = Rgb(value_grad::<f64, A, C, F, B>(
                     b.k,
-                    [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
-                    [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
-                    [g.h_x[i], g.h_y[i], g.h_z[i]],
-                    g.cos_d[i],
+                    [wx[i], wy[i], wz[i]],
+                    [ox[i], oy[i], oz[i]],
+                    [hx[i], hy[i], hz[i]],
+                    cd[i],
                     &mut gk,
                 ));
                 for p in 0..np {
@@ -684,7 +686,7 @@ impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
                 }
             }
             for (p, plane) in planes.iter().enumerate().take(np) {
-                b.grad[p * n + s..p * n + s + len].copy_from_slice(&plane[..len]);
+                b.grad[p * n + s..p * n + s + len].copy_from_slice(plane);
             }
         }
     }
