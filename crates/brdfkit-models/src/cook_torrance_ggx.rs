@@ -666,15 +666,19 @@ impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
         let np = 7 + usize::from(A) + if F == F_SCHLICK { 3 } else { 0 };
         debug_assert_eq!(np, b.np);
         let mut block = [[Rgb::ZERO; GRAD_BLOCK]; GRAD_P];
-        let mut gk = [[0.0; 3]; GRAD_P];
+        // A local copy: the stores of the loop cannot be to it.
+        let k = *b.k;
         for s in (0..n).step_by(GRAD_BLOCK) {
             let len = GRAD_BLOCK.min(n - s);
             // Every slice cut to the block here, so the loop has no bounds checks.
             let [wx, wy, wz, ox, oy, oz, hx, hy, hz, cd] = b.g.columns().map(|c| &c[s..s + len]);
             let planes = block.each_mut().map(|p| &mut p[..len]);
             for (i, o) in b.out[s..s + len].iter_mut().enumerate() {
+                // Per pair, so it lives in registers (one array for all pairs was memory
+                // written and read back by every pair, which kept the loop scalar).
+                let mut gk = [[0.0; 3]; GRAD_P];
                 *o = Rgb(value_grad::<f64, A, C, F, B>(
-                    b.k,
+                    &k,
                     [wx[i], wy[i], wz[i]],
                     [ox[i], oy[i], oz[i]],
                     [hx[i], hy[i], hz[i]],
