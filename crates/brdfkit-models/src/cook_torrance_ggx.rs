@@ -670,27 +670,34 @@ impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
         let k = *b.k;
         for s in (0..n).step_by(GRAD_BLOCK) {
             let len = GRAD_BLOCK.min(n - s);
-            // Every slice cut to the block here, so the loop has no bounds checks.
-            let [wx, wy, wz, ox, oy, oz, hx, hy, hz, cd] = b.g.columns().map(|c| &c[s..s + len]);
-            let planes = block.each_mut().map(|p| &mut p[..len]);
+            // Every column cut to the block here (by hand: `array::map` was not inlined,
+            // which left a bounds check on every read), so the loop has no bounds checks.
+            let c = b.g.columns();
+            let cut = |j: usize| &c[j][s..s + len];
+            let (wi, wo, h, cd) = (
+                [cut(0), cut(1), cut(2)],
+                [cut(3), cut(4), cut(5)],
+                [cut(6), cut(7), cut(8)],
+                cut(9),
+            );
             for (i, o) in b.out[s..s + len].iter_mut().enumerate() {
                 // Per pair, so it lives in registers (one array for all pairs was memory
                 // written and read back by every pair, which kept the loop scalar).
                 let mut gk = [[0.0; 3]; GRAD_P];
                 *o = Rgb(value_grad::<f64, A, C, F, B>(
                     &k,
-                    [wx[i], wy[i], wz[i]],
-                    [ox[i], oy[i], oz[i]],
-                    [hx[i], hy[i], hz[i]],
+                    [wi[0][i], wi[1][i], wi[2][i]],
+                    [wo[0][i], wo[1][i], wo[2][i]],
+                    [h[0][i], h[1][i], h[2][i]],
                     cd[i],
                     &mut gk,
                 ));
                 for p in 0..np {
-                    planes[p][i] = Rgb(gk[p]);
+                    block[p][i] = Rgb(gk[p]);
                 }
             }
-            for (p, plane) in planes.iter().enumerate().take(np) {
-                b.grad[p * n + s..p * n + s + len].copy_from_slice(plane);
+            for (p, plane) in block.iter().enumerate().take(np) {
+                b.grad[p * n + s..p * n + s + len].copy_from_slice(&plane[..len]);
             }
         }
     }
