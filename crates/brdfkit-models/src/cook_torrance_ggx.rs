@@ -286,6 +286,11 @@ fn lobe_den<T: Real, const A: bool, const C: bool>(
 
 /// D·V of one pair (module doc), GGX or (`B`) Beckmann, shared by the value and the
 /// gradient kernels so both give the same bits.
+///
+/// Beckmann's is 0 where exp(−u/hz²) underflows, as
+/// [`beckmann_grad`](brdfkit_core::scattering::microfacet::beckmann_grad) (1/hz⁴ alone
+/// could overflow there). Where it does not, hz² > u/746 ≥ 1.3e-7 over the roughness
+/// domain, so hz⁴ stays normal.
 #[inline(always)]
 fn lobe<T: Real, const A: bool, const C: bool, const B: bool>(
     k: &Consts<T>,
@@ -294,7 +299,27 @@ fn lobe<T: Real, const A: bool, const C: bool, const B: bool>(
     h: [T; 3],
 ) -> Lobe<T> {
     if B {
-        return beckmann_lobe::<T, A, C>(k, wi, wo, h);
+        let (hx2, hy2, hz2) = (h[0] * h[0], h[1] * h[1], h[2] * h[2]);
+        let u = if A {
+            hx2 * k.inv_ax2 + hy2 * k.inv_ay2
+        } else {
+            (hx2 + hy2) * k.inv_ax2
+        };
+        let ed = (T::ZERO - u / hz2).exp();
+        let (si, ri) = beckmann_s::<T, A>(k, wi);
+        let (so, ro) = beckmann_s::<T, A>(k, wo);
+        let l = hz2 * hz2 * vden::<T, C>(wi[2], wo[2], si, so);
+        let dv = select(ed > T::ZERO, k.d_norm * ed / l, T::ZERO);
+        return Lobe {
+            hx2,
+            hy2,
+            s: hz2,
+            si,
+            so,
+            ri,
+            ro,
+            dv,
+        };
     }
     let (hx2, hy2, s, l, si, so) = lobe_den::<T, A, C>(k, wi, wo, h);
     // D·V in one division; s² ≤ 1e24 and vden ≤ 4e4 over the roughness domain, so the
@@ -326,39 +351,6 @@ fn beckmann_s<T: Real, const A: bool>(k: &Consts<T>, v: [T; 3]) -> (T, T) {
     let a = v[2] / t;
     let e = (T::ZERO - a * a).exp() * T::of(0.5 * FRAC_2_SQRT_PI);
     (v[2] * a.erf() + t * e, e / max(t, T::TINY))
-}
-
-/// Beckmann's D·V (module doc); 0 where exp(−u/hz²) underflows, as
-/// [`beckmann_grad`](brdfkit_core::scattering::microfacet::beckmann_grad) (1/hz⁴ alone
-/// could overflow there). Where it does not, hz² > u/746 ≥ 1.3e-7 over the roughness
-/// domain, so hz⁴ stays normal.
-#[inline(always)]
-fn beckmann_lobe<T: Real, const A: bool, const C: bool>(
-    k: &Consts<T>,
-    wi: [T; 3],
-    wo: [T; 3],
-    h: [T; 3],
-) -> Lobe<T> {
-    let (hx2, hy2, hz2) = (h[0] * h[0], h[1] * h[1], h[2] * h[2]);
-    let u = if A {
-        hx2 * k.inv_ax2 + hy2 * k.inv_ay2
-    } else {
-        (hx2 + hy2) * k.inv_ax2
-    };
-    let ed = (T::ZERO - u / hz2).exp();
-    let (si, ri) = beckmann_s::<T, A>(k, wi);
-    let (so, ro) = beckmann_s::<T, A>(k, wo);
-    let l = hz2 * hz2 * vden::<T, C>(wi[2], wo[2], si, so);
-    Lobe {
-        hx2,
-        hy2,
-        s: hz2,
-        si,
-        so,
-        ri,
-        ro,
-        dv: select(ed > T::ZERO, k.d_norm * ed / l, T::ZERO),
-    }
 }
 
 /// ∂S(v)/∂α for `num` = αx vx² (or α sin²θv) of a direction with S(v) = `s` and
@@ -653,11 +645,12 @@ struct LoopGrad64<'a, 'g, const A: bool, const C: bool, const F: u8, const B: bo
 impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
     for LoopGrad64<'_, '_, A, C, F, B>
 {
-    /// Block by block: within a block the loop over pairs has no inner loop (the
-    /// parameter count is a constant of the configuration, so the copy of a pair's
-    /// gradient into the block's planes unrolls) and vectorises; then each plane of the
-    /// block is copied out. (With the count read at run time the copy stayed a loop, and
-    /// the loop over pairs ran scalar: for Beckmann, five scalar `exp`/`erf` a pair.)
+    /// Block by block: a pair's gradient goes into the block's planes (the parameter
+    /// count is a constant of the configuration, so that copy unrolls), and each plane
+    /// is copied out contiguously, rather than eleven strided stores a pair. The loop
+    /// over a block's pairs has no inner loop and no bounds checks, but LLVM still runs
+    /// it scalar (objdump, docs/performance.md "Issue 28, session 12"): the value loop
+    /// vectorises, this one does not yet.
     #[inline(always)]
     fn run(&mut self) {
         let b = &mut self.0;
@@ -670,8 +663,8 @@ impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
         let k = *b.k;
         for s in (0..n).step_by(GRAD_BLOCK) {
             let len = GRAD_BLOCK.min(n - s);
-            // Every column cut to the block here (by hand: `array::map` was not inlined,
-            // which left a bounds check on every read), so the loop has no bounds checks.
+            // Every column cut to the block here, by hand (`array::map` was not inlined
+            // here, which left a bounds check on every read).
             let c = b.g.columns();
             let cut = |j: usize| &c[j][s..s + len];
             let (wi, wo, h, cd) = (
@@ -681,8 +674,7 @@ impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
                 cut(9),
             );
             for (i, o) in b.out[s..s + len].iter_mut().enumerate() {
-                // Per pair, so it lives in registers (one array for all pairs was memory
-                // written and read back by every pair, which kept the loop scalar).
+                // Per pair, so it can live in registers.
                 let mut gk = [[0.0; 3]; GRAD_P];
                 *o = Rgb(value_grad::<f64, A, C, F, B>(
                     &k,

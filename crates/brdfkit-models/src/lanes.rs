@@ -157,107 +157,105 @@ pub(crate) fn exp(x: f64) -> f64 {
 pub(crate) fn erf(x: f64) -> f64 {
     // fdlibm's constants, by their bits.
     const ERX: f64 = f64::from_bits(0x3feb_0ac1_6000_0000);
-    /// Numerators (8 coefficients) and denominators (Q = 1 + w (d₁ + …), 8) per range.
-    const N: [[f64; 8]; 4] = [
+    /// The bits of the coefficients: row j < 8 holds numerator coefficient j, row
+    /// 8 + j denominator coefficient j + 1 (Q = 1 + w (d₁ + …)), each row across the
+    /// four ranges.
+    const COEF: [[u64; 4]; 16] = [
         [
-            f64::from_bits(0x3fc0_6eba_8214_db68),
-            f64::from_bits(0xbfd4_cd7d_691c_b913),
-            f64::from_bits(0xbf9d_2a51_dbd7_194f),
-            f64::from_bits(0xbf77_a291_2366_68e4),
-            f64::from_bits(0xbef8_ead6_1200_16ac),
-            0.0,
-            0.0,
-            0.0,
+            0x3fc06eba8214db68,
+            0xbf6359b8bef77538,
+            0xbf843412600d6435,
+            0xbf84341239e86f4a,
         ],
         [
-            f64::from_bits(0xbf63_59b8_bef7_7538),
-            f64::from_bits(0x3fda_8d00_ad92_b34d),
-            f64::from_bits(0xbfd7_d240_fbb8_c3f1),
-            f64::from_bits(0x3fd4_5fca_8051_20e4),
-            f64::from_bits(0xbfbc_6398_3d3e_28ec),
-            f64::from_bits(0x3fa2_2a36_5997_95eb),
-            f64::from_bits(0xbf61_bf38_0a96_073f),
-            0.0,
+            0xbfd4cd7d691cb913,
+            0x3fda8d00ad92b34d,
+            0xbfe63416e4ba7360,
+            0xbfe993ba70c285de,
         ],
         [
-            f64::from_bits(0xbf84_3412_600d_6435),
-            f64::from_bits(0xbfe6_3416_e4ba_7360),
-            f64::from_bits(0xc025_1e04_41b0_e726),
-            f64::from_bits(0xc04f_300a_e4cb_a38d),
-            f64::from_bits(0xc064_4cb1_8428_2266),
-            f64::from_bits(0xc067_135c_ebcc_abb2),
-            f64::from_bits(0xc054_5265_57e4_d2f2),
-            f64::from_bits(0xc023_a0ef_c69a_c25c),
+            0xbf9d2a51dbd7194f,
+            0xbfd7d240fbb8c3f1,
+            0xc0251e0441b0e726,
+            0xc031c209555f995a,
         ],
         [
-            f64::from_bits(0xbf84_3412_39e8_6f4a),
-            f64::from_bits(0xbfe9_93ba_70c2_85de),
-            f64::from_bits(0xc031_c209_555f_995a),
-            f64::from_bits(0xc064_145d_43c5_ed98),
-            f64::from_bits(0xc083_ec88_1375_f228),
-            f64::from_bits(0xc090_0461_6a2e_5992),
-            f64::from_bits(0xc07e_384e_9bdc_383f),
-            0.0,
-        ],
-    ];
-    const D: [[f64; 8]; 4] = [
-        [
-            f64::from_bits(0x3fd9_7779_cdda_dc09),
-            f64::from_bits(0x3fb0_a54c_5536_ceba),
-            f64::from_bits(0x3f74_d022_c4d3_6b0f),
-            f64::from_bits(0x3f21_5dc9_221c_1a10),
-            f64::from_bits(0xbed0_9c43_42a2_6120),
-            0.0,
-            0.0,
-            0.0,
+            0xbf77a291236668e4,
+            0x3fd45fca805120e4,
+            0xc04f300ae4cba38d,
+            0xc064145d43c5ed98,
         ],
         [
-            f64::from_bits(0x3fbb_3e66_18ee_e323),
-            f64::from_bits(0x3fe1_4af0_92eb_6f33),
-            f64::from_bits(0x3fb2_635c_d99f_e9a7),
-            f64::from_bits(0x3fc0_2660_e763_351f),
-            f64::from_bits(0x3f8b_edc2_6b51_dd1c),
-            f64::from_bits(0x3f88_8b54_5735_151d),
-            0.0,
-            0.0,
+            0xbef8ead6120016ac,
+            0xbfbc63983d3e28ec,
+            0xc0644cb184282266,
+            0xc083ec881375f228,
         ],
         [
-            f64::from_bits(0x4033_a6b9_bd70_7687),
-            f64::from_bits(0x4061_350c_526a_e721),
-            f64::from_bits(0x407b_290d_d58a_1a71),
-            f64::from_bits(0x4084_2b19_21ec_2868),
-            f64::from_bits(0x407a_d021_5770_0314),
-            f64::from_bits(0x405b_28a3_ee48_ae2c),
-            f64::from_bits(0x401a_47ef_8e48_4a93),
-            f64::from_bits(0xbfae_eff2_ee74_9a62),
+            0,
+            0x3fa22a36599795eb,
+            0xc067135cebccabb2,
+            0xc09004616a2e5992,
         ],
         [
-            f64::from_bits(0x403e_568b_261d_5190),
-            f64::from_bits(0x4074_5cae_221b_9f0a),
-            f64::from_bits(0x4098_02eb_189d_5118),
-            f64::from_bits(0x40a8_ffb7_688c_246a),
-            f64::from_bits(0x40a3_f219_cedf_3be6),
-            f64::from_bits(0x407d_a874_e79f_e763),
-            f64::from_bits(0xc036_70e2_4271_2d62),
-            0.0,
+            0,
+            0xbf61bf380a96073f,
+            0xc054526557e4d2f2,
+            0xc07e384e9bdc383f,
         ],
+        [0, 0, 0xc023a0efc69ac25c, 0],
+        [
+            0x3fd97779cddadc09,
+            0x3fbb3e6618eee323,
+            0x4033a6b9bd707687,
+            0x403e568b261d5190,
+        ],
+        [
+            0x3fb0a54c5536ceba,
+            0x3fe14af092eb6f33,
+            0x4061350c526ae721,
+            0x40745cae221b9f0a,
+        ],
+        [
+            0x3f74d022c4d36b0f,
+            0x3fb2635cd99fe9a7,
+            0x407b290dd58a1a71,
+            0x409802eb189d5118,
+        ],
+        [
+            0x3f215dc9221c1a10,
+            0x3fc02660e763351f,
+            0x40842b1921ec2868,
+            0x40a8ffb7688c246a,
+        ],
+        [
+            0xbed09c4342a26120,
+            0x3f8bedc26b51dd1c,
+            0x407ad02157700314,
+            0x40a3f219cedf3be6,
+        ],
+        [
+            0,
+            0x3f888b545735151d,
+            0x405b28a3ee48ae2c,
+            0x407da874e79fe763,
+        ],
+        [0, 0, 0x401a47ef8e484a93, 0xc03670e242712d62],
+        [0, 0, 0xbfaeeff2ee749a62, 0],
     ];
     // fdlibm's range ends by their high words: 0.84375, 1.25, 1/0.35, 6.
     let (small, mid) = (x < 0.84375, x < 1.25);
     let near = x < f64::from_bits(0x4006_db6d_0000_0000);
-    let pick = |t: &[[f64; 8]; 4], j: usize| -> f64 {
-        select(
-            small,
-            t[0][j],
-            select(mid, t[1][j], select(near, t[2][j], t[3][j])),
-        )
+    let pick = |j: usize| -> f64 {
+        let t = |r: usize| f64::from_bits(COEF[j][r]);
+        select(small, t(0), select(mid, t(1), select(near, t(2), t(3))))
     };
     let x2 = x * x;
     let w = select(small, x2, select(mid, x - 1.0, 1.0 / x2));
-    let (mut p, mut q) = (pick(&N, 7), pick(&D, 7));
+    let (mut p, mut q) = (pick(7), pick(15));
     for j in (0..7).rev() {
-        p = pick(&N, j) + w * p;
-        q = pick(&D, j) + w * q;
+        p = pick(j) + w * p;
+        q = pick(8 + j) + w * q;
     }
     let pq = p / (1.0 + w * q);
     let tail = 1.0 - exp(-x2 - 0.5625 + pq) / x;
