@@ -79,8 +79,8 @@ use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
 
 #[path = "cook_torrance_ggx.rs"]
-mod ggx;
-pub(crate) use ggx::ggx_iso_dv;
+mod kernel;
+pub(crate) use kernel::ggx_iso_dv;
 
 /// The roughness shape α or (αx, αy); defined in [`crate::shape`], shared with `ward`
 /// and `ashikhmin-shirley`.
@@ -349,10 +349,10 @@ pub struct CookTorrance {
     masking: Masking,
     beckmann_g1: BeckmannG1,
     fresnel: Fresnel,
-    /// The GGX kernel's configuration and f64 constants, derived from the fields above
+    /// The branch-free kernel's configuration and f64 constants, derived from the fields above
     /// by [`refreshed`](Self::refreshed) at the end of every builder (a per-pair `eval`
     /// would otherwise recompute five divisions per call).
-    ggx64: Option<(ggx::Config, ggx::Consts<f64>)>,
+    kernel64: Option<(kernel::Config, kernel::Consts<f64>)>,
 }
 
 impl Default for CookTorrance {
@@ -365,7 +365,7 @@ impl Default for CookTorrance {
             masking: Masking::SmithSeparable,
             beckmann_g1: BeckmannG1::Exact,
             fresnel: Fresnel::DEFAULT,
-            ggx64: None,
+            kernel64: None,
         }
         .refreshed()
     }
@@ -410,9 +410,11 @@ impl CookTorrance {
         Ok(self.refreshed())
     }
 
-    /// The model with its derived GGX constants brought up to date.
+    /// The model with its derived kernel constants brought up to date.
     fn refreshed(mut self) -> Self {
-        self.ggx64 = self.ggx_config().map(|c| (c, self.ggx_consts::<f64>()));
+        self.kernel64 = self
+            .kernel_config()
+            .map(|c| (c, self.kernel_consts::<f64>()));
         self
     }
 
@@ -558,15 +560,15 @@ impl CookTorrance {
 }
 
 impl CookTorrance {
-    /// f_r of one pair from its batch geometry: the GGX kernel where it applies (the
-    /// value of every path of those configurations), else the per-pair code.
+    /// f_r of one pair from its batch geometry: the branch-free kernel where it applies
+    /// (the value of every path of those configurations), else the per-pair code.
     fn value(&self, p: PairGeom) -> Rgb {
-        match &self.ggx64 {
+        match &self.kernel64 {
             Some((cfg, k)) => {
                 let mut out = Rgb::ZERO;
-                ggx::with_config(
+                kernel::with_config(
                     *cfg,
-                    ggx::Pair {
+                    kernel::Pair {
                         k,
                         p,
                         out: &mut out,
@@ -579,21 +581,21 @@ impl CookTorrance {
         }
     }
 
-    /// The GGX value loop over a batch in precision `T` into `out`; false (and nothing
+    /// The kernel's value loop over a batch in precision `T` into `out`; false (and nothing
     /// written) when the configuration has no such kernel.
-    fn ggx_batch<T: Real, O: ggx::Sink<T>>(
+    fn kernel_batch<T: Real, O: kernel::Sink<T>>(
         &self,
         g: &GeomSliceOf<'_, T>,
         out: O,
         baseline: bool,
     ) -> bool {
-        let Some(cfg) = self.ggx_config() else {
+        let Some(cfg) = self.kernel_config() else {
             return false;
         };
-        let k = self.ggx_consts::<T>();
-        ggx::with_config(
+        let k = self.kernel_consts::<T>();
+        kernel::with_config(
             cfg,
-            ggx::Batch {
+            kernel::Batch {
                 k: &k,
                 g,
                 out,
@@ -603,17 +605,17 @@ impl CookTorrance {
         true
     }
 
-    /// [`Model::eval_batch`] through the baseline (non-dispatched) copy of the GGX loop,
-    /// for the test that the dispatched copies compute the same bits.
+    /// [`Model::eval_batch`] through the baseline (non-dispatched) copy of the kernel's
+    /// loop, for the test that the dispatched copies compute the same bits.
     #[doc(hidden)]
     pub fn eval_batch_baseline(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) -> bool {
-        self.ggx_batch(g, out, true)
+        self.kernel_batch(g, out, true)
     }
 
     /// [`Model::eval_batch_f32`] through the baseline copy (as above).
     #[doc(hidden)]
     pub fn eval_batch_f32_baseline(&self, g: &GeomSliceF32<'_>, out: [&mut [f32]; 3]) -> bool {
-        self.ggx_batch(g, out, true)
+        self.kernel_batch(g, out, true)
     }
 }
 
@@ -663,12 +665,12 @@ impl Model for CookTorrance {
 
     fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
         let p = pair_geometry(wi, wo);
-        if let (Some(cfg), Some((_, k))) = (self.ggx_grad_config(), &self.ggx64) {
+        if let (Some(cfg), Some((_, k))) = (self.kernel_grad_config(), &self.kernel64) {
             let mut out = Rgb::ZERO;
             let np = self.num_params();
-            ggx::with_grad_config(
+            kernel::with_grad_config(
                 cfg,
-                ggx::Pair {
+                kernel::Pair {
                     k,
                     p,
                     out: &mut out,
@@ -678,8 +680,8 @@ impl Model for CookTorrance {
             return out;
         }
         let f = grad_via::<MAXP>(self.num_params(), grad, |g| self.kernel(p, Some(g)));
-        if self.ggx_config().is_some() {
-            // The value of the GGX kernel, as every other path returns it.
+        if self.kernel_config().is_some() {
+            // The value of the kernel, as every other path returns it.
             self.value(p)
         } else {
             f
@@ -687,7 +689,7 @@ impl Model for CookTorrance {
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        if self.ggx_batch(g, &mut *out, false) {
+        if self.kernel_batch(g, &mut *out, false) {
             return;
         }
         for (k, o) in out.iter_mut().enumerate().take(g.len()) {
@@ -695,39 +697,40 @@ impl Model for CookTorrance {
         }
     }
 
-    /// The GGX configurations run the kernel of `cook_torrance_ggx.rs` in `f32` (error
+    /// The kernel's configurations (GGX, and Beckmann with its exact Λ) run the kernel of
+    /// `cook_torrance_ggx.rs` in `f32` (error
     /// against the `f64` model: a few float32 ulp per operation, amplified where D is
     /// steep; measured in docs/models.md); the others widen to `f64`.
     fn eval_batch_f32(&self, g: &GeomSliceF32<'_>, out: [&mut [f32]; 3]) {
-        if self.ggx_config().is_some() {
-            self.ggx_batch(g, out, false);
+        if self.kernel_config().is_some() {
+            self.kernel_batch(g, out, false);
         } else {
             eval_batch_f32_widened(self, g, out);
         }
     }
 
-    /// GGX configurations: the loop of `cook_torrance_ggx.rs` that reads the
+    /// The kernel's configurations: the loop of `cook_torrance_ggx.rs` that reads the
     /// directions itself (fused with the half vector), with the bits of `eval_batch` in
     /// `f64` and of `eval_batch_f32` in `f32`; the others have no fused kernel.
     fn eval_dirs_fused(&self, dirs: DirPairs<'_, f64>, out: &mut [Rgb]) -> bool {
-        self.ggx_dirs(dirs, out)
+        self.kernel_dirs(dirs, out)
     }
 
     fn eval_dirs_fused_rows(&self, dirs: DirPairs<'_, f64>, out: &mut [[f64; 3]]) -> bool {
-        self.ggx_dirs(dirs, out)
+        self.kernel_dirs(dirs, out)
     }
 
     fn eval_dirs_fused_f32(&self, dirs: DirPairs<'_, f32>, out: &mut [[f32; 3]]) -> bool {
-        self.ggx_dirs(dirs, out)
+        self.kernel_dirs(dirs, out)
     }
 
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
         let n = g.len();
         let np = self.num_params();
-        if let (Some(cfg), Some((_, k))) = (self.ggx_grad_config(), &self.ggx64) {
-            ggx::with_grad_config(
+        if let (Some(cfg), Some((_, k))) = (self.kernel_grad_config(), &self.kernel64) {
+            kernel::with_grad_config(
                 cfg,
-                ggx::BatchGrad64 {
+                kernel::BatchGrad64 {
                     k,
                     g,
                     out,
@@ -740,8 +743,8 @@ impl Model for CookTorrance {
         grad_batch_via::<MAXP>(n, np, out, grad, |k, gk| {
             self.kernel(batch_pair(g, k), Some(gk))
         });
-        if self.ggx_config().is_some() {
-            // The values of the GGX kernel, as every other path returns them.
+        if self.kernel_config().is_some() {
+            // The values of the kernel, as every other path returns them.
             self.eval_batch(g, &mut out[..n]);
         }
     }

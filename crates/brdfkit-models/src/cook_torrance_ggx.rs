@@ -1,6 +1,9 @@
-//! The branch-free value kernel of `cook-torrance` with GGX and Smith masking, in `f64`
-//! (the value of every evaluation path of those configurations) and `f32`
-//! ([`Model::eval_batch_f32`](brdfkit_core::Model::eval_batch_f32)).
+//! The branch-free kernel of `cook-torrance` with Smith masking and GGX or Beckmann (its
+//! exact Λ), in `f64` (the value of every evaluation path of those configurations, and
+//! the gradient with Fresnel `none` or `schlick`) and `f32`
+//! ([`Model::eval_batch_f32`](brdfkit_core::Model::eval_batch_f32)). The distribution
+//! enters only through D and S(v) below; the masking, Fresnel, gradient and loops are
+//! one code for both.
 //!
 //! With s = hx²/αx² + hy²/αy² + hz² and, per direction v, S(v) = √(vz² + αx² vx² + αy² vy²)
 //! (= vz √(1 + α² tan²θv); isotropic: √(vz² + α²(vx² + vy²))). Written with vx² + vy²
@@ -19,9 +22,18 @@
 //!   [`conductor`](brdfkit_core::scattering::fresnel::conductor)) folded into one
 //!   division, F = (Rs + Rp)/2 = Rs t3/(t3 + t4) = (t1 − t2) t3/((t1 + t2)(t3 + t4));
 //!   the dielectric (Born & Wolf) as F = (r∥² + r⊥²)/2 over one common denominator;
+//! - Beckmann (Walter et al. 2007, eq. 25; Heitz 2014, eq. 85), with u = hx²/αx² +
+//!   hy²/αy²: D = exp(−u/hz²)/(π αx αy hz⁴), and with a = vz/t(v), t(v) = √(αx² vx² +
+//!   αy² vy²) its exact Smith Λ = (erf(a) − 1)/2 + exp(−a²)/(2a√π) (Heitz 2014, eq. 85)
+//!   gives S(v) = vz (1 + 2Λ(v)) = vz erf(a) + t exp(−a²)/√π, the same role as GGX's
+//!   S(v) = vz (1 + 2Λ(v)), so V takes the two forms above unchanged. S is a sum of two
+//!   positive terms (the difference erf(a) − 1 of Λ never formed), finite at grazing
+//!   (t/√π at vz = 0), and vz on the normal (t = 0, a = ∞). `exp` and `erf` are the
+//!   branch-free [`lanes::exp`](crate::lanes::exp) and [`lanes::erf`](crate::lanes::erf),
+//!   in f64 lanes in both precisions;
 //! - f_r = ρd/π + ρs D V F, and exactly 0 unless cos θi > 0 and cos θo > 0.
 //!
-//! The conductor in `f64` is evaluated from the directions' squares with one division
+//! The GGX conductor in `f64` is evaluated from the directions' squares with one division
 //! for D·V and all three channels' F (`conductor_value`: eight square roots and two
 //! divisions per pair, against nine and seven in the form above); in `f32` as above.
 //! The same function serves one pair (`eval`) and the loops over a batch, so all paths
@@ -31,20 +43,24 @@ use super::{CookTorrance, Fresnel, Shape};
 use crate::lanes::{Real, Run, clamp01, dispatch, max, select};
 use crate::pair::PairGeom;
 use brdfkit_core::geometry::half_and_cos_d;
-use brdfkit_core::scattering::{Distribution, Masking};
+use brdfkit_core::scattering::{BeckmannG1, Distribution, Masking};
 use brdfkit_core::{DirPairs, GeomSlice, GeomSliceOf, Rgb};
-use std::f64::consts::FRAC_1_PI;
+use std::f64::consts::{FRAC_1_PI, FRAC_2_SQRT_PI};
 
 const F_NONE: u8 = 0;
 const F_SCHLICK: u8 = 1;
 const F_CONDUCTOR: u8 = 2;
 const F_DIELECTRIC: u8 = 3;
 
-/// The `match` from a runtime [`Config`] to `job.go::<A, C, F>()` over the listed arms.
+/// The `match` from a runtime [`Config`] to `job.go::<A, C, F, B>()` over the listed
+/// arms, each for GGX (B = false) and Beckmann (B = true).
 macro_rules! config_arms {
     ($cfg:expr, $job:expr, $why:literal; $($a:literal, $c:literal, $f:ident;)*) => {
-        match ($cfg.aniso, $cfg.correlated, $cfg.fresnel) {
-            $(($a, $c, $f) => $job.go::<$a, $c, $f>(),)*
+        match ($cfg.aniso, $cfg.correlated, $cfg.fresnel, $cfg.beckmann) {
+            $(
+                ($a, $c, $f, false) => $job.go::<$a, $c, $f, false>(),
+                ($a, $c, $f, true) => $job.go::<$a, $c, $f, true>(),
+            )*
             _ => unreachable!($why),
         }
     };
@@ -80,16 +96,20 @@ pub(super) struct Config {
     aniso: bool,
     correlated: bool,
     fresnel: u8,
+    /// Beckmann with its exact Λ, else GGX.
+    beckmann: bool,
 }
 
 impl CookTorrance {
     /// The kernel's configuration, or `None` when the model has no branch-free kernel
-    /// (Beckmann needs `exp` and `erf`, which do not vectorise; the V-cavity a `min` of
-    /// quotients): those use the per-pair code.
-    pub(super) fn ggx_config(&self) -> Option<Config> {
-        if self.distribution != Distribution::Ggx {
-            return None;
-        }
+    /// (the V-cavity, a `min` of quotients, and Walter's rational Beckmann G1, a
+    /// different Λ): those use the per-pair code.
+    pub(super) fn kernel_config(&self) -> Option<Config> {
+        let beckmann = match (self.distribution, self.beckmann_g1) {
+            (Distribution::Ggx, _) => false,
+            (Distribution::Beckmann, BeckmannG1::Exact) => true,
+            (Distribution::Beckmann, BeckmannG1::Rational) => return None,
+        };
         let correlated = match self.masking {
             Masking::SmithSeparable => false,
             Masking::SmithCorrelated => true,
@@ -105,19 +125,20 @@ impl CookTorrance {
             aniso: matches!(self.alpha, Shape::Anisotropic(..)),
             correlated,
             fresnel,
+            beckmann,
         })
     }
 
-    /// The configuration of the branch-free gradient kernel: GGX with Fresnel `none` or
-    /// `schlick` (polynomial derivatives; the default model, and the usual fit). The
-    /// conductor and dielectric keep the per-pair gradient code (`conductor_grad`,
-    /// `dielectric_grad`, whose guards branch).
-    pub(super) fn ggx_grad_config(&self) -> Option<Config> {
-        self.ggx_config()
+    /// The configuration of the branch-free gradient kernel: a kernel configuration
+    /// with Fresnel `none` or `schlick` (polynomial derivatives; the default model, and
+    /// the usual fit). The conductor and dielectric keep the per-pair gradient code
+    /// (`conductor_grad`, `dielectric_grad`, whose guards branch).
+    pub(super) fn kernel_grad_config(&self) -> Option<Config> {
+        self.kernel_config()
             .filter(|c| c.fresnel == F_NONE || c.fresnel == F_SCHLICK)
     }
 
-    pub(super) fn ggx_consts<T: Real>(&self) -> Consts<T> {
+    pub(super) fn kernel_consts<T: Real>(&self) -> Consts<T> {
         let (ax, ay) = self.alpha.xy();
         let (mut fa, mut fb) = ([0.0; 3], [0.0; 3]);
         match self.fresnel {
@@ -210,7 +231,9 @@ fn sin2<T: Real>(v: [T; 3]) -> T {
     }
 }
 
-/// The specular factor DV = D·V of a pair and what its gradient reuses.
+/// The specular factor DV = D·V of a pair and what its gradient reuses: `s` is GGX's s
+/// (module doc) or Beckmann's hz², `si`, `so` are S(wi), S(wo), and `ri`, `ro` (Beckmann
+/// only) exp(−a²)/(√π t) of each direction, so that ∂S/∂αx = αx vx² r.
 #[derive(Clone, Copy)]
 struct Lobe<T> {
     hx2: T,
@@ -218,7 +241,19 @@ struct Lobe<T> {
     s: T,
     si: T,
     so: T,
+    ri: T,
+    ro: T,
     dv: T,
+}
+
+/// The masking's denominator: V = 1/vden (module doc), from zi, zo and S(wi), S(wo).
+#[inline(always)]
+fn vden<T: Real, const C: bool>(zi: T, zo: T, si: T, so: T) -> T {
+    if C {
+        T::TWO * (zo * si + zi * so)
+    } else {
+        (zi + si) * (zo + so)
+    }
 }
 
 /// hx², hy², s, the lobe's denominator L = s² vden (so D·V = d_norm/L, module doc),
@@ -246,23 +281,46 @@ fn lobe_den<T: Real, const A: bool, const C: bool>(
             (zo * zo + k.ax2 * sin2::<T>(wo)).sqrt(),
         )
     };
-    let vden = if C {
-        T::TWO * (zo * si + zi * so)
-    } else {
-        (zi + si) * (zo + so)
-    };
-    (hx2, hy2, s, s * s * vden, si, so)
+    (hx2, hy2, s, s * s * vden::<T, C>(zi, zo, si, so), si, so)
 }
 
-/// D·V of one pair (module doc), shared by the value and the gradient kernels so both
-/// give the same bits.
+/// D·V of one pair (module doc), GGX or (`B`) Beckmann, shared by the value and the
+/// gradient kernels so both give the same bits.
+///
+/// Beckmann's is 0 where exp(−u/hz²) underflows, as
+/// [`beckmann_grad`](brdfkit_core::scattering::microfacet::beckmann_grad) (1/hz⁴ alone
+/// could overflow there). Where it does not, hz² > u/746 ≥ 1.3e-7 over the roughness
+/// domain, so hz⁴ stays normal.
 #[inline(always)]
-fn lobe<T: Real, const A: bool, const C: bool>(
+fn lobe<T: Real, const A: bool, const C: bool, const B: bool>(
     k: &Consts<T>,
     wi: [T; 3],
     wo: [T; 3],
     h: [T; 3],
 ) -> Lobe<T> {
+    if B {
+        let (hx2, hy2, hz2) = (h[0] * h[0], h[1] * h[1], h[2] * h[2]);
+        let u = if A {
+            hx2 * k.inv_ax2 + hy2 * k.inv_ay2
+        } else {
+            (hx2 + hy2) * k.inv_ax2
+        };
+        let ed = (T::ZERO - u / hz2).exp();
+        let (si, ri) = beckmann_s::<T, A>(k, wi);
+        let (so, ro) = beckmann_s::<T, A>(k, wo);
+        let l = hz2 * hz2 * vden::<T, C>(wi[2], wo[2], si, so);
+        let dv = select(ed > T::ZERO, k.d_norm * ed / l, T::ZERO);
+        return Lobe {
+            hx2,
+            hy2,
+            s: hz2,
+            si,
+            so,
+            ri,
+            ro,
+            dv,
+        };
+    }
     let (hx2, hy2, s, l, si, so) = lobe_den::<T, A, C>(k, wi, wo, h);
     // D·V in one division; s² ≤ 1e24 and vden ≤ 4e4 over the roughness domain, so the
     // product stays finite even in f32.
@@ -273,13 +331,45 @@ fn lobe<T: Real, const A: bool, const C: bool>(
         s,
         si,
         so,
+        ri: T::ZERO,
+        ro: T::ZERO,
         dv,
     }
 }
 
+/// Beckmann's S(v) = vz erf(a) + t exp(−a²)/√π (module doc) and r = exp(−a²)/(√π t)
+/// (r = 0 on the normal, where vx = vy = 0 and the derivative is 0).
+#[inline(always)]
+fn beckmann_s<T: Real, const A: bool>(k: &Consts<T>, v: [T; 3]) -> (T, T) {
+    let t2 = if A {
+        k.ax2 * v[0] * v[0] + k.ay2 * v[1] * v[1]
+    } else {
+        k.ax2 * sin2::<T>(v)
+    };
+    let t = t2.sqrt();
+    // a = ∞ on the normal: exp(−∞) = 0, erf(∞) = 1, S = vz.
+    let a = v[2] / t;
+    let e = (T::ZERO - a * a).exp() * T::of(0.5 * FRAC_2_SQRT_PI);
+    (v[2] * a.erf() + t * e, e / max(t, T::TINY))
+}
+
+/// ∂S(v)/∂α for `num` = αx vx² (or α sin²θv) of a direction with S(v) = `s` and
+/// Beckmann's `r` (module doc): GGX num/S, Beckmann num·r.
+#[inline(always)]
+fn ds<T: Real, const B: bool>(num: T, s: T, r: T) -> T {
+    if B { num * r } else { num / s }
+}
+
+/// The factor c of ∂ln D/∂αx = (c ux − s)/(αx s) (isotropic: (c u − 2s)/(α s)): 4 with
+/// GGX's s, 2 with Beckmann's s = hz².
+#[inline(always)]
+fn d_coef<T: Real, const B: bool>() -> T {
+    if B { T::TWO } else { T::TWO + T::TWO }
+}
+
 /// f_r of one pair (module doc).
 #[inline(always)]
-pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8>(
+pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8, const B: bool>(
     k: &Consts<T>,
     wi: [T; 3],
     wo: [T; 3],
@@ -289,10 +379,10 @@ pub(super) fn value<T: Real, const A: bool, const C: bool, const F: u8>(
     let (zi, zo) = (wi[2], wo[2]);
     // Below the horizon exactly 0 (a select, so the loop has no branch).
     let up = zi > T::ZERO && zo > T::ZERO;
-    if F == F_CONDUCTOR && T::FOLD_DIVISIONS {
+    if F == F_CONDUCTOR && T::FOLD_DIVISIONS && !B {
         return conductor_value::<T, A, C>(k, wi, wo, up);
     }
-    let Lobe { dv, .. } = lobe::<T, A, C>(k, wi, wo, h);
+    let Lobe { dv, .. } = lobe::<T, A, C, B>(k, wi, wo, h);
     let f = fresnel::<T, F>(k, cd);
     std::array::from_fn(|c| select(up, k.diff[c] + k.spec[c] * dv * f[c], T::ZERO))
 }
@@ -334,11 +424,7 @@ fn conductor_value<T: Real, const A: bool, const C: bool>(
     // vden again rather than from `lobe_den` (which would return it instead of s² vden):
     // the same arithmetic, but that form compiled to a loop 10 % slower here
     // (benches/raw.rs, alternated builds, 2026-11-25).
-    let vden = if C {
-        T::TWO * (wo[2] * si + wi[2] * so)
-    } else {
-        (wi[2] + si) * (wo[2] + so)
-    };
+    let vden = vden::<T, C>(wi[2], wo[2], si, so);
     // Round-off can take (wi·s)²/n² a hair past 1, as it can wi·h.
     let c2 = clamp01(select(ok, ws * ws * r, wi[2] * wi[2]));
     let s2 = T::ONE - c2;
@@ -367,19 +453,29 @@ fn conductor_value<T: Real, const A: bool, const C: bool>(
 /// Largest parameter count of the gradient kernel: 3 ρd + 3 ρs + 2 α + 3 f0.
 pub(super) const GRAD_P: usize = 11;
 
+/// Pairs per block of the batch gradient loop (`LoopGrad64`): its planes, 11 × 64
+/// values, stay in the first-level cache.
+const GRAD_BLOCK: usize = 64;
+
 /// f_r of one pair and its gradient, F ∈ {none, Schlick}; `g[p][c]` = ∂f_c/∂param_p in
 /// the model's parameter order (ρd, ρs, α or αx αy, f0), the first
 /// `6 + (1 or 2) + (0 or 3)` entries written.
 ///
 /// With DV = D·V the specular factor of the module doc, ∂f_c/∂ρs_c = DV F_c, ∂f_c/∂f0_c =
-/// ρs_c DV (1 − (1 − c)⁵), and for the roughness
-/// ∂ln DV/∂αx = (4 ux − s)/(αx s) − ∂ln vden/∂αx, ux = hx²/αx² (isotropic α:
-/// (4 u − 2 s)/(α s) − ∂ln vden/∂α, u = (hx² + hy²)/α²), with ∂S(v)/∂αx = αx vx²/S(v)
-/// (isotropic: α sin²θv/S(v)), so that
+/// ρs_c DV (1 − (1 − c)⁵), and for the roughness, ux = hx²/αx² (isotropic α:
+/// u = (hx² + hy²)/α²),
+/// - GGX: ∂ln DV/∂αx = (4 ux − s)/(αx s) − ∂ln vden/∂αx (isotropic:
+///   (4 u − 2 s)/(α s) − ∂ln vden/∂α), with ∂S(v)/∂αx = αx vx²/S(v) (isotropic:
+///   α sin²θv/S(v));
+/// - Beckmann: ∂ln D/∂αx = (2 ux/hz² − 1)/αx (isotropic: (2 u/hz² − 2)/α), the same
+///   form with 2 for 4 and hz² for s; and ∂S(v)/∂αx = αx vx² exp(−a²)/(√π t) (∂S/∂t =
+///   exp(−a²)/√π, the erf terms cancelling; isotropic: α sin²θv exp(−a²)/(√π t));
+///
+/// so that
 /// separable:  ∂ln vden = ∂Si/(zi + Si) + ∂So/(zo + So),
 /// correlated: ∂ln vden = (zo ∂Si + zi ∂So)/(zo Si + zi So).
 #[inline(always)]
-pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
+pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8, const B: bool>(
     k: &Consts<T>,
     wi: [T; 3],
     wo: [T; 3],
@@ -390,33 +486,35 @@ pub(super) fn value_grad<T: Real, const A: bool, const C: bool, const F: u8>(
     let (zi, zo) = (wi[2], wo[2]);
     let up = zi > T::ZERO && zo > T::ZERO;
     let z = T::ZERO;
-    let l = lobe::<T, A, C>(k, wi, wo, h);
+    let l = lobe::<T, A, C, B>(k, wi, wo, h);
     let Lobe {
         hx2,
         hy2,
         s,
         si,
         so,
+        ri,
+        ro,
         dv,
     } = l;
     let (dln_x, dln_y) = if A {
         let (ux, uy) = (hx2 * k.inv_ax2, hy2 * k.inv_ay2);
-        let four = T::TWO + T::TWO;
-        let dx = (four * ux - s) * k.inv_ax / s
+        let c = d_coef::<T, B>();
+        let dx = (c * ux - s) * k.inv_ax / s
             - dln_vden::<T, C>(
                 [zi, zo, si, so],
-                k.ax * wi[0] * wi[0] / si,
-                k.ax * wo[0] * wo[0] / so,
+                ds::<T, B>(k.ax * wi[0] * wi[0], si, ri),
+                ds::<T, B>(k.ax * wo[0] * wo[0], so, ro),
             );
-        let dy = (four * uy - s) * k.inv_ay / s
+        let dy = (c * uy - s) * k.inv_ay / s
             - dln_vden::<T, C>(
                 [zi, zo, si, so],
-                k.ay * wi[1] * wi[1] / si,
-                k.ay * wo[1] * wo[1] / so,
+                ds::<T, B>(k.ay * wi[1] * wi[1], si, ri),
+                ds::<T, B>(k.ay * wo[1] * wo[1], so, ro),
             );
         (dx, dy)
     } else {
-        (dln_alpha_iso::<T, C>(k, wi, wo, &l), z)
+        (dln_alpha_iso::<T, C, B>(k, wi, wo, &l), z)
     };
     let f = fresnel::<T, F>(k, cd);
     let w_comp = if F == F_SCHLICK {
@@ -466,15 +564,19 @@ fn dln_vden<T: Real, const C: bool>(zs: [T; 4], dsi: T, dso: T) -> T {
 
 /// ∂ln(D·V)/∂α of the isotropic lobe `l` of (wi, wo) ([`value_grad`]'s doc).
 #[inline(always)]
-fn dln_alpha_iso<T: Real, const C: bool>(k: &Consts<T>, wi: [T; 3], wo: [T; 3], l: &Lobe<T>) -> T {
+fn dln_alpha_iso<T: Real, const C: bool, const B: bool>(
+    k: &Consts<T>,
+    wi: [T; 3],
+    wo: [T; 3],
+    l: &Lobe<T>,
+) -> T {
     let Lobe { s, si, so, .. } = *l;
     let u = (l.hx2 + l.hy2) * k.inv_ax2;
-    let four = T::TWO + T::TWO;
-    (four * u - T::TWO * s) * k.inv_ax / s
+    (d_coef::<T, B>() * u - T::TWO * s) * k.inv_ax / s
         - dln_vden::<T, C>(
             [wi[2], wo[2], si, so],
-            k.ax * sin2::<T>(wi) / si,
-            k.ax * sin2::<T>(wo) / so,
+            ds::<T, B>(k.ax * sin2::<T>(wi), si, l.ri),
+            ds::<T, B>(k.ax * sin2::<T>(wo), so, l.ro),
         )
 }
 
@@ -486,17 +588,17 @@ fn dln_alpha_iso<T: Real, const C: bool>(k: &Consts<T>, wi: [T; 3], wo: [T; 3], 
 pub(crate) fn ggx_iso_dv(alpha: f64, correlated: bool, [wi, wo, h]: [[f64; 3]; 3]) -> (f64, f64) {
     let k = Consts::isotropic(alpha);
     if correlated {
-        let l = lobe::<f64, false, true>(&k, wi, wo, h);
-        (l.dv, dln_alpha_iso::<f64, true>(&k, wi, wo, &l))
+        let l = lobe::<f64, false, true, false>(&k, wi, wo, h);
+        (l.dv, dln_alpha_iso::<f64, true, false>(&k, wi, wo, &l))
     } else {
-        let l = lobe::<f64, false, false>(&k, wi, wo, h);
-        (l.dv, dln_alpha_iso::<f64, false>(&k, wi, wo, &l))
+        let l = lobe::<f64, false, false, false>(&k, wi, wo, h);
+        (l.dv, dln_alpha_iso::<f64, false, false>(&k, wi, wo, &l))
     }
 }
 
 impl Consts<f64> {
     /// The constants of an isotropic lobe of roughness α (as
-    /// [`CookTorrance::ggx_consts`] sets them), and none of the colour's.
+    /// [`CookTorrance::kernel_consts`] sets them), and none of the colour's.
     fn isotropic(alpha: f64) -> Self {
         let z = [0.0; 3];
         Consts {
@@ -519,9 +621,9 @@ impl Consts<f64> {
 }
 
 /// Calls `job.go` with `cfg` as constants, for the configurations of
-/// [`CookTorrance::ggx_grad_config`].
+/// [`CookTorrance::kernel_grad_config`].
 pub(super) fn with_grad_config<J: Job>(cfg: Config, job: J) {
-    config_arms!(cfg, job, "ggx_grad_config only admits none and Schlick";
+    config_arms!(cfg, job, "kernel_grad_config only admits none and Schlick";
         false, false, F_NONE; false, false, F_SCHLICK; false, true, F_NONE; false, true, F_SCHLICK;
         true, false, F_NONE; true, false, F_SCHLICK; true, true, F_NONE; true, true, F_SCHLICK;
     );
@@ -536,48 +638,77 @@ pub(super) struct BatchGrad64<'a, 'g> {
     pub np: usize,
 }
 
-struct LoopGrad64<'a, 'g, const A: bool, const C: bool, const F: u8>(BatchGrad64<'a, 'g>);
+struct LoopGrad64<'a, 'g, const A: bool, const C: bool, const F: u8, const B: bool>(
+    BatchGrad64<'a, 'g>,
+);
 
-impl<const A: bool, const C: bool, const F: u8> Run for LoopGrad64<'_, '_, A, C, F> {
+impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
+    for LoopGrad64<'_, '_, A, C, F, B>
+{
+    /// Block by block: a pair's gradient goes into the block's planes (the parameter
+    /// count is a constant of the configuration, so that copy unrolls), and each plane
+    /// is copied out contiguously, rather than eleven strided stores a pair. The loop
+    /// over a block's pairs has no inner loop and no bounds checks, but LLVM still runs
+    /// it scalar (objdump, docs/performance.md "Issue 28, session 12"): the value loop
+    /// vectorises, this one does not yet.
     #[inline(always)]
     fn run(&mut self) {
         let b = &mut self.0;
         let n = b.g.len();
-        let np = b.np.min(GRAD_P);
-        let g = b.g.sub(0..n);
-        let out = &mut b.out[..n];
-        let grad = &mut b.grad[..np * n];
-        let mut gk = [[0.0; 3]; GRAD_P];
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = Rgb(value_grad::<f64, A, C, F>(
-                b.k,
-                [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
-                [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
-                [g.h_x[i], g.h_y[i], g.h_z[i]],
-                g.cos_d[i],
-                &mut gk,
-            ));
-            for (p, v) in gk.iter().enumerate().take(np) {
-                grad[p * n + i] = Rgb(*v);
+        // ρd, ρs, α or (αx, αy), and f0 with Schlick ([`CookTorrance::kernel_grad_config`]).
+        let np = 7 + usize::from(A) + if F == F_SCHLICK { 3 } else { 0 };
+        debug_assert_eq!(np, b.np);
+        let mut block = [[Rgb::ZERO; GRAD_BLOCK]; GRAD_P];
+        // A local copy: the stores of the loop cannot be to it.
+        let k = *b.k;
+        for s in (0..n).step_by(GRAD_BLOCK) {
+            let len = GRAD_BLOCK.min(n - s);
+            // Every column cut to the block here, by hand (`array::map` was not inlined
+            // here, which left a bounds check on every read).
+            let c = b.g.columns();
+            let cut = |j: usize| &c[j][s..s + len];
+            let (wi, wo, h, cd) = (
+                [cut(0), cut(1), cut(2)],
+                [cut(3), cut(4), cut(5)],
+                [cut(6), cut(7), cut(8)],
+                cut(9),
+            );
+            for (i, o) in b.out[s..s + len].iter_mut().enumerate() {
+                // Per pair, so it can live in registers.
+                let mut gk = [[0.0; 3]; GRAD_P];
+                *o = Rgb(value_grad::<f64, A, C, F, B>(
+                    &k,
+                    [wi[0][i], wi[1][i], wi[2][i]],
+                    [wo[0][i], wo[1][i], wo[2][i]],
+                    [h[0][i], h[1][i], h[2][i]],
+                    cd[i],
+                    &mut gk,
+                ));
+                for p in 0..np {
+                    block[p][i] = Rgb(gk[p]);
+                }
+            }
+            for (p, plane) in block.iter().enumerate().take(np) {
+                b.grad[p * n + s..p * n + s + len].copy_from_slice(&plane[..len]);
             }
         }
     }
 }
 
 impl Job for BatchGrad64<'_, '_> {
-    fn go<const A: bool, const C: bool, const F: u8>(self) {
-        dispatch(&mut LoopGrad64::<A, C, F>(self));
+    fn go<const A: bool, const C: bool, const F: u8, const B: bool>(self) {
+        dispatch(&mut LoopGrad64::<A, C, F, B>(self));
     }
 }
 
 /// Work that needs the configuration as compile-time constants.
 pub(super) trait Job {
-    fn go<const A: bool, const C: bool, const F: u8>(self);
+    fn go<const A: bool, const C: bool, const F: u8, const B: bool>(self);
 }
 
 /// Calls `job.go` with `cfg` as constants.
 pub(super) fn with_config<J: Job>(cfg: Config, job: J) {
-    config_arms!(cfg, job, "ggx_config only builds known Fresnel kinds";
+    config_arms!(cfg, job, "kernel_config only builds known Fresnel kinds";
         false, false, F_NONE; false, false, F_SCHLICK; false, false, F_CONDUCTOR; false, false, F_DIELECTRIC;
         false, true, F_NONE; false, true, F_SCHLICK; false, true, F_CONDUCTOR; false, true, F_DIELECTRIC;
         true, false, F_NONE; true, false, F_SCHLICK; true, false, F_CONDUCTOR; true, false, F_DIELECTRIC;
@@ -595,7 +726,7 @@ pub(super) struct Pair<'a> {
 }
 
 impl Job for Pair<'_> {
-    fn go<const A: bool, const C: bool, const F: u8>(self) {
+    fn go<const A: bool, const C: bool, const F: u8, const B: bool>(self) {
         let Pair { k, p, out, grad } = self;
         let PairGeom {
             wi,
@@ -604,10 +735,10 @@ impl Job for Pair<'_> {
             cos_d: cd,
         } = p;
         *out = Rgb(match grad {
-            None => value::<f64, A, C, F>(k, wi, wo, h, cd),
+            None => value::<f64, A, C, F, B>(k, wi, wo, h, cd),
             Some(grad) => {
                 let mut g = [[0.0; 3]; GRAD_P];
-                let v = value_grad::<f64, A, C, F>(k, wi, wo, h, cd, &mut g);
+                let v = value_grad::<f64, A, C, F, B>(k, wi, wo, h, cd, &mut g);
                 for (d, s) in grad.iter_mut().zip(g) {
                     *d = Rgb(s);
                 }
@@ -670,10 +801,12 @@ pub(super) struct Batch<'a, 'g, T, O> {
     pub baseline: bool,
 }
 
-struct Loop<'a, 'g, T, O, const A: bool, const C: bool, const F: u8>(Batch<'a, 'g, T, O>);
+struct Loop<'a, 'g, T, O, const A: bool, const C: bool, const F: u8, const B: bool>(
+    Batch<'a, 'g, T, O>,
+);
 
-impl<T: Real, O: Sink<T>, const A: bool, const C: bool, const F: u8> Run
-    for Loop<'_, '_, T, O, A, C, F>
+impl<T: Real, O: Sink<T>, const A: bool, const C: bool, const F: u8, const B: bool> Run
+    for Loop<'_, '_, T, O, A, C, F, B>
 {
     #[inline(always)]
     fn run(&mut self) {
@@ -681,7 +814,7 @@ impl<T: Real, O: Sink<T>, const A: bool, const C: bool, const F: u8> Run
         let n = b.g.len().min(b.out.len());
         let g = b.g.sub(0..n);
         for i in 0..n {
-            let v = value::<T, A, C, F>(
+            let v = value::<T, A, C, F, B>(
                 b.k,
                 [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
                 [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
@@ -694,9 +827,9 @@ impl<T: Real, O: Sink<T>, const A: bool, const C: bool, const F: u8> Run
 }
 
 impl<T: Real, O: Sink<T>> Job for Batch<'_, '_, T, O> {
-    fn go<const A: bool, const C: bool, const F: u8>(self) {
+    fn go<const A: bool, const C: bool, const F: u8, const B: bool>(self) {
         let baseline = self.baseline;
-        let mut l = Loop::<T, O, A, C, F>(self);
+        let mut l = Loop::<T, O, A, C, F, B>(self);
         if baseline {
             l.run();
         } else {
@@ -715,7 +848,9 @@ pub(crate) struct DirsBatch<'a, 'd, T, O> {
     pub out: O,
 }
 
-struct DirsLoop<'a, 'd, T, O, const A: bool, const C: bool, const F: u8>(DirsBatch<'a, 'd, T, O>);
+struct DirsLoop<'a, 'd, T, O, const A: bool, const C: bool, const F: u8, const B: bool>(
+    DirsBatch<'a, 'd, T, O>,
+);
 
 impl<
     T: Real + brdfkit_core::geometry::Component,
@@ -723,7 +858,8 @@ impl<
     const A: bool,
     const C: bool,
     const F: u8,
-> Run for DirsLoop<'_, '_, T, O, A, C, F>
+    const B: bool,
+> Run for DirsLoop<'_, '_, T, O, A, C, F, B>
 {
     #[inline(always)]
     fn run(&mut self) {
@@ -734,14 +870,15 @@ impl<
             DirPairs::Split(wi, wo) => {
                 for i in 0..n {
                     let (h, cd) = half_and_cos_d(wi[i], wo[i]);
-                    b.out.put(i, value::<T, A, C, F>(b.k, wi[i], wo[i], h, cd));
+                    b.out
+                        .put(i, value::<T, A, C, F, B>(b.k, wi[i], wo[i], h, cd));
                 }
             }
             DirPairs::Rows(rows) => {
                 for (i, r) in rows.iter().enumerate() {
                     let (wi, wo) = ([r[0], r[1], r[2]], [r[3], r[4], r[5]]);
                     let (h, cd) = half_and_cos_d(wi, wo);
-                    b.out.put(i, value::<T, A, C, F>(b.k, wi, wo, h, cd));
+                    b.out.put(i, value::<T, A, C, F, B>(b.k, wi, wo, h, cd));
                 }
             }
         }
@@ -749,23 +886,23 @@ impl<
 }
 
 impl<T: Real + brdfkit_core::geometry::Component, O: Sink<T>> Job for DirsBatch<'_, '_, T, O> {
-    fn go<const A: bool, const C: bool, const F: u8>(self) {
-        dispatch(&mut DirsLoop::<T, O, A, C, F>(self));
+    fn go<const A: bool, const C: bool, const F: u8, const B: bool>(self) {
+        dispatch(&mut DirsLoop::<T, O, A, C, F, B>(self));
     }
 }
 
 impl CookTorrance {
-    /// f_r of raw direction pairs through the GGX kernel, fused with the half vector
+    /// f_r of raw direction pairs through the kernel, fused with the half vector
     /// ([`DirsBatch`]); false (nothing written) when the configuration has no kernel.
-    pub(crate) fn ggx_dirs<T: Real + brdfkit_core::geometry::Component, O: Sink<T>>(
+    pub(crate) fn kernel_dirs<T: Real + brdfkit_core::geometry::Component, O: Sink<T>>(
         &self,
         dirs: DirPairs<'_, T>,
         out: O,
     ) -> bool {
-        let Some(cfg) = self.ggx_config() else {
+        let Some(cfg) = self.kernel_config() else {
             return false;
         };
-        let k = self.ggx_consts::<T>();
+        let k = self.kernel_consts::<T>();
         with_config(cfg, DirsBatch { k: &k, dirs, out });
         true
     }
