@@ -5,8 +5,11 @@
 //!   one ignored test): its peak resident set (VmHWM of /proc/self/status, the figure
 //!   `getrusage`'s ru_maxrss reports), measured separately for preparing the cells and
 //!   for the fit (the peak is reset between the two through /proc/self/clear_refs).
-//!   The fit's own increment over the cells must stay under 64 MB (measured 48.6 MB);
-//!   the totals are printed (cells 149 MB + fit: 197.5 MB typically).
+//!   The fit's own increment over the cells must stay under 64 MB, not counting the
+//!   cells' geometry columns when the fit builds them (a table's cells compute them
+//!   where read until a pass over all cells needs them whole: the library default's
+//!   finish on all cells), and the whole peak under the 200 MB target (measured
+//!   136 MB since the cells keep no columns of their own; 197.5 MB before).
 //! - 8 fits at once from 8 OS threads on the shared rayon pool finish (a watchdog fails
 //!   the test after 300 s instead of hanging) and the process's thread count
 //!   (/proc/self/task) stays within the 8 callers + the global pool + this test's own
@@ -75,8 +78,13 @@ fn child_full_table_fit() {
     let res = fit(model(START).as_ref(), &data, &FitConfig::default(), None).unwrap();
     let secs = t.elapsed().as_secs_f64();
     let fit_peak = status_kb("VmHWM");
+    // The whole-set columns, if the fit built them: the cells' own memory, not the
+    // fitter's.
+    let geometry_kb = data
+        .geometry_if_built()
+        .map_or(0, |g| g.heap_bytes() / 1024);
     println!(
-        "CHILD cells={} base_kb={base} prep_peak_kb={prep} rss_before_fit_kb={before} fit_peak_kb={fit_peak} secs={secs:.2} loss={:e} alpha={}",
+        "CHILD cells={} base_kb={base} prep_peak_kb={prep} rss_before_fit_kb={before} fit_peak_kb={fit_peak} geometry_kb={geometry_kb} secs={secs:.2} loss={:e} alpha={}",
         data.len(),
         res.record.losses_full.cbrt.overall,
         res.fitted.channel_model(0).params()[6]
@@ -123,15 +131,21 @@ fn full_table_fit_has_bounded_peak_memory() {
     );
     assert!(get("cells") > 1.0e6, "a full table");
     // The fitter's own memory on top of the cells (targets t(f̂), 27 MB; the warm-up
-    // subsample and its targets, ≈ 11 MB; per-thread scratch; allocator slack):
-    // measured 48.6 MB. The total (cells + fit) measured 197.5 MB in 4 of 5 runs; in the
-    // fifth glibc had kept 64 MB of the preparation (one arena) before the fit started,
-    // so the total is reported, and the fit's increment is what is bounded.
+    // subsample and its targets, ≈ 11 MB; per-thread scratch; allocator slack), not
+    // counting the cells' geometry columns that a finish on all cells builds once
+    // (89 MB here; before they were built with the cells): measured 7–49 MB. Glibc
+    // once kept 64 MB of the preparation (one arena) before the fit started, so the
+    // fit's increment is bounded, and the total against the target.
     let before = get("rss_before_fit_kb") / 1024.0;
+    let geometry = get("geometry_kb") / 1024.0;
     assert!(
-        fit_peak - before < 64.0,
-        "the fit added {:.1} MB",
-        fit_peak - before
+        fit_peak - before - geometry < 64.0,
+        "the fit added {:.1} MB besides the cells' geometry ({geometry:.1} MB)",
+        fit_peak - before - geometry
+    );
+    assert!(
+        fit_peak < 200.0,
+        "total peak {fit_peak:.1} MB (target 200 MB)"
     );
     println!("total peak {fit_peak:.1} MB (target 200 MB)");
     // Preparing the cells (table, `cell_batch`, FitData) is not the fitter's: measured
