@@ -106,7 +106,9 @@ pub struct StartRecord {
     pub rank_loss: Option<f64>,
     /// The exploration stage of a ranked fit, when it ran on its own subsample (an
     /// eighth of the warm-up's size, see [`crate::FitConfig::finish`]): the start
-    /// converged there, was ranked, and if finished went on through `warm_up` to the
+    /// converged there (to the ranking's looser tolerance when there was a ranking to
+    /// make; its `termination` then says so, and a finisher resumed it to the fit's own
+    /// tolerance), was ranked, and if finished went on through `warm_up` to the
     /// fitted cells (`warm_up` is then absent for an unfinished start). Absent when the
     /// warm-up set was explored directly, or there was no ranking.
     #[serde(default, skip_serializing_if = "Option::is_none")]
