@@ -3,14 +3,14 @@
 use crate::error::NbrdfError;
 use crate::net::{INPUTS, Nbrdf, clamp, input_sc};
 use brdfkit_core::Rgb;
-use brdfkit_merl::{Dims, MerlTable, cell_directions};
+use brdfkit_merl::{CellDirections, Dims, MerlTable};
 use rayon::prelude::*;
 
 /// A cell is missing when either of its directions has z at or below this: the rule of
 /// the proxies' README (`../shared/measured-proxies/README.md`), which puts 23.8 % of
 /// the MERL grid's cells below the horizon.
 ///
-/// [`cell_directions`]' own flag is z > 0; the two differ only on cells exactly at
+/// [`cell_directions`](brdfkit_merl::cell_directions)' own flag is z > 0; the two differ only on cells exactly at
 /// grazing (θh + θd = π/2 at φd = 0), whose z is round-off either side of 0: the
 /// threshold makes them missing whatever the round-off. On the MERL grid these are
 /// cells (30, 80, 0) and (60, 50, 0), both of which the z > 0 flag keeps.
@@ -58,7 +58,7 @@ impl Nbrdf {
     ///
     /// Cell (i, j, k) gets the network at its grid angles θh = (i/nθh)² · π/2,
     /// θd = j/nθd · π/2, φd = k/nφd · π (the lower bin edges, assigned by index: the
-    /// angles and directions come from [`cell_directions`], the table crate's
+    /// angles and directions come from [`cell_directions`](brdfkit_merl::cell_directions), the table crate's
     /// definition). It is missing (raw −1) when either direction at those angles has
     /// z ≤ [`HORIZON_Z`]. Negative channels are clamped to 0 ([`clamp`]) and counted
     /// in the returned [`ResampleStats`].
@@ -74,6 +74,9 @@ impl Nbrdf {
         let th = sc(dims.theta_h(), &|i| dims.cell_angles(i, 0, 0).theta_h);
         let td = sc(dims.theta_d(), &|j| dims.cell_angles(0, j, 0).theta_d);
         let pd = sc(dims.phi_d(), &|k| dims.cell_angles(0, 0, k).phi_d);
+        // The horizon test on `cell_directions`' bits, from per-axis sines and cosines
+        // rather than three `sin_cos` calls a cell (a quarter of a proxy's resampling).
+        let dirs = CellDirections::new(dims);
         let slabs: Vec<(Vec<Option<Rgb>>, ResampleStats)> = (0..dims.theta_h())
             .into_par_iter()
             .map_init(
@@ -83,7 +86,7 @@ impl Nbrdf {
                     let mut at: Vec<usize> = Vec::with_capacity(slab);
                     for (j, &tdj) in td.iter().enumerate() {
                         for (k, &pdk) in pd.iter().enumerate() {
-                            let (_, wi, wo, _) = cell_directions(dims, i, j, k);
+                            let (wi, wo) = dirs.get(i, j, k);
                             if wi.z > HORIZON_Z && wo.z > HORIZON_Z {
                                 xs.push(input_sc(th[i], tdj, pdk));
                                 at.push(k + dims.phi_d() * j);
