@@ -75,7 +75,8 @@ impl Nbrdf {
         let td = sc(dims.theta_d(), &|j| dims.cell_angles(0, j, 0).theta_d);
         let pd = sc(dims.phi_d(), &|k| dims.cell_angles(0, 0, k).phi_d);
         // The horizon test on `cell_directions`' bits, from per-axis sines and cosines
-        // rather than three `sin_cos` calls a cell (a quarter of a proxy's resampling).
+        // in a vectorised row pass rather than three `sin_cos` calls a cell (a quarter
+        // of a proxy's resampling).
         let dirs = CellDirections::new(dims);
         let slabs: Vec<(Vec<Option<Rgb>>, ResampleStats)> = (0..dims.theta_h())
             .into_par_iter()
@@ -84,10 +85,13 @@ impl Nbrdf {
                 |s, i| {
                     let mut xs: Vec<[f64; INPUTS]> = Vec::with_capacity(slab);
                     let mut at: Vec<usize> = Vec::with_capacity(slab);
+                    let mut cols: [Vec<f64>; 10] = std::array::from_fn(|_| vec![0.0; pd.len()]);
                     for (j, &tdj) in td.iter().enumerate() {
+                        let into = cols.each_mut().map(Vec::as_mut_slice);
+                        dirs.row_columns(i, j, 0..pd.len(), into);
                         for (k, &pdk) in pd.iter().enumerate() {
-                            let (wi, wo) = dirs.get(i, j, k);
-                            if wi.z > HORIZON_Z && wo.z > HORIZON_Z {
+                            // Columns 2 and 5: wi.z and wo.z.
+                            if cols[2][k] > HORIZON_Z && cols[5][k] > HORIZON_Z {
                                 xs.push(input_sc(th[i], tdj, pdk));
                                 at.push(k + dims.phi_d() * j);
                             }
