@@ -78,7 +78,8 @@ impl Nbrdf {
         // in a vectorised row pass rather than three `sin_cos` calls a cell (a quarter
         // of a proxy's resampling).
         let dirs = CellDirections::new(dims);
-        let slabs: Vec<(Vec<Option<Rgb>>, ResampleStats)> = (0..dims.theta_h())
+        const MISSING: usize = usize::MAX;
+        let slabs: Vec<(Vec<Rgb>, Vec<usize>, ResampleStats)> = (0..dims.theta_h())
             .into_par_iter()
             .map_init(
                 || crate::net::Scratch::new(self),
@@ -99,32 +100,38 @@ impl Nbrdf {
                     }
                     let mut raw = vec![Rgb::ZERO; xs.len()];
                     self.raw_block_into(&xs, &mut raw, s);
-                    let mut vals = vec![None; slab];
+                    // Each cell's position in `raw` (`MISSING` for none): 8 bytes a cell
+                    // where a slab of `Option<Rgb>` took 32, fresh pages on every table.
+                    let mut slot = vec![MISSING; slab];
                     let mut st = ResampleStats {
                         cells: slab,
                         missing: slab - xs.len(),
                         ..Default::default()
                     };
-                    for (&c, v) in at.iter().zip(&raw) {
+                    for (n, (&c, v)) in at.iter().zip(raw.iter_mut()).enumerate() {
                         let neg = v.0.iter().filter(|&&x| x < 0.0).count();
                         st.most_negative = v.0.iter().fold(st.most_negative, |m, &x| m.min(x));
                         st.clamped_values += neg;
                         st.clamped_cells += usize::from(neg > 0);
-                        vals[c] = Some(clamp(*v));
+                        *v = clamp(*v);
+                        slot[c] = n;
                     }
-                    (vals, st)
+                    (raw, slot, st)
                 },
             )
             .collect();
         let stats = slabs
             .iter()
-            .fold(ResampleStats::default(), |a, (_, s)| a + *s);
-        let table = MerlTable::from_fn(dims, |i, j, k| slabs[i].0[k + dims.phi_d() * j]).map_err(
-            |source| NbrdfError::Table {
-                name: self.name().to_owned(),
-                source,
-            },
-        )?;
+            .fold(ResampleStats::default(), |a, (_, _, s)| a + *s);
+        let table = MerlTable::from_fn(dims, |i, j, k| {
+            let (vals, slot, _) = &slabs[i];
+            let n = slot[k + dims.phi_d() * j];
+            (n != MISSING).then(|| vals[n])
+        })
+        .map_err(|source| NbrdfError::Table {
+            name: self.name().to_owned(),
+            source,
+        })?;
         Ok((table, stats))
     }
 }
