@@ -155,6 +155,162 @@ impl Lanes8 {
     }
 }
 
+/// One channel's cells as [`own_loss_sums`] reads them, all of one length: the
+/// weights w, the model's values f, the measured values f̂, cos θi, and the measured
+/// cube roots ∛(f̂ cos θi) ([`Loss::transform_all`] of [`Loss::Cbrt`]).
+#[derive(Clone, Copy, Debug)]
+pub struct OwnLossCells<'a> {
+    /// Weights.
+    pub w: &'a [f64],
+    /// The model's values.
+    pub model: &'a [f64],
+    /// The measured values.
+    pub measured: &'a [f64],
+    /// cos θi.
+    pub cos_i: &'a [f64],
+    /// ∛(f̂ cos θi).
+    pub roots: &'a [f64],
+}
+
+/// Buffers of [`own_loss_sums`], grown to the run's length on use.
+#[derive(Clone, Debug, Default)]
+pub struct OwnLossScratch {
+    /// w r² of each loss and cell.
+    terms: [Vec<f64>; 4],
+    /// The cosine residuals x − x̂ (x = f cos θi), when kept.
+    pub cosine: Vec<f64>,
+    /// The log residuals ln(1 + (x − x̂)/(1 + x̂)), when kept.
+    pub log: Vec<f64>,
+}
+
+/// Σ w r² of brdfkit's four own losses (l2, cosine, cbrt, log, in [`Loss::ALL`]'s
+/// order) of one channel's cells, each with the bits of [`weighted_sq_sum`] over that
+/// loss's residuals as [`Loss::transform`] forms them: r = f − f̂, x − x̂ with
+/// x = f cos θi, ∛x − ∛x̂, and ln(1 + (x − x̂)/(1 + x̂)) (= ln(1 + x) − ln(1 + x̂), one
+/// logarithm, accurate when the two are close).
+///
+/// One loop computes the four terms w r² of a cell (with [`cbrt_all`]'s and
+/// [`ln_1p_all`]'s branch-free arithmetic, in vector lanes, [`brdfkit_core::lanes`]),
+/// and a second adds them into [`weighted_sq_sum`]'s eight interleaved sums, in its
+/// order: two passes over the run where one per loss, per transform and per sum took
+/// nine. A model value whose cube root is outside the fast domain (0 excepted:
+/// subnormal, NaN, ∞) gets `f64::cbrt`, as in [`cbrt_all`]. With `keep`, the cosine
+/// and log residuals are left in [`OwnLossScratch::cosine`] and
+/// [`OwnLossScratch::log`] (the published metrics reuse them).
+pub fn own_loss_sums(cells: OwnLossCells<'_>, sc: &mut OwnLossScratch, keep: bool) -> [f64; 4] {
+    let n = cells.w.len();
+    for v in sc.terms.iter_mut() {
+        v.resize(n, 0.0);
+    }
+    let odd = if keep {
+        sc.cosine.resize(n, 0.0);
+        sc.log.resize(n, 0.0);
+        let mut run = OwnTerms::<true> {
+            cells,
+            terms: &mut sc.terms,
+            res: [&mut sc.cosine, &mut sc.log],
+            odd: 0,
+        };
+        dispatch(&mut run);
+        run.odd
+    } else {
+        let mut run = OwnTerms::<false> {
+            cells,
+            terms: &mut sc.terms,
+            res: [&mut [], &mut []],
+            odd: 0,
+        };
+        dispatch(&mut run);
+        run.odd
+    };
+    if odd > 0 {
+        let t = &mut sc.terms[2];
+        for k in 0..n {
+            let x = cells.model[k] * cells.cos_i[k];
+            if !cbrt_fast_domain(x) {
+                let r = cbrt(x) - cells.roots[k];
+                t[k] = cells.w[k] * r * r;
+            }
+        }
+    }
+    let mut sums = [Lanes8::default(); 4];
+    dispatch(&mut LaneSums {
+        terms: &sc.terms,
+        sums: &mut sums,
+    });
+    sums.map(|s| s.total())
+}
+
+/// The first loop of [`own_loss_sums`]; `KEEP`: the residuals kept.
+struct OwnTerms<'a, const KEEP: bool> {
+    cells: OwnLossCells<'a>,
+    terms: &'a mut [Vec<f64>; 4],
+    res: [&'a mut [f64]; 2],
+    /// Cells whose model cube root is outside the fast domain (and not 0).
+    odd: usize,
+}
+
+impl<const KEEP: bool> Run for OwnTerms<'_, KEEP> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let c = self.cells;
+        let n = c.w.len();
+        let (w, f, fm, ci, rt) = (
+            c.w,
+            &c.model[..n],
+            &c.measured[..n],
+            &c.cos_i[..n],
+            &c.roots[..n],
+        );
+        let [t0, t1, t2, t3] = self.terms.each_mut().map(|t| &mut t[..n]);
+        let mut odd = 0;
+        for k in 0..n {
+            let r0 = f[k] - fm[k];
+            let (x, xt) = (f[k] * ci[k], fm[k] * ci[k]);
+            let r1 = x - xt;
+            let fast = cbrt_fast_domain(x);
+            odd += usize::from(!fast && x != 0.0);
+            let r2 = if fast { cbrt_normal(x) } else { x } - rt[k];
+            let r3 = ln_1p((x - xt) / (1.0 + xt));
+            t0[k] = w[k] * r0 * r0;
+            t1[k] = w[k] * r1 * r1;
+            t2[k] = w[k] * r2 * r2;
+            t3[k] = w[k] * r3 * r3;
+            if KEEP {
+                self.res[0][k] = r1;
+                self.res[1][k] = r3;
+            }
+        }
+        self.odd = odd;
+    }
+}
+
+/// The second loop of [`own_loss_sums`]: term k of each column into lane k mod 8
+/// ([`weighted_sq_sum`]'s order).
+struct LaneSums<'a> {
+    terms: &'a [Vec<f64>; 4],
+    sums: &'a mut [Lanes8; 4],
+}
+
+impl Run for LaneSums<'_> {
+    #[inline(always)]
+    fn run(&mut self) {
+        for (t, s) in self.terms.iter().zip(self.sums.iter_mut()) {
+            let (blocks, tail) = t.as_chunks::<8>();
+            let mut p = [0.0f64; 8];
+            for b in blocks {
+                for j in 0..8 {
+                    p[j] += b[j];
+                }
+            }
+            for (j, x) in tail.iter().enumerate() {
+                p[j] += x;
+            }
+            *s = Lanes8(p);
+        }
+    }
+}
+
 /// ln(1 + x), within 1 ulp of the correctly rounded value, without a library call and
 /// without branches, so that a loop of it vectorises ([`ln_1p_all`]).
 ///
