@@ -1175,6 +1175,72 @@ mod tests {
         assert_eq!(lanes.total().to_bits(), weighted_sq_sum(&w, &r).to_bits());
     }
 
+    /// The fused sums of the four own losses are, bit for bit, `weighted_sq_sum` over
+    /// each loss's residuals formed one by one as the report formed them, on runs of
+    /// every length around the eight lanes, with model values that are 0, subnormal,
+    /// huge, ∞ and NaN (the cube root's slow path), and the kept residuals are those
+    /// residuals.
+    #[test]
+    fn own_loss_sums_are_the_per_loss_sums() {
+        let bits = |v: [f64; 4]| v.map(f64::to_bits);
+        let mut sc = OwnLossScratch::default();
+        for n in [0, 1, 7, 8, 9, 31, 2048] {
+            let w: Vec<f64> = (0..n).map(|k| 0.5 + (k % 7) as f64 * 0.31).collect();
+            let ci: Vec<f64> = (0..n).map(|k| (k as f64 * 0.013).cos().abs()).collect();
+            let fm: Vec<f64> = (0..n)
+                .map(|k| 0.01 + (k as f64 * 0.7).sin().abs())
+                .collect();
+            for odd in [
+                None,
+                Some(0.0),
+                Some(1e-310),
+                Some(f64::INFINITY),
+                Some(f64::NAN),
+            ] {
+                let f: Vec<f64> = (0..n)
+                    .map(|k| match odd {
+                        Some(x) if k % 5 == 2 => x,
+                        _ => fm[k] * (1.0 + 0.1 * (k as f64).cos()),
+                    })
+                    .collect();
+                let mut rt = fm.clone();
+                Loss::Cbrt.transform_all(&ci, &mut rt);
+                let per = |loss: Loss| -> Vec<f64> {
+                    (0..n)
+                        .map(|k| loss.transform(f[k], ci[k]) - loss.transform(fm[k], ci[k]))
+                        .collect()
+                };
+                let xt: Vec<f64> = (0..n).map(|k| fm[k] * ci[k]).collect();
+                let lg: Vec<f64> = (0..n)
+                    .map(|k| ln_1p((f[k] * ci[k] - xt[k]) / (1.0 + xt[k])))
+                    .collect();
+                let want = [
+                    weighted_sq_sum(&w, &per(Loss::L2)),
+                    weighted_sq_sum(&w, &per(Loss::Cosine)),
+                    weighted_sq_sum(&w, &per(Loss::Cbrt)),
+                    weighted_sq_sum(&w, &lg),
+                ];
+                let cells = OwnLossCells {
+                    w: &w,
+                    model: &f,
+                    measured: &fm,
+                    cos_i: &ci,
+                    roots: &rt,
+                };
+                for keep in [false, true] {
+                    let got = own_loss_sums(cells, &mut sc, keep);
+                    assert_eq!(bits(got), bits(want), "n {n}, {odd:?}, keep {keep}");
+                }
+                let same = |a: &[f64], b: &[f64]| {
+                    a.iter()
+                        .zip(b)
+                        .all(|(p, q)| p.to_bits() == q.to_bits() || p.is_nan() && q.is_nan())
+                };
+                assert!(same(&sc.cosine[..n], &per(Loss::Cosine)) && same(&sc.log[..n], &lg));
+            }
+        }
+    }
+
     #[test]
     fn cbrt_slope_is_finite_at_zero() {
         let (t, d) = Loss::Cbrt.transform_deriv(0.0, 0.5);

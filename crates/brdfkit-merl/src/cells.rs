@@ -338,10 +338,20 @@ impl CellRuns {
     }
 
     /// The columns of the cells `idx` (in any order) into `cols[c][..idx.len()]`.
+    /// A cell in the run of the one before it (cells in file order, as a subsample
+    /// draws them) is found without a search.
     pub fn gather(&self, idx: &[usize], cols: [&mut [f64]; 10]) {
         let mut cols = cols.map(|c| &mut c[..idx.len()]);
+        let mut r = 0;
         for (n, &m) in idx.iter().enumerate() {
-            for (c, x) in cols.iter_mut().zip(self.cell(m)) {
+            assert!(m < self.len, "cell {m} of {}", self.len);
+            if !(self.runs[r].start <= m && m < self.run_end(r)) {
+                r = self.run_of(m);
+            }
+            let run = self.runs[r];
+            let k = run.k as usize + (m - run.start);
+            let v = self.dirs.columns(run.i as usize, run.j as usize, k);
+            for (c, x) in cols.iter_mut().zip(v) {
                 c[n] = x;
             }
         }
@@ -380,6 +390,43 @@ mod tests {
                         .map(|k| std::array::from_fn(|m| cols[m][k].to_bits()))
                         .collect();
                     assert_eq!(got, want, "row {i} {j}");
+                }
+            }
+        }
+    }
+
+    /// A column set's loop stores that set's columns with the ten-column loop's bits
+    /// and leaves the others as they were, for the sets with their own loop and others.
+    #[test]
+    fn a_column_set_s_row_is_the_row_s_columns() {
+        let dims = Dims::new(90, 90, 180).unwrap();
+        let fast = CellDirections::new(dims);
+        let np = dims.phi_d();
+        let sets = [
+            Columns::WI_Z | Columns::WO_Z,
+            Columns::H_Z | Columns::COS_D,
+            Columns::DIRS,
+            Columns::WO_Z,
+            Columns::NONE,
+            Columns::ALL,
+        ];
+        for (i, j) in [(0, 0), (45, 45), (89, 89), (13, 70), (70, 3)] {
+            let mut all = vec![vec![0.0; np]; 10];
+            fast.row_columns(i, j, 0..np, ten(&mut all));
+            for set in sets {
+                for ks in [0..np, 3..40, 170..171] {
+                    let mut cols = vec![vec![-7.0; np]; 10];
+                    fast.row_columns_of(set, i, j, ks.clone(), ten(&mut cols));
+                    for c in 0..10 {
+                        let want: Vec<u64> = if set.has(c) {
+                            all[c][ks.clone()].iter().map(|x| x.to_bits()).collect()
+                        } else {
+                            vec![(-7.0f64).to_bits(); ks.len()]
+                        };
+                        let got: Vec<u64> =
+                            cols[c][..ks.len()].iter().map(|x| x.to_bits()).collect();
+                        assert_eq!(got, want, "row {i} {j}, {set:?}, column {c}");
+                    }
                 }
             }
         }
@@ -443,11 +490,16 @@ mod tests {
                 start = end;
             }
         }
-        let idx: Vec<usize> = (0..n).rev().step_by(3).collect();
-        let mut cols = vec![vec![0.0; idx.len()]; 10];
-        runs.gather(&idx, ten(&mut cols));
-        let picked: Vec<[u64; 10]> = idx.iter().map(|&m| want[m]).collect();
-        assert_eq!(bits(&cols, idx.len()), picked);
+        // In reverse order (a search per cell) and in file order (runs followed).
+        for idx in [
+            (0..n).rev().step_by(3).collect::<Vec<usize>>(),
+            (0..n).filter(|m| m % 5 != 1).collect(),
+        ] {
+            let mut cols = vec![vec![0.0; idx.len()]; 10];
+            runs.gather(&idx, ten(&mut cols));
+            let picked: Vec<[u64; 10]> = idx.iter().map(|&m| want[m]).collect();
+            assert_eq!(bits(&cols, idx.len()), picked);
+        }
         assert!(CellRuns::new(dims, &vec![false; dims.cells()]).is_empty());
     }
 }
