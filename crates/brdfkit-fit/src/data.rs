@@ -52,7 +52,8 @@ pub const PASS_CHUNK_CELLS: usize = 2048;
 /// its grid row and φd index, 0.4 MB for a MERL table, where the ten columns take
 /// 89 MB). A default fit reads a table's full geometry only in single passes (the
 /// subsample's strata, the targets' RMS, the loss report), which build it chunk by chunk
-/// ([`geometry_of`](Self::geometry_of)) in cache-sized scratch; the whole-set
+/// ([`geometry_of`](Self::geometry_of)) in cache-sized scratch, of only the columns
+/// they read where they say which ([`columns_of`](Self::columns_of)); the whole-set
 /// columns are built on the first call of [`geometry`](Self::geometry) and kept.
 /// Multiplicities are stored only for a subsample (a full set's are all 1), and the
 /// angles, which only subsampling, the θd cutoff and reports need, are recomputed from

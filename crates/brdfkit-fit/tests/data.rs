@@ -263,6 +263,14 @@ fn a_tables_geometry_computed_where_read_is_the_materialised_one() {
     assert!(lazy.geometry_if_built().is_some());
 }
 
+/// The ten columns of the cells `r`, computed ([`FitData::geometry_of`]) and copied.
+fn chunk_copy(d: &FitData, r: std::ops::Range<usize>) -> GeometryBatch {
+    let mut scratch = GeometryBatch::default();
+    let g = d.geometry_of(r, &mut scratch);
+    let mut cols = g.columns().into_iter();
+    GeometryBatch::from_column_fn(|| cols.next().unwrap().to_vec())
+}
+
 /// The loss report's bits under every reading of a table's geometry: computed where
 /// read with only the columns the losses and the models declare
 /// (`Model::geometry_columns`: Lambert's two cosines, Oren-Nayar's directions), and
@@ -272,11 +280,7 @@ fn a_tables_geometry_computed_where_read_is_the_materialised_one() {
 #[test]
 fn a_report_from_the_columns_it_reads_is_the_whole_columns_report() {
     let lazy = FitData::from_table(&table()).unwrap();
-    let g = lazy.geometry_of(0..lazy.len(), &mut GeometryBatch::default());
-    let whole = GeometryBatch::from_column_fn({
-        let mut cols = g.columns().into_iter();
-        move || cols.next().unwrap().to_vec()
-    });
+    let whole = chunk_copy(&lazy, 0..lazy.len());
     let given = FitData::from_parts(whole, lazy.values().clone(), lazy.measure().to_vec()).unwrap();
     let fresh = || FitData::from_table(&table()).unwrap();
     let names = ["lambert", "oren-nayar", "cook-torrance", "ward"];
@@ -360,11 +364,7 @@ fn a_report_from_the_columns_it_reads_is_the_whole_columns_report() {
 fn a_model_reads_only_the_columns_it_declares() {
     let lazy = FitData::from_table(&table()).unwrap();
     let n = lazy.len().min(4096);
-    let full = lazy.geometry_of(0..n, &mut GeometryBatch::default());
-    let full = GeometryBatch::from_column_fn({
-        let mut cols = full.columns().into_iter();
-        move || cols.next().unwrap().to_vec()
-    });
+    let full = chunk_copy(&lazy, 0..n);
     let mut declaring = 0;
     for name in brdfkit_models::MODEL_NAMES {
         let m = brdfkit_models::default_model(name).unwrap();

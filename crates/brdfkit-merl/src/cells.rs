@@ -111,7 +111,7 @@ impl CellDirections {
     /// which the compiler drops the arithmetic of the columns not stored (cos θi and
     /// cos θo need no square root and no division; the strata's cos θh and cos θd need
     /// the half vector but store two columns of ten). Other sets take the ten-column
-    /// loop and store theirs.
+    /// loop and store theirs only.
     pub fn row_columns_of(
         &self,
         set: Columns,
@@ -126,19 +126,20 @@ impl CellDirections {
         const ALL: u16 = Columns::ALL.bits();
         assert!(ks.end <= self.phi_d.len(), "φd range {ks:?} past the grid");
         match set.bits() {
-            ZS => dispatch(&mut Row::<ZS>::new(self, i, j, ks, cols)),
-            HD => dispatch(&mut Row::<HD>::new(self, i, j, ks, cols)),
-            DIRS => dispatch(&mut Row::<DIRS>::new(self, i, j, ks, cols)),
+            ZS => dispatch(&mut Row::<ZS>::new(self, set, [i, j], ks, cols)),
+            HD => dispatch(&mut Row::<HD>::new(self, set, [i, j], ks, cols)),
+            DIRS => dispatch(&mut Row::<DIRS>::new(self, set, [i, j], ks, cols)),
             0 => {}
-            _ => dispatch(&mut Row::<ALL>::new(self, i, j, ks, cols)),
+            _ => dispatch(&mut Row::<ALL>::new(self, set, [i, j], ks, cols)),
         }
     }
 }
 
-/// The loop of [`CellDirections::row_columns_of`] storing the columns of the bit mask
-/// `M`.
+/// The loop of [`CellDirections::row_columns_of`] computing the columns of the bit
+/// mask `M` and storing those of `set` (a subset of `M`).
 struct Row<'a, const M: u16> {
     cells: &'a CellDirections,
+    set: Columns,
     i: usize,
     j: usize,
     ks: Range<usize>,
@@ -148,13 +149,14 @@ struct Row<'a, const M: u16> {
 impl<'a, const M: u16> Row<'a, M> {
     fn new(
         cells: &'a CellDirections,
-        i: usize,
-        j: usize,
+        set: Columns,
+        [i, j]: [usize; 2],
         ks: Range<usize>,
         cols: [&'a mut [f64]; 10],
     ) -> Self {
         Row {
             cells,
+            set,
             i,
             j,
             ks,
@@ -162,10 +164,16 @@ impl<'a, const M: u16> Row<'a, M> {
         }
     }
 
+    /// Whether column c is computed.
+    #[inline(always)]
+    const fn computed(c: usize) -> bool {
+        M & (1 << c) != 0
+    }
+
     /// Whether column c is stored.
     #[inline(always)]
-    const fn stored(c: usize) -> bool {
-        M & (1 << c) != 0
+    fn stored(&self, c: usize) -> bool {
+        Self::computed(c) && self.set.has(c)
     }
 }
 
@@ -187,23 +195,23 @@ impl<const M: u16> Run for Row<'_, M> {
             for q in 0..B {
                 let v = CellDirections::columns_cs(th, td, ph[q]);
                 for (m, (col, x)) in buf.iter_mut().zip(v).enumerate() {
-                    if Self::stored(m) {
+                    if Self::computed(m) {
                         col[q] = x;
                     }
                 }
             }
-            for (m, (col, x)) in self.cols.iter_mut().zip(&buf).enumerate() {
-                if Self::stored(m) {
-                    col[at..at + B].copy_from_slice(x);
+            for (m, x) in buf.iter().enumerate() {
+                if self.stored(m) {
+                    self.cols[m][at..at + B].copy_from_slice(x);
                 }
             }
             at += B;
         }
         for &ph in tail {
             let v = CellDirections::columns_cs(th, td, ph);
-            for (m, (col, x)) in self.cols.iter_mut().zip(v).enumerate() {
-                if Self::stored(m) {
-                    col[at] = x;
+            for (m, x) in v.into_iter().enumerate() {
+                if self.stored(m) {
+                    self.cols[m][at] = x;
                 }
             }
             at += 1;
