@@ -224,12 +224,11 @@ pub fn own_loss_sums(cells: OwnLossCells<'_>, sc: &mut OwnLossScratch, keep: boo
         run.odd
     };
     if odd > 0 {
-        let t = &mut sc.terms[2];
-        for k in 0..n {
+        for (k, t) in sc.terms[2].iter_mut().enumerate() {
             let x = cells.model[k] * cells.cos_i[k];
             if !cbrt_fast_domain(x) {
                 let r = cbrt(x) - cells.roots[k];
-                t[k] = cells.w[k] * r * r;
+                *t = cells.w[k] * r * r;
             }
         }
     }
