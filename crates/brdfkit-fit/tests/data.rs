@@ -328,16 +328,18 @@ fn a_report_from_the_columns_it_reads_is_the_whole_columns_report() {
             brdfkit_fit::LossSet::All
         )
     );
-    // The chunks of a column set.
+    // The chunks of a column set: what the report reads with each model, the strata's
+    // cosines, and each column alone.
     use brdfkit_core::Columns;
-    let sets = [
-        Columns::WI_Z | Columns::WO_Z,
-        Columns::H_Z | Columns::COS_D,
-        Columns::DIRS,
-        Columns::WI_Z,
-        Columns::ALL,
-        Columns::from_bits(0b10_0100_0001),
-    ];
+    let mut sets: Vec<Columns> = brdfkit_models::MODEL_NAMES
+        .iter()
+        .map(|n| {
+            let m = brdfkit_models::default_model(n).unwrap();
+            m.geometry_columns() | Columns::WI_Z | Columns::WO_Z
+        })
+        .collect();
+    sets.push(Columns::H_Z | Columns::COS_D);
+    sets.extend((0..10).map(|c| Columns::from_bits(1 << c)));
     let mut scratch = brdfkit_fit::data::ChunkGeometry::default();
     for set in sets {
         for r in [0..2048, 2048..2100, 5..6, 1000..3048] {
