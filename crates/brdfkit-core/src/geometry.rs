@@ -168,6 +168,62 @@ pub fn pair_columns_of<T: Component>(wi: [T; 3], wo: [T; 3]) -> [T; 10] {
     ]
 }
 
+/// A set of the ten geometry columns, by their place in [`pair_columns`]' order: what
+/// a pass or a model reads ([`Model::geometry_columns`](crate::Model::geometry_columns)),
+/// so that geometry computed where read (a table's cells) computes and stores only
+/// those.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Columns(u16);
+
+impl Columns {
+    /// No column.
+    pub const NONE: Columns = Columns(0);
+    /// z of wi: cos θi.
+    pub const WI_Z: Columns = Columns(1 << 2);
+    /// z of wo: cos θo.
+    pub const WO_Z: Columns = Columns(1 << 5);
+    /// z of the half vector: cos θh.
+    pub const H_Z: Columns = Columns(1 << 8);
+    /// cos θd.
+    pub const COS_D: Columns = Columns(1 << 9);
+    /// The six components of wi and wo.
+    pub const DIRS: Columns = Columns(0b11_1111);
+    /// All ten.
+    pub const ALL: Columns = Columns(0b11_1111_1111);
+
+    /// The set of a bit mask (bit c: column c); bits past the tenth are dropped.
+    pub const fn from_bits(bits: u16) -> Columns {
+        Columns(bits & Columns::ALL.0)
+    }
+
+    /// The bit mask (bit c: column c).
+    pub const fn bits(self) -> u16 {
+        self.0
+    }
+
+    /// The columns of either set.
+    pub const fn union(self, other: Columns) -> Columns {
+        Columns(self.0 | other.0)
+    }
+
+    /// Whether column `c` (0 … 9) is in the set.
+    pub const fn has(self, c: usize) -> bool {
+        c < 10 && self.0 & (1 << c) != 0
+    }
+
+    /// Whether every column of `other` is in the set.
+    pub const fn covers(self, other: Columns) -> bool {
+        other.0 & !self.0 == 0
+    }
+}
+
+impl std::ops::BitOr for Columns {
+    type Output = Columns;
+    fn bitor(self, other: Columns) -> Columns {
+        self.union(other)
+    }
+}
+
 /// Unit half vector of a pair; the normal when wi = −wo (no half vector exists).
 pub fn half_vector(wi: &Vec3, wo: &Vec3) -> Vec3 {
     let (h, _) = half_and_cos_d([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]);

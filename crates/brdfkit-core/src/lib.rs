@@ -45,7 +45,8 @@ pub use brdf::Brdf;
 pub use choice::UnknownName;
 pub use direction::Vec3;
 pub use geometry::{
-    DirPairs, GeomSlice, GeomSliceF32, GeomSliceOf, Geometry, GeometryBatch, GeometryBatchF32,
+    Columns, DirPairs, GeomSlice, GeomSliceF32, GeomSliceOf, Geometry, GeometryBatch,
+    GeometryBatchF32,
 };
 pub use model::{AsAny, CloneModel, Model, ModelError, ParamRole, ParamSpec, downcast};
 pub use rgb::Rgb;

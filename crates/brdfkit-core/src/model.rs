@@ -278,6 +278,16 @@ pub trait Model: Brdf + fmt::Debug + AsAny + CloneModel {
     /// f_r for every pair of a precomputed batch: `out[k]` for pair k.
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]);
 
+    /// The geometry columns [`eval_batch`](Model::eval_batch) and
+    /// [`eval_grad_batch`](Model::eval_grad_batch) read: a pass over cells whose
+    /// geometry is computed where read (a table's) computes only these, and gives the
+    /// others as NaN. The default, every column, is always right; a model that declares
+    /// fewer must give the same bits from them alone (its tests check it with the
+    /// others NaN).
+    fn geometry_columns(&self) -> crate::Columns {
+        crate::Columns::ALL
+    }
+
     /// f_r and gradients for a batch. `grad` is parameter-major:
     /// `grad[p * g.len() + k]` is ∂f/∂param_p at pair k.
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]);

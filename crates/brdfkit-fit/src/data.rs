@@ -2,7 +2,8 @@
 
 use crate::error::FitError;
 use brdfkit_core::geometry::split_runs;
-use brdfkit_core::{GeomSlice, GeometryBatch, Model, Rgb};
+use brdfkit_core::lanes::{Run, dispatch};
+use brdfkit_core::{Columns, GeomSlice, GeometryBatch, Model, Rgb};
 use brdfkit_merl::{CellBatch, CellRuns, MerlTable, cell_weight, zeroed_f64_exact};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -51,7 +52,8 @@ pub const PASS_CHUNK_CELLS: usize = 2048;
 /// its grid row and φd index, 0.4 MB for a MERL table, where the ten columns take
 /// 89 MB). A default fit reads a table's full geometry only in single passes (the
 /// subsample's strata, the targets' RMS, the loss report), which build it chunk by chunk
-/// ([`geometry_of`](Self::geometry_of)) in cache-sized scratch; the whole-set
+/// ([`geometry_of`](Self::geometry_of)) in cache-sized scratch, of only the columns
+/// they read where they say which ([`columns_of`](Self::columns_of)); the whole-set
 /// columns are built on the first call of [`geometry`](Self::geometry) and kept.
 /// Multiplicities are stored only for a subsample (a full set's are all 1), and the
 /// angles, which only subsampling, the θd cutoff and reports need, are recomputed from
@@ -207,6 +209,34 @@ fn table_geometry(cells: &CellRuns) -> GeometryBatch {
             cells.fill(s..s + cols[0].len(), cols);
         });
     g
+}
+
+/// Scratch for one chunk's geometry computed where read ([`FitData::columns_of`]): the
+/// columns the pass does not read hold NaN, so that a model reading a column it did not
+/// declare ([`Model::geometry_columns`]) gives NaN, never another cell's numbers.
+#[derive(Debug, Default)]
+pub struct ChunkGeometry {
+    g: GeometryBatch,
+    /// (rows, columns filled) of the last chunk; the other columns hold NaN.
+    shape: Option<(usize, Columns)>,
+}
+
+impl ChunkGeometry {
+    /// The columns, `n` rows each, for filling the ones of `set`: the others are set to
+    /// NaN when the rows or the set change (not at every chunk: it would cost the
+    /// stores that filling only `set` saves).
+    fn prepare(&mut self, n: usize, set: Columns) -> [&mut [f64]; 10] {
+        if self.shape != Some((n, set)) {
+            self.g.resize(n);
+            for (c, col) in self.g.columns_mut().into_iter().enumerate() {
+                if !set.has(c) {
+                    col.fill(f64::NAN);
+                }
+            }
+            self.shape = Some((n, set));
+        }
+        self.g.columns_mut()
+    }
 }
 
 /// acos with its argument clamped to [−1, 1]: normalisation can land a ulp beyond 1.
@@ -422,6 +452,24 @@ impl FitData {
         }
     }
 
+    /// [`geometry_of`](Self::geometry_of) where only the columns `set` are read: a
+    /// table's cells compute those alone ([`CellRuns::fill_columns`], the same bits),
+    /// the others hold NaN; built or given columns are sliced whole.
+    pub fn columns_of<'a>(
+        &'a self,
+        r: Range<usize>,
+        set: Columns,
+        scratch: &'a mut ChunkGeometry,
+    ) -> GeomSlice<'a> {
+        match self.geometry.lazy() {
+            None => self.geometry().slice(r),
+            Some(cells) => {
+                cells.fill_columns(r.clone(), set, scratch.prepare(r.len(), set));
+                scratch.g.as_slice()
+            }
+        }
+    }
+
     /// The ten geometry columns of cell m ([`brdfkit_core::geometry::pair_columns`]'s
     /// order), from the whole-set columns when built.
     #[inline]
@@ -466,21 +514,26 @@ impl FitData {
 
     /// θh of each cell (built on first call; see the type's doc).
     pub fn theta_h(&self) -> &[f64] {
-        self.acos_column(&self.theta_h, 8)
+        self.acos_column(&self.theta_h, Columns::H_Z, |g| g.h_z)
     }
 
     /// θd of each cell (built on first call; see the type's doc).
     pub fn theta_d(&self) -> &[f64] {
-        self.acos_column(&self.theta_d, 9)
+        self.acos_column(&self.theta_d, Columns::COS_D, |g| g.cos_d)
     }
 
-    /// The angles of geometry column `col` ([`acos_clamped`]), built into `cell` on
-    /// first call, chunk by chunk ([`geometry_of`](Self::geometry_of)).
-    fn acos_column<'a>(&'a self, cell: &'a OnceLock<Vec<f64>>, col: usize) -> &'a [f64] {
+    /// The angles of the geometry column `col` picks ([`acos_clamped`]), built into
+    /// `cell` on first call, chunk by chunk, from that column alone.
+    fn acos_column<'a>(
+        &'a self,
+        cell: &'a OnceLock<Vec<f64>>,
+        set: Columns,
+        col: for<'g> fn(&GeomSlice<'g>) -> &'g [f64],
+    ) -> &'a [f64] {
         cell.get_or_init(|| {
             let mut out = vec![0.0; self.len()];
-            self.for_chunks(&mut out, |g, o| {
-                for (o, &z) in o.iter_mut().zip(g.columns()[col]) {
+            self.for_chunks(set, &mut out, |g, o| {
+                for (o, &z) in o.iter_mut().zip(col(&g)) {
                     *o = acos_clamped(z);
                 }
             });
@@ -489,13 +542,19 @@ impl FitData {
     }
 
     /// `f(geometry of the chunk, the chunk of out)` for each [`PASS_CHUNK_CELLS`]
-    /// chunk of the cells, in parallel (`out` holds one entry per cell).
-    fn for_chunks<T: Send>(&self, out: &mut [T], f: impl Fn(GeomSlice<'_>, &mut [T]) + Sync) {
+    /// chunk of the cells, in parallel (`out` holds one entry per cell); `f` reads the
+    /// columns `set` only ([`columns_of`](Self::columns_of)).
+    fn for_chunks<T: Send>(
+        &self,
+        set: Columns,
+        out: &mut [T],
+        f: impl Fn(GeomSlice<'_>, &mut [T]) + Sync,
+    ) {
         out.par_chunks_mut(PASS_CHUNK_CELLS)
             .enumerate()
-            .for_each_init(GeometryBatch::default, |scratch, (ci, o)| {
+            .for_each_init(ChunkGeometry::default, |scratch, (ci, o)| {
                 let s = ci * PASS_CHUNK_CELLS;
-                f(self.geometry_of(s..s + o.len(), scratch), o)
+                f(self.columns_of(s..s + o.len(), set, scratch), o)
             });
     }
 
@@ -508,7 +567,9 @@ impl FitData {
         self.cbrt_targets.get_or_init(|| {
             [0, 1, 2].map(|c| {
                 let mut t = self.values[c].clone();
-                self.for_chunks(&mut t, |g, t| crate::Loss::Cbrt.transform_all(g.wi_z, t));
+                self.for_chunks(Columns::WI_Z, &mut t, |g, t| {
+                    crate::Loss::Cbrt.transform_all(g.wi_z, t)
+                });
                 t
             })
         })
@@ -533,6 +594,23 @@ impl FitData {
         match w {
             crate::Weighting::SolidAngle => a * self.measure[m],
             crate::Weighting::Uniform => a,
+        }
+    }
+
+    /// The weights of the cells `start .. start + out.len()` ([`weight_at`](Self::weight_at),
+    /// the same bits: a multiplicity of 1 multiplies exactly), one branch-free loop.
+    pub(crate) fn fill_weights(&self, w: crate::Weighting, start: usize, out: &mut [f64]) {
+        let r = start..start + out.len();
+        let meas = &self.measure[r.clone()];
+        match (&self.mult, w) {
+            (Some(m), crate::Weighting::SolidAngle) => {
+                for ((o, a), x) in out.iter_mut().zip(&m[r]).zip(meas) {
+                    *o = a * x;
+                }
+            }
+            (Some(m), crate::Weighting::Uniform) => out.copy_from_slice(&m[r]),
+            (None, crate::Weighting::SolidAngle) => out.copy_from_slice(meas),
+            (None, crate::Weighting::Uniform) => out.fill(1.0),
         }
     }
 
@@ -684,9 +762,9 @@ impl FitData {
         StrataEdges::get().stratum(p[8], p[9])
     }
 
-    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes, a chunk per task (a
-    /// table's geometry computed chunk by chunk, [`geometry_of`](Self::geometry_of), not
-    /// built whole). A bin is the count of edges a cosine is at or below
+    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes, a chunk per task (of a
+    /// table's geometry only the two cosines are computed, chunk by chunk,
+    /// [`columns_of`](Self::columns_of): the same bits as the whole columns). A bin is the count of edges a cosine is at or below
     /// ([`StrataEdges::bin`]), counted edge by edge over the chunk's cells, so the
     /// comparisons run across cells in vector lanes (cell by cell, the 15 comparisons
     /// and their sum were 7 % of a default fit's CPU).
@@ -694,7 +772,7 @@ impl FitData {
         const _: () = assert!(STRATA * STRATA <= 256);
         let e = StrataEdges::get();
         let mut ids = vec![0u8; self.len()];
-        self.for_chunks(&mut ids, |g, ids| {
+        self.for_chunks(Columns::H_Z | Columns::COS_D, &mut ids, |g, ids| {
             let mut b = [0u8; PASS_CHUNK_CELLS];
             let b = &mut b[..ids.len()];
             count_at_or_below(&e.h, g.h_z, ids);
@@ -789,14 +867,24 @@ impl FitData {
 }
 
 /// `out[k]` = how many of `edges` `z[k]` is at or below ([`StrataEdges::bin`], NaN: 0),
-/// edge by edge over all k.
+/// edge by edge over all k, in vector lanes ([`brdfkit_core::lanes`]: compiled at the
+/// baseline's two lanes, the comparisons and their byte sums were a third of the
+/// subsample's draw).
 fn count_at_or_below(edges: &[f64; STRATA - 1], z: &[f64], out: &mut [u8]) {
-    out.fill(0);
-    for &t in edges {
-        for (o, &z) in out.iter_mut().zip(z) {
-            *o += u8::from(z <= t);
+    struct Count<'a>(&'a [f64; STRATA - 1], &'a [f64], &'a mut [u8]);
+    impl Run for Count<'_> {
+        #[inline(always)]
+        fn run(&mut self) {
+            let Count(edges, z, out) = self;
+            out.fill(0);
+            for &t in edges.iter() {
+                for (o, &z) in out.iter_mut().zip(z.iter()) {
+                    *o += u8::from(z <= t);
+                }
+            }
         }
     }
+    dispatch(&mut Count(edges, z, out));
 }
 
 /// The draw within bin `b` of [`FitData::stratified_subsample`]: the bin's n `cells`

@@ -155,6 +155,161 @@ impl Lanes8 {
     }
 }
 
+/// One channel's cells as [`own_loss_sums`] reads them, all of one length: the
+/// weights w, the model's values f, the measured values f̂, cos θi, and the measured
+/// cube roots ∛(f̂ cos θi) ([`Loss::transform_all`] of [`Loss::Cbrt`]).
+#[derive(Clone, Copy, Debug)]
+pub struct OwnLossCells<'a> {
+    /// Weights.
+    pub w: &'a [f64],
+    /// The model's values.
+    pub model: &'a [f64],
+    /// The measured values.
+    pub measured: &'a [f64],
+    /// cos θi.
+    pub cos_i: &'a [f64],
+    /// ∛(f̂ cos θi).
+    pub roots: &'a [f64],
+}
+
+/// Buffers of [`own_loss_sums`], grown to the run's length on use.
+#[derive(Clone, Debug, Default)]
+pub struct OwnLossScratch {
+    /// w r² of each loss and cell.
+    terms: [Vec<f64>; 4],
+    /// The cosine residuals x − x̂ (x = f cos θi), when kept.
+    pub cosine: Vec<f64>,
+    /// The log residuals ln(1 + (x − x̂)/(1 + x̂)), when kept.
+    pub log: Vec<f64>,
+}
+
+/// Σ w r² of brdfkit's four own losses (l2, cosine, cbrt, log, in [`Loss::ALL`]'s
+/// order) of one channel's cells, each with the bits of [`weighted_sq_sum`] over that
+/// loss's residuals as [`Loss::transform`] forms them: r = f − f̂, x − x̂ with
+/// x = f cos θi, ∛x − ∛x̂, and ln(1 + (x − x̂)/(1 + x̂)) (= ln(1 + x) − ln(1 + x̂), one
+/// logarithm, accurate when the two are close).
+///
+/// One loop computes the four terms w r² of a cell (with [`cbrt_all`]'s and
+/// [`ln_1p_all`]'s branch-free arithmetic, in vector lanes, [`brdfkit_core::lanes`]),
+/// and a second adds them into [`weighted_sq_sum`]'s eight interleaved sums, in its
+/// order: two passes over the run where one per loss, per transform and per sum took
+/// nine. A model value whose cube root is outside the fast domain (0 excepted:
+/// subnormal, NaN, ∞) gets `f64::cbrt`, as in [`cbrt_all`]. With `keep`, the cosine
+/// and log residuals are left in [`OwnLossScratch::cosine`] and
+/// [`OwnLossScratch::log`] (the published metrics reuse them).
+pub fn own_loss_sums(cells: OwnLossCells<'_>, sc: &mut OwnLossScratch, keep: bool) -> [f64; 4] {
+    let n = cells.w.len();
+    for v in sc.terms.iter_mut() {
+        v.resize(n, 0.0);
+    }
+    let odd = if keep {
+        sc.cosine.resize(n, 0.0);
+        sc.log.resize(n, 0.0);
+        let mut run = OwnTerms::<true> {
+            cells,
+            terms: &mut sc.terms,
+            res: [&mut sc.cosine, &mut sc.log],
+            odd: 0,
+        };
+        dispatch(&mut run);
+        run.odd
+    } else {
+        let mut run = OwnTerms::<false> {
+            cells,
+            terms: &mut sc.terms,
+            res: [&mut [], &mut []],
+            odd: 0,
+        };
+        dispatch(&mut run);
+        run.odd
+    };
+    if odd > 0 {
+        for (k, t) in sc.terms[2].iter_mut().enumerate() {
+            let x = cells.model[k] * cells.cos_i[k];
+            if !cbrt_fast_domain(x) {
+                let r = cbrt(x) - cells.roots[k];
+                *t = cells.w[k] * r * r;
+            }
+        }
+    }
+    let mut sums = [Lanes8::default(); 4];
+    dispatch(&mut LaneSums {
+        terms: &sc.terms,
+        sums: &mut sums,
+    });
+    sums.map(|s| s.total())
+}
+
+/// The first loop of [`own_loss_sums`]; `KEEP`: the residuals kept.
+struct OwnTerms<'a, const KEEP: bool> {
+    cells: OwnLossCells<'a>,
+    terms: &'a mut [Vec<f64>; 4],
+    res: [&'a mut [f64]; 2],
+    /// Cells whose model cube root is outside the fast domain (and not 0).
+    odd: usize,
+}
+
+impl<const KEEP: bool> Run for OwnTerms<'_, KEEP> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let c = self.cells;
+        let n = c.w.len();
+        let (w, f, fm, ci, rt) = (
+            c.w,
+            &c.model[..n],
+            &c.measured[..n],
+            &c.cos_i[..n],
+            &c.roots[..n],
+        );
+        let [t0, t1, t2, t3] = self.terms.each_mut().map(|t| &mut t[..n]);
+        let mut odd = 0;
+        for k in 0..n {
+            let r0 = f[k] - fm[k];
+            let (x, xt) = (f[k] * ci[k], fm[k] * ci[k]);
+            let r1 = x - xt;
+            let fast = cbrt_fast_domain(x);
+            odd += usize::from(!fast && x != 0.0);
+            let r2 = if fast { cbrt_normal(x) } else { x } - rt[k];
+            let r3 = ln_1p((x - xt) / (1.0 + xt));
+            t0[k] = w[k] * r0 * r0;
+            t1[k] = w[k] * r1 * r1;
+            t2[k] = w[k] * r2 * r2;
+            t3[k] = w[k] * r3 * r3;
+            if KEEP {
+                self.res[0][k] = r1;
+                self.res[1][k] = r3;
+            }
+        }
+        self.odd = odd;
+    }
+}
+
+/// The second loop of [`own_loss_sums`]: term k of each column into lane k mod 8
+/// ([`weighted_sq_sum`]'s order).
+struct LaneSums<'a> {
+    terms: &'a [Vec<f64>; 4],
+    sums: &'a mut [Lanes8; 4],
+}
+
+impl Run for LaneSums<'_> {
+    #[inline(always)]
+    fn run(&mut self) {
+        for (t, s) in self.terms.iter().zip(self.sums.iter_mut()) {
+            let (blocks, tail) = t.as_chunks::<8>();
+            let mut p = [0.0f64; 8];
+            for b in blocks {
+                for j in 0..8 {
+                    p[j] += b[j];
+                }
+            }
+            for (j, x) in tail.iter().enumerate() {
+                p[j] += x;
+            }
+            *s = Lanes8(p);
+        }
+    }
+}
+
 /// ln(1 + x), within 1 ulp of the correctly rounded value, without a library call and
 /// without branches, so that a loop of it vectorises ([`ln_1p_all`]).
 ///
@@ -1017,6 +1172,72 @@ mod tests {
             lanes.add(k, w[k] * r[k] * r[k]);
         }
         assert_eq!(lanes.total().to_bits(), weighted_sq_sum(&w, &r).to_bits());
+    }
+
+    /// The fused sums of the four own losses are, bit for bit, `weighted_sq_sum` over
+    /// each loss's residuals formed one by one as the report formed them, on runs of
+    /// every length around the eight lanes, with model values that are 0, subnormal,
+    /// huge, ∞ and NaN (the cube root's slow path), and the kept residuals are those
+    /// residuals.
+    #[test]
+    fn own_loss_sums_are_the_per_loss_sums() {
+        let bits = |v: [f64; 4]| v.map(f64::to_bits);
+        let mut sc = OwnLossScratch::default();
+        for n in [0, 1, 7, 8, 9, 31, 2048] {
+            let w: Vec<f64> = (0..n).map(|k| 0.5 + (k % 7) as f64 * 0.31).collect();
+            let ci: Vec<f64> = (0..n).map(|k| (k as f64 * 0.013).cos().abs()).collect();
+            let fm: Vec<f64> = (0..n)
+                .map(|k| 0.01 + (k as f64 * 0.7).sin().abs())
+                .collect();
+            for odd in [
+                None,
+                Some(0.0),
+                Some(1e-310),
+                Some(f64::INFINITY),
+                Some(f64::NAN),
+            ] {
+                let f: Vec<f64> = (0..n)
+                    .map(|k| match odd {
+                        Some(x) if k % 5 == 2 => x,
+                        _ => fm[k] * (1.0 + 0.1 * (k as f64).cos()),
+                    })
+                    .collect();
+                let mut rt = fm.clone();
+                Loss::Cbrt.transform_all(&ci, &mut rt);
+                let per = |loss: Loss| -> Vec<f64> {
+                    (0..n)
+                        .map(|k| loss.transform(f[k], ci[k]) - loss.transform(fm[k], ci[k]))
+                        .collect()
+                };
+                let xt: Vec<f64> = (0..n).map(|k| fm[k] * ci[k]).collect();
+                let lg: Vec<f64> = (0..n)
+                    .map(|k| ln_1p((f[k] * ci[k] - xt[k]) / (1.0 + xt[k])))
+                    .collect();
+                let want = [
+                    weighted_sq_sum(&w, &per(Loss::L2)),
+                    weighted_sq_sum(&w, &per(Loss::Cosine)),
+                    weighted_sq_sum(&w, &per(Loss::Cbrt)),
+                    weighted_sq_sum(&w, &lg),
+                ];
+                let cells = OwnLossCells {
+                    w: &w,
+                    model: &f,
+                    measured: &fm,
+                    cos_i: &ci,
+                    roots: &rt,
+                };
+                for keep in [false, true] {
+                    let got = own_loss_sums(cells, &mut sc, keep);
+                    assert_eq!(bits(got), bits(want), "n {n}, {odd:?}, keep {keep}");
+                }
+                let same = |a: &[f64], b: &[f64]| {
+                    a.iter()
+                        .zip(b)
+                        .all(|(p, q)| p.to_bits() == q.to_bits() || p.is_nan() && q.is_nan())
+                };
+                assert!(same(&sc.cosine[..n], &per(Loss::Cosine)) && same(&sc.log[..n], &lg));
+            }
+        }
     }
 
     #[test]

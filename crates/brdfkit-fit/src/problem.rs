@@ -45,16 +45,17 @@
 //! itself, so LM's acceptance test is exact. Without a robust function the pass is
 //! the plain one, unchanged.
 
+use crate::data::ChunkGeometry;
 use crate::data::{FitData, PASS_CHUNK_CELLS};
 use crate::energy::AlbedoPenalty;
 use crate::error::FitError;
 use crate::loss::{
-    Loss, LossSet, Robust, RobustKind, Weighting, cbrt_all, ln_1p_all, weighted_sq_sum,
+    Loss, LossSet, OwnLossCells, OwnLossScratch, Robust, RobustKind, Weighting, own_loss_sums,
 };
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
 use brdfkit_core::model::Domain;
-use brdfkit_core::{Model, ParamRole, Rgb};
+use brdfkit_core::{Columns, Model, ParamRole, Rgb};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -981,23 +982,21 @@ type Sums = ([[f64; 3]; 4], [[f64; 3]; 4], [f64; 4]);
 /// Per-task buffers of [`evaluate_losses_of`], one chunk long.
 struct LossScratch {
     out: [Vec<Rgb>; 2],
+    /// One channel's model values.
     xm: Vec<f64>,
-    /// Cube roots of the model's x.
-    tm: Vec<f64>,
-    /// One loss's residuals.
-    res: Vec<f64>,
-    /// Cube roots of the measurement's x (when not stored), then the log residuals.
+    /// Cube roots of the measurement's x (when not stored).
     tt: Vec<f64>,
     wb: Vec<f64>,
     gb: Vec<[f64; 4]>,
-    /// A table's chunk geometry ([`FitData::geometry_of`]).
-    geom: brdfkit_core::GeometryBatch,
+    own: OwnLossScratch,
 }
 
 /// The losses of `set` (brdfkit's own four, or all eight) of per-channel models
 /// against a cell set, in one pass over the cells; the measured side of the cbrt loss
 /// comes from [`FitData::cbrt_targets`] when they are built (by [`crate::prepare`],
-/// once per table for several families), else is formed per chunk (same bits).
+/// once per table for several families), else is formed per chunk (same bits). Of a
+/// table's geometry only the columns read are computed: cos θi (the losses), cos θo
+/// (the published metrics) and the models' own ([`Model::geometry_columns`]).
 pub fn evaluate_losses_of(
     models: [&dyn Model; 3],
     data: &FitData,
@@ -1011,19 +1010,34 @@ pub fn evaluate_losses_of(
     let roots = data.cbrt_targets_if_built();
     let cap = chunk_cap(n);
     let published = set == LossSet::All;
+    let read = models.iter().fold(Columns::WI_Z | Columns::WO_Z, |c, m| {
+        c | m.geometry_columns()
+    });
     let parts: Vec<Sums> = chunks(n)
         .map_init(
-            || LossScratch {
-                out: [vec![Rgb::ZERO; cap], vec![Rgb::ZERO; cap]],
-                xm: vec![0.0; cap],
-                tm: vec![0.0; cap],
-                res: vec![0.0; cap],
-                tt: vec![0.0; cap],
-                wb: vec![0.0; cap],
-                gb: vec![[0.0; 4]; cap],
-                geom: Default::default(),
+            || {
+                let sc = LossScratch {
+                    out: [vec![Rgb::ZERO; cap], vec![Rgb::ZERO; cap]],
+                    xm: vec![0.0; cap],
+                    tt: vec![0.0; cap],
+                    wb: vec![0.0; cap],
+                    gb: vec![[0.0; 4]; if published { cap } else { 0 }],
+                    own: OwnLossScratch::default(),
+                };
+                // A table's chunk geometry ([`FitData::columns_of`]).
+                (sc, ChunkGeometry::default())
             },
-            |sc, r| chunk_losses(models, data, roots, weighting, published, r, sc),
+            |(sc, geom), r| {
+                let gs = data.columns_of(r.clone(), read, geom);
+                let cells = ChunkCells {
+                    data,
+                    roots,
+                    weighting,
+                    r,
+                    gs,
+                };
+                chunk_losses(models, cells, published, sc)
+            },
         )
         .collect();
     // In chunk order: the same report whatever the threads.
@@ -1042,29 +1056,39 @@ pub fn evaluate_losses_of(
     crate::loss::LossReport::from_own_sums(sums, wsum, published.then_some((psums, pw)), n)
 }
 
-/// The sums of [`evaluate_losses_of`] over the cells `r`.
+/// One chunk of [`evaluate_losses_of`]: the cells `r` and their geometry `gs`.
+struct ChunkCells<'a> {
+    data: &'a FitData,
+    roots: Option<&'a [Vec<f64>; 3]>,
+    weighting: Weighting,
+    r: Range<usize>,
+    gs: brdfkit_core::GeomSlice<'a>,
+}
+
+/// The sums of [`evaluate_losses_of`] over one chunk.
 fn chunk_losses(
     models: [&dyn Model; 3],
-    data: &FitData,
-    roots: Option<&[Vec<f64>; 3]>,
-    weighting: Weighting,
+    cells: ChunkCells<'_>,
     published: bool,
-    r: Range<usize>,
     sc: &mut LossScratch,
 ) -> Sums {
+    let ChunkCells {
+        data,
+        roots,
+        weighting,
+        r,
+        gs,
+    } = cells;
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
-    let (s, len) = (r.start, r.len());
-    // The chunk's geometry: a slice of the whole set's columns, or for a table's cells
-    // computed here into the task's scratch (the same bits either way).
-    let gs = data.geometry_of(r.clone(), &mut sc.geom);
+    let len = r.len();
     let mut acc = [[0.0f64; 3]; 4];
     let mut pacc = [[0.0f64; 3]; 4];
     let mut pw = [0.0f64; 4];
-    for (k, x) in sc.wb[..len].iter_mut().enumerate() {
-        *x = data.weight_at(weighting, s + k);
-        if published {
+    data.fill_weights(weighting, r.start, &mut sc.wb[..len]);
+    if published {
+        for (k, &x) in sc.wb[..len].iter().enumerate() {
             for (l, loss) in crate::Loss::PUBLISHED.into_iter().enumerate() {
-                sc.gb[k][l] = *x * loss.cell_factor(gs.wi_z[k], gs.wo_z[k]);
+                sc.gb[k][l] = x * loss.cell_factor(gs.wi_z[k], gs.wo_z[k]);
                 pw[l] += sc.gb[k][l];
             }
         }
@@ -1078,28 +1102,12 @@ fn chunk_losses(
             models[c].eval_batch(&gs, &mut out1[..len]);
             &out1[..len]
         };
-        // One pass per loss over plain slices (so each vectorises), on x = f cos θi
-        // of model (xm) and measurement (xt), the residuals into `res`, each summed by
-        // `weighted_sq_sum`.
         let fm = &data.values()[c][r.clone()];
-        let ws = &sc.wb[..len];
-        let ci = gs.wi_z;
+        let ci = &gs.wi_z[..len];
         let xm = &mut sc.xm[..len];
-        let res = &mut sc.res[..len];
-        for k in 0..len {
-            xm[k] = vals[k][c];
-            res[k] = xm[k] - fm[k];
+        for (x, v) in xm.iter_mut().zip(vals) {
+            *x = v[c];
         }
-        acc[0][c] = weighted_sq_sum(ws, res);
-        for k in 0..len {
-            xm[k] *= ci[k];
-            res[k] = xm[k] - fm[k] * ci[k];
-        }
-        acc[1][c] = weighted_sq_sum(ws, res);
-        // The cube roots in vectorised passes (`cbrt_all`, the same bits as `cbrt`).
-        let tm = &mut sc.tm[..len];
-        tm.copy_from_slice(xm);
-        cbrt_all(tm);
         let rt: &[f64] = match roots {
             Some(roots) => &roots[c][r.clone()],
             None => {
@@ -1109,24 +1117,22 @@ fn chunk_losses(
                 tt
             }
         };
-        for k in 0..len {
-            res[k] = tm[k] - rt[k];
+        let own = OwnLossCells {
+            w: &sc.wb[..len],
+            model: xm,
+            measured: fm,
+            cos_i: ci,
+            roots: rt,
+        };
+        let s = own_loss_sums(own, &mut sc.own, published);
+        for l in 0..4 {
+            acc[l][c] = s[l];
         }
-        acc[2][c] = weighted_sq_sum(ws, res);
-        // ln(1+a) − ln(1+b) = ln(1 + (a−b)/(1+b)): one logarithm instead of two, and
-        // accurate when the two are close; the logarithms in one vectorised pass.
-        let lg = &mut sc.tt[..len];
-        for k in 0..len {
-            let xt = fm[k] * ci[k];
-            lg[k] = (xm[k] - xt) / (1.0 + xt);
-        }
-        ln_1p_all(lg);
-        acc[3][c] = weighted_sq_sum(ws, lg);
         if published {
             for k in 0..len {
                 // Ngan and Löw E1 on the cosine residual, Löw E2 and Bieron-Peers on
                 // the log one (`Loss::base`).
-                let (e, d) = (xm[k] - fm[k] * ci[k], lg[k]);
+                let (e, d) = (sc.own.cosine[k], sc.own.log[k]);
                 let [g0, g1, g2, g3] = sc.gb[k];
                 pacc[0][c] += g0 * e * e;
                 pacc[1][c] += g1 * e * e;

@@ -232,6 +232,7 @@ fn a_tables_geometry_computed_where_read_is_the_materialised_one() {
     assert_eq!(report(&lazy), report(&given), "the loss report");
     assert_eq!(lazy.cbrt_targets(), given.cbrt_targets());
     assert_eq!(lazy.theta_d(), given.theta_d());
+    assert_eq!(lazy.theta_h(), given.theta_h());
     let s_lazy = lazy.stratified_subsample(0.05, 11);
     assert_same(&s_lazy, &given.stratified_subsample(0.05, 11), "subsample");
     assert!(s_lazy.len() > 1000);
@@ -260,6 +261,143 @@ fn a_tables_geometry_computed_where_read_is_the_materialised_one() {
     assert!(lazy.geometry_if_built().is_none());
     assert_same(&lazy, &given, "the whole table");
     assert!(lazy.geometry_if_built().is_some());
+}
+
+/// The ten columns of the cells `r`, computed ([`FitData::geometry_of`]) and copied.
+fn chunk_copy(d: &FitData, r: std::ops::Range<usize>) -> GeometryBatch {
+    let mut scratch = GeometryBatch::default();
+    let g = d.geometry_of(r, &mut scratch);
+    let mut cols = g.columns().into_iter();
+    GeometryBatch::from_column_fn(|| cols.next().unwrap().to_vec())
+}
+
+/// The loss report's bits under every reading of a table's geometry: computed where
+/// read with only the columns the losses and the models declare
+/// (`Model::geometry_columns`: Lambert's two cosines, Oren-Nayar's directions), and
+/// sliced from the whole columns; each loss set, with the cube-root targets built
+/// and not, for one model and per-channel models; and the ten-column chunk of a
+/// column set holds that set's bits, NaN in the others.
+#[test]
+fn a_report_from_the_columns_it_reads_is_the_whole_columns_report() {
+    let lazy = FitData::from_table(&table()).unwrap();
+    let whole = chunk_copy(&lazy, 0..lazy.len());
+    let given = FitData::from_parts(whole, lazy.values().clone(), lazy.measure().to_vec()).unwrap();
+    let fresh = || FitData::from_table(&table()).unwrap();
+    let names = ["lambert", "oren-nayar", "cook-torrance", "ward"];
+    let models: Vec<_> = names
+        .iter()
+        .map(|n| brdfkit_models::default_model(n).unwrap())
+        .collect();
+    let on = |a: &dyn brdfkit_core::Model, b: &dyn brdfkit_core::Model, d: &FitData, set| {
+        let r = brdfkit_fit::evaluate_losses_of([a, b, a], d, Weighting::SolidAngle, set);
+        format!("{r:?}")
+    };
+    for set in brdfkit_fit::LossSet::ALL {
+        for (a, b) in [(0, 0), (1, 1), (0, 1), (2, 3), (3, 0)] {
+            let (a, b) = (models[a].as_ref(), models[b].as_ref());
+            let want = on(a, b, &given, set);
+            let lazy_now = fresh();
+            assert_eq!(
+                on(a, b, &lazy_now, set),
+                want,
+                "{} {} {set:?}",
+                a.name(),
+                b.name()
+            );
+            lazy_now.cbrt_targets();
+            assert_eq!(on(a, b, &lazy_now, set), want, "with the cube roots built");
+            assert!(lazy_now.geometry_if_built().is_none());
+        }
+    }
+    // A subsample's report (multiplicities, given columns) from either.
+    let (sl, sg) = (
+        lazy.stratified_subsample(0.1, 5),
+        given.stratified_subsample(0.1, 5),
+    );
+    assert_eq!(
+        on(
+            models[0].as_ref(),
+            models[0].as_ref(),
+            &sl,
+            brdfkit_fit::LossSet::All
+        ),
+        on(
+            models[0].as_ref(),
+            models[0].as_ref(),
+            &sg,
+            brdfkit_fit::LossSet::All
+        )
+    );
+    // The chunks of a column set: what the report reads with each model, the strata's
+    // cosines, and each column alone.
+    use brdfkit_core::Columns;
+    let mut sets: Vec<Columns> = brdfkit_models::MODEL_NAMES
+        .iter()
+        .map(|n| {
+            let m = brdfkit_models::default_model(n).unwrap();
+            m.geometry_columns() | Columns::WI_Z | Columns::WO_Z
+        })
+        .collect();
+    sets.push(Columns::H_Z | Columns::COS_D);
+    sets.extend((0..10).map(|c| Columns::from_bits(1 << c)));
+    let mut scratch = brdfkit_fit::data::ChunkGeometry::default();
+    for set in sets {
+        for r in [0..2048, 2048..2100, 5..6, 1000..3048] {
+            let got = lazy.columns_of(r.clone(), set, &mut scratch);
+            let want = given.geometry().slice(r.clone());
+            for (c, (x, y)) in got.columns().iter().zip(want.columns()).enumerate() {
+                assert_eq!(x.len(), r.len());
+                for (p, q) in x.iter().zip(y) {
+                    if set.has(c) {
+                        assert_eq!(p.to_bits(), q.to_bits(), "{set:?} column {c} cells {r:?}");
+                    } else {
+                        assert!(p.is_nan(), "{set:?}: column {c} not read is NaN");
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Every model that declares the geometry columns it reads
+/// (`Model::geometry_columns`) gives the same bits, value and gradient, from those
+/// columns alone (the others NaN) as from all ten.
+#[test]
+fn a_model_reads_only_the_columns_it_declares() {
+    let lazy = FitData::from_table(&table()).unwrap();
+    let n = lazy.len().min(4096);
+    let full = chunk_copy(&lazy, 0..n);
+    let mut declaring = 0;
+    for name in brdfkit_models::MODEL_NAMES {
+        let m = brdfkit_models::default_model(name).unwrap();
+        let set = m.geometry_columns();
+        if set == brdfkit_core::Columns::ALL {
+            continue;
+        }
+        declaring += 1;
+        let mut scratch = brdfkit_fit::data::ChunkGeometry::default();
+        let part = lazy.columns_of(0..n, set, &mut scratch);
+        let np = m.num_params();
+        let run = |g: &brdfkit_core::GeomSlice<'_>| {
+            let (mut out, mut out2) = (vec![Rgb::ZERO; n], vec![Rgb::ZERO; n]);
+            let mut grad = vec![Rgb::ZERO; np * n];
+            m.eval_batch(g, &mut out);
+            m.eval_grad_batch(g, &mut out2, &mut grad);
+            let bits = |v: &[Rgb]| -> Vec<u64> {
+                v.iter()
+                    .flat_map(|x| [x[0], x[1], x[2]])
+                    .map(f64::to_bits)
+                    .collect()
+            };
+            (bits(&out), bits(&out2), bits(&grad))
+        };
+        assert_eq!(
+            run(&part),
+            run(&full.as_slice()),
+            "{name} reads a column it does not declare"
+        );
+    }
+    assert!(declaring >= 2, "lambert and oren-nayar declare theirs");
 }
 
 /// A default fit of a table's cells (the command line's settings: the warm-up

@@ -9,9 +9,9 @@
 //! table for a fit spent about a fifth of its CPU in `sin`/`cos` before).
 
 use crate::grid::{Dims, phi_d_angle, theta_d_angle, theta_h_angle};
-use brdfkit_core::Vec3;
 use brdfkit_core::geometry::pair_columns_of;
 use brdfkit_core::lanes::{Run, dispatch};
+use brdfkit_core::{Columns, Vec3};
 use std::ops::Range;
 
 /// (cos, sin) of an angle.
@@ -101,57 +101,121 @@ impl CellDirections {
     /// ([`brdfkit_core::lanes`]; every operation is branch-free IEEE arithmetic, so the
     /// vector lanes give the scalar bits).
     pub fn row_columns(&self, i: usize, j: usize, ks: Range<usize>, cols: [&mut [f64]; 10]) {
-        struct Row<'a> {
-            cells: &'a CellDirections,
-            i: usize,
-            j: usize,
-            ks: Range<usize>,
-            cols: [&'a mut [f64]; 10],
-        }
-        impl Run for Row<'_> {
-            #[inline(always)]
-            fn run(&mut self) {
-                // Blocks of B cells computed into a local buffer, then copied out: with
-                // ten output columns the compiler cannot prove they do not overlap
-                // the tables (too many pairs to check at run time), and left the
-                // direct loop scalar; a local buffer overlaps nothing, so the block's
-                // loop runs in vector lanes.
-                const B: usize = 16;
-                let c = self.cells;
-                let (th, td) = (c.theta_h[self.i], c.theta_d[self.j]);
-                let phi = &c.phi_d[self.ks.clone()];
-                let mut buf = [[0.0f64; B]; 10];
-                let mut at = 0;
-                let (blocks, tail) = phi.as_chunks::<B>();
-                for ph in blocks {
-                    for q in 0..B {
-                        let v = CellDirections::columns_cs(th, td, ph[q]);
-                        for (col, x) in buf.iter_mut().zip(v) {
-                            col[q] = x;
-                        }
-                    }
-                    for (col, x) in self.cols.iter_mut().zip(&buf) {
-                        col[at..at + B].copy_from_slice(x);
-                    }
-                    at += B;
-                }
-                for &ph in tail {
-                    let v = CellDirections::columns_cs(th, td, ph);
-                    for (col, x) in self.cols.iter_mut().zip(v) {
-                        col[at] = x;
-                    }
-                    at += 1;
-                }
-            }
-        }
+        self.row_columns_of(Columns::ALL, i, j, ks, cols);
+    }
+
+    /// [`row_columns`](Self::row_columns) of the columns `set` only; the others are
+    /// left as they are (they may be of any length). Each column is the same
+    /// computation, so the same bits, as in [`columns`](Self::columns); what differs is
+    /// what is computed: the sets a fit reads have their own copy of the loop, from
+    /// which the compiler drops the arithmetic of the columns not stored (cos θi and
+    /// cos θo need no square root and no division; the strata's cos θh and cos θd need
+    /// the half vector but store two columns of ten). Other sets take the ten-column
+    /// loop and store theirs only.
+    pub fn row_columns_of(
+        &self,
+        set: Columns,
+        i: usize,
+        j: usize,
+        ks: Range<usize>,
+        cols: [&mut [f64]; 10],
+    ) {
+        const ZS: u16 = Columns::WI_Z.union(Columns::WO_Z).bits();
+        const HD: u16 = Columns::H_Z.union(Columns::COS_D).bits();
+        const DIRS: u16 = Columns::DIRS.bits();
+        const ALL: u16 = Columns::ALL.bits();
         assert!(ks.end <= self.phi_d.len(), "φd range {ks:?} past the grid");
-        dispatch(&mut Row {
-            cells: self,
+        match set.bits() {
+            ZS => dispatch(&mut Row::<ZS>::new(self, set, [i, j], ks, cols)),
+            HD => dispatch(&mut Row::<HD>::new(self, set, [i, j], ks, cols)),
+            DIRS => dispatch(&mut Row::<DIRS>::new(self, set, [i, j], ks, cols)),
+            0 => {}
+            _ => dispatch(&mut Row::<ALL>::new(self, set, [i, j], ks, cols)),
+        }
+    }
+}
+
+/// The loop of [`CellDirections::row_columns_of`] computing the columns of the bit
+/// mask `M` and storing those of `set` (a subset of `M`).
+struct Row<'a, const M: u16> {
+    cells: &'a CellDirections,
+    set: Columns,
+    i: usize,
+    j: usize,
+    ks: Range<usize>,
+    cols: [&'a mut [f64]; 10],
+}
+
+impl<'a, const M: u16> Row<'a, M> {
+    fn new(
+        cells: &'a CellDirections,
+        set: Columns,
+        [i, j]: [usize; 2],
+        ks: Range<usize>,
+        cols: [&'a mut [f64]; 10],
+    ) -> Self {
+        Row {
+            cells,
+            set,
             i,
             j,
             ks,
             cols,
-        });
+        }
+    }
+
+    /// Whether column c is computed.
+    #[inline(always)]
+    const fn computed(c: usize) -> bool {
+        M & (1 << c) != 0
+    }
+
+    /// Whether column c is stored.
+    #[inline(always)]
+    fn stored(&self, c: usize) -> bool {
+        Self::computed(c) && self.set.has(c)
+    }
+}
+
+impl<const M: u16> Run for Row<'_, M> {
+    #[inline(always)]
+    fn run(&mut self) {
+        // Blocks of B cells computed into a local buffer, then copied out: with ten
+        // output columns the compiler cannot prove they do not overlap the tables (too
+        // many pairs to check at run time), and left the direct loop scalar; a local
+        // buffer overlaps nothing, so the block's loop runs in vector lanes.
+        const B: usize = 16;
+        let c = self.cells;
+        let (th, td) = (c.theta_h[self.i], c.theta_d[self.j]);
+        let phi = &c.phi_d[self.ks.clone()];
+        let mut buf = [[0.0f64; B]; 10];
+        let mut at = 0;
+        let (blocks, tail) = phi.as_chunks::<B>();
+        for ph in blocks {
+            for q in 0..B {
+                let v = CellDirections::columns_cs(th, td, ph[q]);
+                for (m, (col, x)) in buf.iter_mut().zip(v).enumerate() {
+                    if Self::computed(m) {
+                        col[q] = x;
+                    }
+                }
+            }
+            for (m, x) in buf.iter().enumerate() {
+                if self.stored(m) {
+                    self.cols[m][at..at + B].copy_from_slice(x);
+                }
+            }
+            at += B;
+        }
+        for &ph in tail {
+            let v = CellDirections::columns_cs(th, td, ph);
+            for (m, x) in v.into_iter().enumerate() {
+                if self.stored(m) {
+                    self.cols[m][at] = x;
+                }
+            }
+            at += 1;
+        }
     }
 }
 
@@ -256,6 +320,13 @@ impl CellRuns {
     /// ([`CellDirections::row_columns`]). Panics when the range reaches past
     /// [`len`](Self::len) or a column is shorter than the range.
     pub fn fill(&self, cells: Range<usize>, cols: [&mut [f64]; 10]) {
+        self.fill_columns(cells, Columns::ALL, cols);
+    }
+
+    /// [`fill`](Self::fill) of the columns `set` only
+    /// ([`CellDirections::row_columns_of`]; the others are left as they are, but must
+    /// be as long as the range).
+    pub fn fill_columns(&self, cells: Range<usize>, set: Columns, cols: [&mut [f64]; 10]) {
         assert!(cells.end <= self.len, "cells {cells:?} of {}", self.len);
         let mut cols = cols;
         let mut m = cells.start;
@@ -268,17 +339,27 @@ impl CellRuns {
             let out = cols.each_mut().map(|c| &mut c[at.clone()]);
             let ks = k..k + (end - m);
             self.dirs
-                .row_columns(run.i as usize, run.j as usize, ks, out);
+                .row_columns_of(set, run.i as usize, run.j as usize, ks, out);
             m = end;
             r += 1;
         }
     }
 
     /// The columns of the cells `idx` (in any order) into `cols[c][..idx.len()]`.
+    /// A cell in the run of the one before it (cells in file order, as a subsample
+    /// draws them) is found without a search.
     pub fn gather(&self, idx: &[usize], cols: [&mut [f64]; 10]) {
         let mut cols = cols.map(|c| &mut c[..idx.len()]);
+        let mut r = 0;
         for (n, &m) in idx.iter().enumerate() {
-            for (c, x) in cols.iter_mut().zip(self.cell(m)) {
+            assert!(m < self.len, "cell {m} of {}", self.len);
+            if !(self.runs[r].start <= m && m < self.run_end(r)) {
+                r = self.run_of(m);
+            }
+            let run = self.runs[r];
+            let k = run.k as usize + (m - run.start);
+            let v = self.dirs.columns(run.i as usize, run.j as usize, k);
+            for (c, x) in cols.iter_mut().zip(v) {
                 c[n] = x;
             }
         }
@@ -317,6 +398,43 @@ mod tests {
                         .map(|k| std::array::from_fn(|m| cols[m][k].to_bits()))
                         .collect();
                     assert_eq!(got, want, "row {i} {j}");
+                }
+            }
+        }
+    }
+
+    /// A column set's loop stores that set's columns with the ten-column loop's bits
+    /// and leaves the others as they were, for the sets with their own loop and others.
+    #[test]
+    fn a_column_set_s_row_is_the_row_s_columns() {
+        let dims = Dims::new(90, 90, 180).unwrap();
+        let fast = CellDirections::new(dims);
+        let np = dims.phi_d();
+        let sets = [
+            Columns::WI_Z | Columns::WO_Z,
+            Columns::H_Z | Columns::COS_D,
+            Columns::DIRS,
+            Columns::WO_Z,
+            Columns::NONE,
+            Columns::ALL,
+        ];
+        for (i, j) in [(0, 0), (45, 45), (89, 89), (13, 70), (70, 3)] {
+            let mut all = vec![vec![0.0; np]; 10];
+            fast.row_columns(i, j, 0..np, ten(&mut all));
+            for set in sets {
+                for ks in [0..np, 3..40, 170..171] {
+                    let mut cols = vec![vec![-7.0; np]; 10];
+                    fast.row_columns_of(set, i, j, ks.clone(), ten(&mut cols));
+                    for c in 0..10 {
+                        let want: Vec<u64> = if set.has(c) {
+                            all[c][ks.clone()].iter().map(|x| x.to_bits()).collect()
+                        } else {
+                            vec![(-7.0f64).to_bits(); ks.len()]
+                        };
+                        let got: Vec<u64> =
+                            cols[c][..ks.len()].iter().map(|x| x.to_bits()).collect();
+                        assert_eq!(got, want, "row {i} {j}, {set:?}, column {c}");
+                    }
                 }
             }
         }
@@ -380,11 +498,16 @@ mod tests {
                 start = end;
             }
         }
-        let idx: Vec<usize> = (0..n).rev().step_by(3).collect();
-        let mut cols = vec![vec![0.0; idx.len()]; 10];
-        runs.gather(&idx, ten(&mut cols));
-        let picked: Vec<[u64; 10]> = idx.iter().map(|&m| want[m]).collect();
-        assert_eq!(bits(&cols, idx.len()), picked);
+        // In reverse order (a search per cell) and in file order (runs followed).
+        for idx in [
+            (0..n).rev().step_by(3).collect::<Vec<usize>>(),
+            (0..n).filter(|m| m % 5 != 1).collect(),
+        ] {
+            let mut cols = vec![vec![0.0; idx.len()]; 10];
+            runs.gather(&idx, ten(&mut cols));
+            let picked: Vec<[u64; 10]> = idx.iter().map(|&m| want[m]).collect();
+            assert_eq!(bits(&cols, idx.len()), picked);
+        }
         assert!(CellRuns::new(dims, &vec![false; dims.cells()]).is_empty());
     }
 }

@@ -11,7 +11,7 @@
 
 use crate::json;
 use crate::params::{check_count, check_rgb};
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use brdfkit_core::{Brdf, Columns, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Value, json};
 use std::f64::consts::FRAC_1_PI;
 
@@ -100,6 +100,11 @@ impl Model for Lambert {
             g[c] = FRAC_1_PI;
         }
         self.rho_d * FRAC_1_PI
+    }
+
+    /// Only the horizon test: cos θi and cos θo.
+    fn geometry_columns(&self) -> Columns {
+        Columns::WI_Z | Columns::WO_Z
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {

@@ -39,7 +39,7 @@ use crate::json;
 use crate::pair::eval_above_horizon;
 use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
-use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use brdfkit_core::{Brdf, Columns, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Value, json};
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2};
 
@@ -189,6 +189,11 @@ impl Model for OrenNayar {
         }
         grad[3] = self.rho_d * ((da + db * t) * FRAC_1_PI);
         self.rho_d * v
+    }
+
+    /// The two directions (no half vector).
+    fn geometry_columns(&self) -> Columns {
+        Columns::DIRS
     }
 
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
