@@ -892,7 +892,11 @@ fn gradient_batch_blocks_equal_eval_grad() {
             let mut grad = vec![Rgb::splat(-1.0); np * n];
             m.eval_grad_batch(&b.as_slice().sub(r.clone()), &mut out, &mut grad);
             for (k, (wi, wo)) in pairs[r.clone()].iter().enumerate() {
-                assert_eq!(out[k], m.eval_grad(wi, wo, &mut g), "{m:?} run {r:?} pair {k}");
+                assert_eq!(
+                    out[k],
+                    m.eval_grad(wi, wo, &mut g),
+                    "{m:?} run {r:?} pair {k}"
+                );
                 for (p, gp) in g.iter().enumerate() {
                     assert_eq!(grad[p * n + k], *gp, "{m:?} run {r:?} pair {k} param {p}");
                 }
