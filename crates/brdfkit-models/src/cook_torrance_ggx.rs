@@ -649,8 +649,9 @@ impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
     /// [`GRAD_BLOCK`] pairs, the pair loop runs over the whole arrays (a constant trip
     /// count, every access in bounds by type and to a local array, so LLVM needs neither
     /// bounds nor alias checks and vectorises it), writing values and each parameter's
-    /// plane into local arrays, which are then copied out contiguously (the parameter
-    /// count is a constant of the configuration, so those copies unroll). A last block
+    /// plane into local arrays (one per channel), which are then interleaved into the
+    /// caller's `Rgb`s (the parameter count is a constant of the configuration, so those
+    /// copies unroll). A last block
     /// shorter than [`GRAD_BLOCK`] computes its unused lanes from the previous block's
     /// leftovers and drops them. The loop this replaces (session 12) stored a whole
     /// `Rgb` per pair and parameter into its block, a 24-byte `memcpy` call (LLVM:
