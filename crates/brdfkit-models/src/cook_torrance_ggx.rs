@@ -645,12 +645,17 @@ struct LoopGrad64<'a, 'g, const A: bool, const C: bool, const F: u8, const B: bo
 impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
     for LoopGrad64<'_, '_, A, C, F, B>
 {
-    /// Block by block: a pair's gradient goes into the block's planes (the parameter
-    /// count is a constant of the configuration, so that copy unrolls), and each plane
-    /// is copied out contiguously, rather than eleven strided stores a pair. The loop
-    /// over a block's pairs has no inner loop and no bounds checks, but LLVM still runs
-    /// it scalar (objdump, docs/performance.md "Issue 28, session 12"): the value loop
-    /// vectorises, this one does not yet.
+    /// Block by block: the block's ten input columns are copied into arrays of
+    /// [`GRAD_BLOCK`] pairs, the pair loop runs over the whole arrays (a constant trip
+    /// count, every access in bounds by type and to a local array, so LLVM needs neither
+    /// bounds nor alias checks and vectorises it), writing values and each parameter's
+    /// plane into local arrays (one per channel), which are then interleaved into the
+    /// caller's `Rgb`s (the parameter count is a constant of the configuration, so those
+    /// copies unroll). A last block
+    /// shorter than [`GRAD_BLOCK`] computes its unused lanes from the previous block's
+    /// leftovers and drops them. The loop this replaces (session 12) stored a whole
+    /// `Rgb` per pair and parameter into its block, a 24-byte `memcpy` call (LLVM:
+    /// "call instruction cannot be vectorized"), and ran scalar.
     #[inline(always)]
     fn run(&mut self) {
         let b = &mut self.0;
@@ -658,40 +663,53 @@ impl<const A: bool, const C: bool, const F: u8, const B: bool> Run
         // ρd, ρs, α or (αx, αy), and f0 with Schlick ([`CookTorrance::kernel_grad_config`]).
         let np = 7 + usize::from(A) + if F == F_SCHLICK { 3 } else { 0 };
         debug_assert_eq!(np, b.np);
-        let mut block = [[Rgb::ZERO; GRAD_BLOCK]; GRAD_P];
         // A local copy: the stores of the loop cannot be to it.
         let k = *b.k;
+        let columns = b.g.columns();
+        let mut cols = [[0.0; GRAD_BLOCK]; 10];
+        // Values and gradient one plane per channel: every store is of one `f64` (a
+        // store of a whole `Rgb` into an array indexed by the pair was a 24-byte
+        // `memcpy` call, which kept the loop scalar).
+        let mut vals = [[0.0; GRAD_BLOCK]; 3];
+        let mut block = [[[0.0; GRAD_BLOCK]; 3]; GRAD_P];
         for s in (0..n).step_by(GRAD_BLOCK) {
             let len = GRAD_BLOCK.min(n - s);
-            // Every column cut to the block here, by hand (`array::map` was not inlined
-            // here, which left a bounds check on every read).
-            let c = b.g.columns();
-            let cut = |j: usize| &c[j][s..s + len];
-            let (wi, wo, h, cd) = (
-                [cut(0), cut(1), cut(2)],
-                [cut(3), cut(4), cut(5)],
-                [cut(6), cut(7), cut(8)],
-                cut(9),
-            );
-            for (i, o) in b.out[s..s + len].iter_mut().enumerate() {
+            for (dst, src) in cols.iter_mut().zip(columns) {
+                dst[..len].copy_from_slice(&src[s..s + len]);
+            }
+            for i in 0..GRAD_BLOCK {
+                let c = |j: usize| cols[j][i];
                 // Per pair, so it can live in registers.
                 let mut gk = [[0.0; 3]; GRAD_P];
-                *o = Rgb(value_grad::<f64, A, C, F, B>(
+                let v = value_grad::<f64, A, C, F, B>(
                     &k,
-                    [wi[0][i], wi[1][i], wi[2][i]],
-                    [wo[0][i], wo[1][i], wo[2][i]],
-                    [h[0][i], h[1][i], h[2][i]],
-                    cd[i],
+                    [c(0), c(1), c(2)],
+                    [c(3), c(4), c(5)],
+                    [c(6), c(7), c(8)],
+                    c(9),
                     &mut gk,
-                ));
-                for p in 0..np {
-                    block[p][i] = Rgb(gk[p]);
+                );
+                for ch in 0..3 {
+                    vals[ch][i] = v[ch];
+                    for p in 0..np {
+                        block[p][ch][i] = gk[p][ch];
+                    }
                 }
             }
+            interleave(&mut b.out[s..s + len], &vals);
             for (p, plane) in block.iter().enumerate().take(np) {
-                b.grad[p * n + s..p * n + s + len].copy_from_slice(&plane[..len]);
+                interleave(&mut b.grad[p * n + s..p * n + s + len], plane);
             }
         }
+    }
+}
+
+/// `dst[i] = Rgb([planes[0][i], planes[1][i], planes[2][i]])` for each `i < dst.len()`.
+#[inline(always)]
+fn interleave(dst: &mut [Rgb], planes: &[[f64; GRAD_BLOCK]; 3]) {
+    let [r, g, b] = planes;
+    for (d, ((r, g), b)) in dst.iter_mut().zip(r.iter().zip(g).zip(b)) {
+        *d = Rgb([*r, *g, *b]);
     }
 }
 
@@ -813,9 +831,13 @@ impl<T: Real, O: Sink<T>, const A: bool, const C: bool, const F: u8, const B: bo
         let b = &mut self.0;
         let n = b.g.len().min(b.out.len());
         let g = b.g.sub(0..n);
+        // A local copy: the loop's stores cannot be to it, so its loads are
+        // loop-invariant (read through `b.k`, LLVM could not bound them and the loop
+        // stayed scalar).
+        let k = *b.k;
         for i in 0..n {
             let v = value::<T, A, C, F, B>(
-                b.k,
+                &k,
                 [g.wi_x[i], g.wi_y[i], g.wi_z[i]],
                 [g.wo_x[i], g.wo_y[i], g.wo_z[i]],
                 [g.h_x[i], g.h_y[i], g.h_z[i]],
@@ -865,20 +887,22 @@ impl<
     fn run(&mut self) {
         let b = &mut self.0;
         let n = b.dirs.len().min(b.out.len());
+        // A local copy, as in `Loop`.
+        let k = *b.k;
         // One loop per layout, each over slices cut to n (no bounds checks inside).
         match b.dirs.sub(0..n) {
             DirPairs::Split(wi, wo) => {
                 for i in 0..n {
                     let (h, cd) = half_and_cos_d(wi[i], wo[i]);
                     b.out
-                        .put(i, value::<T, A, C, F, B>(b.k, wi[i], wo[i], h, cd));
+                        .put(i, value::<T, A, C, F, B>(&k, wi[i], wo[i], h, cd));
                 }
             }
             DirPairs::Rows(rows) => {
                 for (i, r) in rows.iter().enumerate() {
                     let (wi, wo) = ([r[0], r[1], r[2]], [r[3], r[4], r[5]]);
                     let (h, cd) = half_and_cos_d(wi, wo);
-                    b.out.put(i, value::<T, A, C, F, B>(b.k, wi, wo, h, cd));
+                    b.out.put(i, value::<T, A, C, F, B>(&k, wi, wo, h, cd));
                 }
             }
         }

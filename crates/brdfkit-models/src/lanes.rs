@@ -246,17 +246,38 @@ pub(crate) fn erf(x: f64) -> f64 {
     // fdlibm's range ends by their high words: 0.84375, 1.25, 1/0.35, 6.
     let (small, mid) = (x < 0.84375, x < 1.25);
     let near = x < f64::from_bits(0x4006_db6d_0000_0000);
-    let pick = |j: usize| -> f64 {
-        let t = |r: usize| f64::from_bits(COEF[j][r]);
-        select(small, t(0), select(mid, t(1), select(near, t(2), t(3))))
-    };
+    // Row j's coefficient for x's range, j a constant: every table entry is an
+    // immediate. With j a loop variable the selects between table entries became one
+    // load from a selected address, whose bounds LLVM cannot identify, and a loop of
+    // erf stayed scalar.
+    macro_rules! pick {
+        ($j:expr) => {
+            select(
+                small,
+                const { f64::from_bits(COEF[$j][0]) },
+                select(
+                    mid,
+                    const { f64::from_bits(COEF[$j][1]) },
+                    select(
+                        near,
+                        const { f64::from_bits(COEF[$j][2]) },
+                        const { f64::from_bits(COEF[$j][3]) },
+                    ),
+                ),
+            )
+        };
+    }
     let x2 = x * x;
     let w = select(small, x2, select(mid, x - 1.0, 1.0 / x2));
-    let (mut p, mut q) = (pick(7), pick(15));
-    for j in (0..7).rev() {
-        p = pick(j) + w * p;
-        q = pick(8 + j) + w * q;
+    let (mut p, mut q) = (pick!(7), pick!(15));
+    // Horner's rule from row 6 down to row 0, written out (see `pick`).
+    macro_rules! horner {
+        ($($j:literal)*) => {$(
+            p = pick!($j) + w * p;
+            q = pick!(8 + $j) + w * q;
+        )*};
     }
+    horner!(6 5 4 3 2 1 0);
     let pq = p / (1.0 + w * q);
     let tail = 1.0 - exp(-x2 - 0.5625 + pq) / x;
     let v = select(small, x + x * pq, select(mid, ERX + pq, tail));

@@ -861,3 +861,47 @@ fn float32_path_is_the_model_in_float32() {
         }
     }
 }
+
+/// The gradient batch runs its pairs in blocks of 64 copied into local arrays, the last
+/// block padded: over runs of every length around the block size and the vector widths
+/// (0 to 130 pairs, at odd offsets into the columns) and over the whole kernel pair set,
+/// `eval_grad_batch` gives the bits of `eval_grad` pair by pair, for every configuration
+/// of the gradient kernel (GGX and Beckmann, isotropic and anisotropic, separable and
+/// correlated, Fresnel none and Schlick).
+#[test]
+fn gradient_batch_blocks_equal_eval_grad() {
+    let pairs = kernel_pairs();
+    let b = brdfkit_core::GeometryBatch::from_pairs(&pairs);
+    let mut runs: Vec<std::ops::Range<usize>> = [0, 1, 7, 8, 63, 64, 65, 127, 128, 130]
+        .iter()
+        .map(|&len| 3..3 + len)
+        .collect();
+    runs.push(0..pairs.len());
+    let mut configs = 0;
+    for m in kernel_configs(Shape::Isotropic(0.2))
+        .into_iter()
+        .chain(kernel_configs(Shape::Anisotropic(0.1, 0.3)))
+        .filter(|m| matches!(m.fresnel(), Fresnel::None | Fresnel::Schlick { .. }))
+    {
+        configs += 1;
+        let np = m.num_params();
+        let mut g = vec![Rgb::ZERO; np];
+        for r in &runs {
+            let n = r.len();
+            let mut out = vec![Rgb::splat(-1.0); n];
+            let mut grad = vec![Rgb::splat(-1.0); np * n];
+            m.eval_grad_batch(&b.as_slice().sub(r.clone()), &mut out, &mut grad);
+            for (k, (wi, wo)) in pairs[r.clone()].iter().enumerate() {
+                assert_eq!(
+                    out[k],
+                    m.eval_grad(wi, wo, &mut g),
+                    "{m:?} run {r:?} pair {k}"
+                );
+                for (p, gp) in g.iter().enumerate() {
+                    assert_eq!(grad[p * n + k], *gp, "{m:?} run {r:?} pair {k} param {p}");
+                }
+            }
+        }
+    }
+    assert_eq!(configs, 2 * 2 * 2 * 2 * 2);
+}
