@@ -41,7 +41,7 @@
 
 use crate::cosine_lobe::N_DOMAIN;
 use crate::json;
-use crate::pair::eval_above_horizon;
+use crate::lanes::{self, Run, dispatch, max, select};
 use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
@@ -60,7 +60,7 @@ pub const MAX_PEAK: f64 = 1e250;
 /// Parameters per lobe in the flat vector: cxy, cz, n, ρ (3).
 const PER_LOBE: usize = 6;
 
-/// max(0, b)ⁿ and its derivatives with respect to b and n.
+/// max(0, b)ⁿ by the branch-free [`pow`](crate::lanes::pow) of every evaluation path.
 ///
 /// Bases below the smallest normal double (2.2e-308, including 0 and the negative
 /// bases of the lobe's definition) count as 0: there n bⁿ⁻¹ = n bⁿ/b overflows for n < 1,
@@ -69,22 +69,23 @@ const PER_LOBE: usize = 6;
 /// [`crate::cosine_lobe::cos_pow`]).
 #[inline(always)]
 fn lobe_pow(b: f64, n: f64) -> f64 {
-    if b >= f64::MIN_POSITIVE {
-        b.powf(n)
-    } else {
-        0.0
-    }
+    lanes::pow(lobe_base(b), n)
 }
 
-/// (bⁿ, ∂bⁿ/∂b = n bⁿ/b, ∂bⁿ/∂n = bⁿ ln b); see [`lobe_pow`].
+/// b where b ≥ the smallest normal double, else 0 ([`lobe_pow`]).
+#[inline(always)]
+fn lobe_base(b: f64) -> f64 {
+    select(b >= f64::MIN_POSITIVE, b, 0.0)
+}
+
+/// (bⁿ, ∂bⁿ/∂b = n bⁿ/b, ∂bⁿ/∂n = bⁿ ln b), all 0 where [`lobe_pow`] is; bⁿ to the
+/// last bit as [`lobe_pow`], ln b from the same reduction ([`lanes::pow_ln`]).
 #[inline(always)]
 fn lobe_pow_grad(b: f64, n: f64) -> (f64, f64, f64) {
-    if b >= f64::MIN_POSITIVE {
-        let p = b.powf(n);
-        (p, n * p / b, p * b.ln())
-    } else {
-        (0.0, 0.0, 0.0)
-    }
+    let b = lobe_base(b);
+    let (p, ln_b) = lanes::pow_ln(b, n);
+    let db = n * p / max(b, f64::MIN_POSITIVE);
+    (p, db, p * ln_b)
 }
 
 /// One generalised cosine lobe ρ · max(0, cxy (wi.x wo.x + wi.y wo.y) + cz wi.z wo.z)ⁿ.
@@ -393,65 +394,22 @@ impl Model for Lafortune {
         self.kernel_grad(wi.x * wo.x + wi.y * wo.y, wi.z * wo.z, grad)
     }
 
+    /// The lane loops of [`BatchValues`]: ρd/π, then one pass per lobe, so the value
+    /// accumulates in the order of `eval` (identical numbers).
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        eval_above_horizon(g, out, |[ix, iy, iz], [ox, oy, oz]| {
-            self.kernel(ix * ox + iy * oy, iz * oz)
-        });
+        dispatch(&mut BatchValues { m: self, g, out });
     }
 
     /// Column by column: the ρd columns first, then each lobe's six columns, so every
-    /// write has unit stride. Per pair the value is accumulated in the order of `eval`
-    /// (ρd/π, then lobe 0, 1, …), so the numbers are identical.
+    /// write has unit stride ([`BatchGrad`]). Per pair the value is accumulated in the
+    /// order of `eval` (ρd/π, then lobe 0, 1, …), so the numbers are identical.
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
-        let (g_rho_d, mut g_lobes) = grad[..self.num_params() * n].split_at_mut(3 * n);
-        let (g0, rest) = g_rho_d.split_at_mut(n);
-        let (g1, g2) = rest.split_at_mut(n);
-        let fd = self.rho_d * FRAC_1_PI;
-        for k in 0..n {
-            let above = iz[k] > 0.0 && oz[k] > 0.0;
-            out[k] = if above { fd } else { Rgb::ZERO };
-            let d = if above { FRAC_1_PI } else { 0.0 };
-            g0[k] = channel(0, d);
-            g1[k] = channel(1, d);
-            g2[k] = channel(2, d);
-        }
-        for l in &self.lobes {
-            let (cols, rest) = std::mem::take(&mut g_lobes).split_at_mut(PER_LOBE * n);
-            g_lobes = rest;
-            let (g_cxy, cols) = cols.split_at_mut(n);
-            let (g_cz, cols) = cols.split_at_mut(n);
-            let (g_n, cols) = cols.split_at_mut(n);
-            let (g_r, cols) = cols.split_at_mut(n);
-            let (g_g, g_b) = cols.split_at_mut(n);
-            for k in 0..n {
-                if iz[k] > 0.0 && oz[k] > 0.0 {
-                    let xy = ix[k] * ox[k] + iy[k] * oy[k];
-                    let zz = iz[k] * oz[k];
-                    let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
-                    out[k] += l.rho * p;
-                    g_cxy[k] = l.rho * (dp_db * xy);
-                    g_cz[k] = l.rho * (dp_db * zz);
-                    g_n[k] = l.rho * dp_dn;
-                    g_r[k] = channel(0, p);
-                    g_g[k] = channel(1, p);
-                    g_b[k] = channel(2, p);
-                } else {
-                    for col in [
-                        &mut g_cxy[k],
-                        &mut g_cz[k],
-                        &mut g_n[k],
-                        &mut g_r[k],
-                        &mut g_g[k],
-                        &mut g_b[k],
-                    ] {
-                        *col = Rgb::ZERO;
-                    }
-                }
-            }
-        }
+        dispatch(&mut BatchGrad {
+            m: self,
+            g,
+            out,
+            grad,
+        });
     }
 
     fn to_json(&self) -> Value {
@@ -465,6 +423,94 @@ impl Model for Lafortune {
     /// False: the lobes are not normalised; see [`Lafortune::albedo_bound`].
     fn conserves_energy(&self) -> bool {
         false
+    }
+}
+
+/// The pairs of a batch with both directions above the horizon: `above[k]` and the
+/// products (wi.x wo.x + wi.y wo.y, wi.z wo.z) of [`Lafortune::kernel`], both 0 below
+/// the horizon, where every lobe's base is then 0 and its terms +0.
+#[inline(always)]
+fn pair_products(d: &[[&[f64]; 3]; 2], k: usize) -> (bool, f64, f64) {
+    let [[ix, iy, iz], [ox, oy, oz]] = d;
+    let above = iz[k] > 0.0 && oz[k] > 0.0;
+    let xy = ix[k] * ox[k] + iy[k] * oy[k];
+    let zz = iz[k] * oz[k];
+    (above, select(above, xy, 0.0), select(above, zz, 0.0))
+}
+
+/// [`Model::eval_batch`] as branch-free loops that vectorise (`lanes`): one pass for
+/// ρd/π, one per lobe.
+struct BatchValues<'a, 'g> {
+    m: &'a Lafortune,
+    g: &'a GeomSlice<'g>,
+    out: &'a mut [Rgb],
+}
+
+impl Run for BatchValues<'_, '_> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let n = self.g.len();
+        let out = &mut self.out[..n];
+        let d = self.g.dirs();
+        let fd = self.m.rho_d * FRAC_1_PI;
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = if pair_products(&d, k).0 { fd } else { Rgb::ZERO };
+        }
+        for l in &self.m.lobes {
+            for (k, o) in out.iter_mut().enumerate() {
+                let (_, xy, zz) = pair_products(&d, k);
+                *o += l.rho * lobe_pow(l.cxy * xy + l.cz * zz, l.n);
+            }
+        }
+    }
+}
+
+/// [`Model::eval_grad_batch`] as branch-free loops that vectorise (`lanes`).
+struct BatchGrad<'a, 'g> {
+    m: &'a Lafortune,
+    g: &'a GeomSlice<'g>,
+    out: &'a mut [Rgb],
+    grad: &'a mut [Rgb],
+}
+
+impl Run for BatchGrad<'_, '_> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let n = self.g.len();
+        let out = &mut self.out[..n];
+        let d = self.g.dirs();
+        let (g_rho_d, mut g_lobes) = self.grad[..self.m.num_params() * n].split_at_mut(3 * n);
+        let (g0, rest) = g_rho_d.split_at_mut(n);
+        let (g1, g2) = rest.split_at_mut(n);
+        let fd = self.m.rho_d * FRAC_1_PI;
+        for k in 0..n {
+            let above = pair_products(&d, k).0;
+            out[k] = if above { fd } else { Rgb::ZERO };
+            let v = if above { FRAC_1_PI } else { 0.0 };
+            g0[k] = channel(0, v);
+            g1[k] = channel(1, v);
+            g2[k] = channel(2, v);
+        }
+        for l in &self.m.lobes {
+            let (cols, rest) = std::mem::take(&mut g_lobes).split_at_mut(PER_LOBE * n);
+            g_lobes = rest;
+            let (g_cxy, cols) = cols.split_at_mut(n);
+            let (g_cz, cols) = cols.split_at_mut(n);
+            let (g_n, cols) = cols.split_at_mut(n);
+            let (g_r, cols) = cols.split_at_mut(n);
+            let (g_g, g_b) = cols.split_at_mut(n);
+            for k in 0..n {
+                let (_, xy, zz) = pair_products(&d, k);
+                let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
+                out[k] += l.rho * p;
+                g_cxy[k] = l.rho * (dp_db * xy);
+                g_cz[k] = l.rho * (dp_db * zz);
+                g_n[k] = l.rho * dp_dn;
+                g_r[k] = channel(0, p);
+                g_g[k] = channel(1, p);
+                g_b[k] = channel(2, p);
+            }
+        }
     }
 }
 
