@@ -454,7 +454,11 @@ impl Run for BatchValues<'_, '_> {
         let d = self.g.dirs();
         let fd = self.m.rho_d * FRAC_1_PI;
         for (k, o) in out.iter_mut().enumerate() {
-            *o = if pair_products(&d, k).0 { fd } else { Rgb::ZERO };
+            *o = if pair_products(&d, k).0 {
+                fd
+            } else {
+                Rgb::ZERO
+            };
         }
         for l in &self.m.lobes {
             for (k, o) in out.iter_mut().enumerate() {

@@ -49,7 +49,8 @@ pub(crate) fn ln2parts(x: f64) -> (f64, f64) {
     let bits = xs.to_bits();
     // The biased exponent as a double, by its bits (no integer conversion, which
     // baseline and AVX2 vectors lack): 2⁵² + e − (2⁵² + 1023).
-    let e = f64::from_bits(0x4330_0000_0000_0000 | ((bits >> 52) & 0x7ff)) - 4_503_599_627_371_519.0;
+    let e =
+        f64::from_bits(0x4330_0000_0000_0000 | ((bits >> 52) & 0x7ff)) - 4_503_599_627_371_519.0;
     let m = f64::from_bits((bits & 0x000f_ffff_ffff_ffff) | 0x3ff0_0000_0000_0000);
     let high = m >= SQRT_3;
     let m = select(high, 0.5 * m, m);
@@ -79,6 +80,23 @@ pub(crate) fn ln2parts(x: f64) -> (f64, f64) {
     let lo = err + (k * LN2_LO + select(mid, LN1_5_LO, 0.0) + (2.0 * s_l + tail));
     let h = hi + lo;
     (h, lo - (h - hi))
+}
+
+/// ln x for x > 0, to 1 ulp (tested), from [`ln2parts`].
+#[inline(always)]
+pub(crate) fn ln(x: f64) -> f64 {
+    let (hi, lo) = ln2parts(x);
+    hi + lo
+}
+
+/// ln(1 + x) for −½ ≤ x ≤ 1, to 1 ulp (tested): ln v of v = fl(1 + x) plus the
+/// rounding of v, ln(1 + x) − ln v ≈ ((1 + x) − v)/v, where (1 + x) − v = x − (v − 1)
+/// is exact (v − 1 is, by Sterbenz's lemma), as fdlibm's `s_log1p.c` corrects it.
+#[inline(always)]
+pub(crate) fn ln_1p(x: f64) -> f64 {
+    let v = 1.0 + x;
+    let (hi, lo) = ln2parts(v);
+    hi + (lo + (x - (v - 1.0)) / v)
 }
 
 /// `x` with its 32 low bits cleared: 21 significant bits, so products with another
@@ -137,7 +155,15 @@ mod tests {
     fn bases() -> Vec<f64> {
         let mut v: Vec<f64> = (1..=20_000).map(|i| i as f64 / 20_000.0 * 1.2).collect();
         v.extend((0..2_000).map(|i| 10f64.powf(-323.0 + 0.1615 * i as f64)));
-        for p in [1.0, 0.5, 0.25, 0.866, 0.6124, 0.8660254037844386, 0.6123724356957945] {
+        for p in [
+            1.0,
+            0.5,
+            0.25,
+            0.866,
+            0.6124,
+            0.8660254037844386,
+            0.6123724356957945,
+        ] {
             let b = f64::to_bits(p);
             v.extend((0..200).flat_map(|d| [f64::from_bits(b - d), f64::from_bits(b + d)]));
         }
@@ -200,8 +226,27 @@ mod tests {
     fn ln_is_within_one_ulp_and_the_conventions_hold() {
         for &x in &bases() {
             let (_, l) = pow_ln(x, 1.0);
-            assert!(ulps(l.abs(), x.ln().abs()) <= 1, "ln {x:e} = {l:e} vs {:e}", x.ln());
+            assert!(
+                ulps(l.abs(), x.ln().abs()) <= 1,
+                "ln {x:e} = {l:e} vs {:e}",
+                x.ln()
+            );
+            assert_eq!(ln(x), l);
         }
+        let mut xs: Vec<f64> = (0..=100_000).map(|i| -0.5 + 1.5 * i as f64 / 1e5).collect();
+        xs.extend((0..1_000).flat_map(|i| {
+            let t = 10f64.powf(-300.0 + 0.3 * i as f64);
+            [t, -t]
+        }));
+        for x in xs {
+            let (got, want) = (ln_1p(x), x.ln_1p());
+            assert!(
+                got.to_bits().abs_diff(want.to_bits()) <= 1,
+                "ln_1p {x:e}: {got:e} vs {want:e}"
+            );
+        }
+        assert_eq!(ln_1p(0.0), 0.0);
+        assert_eq!(ln(1.0), 0.0);
         assert_eq!(pow_ln(1.0, 1e300), (1.0, 0.0));
         assert_eq!(pow(1.0, 0.0), 1.0);
         assert_eq!(pow(0.3, 0.0), 1.0);
