@@ -39,7 +39,7 @@
 //! Lewis 1994, as the plausible-phong tests measure), and the surface conserves energy
 //! when ρd + Σ ρⱼ Mⱼ^nⱼ 2π/(nⱼ+2) ≤ 1.
 
-use crate::cosine_lobe::N_DOMAIN;
+use crate::cosine_lobe::{N_DOMAIN, scaled, sum};
 use crate::json;
 use crate::lanes::{self, Run, dispatch, max, select};
 use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
@@ -285,9 +285,9 @@ impl Lafortune {
     /// horizon); the single kernel of `eval` and `eval_batch`.
     #[inline(always)]
     fn kernel(&self, xy: f64, zz: f64) -> Rgb {
-        let mut f = self.rho_d * FRAC_1_PI;
+        let mut f = scaled(self.rho_d, FRAC_1_PI);
         for l in &self.lobes {
-            f += l.rho * lobe_pow(l.cxy * xy + l.cz * zz, l.n);
+            f = sum(f, scaled(l.rho, lobe_pow(l.cxy * xy + l.cz * zz, l.n)));
         }
         f
     }
@@ -299,16 +299,16 @@ impl Lafortune {
     /// ∂f/∂cz = ρ n bⁿ⁻¹ wi.z wo.z, ∂f/∂n = ρ bⁿ ln b, ∂f/∂ρ = bⁿ (per channel).
     #[inline(always)]
     fn kernel_grad(&self, xy: f64, zz: f64, grad: &mut [Rgb]) -> Rgb {
-        let mut f = self.rho_d * FRAC_1_PI;
+        let mut f = scaled(self.rho_d, FRAC_1_PI);
         for (c, gc) in grad[..3].iter_mut().enumerate() {
             *gc = channel(c, FRAC_1_PI);
         }
         for (l, gl) in self.lobes.iter().zip(grad[3..].chunks_exact_mut(PER_LOBE)) {
             let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
-            f += l.rho * p;
-            gl[0] = l.rho * (dp_db * xy);
-            gl[1] = l.rho * (dp_db * zz);
-            gl[2] = l.rho * dp_dn;
+            f = sum(f, scaled(l.rho, p));
+            gl[0] = scaled(l.rho, dp_db * xy);
+            gl[1] = scaled(l.rho, dp_db * zz);
+            gl[2] = scaled(l.rho, dp_dn);
             for c in 0..3 {
                 gl[3 + c] = channel(c, p);
             }
@@ -426,12 +426,23 @@ impl Model for Lafortune {
     }
 }
 
-/// The pairs of a batch with both directions above the horizon: `above[k]` and the
-/// products (wi.x wo.x + wi.y wo.y, wi.z wo.z) of [`Lafortune::kernel`], both 0 below
-/// the horizon, where every lobe's base is then 0 and its terms +0.
+/// The geometry columns of a batch, each cut to the batch's length (so the loops over
+/// them carry no bounds checks and vectorise).
+type Dirs<'a> = [&'a [f64]; 6];
+
+/// The directions of the first `n` pairs of `g` ([`Dirs`]).
 #[inline(always)]
-fn pair_products(d: &[[&[f64]; 3]; 2], k: usize) -> (bool, f64, f64) {
-    let [[ix, iy, iz], [ox, oy, oz]] = d;
+fn dirs<'a>(g: &GeomSlice<'a>, n: usize) -> Dirs<'a> {
+    let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
+    [&ix[..n], &iy[..n], &iz[..n], &ox[..n], &oy[..n], &oz[..n]]
+}
+
+/// Whether pair k is above the horizon, and the products (wi.x wo.x + wi.y wo.y,
+/// wi.z wo.z) of [`Lafortune::kernel`], both 0 below the horizon, where every lobe's
+/// base is then 0 and its terms +0.
+#[inline(always)]
+fn pair_products(d: &Dirs<'_>, k: usize) -> (bool, f64, f64) {
+    let [ix, iy, iz, ox, oy, oz] = d;
     let above = iz[k] > 0.0 && oz[k] > 0.0;
     let xy = ix[k] * ox[k] + iy[k] * oy[k];
     let zz = iz[k] * oz[k];
@@ -451,19 +462,16 @@ impl Run for BatchValues<'_, '_> {
     fn run(&mut self) {
         let n = self.g.len();
         let out = &mut self.out[..n];
-        let d = self.g.dirs();
-        let fd = self.m.rho_d * FRAC_1_PI;
+        let d = dirs(self.g, n);
+        let fd = scaled(self.m.rho_d, FRAC_1_PI);
         for (k, o) in out.iter_mut().enumerate() {
-            *o = if pair_products(&d, k).0 {
-                fd
-            } else {
-                Rgb::ZERO
-            };
+            let above = pair_products(&d, k).0;
+            *o = Rgb(fd.0.map(|v| select(above, v, 0.0)));
         }
         for l in &self.m.lobes {
             for (k, o) in out.iter_mut().enumerate() {
                 let (_, xy, zz) = pair_products(&d, k);
-                *o += l.rho * lobe_pow(l.cxy * xy + l.cz * zz, l.n);
+                *o = sum(*o, scaled(l.rho, lobe_pow(l.cxy * xy + l.cz * zz, l.n)));
             }
         }
     }
@@ -482,18 +490,18 @@ impl Run for BatchGrad<'_, '_> {
     fn run(&mut self) {
         let n = self.g.len();
         let out = &mut self.out[..n];
-        let d = self.g.dirs();
+        let d = dirs(self.g, n);
         let (g_rho_d, mut g_lobes) = self.grad[..self.m.num_params() * n].split_at_mut(3 * n);
         let (g0, rest) = g_rho_d.split_at_mut(n);
         let (g1, g2) = rest.split_at_mut(n);
-        let fd = self.m.rho_d * FRAC_1_PI;
+        let fd = scaled(self.m.rho_d, FRAC_1_PI);
         for k in 0..n {
             let above = pair_products(&d, k).0;
-            out[k] = if above { fd } else { Rgb::ZERO };
-            let v = if above { FRAC_1_PI } else { 0.0 };
-            g0[k] = channel(0, v);
-            g1[k] = channel(1, v);
-            g2[k] = channel(2, v);
+            out[k] = Rgb(fd.0.map(|v| select(above, v, 0.0)));
+            let v = select(above, FRAC_1_PI, 0.0);
+            g0[k] = Rgb([v, 0.0, 0.0]);
+            g1[k] = Rgb([0.0, v, 0.0]);
+            g2[k] = Rgb([0.0, 0.0, v]);
         }
         for l in &self.m.lobes {
             let (cols, rest) = std::mem::take(&mut g_lobes).split_at_mut(PER_LOBE * n);
@@ -506,13 +514,13 @@ impl Run for BatchGrad<'_, '_> {
             for k in 0..n {
                 let (_, xy, zz) = pair_products(&d, k);
                 let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
-                out[k] += l.rho * p;
-                g_cxy[k] = l.rho * (dp_db * xy);
-                g_cz[k] = l.rho * (dp_db * zz);
-                g_n[k] = l.rho * dp_dn;
-                g_r[k] = channel(0, p);
-                g_g[k] = channel(1, p);
-                g_b[k] = channel(2, p);
+                out[k] = sum(out[k], scaled(l.rho, p));
+                g_cxy[k] = scaled(l.rho, dp_db * xy);
+                g_cz[k] = scaled(l.rho, dp_db * zz);
+                g_n[k] = scaled(l.rho, dp_dn);
+                g_r[k] = Rgb([p, 0.0, 0.0]);
+                g_g[k] = Rgb([0.0, p, 0.0]);
+                g_b[k] = Rgb([0.0, 0.0, p]);
             }
         }
     }
