@@ -394,17 +394,23 @@ impl Model for Lafortune {
         self.kernel_grad(wi.x * wo.x + wi.y * wo.y, wi.z * wo.z, grad)
     }
 
-    /// The lane loops of [`BatchValues`]: ρd/π, then one pass per lobe, so the value
+    /// The lane loops of [`Batch`]: ρd/π, then one pass per lobe, so the value
     /// accumulates in the order of `eval` (identical numbers).
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        dispatch(&mut BatchValues { m: self, g, out });
+        dispatch(&mut Batch {
+            m: self,
+            g,
+            out,
+            grad: None,
+        });
     }
 
     /// Column by column: the ρd columns first, then each lobe's six columns, so every
-    /// write has unit stride ([`BatchGrad`]). Per pair the value is accumulated in the
+    /// write has unit stride ([`Batch`]). Per pair the value is accumulated in the
     /// order of `eval` (ρd/π, then lobe 0, 1, …), so the numbers are identical.
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        dispatch(&mut BatchGrad {
+        let grad = Some(grad);
+        dispatch(&mut Batch {
             m: self,
             g,
             out,
@@ -449,79 +455,78 @@ fn pair_products(d: &Dirs<'_>, k: usize) -> (bool, f64, f64) {
     (above, select(above, xy, 0.0), select(above, zz, 0.0))
 }
 
-/// [`Model::eval_batch`] as branch-free loops that vectorise (`lanes`): one pass for
-/// ρd/π, one per lobe.
-struct BatchValues<'a, 'g> {
+/// [`Model::eval_batch`] (`grad` None) and [`Model::eval_grad_batch`] as branch-free
+/// loops that vectorise (`lanes`): one pass for ρd/π, one per lobe.
+struct Batch<'a, 'g> {
     m: &'a Lafortune,
     g: &'a GeomSlice<'g>,
     out: &'a mut [Rgb],
+    grad: Option<&'a mut [Rgb]>,
 }
 
-impl Run for BatchValues<'_, '_> {
+impl Run for Batch<'_, '_> {
     #[inline(always)]
     fn run(&mut self) {
         let n = self.g.len();
         let out = &mut self.out[..n];
         let d = dirs(self.g, n);
-        let fd = scaled(self.m.rho_d, FRAC_1_PI);
-        for (k, o) in out.iter_mut().enumerate() {
-            let above = pair_products(&d, k).0;
-            *o = Rgb(fd.0.map(|v| select(above, v, 0.0)));
-        }
-        for l in &self.m.lobes {
-            for (k, o) in out.iter_mut().enumerate() {
-                let (_, xy, zz) = pair_products(&d, k);
-                *o = sum(*o, scaled(l.rho, lobe_pow(l.cxy * xy + l.cz * zz, l.n)));
-            }
+        match self.grad.as_deref_mut() {
+            None => values(self.m, &d, out),
+            Some(grad) => values_grad(self.m, &d, out, grad),
         }
     }
 }
 
-/// [`Model::eval_grad_batch`] as branch-free loops that vectorise (`lanes`).
-struct BatchGrad<'a, 'g> {
-    m: &'a Lafortune,
-    g: &'a GeomSlice<'g>,
-    out: &'a mut [Rgb],
-    grad: &'a mut [Rgb],
+/// The value passes of [`Batch`].
+#[inline(always)]
+fn values(m: &Lafortune, d: &Dirs<'_>, out: &mut [Rgb]) {
+    let fd = scaled(m.rho_d, FRAC_1_PI);
+    for (k, o) in out.iter_mut().enumerate() {
+        let above = pair_products(d, k).0;
+        *o = Rgb(fd.0.map(|v| select(above, v, 0.0)));
+    }
+    for l in &m.lobes {
+        for (k, o) in out.iter_mut().enumerate() {
+            let (_, xy, zz) = pair_products(d, k);
+            *o = sum(*o, scaled(l.rho, lobe_pow(l.cxy * xy + l.cz * zz, l.n)));
+        }
+    }
 }
 
-impl Run for BatchGrad<'_, '_> {
-    #[inline(always)]
-    fn run(&mut self) {
-        let n = self.g.len();
-        let out = &mut self.out[..n];
-        let d = dirs(self.g, n);
-        let (g_rho_d, mut g_lobes) = self.grad[..self.m.num_params() * n].split_at_mut(3 * n);
-        let (g0, rest) = g_rho_d.split_at_mut(n);
-        let (g1, g2) = rest.split_at_mut(n);
-        let fd = scaled(self.m.rho_d, FRAC_1_PI);
+/// The value and gradient passes of [`Batch`], column by column.
+#[inline(always)]
+fn values_grad(m: &Lafortune, d: &Dirs<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
+    let n = out.len();
+    let (g_rho_d, mut g_lobes) = grad[..m.num_params() * n].split_at_mut(3 * n);
+    let (g0, rest) = g_rho_d.split_at_mut(n);
+    let (g1, g2) = rest.split_at_mut(n);
+    let fd = scaled(m.rho_d, FRAC_1_PI);
+    for k in 0..n {
+        let above = pair_products(d, k).0;
+        out[k] = Rgb(fd.0.map(|v| select(above, v, 0.0)));
+        let v = select(above, FRAC_1_PI, 0.0);
+        g0[k] = Rgb([v, 0.0, 0.0]);
+        g1[k] = Rgb([0.0, v, 0.0]);
+        g2[k] = Rgb([0.0, 0.0, v]);
+    }
+    for l in &m.lobes {
+        let (cols, rest) = std::mem::take(&mut g_lobes).split_at_mut(PER_LOBE * n);
+        g_lobes = rest;
+        let (g_cxy, cols) = cols.split_at_mut(n);
+        let (g_cz, cols) = cols.split_at_mut(n);
+        let (g_n, cols) = cols.split_at_mut(n);
+        let (g_r, cols) = cols.split_at_mut(n);
+        let (g_g, g_b) = cols.split_at_mut(n);
         for k in 0..n {
-            let above = pair_products(&d, k).0;
-            out[k] = Rgb(fd.0.map(|v| select(above, v, 0.0)));
-            let v = select(above, FRAC_1_PI, 0.0);
-            g0[k] = Rgb([v, 0.0, 0.0]);
-            g1[k] = Rgb([0.0, v, 0.0]);
-            g2[k] = Rgb([0.0, 0.0, v]);
-        }
-        for l in &self.m.lobes {
-            let (cols, rest) = std::mem::take(&mut g_lobes).split_at_mut(PER_LOBE * n);
-            g_lobes = rest;
-            let (g_cxy, cols) = cols.split_at_mut(n);
-            let (g_cz, cols) = cols.split_at_mut(n);
-            let (g_n, cols) = cols.split_at_mut(n);
-            let (g_r, cols) = cols.split_at_mut(n);
-            let (g_g, g_b) = cols.split_at_mut(n);
-            for k in 0..n {
-                let (_, xy, zz) = pair_products(&d, k);
-                let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
-                out[k] = sum(out[k], scaled(l.rho, p));
-                g_cxy[k] = scaled(l.rho, dp_db * xy);
-                g_cz[k] = scaled(l.rho, dp_db * zz);
-                g_n[k] = scaled(l.rho, dp_dn);
-                g_r[k] = Rgb([p, 0.0, 0.0]);
-                g_g[k] = Rgb([0.0, p, 0.0]);
-                g_b[k] = Rgb([0.0, 0.0, p]);
-            }
+            let (_, xy, zz) = pair_products(d, k);
+            let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
+            out[k] = sum(out[k], scaled(l.rho, p));
+            g_cxy[k] = scaled(l.rho, dp_db * xy);
+            g_cz[k] = scaled(l.rho, dp_db * zz);
+            g_n[k] = scaled(l.rho, dp_dn);
+            g_r[k] = Rgb([p, 0.0, 0.0]);
+            g_g[k] = Rgb([0.0, p, 0.0]);
+            g_b[k] = Rgb([0.0, 0.0, p]);
         }
     }
 }
