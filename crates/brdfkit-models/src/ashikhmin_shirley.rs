@@ -28,9 +28,8 @@
 //! **Evaluation.** The power is exp(e · ln hz) with e · ln hz = (n_u hx² + n_v hy²) ·
 //! ln(hz)/(hx² + hy²), where ln hz = ½ ln(1 − (hx² + hy²)) (by `ln_1p`, exact near the
 //! normal, where the ratio tends to −½) below hx² + hy² = ½ and ln hz above (exact near
-//! the horizon, where 1 − (hx² + hy²) cancels). The logarithms and the exponential are
-//! the branch-free ones of `lanes` (1 and 2 ulp from the libm's), not library calls.
-//! At h = n the power is 1 for every exponent, including 0. h·k is taken as |wi + wo|/2, which equals wi·h = wo·h for unit
+//! the horizon, where 1 − (hx² + hy²) cancels). At h = n the power is 1 for every
+//! exponent, including 0. h·k is taken as |wi + wo|/2, which equals wi·h = wo·h for unit
 //! vectors and is symmetric in (wi, wo) to the last bit (wi·h is not, which would
 //! break reciprocity at grazing pairs where h·k ~ 1e-16).
 //!
@@ -40,7 +39,6 @@
 //! measure the corners: see [`Model::conserves_energy`] and `docs/models.md`.
 
 use crate::json;
-use crate::lanes::{self, select};
 use crate::pair::{PairGeom, pair_kernel_brdf, pair_kernel_evals};
 use crate::params::{DiffuseSpecular, ShapedLayout, above_horizon, shape_gradient};
 use crate::shape::Shape;
@@ -130,11 +128,14 @@ impl AshikhminShirley {
         let s2 = hx2 + hy2;
         // ln(hz)/(hx² + hy²): see the module doc. h.z > 0 whenever both directions are
         // above the horizon, so ln(hz) is finite.
-        // Selects rather than branches, and the branch-free logarithms and exp of
-        // `lanes`, so no evaluation path calls the library.
-        let r = select(s2 < 0.5, 0.5 * lanes::ln_1p(-s2) / s2, lanes::ln(h[2]) / s2);
-        let r = select(s2 == 0.0, -0.5, r);
-        let pw = lanes::exp((nu * hx2 + nv * hy2) * r);
+        let r = if s2 == 0.0 {
+            -0.5
+        } else if s2 < 0.5 {
+            0.5 * (-s2).ln_1p() / s2
+        } else {
+            h[2].ln() / s2
+        };
+        let pw = ((nu * hx2 + nv * hy2) * r).exp();
         let u = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
         let kh = 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
         let norm = ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI);

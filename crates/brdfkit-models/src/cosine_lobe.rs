@@ -238,11 +238,26 @@ impl<K: LobeKind> CosineLobeModel<K> {
     }
 
     /// f, ∂f/∂d (any channel), ∂f/∂s (any channel), ∂f/∂n; the single kernel of
-    /// `eval_grad` and `eval_grad_batch`, branch-free as [`Self::kernel`].
+    /// `eval_grad` and `eval_grad_batch`, branch-free as [`Self::kernel`]: the lobe
+    /// ([`Self::lobe_part`]) assembled by [`Self::assemble`].
     #[inline(always)]
     fn kernel_grad(&self, cos_i: f64, cos_o: f64, c: f64) -> (Rgb, f64, f64, Rgb) {
-        let above = cos_i > 0.0 && cos_o > 0.0;
+        let (above, l, dl_dn) = self.lobe_part(cos_i, cos_o, c);
+        self.assemble(above, l, dl_dn)
+    }
+
+    /// Whether the pair is above the horizon, L and ∂L/∂n: the costly part of
+    /// [`Self::kernel_grad`], which the batch runs in a loop of its own (no `Rgb`
+    /// stores), so that it vectorises.
+    #[inline(always)]
+    fn lobe_part(&self, cos_i: f64, cos_o: f64, c: f64) -> (bool, f64, f64) {
         let (l, dl_dn) = K::lobe_dn(self.n, c, cos_i);
+        (cos_i > 0.0 && cos_o > 0.0, l, dl_dn)
+    }
+
+    /// (f, ∂f/∂d, ∂f/∂s, ∂f/∂n) from [`Self::lobe_part`], all 0 below the horizon.
+    #[inline(always)]
+    fn assemble(&self, above: bool, l: f64, dl_dn: f64) -> (Rgb, f64, f64, Rgb) {
         let f = sum(scaled(self.d, K::DIFFUSE_SCALE), scaled(self.s, l));
         let dn = scaled(self.s, dl_dn);
         let z = |r: Rgb| Rgb(r.0.map(|v| select(above, v, 0.0)));
@@ -392,8 +407,16 @@ impl<K: LobeKind> Model for CosineLobeModel<K> {
         let (s0, r) = r.split_at_mut(n);
         let (s1, r) = r.split_at_mut(n);
         let (s2, g_n) = r.split_at_mut(n);
+        // The lobe in a vectorised pass of its own, then the stores ([`Self::lobe_part`]).
+        let (mut above, mut l, mut dl) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for_each_pair::<K>(g, |k, ci, co, c| {
-            let (f, dd, ds, dn) = self.kernel_grad(ci, co, c);
+            let (a, lk, dk) = self.lobe_part(ci, co, c);
+            above[k] = select(a, 1.0, 0.0);
+            l[k] = lk;
+            dl[k] = dk;
+        });
+        for k in 0..n {
+            let (f, dd, ds, dn) = self.assemble(above[k] != 0.0, l[k], dl[k]);
             out[k] = f;
             d0[k] = Rgb([dd, 0.0, 0.0]);
             d1[k] = Rgb([0.0, dd, 0.0]);
@@ -402,7 +425,7 @@ impl<K: LobeKind> Model for CosineLobeModel<K> {
             s1[k] = Rgb([0.0, ds, 0.0]);
             s2[k] = Rgb([0.0, 0.0, ds]);
             g_n[k] = dn;
-        });
+        }
     }
 
     fn to_json(&self) -> Value {

@@ -38,11 +38,8 @@
 //!
 //! When exp(·) underflows to 0 the specular value and its gradient are exactly 0: the
 //! normalisation alone can overflow for a half vector within 1e-77 of the horizon.
-//! exp is the branch-free [`lanes::exp`](crate::lanes::exp) (within 2 ulp of the
-//! libm's) in every evaluation path, so none of them calls the library.
 
 use crate::json;
-use crate::lanes::{self, select};
 use crate::pair::{PairGeom, pair_kernel_brdf, pair_kernel_evals};
 use crate::params::{DiffuseSpecular, ShapedLayout, above_horizon, shape_gradient};
 use crate::shape::Shape;
@@ -159,11 +156,12 @@ impl Ward {
         let (ax, ay) = self.alpha.xy();
         let hz2 = h[2] * h[2];
         let (ux, uy) = (h[0] * h[0] / (ax * ax), h[1] * h[1] / (ay * ay));
-        // The branch-free exp (`lanes`): no library call in the batch loops.
-        let e = lanes::exp(-(ux + uy) / hz2);
-        // exp underflowed: the lobe is exactly 0 here; the normalisation can overflow
-        // (1/hz⁴) where the exponent is this large, so e · n (0 · ∞) is selected away.
-        let w = {
+        let e = (-(ux + uy) / hz2).exp();
+        // exp underflowed: the lobe is exactly 0 here; skip the normalisation, which can
+        // overflow (1/hz⁴) where the exponent is this large.
+        let w = if e == 0.0 {
+            0.0
+        } else {
             let n = match self.normalization {
                 Normalization::Ward => 0.25 / (PI * ax * ay * (wi[2] * wo[2]).sqrt()),
                 Normalization::Duer => 0.25 / (PI * ax * ay * wi[2] * wo[2]),
@@ -177,7 +175,7 @@ impl Ward {
                     (u[0] * u[0] + u[1] * u[1] + uz2) / (PI * ax * ay * uz2 * uz2)
                 }
             };
-            select(e == 0.0, 0.0, e * n)
+            e * n
         };
         let mut out = Rgb::ZERO;
         for c in 0..3 {

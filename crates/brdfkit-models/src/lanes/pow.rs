@@ -72,23 +72,6 @@ pub(crate) fn ln2parts(x: f64) -> (f64, f64) {
     (h, lo - (h - hi))
 }
 
-/// ln x for x > 0, to 1 ulp (tested), from [`ln2parts`].
-#[inline(always)]
-pub(crate) fn ln(x: f64) -> f64 {
-    let (hi, lo) = ln2parts(x);
-    hi + lo
-}
-
-/// ln(1 + x) for −½ ≤ x ≤ 1, to 1 ulp (tested): ln v of v = fl(1 + x) plus the
-/// rounding of v, ln(1 + x) − ln v ≈ ((1 + x) − v)/v, where (1 + x) − v = x − (v − 1)
-/// is exact (v − 1 is, by Sterbenz's lemma), as fdlibm's `s_log1p.c` corrects it.
-#[inline(always)]
-pub(crate) fn ln_1p(x: f64) -> f64 {
-    let v = 1.0 + x;
-    let (hi, lo) = ln2parts(v);
-    hi + (lo + (x - (v - 1.0)) / v)
-}
-
 /// `x` with its 32 low bits cleared: 21 significant bits, so products with another
 /// such number are exact.
 #[inline(always)]
@@ -221,22 +204,7 @@ mod tests {
                 "ln {x:e} = {l:e} vs {:e}",
                 x.ln()
             );
-            assert_eq!(ln(x), l);
         }
-        let mut xs: Vec<f64> = (0..=100_000).map(|i| -0.5 + 1.5 * i as f64 / 1e5).collect();
-        xs.extend((0..1_000).flat_map(|i| {
-            let t = 10f64.powf(-300.0 + 0.3 * i as f64);
-            [t, -t]
-        }));
-        for x in xs {
-            let (got, want) = (ln_1p(x), x.ln_1p());
-            assert!(
-                got.to_bits().abs_diff(want.to_bits()) <= 1,
-                "ln_1p {x:e}: {got:e} vs {want:e}"
-            );
-        }
-        assert_eq!(ln_1p(0.0), 0.0);
-        assert_eq!(ln(1.0), 0.0);
         assert_eq!(pow_ln(1.0, 1e300), (1.0, 0.0));
         assert_eq!(pow(1.0, 0.0), 1.0);
         assert_eq!(pow(0.3, 0.0), 1.0);
