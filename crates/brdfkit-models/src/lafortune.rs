@@ -39,7 +39,7 @@
 //! Lewis 1994, as the plausible-phong tests measure), and the surface conserves energy
 //! when ρd + Σ ρⱼ Mⱼ^nⱼ 2π/(nⱼ+2) ≤ 1.
 
-use crate::cosine_lobe::{N_DOMAIN, scaled, sum};
+use crate::cosine_lobe::N_DOMAIN;
 use crate::json;
 use crate::lanes::{self, Run, dispatch, max, select};
 use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
@@ -86,6 +86,19 @@ fn lobe_pow_grad(b: f64, n: f64) -> (f64, f64, f64) {
     let (p, ln_b) = lanes::pow_ln(b, n);
     let db = n * p / max(b, f64::MIN_POSITIVE);
     (p, db, p * ln_b)
+}
+
+/// `v` scaled by `t`, per channel, as `Rgb * f64` computes it (written out: `Rgb`'s
+/// operators are calls across crates, which keep a loop scalar).
+#[inline(always)]
+fn scaled(v: Rgb, t: f64) -> Rgb {
+    Rgb([v.0[0] * t, v.0[1] * t, v.0[2] * t])
+}
+
+/// `a + b` per channel, as `Rgb + Rgb` computes it ([`scaled`]).
+#[inline(always)]
+fn sum(a: Rgb, b: Rgb) -> Rgb {
+    Rgb([a.0[0] + b.0[0], a.0[1] + b.0[1], a.0[2] + b.0[2]])
 }
 
 /// One generalised cosine lobe ρ · max(0, cxy (wi.x wo.x + wi.y wo.y) + cz wi.z wo.z)ⁿ.
