@@ -407,7 +407,7 @@ impl Model for Lafortune {
         self.kernel_grad(wi.x * wo.x + wi.y * wo.y, wi.z * wo.z, grad)
     }
 
-    /// The lane loops of [`Batch`]: ρd/π, then one pass per lobe, so the value
+    /// The lane loops of `Batch`: ρd/π, then one pass per lobe, so the value
     /// accumulates in the order of `eval` (identical numbers).
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
         dispatch(&mut Batch {
@@ -419,7 +419,7 @@ impl Model for Lafortune {
     }
 
     /// Column by column: the ρd columns first, then each lobe's six columns, so every
-    /// write has unit stride ([`Batch`]). Per pair the value is accumulated in the
+    /// write has unit stride (`Batch`). Per pair the value is accumulated in the
     /// order of `eval` (ρd/π, then lobe 0, 1, …), so the numbers are identical.
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
         let grad = Some(grad);

@@ -44,7 +44,8 @@ pub(crate) fn ln2parts(x: f64) -> (f64, f64) {
     let high = m >= SQRT_3;
     let m = select(high, 0.5 * m, m);
     let k = e + select(high, 1.0, 0.0) - select(sub, 54.0, 0.0);
-    let mid = (m >= SQRT_1_5) & (m < SQRT_3);
+    // m < √3 here: the pivot 1.5 serves [√(3/2), √3).
+    let mid = m >= SQRT_1_5;
     let b = select(mid, 1.5, 1.0);
     let u = m - b;
     let t = m + b;
