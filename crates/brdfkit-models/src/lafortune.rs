@@ -41,7 +41,7 @@
 
 use crate::cosine_lobe::N_DOMAIN;
 use crate::json;
-use crate::pair::eval_above_horizon;
+use crate::lanes::{self, Run, dispatch, max, select};
 use crate::params::{RHO_DOMAIN, channel, check_count, check_rgb};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
@@ -60,7 +60,7 @@ pub const MAX_PEAK: f64 = 1e250;
 /// Parameters per lobe in the flat vector: cxy, cz, n, ρ (3).
 const PER_LOBE: usize = 6;
 
-/// max(0, b)ⁿ and its derivatives with respect to b and n.
+/// max(0, b)ⁿ by the branch-free [`pow`](crate::lanes::pow) of every evaluation path.
 ///
 /// Bases below the smallest normal double (2.2e-308, including 0 and the negative
 /// bases of the lobe's definition) count as 0: there n bⁿ⁻¹ = n bⁿ/b overflows for n < 1,
@@ -69,22 +69,36 @@ const PER_LOBE: usize = 6;
 /// [`crate::cosine_lobe::cos_pow`]).
 #[inline(always)]
 fn lobe_pow(b: f64, n: f64) -> f64 {
-    if b >= f64::MIN_POSITIVE {
-        b.powf(n)
-    } else {
-        0.0
-    }
+    lanes::pow(lobe_base(b), n)
 }
 
-/// (bⁿ, ∂bⁿ/∂b = n bⁿ/b, ∂bⁿ/∂n = bⁿ ln b); see [`lobe_pow`].
+/// b where b ≥ the smallest normal double, else 0 ([`lobe_pow`]).
+#[inline(always)]
+fn lobe_base(b: f64) -> f64 {
+    select(b >= f64::MIN_POSITIVE, b, 0.0)
+}
+
+/// (bⁿ, ∂bⁿ/∂b = n bⁿ/b, ∂bⁿ/∂n = bⁿ ln b), all 0 where [`lobe_pow`] is; bⁿ to the
+/// last bit as [`lobe_pow`], ln b from the same reduction ([`lanes::pow_ln`]).
 #[inline(always)]
 fn lobe_pow_grad(b: f64, n: f64) -> (f64, f64, f64) {
-    if b >= f64::MIN_POSITIVE {
-        let p = b.powf(n);
-        (p, n * p / b, p * b.ln())
-    } else {
-        (0.0, 0.0, 0.0)
-    }
+    let b = lobe_base(b);
+    let (p, ln_b) = lanes::pow_ln(b, n);
+    let db = n * p / max(b, f64::MIN_POSITIVE);
+    (p, db, p * ln_b)
+}
+
+/// `v` scaled by `t`, per channel, as `Rgb * f64` computes it (written out: `Rgb`'s
+/// operators are calls across crates, which keep a loop scalar).
+#[inline(always)]
+fn scaled(v: Rgb, t: f64) -> Rgb {
+    Rgb([v.0[0] * t, v.0[1] * t, v.0[2] * t])
+}
+
+/// `a + b` per channel, as `Rgb + Rgb` computes it ([`scaled`]).
+#[inline(always)]
+fn sum(a: Rgb, b: Rgb) -> Rgb {
+    Rgb([a.0[0] + b.0[0], a.0[1] + b.0[1], a.0[2] + b.0[2]])
 }
 
 /// One generalised cosine lobe ρ · max(0, cxy (wi.x wo.x + wi.y wo.y) + cz wi.z wo.z)ⁿ.
@@ -284,9 +298,9 @@ impl Lafortune {
     /// horizon); the single kernel of `eval` and `eval_batch`.
     #[inline(always)]
     fn kernel(&self, xy: f64, zz: f64) -> Rgb {
-        let mut f = self.rho_d * FRAC_1_PI;
+        let mut f = scaled(self.rho_d, FRAC_1_PI);
         for l in &self.lobes {
-            f += l.rho * lobe_pow(l.cxy * xy + l.cz * zz, l.n);
+            f = sum(f, scaled(l.rho, lobe_pow(l.cxy * xy + l.cz * zz, l.n)));
         }
         f
     }
@@ -298,16 +312,16 @@ impl Lafortune {
     /// ∂f/∂cz = ρ n bⁿ⁻¹ wi.z wo.z, ∂f/∂n = ρ bⁿ ln b, ∂f/∂ρ = bⁿ (per channel).
     #[inline(always)]
     fn kernel_grad(&self, xy: f64, zz: f64, grad: &mut [Rgb]) -> Rgb {
-        let mut f = self.rho_d * FRAC_1_PI;
+        let mut f = scaled(self.rho_d, FRAC_1_PI);
         for (c, gc) in grad[..3].iter_mut().enumerate() {
             *gc = channel(c, FRAC_1_PI);
         }
         for (l, gl) in self.lobes.iter().zip(grad[3..].chunks_exact_mut(PER_LOBE)) {
             let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
-            f += l.rho * p;
-            gl[0] = l.rho * (dp_db * xy);
-            gl[1] = l.rho * (dp_db * zz);
-            gl[2] = l.rho * dp_dn;
+            f = sum(f, scaled(l.rho, p));
+            gl[0] = scaled(l.rho, dp_db * xy);
+            gl[1] = scaled(l.rho, dp_db * zz);
+            gl[2] = scaled(l.rho, dp_dn);
             for c in 0..3 {
                 gl[3 + c] = channel(c, p);
             }
@@ -393,65 +407,28 @@ impl Model for Lafortune {
         self.kernel_grad(wi.x * wo.x + wi.y * wo.y, wi.z * wo.z, grad)
     }
 
+    /// The lane loops of `Batch`: ρd/π, then one pass per lobe, so the value
+    /// accumulates in the order of `eval` (identical numbers).
     fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        eval_above_horizon(g, out, |[ix, iy, iz], [ox, oy, oz]| {
-            self.kernel(ix * ox + iy * oy, iz * oz)
+        dispatch(&mut Batch {
+            m: self,
+            g,
+            out,
+            grad: None,
         });
     }
 
     /// Column by column: the ρd columns first, then each lobe's six columns, so every
-    /// write has unit stride. Per pair the value is accumulated in the order of `eval`
-    /// (ρd/π, then lobe 0, 1, …), so the numbers are identical.
+    /// write has unit stride (`Batch`). Per pair the value is accumulated in the
+    /// order of `eval` (ρd/π, then lobe 0, 1, …), so the numbers are identical.
     fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
-        let (g_rho_d, mut g_lobes) = grad[..self.num_params() * n].split_at_mut(3 * n);
-        let (g0, rest) = g_rho_d.split_at_mut(n);
-        let (g1, g2) = rest.split_at_mut(n);
-        let fd = self.rho_d * FRAC_1_PI;
-        for k in 0..n {
-            let above = iz[k] > 0.0 && oz[k] > 0.0;
-            out[k] = if above { fd } else { Rgb::ZERO };
-            let d = if above { FRAC_1_PI } else { 0.0 };
-            g0[k] = channel(0, d);
-            g1[k] = channel(1, d);
-            g2[k] = channel(2, d);
-        }
-        for l in &self.lobes {
-            let (cols, rest) = std::mem::take(&mut g_lobes).split_at_mut(PER_LOBE * n);
-            g_lobes = rest;
-            let (g_cxy, cols) = cols.split_at_mut(n);
-            let (g_cz, cols) = cols.split_at_mut(n);
-            let (g_n, cols) = cols.split_at_mut(n);
-            let (g_r, cols) = cols.split_at_mut(n);
-            let (g_g, g_b) = cols.split_at_mut(n);
-            for k in 0..n {
-                if iz[k] > 0.0 && oz[k] > 0.0 {
-                    let xy = ix[k] * ox[k] + iy[k] * oy[k];
-                    let zz = iz[k] * oz[k];
-                    let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
-                    out[k] += l.rho * p;
-                    g_cxy[k] = l.rho * (dp_db * xy);
-                    g_cz[k] = l.rho * (dp_db * zz);
-                    g_n[k] = l.rho * dp_dn;
-                    g_r[k] = channel(0, p);
-                    g_g[k] = channel(1, p);
-                    g_b[k] = channel(2, p);
-                } else {
-                    for col in [
-                        &mut g_cxy[k],
-                        &mut g_cz[k],
-                        &mut g_n[k],
-                        &mut g_r[k],
-                        &mut g_g[k],
-                        &mut g_b[k],
-                    ] {
-                        *col = Rgb::ZERO;
-                    }
-                }
-            }
-        }
+        let grad = Some(grad);
+        dispatch(&mut Batch {
+            m: self,
+            g,
+            out,
+            grad,
+        });
     }
 
     fn to_json(&self) -> Value {
@@ -465,6 +442,137 @@ impl Model for Lafortune {
     /// False: the lobes are not normalised; see [`Lafortune::albedo_bound`].
     fn conserves_energy(&self) -> bool {
         false
+    }
+}
+
+/// The geometry columns of a batch, each cut to the batch's length (so the loops over
+/// them carry no bounds checks and vectorise).
+type Dirs<'a> = [&'a [f64]; 6];
+
+/// The directions of the first `n` pairs of `g` ([`Dirs`]).
+#[inline(always)]
+fn dirs<'a>(g: &GeomSlice<'a>, n: usize) -> Dirs<'a> {
+    let [[ix, iy, iz], [ox, oy, oz]] = g.dirs();
+    [&ix[..n], &iy[..n], &iz[..n], &ox[..n], &oy[..n], &oz[..n]]
+}
+
+/// Whether pair k is above the horizon, and the products (wi.x wo.x + wi.y wo.y,
+/// wi.z wo.z) of [`Lafortune::kernel`], both 0 below the horizon, where every lobe's
+/// base is then 0 and its terms +0.
+#[inline(always)]
+fn pair_products(d: &Dirs<'_>, k: usize) -> (bool, f64, f64) {
+    let [ix, iy, iz, ox, oy, oz] = d;
+    let above = iz[k] > 0.0 && oz[k] > 0.0;
+    let xy = ix[k] * ox[k] + iy[k] * oy[k];
+    let zz = iz[k] * oz[k];
+    (above, select(above, xy, 0.0), select(above, zz, 0.0))
+}
+
+/// [`Model::eval_batch`] (`grad` None) and [`Model::eval_grad_batch`] as branch-free
+/// loops that vectorise (`lanes`): one pass for ρd/π, one per lobe.
+struct Batch<'a, 'g> {
+    m: &'a Lafortune,
+    g: &'a GeomSlice<'g>,
+    out: &'a mut [Rgb],
+    grad: Option<&'a mut [Rgb]>,
+}
+
+impl Run for Batch<'_, '_> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let n = self.g.len();
+        let out = &mut self.out[..n];
+        let d = dirs(self.g, n);
+        match self.grad.as_deref_mut() {
+            None => values(self.m, &d, out),
+            Some(grad) => values_grad(self.m, &d, out, grad),
+        }
+    }
+}
+
+/// The value passes of [`Batch`].
+#[inline(always)]
+fn values(m: &Lafortune, d: &Dirs<'_>, out: &mut [Rgb]) {
+    let fd = scaled(m.rho_d, FRAC_1_PI);
+    for (k, o) in out.iter_mut().enumerate() {
+        let above = pair_products(d, k).0;
+        *o = Rgb(fd.0.map(|v| select(above, v, 0.0)));
+    }
+    for l in &m.lobes {
+        for (k, o) in out.iter_mut().enumerate() {
+            let (_, xy, zz) = pair_products(d, k);
+            *o = sum(*o, scaled(l.rho, lobe_pow(l.cxy * xy + l.cz * zz, l.n)));
+        }
+    }
+}
+
+/// Pairs per block of [`lobe_block`].
+const BLOCK: usize = 64;
+
+/// One lobe over a block of at most [`BLOCK`] pairs: bⁿ, ∂bⁿ/∂b · xy, ∂bⁿ/∂b · zz and
+/// ∂bⁿ/∂n per pair, into four local planes. Apart from the stores of the seven `Rgb`
+/// columns (which, in the same loop, kept it scalar), so that this loop vectorises.
+#[inline(always)]
+fn lobe_block(l: &LafortuneLobe, d: &Dirs<'_>) -> [[f64; BLOCK]; 4] {
+    let mut q = [[0.0; BLOCK]; 4];
+    let len = d[0].len().min(BLOCK);
+    let d = d.map(|c| &c[..len]);
+    let [q0, q1, q2, q3] = &mut q;
+    let (q0, q1, q2, q3) = (
+        &mut q0[..len],
+        &mut q1[..len],
+        &mut q2[..len],
+        &mut q3[..len],
+    );
+    for i in 0..len {
+        let (_, xy, zz) = pair_products(&d, i);
+        let (p, dp_db, dp_dn) = lobe_pow_grad(l.cxy * xy + l.cz * zz, l.n);
+        q0[i] = p;
+        q1[i] = dp_db * xy;
+        q2[i] = dp_db * zz;
+        q3[i] = dp_dn;
+    }
+    q
+}
+
+/// The value and gradient passes of [`Batch`], column by column.
+#[inline(always)]
+fn values_grad(m: &Lafortune, d: &Dirs<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
+    let n = out.len();
+    let (g_rho_d, mut g_lobes) = grad[..m.num_params() * n].split_at_mut(3 * n);
+    let (g0, rest) = g_rho_d.split_at_mut(n);
+    let (g1, g2) = rest.split_at_mut(n);
+    let fd = scaled(m.rho_d, FRAC_1_PI);
+    for k in 0..n {
+        let above = pair_products(d, k).0;
+        out[k] = Rgb(fd.0.map(|v| select(above, v, 0.0)));
+        let v = select(above, FRAC_1_PI, 0.0);
+        g0[k] = Rgb([v, 0.0, 0.0]);
+        g1[k] = Rgb([0.0, v, 0.0]);
+        g2[k] = Rgb([0.0, 0.0, v]);
+    }
+    for l in &m.lobes {
+        let (cols, rest) = std::mem::take(&mut g_lobes).split_at_mut(PER_LOBE * n);
+        g_lobes = rest;
+        let (g_cxy, cols) = cols.split_at_mut(n);
+        let (g_cz, cols) = cols.split_at_mut(n);
+        let (g_n, cols) = cols.split_at_mut(n);
+        let (g_r, cols) = cols.split_at_mut(n);
+        let (g_g, g_b) = cols.split_at_mut(n);
+        for s in (0..n).step_by(BLOCK) {
+            let e = (s + BLOCK).min(n);
+            let q = lobe_block(l, &d.map(|c| &c[s..e]));
+            for (i, k) in (s..e).enumerate() {
+                let [p, dx, dz, dn] = [q[0][i], q[1][i], q[2][i], q[3][i]];
+                out[k] = sum(out[k], scaled(l.rho, p));
+                g_cxy[k] = scaled(l.rho, dx);
+                g_cz[k] = scaled(l.rho, dz);
+                g_n[k] = scaled(l.rho, dn);
+                g_r[k] = Rgb([p, 0.0, 0.0]);
+                g_g[k] = Rgb([0.0, p, 0.0]);
+                g_b[k] = Rgb([0.0, 0.0, p]);
+            }
+        }
     }
 }
 
