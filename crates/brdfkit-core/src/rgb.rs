@@ -4,6 +4,9 @@ use serde::{Deserialize, Serialize};
 use std::ops::{Add, AddAssign, Div, Index, IndexMut, Mul, MulAssign, Sub};
 
 /// Three channels (R, G, B) of f64. Serialised as a JSON array `[r, g, b]`.
+///
+/// Its methods and operators are `#[inline]`: each is a line of per-channel arithmetic,
+/// and a batch loop in another crate (a model's) vectorises only when they inline into it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(from = "[f64; 3]", into = "[f64; 3]")]
 pub struct Rgb(pub [f64; 3]);
@@ -13,36 +16,43 @@ impl Rgb {
     pub const ZERO: Rgb = Rgb([0.0; 3]);
 
     /// From the three channels.
+    #[inline]
     pub const fn new(r: f64, g: f64, b: f64) -> Self {
         Rgb([r, g, b])
     }
 
     /// The same value in every channel.
+    #[inline]
     pub const fn splat(v: f64) -> Self {
         Rgb([v; 3])
     }
 
     /// Red channel.
+    #[inline]
     pub fn r(&self) -> f64 {
         self.0[0]
     }
 
     /// Green channel.
+    #[inline]
     pub fn g(&self) -> f64 {
         self.0[1]
     }
 
     /// Blue channel.
+    #[inline]
     pub fn b(&self) -> f64 {
         self.0[2]
     }
 
     /// Applies `f` to every channel.
+    #[inline]
     pub fn map(self, f: impl Fn(f64) -> f64) -> Self {
         Rgb([f(self.0[0]), f(self.0[1]), f(self.0[2])])
     }
 
     /// Combines two triples channel by channel.
+    #[inline]
     pub fn zip(self, o: Rgb, f: impl Fn(f64, f64) -> f64) -> Self {
         Rgb([
             f(self.0[0], o.0[0]),
@@ -52,33 +62,39 @@ impl Rgb {
     }
 
     /// Largest channel.
+    #[inline]
     pub fn max_channel(&self) -> f64 {
         self.0[0].max(self.0[1]).max(self.0[2])
     }
 
     /// Smallest channel.
+    #[inline]
     pub fn min_channel(&self) -> f64 {
         self.0[0].min(self.0[1]).min(self.0[2])
     }
 
     /// Mean of the channels.
+    #[inline]
     pub fn mean(&self) -> f64 {
         (self.0[0] + self.0[1] + self.0[2]) / 3.0
     }
 
     /// True when every channel is finite.
+    #[inline]
     pub fn is_finite(&self) -> bool {
         self.0.iter().all(|v| v.is_finite())
     }
 }
 
 impl From<[f64; 3]> for Rgb {
+    #[inline]
     fn from(a: [f64; 3]) -> Self {
         Rgb(a)
     }
 }
 
 impl From<Rgb> for [f64; 3] {
+    #[inline]
     fn from(c: Rgb) -> Self {
         c.0
     }
@@ -86,12 +102,14 @@ impl From<Rgb> for [f64; 3] {
 
 impl Index<usize> for Rgb {
     type Output = f64;
+    #[inline]
     fn index(&self, i: usize) -> &f64 {
         &self.0[i]
     }
 }
 
 impl IndexMut<usize> for Rgb {
+    #[inline]
     fn index_mut(&mut self, i: usize) -> &mut f64 {
         &mut self.0[i]
     }
@@ -99,12 +117,14 @@ impl IndexMut<usize> for Rgb {
 
 impl Add for Rgb {
     type Output = Rgb;
+    #[inline]
     fn add(self, o: Rgb) -> Rgb {
         self.zip(o, |a, b| a + b)
     }
 }
 
 impl AddAssign for Rgb {
+    #[inline]
     fn add_assign(&mut self, o: Rgb) {
         *self = *self + o;
     }
@@ -112,6 +132,7 @@ impl AddAssign for Rgb {
 
 impl Sub for Rgb {
     type Output = Rgb;
+    #[inline]
     fn sub(self, o: Rgb) -> Rgb {
         self.zip(o, |a, b| a - b)
     }
@@ -119,6 +140,7 @@ impl Sub for Rgb {
 
 impl Mul for Rgb {
     type Output = Rgb;
+    #[inline]
     fn mul(self, o: Rgb) -> Rgb {
         self.zip(o, |a, b| a * b)
     }
@@ -126,6 +148,7 @@ impl Mul for Rgb {
 
 impl Mul<f64> for Rgb {
     type Output = Rgb;
+    #[inline]
     fn mul(self, s: f64) -> Rgb {
         self.map(|a| a * s)
     }
@@ -133,12 +156,14 @@ impl Mul<f64> for Rgb {
 
 impl Mul<Rgb> for f64 {
     type Output = Rgb;
+    #[inline]
     fn mul(self, c: Rgb) -> Rgb {
         c * self
     }
 }
 
 impl MulAssign<f64> for Rgb {
+    #[inline]
     fn mul_assign(&mut self, s: f64) {
         *self = *self * s;
     }
@@ -146,6 +171,7 @@ impl MulAssign<f64> for Rgb {
 
 impl Div<f64> for Rgb {
     type Output = Rgb;
+    #[inline]
     fn div(self, s: f64) -> Rgb {
         self.map(|a| a / s)
     }
