@@ -587,6 +587,7 @@ impl Loss {
 
     /// [`transform_deriv`](Self::transform_deriv) of every cell, the same bits: `t`
     /// holds f on entry and t(f, c) on return, `d` receives ∂t/∂f.
+    #[inline(always)]
     pub fn transform_deriv_all(&self, cos_i: &[f64], t: &mut [f64], d: &mut [f64]) {
         let n = t.len();
         let (cos_i, d) = (&cos_i[..n], &mut d[..n]);

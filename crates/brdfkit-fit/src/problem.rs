@@ -54,6 +54,7 @@ use crate::loss::{
 };
 use crate::reparam::{Transform, nudge_into};
 use argmin::core::{CostFunction, Error as ArgminError, Gradient, Hessian, Jacobian, Operator};
+use brdfkit_core::lanes::{Run, dispatch};
 use brdfkit_core::model::Domain;
 use brdfkit_core::{Columns, Model, ParamRole, Rgb};
 use nalgebra::{DMatrix, DVector};
@@ -181,7 +182,7 @@ impl std::fmt::Debug for FitProblem<'_> {
 
 /// Sum of products with four independent accumulators, so the loop vectorises (a single
 /// accumulator is a serial dependency the compiler may not reorder).
-#[inline]
+#[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
@@ -752,61 +753,15 @@ impl<'a> FitProblem<'a> {
                         &mut sc.out[..len],
                         &mut sc.grad[..np * len],
                     );
-                    let cos_i = &g.wi_z[s..e];
-                    let scale = inn.scale_of(s, &mut sc.s[..len]);
-                    for &c in &inn.channels {
-                        let tg = inn.target_of(c, s, &mut sc.t[..len]);
-                        // t and ∂t/∂f of every cell, into r and d.
-                        for (x, o) in sc.r[..len].iter_mut().zip(&sc.out[..len]) {
-                            *x = o[c];
-                        }
-                        inn.loss
-                            .transform_deriv_all(cos_i, &mut sc.r[..len], &mut sc.d[..len]);
-                        match robust {
-                            None => {
-                                for k in 0..len {
-                                    sc.r[k] = scale[k] * (sc.r[k] - tg[k]);
-                                    sc.d[k] *= scale[k];
-                                }
-                            }
-                            Some(rb) => {
-                                // IRLS (module doc): √ρ'(e²) on the residual and its
-                                // Jacobian row; the cost takes ρ itself.
-                                let mut part = 0.0;
-                                for k in 0..len {
-                                    let (t, dt) = (sc.r[k], sc.d[k]);
-                                    let e = t - tg[k];
-                                    let (rho, w) = rb.rho(e * e);
-                                    let sw = scale[k] * w.sqrt();
-                                    sc.r[k] = sw * e;
-                                    sc.d[k] = sw * dt;
-                                    part += scale[k] * scale[k] * rho;
-                                }
-                                sc.cost += 0.5 * part;
-                            }
-                        }
-                        let cols = &inn.cols[c];
-                        for (a, &q) in cols.iter().enumerate() {
-                            let p = inn.free[q];
-                            let dxq = dx[q];
-                            let gp = &sc.grad[p * len..(p + 1) * len];
-                            let col = &mut sc.jcol[a * len..(a + 1) * len];
-                            for k in 0..len {
-                                col[k] = sc.d[k] * gp[k][c] * dxq;
-                            }
-                        }
-                        for (a, &qa) in cols.iter().enumerate() {
-                            let ca = &sc.jcol[a * len..(a + 1) * len];
-                            sc.jtr[qa] += dot(ca, &sc.r[..len]);
-                            for (b, &qb) in cols.iter().enumerate().take(a + 1) {
-                                let cb = &sc.jcol[b * len..(b + 1) * len];
-                                sc.jtj[qa * mdim + qb] += dot(ca, cb);
-                            }
-                        }
-                        if robust.is_none() {
-                            sc.cost += 0.5 * dot(&sc.r[..len], &sc.r[..len]);
-                        }
-                    }
+                    dispatch(&mut ChunkSums {
+                        inn,
+                        robust,
+                        dx: &dx,
+                        mdim,
+                        cos_i: &g.wi_z[s..e],
+                        start: s,
+                        sc,
+                    });
                     (sc.jtj.clone(), sc.jtr.clone(), sc.cost)
                 },
             )
@@ -897,6 +852,84 @@ impl NormalEquations for FitProblem<'_> {
             .transforms
             .get(q)
             .is_some_and(|t| t.end_at(u).is_some())
+    }
+}
+
+/// One chunk's sums of the normal equations (JᵀJ's lower triangle, Jᵀr, cost) from its
+/// model values and gradients in `sc`: the loss transform, the scaled residuals and
+/// Jacobian columns and their dot products. Run through [`dispatch`] so the loops take
+/// the widest vector instructions (the baseline build gives them two lanes); the same
+/// operations in the same order, so the same bits.
+struct ChunkSums<'a, 'b> {
+    inn: &'a Inner<'b>,
+    robust: Option<Robust>,
+    dx: &'a [f64],
+    mdim: usize,
+    cos_i: &'a [f64],
+    start: usize,
+    sc: &'a mut Scratch,
+}
+
+impl Run for ChunkSums<'_, '_> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let (inn, robust, dx, mdim) = (self.inn, self.robust, self.dx, self.mdim);
+        let (cos_i, s, sc) = (self.cos_i, self.start, &mut *self.sc);
+        let len = cos_i.len();
+        let scale = inn.scale_of(s, &mut sc.s[..len]);
+        for &c in &inn.channels {
+            let tg = inn.target_of(c, s, &mut sc.t[..len]);
+            // t and ∂t/∂f of every cell, into r and d.
+            for (x, o) in sc.r[..len].iter_mut().zip(&sc.out[..len]) {
+                *x = o[c];
+            }
+            inn.loss
+                .transform_deriv_all(cos_i, &mut sc.r[..len], &mut sc.d[..len]);
+            match robust {
+                None => {
+                    for k in 0..len {
+                        sc.r[k] = scale[k] * (sc.r[k] - tg[k]);
+                        sc.d[k] *= scale[k];
+                    }
+                }
+                Some(rb) => {
+                    // IRLS (module doc): √ρ'(e²) on the residual and its
+                    // Jacobian row; the cost takes ρ itself.
+                    let mut part = 0.0;
+                    for k in 0..len {
+                        let (t, dt) = (sc.r[k], sc.d[k]);
+                        let e = t - tg[k];
+                        let (rho, w) = rb.rho(e * e);
+                        let sw = scale[k] * w.sqrt();
+                        sc.r[k] = sw * e;
+                        sc.d[k] = sw * dt;
+                        part += scale[k] * scale[k] * rho;
+                    }
+                    sc.cost += 0.5 * part;
+                }
+            }
+            let cols = &inn.cols[c];
+            for (a, &q) in cols.iter().enumerate() {
+                let p = inn.free[q];
+                let dxq = dx[q];
+                let gp = &sc.grad[p * len..(p + 1) * len];
+                let col = &mut sc.jcol[a * len..(a + 1) * len];
+                for k in 0..len {
+                    col[k] = sc.d[k] * gp[k][c] * dxq;
+                }
+            }
+            for (a, &qa) in cols.iter().enumerate() {
+                let ca = &sc.jcol[a * len..(a + 1) * len];
+                sc.jtr[qa] += dot(ca, &sc.r[..len]);
+                for (b, &qb) in cols.iter().enumerate().take(a + 1) {
+                    let cb = &sc.jcol[b * len..(b + 1) * len];
+                    sc.jtj[qa * mdim + qb] += dot(ca, cb);
+                }
+            }
+            if robust.is_none() {
+                sc.cost += 0.5 * dot(&sc.r[..len], &sc.r[..len]);
+            }
+        }
     }
 }
 
