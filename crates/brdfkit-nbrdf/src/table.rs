@@ -2,7 +2,7 @@
 
 use crate::error::NbrdfError;
 use crate::net::{INPUTS, Nbrdf, clamp, input_sc};
-use brdfkit_core::Rgb;
+use brdfkit_core::{Columns, Rgb};
 use brdfkit_merl::{CellDirections, Dims, MerlTable};
 use rayon::prelude::*;
 
@@ -86,13 +86,16 @@ impl Nbrdf {
                 |s, i| {
                     let mut xs: Vec<[f64; INPUTS]> = Vec::with_capacity(slab);
                     let mut at: Vec<usize> = Vec::with_capacity(slab);
-                    let mut cols: [Vec<f64>; 10] = std::array::from_fn(|_| vec![0.0; pd.len()]);
+                    // Only wi.z and wo.z (columns 2 and 5) are computed and stored:
+                    // the loop for that set skips the half vector's root and division.
+                    let (mut wi_z, mut wo_z) = (vec![0.0; pd.len()], vec![0.0; pd.len()]);
                     for (j, &tdj) in td.iter().enumerate() {
-                        let into = cols.each_mut().map(Vec::as_mut_slice);
-                        dirs.row_columns(i, j, 0..pd.len(), into);
+                        // The eight other columns are not written: empty slices.
+                        let [a, b, c, e, f, g, h, l] = [(); 8].map(|_| &mut [][..]);
+                        let into = [a, b, &mut wi_z[..], c, e, &mut wo_z[..], f, g, h, l];
+                        dirs.row_columns_of(Columns::WI_Z | Columns::WO_Z, i, j, 0..pd.len(), into);
                         for (k, &pdk) in pd.iter().enumerate() {
-                            // Columns 2 and 5: wi.z and wo.z.
-                            if cols[2][k] > HORIZON_Z && cols[5][k] > HORIZON_Z {
+                            if wi_z[k] > HORIZON_Z && wo_z[k] > HORIZON_Z {
                                 xs.push(input_sc(th[i], tdj, pdk));
                                 at.push(k + dims.phi_d() * j);
                             }
