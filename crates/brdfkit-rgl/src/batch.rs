@@ -25,6 +25,7 @@
 
 use crate::fastmath::{asin_f32, atan2_f32};
 use crate::warp::Warp2D;
+use brdfkit_core::lanes;
 use std::f32::consts::PI;
 
 /// The largest grid (columns or rows) the kernel takes: f32 holds every cell index and
@@ -641,24 +642,30 @@ impl Kernel<'_> {
         }
     }
 
-    /// The same code compiled for AVX2 (and FMA, which changes no rounding: Rust does
-    /// not contract `a * b + c`).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn rows_avx2(&self, rows: &[[f64; 6]], out: &mut [f32]) {
-        self.rows_any(rows, out);
-    }
-
     /// The stored values of `rows` (as [`RglBsdf::eval_stored`], `out.len() / rows.len()`
-    /// a pair) times the Jacobian over cos θo; 0 below the horizon.
+    /// a pair) times the Jacobian over cos θo; 0 below the horizon. Compiled for the
+    /// widest vectors the processor has ([`lanes::dispatch`]: AVX-512, AVX2 + FMA; the
+    /// same bits in each, Rust not contracting `a * b + c`).
     pub(crate) fn rows(&self, rows: &[[f64; 6]], out: &mut [f32]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU has the features `rows_avx2` is compiled for.
-            unsafe { self.rows_avx2(rows, out) };
-            return;
-        }
-        self.rows_any(rows, out);
+        lanes::dispatch(&mut RowsRun {
+            tables: self,
+            rows,
+            out,
+        });
+    }
+}
+
+/// [`Kernel::rows`] as a [`lanes::Run`].
+struct RowsRun<'a> {
+    tables: &'a Kernel<'a>,
+    rows: &'a [[f64; 6]],
+    out: &'a mut [f32],
+}
+
+impl lanes::Run for RowsRun<'_> {
+    #[inline(always)]
+    fn run(&mut self) {
+        self.tables.rows_any(self.rows, self.out);
     }
 }
 
