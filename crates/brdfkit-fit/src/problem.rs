@@ -1208,3 +1208,33 @@ fn grown<T: Clone>(buf: &mut Vec<T>, len: usize, zero: T) -> &mut [T] {
     }
     &mut buf[..len]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{Coverage, synth_data};
+
+    /// The report's weights are `fill_weights`' bits, chunk by chunk, for a table's
+    /// cells (borrowed measures under solid-angle weighting) and for a subsample
+    /// (multiplicities), under both weightings, through one reused buffer.
+    #[test]
+    fn report_weights_are_the_filled_weights() {
+        let m = brdfkit_models::default_model("lambert").unwrap();
+        let dims = brdfkit_merl::Dims::new(16, 16, 32).unwrap();
+        let full = synth_data(m.as_ref(), dims, Coverage::AboveHorizon).unwrap();
+        let sub = full.stratified_subsample(0.3, 7);
+        assert!(full.multiplicity_if_any().is_none() && sub.multiplicity_if_any().is_some());
+        let mut buf = Vec::new();
+        for data in [&full, &sub] {
+            for w in [Weighting::SolidAngle, Weighting::Uniform] {
+                for r in [0..data.len(), 0..1, 3..data.len() / 2, data.len() - 1..data.len()] {
+                    let mut want = vec![f64::NAN; r.len()];
+                    data.fill_weights(w, r.start, &mut want);
+                    let got = weights_of(data, w, r.clone(), &mut buf);
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(got), bits(&want), "{w:?} {r:?}");
+                }
+            }
+        }
+    }
+}
