@@ -19,7 +19,9 @@ const FAMILIES: &str = "lambert,oren-nayar,plausible-phong,blinn-phong,ward,lafo
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let path = args.get(1).ok_or("usage: loss_report T.binary [REPS] [FAMILY,...] [own|all]")?;
+    let path = args
+        .get(1)
+        .ok_or("usage: loss_report T.binary [REPS] [FAMILY,...] [own|all]")?;
     let reps: usize = args.get(2).map_or(Ok(21), |s| s.parse())?;
     let names = args.get(3).map_or(FAMILIES, |s| s.as_str());
     let table = brdfkit_merl::MerlTable::read(path)?;
@@ -43,7 +45,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let r = evaluate_losses_of(f.channel_models(), &data, w, set);
             t.push(t0.elapsed().as_secs_f64() * 1e3);
             if rep == 0 {
-                for l in brdfkit_fit::Loss::ALL.into_iter().chain(brdfkit_fit::Loss::PUBLISHED) {
+                for l in brdfkit_fit::Loss::ALL
+                    .into_iter()
+                    .chain(brdfkit_fit::Loss::PUBLISHED)
+                {
                     let c = r.get(l);
                     c.overall.to_bits().hash(&mut bits);
                     c.channels.map(f64::to_bits).hash(&mut bits);
@@ -51,7 +56,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    println!("family\tmedian ms\tmin ms\t({reps} reports, {} cells)", data.len());
+    println!(
+        "family\tmedian ms\tmin ms\t({reps} reports, {} cells)",
+        data.len()
+    );
     for ((name, _), t) in fitted.iter().zip(&mut times) {
         t.sort_by(f64::total_cmp);
         println!("{name}\t{:.2}\t{:.2}", t[t.len() / 2], t[0]);

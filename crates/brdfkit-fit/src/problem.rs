@@ -1227,7 +1227,12 @@ mod tests {
         let mut buf = Vec::new();
         for data in [&full, &sub] {
             for w in [Weighting::SolidAngle, Weighting::Uniform] {
-                for r in [0..data.len(), 0..1, 3..data.len() / 2, data.len() - 1..data.len()] {
+                for r in [
+                    0..data.len(),
+                    0..1,
+                    3..data.len() / 2,
+                    data.len() - 1..data.len(),
+                ] {
                     let mut want = vec![f64::NAN; r.len()];
                     data.fill_weights(w, r.start, &mut want);
                     let got = weights_of(data, w, r.clone(), &mut buf);
