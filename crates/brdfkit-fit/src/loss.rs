@@ -1184,7 +1184,7 @@ mod tests {
     fn own_loss_sums_are_the_per_loss_sums() {
         let bits = |v: [f64; 4]| v.map(f64::to_bits);
         let mut sc = OwnLossScratch::default();
-        for n in [0, 1, 7, 8, 9, 31, 2048] {
+        for n in [0, 1, 7, 8, 9, 31, 255, 256, 257, 2048, 2049] {
             let w: Vec<f64> = (0..n).map(|k| 0.5 + (k % 7) as f64 * 0.31).collect();
             let ci: Vec<f64> = (0..n).map(|k| (k as f64 * 0.013).cos().abs()).collect();
             let fm: Vec<f64> = (0..n)
