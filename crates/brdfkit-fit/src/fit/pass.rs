@@ -89,7 +89,7 @@ pub(super) const WARM_UP_FTOL_SHARE: f64 = 0.01;
 /// stops where the model predicts a decrease ε (about half the actual one then), and
 /// the rest of the run would have lowered the cost by ≈ 8 ε: 8 % of the sampling
 /// excess. With 65,536 cells and three channels, ε = 1.5e-7 (Lambert, p = 3)
-/// to 6.6e-7 (two-lobe Lafortune, p = 13) against the fit's ftol 1e-10.
+/// to 8.7e-7 (two-lobe Cook-Torrance, p = 17) against the fit's ftol 1e-10.
 pub(super) fn warm_up_ftol(config: &FitConfig, params: usize, residuals: usize) -> f64 {
     let share = WARM_UP_FTOL_SHARE * params as f64 / residuals.max(1) as f64;
     config.get_tolerances().ftol.max(share)
