@@ -291,6 +291,10 @@ pub struct LevenbergMarquardt {
     resume: Option<LmMemory>,
     /// True when the run stopped at the early tolerance, not at ftol.
     pub stopped_early: bool,
+    /// A subsample's tolerance (see [`LevenbergMarquardt::subsample_tolerance`]).
+    subsample: Option<f64>,
+    /// The cost decrease of the last accepted step of this run.
+    last_decrease: Option<f64>,
 }
 
 /// The damping state of a Levenberg-Marquardt run: with it, a run that stopped can be
@@ -300,10 +304,14 @@ pub struct LmMemory {
     mu: f64,
     nu: f64,
     last_accepted: bool,
+    last_decrease: Option<f64>,
 }
 
 /// The words of a stop at the early tolerance.
 pub const EARLY_STOP: &str = "cost decrease below the ranking's tolerance";
+
+/// The words of a stop at a subsample's tolerance.
+pub const SUBSAMPLE_STOP: &str = "cost decreases shrinking below the warm-up set's tolerance";
 
 impl LevenbergMarquardt {
     /// With the initial damping factor τ (1e-3 for a start believed close; 1 when far).
@@ -320,7 +328,38 @@ impl LevenbergMarquardt {
             early: None,
             resume: None,
             stopped_early: false,
+            subsample: None,
+            last_decrease: None,
         }
+    }
+
+    /// Also stops, as converged ([`SUBSAMPLE_STOP`]), at the looser relative tolerance
+    /// `ftol` of a run on a subsample whose optimum the cells it samples only evaluate
+    /// or refine (the fit's warm-up set; the tolerance: `fit::pass::warm_up_ftol`), but
+    /// only on a tail that converges: an accepted step's actual decrease, or the
+    /// lightly damped model's predicted one, is below `ftol` of the cost **and** not
+    /// above the decrease of the run's previous accepted step. A small decrease alone is
+    /// no sign of the end: a warm-up can begin with steps of 1e-9 of the cost that grow
+    /// threefold a step as μ falls (a poorly conditioned JᵀJ damped along its small
+    /// eigen-directions; two-lobe Lafortune on RGL's aurora_white, whose warm-up then
+    /// lowered the cost by 6 %), which MINPACK's test (actual and predicted decrease ≤
+    /// ftol, ratio ≤ 2; Moré, Garbow & Hillstrom, MINPACK-1 `lmder`) would also take
+    /// for convergence. On the linear tail of a large-residual problem the decreases
+    /// shrink by a constant factor, and the rule stops there.
+    pub fn subsample_tolerance(mut self, ftol: Option<f64>) -> Self {
+        self.subsample = ftol.filter(|&e| e > self.tol.ftol);
+        self
+    }
+
+    /// Whether a decrease `dec` (predicted or actual) of `cost` is below the subsample
+    /// tolerance on a shrinking tail (see [`subsample_tolerance`](Self::subsample_tolerance)).
+    fn subsample_stop(&mut self, dec: f64, cost: f64) -> bool {
+        let hit = self.subsample.is_some_and(|e| dec <= e * cost)
+            && self.last_decrease.is_some_and(|last| dec <= last);
+        if hit {
+            self.criterion = Some(SUBSAMPLE_STOP);
+        }
+        hit
     }
 
     /// Also stops where one of the two ftol rules holds at `ftol` (looser than the
@@ -345,6 +384,7 @@ impl LevenbergMarquardt {
             mu: self.mu,
             nu: self.nu,
             last_accepted: self.last_accepted,
+            last_decrease: self.last_decrease,
         }
     }
 
@@ -352,6 +392,7 @@ impl LevenbergMarquardt {
     fn started(&mut self, ne: &NormalEq) {
         if let Some(m) = self.resume.take() {
             (self.mu, self.nu, self.last_accepted) = (m.mu, m.nu, m.last_accepted);
+            self.last_decrease = m.last_decrease;
             return;
         }
         let max = max_diag(&ne.jtj);
@@ -408,7 +449,11 @@ impl LevenbergMarquardt {
                 let kv = argmin::kv!("rejected" => rejected;);
                 return Ok((settle(&mut self.ne, state, u, ne, false), Some(kv)));
             }
-            if !clipped && pred >= 0.0 && self.mu <= maxd && self.early_stop(pred, ne.cost) {
+            if !clipped
+                && pred >= 0.0
+                && self.mu <= maxd
+                && (self.subsample_stop(pred, ne.cost) || self.early_stop(pred, ne.cost))
+            {
                 let kv = argmin::kv!("rejected" => rejected;);
                 return Ok((settle(&mut self.ne, state, u, ne, false), Some(kv)));
             }
@@ -442,9 +487,10 @@ impl LevenbergMarquardt {
                     self.criterion = Some("step below xtol");
                 } else if !clipped && actual <= self.tol.ftol * ne.cost {
                     self.criterion = Some("relative cost decrease below ftol");
-                } else if !clipped {
+                } else if !clipped && !self.subsample_stop(actual, ne.cost) {
                     self.early_stop(actual, ne.cost);
                 }
+                self.last_decrease = Some(actual);
                 let kv = argmin::kv!("mu" => self.mu; "rejected" => rejected;);
                 return Ok((settle(&mut self.ne, state, un, ne2, true), Some(kv)));
             }

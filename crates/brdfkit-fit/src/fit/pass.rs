@@ -11,6 +11,7 @@ use super::timing::StageTimes;
 use crate::config::FitConfig;
 use crate::energy::{AlbedoPenalty, AlbedoQuadrature, PENALTY_WEIGHT};
 use crate::error::FitError;
+use crate::lm::SUBSAMPLE_STOP;
 use crate::loss::{Robust, RobustKind};
 use crate::problem::FitProblem;
 use crate::record::{StartRecord, WarmUpRecord};
@@ -117,7 +118,7 @@ struct Pass<'a> {
     /// All fitted cells with the given robust loss, if any: the finish's problem.
     full: FitProblem<'a>,
     warm: Option<FitProblem<'a>>,
-    /// The config of the runs on the warm-up set: its ftol is [`warm_up_ftol`]'s.
+    /// The config of the runs on the warm-up set: with [`warm_up_ftol`]'s tolerance.
     warm_cfg: FitConfig,
     explore: Option<FitProblem<'a>>,
     /// Per start: the earlier start with the same point, if any (see [`same_starts`]).
@@ -208,7 +209,7 @@ impl<'a> Pass<'a> {
         let warm = sub(cells.warm)?;
         let mut warm_cfg = config.clone();
         if let Some(w) = &warm {
-            warm_cfg.ftol = warm_up_ftol(config, free.len(), w.num_residuals());
+            warm_cfg.subsample_ftol = Some(warm_up_ftol(config, free.len(), w.num_residuals()));
         }
         Ok(Pass {
             early: (cells.ranked && distinct > config.finish).then_some(RANKING_FTOL),
@@ -270,8 +271,10 @@ impl<'a> Pass<'a> {
     /// warm-up set's tolerance says which ([`warm_up_ftol`]).
     fn record_of(&self, st: &SubStage, p: &FitProblem<'_>, cfg: &FitConfig) -> WarmUpRecord {
         let mut rec = st.record(p);
-        if cfg.ftol > self.config.ftol && rec.termination.contains("below ftol") {
-            rec.termination += &format!(" (warm-up ftol {:.1e})", cfg.ftol);
+        if let Some(e) = cfg.subsample_ftol
+            && rec.termination.contains(SUBSAMPLE_STOP)
+        {
+            rec.termination += &format!(" (ftol {e:.1e})");
         }
         rec
     }
@@ -925,7 +928,10 @@ mod tests {
         let settled = pass.settle(&finishers, &explored);
         let wp = pass.warm.as_ref().unwrap();
         let wcfg = &pass.warm_cfg;
-        assert!(wcfg.ftol < RANKING_FTOL && wcfg.ftol > cfg.ftol);
+        assert!(
+            wcfg.subsample_ftol
+                .is_some_and(|e| e < RANKING_FTOL && e > cfg.ftol)
+        );
         // Every start resumed against its uninterrupted run with the warm-up set's
         // tolerances.
         for (k, x) in pass.points.iter().enumerate() {
@@ -1065,7 +1071,7 @@ mod tests {
             assert!(pass.explore.is_some(), "a separate exploration set");
             let wp = pass.warm.as_ref().unwrap();
             let eps = warm_up_ftol(&cfg, free.len(), wp.num_residuals());
-            assert_eq!(pass.warm_cfg.ftol, eps);
+            assert_eq!(pass.warm_cfg.subsample_ftol, Some(eps));
             assert!(eps > 100.0 * cfg.get_tolerances().ftol);
             let explored = pass.explore();
             let (finishers, _) = pass.rank(&explored);
@@ -1078,7 +1084,7 @@ mod tests {
             assert!(w.termination.starts_with("converged"), "{}", w.termination);
             assert!(
                 w.termination
-                    .ends_with(&format!("(warm-up ftol {eps:.1e})")),
+                    .ends_with(&format!("{SUBSAMPLE_STOP} (ftol {eps:.1e})")),
                 "{}",
                 w.termination
             );
