@@ -87,9 +87,8 @@ pub(super) const WARM_UP_FTOL_SHARE: f64 = 0.01;
 /// tables the warm-up's last steps are Gauss-Newton's linear convergence (gain ratio
 /// ≈ 1.9, μ → 0: the residuals' second-order term, which Gauss-Newton drops, is
 /// comparable to JᵀJ), each lowering the cost by ≈ 0.8 of the one before; the run
-/// stops where the model predicts a decrease ε (about half the actual one then), and
-/// the rest of the run would have lowered the cost by ≈ 8 ε: 8 % of the sampling
-/// excess. With 65,536 cells and three channels, ε = 1.5e-7 (Lambert, p = 3)
+/// stops where the remaining decrease of that steady tail is estimated below ε
+/// ([`crate::LevenbergMarquardt::subsample_tolerance`]): 1 % of the sampling excess. With 65,536 cells and three channels, ε = 1.5e-7 (Lambert, p = 3)
 /// to 8.7e-7 (two-lobe Cook-Torrance, p = 17) against the fit's ftol 1e-10.
 pub(super) fn warm_up_ftol(config: &FitConfig, params: usize, residuals: usize) -> f64 {
     let share = WARM_UP_FTOL_SHARE * params as f64 / residuals.max(1) as f64;
