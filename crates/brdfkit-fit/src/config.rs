@@ -102,6 +102,10 @@ pub struct FitConfig {
     pub(crate) theta_max: Option<f64>,
     pub(crate) max_iters: Option<u64>,
     pub(crate) ftol: f64,
+    /// The warm-up set's tolerance of a Levenberg-Marquardt run on it (set by the fit's
+    /// pass, never by a user; see `LevenbergMarquardt::subsample_tolerance`).
+    #[serde(skip)]
+    pub(crate) subsample_ftol: Option<f64>,
     pub(crate) xtol: f64,
     pub(crate) gtol: f64,
     pub(crate) tau: f64,
@@ -139,6 +143,7 @@ impl Default for FitConfig {
             theta_max: None,
             max_iters: None,
             ftol: t.ftol,
+            subsample_ftol: None,
             xtol: t.xtol,
             gtol: t.gtol,
             tau: 1e-3,

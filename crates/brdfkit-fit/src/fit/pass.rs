@@ -11,6 +11,7 @@ use super::timing::StageTimes;
 use crate::config::FitConfig;
 use crate::energy::{AlbedoPenalty, AlbedoQuadrature, PENALTY_WEIGHT};
 use crate::error::FitError;
+use crate::lm::SUBSAMPLE_STOP;
 use crate::loss::{Robust, RobustKind};
 use crate::problem::FitProblem;
 use crate::record::{StartRecord, WarmUpRecord};
@@ -67,6 +68,33 @@ struct Explored {
 /// run would ([`Pass::settle`]; docs/fitting.md, "Explore, rank, finish").
 pub(super) const RANKING_FTOL: f64 = 1e-5;
 
+/// The share of a subsample's sampling excess below which a run on the warm-up set
+/// stops (see [`warm_up_ftol`]).
+pub(super) const WARM_UP_FTOL_SHARE: f64 = 0.01;
+
+/// The relative cost decrease below which a run on the warm-up set stops: the config's
+/// ftol, or [`WARM_UP_FTOL_SHARE`] of p / m when that is looser, for p free parameters
+/// and m residuals on the set.
+///
+/// Why p / m: the warm-up set is a sample of the fitted cells, and the optimum of a
+/// least-squares fit to m observations with p parameters lies, on the population it was
+/// drawn from, above the population's optimum by ≈ p / m of the cost (the excess in
+/// Akaike's final prediction error, FPE = σ² (m + p) / (m − p): H. Akaike, "Statistical
+/// predictor identification", Ann. Inst. Statist. Math. 22, 1970). A step that lowers
+/// the warm-up set's cost by far less than that moves the point by less than the
+/// sample can resolve: the loss over all cells, where the warm-up optimum is evaluated
+/// (`full_iters` 0) or from where the finish goes on, does not see it. On measured
+/// tables the warm-up's last steps are Gauss-Newton's linear convergence (gain ratio
+/// ≈ 1.9, μ → 0: the residuals' second-order term, which Gauss-Newton drops, is
+/// comparable to JᵀJ), each lowering the cost by ≈ 0.8 of the one before; the run
+/// stops where the remaining decrease of that steady tail is estimated below ε
+/// ([`crate::LevenbergMarquardt::subsample_tolerance`]): 1 % of the sampling excess. With 65,536 cells and three channels, ε = 1.5e-7 (Lambert, p = 3)
+/// to 8.7e-7 (two-lobe Cook-Torrance, p = 17) against the fit's ftol 1e-10.
+pub(super) fn warm_up_ftol(config: &FitConfig, params: usize, residuals: usize) -> f64 {
+    let share = WARM_UP_FTOL_SHARE * params as f64 / residuals.max(1) as f64;
+    config.get_tolerances().ftol.max(share)
+}
+
 /// Floor of the automatic robust scale, relative to the targets' RMS: a plain fit that
 /// is exact (median |e| = 0) would otherwise give c = 0. Any c gives the same optimum
 /// there (no residual is an outlier).
@@ -89,6 +117,8 @@ struct Pass<'a> {
     /// All fitted cells with the given robust loss, if any: the finish's problem.
     full: FitProblem<'a>,
     warm: Option<FitProblem<'a>>,
+    /// The config of the runs on the warm-up set: with [`warm_up_ftol`]'s tolerance.
+    warm_cfg: FitConfig,
     explore: Option<FitProblem<'a>>,
     /// Per start: the earlier start with the same point, if any (see [`same_starts`]).
     same_as: Vec<Option<usize>>,
@@ -175,6 +205,11 @@ impl<'a> Pass<'a> {
         );
         let same_as = same_starts(&points);
         let distinct = same_as.iter().filter(|s| s.is_none()).count();
+        let warm = sub(cells.warm)?;
+        let mut warm_cfg = config.clone();
+        if let Some(w) = &warm {
+            warm_cfg.subsample_ftol = Some(warm_up_ftol(config, free.len(), w.num_residuals()));
+        }
         Ok(Pass {
             early: (cells.ranked && distinct > config.finish).then_some(RANKING_FTOL),
             same_as,
@@ -187,7 +222,8 @@ impl<'a> Pass<'a> {
             penalty: penalty.is_some(),
             full: robust(plain.clone()),
             plain,
-            warm: sub(cells.warm)?,
+            warm,
+            warm_cfg,
             explore: sub(cells.explore)?,
             points,
         })
@@ -220,6 +256,28 @@ impl<'a> Pass<'a> {
         self.early.is_some()
     }
 
+    /// The set every start explores first, with the config of its runs: the
+    /// exploration set, or the warm-up set when there is none.
+    fn first(&self) -> Option<(&FitProblem<'a>, &FitConfig)> {
+        match (&self.explore, &self.warm) {
+            (Some(p), _) => Some((p, self.config)),
+            (None, Some(p)) => Some((p, &self.warm_cfg)),
+            (None, None) => None,
+        }
+    }
+
+    /// The record of a sub-stage on `p` run with `cfg`; a stop on an ftol rule at the
+    /// warm-up set's tolerance says which ([`warm_up_ftol`]).
+    fn record_of(&self, st: &SubStage, p: &FitProblem<'_>, cfg: &FitConfig) -> WarmUpRecord {
+        let mut rec = st.record(p);
+        if let Some(e) = cfg.subsample_ftol
+            && rec.termination.contains(SUBSAMPLE_STOP)
+        {
+            rec.termination += &format!(" (ftol {e:.1e})");
+        }
+        rec
+    }
+
     /// Who start k's runs on a subsample are.
     fn at(&self, k: usize) -> Where<'a> {
         Where {
@@ -237,7 +295,7 @@ impl<'a> Pass<'a> {
     /// [`RANKING_FTOL`]), and the optimised cost where it ended is its rank (a fresh
     /// clone of the problem, so the pass is counted for this start).
     fn explore(&self) -> Vec<Result<Explored, FitError>> {
-        let first = self.explore.as_ref().or(self.warm.as_ref());
+        let first = self.first();
         let ranks = self.ranks();
         self.points
             .par_iter()
@@ -255,10 +313,9 @@ impl<'a> Pass<'a> {
                 }
                 let u0 = self.full.to_u(x);
                 let (u, rec, stopped) = match first {
-                    Some(p) => {
-                        let st =
-                            sub_stage(p, u0, self.config, self.at(k), self.ranked, self.early)?;
-                        let mut rec = st.record(p);
+                    Some((p, cfg)) => {
+                        let st = sub_stage(p, u0, cfg, self.at(k), self.ranked, self.early)?;
+                        let mut rec = self.record_of(&st, p, cfg);
                         let stopped = st.w.early.is_some().then(|| st.clone());
                         if stopped.is_some() {
                             rec.termination += &format!(" (ftol {RANKING_FTOL:e})");
@@ -344,16 +401,16 @@ impl<'a> Pass<'a> {
         finishers: &[usize],
         explored: &[Result<Explored, FitError>],
     ) -> Vec<Result<Explored, FitError>> {
-        let first = self.explore.as_ref().or(self.warm.as_ref());
+        let first = self.first();
         finishers
             .par_iter()
             .map(|&k| {
                 let e = explored[k].as_ref().expect("finishers explored fine");
-                let (Some(p), Some(st)) = (first, &e.stopped) else {
+                let (Some((p, cfg)), Some(st)) = (first, &e.stopped) else {
                     return Ok(e.clone());
                 };
-                let st = sub_stage_on(p, st.clone(), self.config, self.at(k), true)?;
-                let rec = Some(st.record(p));
+                let st = sub_stage_on(p, st.clone(), cfg, self.at(k), true)?;
+                let rec = Some(self.record_of(&st, p, cfg));
                 let sep = self.explore.is_some();
                 Ok(Explored {
                     u: st.w.u,
@@ -385,9 +442,10 @@ impl<'a> Pass<'a> {
                 let e = e?;
                 match (&self.warm, e.warm.is_none() && e.explore.is_some()) {
                     (Some(wp), true) => {
-                        let st = sub_stage(wp, e.u.clone(), self.config, self.at(k), true, None)?;
+                        let cfg = &self.warm_cfg;
+                        let st = sub_stage(wp, e.u.clone(), cfg, self.at(k), true, None)?;
                         Ok(Explored {
-                            warm: Some(st.record(wp)),
+                            warm: Some(self.record_of(&st, wp, cfg)),
                             u: st.w.u,
                             ..e
                         })
@@ -835,13 +893,16 @@ mod tests {
 
     /// Ranking needs an order, not an optimum: every start's exploration stops at the
     /// ranking's tolerance, and the finisher then goes on from there exactly as a run
-    /// with the fit's own tolerances goes: the same end point, bit for bit, and its
-    /// record counts the iterations of both runs.
+    /// with the warm-up set's own tolerances goes: the same end point, bit for bit, and
+    /// its record counts the iterations of both runs.
     #[test]
     fn starts_explore_to_the_ranking_tolerance_and_the_finisher_resumes_exactly() {
         // Another family's table: an optimum with a residual, approached linearly at
-        // the end, where the ranking's tolerance stops a run before ftol.
+        // the end, where the ranking's tolerance stops a run before ftol. A 6,000-cell
+        // warm-up set (explored directly), so that its own tolerance (warm_up_ftol,
+        // 5.6e-6) is below the ranking's.
         let (d, cfg, model, free) = setup_of(r#"{"model": "ward"}"#, "cook-torrance");
+        let cfg = cfg.warm_up(Some(6000)).unwrap();
         let cells = Cells::of(&d, &cfg).unwrap();
         let pass = Pass::new(&cells.sets(), model.as_ref(), &free, &[0, 1, 2], &cfg, None).unwrap();
         assert!(pass.ranks());
@@ -865,19 +926,25 @@ mod tests {
         let (finishers, _) = pass.rank(&explored);
         let settled = pass.settle(&finishers, &explored);
         let wp = pass.warm.as_ref().unwrap();
-        // Every start resumed against its uninterrupted run with the fit's tolerances.
+        let wcfg = &pass.warm_cfg;
+        assert!(
+            wcfg.subsample_ftol
+                .is_some_and(|e| e < RANKING_FTOL && e > cfg.ftol)
+        );
+        // Every start resumed against its uninterrupted run with the warm-up set's
+        // tolerances.
         for (k, x) in pass.points.iter().enumerate() {
             let e = explored[k].as_ref().unwrap();
-            let whole = sub_stage(wp, pass.full.to_u(x), &cfg, pass.at(k), true, None).unwrap();
+            let whole = sub_stage(wp, pass.full.to_u(x), wcfg, pass.at(k), true, None).unwrap();
             let resumed = match &e.stopped {
-                Some(st) => sub_stage_on(wp, st.clone(), &cfg, pass.at(k), true).unwrap(),
+                Some(st) => sub_stage_on(wp, st.clone(), wcfg, pass.at(k), true).unwrap(),
                 None => continue,
             };
             assert_eq!(resumed.w.u, whole.w.u, "start {k}");
             assert_eq!(resumed.w.cost, whole.w.cost);
             assert!(resumed.w.termination.starts_with("converged"));
             assert!(resumed.w.early.is_none());
-            let (a, b) = (first(e), resumed.record(wp));
+            let (a, b) = (first(e), pass.record_of(&resumed, wp, wcfg));
             // One iteration more than the whole run at most: a stop on the predicted
             // decrease counts an iteration without a step.
             assert!(b.iterations > a.iterations);
@@ -976,6 +1043,58 @@ mod tests {
                 !defers_cost(pass, Some(0), 1),
                 "a penalty is not in the report"
             );
+        });
+    }
+
+    #[test]
+    fn the_warm_up_tolerance_is_a_share_of_the_sampling_excess() {
+        let cfg = FitConfig::default();
+        let m = 3 * 65_536;
+        assert_eq!(warm_up_ftol(&cfg, 10, m), 0.01 * 10.0 / m as f64);
+        // Never tighter than the fit's own ftol.
+        let loose = cfg.clone().tolerances(1e-4, 1e-10, 1e-10).unwrap();
+        assert_eq!(warm_up_ftol(&loose, 10, m), 1e-4);
+        assert_eq!(warm_up_ftol(&cfg, 3, 0), 0.03);
+    }
+
+    /// The finisher's warm-up after a separate exploration stops at the warm-up set's
+    /// tolerance ([`warm_up_ftol`]), not at the fit's ftol: on another family's table
+    /// (an optimum with a residual, approached linearly) in fewer iterations than a run
+    /// to the fit's ftol, at a warm-up cost within 10 ε of that run's (the tail's
+    /// bound, see [`warm_up_ftol`]), and its record says which tolerance stopped it.
+    #[test]
+    fn the_warm_up_stops_at_the_warm_up_sets_tolerance() {
+        let (d, cfg, model, free) = setup_of(r#"{"model": "ward"}"#, "cook-torrance");
+        let cfg = cfg.explore_cells(Some(256)).unwrap();
+        with_pass(&d, &cfg, model.as_ref(), &free, |pass| {
+            assert!(pass.explore.is_some(), "a separate exploration set");
+            let wp = pass.warm.as_ref().unwrap();
+            let eps = warm_up_ftol(&cfg, free.len(), wp.num_residuals());
+            assert_eq!(pass.warm_cfg.subsample_ftol, Some(eps));
+            assert!(eps > 100.0 * cfg.get_tolerances().ftol);
+            let explored = pass.explore();
+            let (finishers, _) = pass.rank(&explored);
+            let settled = pass.settle(&finishers, &explored);
+            let from = settled[0].as_ref().unwrap().u.clone();
+            let warmed = pass.warm_up(&finishers, settled);
+            let w = warmed[0].as_ref().unwrap().warm.clone().unwrap();
+            let at = pass.at(finishers[0]);
+            let full = sub_stage(wp, from, &cfg, at, true, None).unwrap();
+            assert!(w.termination.starts_with("converged"), "{}", w.termination);
+            assert!(
+                w.termination
+                    .ends_with(&format!("{SUBSAMPLE_STOP} (ftol {eps:.1e})")),
+                "{}",
+                w.termination
+            );
+            assert!(
+                w.iterations < full.w.iterations,
+                "{} vs {}",
+                w.iterations,
+                full.w.iterations
+            );
+            let cost = 0.5 * w.final_loss * w.final_loss;
+            assert!(cost >= full.w.cost && cost - full.w.cost <= 10.0 * eps * full.w.cost);
         });
     }
 

@@ -172,6 +172,7 @@ pub(super) fn run_start_with(
         SolverKind::Lm => {
             let lmr = LevenbergMarquardt::new(config.tau, tol)
                 .stopping_early(lm.early)
+                .subsample_tolerance(config.subsample_ftol)
                 .resumed(lm.resume);
             let r = run!(lmr, LsState, |s: LsState| s.param(u0.clone()));
             early = r.solver.stopped_early.then(|| r.solver.memory());
