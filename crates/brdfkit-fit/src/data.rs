@@ -4,7 +4,7 @@ use crate::error::FitError;
 use brdfkit_core::geometry::split_runs;
 use brdfkit_core::lanes::{Run, dispatch};
 use brdfkit_core::{Columns, GeomSlice, GeometryBatch, Model, Rgb};
-use brdfkit_merl::{CellBatch, CellRuns, MerlTable, cell_weight, zeroed_f64_exact};
+use brdfkit_merl::{CellBatch, CellRuns, MerlTable, TableCells, cell_weight, zeroed_f64_exact};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -348,6 +348,27 @@ impl FitData {
         debug_assert_eq!(data.len(), counts.iter().sum::<usize>());
         data.fill_values(t, &counts);
         Ok(data)
+    }
+
+    /// The valid cells of a table file read straight into the cells' arrays
+    /// ([`TableCells`]: no table is built, so the values are copied from the file into
+    /// fresh memory once, where going through [`from_table`](Self::from_table) copies
+    /// them twice and holds the table and the cells together). The same cells, values,
+    /// measures and geometry as `from_table` of the table read from the file, bit for
+    /// bit.
+    pub fn from_table_cells(c: TableCells) -> Result<Self, FitError> {
+        if c.runs.is_empty() {
+            return Err(FitError::NoCells("the table has no valid cell".into()));
+        }
+        Ok(FitData::assemble(
+            Geometry::Table {
+                cells: Arc::new(c.runs),
+                built: OnceLock::new(),
+            },
+            c.values,
+            c.measure,
+            None,
+        ))
     }
 
     /// [`from_table`](Self::from_table) for a table the caller no longer needs: the
