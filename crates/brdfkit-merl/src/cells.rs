@@ -629,4 +629,56 @@ mod tests {
         }
         assert!(CellRuns::new(dims, &vec![false; dims.cells()]).is_empty());
     }
+
+    /// The spans cover the valid cells once each, in file order, with their grid index
+    /// and row; a file's planes turned in place into cells give every valid cell's
+    /// `get_flat` value and `cell_weight` measure, bit for bit, in buffers cut to the
+    /// valid cells.
+    #[test]
+    fn spans_and_cells_in_place_are_the_tables_valid_cells() {
+        let dims = Dims::new(13, 17, 23).unwrap();
+        let t = crate::MerlTable::from_fn(dims, |i, j, k| {
+            let x = (i * 31 + j * 7 + k) as f64;
+            // Gaps of every length, a row with none valid (i = 4), whole valid rows.
+            ((k * 7 + i * 3 + j) % 11 > 2 && i != 4 || j == 0)
+                .then(|| brdfkit_core::Rgb::new(x.sin().abs(), x * 1e-3, 1.0 / (1.0 + x)))
+        })
+        .unwrap();
+        let valid: Vec<usize> = (0..dims.cells()).filter(|&x| t.is_valid(x)).collect();
+        let runs = CellRuns::new(dims, t.valid_mask());
+        let mut covered = Vec::new();
+        for s in runs.spans() {
+            assert_eq!(s.cells.start, covered.len());
+            for (n, m) in s.cells.clone().enumerate() {
+                assert_eq!(
+                    dims.unflatten(s.flat + n),
+                    (s.i, s.j, dims.unflatten(valid[m]).2)
+                );
+                covered.push(s.flat + n);
+            }
+        }
+        assert_eq!(covered, valid);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.binary");
+        t.write(&path).unwrap();
+        let cells = TableCells::read(&path).unwrap();
+        assert_eq!(cells.runs.len(), valid.len());
+        for c in 0..3 {
+            let want: Vec<u64> = valid
+                .iter()
+                .map(|&x| t.get_flat(x).unwrap()[c].to_bits())
+                .collect();
+            let got: Vec<u64> = cells.values[c].iter().map(|v| v.to_bits()).collect();
+            assert_eq!(got, want, "channel {c}");
+            assert_eq!(cells.values[c].capacity(), valid.len(), "cut to the cells");
+        }
+        let want: Vec<f64> = valid
+            .iter()
+            .map(|&x| {
+                let (i, j, _) = dims.unflatten(x);
+                cell_weight(dims, i, j)
+            })
+            .collect();
+        assert_eq!(cells.measure, want);
+    }
 }
