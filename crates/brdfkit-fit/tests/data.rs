@@ -566,3 +566,38 @@ fn table_cells_read_from_a_file_are_the_tables_cells() {
         "{e}"
     );
 }
+
+/// A table's strata found row by row (`FitData::strata` on a table's cells) are every
+/// cell's own (`stratum_at`, from its computed cosines), on a whole MERL grid with
+/// every cell valid and on the gapped test table, and equal to the strata of the same
+/// cells with their geometry given as columns (the chunk-by-chunk path); the subsample
+/// drawn from them is the reference draw.
+#[test]
+fn row_by_row_strata_are_every_cells_own() {
+    use brdfkit_merl::Dims;
+    let all = MerlTable::from_fn(Dims::MERL, |_, _, _| Some(Rgb::new(0.1, 0.2, 0.3))).unwrap();
+    for t in [all, table()] {
+        let d = FitData::from_table(&t).unwrap();
+        let ids = d.strata();
+        assert!(
+            d.geometry_if_built().is_none(),
+            "row by row, not from the columns"
+        );
+        let own: Vec<u8> = (0..d.len()).map(|m| d.stratum_at(m) as u8).collect();
+        assert_eq!(ids, own);
+        let given = FitData::from_parts(
+            d.geometry().clone(),
+            d.values().clone(),
+            d.measure().to_vec(),
+        )
+        .unwrap();
+        assert_eq!(given.strata(), own);
+        let (idx, mult) = reference_subsample(&d, 0.05, 11);
+        let s = d.stratified_subsample(0.05, 11);
+        assert_eq!(s.multiplicity(), &mult[..]);
+        assert_eq!(
+            s.values()[0],
+            idx.iter().map(|&m| d.values()[0][m]).collect::<Vec<f64>>()
+        );
+    }
+}

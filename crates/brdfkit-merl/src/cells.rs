@@ -397,6 +397,13 @@ impl CellRuns {
         })
     }
 
+    /// cos θh and cos θd of the grid's row (i, j), the cosines of its cells' half and
+    /// difference angles before their directions are formed: a cell's computed h.z and
+    /// cos θd ([`CellDirections::columns`]) differ from them by rounding only.
+    pub fn row_cosines(&self, i: usize, j: usize) -> [f64; 2] {
+        [self.dirs.theta_h[i][0], self.dirs.theta_d[j][0]]
+    }
+
     /// The grid's (θh, θd, φd) bin counts.
     fn dirs_dims(&self) -> [usize; 3] {
         [
