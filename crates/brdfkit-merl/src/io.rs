@@ -18,7 +18,7 @@
 use crate::error::{BadValue, ByteCount, MerlError};
 use crate::grid::{Dims, HEADER_BYTES, IO_CHUNK_CELLS};
 use crate::table::{
-    MerlTable, acceptable_raw, alloc_mask, alloc_raw, raw_valid, spread, zeroed_f64_exact,
+    MerlTable, acceptable_raw, alloc_mask, alloc_raw, raw_valid, spread, zeroed_f64,
 };
 use byteorder::{ByteOrder, LittleEndian};
 use std::cell::RefCell;
@@ -279,8 +279,8 @@ fn read_body(
     Ok(MerlTable::assemble(dims, raw, valid, n_valid))
 }
 
-/// A table file's three raw planes, each in a buffer of its own (exactly
-/// `dims.cells()` long, on huge pages where the system allows), with the validity mask
+/// A table file's three raw planes, each in a buffer of its own (`dims.cells()` long,
+/// on huge pages where the system allows), with the validity mask
 /// and the count of valid cells: what [`TableCells::from_planes`](crate::TableCells::from_planes)
 /// turns, in place, into the valid cells' values, so that a fit copies the measured
 /// values from the file into fresh memory once (through a [`MerlTable`] it copied them
@@ -321,7 +321,10 @@ fn read_planes(
     src: &(impl Source + ?Sized),
     chunk: usize,
 ) -> Result<TablePlanes, MerlError> {
-    let mut planes = [0, 1, 2].map(|_| zeroed_f64_exact(dims.cells()));
+    // Rounded up to whole huge pages (`zeroed_f64`, not the exact length): the ends'
+    // 4 KiB faults would cost more than the rounding, which the cells give back when
+    // they cut the planes to the valid cells.
+    let mut planes = [0, 1, 2].map(|_| zeroed_f64(dims.cells()));
     let [r, g, b] = &mut planes;
     let (valid, n_valid) = decode_body(dims, path, src, chunk, [r, g, b])?;
     Ok(TablePlanes {
