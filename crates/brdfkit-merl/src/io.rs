@@ -42,7 +42,7 @@ trait Source: Sync {
     ) -> io::Result<[&'a [u8]; 3]>;
 }
 
-impl Source for [u8] {
+impl Source for &[u8] {
     fn planes<'a>(
         &'a self,
         n: usize,
@@ -55,19 +55,6 @@ impl Source for [u8] {
             let off = 8 * (c * n + first);
             &self[off..off + 8 * len]
         }))
-    }
-}
-
-impl Source for Vec<u8> {
-    fn planes<'a>(
-        &'a self,
-        n: usize,
-        first: usize,
-        len: usize,
-        shift: [usize; 3],
-        buf: &'a mut Vec<u8>,
-    ) -> io::Result<[&'a [u8]; 3]> {
-        self[..].planes(n, first, len, shift, buf)
     }
 }
 
@@ -424,7 +411,7 @@ fn read_file<T>(
     if !meta.is_file() {
         // A pipe or a device has no length to check the header against.
         let (dims, bytes) = read_stream(file, path)?;
-        return body(dims, &bytes);
+        return body(dims, &&bytes[..]);
     }
     let len = meta.len();
     if len < HEADER_BYTES {
@@ -448,7 +435,7 @@ fn read_file<T>(
         let mut bytes = vec![0u8; len as usize - 12];
         file.read_exact(&mut bytes)
             .map_err(|e| MerlError::io(path, "reading", e))?;
-        body(dims, &bytes)
+        body(dims, &&bytes[..])
     }
 }
 
@@ -471,7 +458,7 @@ impl MerlTable {
         }
         let header: [u8; 12] = bytes[..12].try_into().expect("12 bytes");
         let dims = parse_header(&header, len, path)?;
-        read_body(dims, path, &bytes[HEADER_BYTES as usize..], IO_CHUNK_CELLS)
+        read_body(dims, path, &&bytes[HEADER_BYTES as usize..], IO_CHUNK_CELLS)
     }
 
     /// The file image: header then the raw planes, exactly the bytes [`write`](Self::write)
@@ -605,7 +592,7 @@ mod tests {
             let what = format!("run of {chunk} cells");
             let t = read_body(dims, &path, &file, chunk).unwrap();
             assert_bit_identical(&t, &reference, &format!("file, {what}"));
-            let t = read_body(dims, &path, &bytes[12..], chunk).unwrap();
+            let t = read_body(dims, &path, &&bytes[12..], chunk).unwrap();
             assert_bit_identical(&t, &reference, &format!("slice, {what}"));
         }
         assert_bit_identical(&MerlTable::read(&path).unwrap(), &reference, "read");
@@ -653,7 +640,7 @@ mod tests {
         for chunk in [1, 3, 7, 64, 901, 1001, IO_CHUNK_CELLS] {
             for e in [
                 read_body(dims, &path, &file, chunk).unwrap_err(),
-                read_body(dims, &path, &bytes[12..], chunk).unwrap_err(),
+                read_body(dims, &path, &&bytes[12..], chunk).unwrap_err(),
             ] {
                 match e {
                     MerlError::TooLarge {
@@ -677,7 +664,7 @@ mod tests {
         raw[900] = 1.0;
         let bytes = image(dims, &raw);
         for chunk in [1, 7, 1001] {
-            let e = read_body(dims, &path, &bytes[12..], chunk).unwrap_err();
+            let e = read_body(dims, &path, &&bytes[12..], chunk).unwrap_err();
             assert!(
                 matches!(
                     e,
