@@ -783,14 +783,15 @@ impl FitData {
         StrataEdges::get().stratum(p[8], p[9])
     }
 
-    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes: for a table's cells
-    /// row by row where a row's cells all fall in one stratum ([`table_strata`]),
-    /// otherwise a chunk per task (of a table's geometry only the two cosines are
-    /// computed, chunk by chunk, [`columns_of`](Self::columns_of): the same bits as the
-    /// whole columns). A bin is the count of edges a cosine is at or below
-    /// ([`StrataEdges::bin`]), counted edge by edge over the chunk's cells, so the
-    /// comparisons run across cells in vector lanes (cell by cell, the 15 comparisons
-    /// and their sum were 7 % of a default fit's CPU).
+    /// [`stratum_at`](Self::stratum_at) of every cell, as bytes. A table's cells are
+    /// binned a run at a time where their row's cos θh and cos θd lie clear of every
+    /// bin edge (`table_strata`: the cells' own cosines are not computed), other cells
+    /// a chunk per task from their two cosines (for a table's geometry only those two
+    /// columns are computed, [`columns_of`](Self::columns_of): the same bits as the
+    /// whole columns). A bin is the count of edges a cosine is at or below, counted
+    /// edge by edge over the chunk's cells, so the comparisons run across cells in
+    /// vector lanes (cell by cell, the 15 comparisons and their sum were 7 % of a
+    /// default fit's CPU).
     pub fn strata(&self) -> Vec<u8> {
         const _: () = assert!(STRATA * STRATA <= 256);
         if let Some(cells) = self.geometry.lazy() {
