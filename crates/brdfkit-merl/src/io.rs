@@ -286,7 +286,18 @@ impl TablePlanes {
     pub fn read(path: impl AsRef<Path>) -> Result<TablePlanes, MerlError> {
         let path = path.as_ref();
         read_file(path, |dims, src| {
-            read_planes(dims, path, src, IO_CHUNK_CELLS)
+            // Rounded up to whole huge pages (`zeroed_f64`, not the exact length): the
+            // ends' 4 KiB faults would cost more than the rounding, which the cells
+            // give back when they cut the planes to the valid cells.
+            let mut planes = [0, 1, 2].map(|_| zeroed_f64(dims.cells()));
+            let [r, g, b] = &mut planes;
+            let (valid, n_valid) = decode_body(dims, path, src, IO_CHUNK_CELLS, [r, g, b])?;
+            Ok(TablePlanes {
+                dims,
+                planes,
+                valid,
+                n_valid,
+            })
         })
     }
 
@@ -299,27 +310,6 @@ impl TablePlanes {
     pub fn valid_count(&self) -> usize {
         self.n_valid
     }
-}
-
-/// Reads the body from `src` into three separate planes ([`TablePlanes`], [`decode_body`]).
-fn read_planes(
-    dims: Dims,
-    path: &Path,
-    src: &(impl Source + ?Sized),
-    chunk: usize,
-) -> Result<TablePlanes, MerlError> {
-    // Rounded up to whole huge pages (`zeroed_f64`, not the exact length): the ends'
-    // 4 KiB faults would cost more than the rounding, which the cells give back when
-    // they cut the planes to the valid cells.
-    let mut planes = [0, 1, 2].map(|_| zeroed_f64(dims.cells()));
-    let [r, g, b] = &mut planes;
-    let (valid, n_valid) = decode_body(dims, path, src, chunk, [r, g, b])?;
-    Ok(TablePlanes {
-        dims,
-        planes,
-        valid,
-        n_valid,
-    })
 }
 
 /// Decodes the body (3 planes of little-endian f64) from `src` into the planes `rgb`
