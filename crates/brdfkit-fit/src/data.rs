@@ -916,9 +916,8 @@ const ROW_STRATA_SLACK: f64 = 1e-9;
 /// at once. A row near a bin edge (or at a grazing θd) has its cells' cosines computed
 /// and binned one by one ([`chunk_strata`]), so every cell gets the formula's bin
 /// (tests/data.rs compares it with the cell-by-cell strata on a whole MERL grid). A
-/// MERL table's 1.1 M valid cells come in about 16,000 runs, all but a few hundred
-/// filled whole: the two cosines of 1.1 M cells (two square roots and a division each)
-/// are not computed.
+/// MERL table's 1.1 M valid cells come in about 16,000 runs: the runs filled whole
+/// need none of their cells' two cosines (two square roots and a division a cell).
 fn table_strata(cells: &CellRuns) -> Vec<u8> {
     let e = StrataEdges::get();
     let set = Columns::H_Z | Columns::COS_D;
