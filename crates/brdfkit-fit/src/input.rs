@@ -13,7 +13,7 @@
 use crate::data::FitData;
 use crate::error::FitError;
 use crate::samples::SamplesFileError;
-use brdfkit_merl::{Dims, MerlError, MerlTable};
+use brdfkit_merl::{Dims, MerlError, MerlTable, TableCells, TablePlanes};
 use brdfkit_rgl::{InputKind, MeasuredPoints, RglBsdf, RglError, TensorFile};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -121,12 +121,17 @@ impl Measured {
     /// table (positional reads into a buffer on huge pages), not through a copy of the
     /// whole file: that copy cost 35 MB of fresh 4 KiB pages and a second pass over
     /// the bytes, about 30 ms of a default fit's 0.2 s (docs/performance.md, "Issue
-    /// 28, session 11"). Anything else (a `.bsdf`, a pipe) is read whole, as before.
+    /// 28, session 11"). Without `keep_table` its planes become the cells' arrays in
+    /// place ([`TableCells`]; "Issue 28, session 14"). Anything else (a `.bsdf`, a
+    /// pipe) is read whole, as before.
     pub fn read(path: &Path, how: BsdfInput, keep_table: bool) -> Result<Measured, InputError> {
         let t = std::time::Instant::now();
         if std::fs::metadata(path).is_ok_and(|m| m.is_file())
             && InputKind::of_file(path).is_ok_and(|k| k != InputKind::Rgl)
         {
+            if !keep_table {
+                return Measured::read_cells(path);
+            }
             let table = MerlTable::read(path)?;
             let read_s = t.elapsed().as_secs_f64();
             let m = Measured::of_table(table, path, None, keep_table, None)?;
@@ -141,6 +146,32 @@ impl Measured {
         Ok(Measured {
             read_s: read_s + m.read_s,
             ..m
+        })
+    }
+
+    /// A MERL table file's valid cells, its values read straight into the cells'
+    /// arrays ([`FitData::from_table_cells`]): no table in memory, and the values copied
+    /// from the file into fresh memory once. `read_s` is the file's reading and
+    /// checking ([`TablePlanes::read`]); the cells are built in its planes' buffers.
+    fn read_cells(path: &Path) -> Result<Measured, InputError> {
+        let t = std::time::Instant::now();
+        let planes = TablePlanes::read(path)?;
+        let read_s = t.elapsed().as_secs_f64();
+        let data = FitData::from_table_cells(TableCells::from_planes(planes)).map_err(|e| {
+            InputError::Data {
+                path: path.to_owned(),
+                message: e.to_string(),
+            }
+        })?;
+        Ok(Measured {
+            data,
+            side: MeasuredSide::Table {
+                table: None,
+                resampled_from_bsdf: None,
+            },
+            path: path.to_owned(),
+            note: None,
+            read_s,
         })
     }
 

@@ -2,7 +2,9 @@
 //! exactly the cells of an independent construction (every valid cell's directions
 //! pushed into a `GeometryBatch`, its value and measure), the lazy angle and
 //! multiplicity views hold what the old stored arrays held, and the stratified
-//! subsample draws the same cells as the straightforward per-bin algorithm.
+//! subsample draws the same cells as the straightforward per-bin algorithm; a table
+//! file read straight into cells (`FitData::from_table_cells`) gives `from_table`'s
+//! cells of the table read from it.
 
 mod common;
 use brdfkit_core::{GeometryBatch, Rgb};
@@ -523,5 +525,79 @@ fn reading_a_table_file_gives_the_cells_of_its_bytes() {
             .expect("an error");
         assert_eq!(e.to_string(), e2.to_string());
         assert!(e.to_string().contains("t.binary"), "{e}");
+    }
+}
+
+/// A table file's cells read without a table (`TableCells`, the planes turned in place
+/// into the cells' arrays) are `from_table`'s cells of the table read from the file,
+/// bit for bit, on the test table and on a MERL-sized one of a measured-like model; a
+/// file without a valid cell is a typed error naming the file, through `Measured` as
+/// through `from_table`.
+#[test]
+fn table_cells_read_from_a_file_are_the_tables_cells() {
+    use brdfkit_fit::{BsdfInput, Measured};
+    use brdfkit_merl::{Dims, TableCells};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.binary");
+    let merl = MerlTable::from_brdf(model(CT).as_ref(), Dims::MERL).unwrap();
+    for t in [table(), merl] {
+        t.write(&path).unwrap();
+        let direct = FitData::from_table_cells(TableCells::read(&path).unwrap()).unwrap();
+        let through = FitData::from_table(&MerlTable::read(&path).unwrap()).unwrap();
+        assert!(
+            direct.geometry_if_built().is_none(),
+            "the geometry stays lazy"
+        );
+        assert_same(&direct, &through, "from_table_cells against from_table");
+        assert!(
+            direct.heap_bytes() <= through.heap_bytes(),
+            "{} bytes against {}",
+            direct.heap_bytes(),
+            through.heap_bytes()
+        );
+    }
+    MerlTable::all_missing(dims(6, 5, 8)).write(&path).unwrap();
+    assert!(FitData::from_table_cells(TableCells::read(&path).unwrap()).is_err());
+    let e = Measured::read(&path, BsdfInput::Points, false)
+        .err()
+        .expect("no valid cell");
+    assert!(
+        e.to_string().contains("t.binary") && e.to_string().contains("no valid cell"),
+        "{e}"
+    );
+}
+
+/// A table's strata found row by row (`FitData::strata` on a table's cells) are every
+/// cell's own (`stratum_at`, from its computed cosines), on a whole MERL grid with
+/// every cell valid and on the gapped test table, and equal to the strata of the same
+/// cells with their geometry given as columns (the chunk-by-chunk path); the subsample
+/// drawn from them is the reference draw.
+#[test]
+fn row_by_row_strata_are_every_cells_own() {
+    use brdfkit_merl::Dims;
+    let all = MerlTable::from_fn(Dims::MERL, |_, _, _| Some(Rgb::new(0.1, 0.2, 0.3))).unwrap();
+    for t in [all, table()] {
+        let d = FitData::from_table(&t).unwrap();
+        let ids = d.strata();
+        assert!(
+            d.geometry_if_built().is_none(),
+            "row by row, not from the columns"
+        );
+        let own: Vec<u8> = (0..d.len()).map(|m| d.stratum_at(m) as u8).collect();
+        assert_eq!(ids, own);
+        let given = FitData::from_parts(
+            d.geometry().clone(),
+            d.values().clone(),
+            d.measure().to_vec(),
+        )
+        .unwrap();
+        assert_eq!(given.strata(), own);
+        let (idx, mult) = reference_subsample(&d, 0.05, 11);
+        let s = d.stratified_subsample(0.05, 11);
+        assert_eq!(s.multiplicity(), &mult[..]);
+        assert_eq!(
+            s.values()[0],
+            idx.iter().map(|&m| d.values()[0][m]).collect::<Vec<f64>>()
+        );
     }
 }

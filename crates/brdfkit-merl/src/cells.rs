@@ -8,7 +8,9 @@
 //! for bit, for the price of a few multiplications (building the cells of a 1.46 M-cell
 //! table for a fit spent about a fifth of its CPU in `sin`/`cos` before).
 
-use crate::grid::{Dims, phi_d_angle, theta_d_angle, theta_h_angle};
+use crate::grid::{Dims, cell_weight, phi_d_angle, theta_d_angle, theta_h_angle};
+use crate::io::TablePlanes;
+use crate::table::SCALES;
 use brdfkit_core::geometry::pair_columns_of;
 use brdfkit_core::lanes::{Run, dispatch};
 use brdfkit_core::{Columns, Vec3};
@@ -366,6 +368,130 @@ impl CellRuns {
     }
 }
 
+/// A run of valid cells as [`CellRuns::spans`] gives it: cells `cells` are the
+/// grid's cells `flat .. flat + cells.len()` (file order), all in row (i, j).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CellSpan {
+    /// The cells' numbers (the m of the m-th valid cell).
+    pub cells: Range<usize>,
+    /// The grid index of the first (`k + nφd · (j + nθd · i)`).
+    pub flat: usize,
+    /// θh bin of the row.
+    pub i: usize,
+    /// θd bin of the row.
+    pub j: usize,
+}
+
+impl CellRuns {
+    /// The runs of consecutive valid cells, in file order.
+    pub fn spans(&self) -> impl Iterator<Item = CellSpan> + '_ {
+        let d = self.dirs_dims();
+        self.runs.iter().enumerate().map(move |(r, run)| {
+            let (i, j, k) = (run.i as usize, run.j as usize, run.k as usize);
+            CellSpan {
+                cells: run.start..self.run_end(r),
+                flat: k + d[2] * (j + d[1] * i),
+                i,
+                j,
+            }
+        })
+    }
+
+    /// cos θh and cos θd of the grid's row (i, j), the cosines of its cells' half and
+    /// difference angles before their directions are formed: a cell's computed h.z and
+    /// cos θd ([`CellDirections::columns`]) differ from them by rounding only.
+    pub fn row_cosines(&self, i: usize, j: usize) -> [f64; 2] {
+        [self.dirs.theta_h[i][0], self.dirs.theta_d[j][0]]
+    }
+
+    /// The grid's (θh, θd, φd) bin counts.
+    fn dirs_dims(&self) -> [usize; 3] {
+        [
+            self.dirs.theta_h.len(),
+            self.dirs.theta_d.len(),
+            self.dirs.phi_d.len(),
+        ]
+    }
+}
+
+/// The valid cells of a table as a fit takes them, in file order: their grid positions
+/// ([`CellRuns`]), their physical values per channel (raw × [`SCALES`], the product
+/// [`MerlTable::get_flat`](crate::MerlTable::get_flat) forms) and each cell's measure
+/// ([`cell_weight`] of its row).
+#[derive(Clone, Debug)]
+pub struct TableCells {
+    /// Which cells.
+    pub runs: CellRuns,
+    /// Values (1/sr), one plane per channel; cell m at index m.
+    pub values: [Vec<f64>; 3],
+    /// Measure of each cell's (wi, wo) pairs (sr²).
+    pub measure: Vec<f64>,
+}
+
+impl TableCells {
+    /// The valid cells of a table file, read without building the table
+    /// ([`TablePlanes::read`], then [`from_planes`](Self::from_planes)). Every failure is
+    /// the [`MerlError`](crate::MerlError) that [`MerlTable::read`](crate::MerlTable::read)
+    /// gives.
+    pub fn read(path: impl AsRef<std::path::Path>) -> Result<TableCells, crate::MerlError> {
+        Ok(TableCells::from_planes(TablePlanes::read(path)?))
+    }
+
+    /// The valid cells of a file's planes, built in the planes' own buffers: each
+    /// plane's valid values are moved to its front, in cell order, and it is cut to
+    /// them. The values go from the file into fresh memory once; the planes' invalid
+    /// cells (a quarter of a MERL table) are given back. The three planes and the
+    /// measures are four parallel tasks.
+    pub fn from_planes(p: TablePlanes) -> TableCells {
+        let TablePlanes {
+            dims,
+            planes,
+            valid,
+            n_valid,
+        } = p;
+        let runs = CellRuns::new(dims, &valid);
+        drop(valid);
+        debug_assert_eq!(runs.len(), n_valid);
+        let [r, g, b] = planes;
+        let ((r, g), (b, measure)) = rayon::join(
+            || rayon::join(|| runs.compact(r, 0), || runs.compact(g, 1)),
+            || rayon::join(|| runs.compact(b, 2), || runs.measures(dims)),
+        );
+        TableCells {
+            runs,
+            values: [r, g, b],
+            measure,
+        }
+    }
+}
+
+impl CellRuns {
+    /// The valid cells' physical values of channel `c` from its raw plane (one value per
+    /// grid cell), computed in place: a cell's number is never above its grid index, so
+    /// a forward pass moves each run before anything overwrites it. The plane is then
+    /// cut to the valid cells (a shrink in place: no copy).
+    fn compact(&self, mut plane: Vec<f64>, c: usize) -> Vec<f64> {
+        for s in self.spans() {
+            plane.copy_within(s.flat..s.flat + s.cells.len(), s.cells.start);
+            for v in &mut plane[s.cells] {
+                *v *= SCALES[c];
+            }
+        }
+        plane.truncate(self.len);
+        plane.shrink_to_fit();
+        plane
+    }
+
+    /// Each valid cell's measure, [`cell_weight`] of its row (four sines a span).
+    fn measures(&self, dims: Dims) -> Vec<f64> {
+        let mut w = crate::zeroed_f64_exact(self.len);
+        for s in self.spans() {
+            w[s.cells].fill(cell_weight(dims, s.i, s.j));
+        }
+        w
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -509,5 +635,57 @@ mod tests {
             assert_eq!(bits(&cols, idx.len()), picked);
         }
         assert!(CellRuns::new(dims, &vec![false; dims.cells()]).is_empty());
+    }
+
+    /// The spans cover the valid cells once each, in file order, with their grid index
+    /// and row; a file's planes turned in place into cells give every valid cell's
+    /// `get_flat` value and `cell_weight` measure, bit for bit, in buffers cut to the
+    /// valid cells.
+    #[test]
+    fn spans_and_cells_in_place_are_the_tables_valid_cells() {
+        let dims = Dims::new(13, 17, 23).unwrap();
+        let t = crate::MerlTable::from_fn(dims, |i, j, k| {
+            let x = (i * 31 + j * 7 + k) as f64;
+            // Gaps of every length, a row with none valid (i = 4), whole valid rows.
+            ((k * 7 + i * 3 + j) % 11 > 2 && i != 4 || j == 0)
+                .then(|| brdfkit_core::Rgb::new(x.sin().abs(), x * 1e-3, 1.0 / (1.0 + x)))
+        })
+        .unwrap();
+        let valid: Vec<usize> = (0..dims.cells()).filter(|&x| t.is_valid(x)).collect();
+        let runs = CellRuns::new(dims, t.valid_mask());
+        let mut covered = Vec::new();
+        for s in runs.spans() {
+            assert_eq!(s.cells.start, covered.len());
+            for (n, m) in s.cells.clone().enumerate() {
+                assert_eq!(
+                    dims.unflatten(s.flat + n),
+                    (s.i, s.j, dims.unflatten(valid[m]).2)
+                );
+                covered.push(s.flat + n);
+            }
+        }
+        assert_eq!(covered, valid);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.binary");
+        t.write(&path).unwrap();
+        let cells = TableCells::read(&path).unwrap();
+        assert_eq!(cells.runs.len(), valid.len());
+        for c in 0..3 {
+            let want: Vec<u64> = valid
+                .iter()
+                .map(|&x| t.get_flat(x).unwrap()[c].to_bits())
+                .collect();
+            let got: Vec<u64> = cells.values[c].iter().map(|v| v.to_bits()).collect();
+            assert_eq!(got, want, "channel {c}");
+            assert_eq!(cells.values[c].capacity(), valid.len(), "cut to the cells");
+        }
+        let want: Vec<f64> = valid
+            .iter()
+            .map(|&x| {
+                let (i, j, _) = dims.unflatten(x);
+                cell_weight(dims, i, j)
+            })
+            .collect();
+        assert_eq!(cells.measure, want);
     }
 }

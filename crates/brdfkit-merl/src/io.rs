@@ -17,7 +17,9 @@
 
 use crate::error::{BadValue, ByteCount, MerlError};
 use crate::grid::{Dims, HEADER_BYTES, IO_CHUNK_CELLS};
-use crate::table::{MerlTable, acceptable_raw, alloc_mask, alloc_raw, raw_valid, spread};
+use crate::table::{
+    MerlTable, acceptable_raw, alloc_mask, alloc_raw, raw_valid, spread, zeroed_f64,
+};
 use byteorder::{ByteOrder, LittleEndian};
 use std::cell::RefCell;
 use std::fs::File;
@@ -28,25 +30,25 @@ use std::path::Path;
 /// or a byte slice.
 trait Source: Sync {
     /// The bytes of cells `first .. first + len` of the three planes of `n` cells (R, G,
-    /// B), read into `buf` if they are not already in memory, each plane's copy placed
-    /// `shift` bytes (modulo [`ALIAS_PERIOD`]) after the address of its file offset.
+    /// B), read into `buf` if they are not already in memory, plane c's copy placed
+    /// `shift[c]` bytes (modulo [`ALIAS_PERIOD`]) after the address of its file offset.
     fn planes<'a>(
         &'a self,
         n: usize,
         first: usize,
         len: usize,
-        shift: usize,
+        shift: [usize; 3],
         buf: &'a mut Vec<u8>,
     ) -> io::Result<[&'a [u8]; 3]>;
 }
 
-impl Source for [u8] {
+impl Source for &[u8] {
     fn planes<'a>(
         &'a self,
         n: usize,
         first: usize,
         len: usize,
-        _shift: usize,
+        _shift: [usize; 3],
         _buf: &'a mut Vec<u8>,
     ) -> io::Result<[&'a [u8]; 3]> {
         Ok(std::array::from_fn(|c| {
@@ -63,7 +65,7 @@ impl Source for File {
         n: usize,
         first: usize,
         len: usize,
-        shift: usize,
+        shift: [usize; 3],
         buf: &'a mut Vec<u8>,
     ) -> io::Result<[&'a [u8]; 3]> {
         use std::os::unix::fs::FileExt;
@@ -80,7 +82,7 @@ impl Source for File {
             let off = HEADER_BYTES as usize + 8 * (c * n + first);
             // A page-cache page is page-aligned, so the kernel reads byte `off` at an
             // address ≡ off (mod 4 KiB).
-            let at = (off + shift).wrapping_sub(part.as_ptr() as usize) % ALIAS_PERIOD;
+            let at = (off + shift[c]).wrapping_sub(part.as_ptr() as usize) % ALIAS_PERIOD;
             let dst = &mut std::mem::take(part)[at..at + 8 * len];
             self.read_exact_at(dst, off as u64)?;
             *part = dst;
@@ -217,10 +219,10 @@ fn parse_header(header: &[u8; 12], len: u64, path: &Path) -> Result<Dims, MerlEr
     Ok(dims)
 }
 
-/// Reads a table from a stream without a known length (a pipe, a device): the header,
-/// then the body through `take`, so the buffer grows with the bytes actually present
+/// Reads the dims and the body of a table from a stream without a known length (a
+/// pipe, a device): the header, then the body through `take`, so the buffer grows with the bytes actually present
 /// and never beyond what the header claims; any excess is counted, not stored.
-fn read_stream(mut r: impl Read, path: &Path) -> Result<MerlTable, MerlError> {
+fn read_stream(mut r: impl Read, path: &Path) -> Result<(Dims, Vec<u8>), MerlError> {
     let mut header = [0u8; 12];
     let mut got = 0;
     while got < 12 {
@@ -245,29 +247,96 @@ fn read_stream(mut r: impl Read, path: &Path) -> Result<MerlTable, MerlError> {
         .map_err(|e| MerlError::io(path, "reading", e))?;
     let extra = io::copy(&mut r, &mut io::sink()).map_err(|e| MerlError::io(path, "reading", e))?;
     check_length(dims, HEADER_BYTES + body.len() as u64 + extra, path)?;
-    read_body(dims, path, &body[..], IO_CHUNK_CELLS)
+    Ok((dims, body))
 }
 
-/// Reads the body (3 planes of little-endian f64) from `src` into a new table, in
-/// parallel over runs of `chunk` cells ([`IO_CHUNK_CELLS`] outside tests), validating in the same
-/// pass: each task takes the same cells from the three planes, so it alone owns their
-/// mask entries. The first unacceptable value in file order is an error: each task
-/// reports its own first one, and the earliest in the file wins.
+/// Reads the body (3 planes of little-endian f64) from `src` into a new table
+/// ([`decode_body`]).
 fn read_body(
     dims: Dims,
     path: &Path,
     src: &(impl Source + ?Sized),
     chunk: usize,
 ) -> Result<MerlTable, MerlError> {
+    let n = dims.cells();
+    let mut raw = alloc_raw(n);
+    let (r, gb) = raw.split_at_mut(n);
+    let (g, b) = gb.split_at_mut(n);
+    let (valid, n_valid) = decode_body(dims, path, src, chunk, [r, g, b])?;
+    Ok(MerlTable::assemble(dims, raw, valid, n_valid))
+}
+
+/// A table file's three raw planes, each in a buffer of its own (`dims.cells()` long,
+/// on huge pages where the system allows), with the validity mask
+/// and the count of valid cells: what [`TableCells::from_planes`](crate::TableCells::from_planes)
+/// turns, in place, into the valid cells' values, so that a fit copies the measured
+/// values from the file into fresh memory once (through a [`MerlTable`] it copied them
+/// twice: file → table → cells).
+#[derive(Debug)]
+pub struct TablePlanes {
+    pub(crate) dims: Dims,
+    pub(crate) planes: [Vec<f64>; 3],
+    pub(crate) valid: Vec<bool>,
+    pub(crate) n_valid: usize,
+}
+
+impl TablePlanes {
+    /// Reads a table file's planes without building the table: the same checks, the
+    /// same values and every failure the same [`MerlError`] as [`MerlTable::read`].
+    pub fn read(path: impl AsRef<Path>) -> Result<TablePlanes, MerlError> {
+        let path = path.as_ref();
+        read_file(path, |dims, src| {
+            // Rounded up to whole huge pages (`zeroed_f64`, not the exact length): the
+            // ends' 4 KiB faults would cost more than the rounding, which the cells
+            // give back when they cut the planes to the valid cells.
+            let mut planes = [0, 1, 2].map(|_| zeroed_f64(dims.cells()));
+            let [r, g, b] = &mut planes;
+            let (valid, n_valid) = decode_body(dims, path, src, IO_CHUNK_CELLS, [r, g, b])?;
+            Ok(TablePlanes {
+                dims,
+                planes,
+                valid,
+                n_valid,
+            })
+        })
+    }
+
+    /// The grid.
+    pub fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    /// Number of valid cells.
+    pub fn valid_count(&self) -> usize {
+        self.n_valid
+    }
+}
+
+/// Decodes the body (3 planes of little-endian f64) from `src` into the planes `rgb`
+/// (raw values, `dims.cells()` each) and returns the validity mask and the number of
+/// valid cells. In parallel over runs of `chunk` cells ([`IO_CHUNK_CELLS`] outside
+/// tests), validating in the same pass: each task takes the same cells from the three
+/// planes, so it alone owns their mask entries. The first unacceptable value in file
+/// order is an error: each task reports its own first one, and the earliest in the
+/// file wins.
+fn decode_body(
+    dims: Dims,
+    path: &Path,
+    src: &(impl Source + ?Sized),
+    chunk: usize,
+    rgb: [&mut [f64]; 3],
+) -> Result<(Vec<bool>, usize), MerlError> {
     /// A task's result: its valid cells, and its first bad value as (position in the
     /// file's value order, value).
     type Run = (usize, Option<(usize, f64)>);
     let n = dims.cells();
-    let mut raw = alloc_raw(n);
     let mut valid = alloc_mask(n);
-    let shift = staging_shift((raw.as_ptr() as usize).wrapping_sub(HEADER_BYTES as usize));
-    let (r, gb) = raw.split_at_mut(n);
-    let (g, b) = gb.split_at_mut(n);
+    // Each plane's own distance from its file offset (one buffer or three).
+    let shift = [0, 1, 2].map(|c| {
+        let file_at = HEADER_BYTES as usize + 8 * c * n;
+        staging_shift((rgb[c].as_ptr() as usize).wrapping_sub(file_at))
+    });
+    let [r, g, b] = rgb;
     let earliest = |a: Option<(usize, f64)>, b: Option<(usize, f64)>| match (a, b) {
         (Some(x), Some(y)) => Some(if y.0 < x.0 { y } else { x }),
         (x, y) => x.or(y),
@@ -307,52 +376,64 @@ fn read_body(
         valid
             .iter()
             .enumerate()
-            .all(|(x, &v)| v == raw_valid(raw[x], raw[n + x], raw[2 * n + x]))
+            .all(|(x, &v)| v == raw_valid(r[x], g[x], b[x]))
     );
-    Ok(MerlTable::assemble(dims, raw, valid, n_valid))
+    Ok((valid, n_valid))
+}
+
+/// Opens a table file and hands its dims and body to `body`: a regular file's header
+/// checked against its length, then the file itself for positional reads (its bytes
+/// elsewhere); a pipe or a device read whole through [`read_stream`]'s checks. Every
+/// failure is a [`MerlError`] naming the file.
+fn read_file<T>(
+    path: &Path,
+    body: impl FnOnce(Dims, &dyn Source) -> Result<T, MerlError>,
+) -> Result<T, MerlError> {
+    let mut file = File::open(path).map_err(|e| MerlError::io(path, "opening", e))?;
+    let meta = file
+        .metadata()
+        .map_err(|e| MerlError::io(path, "reading metadata", e))?;
+    if meta.is_dir() {
+        return Err(MerlError::IsDirectory {
+            path: path.to_path_buf(),
+        });
+    }
+    if !meta.is_file() {
+        // A pipe or a device has no length to check the header against.
+        let (dims, bytes) = read_stream(file, path)?;
+        return body(dims, &&bytes[..]);
+    }
+    let len = meta.len();
+    if len < HEADER_BYTES {
+        return Err(MerlError::TooShort {
+            path: path.to_path_buf(),
+            len,
+        });
+    }
+    let mut header = [0u8; 12];
+    file.read_exact(&mut header)
+        .map_err(|e| MerlError::io(path, "reading the header", e))?;
+    let dims = parse_header(&header, len, path)?;
+    #[cfg(unix)]
+    {
+        body(dims, &file)
+    }
+    #[cfg(not(unix))]
+    {
+        // No positional reads: the body in one buffer (its size was checked
+        // against the file's length above), then the same conversion.
+        let mut bytes = vec![0u8; len as usize - 12];
+        file.read_exact(&mut bytes)
+            .map_err(|e| MerlError::io(path, "reading", e))?;
+        body(dims, &&bytes[..])
+    }
 }
 
 impl MerlTable {
     /// Reads a table file. Every failure is a [`MerlError`] naming the file.
     pub fn read(path: impl AsRef<Path>) -> Result<MerlTable, MerlError> {
         let path = path.as_ref();
-        let mut file = File::open(path).map_err(|e| MerlError::io(path, "opening", e))?;
-        let meta = file
-            .metadata()
-            .map_err(|e| MerlError::io(path, "reading metadata", e))?;
-        if meta.is_dir() {
-            return Err(MerlError::IsDirectory {
-                path: path.to_path_buf(),
-            });
-        }
-        if !meta.is_file() {
-            // A pipe or a device has no length to check the header against.
-            return read_stream(file, path);
-        }
-        let len = meta.len();
-        if len < HEADER_BYTES {
-            return Err(MerlError::TooShort {
-                path: path.to_path_buf(),
-                len,
-            });
-        }
-        let mut header = [0u8; 12];
-        file.read_exact(&mut header)
-            .map_err(|e| MerlError::io(path, "reading the header", e))?;
-        let dims = parse_header(&header, len, path)?;
-        #[cfg(unix)]
-        {
-            read_body(dims, path, &file, IO_CHUNK_CELLS)
-        }
-        #[cfg(not(unix))]
-        {
-            // No positional reads: the body in one buffer (its size was checked
-            // against the file's length above), then the same conversion.
-            let mut bytes = vec![0u8; len as usize - 12];
-            file.read_exact(&mut bytes)
-                .map_err(|e| MerlError::io(path, "reading", e))?;
-            read_body(dims, path, &bytes[..], IO_CHUNK_CELLS)
-        }
+        read_file(path, |dims, src| read_body(dims, path, src, IO_CHUNK_CELLS))
     }
 
     /// Parses a table from bytes; `name` stands for the file in error messages.
@@ -367,7 +448,7 @@ impl MerlTable {
         }
         let header: [u8; 12] = bytes[..12].try_into().expect("12 bytes");
         let dims = parse_header(&header, len, path)?;
-        read_body(dims, path, &bytes[HEADER_BYTES as usize..], IO_CHUNK_CELLS)
+        read_body(dims, path, &&bytes[HEADER_BYTES as usize..], IO_CHUNK_CELLS)
     }
 
     /// The file image: header then the raw planes, exactly the bytes [`write`](Self::write)
@@ -501,7 +582,7 @@ mod tests {
             let what = format!("run of {chunk} cells");
             let t = read_body(dims, &path, &file, chunk).unwrap();
             assert_bit_identical(&t, &reference, &format!("file, {what}"));
-            let t = read_body(dims, &path, &bytes[12..], chunk).unwrap();
+            let t = read_body(dims, &path, &&bytes[12..], chunk).unwrap();
             assert_bit_identical(&t, &reference, &format!("slice, {what}"));
         }
         assert_bit_identical(&MerlTable::read(&path).unwrap(), &reference, "read");
@@ -549,7 +630,7 @@ mod tests {
         for chunk in [1, 3, 7, 64, 901, 1001, IO_CHUNK_CELLS] {
             for e in [
                 read_body(dims, &path, &file, chunk).unwrap_err(),
-                read_body(dims, &path, &bytes[12..], chunk).unwrap_err(),
+                read_body(dims, &path, &&bytes[12..], chunk).unwrap_err(),
             ] {
                 match e {
                     MerlError::TooLarge {
@@ -573,7 +654,7 @@ mod tests {
         raw[900] = 1.0;
         let bytes = image(dims, &raw);
         for chunk in [1, 7, 1001] {
-            let e = read_body(dims, &path, &bytes[12..], chunk).unwrap_err();
+            let e = read_body(dims, &path, &&bytes[12..], chunk).unwrap_err();
             assert!(
                 matches!(
                     e,

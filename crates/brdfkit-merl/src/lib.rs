@@ -32,13 +32,13 @@ pub mod resample;
 pub mod stats;
 pub mod table;
 
-pub use cells::{CellDirections, CellRuns};
+pub use cells::{CellDirections, CellRuns, TableCells};
 pub use error::{BadValue, ByteCount, Channel, MerlError, TableError};
 pub use grid::{
     Dims, DimsError, IO_CHUNK_CELLS, cell_weight, phi_d_angle, phi_d_bin, phi_d_coord, snap_coord,
     theta_d_angle, theta_d_bin, theta_d_coord, theta_h_angle, theta_h_bin, theta_h_coord,
 };
-pub use io::atomic_write;
+pub use io::{TablePlanes, atomic_write};
 pub use lookup::{BATCH_RUN, Lookup, PairsError};
 #[cfg(unix)]
 pub use mapped::MappedF64;
