@@ -39,12 +39,13 @@
 //! measure the corners: see [`Model::conserves_energy`] and `docs/models.md`.
 
 use crate::json;
-use crate::pair::{PairGeom, pair_kernel_brdf, pair_kernel_evals};
-use crate::params::{DiffuseSpecular, ShapedLayout, above_horizon, shape_gradient};
+use crate::lanes::{self, Run, dispatch, select};
+use crate::pair::{PairGeom, pair_geometry, pair_kernel_brdf};
+use crate::params::{DiffuseSpecular, ShapedLayout, above_horizon, grad_via, shape_gradient};
 use crate::shape::Shape;
 use brdfkit_core::model::Domain;
 use brdfkit_core::scattering::fresnel::schlick_weight;
-use brdfkit_core::{Model, ModelError, ParamSpec, Rgb};
+use brdfkit_core::{GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Value, json};
 use std::f64::consts::PI;
 
@@ -116,6 +117,49 @@ impl AshikhminShirley {
         AshikhminShirley::new().with_lobes_from_json(&o, M)
     }
 
+    /// The per-model constants of [`Lobe::terms`].
+    #[inline(always)]
+    fn lobe(&self) -> Lobe {
+        let (nu, nv) = self.n.xy();
+        Lobe {
+            nu,
+            nv,
+            norm: ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI),
+            du: 0.5 / (nu + 1.0),
+            dv: 0.5 / (nv + 1.0),
+        }
+    }
+
+    /// f from a pair's [`Terms`] (both directions above the horizon; all terms 0 give
+    /// +0): Rd (1 − Rs) ρ_diff-factor + P F per channel.
+    #[inline(always)]
+    fn value(&self, t: &Terms) -> Rgb {
+        let mut out = [0.0; 3];
+        for (c, o) in out.iter_mut().enumerate() {
+            let rs = self.rho_s.0[c];
+            let f = rs + (1.0 - rs) * t.w;
+            *o = t.dd * self.rho_d.0[c] * (1.0 - rs) + t.p * f;
+        }
+        Rgb(out)
+    }
+
+    /// The gradient from a pair's [`Terms`], all `MAXP` entries (the last is 0 for an
+    /// isotropic exponent): ∂f/∂Rd = dd (1 − Rs), ∂f/∂Rs = −dd Rd + P (1 − w) (each in
+    /// its channel), ∂f/∂n_u = F ∂P/∂n_u (`shape_gradient`).
+    #[inline(always)]
+    fn gradient(&self, t: &Terms) -> [Rgb; MAXP] {
+        let mut gr = [Rgb::ZERO; MAXP];
+        let mut f = [0.0; 3];
+        for c in 0..3 {
+            let (rd, rs) = (self.rho_d.0[c], self.rho_s.0[c]);
+            f[c] = rs + (1.0 - rs) * t.w;
+            gr[c].0[c] = t.dd * (1.0 - rs);
+            gr[3 + c].0[c] = -t.dd * rd + t.p * (1.0 - t.w);
+        }
+        shape_gradient(&self.n, Rgb(f), t.p_u, t.p_v, &mut gr);
+        gr
+    }
+
     /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
     #[inline(always)]
     fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; MAXP]>) -> Rgb {
@@ -123,44 +167,69 @@ impl AshikhminShirley {
         let Some(grad) = above_horizon(&wi, &wo, grad) else {
             return Rgb::ZERO;
         };
-        let (nu, nv) = self.n.xy();
+        let t = self.lobe().terms(wi, wo, h);
+        if let Some(gr) = grad {
+            *gr = self.gradient(&t);
+        }
+        self.value(&t)
+    }
+}
+
+/// The constants of one model's lobe: the exponents, √((n_u + 1)(n_v + 1))/(8π) and
+/// the ½/(n + 1) of ∂P/∂n.
+#[derive(Clone, Copy)]
+struct Lobe {
+    nu: f64,
+    nv: f64,
+    norm: f64,
+    du: f64,
+    dv: f64,
+}
+
+/// The channel-free factors of one pair, from which the value ([`AshikhminShirley::value`])
+/// and gradient ([`AshikhminShirley::gradient`]) are assembled.
+#[derive(Clone, Copy, Default)]
+struct Terms {
+    /// 28/(23π) (1 − (1 − cos θi/2)⁵)(1 − (1 − cos θo/2)⁵).
+    dd: f64,
+    /// P = √((n_u + 1)(n_v + 1))/(8π) (n·h)^e / ((h·k) max(cos θi, cos θo)).
+    p: f64,
+    /// Schlick's weight (1 − h·k)⁵.
+    w: f64,
+    /// ∂P/∂n_u = P (1/(2(n_u + 1)) + hx² ln(hz)/(hx² + hy²)).
+    p_u: f64,
+    /// ∂P/∂n_v, likewise.
+    p_v: f64,
+}
+
+impl Lobe {
+    /// The [`Terms`] of a pair with both directions above the horizon, without a branch
+    /// or a library call (so a loop of it vectorises; finite garbage below the horizon,
+    /// which callers select away). ln hz is ½ ln(1 − s²) below s² = hx² + hy² = ½ and
+    /// ln hz above (module doc), taken by one [`lanes::ln_sum`]: of 1 − s² with its
+    /// rounding error ([`lanes::one_plus`]), or of hz.
+    #[inline(always)]
+    fn terms(&self, wi: [f64; 3], wo: [f64; 3], h: [f64; 3]) -> Terms {
         let (hx2, hy2) = (h[0] * h[0], h[1] * h[1]);
         let s2 = hx2 + hy2;
-        // ln(hz)/(hx² + hy²): see the module doc. h.z > 0 whenever both directions are
-        // above the horizon, so ln(hz) is finite.
-        let r = if s2 == 0.0 {
-            -0.5
-        } else if s2 < 0.5 {
-            0.5 * (-s2).ln_1p() / s2
-        } else {
-            h[2].ln() / s2
-        };
-        let pw = ((nu * hx2 + nv * hy2) * r).exp();
-        let u = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
-        let kh = 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-        let norm = ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI);
-        let p = norm * pw / (kh * wi[2].max(wo[2]));
-        let w = schlick_weight(kh);
-        let dd = DIFFUSE_NORM * diffuse_factor(wi[2]) * diffuse_factor(wo[2]);
-        let mut out = Rgb::ZERO;
-        let mut f = [0.0; 3];
-        for c in 0..3 {
-            let rs = self.rho_s[c];
-            f[c] = rs + (1.0 - rs) * w;
-            out[c] = dd * self.rho_d[c] * (1.0 - rs) + p * f[c];
+        let near = s2 < 0.5;
+        let (one_minus, c) = lanes::one_plus(-s2);
+        let u = select(near, one_minus, h[2]);
+        let c = select(near, c, 0.0);
+        let ln_hz = select(near, 0.5, 1.0) * lanes::ln_sum(u, c);
+        // ln(hz)/(hx² + hy²), −½ at h = n (its limit), where the power is 1.
+        let r = select(s2 == 0.0, -0.5, ln_hz / s2);
+        let pw = lanes::exp((self.nu * hx2 + self.nv * hy2) * r);
+        let v = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let kh = 0.5 * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let p = self.norm * pw / (kh * lanes::max(wi[2], wo[2]));
+        Terms {
+            dd: DIFFUSE_NORM * diffuse_factor(wi[2]) * diffuse_factor(wo[2]),
+            p,
+            w: schlick_weight(kh),
+            p_u: p * (self.du + hx2 * r),
+            p_v: p * (self.dv + hy2 * r),
         }
-        if let Some(gr) = grad {
-            *gr = [Rgb::ZERO; MAXP];
-            for c in 0..3 {
-                gr[c][c] = dd * (1.0 - self.rho_s[c]);
-                gr[3 + c][c] = -dd * self.rho_d[c] + p * (1.0 - w);
-            }
-            // ∂P/∂n_u = P (1/(2(n_u + 1)) + hx² ln(hz)/(hx² + hy²)), likewise n_v.
-            let p_u = p * (0.5 / (nu + 1.0) + hx2 * r);
-            let p_v = p * (0.5 / (nv + 1.0) + hy2 * r);
-            shape_gradient(&self.n, Rgb::new(f[0], f[1], f[2]), p_u, p_v, gr);
-        }
-        out
     }
 }
 
@@ -175,10 +244,118 @@ impl Model for AshikhminShirley {
 
     shaped_lobe_params!(n);
 
-    pair_kernel_evals!(MAXP);
+    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
+        let p = pair_geometry(wi, wo);
+        grad_via::<MAXP>(self.num_params(), grad, |g| self.kernel(p, Some(g)))
+    }
+
+    /// One lane loop ([`Batch`]): the value of every pair from its [`Terms`].
+    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
+        dispatch(&mut Batch {
+            m: self,
+            g,
+            out,
+            grad: None,
+        });
+    }
+
+    /// The [`Terms`] of blocks of pairs in a lane loop into local planes, then the
+    /// value and the parameter-major gradient columns from them ([`Batch`]).
+    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
+        dispatch(&mut Batch {
+            m: self,
+            g,
+            out,
+            grad: Some(grad),
+        });
+    }
 
     fn to_json(&self) -> Value {
         let o = LAYOUT.write_json(self.rho_d, self.rho_s, self.n);
         json!({"model": "ashikhmin-shirley", "params": o})
     }
+}
+
+/// [`Model::eval_batch`] (`grad` None) and [`Model::eval_grad_batch`] as branch-free
+/// loops over [`Lobe::terms`] that vectorise (`lanes`).
+struct Batch<'a, 'g> {
+    m: &'a AshikhminShirley,
+    g: &'a GeomSlice<'g>,
+    out: &'a mut [Rgb],
+    grad: Option<&'a mut [Rgb]>,
+}
+
+/// Pairs per block of the gradient loop.
+const BLOCK: usize = 64;
+
+/// The nine geometry columns wi, wo, h of a batch, each cut to its length.
+type Cols<'a> = [&'a [f64]; 9];
+
+/// Pair k's directions and half vector from [`Cols`], and whether both directions are
+/// above the horizon.
+#[inline(always)]
+fn pair_of(d: &Cols<'_>, k: usize) -> (bool, [f64; 3], [f64; 3], [f64; 3]) {
+    let wi = [d[0][k], d[1][k], d[2][k]];
+    let wo = [d[3][k], d[4][k], d[5][k]];
+    (
+        wi[2] > 0.0 && wo[2] > 0.0,
+        wi,
+        wo,
+        [d[6][k], d[7][k], d[8][k]],
+    )
+}
+
+impl Run for Batch<'_, '_> {
+    #[inline(always)]
+    fn run(&mut self) {
+        let n = self.g.len();
+        let g = self.g;
+        let d: Cols<'_> = [
+            g.wi_x, g.wi_y, g.wi_z, g.wo_x, g.wo_y, g.wo_z, g.h_x, g.h_y, g.h_z,
+        ]
+        .map(|c| &c[..n]);
+        let (m, lobe) = (self.m, self.m.lobe());
+        let out = &mut self.out[..n];
+        let Some(grad) = self.grad.as_deref_mut() else {
+            for (k, o) in out.iter_mut().enumerate() {
+                let (above, wi, wo, h) = pair_of(&d, k);
+                let v = m.value(&lobe.terms(wi, wo, h));
+                *o = Rgb(v.0.map(|x| select(above, x, 0.0)));
+            }
+            return;
+        };
+        let np = m.num_params();
+        let grad = &mut grad[..np * n];
+        for s in (0..n).step_by(BLOCK) {
+            let e = (s + BLOCK).min(n);
+            let t = terms_block(&lobe, &d.map(|c| &c[s..e]));
+            for (i, k) in (s..e).enumerate() {
+                out[k] = m.value(&t[i]);
+                for (j, v) in m.gradient(&t[i]).iter().enumerate().take(np) {
+                    grad[j * n + k] = *v;
+                }
+            }
+        }
+    }
+}
+
+/// [`Lobe::terms`] of a block of at most [`BLOCK`] pairs into a local array, all 0
+/// below the horizon: a loop with no `Rgb` store, which vectorises.
+#[inline(always)]
+fn terms_block(lobe: &Lobe, d: &Cols<'_>) -> [Terms; BLOCK] {
+    let mut q = [Terms::default(); BLOCK];
+    let len = d[0].len().min(BLOCK);
+    for (k, q) in q[..len].iter_mut().enumerate() {
+        let (above, wi, wo, h) = pair_of(d, k);
+        let t = lobe.terms(wi, wo, h);
+        let z = |x: f64| select(above, x, 0.0);
+        *q = Terms {
+            dd: z(t.dd),
+            p: z(t.p),
+            w: z(t.w),
+            p_u: z(t.p_u),
+            p_v: z(t.p_v),
+        };
+    }
+    q
 }
