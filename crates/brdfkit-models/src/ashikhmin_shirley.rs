@@ -39,13 +39,15 @@
 //! measure the corners: see [`Model::conserves_energy`] and `docs/models.md`.
 
 use crate::json;
-use crate::lanes::{self, Run, dispatch, select};
-use crate::pair::{PairGeom, pair_geometry, pair_kernel_brdf};
-use crate::params::{DiffuseSpecular, ShapedLayout, above_horizon, grad_via, shape_gradient};
+use crate::lanes::{self, select};
+use crate::pair::{
+    PairGeom, PairTerms, lane_batch, pair_kernel_brdf, pair_terms_evals, pair_terms_kernel,
+};
+use crate::params::{DiffuseSpecular, ShapedLayout, shape_gradient};
 use crate::shape::Shape;
 use brdfkit_core::model::Domain;
 use brdfkit_core::scattering::fresnel::schlick_weight;
-use brdfkit_core::{GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
+use brdfkit_core::{GeomSlice, Model, ModelError, ParamSpec, Rgb};
 use serde_json::{Value, json};
 use std::f64::consts::PI;
 
@@ -117,61 +119,84 @@ impl AshikhminShirley {
         AshikhminShirley::new().with_lobes_from_json(&o, M)
     }
 
-    /// The per-model constants of [`Lobe::terms`].
+    /// The model's [`PairTerms`] kernel: the lobe's constants hoisted.
     #[inline(always)]
-    fn lobe(&self) -> Lobe {
+    fn lanes(&self) -> Kernel<'_> {
         let (nu, nv) = self.n.xy();
-        Lobe {
-            nu,
-            nv,
-            norm: ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI),
-            du: 0.5 / (nu + 1.0),
-            dv: 0.5 / (nv + 1.0),
+        Kernel {
+            m: self,
+            lobe: Lobe {
+                nu,
+                nv,
+                norm: ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI),
+                du: 0.5 / (nu + 1.0),
+                dv: 0.5 / (nv + 1.0),
+            },
         }
     }
 
-    /// f from a pair's [`Terms`] (both directions above the horizon; all terms 0 give
-    /// +0): Rd (1 − Rs) ρ_diff-factor + P F per channel.
+    /// Value and (optionally) gradient for one pair.
+    #[inline(always)]
+    fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; MAXP]>) -> Rgb {
+        pair_terms_kernel(&self.lanes(), p, grad)
+    }
+
+    /// `eval_batch` (`grad` None) and `eval_grad_batch` as lane loops.
+    fn batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: Option<&mut [Rgb]>) {
+        lane_batch(&self.lanes(), self.num_params(), g, out, grad);
+    }
+}
+
+/// The model with its lobe's constants.
+struct Kernel<'a> {
+    m: &'a AshikhminShirley,
+    lobe: Lobe,
+}
+
+impl PairTerms<MAXP> for Kernel<'_> {
+    type Terms = Terms;
+
+    #[inline(always)]
+    fn terms(&self, above: bool, wi: [f64; 3], wo: [f64; 3], h: [f64; 3]) -> Terms {
+        let t = self.lobe.terms(wi, wo, h);
+        let z = |x: f64| select(above, x, 0.0);
+        Terms {
+            dd: z(t.dd),
+            p: z(t.p),
+            w: z(t.w),
+            p_u: z(t.p_u),
+            p_v: z(t.p_v),
+        }
+    }
+
+    /// Rd (1 − Rs) dd + P F per channel.
     #[inline(always)]
     fn value(&self, t: &Terms) -> Rgb {
+        let m = self.m;
         let mut out = [0.0; 3];
         for (c, o) in out.iter_mut().enumerate() {
-            let rs = self.rho_s.0[c];
+            let rs = m.rho_s.0[c];
             let f = rs + (1.0 - rs) * t.w;
-            *o = t.dd * self.rho_d.0[c] * (1.0 - rs) + t.p * f;
+            *o = t.dd * m.rho_d.0[c] * (1.0 - rs) + t.p * f;
         }
         Rgb(out)
     }
 
-    /// The gradient from a pair's [`Terms`], all `MAXP` entries (the last is 0 for an
-    /// isotropic exponent): ∂f/∂Rd = dd (1 − Rs), ∂f/∂Rs = −dd Rd + P (1 − w) (each in
-    /// its channel), ∂f/∂n_u = F ∂P/∂n_u (`shape_gradient`).
+    /// ∂f/∂Rd = dd (1 − Rs), ∂f/∂Rs = −dd Rd + P (1 − w) (each in its channel),
+    /// ∂f/∂n_u = F ∂P/∂n_u, likewise n_v (`shape_gradient`).
     #[inline(always)]
     fn gradient(&self, t: &Terms) -> [Rgb; MAXP] {
+        let m = self.m;
         let mut gr = [Rgb::ZERO; MAXP];
         let mut f = [0.0; 3];
         for c in 0..3 {
-            let (rd, rs) = (self.rho_d.0[c], self.rho_s.0[c]);
+            let (rd, rs) = (m.rho_d.0[c], m.rho_s.0[c]);
             f[c] = rs + (1.0 - rs) * t.w;
             gr[c].0[c] = t.dd * (1.0 - rs);
             gr[3 + c].0[c] = -t.dd * rd + t.p * (1.0 - t.w);
         }
-        shape_gradient(&self.n, Rgb(f), t.p_u, t.p_v, &mut gr);
+        shape_gradient(&m.n, Rgb(f), t.p_u, t.p_v, &mut gr);
         gr
-    }
-
-    /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
-    #[inline(always)]
-    fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; MAXP]>) -> Rgb {
-        let PairGeom { wi, wo, h, .. } = p;
-        let Some(grad) = above_horizon(&wi, &wo, grad) else {
-            return Rgb::ZERO;
-        };
-        let t = self.lobe().terms(wi, wo, h);
-        if let Some(gr) = grad {
-            *gr = self.gradient(&t);
-        }
-        self.value(&t)
     }
 }
 
@@ -186,8 +211,8 @@ struct Lobe {
     dv: f64,
 }
 
-/// The channel-free factors of one pair, from which the value ([`AshikhminShirley::value`])
-/// and gradient ([`AshikhminShirley::gradient`]) are assembled.
+/// The channel-free factors of one pair, from which [`Kernel`] assembles the value and
+/// the gradient.
 #[derive(Clone, Copy, Default)]
 struct Terms {
     /// 28/(23π) (1 − (1 − cos θi/2)⁵)(1 − (1 − cos θo/2)⁵).
@@ -244,118 +269,10 @@ impl Model for AshikhminShirley {
 
     shaped_lobe_params!(n);
 
-    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let p = pair_geometry(wi, wo);
-        grad_via::<MAXP>(self.num_params(), grad, |g| self.kernel(p, Some(g)))
-    }
-
-    /// One lane loop ([`Batch`]): the value of every pair from its [`Terms`].
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        dispatch(&mut Batch {
-            m: self,
-            g,
-            out,
-            grad: None,
-        });
-    }
-
-    /// The [`Terms`] of blocks of pairs in a lane loop into local planes, then the
-    /// value and the parameter-major gradient columns from them ([`Batch`]).
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        dispatch(&mut Batch {
-            m: self,
-            g,
-            out,
-            grad: Some(grad),
-        });
-    }
+    pair_terms_evals!(MAXP);
 
     fn to_json(&self) -> Value {
         let o = LAYOUT.write_json(self.rho_d, self.rho_s, self.n);
         json!({"model": "ashikhmin-shirley", "params": o})
     }
-}
-
-/// [`Model::eval_batch`] (`grad` None) and [`Model::eval_grad_batch`] as branch-free
-/// loops over [`Lobe::terms`] that vectorise (`lanes`).
-struct Batch<'a, 'g> {
-    m: &'a AshikhminShirley,
-    g: &'a GeomSlice<'g>,
-    out: &'a mut [Rgb],
-    grad: Option<&'a mut [Rgb]>,
-}
-
-/// Pairs per block of the gradient loop.
-const BLOCK: usize = 64;
-
-/// The nine geometry columns wi, wo, h of a batch, each cut to its length.
-type Cols<'a> = [&'a [f64]; 9];
-
-/// Pair k's directions and half vector from [`Cols`], and whether both directions are
-/// above the horizon.
-#[inline(always)]
-fn pair_of(d: &Cols<'_>, k: usize) -> (bool, [f64; 3], [f64; 3], [f64; 3]) {
-    let wi = [d[0][k], d[1][k], d[2][k]];
-    let wo = [d[3][k], d[4][k], d[5][k]];
-    (
-        wi[2] > 0.0 && wo[2] > 0.0,
-        wi,
-        wo,
-        [d[6][k], d[7][k], d[8][k]],
-    )
-}
-
-impl Run for Batch<'_, '_> {
-    #[inline(always)]
-    fn run(&mut self) {
-        let n = self.g.len();
-        let g = self.g;
-        let d: Cols<'_> = [
-            g.wi_x, g.wi_y, g.wi_z, g.wo_x, g.wo_y, g.wo_z, g.h_x, g.h_y, g.h_z,
-        ]
-        .map(|c| &c[..n]);
-        let (m, lobe) = (self.m, self.m.lobe());
-        let out = &mut self.out[..n];
-        let Some(grad) = self.grad.as_deref_mut() else {
-            for (k, o) in out.iter_mut().enumerate() {
-                let (above, wi, wo, h) = pair_of(&d, k);
-                let v = m.value(&lobe.terms(wi, wo, h));
-                *o = Rgb(v.0.map(|x| select(above, x, 0.0)));
-            }
-            return;
-        };
-        let np = m.num_params();
-        let grad = &mut grad[..np * n];
-        for s in (0..n).step_by(BLOCK) {
-            let e = (s + BLOCK).min(n);
-            let t = terms_block(&lobe, &d.map(|c| &c[s..e]));
-            for (i, k) in (s..e).enumerate() {
-                out[k] = m.value(&t[i]);
-                for (j, v) in m.gradient(&t[i]).iter().enumerate().take(np) {
-                    grad[j * n + k] = *v;
-                }
-            }
-        }
-    }
-}
-
-/// [`Lobe::terms`] of a block of at most [`BLOCK`] pairs into a local array, all 0
-/// below the horizon: a loop with no `Rgb` store, which vectorises.
-#[inline(always)]
-fn terms_block(lobe: &Lobe, d: &Cols<'_>) -> [Terms; BLOCK] {
-    let mut q = [Terms::default(); BLOCK];
-    let len = d[0].len().min(BLOCK);
-    for (k, q) in q[..len].iter_mut().enumerate() {
-        let (above, wi, wo, h) = pair_of(d, k);
-        let t = lobe.terms(wi, wo, h);
-        let z = |x: f64| select(above, x, 0.0);
-        *q = Terms {
-            dd: z(t.dd),
-            p: z(t.p),
-            w: z(t.w),
-            p_u: z(t.p_u),
-            p_v: z(t.p_v),
-        };
-    }
-    q
 }
