@@ -121,10 +121,12 @@ impl AshikhminShirley {
 
     /// The model's [`PairTerms`] kernel: the lobe's constants hoisted.
     #[inline(always)]
-    fn lanes(&self) -> Kernel<'_> {
+    fn lanes(&self) -> Kernel {
         let (nu, nv) = self.n.xy();
         Kernel {
-            m: self,
+            rho_d: self.rho_d,
+            rho_s: self.rho_s,
+            n: self.n,
             lobe: Lobe {
                 nu,
                 nv,
@@ -147,13 +149,16 @@ impl AshikhminShirley {
     }
 }
 
-/// The model with its lobe's constants.
-struct Kernel<'a> {
-    m: &'a AshikhminShirley,
+/// The model's parameters with its lobe's constants.
+#[derive(Clone, Copy)]
+struct Kernel {
+    rho_d: Rgb,
+    rho_s: Rgb,
+    n: Shape,
     lobe: Lobe,
 }
 
-impl PairTerms<MAXP> for Kernel<'_> {
+impl PairTerms<MAXP> for Kernel {
     type Terms = Terms;
 
     #[inline(always)]
@@ -172,7 +177,7 @@ impl PairTerms<MAXP> for Kernel<'_> {
     /// Rd (1 − Rs) dd + P F per channel.
     #[inline(always)]
     fn value(&self, t: &Terms) -> Rgb {
-        let m = self.m;
+        let m = self;
         let mut out = [0.0; 3];
         for (c, o) in out.iter_mut().enumerate() {
             let rs = m.rho_s.0[c];
@@ -186,7 +191,7 @@ impl PairTerms<MAXP> for Kernel<'_> {
     /// ∂f/∂n_u = F ∂P/∂n_u, likewise n_v (`shape_gradient`).
     #[inline(always)]
     fn gradient(&self, t: &Terms) -> [Rgb; MAXP] {
-        let m = self.m;
+        let m = self;
         let mut gr = [Rgb::ZERO; MAXP];
         let mut f = [0.0; 3];
         for c in 0..3 {

@@ -119,11 +119,12 @@ macro_rules! pair_kernel_brdf {
 pub(crate) use pair_kernel_brdf;
 
 /// A half-vector model's per-pair kernel in the form the lane loops of
-/// [`lane_batch`] take: the channel-free factors of a pair ([`PairTerms::Terms`]),
+/// [`lane_batch`] take (a `Copy` value holding the model's parameters, which the loops
+/// copy into locals): the channel-free factors of a pair ([`PairTerms::Terms`]),
 /// branch-free and with no library call (so a loop of them vectorises), then the value
 /// and the `M` gradient entries assembled from them. The model's `eval` and `eval_grad`
 /// call the same three functions, so every path gives the same bits.
-pub(crate) trait PairTerms<const M: usize> {
+pub(crate) trait PairTerms<const M: usize>: Copy {
     /// The factors of one pair.
     type Terms: Copy + Default;
     /// The factors of a pair; where `above` is false (a direction at or below the
@@ -202,7 +203,9 @@ struct LaneBatch<'a, 'g, K, const M: usize> {
 impl<const M: usize, K: PairTerms<M>> crate::lanes::Run for LaneBatch<'_, '_, K, M> {
     #[inline(always)]
     fn run(&mut self) {
-        let (k, g, n) = (self.k, self.g, self.g.len());
+        // A local copy: loads through the struct's reference are not known to be
+        // unaffected by the stores to `out` and stay in the loop (kept it scalar).
+        let (k, g, n) = (*self.k, self.g, self.g.len());
         let d: Cols<'_> = [
             g.wi_x, g.wi_y, g.wi_z, g.wo_x, g.wo_y, g.wo_z, g.h_x, g.h_y, g.h_z,
         ]
@@ -218,7 +221,7 @@ impl<const M: usize, K: PairTerms<M>> crate::lanes::Run for LaneBatch<'_, '_, K,
         let grad = &mut grad[..self.np * n];
         for s in (0..n).step_by(BLOCK) {
             let e = (s + BLOCK).min(n);
-            let t = terms_block(k, &d.map(|c| &c[s..e]));
+            let t = terms_block(&k, &d.map(|c| &c[s..e]));
             for (i, j) in (s..e).enumerate() {
                 out[j] = k.value(&t[i]);
                 for (p, v) in k.gradient(&t[i]).iter().enumerate().take(self.np) {

@@ -152,9 +152,15 @@ impl Ward {
     /// The model's [`PairTerms`] kernel for normalisation `N` (a [`Normalization`] as
     /// `u8`, a constant so that the lane loops carry no `match`).
     #[inline(always)]
-    fn lanes<const N: u8>(&self) -> Kernel<'_, N> {
+    fn lanes<const N: u8>(&self) -> Kernel<N> {
         let (ax, ay) = self.alpha.xy();
-        Kernel { m: self, ax, ay }
+        Kernel {
+            rho_d: self.rho_d,
+            rho_s: self.rho_s,
+            alpha: self.alpha,
+            ax,
+            ay,
+        }
     }
 
     /// Value and (optionally) gradient for one pair.
@@ -186,9 +192,12 @@ const DUER: u8 = 1;
 /// See [`WARD`].
 const GM: u8 = 2;
 
-/// The model with its roughness, for normalisation `N` ([`WARD`]).
-struct Kernel<'a, const N: u8> {
-    m: &'a Ward,
+/// The model's parameters, for normalisation `N` ([`WARD`]).
+#[derive(Clone, Copy)]
+struct Kernel<const N: u8> {
+    rho_d: Rgb,
+    rho_s: Rgb,
+    alpha: Shape,
     ax: f64,
     ay: f64,
 }
@@ -207,7 +216,7 @@ struct Terms {
     w_ay: f64,
 }
 
-impl<const N: u8> PairTerms<MAXP> for Kernel<'_, N> {
+impl<const N: u8> PairTerms<MAXP> for Kernel<N> {
     type Terms = Terms;
 
     /// Branch-free ([`lanes::exp`]); where the exponential underflows the lobe is
@@ -244,7 +253,7 @@ impl<const N: u8> PairTerms<MAXP> for Kernel<'_, N> {
     /// ρd/π + ρs W per channel.
     #[inline(always)]
     fn value(&self, t: &Terms) -> Rgb {
-        let m = self.m;
+        let m = self;
         Rgb(std::array::from_fn(|c| {
             m.rho_d.0[c] * t.d + m.rho_s.0[c] * t.w
         }))
@@ -259,7 +268,7 @@ impl<const N: u8> PairTerms<MAXP> for Kernel<'_, N> {
             gr[c].0[c] = t.d;
             gr[3 + c].0[c] = t.w;
         }
-        shape_gradient(&self.m.alpha, self.m.rho_s, t.w_ax, t.w_ay, &mut gr);
+        shape_gradient(&self.alpha, self.rho_s, t.w_ax, t.w_ay, &mut gr);
         gr
     }
 }
