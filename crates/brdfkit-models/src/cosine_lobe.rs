@@ -16,7 +16,10 @@
 
 use crate::json;
 use crate::lanes::{self, select};
-use crate::pair::{PairGeom, PairTerms, lane_batch, pair_geometry, pair_terms_evals, pair_terms_kernel};
+use crate::pair::{
+    PairGeom, PairTerms, diffuse_specular_grad, lane_batch, pair_geometry, pair_terms_evals,
+    pair_terms_kernel,
+};
 use crate::params::{DiffuseSpecular, check_count};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
@@ -29,7 +32,7 @@ use std::marker::PhantomData;
 pub const N_DOMAIN: Domain = Domain::at_least(0.0);
 
 /// cⁿ on the open lobe c > 0, and 0 elsewhere, by the branch-free
-/// [`lanes::pow`](crate::lanes::pow) (within 4 ulp of `f64::powf`; no library call, so
+/// `lanes::pow` (within 4 ulp of `f64::powf`; no library call, so
 /// the batch loops vectorise).
 ///
 /// The clamp at c ≤ 0 is the lobe's definition (max(0, cos)ⁿ). At c = 0 with n = 0 this
@@ -46,7 +49,7 @@ pub fn cos_pow(c: f64, n: f64) -> f64 {
 /// ln c ≥ −745, and cⁿ ≤ 1 for c ≤ 1 (cosines exceed 1 only by round-off). At c = 0 the
 /// derivative is the limit of cⁿ ln c as c → 0⁺, which is 0 for n > 0.
 /// cⁿ to the last bit as [`cos_pow`], ln c from the same reduction
-/// ([`lanes::pow_ln`](crate::lanes::pow_ln)).
+/// (`lanes::pow_ln`).
 #[inline(always)]
 pub fn cos_pow_dn(c: f64, n: f64) -> (f64, f64) {
     let (p, ln_c) = lanes::pow_ln(c, n);
@@ -271,18 +274,16 @@ impl<K: LobeKind> PairTerms<NP> for Kernel<K> {
     /// D d + L s per channel.
     #[inline(always)]
     fn value(&self, t: &Terms) -> Rgb {
-        Rgb(std::array::from_fn(|c| self.d.0[c] * t.dd + self.s.0[c] * t.l))
+        Rgb(std::array::from_fn(|c| {
+            self.d.0[c] * t.dd + self.s.0[c] * t.l
+        }))
     }
 
     /// ∂f/∂d = D, ∂f/∂s = L (each in its channel), ∂f/∂n = s ∂L/∂n.
     #[inline(always)]
     fn gradient(&self, t: &Terms) -> [Rgb; NP] {
-        let mut gr = [Rgb::ZERO; NP];
-        for c in 0..3 {
-            gr[c].0[c] = t.dd;
-            gr[3 + c].0[c] = t.l;
-            gr[6].0[c] = self.s.0[c] * t.dl;
-        }
+        let mut gr = diffuse_specular_grad(t.dd, t.l);
+        gr[6] = Rgb(std::array::from_fn(|c| self.s.0[c] * t.dl));
         gr
     }
 }

@@ -60,12 +60,10 @@ pub(crate) fn batch_pair(g: &GeomSlice<'_>, k: usize) -> PairGeom {
     }
 }
 
-/// The three evaluation methods of a [`Model`](brdfkit_core::Model) whose value and
-/// gradient come from one `self.kernel(pair, grad)` per pair, the gradient (at most
-/// `$p` entries, of which the kernel fills `num_params()`) into a fixed array: the
-/// single pair through [`pair_geometry`] and [`grad_via`](crate::params::grad_via), the
-/// batches through [`batch_pair`] and [`grad_batch_via`](crate::params::grad_batch_via).
-macro_rules! pair_kernel_evals {
+/// `eval_grad` of a [`Model`](brdfkit_core::Model) through its
+/// `self.kernel(pair, grad)`: the pair by [`pair_geometry`], the gradient (at most `$p`
+/// entries) by [`grad_via`](crate::params::grad_via).
+macro_rules! pair_eval_grad {
     ($p:expr) => {
         fn eval_grad(
             &self,
@@ -77,6 +75,18 @@ macro_rules! pair_kernel_evals {
             let np = brdfkit_core::Model::num_params(self);
             $crate::params::grad_via::<{ $p }>(np, grad, |g| self.kernel(p, Some(g)))
         }
+    };
+}
+pub(crate) use pair_eval_grad;
+
+/// The three evaluation methods of a [`Model`](brdfkit_core::Model) whose value and
+/// gradient come from one `self.kernel(pair, grad)` per pair, the gradient (at most
+/// `$p` entries, of which the kernel fills `num_params()`) into a fixed array: the
+/// single pair through [`pair_geometry`] and [`grad_via`](crate::params::grad_via), the
+/// batches through [`batch_pair`] and [`grad_batch_via`](crate::params::grad_batch_via).
+macro_rules! pair_kernel_evals {
+    ($p:expr) => {
+        $crate::pair::pair_eval_grad!($p);
 
         fn eval_batch(&self, g: &brdfkit_core::GeomSlice<'_>, out: &mut [brdfkit_core::Rgb]) {
             for (k, o) in out.iter_mut().enumerate().take(g.len()) {
@@ -232,6 +242,19 @@ impl<const M: usize, K: PairTerms<M>> crate::lanes::Run for LaneBatch<'_, '_, K,
     }
 }
 
+/// The gradient entries of a model whose first six parameters are a diffuse and a
+/// specular colour entering f as d[c] · `dd` + s[c] · `ds`: ∂f/∂d = `dd`, ∂f/∂s = `ds`,
+/// each in its own channel; the other entries 0.
+#[inline(always)]
+pub(crate) fn diffuse_specular_grad<const M: usize>(dd: f64, ds: f64) -> [Rgb; M] {
+    let mut gr = [Rgb::ZERO; M];
+    for c in 0..3 {
+        gr[c].0[c] = dd;
+        gr[3 + c].0[c] = ds;
+    }
+    gr
+}
+
 /// The factors of a block of at most [`BLOCK`] pairs into a local array.
 #[inline(always)]
 fn terms_block<const M: usize, K: PairTerms<M>>(k: &K, d: &Cols<'_>) -> [K::Terms; BLOCK] {
@@ -252,16 +275,7 @@ fn terms_block<const M: usize, K: PairTerms<M>>(k: &K, d: &Cols<'_>) -> [K::Term
 /// `eval` is the same kernel.
 macro_rules! pair_terms_evals {
     ($p:expr) => {
-        fn eval_grad(
-            &self,
-            wi: &brdfkit_core::Vec3,
-            wo: &brdfkit_core::Vec3,
-            grad: &mut [brdfkit_core::Rgb],
-        ) -> brdfkit_core::Rgb {
-            let p = $crate::pair::pair_geometry(wi, wo);
-            let np = brdfkit_core::Model::num_params(self);
-            $crate::params::grad_via::<{ $p }>(np, grad, |g| self.kernel(p, Some(g)))
-        }
+        $crate::pair::pair_eval_grad!($p);
 
         fn eval_batch(&self, g: &brdfkit_core::GeomSlice<'_>, out: &mut [brdfkit_core::Rgb]) {
             self.batch(g, out, None);

@@ -24,9 +24,7 @@
 //! [`PlausiblePhong`] is the Phong family's shared model [`CosineLobeModel`] with the lobe
 //! [`PlausiblePhongLobe`].
 
-use crate::cosine_lobe::{
-    AlbedoLobe, Cosine, CosineLobeModel, LobeKind, normalised_cos_pow_dn,
-};
+use crate::cosine_lobe::{AlbedoLobe, Cosine, CosineLobeModel, LobeKind, normalised_cos_pow_dn};
 use crate::params::DiffuseSpecular;
 use std::f64::consts::FRAC_1_PI;
 

@@ -42,7 +42,8 @@
 use crate::json;
 use crate::lanes::{self, select};
 use crate::pair::{
-    PairGeom, PairTerms, lane_batch, pair_kernel_brdf, pair_terms_evals, pair_terms_kernel,
+    PairGeom, PairTerms, diffuse_specular_grad, lane_batch, pair_kernel_brdf, pair_terms_evals,
+    pair_terms_kernel,
 };
 use crate::params::{DiffuseSpecular, ShapedLayout, shape_gradient};
 use crate::shape::Shape;
@@ -263,11 +264,7 @@ impl<const N: u8> PairTerms<MAXP> for Kernel<N> {
     /// (`shape_gradient`).
     #[inline(always)]
     fn gradient(&self, t: &Terms) -> [Rgb; MAXP] {
-        let mut gr = [Rgb::ZERO; MAXP];
-        for c in 0..3 {
-            gr[c].0[c] = t.d;
-            gr[3 + c].0[c] = t.w;
-        }
+        let mut gr = diffuse_specular_grad(t.d, t.w);
         shape_gradient(&self.alpha, self.rho_s, t.w_ax, t.w_ay, &mut gr);
         gr
     }
