@@ -26,9 +26,11 @@
 //! `n_v`.
 //!
 //! **Evaluation.** The power is exp(e · ln hz) with e · ln hz = (n_u hx² + n_v hy²) ·
-//! ln(hz)/(hx² + hy²), where ln hz = ½ ln(1 − (hx² + hy²)) (by `ln_1p`, exact near the
+//! ln(hz)/(hx² + hy²), where ln hz = ½ ln(1 − (hx² + hy²)) (as ln(1 + x), exact near the
 //! normal, where the ratio tends to −½) below hx² + hy² = ½ and ln hz above (exact near
-//! the horizon, where 1 − (hx² + hy²) cancels). At h = n the power is 1 for every
+//! the horizon, where 1 − (hx² + hy²) cancels), both by the branch-free ln and exp of
+//! `lanes` (within 1 ulp of the libm's), so the batch loops vectorise (`Lobe::terms`).
+//! At h = n the power is 1 for every
 //! exponent, including 0. h·k is taken as |wi + wo|/2, which equals wi·h = wo·h for unit
 //! vectors and is symmetric in (wi, wo) to the last bit (wi·h is not, which would
 //! break reciprocity at grazing pairs where h·k ~ 1e-16).
@@ -39,12 +41,15 @@
 //! measure the corners: see [`Model::conserves_energy`] and `docs/models.md`.
 
 use crate::json;
-use crate::pair::{PairGeom, pair_kernel_brdf, pair_kernel_evals};
-use crate::params::{DiffuseSpecular, ShapedLayout, above_horizon, shape_gradient};
+use crate::lanes::{self, select};
+use crate::pair::{
+    PairGeom, PairTerms, lane_batch, pair_kernel_brdf, pair_terms_evals, pair_terms_kernel,
+};
+use crate::params::{DiffuseSpecular, ShapedLayout, shape_gradient};
 use crate::shape::Shape;
 use brdfkit_core::model::Domain;
 use brdfkit_core::scattering::fresnel::schlick_weight;
-use brdfkit_core::{Model, ModelError, ParamSpec, Rgb};
+use brdfkit_core::{GeomSlice, Model, ModelError, ParamSpec, Rgb};
 use serde_json::{Value, json};
 use std::f64::consts::PI;
 
@@ -116,51 +121,147 @@ impl AshikhminShirley {
         AshikhminShirley::new().with_lobes_from_json(&o, M)
     }
 
-    /// Value and (optionally) gradient for one pair; see `CookTorrance::kernel`.
+    /// The model's [`PairTerms`] kernel: the lobe's constants hoisted.
+    #[inline(always)]
+    fn lanes(&self) -> Kernel {
+        let (nu, nv) = self.n.xy();
+        Kernel {
+            rho_d: self.rho_d,
+            rho_s: self.rho_s,
+            n: self.n,
+            lobe: Lobe {
+                nu,
+                nv,
+                norm: ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI),
+                du: 0.5 / (nu + 1.0),
+                dv: 0.5 / (nv + 1.0),
+            },
+        }
+    }
+
+    /// Value and (optionally) gradient for one pair.
     #[inline(always)]
     fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; MAXP]>) -> Rgb {
-        let PairGeom { wi, wo, h, .. } = p;
-        let Some(grad) = above_horizon(&wi, &wo, grad) else {
-            return Rgb::ZERO;
-        };
-        let (nu, nv) = self.n.xy();
-        let (hx2, hy2) = (h[0] * h[0], h[1] * h[1]);
-        let s2 = hx2 + hy2;
-        // ln(hz)/(hx² + hy²): see the module doc. h.z > 0 whenever both directions are
-        // above the horizon, so ln(hz) is finite.
-        let r = if s2 == 0.0 {
-            -0.5
-        } else if s2 < 0.5 {
-            0.5 * (-s2).ln_1p() / s2
-        } else {
-            h[2].ln() / s2
-        };
-        let pw = ((nu * hx2 + nv * hy2) * r).exp();
-        let u = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
-        let kh = 0.5 * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-        let norm = ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI);
-        let p = norm * pw / (kh * wi[2].max(wo[2]));
-        let w = schlick_weight(kh);
-        let dd = DIFFUSE_NORM * diffuse_factor(wi[2]) * diffuse_factor(wo[2]);
-        let mut out = Rgb::ZERO;
+        pair_terms_kernel(&self.lanes(), p, grad)
+    }
+
+    /// `eval_batch` (`grad` None) and `eval_grad_batch` as lane loops.
+    fn batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: Option<&mut [Rgb]>) {
+        lane_batch(&self.lanes(), self.num_params(), g, out, grad);
+    }
+}
+
+/// The model's parameters with its lobe's constants.
+#[derive(Clone, Copy)]
+struct Kernel {
+    rho_d: Rgb,
+    rho_s: Rgb,
+    n: Shape,
+    lobe: Lobe,
+}
+
+impl PairTerms<MAXP> for Kernel {
+    type Terms = Terms;
+
+    #[inline(always)]
+    fn terms(&self, above: bool, wi: [f64; 3], wo: [f64; 3], h: [f64; 3]) -> Terms {
+        let t = self.lobe.terms(wi, wo, h);
+        let z = |x: f64| select(above, x, 0.0);
+        Terms {
+            dd: z(t.dd),
+            p: z(t.p),
+            w: z(t.w),
+            p_u: z(t.p_u),
+            p_v: z(t.p_v),
+        }
+    }
+
+    /// Rd (1 − Rs) dd + P F per channel.
+    #[inline(always)]
+    fn value(&self, t: &Terms) -> Rgb {
+        let m = self;
+        let mut out = [0.0; 3];
+        for (c, o) in out.iter_mut().enumerate() {
+            let rs = m.rho_s.0[c];
+            let f = rs + (1.0 - rs) * t.w;
+            *o = t.dd * m.rho_d.0[c] * (1.0 - rs) + t.p * f;
+        }
+        Rgb(out)
+    }
+
+    /// ∂f/∂Rd = dd (1 − Rs), ∂f/∂Rs = −dd Rd + P (1 − w) (each in its channel),
+    /// ∂f/∂n_u = F ∂P/∂n_u, likewise n_v (`shape_gradient`).
+    #[inline(always)]
+    fn gradient(&self, t: &Terms) -> [Rgb; MAXP] {
+        let m = self;
+        let mut gr = [Rgb::ZERO; MAXP];
         let mut f = [0.0; 3];
         for c in 0..3 {
-            let rs = self.rho_s[c];
-            f[c] = rs + (1.0 - rs) * w;
-            out[c] = dd * self.rho_d[c] * (1.0 - rs) + p * f[c];
+            let (rd, rs) = (m.rho_d.0[c], m.rho_s.0[c]);
+            f[c] = rs + (1.0 - rs) * t.w;
+            gr[c].0[c] = t.dd * (1.0 - rs);
+            gr[3 + c].0[c] = -t.dd * rd + t.p * (1.0 - t.w);
         }
-        if let Some(gr) = grad {
-            *gr = [Rgb::ZERO; MAXP];
-            for c in 0..3 {
-                gr[c][c] = dd * (1.0 - self.rho_s[c]);
-                gr[3 + c][c] = -dd * self.rho_d[c] + p * (1.0 - w);
-            }
-            // ∂P/∂n_u = P (1/(2(n_u + 1)) + hx² ln(hz)/(hx² + hy²)), likewise n_v.
-            let p_u = p * (0.5 / (nu + 1.0) + hx2 * r);
-            let p_v = p * (0.5 / (nv + 1.0) + hy2 * r);
-            shape_gradient(&self.n, Rgb::new(f[0], f[1], f[2]), p_u, p_v, gr);
+        shape_gradient(&m.n, Rgb(f), t.p_u, t.p_v, &mut gr);
+        gr
+    }
+}
+
+/// The constants of one model's lobe: the exponents, √((n_u + 1)(n_v + 1))/(8π) and
+/// the ½/(n + 1) of ∂P/∂n.
+#[derive(Clone, Copy)]
+struct Lobe {
+    nu: f64,
+    nv: f64,
+    norm: f64,
+    du: f64,
+    dv: f64,
+}
+
+/// The channel-free factors of one pair, from which [`Kernel`] assembles the value and
+/// the gradient.
+#[derive(Clone, Copy, Default)]
+struct Terms {
+    /// 28/(23π) (1 − (1 − cos θi/2)⁵)(1 − (1 − cos θo/2)⁵).
+    dd: f64,
+    /// P = √((n_u + 1)(n_v + 1))/(8π) (n·h)^e / ((h·k) max(cos θi, cos θo)).
+    p: f64,
+    /// Schlick's weight (1 − h·k)⁵.
+    w: f64,
+    /// ∂P/∂n_u = P (1/(2(n_u + 1)) + hx² ln(hz)/(hx² + hy²)).
+    p_u: f64,
+    /// ∂P/∂n_v, likewise.
+    p_v: f64,
+}
+
+impl Lobe {
+    /// The [`Terms`] of a pair with both directions above the horizon, without a branch
+    /// or a library call (so a loop of it vectorises; finite garbage below the horizon,
+    /// which callers select away). ln hz is ½ ln(1 − s²) below s² = hx² + hy² = ½ and
+    /// ln hz above (module doc), taken by one [`lanes::ln_sum`]: of 1 − s² with its
+    /// rounding error ([`lanes::one_plus`]), or of hz.
+    #[inline(always)]
+    fn terms(&self, wi: [f64; 3], wo: [f64; 3], h: [f64; 3]) -> Terms {
+        let (hx2, hy2) = (h[0] * h[0], h[1] * h[1]);
+        let s2 = hx2 + hy2;
+        let near = s2 < 0.5;
+        let (one_minus, c) = lanes::one_plus(-s2);
+        let u = select(near, one_minus, h[2]);
+        let c = select(near, c, 0.0);
+        let ln_hz = select(near, 0.5, 1.0) * lanes::ln_sum(u, c);
+        // ln(hz)/(hx² + hy²), −½ at h = n (its limit), where the power is 1.
+        let r = select(s2 == 0.0, -0.5, ln_hz / s2);
+        let pw = lanes::exp((self.nu * hx2 + self.nv * hy2) * r);
+        let v = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let kh = 0.5 * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let p = self.norm * pw / (kh * lanes::max(wi[2], wo[2]));
+        Terms {
+            dd: DIFFUSE_NORM * diffuse_factor(wi[2]) * diffuse_factor(wo[2]),
+            p,
+            w: schlick_weight(kh),
+            p_u: p * (self.du + hx2 * r),
+            p_v: p * (self.dv + hy2 * r),
         }
-        out
     }
 }
 
@@ -175,7 +276,7 @@ impl Model for AshikhminShirley {
 
     shaped_lobe_params!(n);
 
-    pair_kernel_evals!(MAXP);
+    pair_terms_evals!(MAXP);
 
     fn to_json(&self) -> Value {
         let o = LAYOUT.write_json(self.rho_d, self.rho_s, self.n);

@@ -27,9 +27,7 @@
 //! [`BlinnPhong`] is the Phong family's shared model [`CosineLobeModel`] with the lobe
 //! [`BlinnPhongLobe`].
 
-use crate::cosine_lobe::{
-    AlbedoLobe, Cosine, CosineLobeModel, LobeKind, normalised_cos_pow, normalised_cos_pow_dn,
-};
+use crate::cosine_lobe::{AlbedoLobe, Cosine, CosineLobeModel, LobeKind, normalised_cos_pow_dn};
 use crate::params::DiffuseSpecular;
 use std::f64::consts::{FRAC_1_PI, PI};
 
@@ -65,11 +63,6 @@ impl LobeKind for BlinnPhongLobe {
     const CONSERVES_ENERGY: bool = false;
 
     /// (n+8)/(8π) · cⁿ.
-    #[inline(always)]
-    fn lobe(n: f64, c: f64, _cos_i: f64) -> f64 {
-        normalised_cos_pow(8.0, c, n)
-    }
-
     #[inline(always)]
     fn lobe_dn(n: f64, c: f64, _cos_i: f64) -> (f64, f64) {
         normalised_cos_pow_dn(8.0, c, n)

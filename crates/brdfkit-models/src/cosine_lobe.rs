@@ -15,8 +15,12 @@
 //! ∂f/∂d = D, ∂f/∂s = L (each in its own channel) and ∂f/∂n = s ∂L/∂n.
 
 use crate::json;
-use crate::params::{DiffuseSpecular, channel, check_count};
-use brdfkit_core::geometry::half_vector;
+use crate::lanes::{self, select};
+use crate::pair::{
+    PairGeom, PairTerms, diffuse_specular_grad, lane_batch, pair_geometry, pair_terms_evals,
+    pair_terms_kernel,
+};
+use crate::params::{DiffuseSpecular, check_count};
 use brdfkit_core::model::{Domain, check_param};
 use brdfkit_core::{Brdf, GeomSlice, Model, ModelError, ParamSpec, Rgb, Vec3};
 use serde_json::{Value, json};
@@ -27,14 +31,16 @@ use std::marker::PhantomData;
 /// The domain of a cosine-power exponent.
 pub const N_DOMAIN: Domain = Domain::at_least(0.0);
 
-/// cⁿ on the open lobe c > 0, and 0 elsewhere.
+/// cⁿ on the open lobe c > 0, and 0 elsewhere, by the branch-free
+/// `lanes::pow` (within 4 ulp of `f64::powf`; no library call, so
+/// the batch loops vectorise).
 ///
 /// The clamp at c ≤ 0 is the lobe's definition (max(0, cos)ⁿ). At c = 0 with n = 0 this
 /// gives 0, not IEEE's pow(0, 0) = 1: 0 is the limit of 0ⁿ as n → 0⁺, so the value stays
 /// continuous in n, and the lobe boundary has measure zero for every integral.
 #[inline(always)]
 pub fn cos_pow(c: f64, n: f64) -> f64 {
-    if c > 0.0 { c.powf(n) } else { 0.0 }
+    lanes::pow(c, n)
 }
 
 /// (cⁿ, ∂cⁿ/∂n = cⁿ ln c), both 0 for c ≤ 0 (see [`cos_pow`]).
@@ -42,14 +48,12 @@ pub fn cos_pow(c: f64, n: f64) -> f64 {
 /// No clamp is needed for finiteness: for c > 0 the smallest double gives
 /// ln c ≥ −745, and cⁿ ≤ 1 for c ≤ 1 (cosines exceed 1 only by round-off). At c = 0 the
 /// derivative is the limit of cⁿ ln c as c → 0⁺, which is 0 for n > 0.
+/// cⁿ to the last bit as [`cos_pow`], ln c from the same reduction
+/// (`lanes::pow_ln`).
 #[inline(always)]
 pub fn cos_pow_dn(c: f64, n: f64) -> (f64, f64) {
-    if c > 0.0 {
-        let p = c.powf(n);
-        (p, p * c.ln())
-    } else {
-        (0.0, 0.0)
-    }
+    let (p, ln_c) = lanes::pow_ln(c, n);
+    (p, p * ln_c)
 }
 
 /// (n+a)/(aπ) · cⁿ, the cosine power with the normalisation (n+a)/(aπ): a = 2 is
@@ -107,10 +111,9 @@ pub trait LobeKind: Copy + PartialEq + fmt::Debug + Send + Sync + 'static {
     /// [`Model::conserves_energy`].
     const CONSERVES_ENERGY: bool;
 
-    /// L(n; c, cos θi), for cos θi > 0 and cos θo > 0.
-    fn lobe(n: f64, c: f64, cos_i: f64) -> f64;
-
-    /// (L, ∂L/∂n), with the same L as [`LobeKind::lobe`] to the last bit.
+    /// (L(n; c, cos θi), ∂L/∂n), for cos θi > 0 and cos θo > 0: the one lobe kernel of
+    /// every evaluation path (branch-free, so the batch loops vectorise; where only the
+    /// value is used, the derivative's few operations are dropped by the compiler).
     fn lobe_dn(n: f64, c: f64, cos_i: f64) -> (f64, f64);
 }
 
@@ -202,75 +205,86 @@ impl<K: LobeKind> CosineLobeModel<K> {
         Self::new(d, s, json::number_or(&o, "n", K::DEFAULT_N, m)?)
     }
 
-    /// The lobe's cosine c of a pair ([`Cosine`]).
+    /// The model's [`PairTerms`] kernel.
     #[inline(always)]
-    fn cosine(wi: &Vec3, wo: &Vec3) -> f64 {
-        match K::COSINE {
-            Cosine::Mirror => mirror_cos(wi.x, wi.y, wi.z, wo.x, wo.y, wo.z),
-            Cosine::Half => half_vector(wi, wo).z,
+    fn lanes(&self) -> Kernel<K> {
+        Kernel {
+            d: self.d,
+            s: self.s,
+            n: self.n,
+            kind: PhantomData,
         }
     }
 
-    /// Calls `f(k, cos θi, cos θo, c)` for every pair k of a batch.
+    /// Value and (optionally) gradient for one pair.
     #[inline(always)]
-    fn for_each_pair(g: &GeomSlice<'_>, mut f: impl FnMut(usize, f64, f64, f64)) {
-        let n = g.len();
-        let (iz, oz) = (&g.wi_z[..n], &g.wo_z[..n]);
-        match K::COSINE {
-            Cosine::Mirror => {
-                let (ix, iy) = (&g.wi_x[..n], &g.wi_y[..n]);
-                let (ox, oy) = (&g.wo_x[..n], &g.wo_y[..n]);
-                for k in 0..n {
-                    f(
-                        k,
-                        iz[k],
-                        oz[k],
-                        mirror_cos(ix[k], iy[k], iz[k], ox[k], oy[k], oz[k]),
-                    );
-                }
-            }
-            Cosine::Half => {
-                let hz = &g.h_z[..n];
-                for k in 0..n {
-                    f(k, iz[k], oz[k], hz[k]);
-                }
-            }
+    fn kernel(&self, p: PairGeom, grad: Option<&mut [Rgb; NP]>) -> Rgb {
+        pair_terms_kernel(&self.lanes(), p, grad)
+    }
+
+    /// `eval_batch` (`grad` None) and `eval_grad_batch` as lane loops.
+    fn batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: Option<&mut [Rgb]>) {
+        lane_batch(&self.lanes(), NP, g, out, grad);
+    }
+}
+
+/// A model's parameters as its [`PairTerms`] kernel.
+struct Kernel<K> {
+    d: Rgb,
+    s: Rgb,
+    n: f64,
+    kind: PhantomData<K>,
+}
+
+// By hand: a derive would ask `K: Copy` of the marker type too.
+impl<K> Clone for Kernel<K> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<K> Copy for Kernel<K> {}
+
+/// The channel-free factors of one pair: D (0 below the horizon), L and ∂L/∂n.
+#[derive(Clone, Copy, Default)]
+struct Terms {
+    dd: f64,
+    l: f64,
+    dl: f64,
+}
+
+impl<K: LobeKind> PairTerms<NP> for Kernel<K> {
+    type Terms = Terms;
+
+    /// The lobe's cosine c ([`Cosine`]; h as [`GeometryBatch`](brdfkit_core::GeometryBatch)
+    /// stores it), then [`LobeKind::lobe_dn`].
+    #[inline(always)]
+    fn terms(&self, above: bool, wi: [f64; 3], wo: [f64; 3], h: [f64; 3]) -> Terms {
+        let c = match K::COSINE {
+            Cosine::Mirror => mirror_cos(wi[0], wi[1], wi[2], wo[0], wo[1], wo[2]),
+            Cosine::Half => h[2],
+        };
+        let (l, dl) = K::lobe_dn(self.n, c, wi[2]);
+        Terms {
+            dd: select(above, K::DIFFUSE_SCALE, 0.0),
+            l: select(above, l, 0.0),
+            dl: select(above, dl, 0.0),
         }
     }
 
-    /// f from cos θi, cos θo and the lobe's cosine; the single kernel of `eval` and
-    /// `eval_batch`.
+    /// D d + L s per channel.
     #[inline(always)]
-    fn kernel(&self, cos_i: f64, cos_o: f64, c: f64) -> Rgb {
-        if cos_i <= 0.0 || cos_o <= 0.0 {
-            return Rgb::ZERO;
-        }
-        self.d * K::DIFFUSE_SCALE + self.s * Self::lobe_call(self.n, c, cos_i)
+    fn value(&self, t: &Terms) -> Rgb {
+        Rgb(std::array::from_fn(|c| {
+            self.d.0[c] * t.dd + self.s.0[c] * t.l
+        }))
     }
 
-    /// [`LobeKind::lobe`] kept out of line: inlined, LLVM vectorises the batch loop and
-    /// then evaluates the `powf` for every pair of a vector, those below the horizon
-    /// included — measured 2.4× slower than this call per pair (phong on the MERL grid:
-    /// 29 M against 60–70 M pairs/s).
-    #[inline(never)]
-    fn lobe_call(n: f64, c: f64, cos_i: f64) -> f64 {
-        K::lobe(n, c, cos_i)
-    }
-
-    /// f, ∂f/∂d (any channel), ∂f/∂s (any channel), ∂f/∂n; the single kernel of
-    /// `eval_grad` and `eval_grad_batch`.
+    /// ∂f/∂d = D, ∂f/∂s = L (each in its channel), ∂f/∂n = s ∂L/∂n.
     #[inline(always)]
-    fn kernel_grad(&self, cos_i: f64, cos_o: f64, c: f64) -> (Rgb, f64, f64, Rgb) {
-        if cos_i <= 0.0 || cos_o <= 0.0 {
-            return (Rgb::ZERO, 0.0, 0.0, Rgb::ZERO);
-        }
-        let (l, dl_dn) = K::lobe_dn(self.n, c, cos_i);
-        (
-            self.d * K::DIFFUSE_SCALE + self.s * l,
-            K::DIFFUSE_SCALE,
-            l,
-            self.s * dl_dn,
-        )
+    fn gradient(&self, t: &Terms) -> [Rgb; NP] {
+        let mut gr = diffuse_specular_grad(t.dd, t.l);
+        gr[6] = Rgb(std::array::from_fn(|c| self.s.0[c] * t.dl));
+        gr
     }
 }
 
@@ -302,7 +316,7 @@ impl<K: AlbedoLobe> CosineLobeModel<K> {
 
 impl<K: LobeKind> Brdf for CosineLobeModel<K> {
     fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        self.kernel(wi.z, wo.z, Self::cosine(wi, wo))
+        self.kernel(pair_geometry(wi, wo), None)
     }
 }
 
@@ -339,36 +353,7 @@ impl<K: LobeKind> Model for CosineLobeModel<K> {
         Ok(())
     }
 
-    fn eval_grad(&self, wi: &Vec3, wo: &Vec3, grad: &mut [Rgb]) -> Rgb {
-        let (f, dd, ds, dn) = self.kernel_grad(wi.z, wo.z, Self::cosine(wi, wo));
-        for c in 0..3 {
-            grad[c] = channel(c, dd);
-            grad[3 + c] = channel(c, ds);
-        }
-        grad[6] = dn;
-        f
-    }
-
-    fn eval_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb]) {
-        let out = &mut out[..g.len()];
-        Self::for_each_pair(g, |k, ci, co, c| out[k] = self.kernel(ci, co, c));
-    }
-
-    fn eval_grad_batch(&self, g: &GeomSlice<'_>, out: &mut [Rgb], grad: &mut [Rgb]) {
-        let n = g.len();
-        let out = &mut out[..n];
-        let (g_d, rest) = grad[..NP * n].split_at_mut(3 * n);
-        let (g_s, g_n) = rest.split_at_mut(3 * n);
-        Self::for_each_pair(g, |k, ci, co, c| {
-            let (f, dd, ds, dn) = self.kernel_grad(ci, co, c);
-            out[k] = f;
-            for c in 0..3 {
-                g_d[c * n + k] = channel(c, dd);
-                g_s[c * n + k] = channel(c, ds);
-            }
-            g_n[k] = dn;
-        });
-    }
+    pair_terms_evals!(NP);
 
     fn to_json(&self) -> Value {
         let mut p = K::PARAMS.write_json(self.d, self.s);

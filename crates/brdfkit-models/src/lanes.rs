@@ -286,7 +286,7 @@ pub(crate) fn erf(x: f64) -> f64 {
 
 pub(crate) use brdfkit_core::lanes::{Run, dispatch};
 mod pow;
-pub(crate) use pow::{pow, pow_ln};
+pub(crate) use pow::{ln_sum, one_plus, pow, pow_ln};
 
 #[cfg(test)]
 mod tests {

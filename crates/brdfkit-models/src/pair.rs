@@ -60,12 +60,10 @@ pub(crate) fn batch_pair(g: &GeomSlice<'_>, k: usize) -> PairGeom {
     }
 }
 
-/// The three evaluation methods of a [`Model`](brdfkit_core::Model) whose value and
-/// gradient come from one `self.kernel(pair, grad)` per pair, the gradient (at most
-/// `$p` entries, of which the kernel fills `num_params()`) into a fixed array: the
-/// single pair through [`pair_geometry`] and [`grad_via`](crate::params::grad_via), the
-/// batches through [`batch_pair`] and [`grad_batch_via`](crate::params::grad_batch_via).
-macro_rules! pair_kernel_evals {
+/// `eval_grad` of a [`Model`](brdfkit_core::Model) through its
+/// `self.kernel(pair, grad)`: the pair by [`pair_geometry`], the gradient (at most `$p`
+/// entries) by [`grad_via`](crate::params::grad_via).
+macro_rules! pair_eval_grad {
     ($p:expr) => {
         fn eval_grad(
             &self,
@@ -77,6 +75,18 @@ macro_rules! pair_kernel_evals {
             let np = brdfkit_core::Model::num_params(self);
             $crate::params::grad_via::<{ $p }>(np, grad, |g| self.kernel(p, Some(g)))
         }
+    };
+}
+pub(crate) use pair_eval_grad;
+
+/// The three evaluation methods of a [`Model`](brdfkit_core::Model) whose value and
+/// gradient come from one `self.kernel(pair, grad)` per pair, the gradient (at most
+/// `$p` entries, of which the kernel fills `num_params()`) into a fixed array: the
+/// single pair through [`pair_geometry`] and [`grad_via`](crate::params::grad_via), the
+/// batches through [`batch_pair`] and [`grad_batch_via`](crate::params::grad_batch_via).
+macro_rules! pair_kernel_evals {
+    ($p:expr) => {
+        $crate::pair::pair_eval_grad!($p);
 
         fn eval_batch(&self, g: &brdfkit_core::GeomSlice<'_>, out: &mut [brdfkit_core::Rgb]) {
             for (k, o) in out.iter_mut().enumerate().take(g.len()) {
@@ -117,3 +127,168 @@ macro_rules! pair_kernel_brdf {
     };
 }
 pub(crate) use pair_kernel_brdf;
+
+/// A half-vector model's per-pair kernel in the form the lane loops of
+/// [`lane_batch`] take (a `Copy` value holding the model's parameters, which the loops
+/// copy into locals): the channel-free factors of a pair ([`PairTerms::Terms`]),
+/// branch-free and with no library call (so a loop of them vectorises), then the value
+/// and the `M` gradient entries assembled from them. The model's `eval` and `eval_grad`
+/// call the same three functions, so every path gives the same bits.
+pub(crate) trait PairTerms<const M: usize>: Copy {
+    /// The factors of one pair.
+    type Terms: Copy + Default;
+    /// The factors of a pair; where `above` is false (a direction at or below the
+    /// horizon) factors for which [`PairTerms::value`] and [`PairTerms::gradient`] are
+    /// +0 (the geometry there may give any finite or non-finite number, selected away).
+    fn terms(&self, above: bool, wi: [f64; 3], wo: [f64; 3], h: [f64; 3]) -> Self::Terms;
+    /// f from the factors.
+    fn value(&self, t: &Self::Terms) -> Rgb;
+    /// ∂f/∂p from the factors, all `M` entries (those past the model's parameter count
+    /// are ignored).
+    fn gradient(&self, t: &Self::Terms) -> [Rgb; M];
+}
+
+/// `eval` and (with `grad`) `eval_grad` of one pair through a [`PairTerms`] kernel.
+#[inline(always)]
+pub(crate) fn pair_terms_kernel<const M: usize, K: PairTerms<M>>(
+    k: &K,
+    p: PairGeom,
+    grad: Option<&mut [Rgb; M]>,
+) -> Rgb {
+    let above = p.wi[2] > 0.0 && p.wo[2] > 0.0;
+    let t = k.terms(above, p.wi, p.wo, p.h);
+    if let Some(gr) = grad {
+        *gr = k.gradient(&t);
+    }
+    k.value(&t)
+}
+
+/// `eval_batch` (`grad` None) and `eval_grad_batch` (the first `np` gradient columns,
+/// parameter-major) of a [`PairTerms`] kernel as lane loops run through
+/// [`lanes::dispatch`](crate::lanes::dispatch): the value loop in one pass; the gradient
+/// loop computes the factors of blocks of [`BLOCK`] pairs into a local array (a loop
+/// with no `Rgb` store, which vectorises: stores to several columns in one loop kept
+/// it scalar), then writes the value and the columns.
+pub(crate) fn lane_batch<const M: usize, K: PairTerms<M>>(
+    k: &K,
+    np: usize,
+    g: &GeomSlice<'_>,
+    out: &mut [Rgb],
+    grad: Option<&mut [Rgb]>,
+) {
+    crate::lanes::dispatch(&mut LaneBatch::<K, M> {
+        k,
+        np,
+        g,
+        out,
+        grad,
+    });
+}
+
+/// Pairs per block of [`lane_batch`]'s gradient loop.
+const BLOCK: usize = 64;
+
+/// The nine geometry columns wi, wo, h of a batch, each cut to its length (so the
+/// loops over them carry no bounds checks).
+type Cols<'a> = [&'a [f64]; 9];
+
+/// Pair k of [`Cols`]: whether both directions are above the horizon, wi, wo, h.
+#[inline(always)]
+fn pair_of(d: &Cols<'_>, k: usize) -> (bool, [f64; 3], [f64; 3], [f64; 3]) {
+    let wi = [d[0][k], d[1][k], d[2][k]];
+    let wo = [d[3][k], d[4][k], d[5][k]];
+    let h = [d[6][k], d[7][k], d[8][k]];
+    (wi[2] > 0.0 && wo[2] > 0.0, wi, wo, h)
+}
+
+/// The loops of [`lane_batch`].
+struct LaneBatch<'a, 'g, K, const M: usize> {
+    k: &'a K,
+    np: usize,
+    g: &'a GeomSlice<'g>,
+    out: &'a mut [Rgb],
+    grad: Option<&'a mut [Rgb]>,
+}
+
+impl<const M: usize, K: PairTerms<M>> crate::lanes::Run for LaneBatch<'_, '_, K, M> {
+    #[inline(always)]
+    fn run(&mut self) {
+        // A local copy: loads through the struct's reference are not known to be
+        // unaffected by the stores to `out` and stay in the loop (kept it scalar).
+        let (k, g, n) = (*self.k, self.g, self.g.len());
+        let d: Cols<'_> = [
+            g.wi_x, g.wi_y, g.wi_z, g.wo_x, g.wo_y, g.wo_z, g.h_x, g.h_y, g.h_z,
+        ]
+        .map(|c| &c[..n]);
+        let out = &mut self.out[..n];
+        let Some(grad) = self.grad.as_deref_mut() else {
+            for (i, o) in out.iter_mut().enumerate() {
+                let (above, wi, wo, h) = pair_of(&d, i);
+                *o = k.value(&k.terms(above, wi, wo, h));
+            }
+            return;
+        };
+        let grad = &mut grad[..self.np * n];
+        for s in (0..n).step_by(BLOCK) {
+            let e = (s + BLOCK).min(n);
+            let t = terms_block(&k, &d.map(|c| &c[s..e]));
+            for (i, j) in (s..e).enumerate() {
+                out[j] = k.value(&t[i]);
+                for (p, v) in k.gradient(&t[i]).iter().enumerate().take(self.np) {
+                    grad[p * n + j] = *v;
+                }
+            }
+        }
+    }
+}
+
+/// The gradient entries of a model whose first six parameters are a diffuse and a
+/// specular colour entering f as d[c] · `dd` + s[c] · `ds`: ∂f/∂d = `dd`, ∂f/∂s = `ds`,
+/// each in its own channel; the other entries 0.
+#[inline(always)]
+pub(crate) fn diffuse_specular_grad<const M: usize>(dd: f64, ds: f64) -> [Rgb; M] {
+    let mut gr = [Rgb::ZERO; M];
+    for c in 0..3 {
+        gr[c].0[c] = dd;
+        gr[3 + c].0[c] = ds;
+    }
+    gr
+}
+
+/// The factors of a block of at most [`BLOCK`] pairs into a local array.
+#[inline(always)]
+fn terms_block<const M: usize, K: PairTerms<M>>(k: &K, d: &Cols<'_>) -> [K::Terms; BLOCK] {
+    let mut q = [K::Terms::default(); BLOCK];
+    let len = d[0].len().min(BLOCK);
+    for (i, q) in q[..len].iter_mut().enumerate() {
+        let (above, wi, wo, h) = pair_of(d, i);
+        *q = k.terms(above, wi, wo, h);
+    }
+    q
+}
+
+/// The three evaluation methods of a [`Model`](brdfkit_core::Model) whose value and
+/// gradient come from a [`PairTerms`]`<$p>` kernel: `eval_grad` through the model's
+/// `kernel(pair, grad)` (which calls [`pair_terms_kernel`]) and
+/// [`grad_via`](crate::params::grad_via), the batches through the model's
+/// `batch(g, out, grad)` (which calls [`lane_batch`]). With [`pair_kernel_brdf`],
+/// `eval` is the same kernel.
+macro_rules! pair_terms_evals {
+    ($p:expr) => {
+        $crate::pair::pair_eval_grad!($p);
+
+        fn eval_batch(&self, g: &brdfkit_core::GeomSlice<'_>, out: &mut [brdfkit_core::Rgb]) {
+            self.batch(g, out, None);
+        }
+
+        fn eval_grad_batch(
+            &self,
+            g: &brdfkit_core::GeomSlice<'_>,
+            out: &mut [brdfkit_core::Rgb],
+            grad: &mut [brdfkit_core::Rgb],
+        ) {
+            self.batch(g, out, Some(grad));
+        }
+    };
+}
+pub(crate) use pair_terms_evals;

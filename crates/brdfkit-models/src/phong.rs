@@ -74,12 +74,6 @@ impl LobeKind for PhongLobe {
     /// The reflected fraction grows like 1/cos θi at grazing incidence.
     const CONSERVES_ENERGY: bool = false;
 
-    /// cⁿ / cos θi.
-    #[inline(always)]
-    fn lobe(n: f64, c: f64, cos_i: f64) -> f64 {
-        cos_pow(c, n) / cos_i.max(MIN_COS_I)
-    }
-
     /// (cⁿ / cos θi, cⁿ ln c / cos θi).
     #[inline(always)]
     fn lobe_dn(n: f64, c: f64, cos_i: f64) -> (f64, f64) {

@@ -24,9 +24,7 @@
 //! [`PlausiblePhong`] is the Phong family's shared model [`CosineLobeModel`] with the lobe
 //! [`PlausiblePhongLobe`].
 
-use crate::cosine_lobe::{
-    AlbedoLobe, Cosine, CosineLobeModel, LobeKind, normalised_cos_pow, normalised_cos_pow_dn,
-};
+use crate::cosine_lobe::{AlbedoLobe, Cosine, CosineLobeModel, LobeKind, normalised_cos_pow_dn};
 use crate::params::DiffuseSpecular;
 use std::f64::consts::FRAC_1_PI;
 
@@ -55,11 +53,6 @@ impl LobeKind for PlausiblePhongLobe {
     const CONSERVES_ENERGY: bool = true;
 
     /// (n+2)/(2π) · cⁿ.
-    #[inline(always)]
-    fn lobe(n: f64, c: f64, _cos_i: f64) -> f64 {
-        normalised_cos_pow(2.0, c, n)
-    }
-
     #[inline(always)]
     fn lobe_dn(n: f64, c: f64, _cos_i: f64) -> (f64, f64) {
         normalised_cos_pow_dn(2.0, c, n)

@@ -109,6 +109,32 @@ pub(crate) fn pow_ln(x: f64, n: f64) -> (f64, f64) {
     (select(pos, p, 0.0), select(pos, hi + lo, 0.0))
 }
 
+/// ln(u + c) for u > 0 given with a small correction c (|c| ≤ half an ulp of u, the
+/// rounding error of a sum that produced u), to about 1 ulp; finite for every u (callers
+/// select the result away where u ≤ 0). ln(u + c) = ln u + c/u − …, and the omitted
+/// c²/(2u²) is below 2⁻¹⁰⁶ relative to ln u's scale; ln u in two parts ([`ln2parts`]).
+#[inline(always)]
+pub(crate) fn ln_sum(u: f64, c: f64) -> f64 {
+    let (hi, lo) = ln2parts(u);
+    hi + (lo + c / u)
+}
+
+/// 1 + x and its rounding error c = x − ((1 + x) − 1), exact for |x| ≤ 1 (Dekker's
+/// Fast2Sum): the argument of [`ln_sum`] for ln(1 + x).
+#[inline(always)]
+pub(crate) fn one_plus(x: f64) -> (f64, f64) {
+    let u = 1.0 + x;
+    (u, x - (u - 1.0))
+}
+
+/// ln(1 + x) for x ∈ [−1, 1] by [`one_plus`] and [`ln_sum`], as the callers compose it
+/// (tested: within 1 ulp of `f64::ln_1p` on (−0.5, 0]).
+#[cfg(test)]
+fn ln_1p(x: f64) -> f64 {
+    let (u, c) = one_plus(x);
+    ln_sum(u, c)
+}
+
 /// xⁿ of [`pow_ln`].
 #[inline(always)]
 pub(crate) fn pow(x: f64, n: f64) -> f64 {
@@ -176,6 +202,36 @@ mod tests {
             }
         }
         eprintln!("pow: at most {worst} ulp from the libm's ({worst_sub} on subnormal results)");
+    }
+
+    #[test]
+    fn ln_1p_and_ln_are_within_one_ulp_of_the_libm_s() {
+        // ln_1p over (−0.5, 0] (Ashikhmin-Shirley's −(hx² + hy²) below ½): uniform,
+        // geometric towards 0 and the neighbours of −0.5 and of 0.
+        let mut xs: Vec<f64> = (0..100_000).map(|i| -0.5 * i as f64 / 100_000.0).collect();
+        xs.extend((0..3_000).map(|i| -(10f64.powf(-320.0 + 0.1066 * i as f64))));
+        let b = f64::to_bits(-0.5);
+        xs.extend((0..200).map(|d| f64::from_bits(b - d)));
+        xs.extend((1..=1_000).map(|i| -(i as f64) * f64::EPSILON));
+        let mut worst = 0;
+        for &x in &xs {
+            let (got, want) = (ln_1p(x), x.ln_1p());
+            let u = ulps(got.abs(), want.abs());
+            // Both are ≤ 0 here: their magnitudes' bits compare.
+            assert!(u <= 1, "ln_1p({x:e}) = {got:e}, libm {want:e}: {u} ulp");
+            worst = worst.max(u);
+        }
+        eprintln!("ln_1p: at most {worst} ulp from the libm's");
+        assert_eq!(ln_1p(0.0), 0.0);
+        // ln over (0, 1] through ln_sum(u, 0) (cos θh above the horizon).
+        let mut worst = 0;
+        for &x in &bases() {
+            let (got, want) = (ln_sum(x, 0.0), x.ln());
+            let u = ulps(got.abs(), want.abs());
+            assert!(u <= 1, "ln {x:e} = {got:e}, libm {want:e}: {u} ulp");
+            worst = worst.max(u);
+        }
+        eprintln!("ln: at most {worst} ulp from the libm's");
     }
 
     /// The exponent at which xⁿ spans the whole normal range, for bases across (0, 1):
