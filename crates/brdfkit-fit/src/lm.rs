@@ -722,6 +722,50 @@ mod tests {
     use super::*;
     use argmin::core::Executor;
 
+    /// Where [`LevenbergMarquardt::subsample_stop`] ends a sequence of accepted steps'
+    /// decreases of a cost of 1 (the run's bookkeeping: each decrease joins the last
+    /// two): the index of the stopping step, if any.
+    fn tail_stop(eps: Option<f64>, decreases: &[f64]) -> Option<usize> {
+        let tol = Tolerances {
+            ftol: 1e-10,
+            xtol: 1e-10,
+            gtol: 1e-10,
+        };
+        let mut lm = LevenbergMarquardt::new(1e-3, tol).subsample_tolerance(eps);
+        decreases.iter().position(|&d| {
+            let hit = lm.subsample_stop(d, 1.0);
+            lm.decreases = [Some(d), lm.decreases[0]];
+            hit
+        })
+    }
+
+    /// The warm-up set's tolerance stops a steady linear tail once its geometric
+    /// remainder a₀ q / (1 − q) is below ε, and never a run whose decreases grow,
+    /// zigzag, or shrink at changing rates, nor a run without the tolerance (or with
+    /// one no looser than ftol).
+    #[test]
+    fn the_subsample_tolerance_stops_only_a_steady_linear_tail() {
+        let geometric: Vec<f64> = (0..40).map(|k| 1e-3 * 0.8f64.powi(k)).collect();
+        // a₀ · 0.8 / 0.2 ≤ 1e-6 first at a₀ ≤ 2.5e-7: 1e-3 · 0.8^k, k = 38.
+        assert_eq!(tail_stop(Some(1e-6), &geometric), Some(38));
+        assert_eq!(tail_stop(None, &geometric), None);
+        assert_eq!(tail_stop(Some(1e-10), &geometric), None);
+        let growing: Vec<f64> = (0..40).map(|k| 1e-12 * 3f64.powi(k)).collect();
+        assert_eq!(tail_stop(Some(1e-6), &growing), None);
+        let zigzag: Vec<f64> = (0..40)
+            .map(|k| if k % 2 == 0 { 1e-9 } else { 2e-10 })
+            .collect();
+        assert_eq!(tail_stop(Some(1e-6), &zigzag), None);
+        // Ratios 0.5, 0.8, 0.5, …: shrinking, but not at a steady rate.
+        let uneven: Vec<f64> = (0..40)
+            .scan(1e-6, |a, k| {
+                *a *= if k % 2 == 0 { 0.5 } else { 0.8 };
+                Some(*a)
+            })
+            .collect();
+        assert_eq!(tail_stop(Some(1e-6), &uneven), None);
+    }
+
     /// Rosenbrock as least squares: r = (10 (y − x²), 1 − x); minimum 0 at (1, 1).
     struct Rosen;
     impl Rosen {
