@@ -14,10 +14,15 @@ use std::f64::consts::FRAC_PI_2;
 use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
 
+/// The error of a table without a valid cell, whichever way its cells are built.
+fn no_valid_cell() -> FitError {
+    FitError::NoCells("the table has no valid cell".into())
+}
+
 /// Valid cells of each θh slab of a table (an error when there is none).
 fn valid_per_slab(t: &MerlTable) -> Result<Vec<usize>, FitError> {
     if t.valid_count() == 0 {
-        return Err(FitError::NoCells("the table has no valid cell".into()));
+        return Err(no_valid_cell());
     }
     let d = t.dims();
     Ok(t.valid_mask()
@@ -358,7 +363,7 @@ impl FitData {
     /// bit.
     pub fn from_table_cells(c: TableCells) -> Result<Self, FitError> {
         if c.runs.is_empty() {
-            return Err(FitError::NoCells("the table has no valid cell".into()));
+            return Err(no_valid_cell());
         }
         Ok(FitData::assemble(
             Geometry::Table {
