@@ -415,22 +415,16 @@ impl Kernel<'_> {
     fn invert(&self, p: &Place, st: &Stage, pos: &mut [[f32; L]; 2]) {
         let v = self.vndf;
         let (w, h) = (v.w, v.h);
-        let mut m = [[0.0f32; L]; 8];
-        for (j, m) in m.iter_mut().enumerate() {
-            for l in 0..L {
-                m[l] = st.cell[l][j];
-            }
-        }
         let (pw, ph) = (1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32);
-        let [v00, v10, v01, v11, b0, b1, r0, r1] = &m;
         let [tx, ty] = &p.vndf.t;
         let (before, total) = (&st.before, &st.total);
         for l in 0..L {
-            let (c0, c1) = (lerp(v00[l], v01[l], ty[l]), lerp(v10[l], v11[l], ty[l]));
+            let [v00, v10, v01, v11, b0, b1, r0, r1] = st.cell[l];
+            let (c0, c1) = (lerp(v00, v01, ty[l]), lerp(v10, v11, ty[l]));
             let mut x = tx[l] * lerp(c0, c1, 0.5 * tx[l]) * pw;
-            x += lerp(b0[l], b1[l], ty[l]);
-            x /= lerp(r0[l], r1[l], ty[l]);
-            let mut y = ty[l] * lerp(r0[l], r1[l], 0.5 * ty[l]) * ph;
+            x += lerp(b0, b1, ty[l]);
+            x /= lerp(r0, r1, ty[l]);
+            let mut y = ty[l] * lerp(r0, r1, 0.5 * ty[l]) * ph;
             y += before[l];
             // 1 for a normalised VNDF (every `.bsdf`'s): an exact division.
             y /= total[l];
