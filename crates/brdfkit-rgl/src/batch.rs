@@ -228,6 +228,16 @@ fn lerp(a: f32, b: f32, t: f32) -> f32 {
     a - a * t + b * t
 }
 
+/// [`lerp`] of four channels at once.
+#[inline(always)]
+fn lerp4(a: [f32; 4], b: [f32; 4], t: f32) -> [f32; 4] {
+    let mut o = [0.0; 4];
+    for j in 0..4 {
+        o[j] = lerp(a[j], b[j], t);
+    }
+    o
+}
+
 /// The cells of a lane block's positions on a grid: each lane's column and row and its
 /// position in the cell.
 struct Cells {
@@ -504,22 +514,26 @@ impl Kernel<'_> {
         if !self.packed.rgb.is_empty() {
             debug_assert_eq!(k, 3);
             let rgb = &self.packed.rgb;
-            for (l, o) in out.chunks_exact_mut(3).enumerate() {
+            let mut v = [[0.0f32; 4]; L];
+            for l in 0..L {
                 // The same sums, in the same order, as Σ weight × corner slice per
                 // channel and corner: (0 + w₀ x₀) + w₁ x₁ …
-                let mut m = [0.0f32; 16];
-                for (k, w) in p.w[l].iter().enumerate().take(NC) {
+                let mut m = [[0.0f32; 4]; 4];
+                for (k, &w) in p.w[l].iter().enumerate().take(NC) {
                     let cell = &rgb[first[l] + off[k] * per].0;
-                    for (m, x) in m.iter_mut().zip(cell) {
+                    for (m, x) in m.as_flattened_mut().iter_mut().zip(cell) {
                         *m += w * x;
                     }
                 }
                 let (tx, ty) = (c.t[0][l], c.t[1][l]);
-                let mut v = [0.0f32; 4];
-                for (j, v) in v.iter_mut().enumerate() {
-                    let (a, b, cc, d) = (m[j], m[4 + j], m[8 + j], m[12 + j]);
-                    *v = lerp(lerp(a, b, tx), lerp(cc, d, tx), ty) * scale[l];
-                }
+                let [a, b, cc, d] = m;
+                let ab = lerp4(a, b, tx);
+                v[l] = lerp4(ab, lerp4(cc, d, tx), ty).map(|x| x * scale[l]);
+            }
+            // The channels of every lane computed as one vector (the fourth, the
+            // padding, dropped here: computed in place, the compiler split them into two
+            // and one).
+            for (o, v) in out.chunks_exact_mut(3).zip(&v) {
                 o.copy_from_slice(&v[..3]);
             }
         } else {
