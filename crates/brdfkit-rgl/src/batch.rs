@@ -453,8 +453,9 @@ impl Kernel<'_> {
         let (n, s) = (self.ndf, self.sigma);
         let cn = cells([&g.um[0], &g.um[1]], n.w, n.h);
         let cs = cells([&g.uwi[0], &g.uwi[1]], s.w, s.h);
+        let (dn, ds) = (plain(n, &cn), plain(s, &cs));
         for l in 0..L {
-            scale[l] = plain(n, &cn, l) / (4.0 * plain(s, &cs, l)) * g.scale[l];
+            scale[l] = dn[l] / (4.0 * ds[l]) * g.scale[l];
         }
     }
 
@@ -650,9 +651,12 @@ impl Kernel<'_> {
                 self.front_at::<NC>(rows, b + 1, next);
             }
             // The input rows a few blocks ahead (the hardware prefetcher alone left the
-            // row loads waiting on memory, `perf annotate`).
-            for r in rows.iter().skip((b + 4) * L).take(L).step_by(4) {
-                prefetch(r);
+            // row loads waiting on memory, `perf annotate`): every 64-byte line of them
+            // (a row is 48 bytes; one row in four left two lines in three unfetched).
+            let ahead = rows.get((b + 4) * L..).unwrap_or_default();
+            let ahead = ahead[..ahead.len().min(L)].as_flattened();
+            for x in ahead.iter().step_by(8) {
+                prefetch(x);
             }
             if o.len() == L * k {
                 self.back::<NC>(&cur.0, &cur.1, o);
@@ -714,12 +718,30 @@ fn prefetch<T>(x: &T) {
     let _ = x;
 }
 
-/// A table without parameters (`ndf`, `sigma`) in lane `l`'s cell of `c`
-/// (`Warp2D::eval_plain`).
+/// A table without parameters (`ndf`, `sigma`) in each lane's cell of `c`
+/// (`Warp2D::eval_plain`): the corners loaded lane by lane, then interpolated over the
+/// lanes (vectorised; a lane at a time, the interpolation and the Jacobian's division
+/// were scalar).
 #[inline(always)]
-fn plain(w: &Warp2D, c: &Cells, l: usize) -> f32 {
-    let i = c.row[l] as usize * w.w + c.col[l] as usize;
-    let [v00, v10, v01, v11] = [0, 1, w.w, w.w + 1].map(|o| w.data[i + o]);
-    let t = [c.t[0][l], c.t[1][l]];
-    lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1])
+fn plain(w: &Warp2D, c: &Cells) -> [f32; L] {
+    let mut v = [[0.0f32; L]; 4];
+    for l in 0..L {
+        let i = c.row[l] as usize * w.w + c.col[l] as usize;
+        // One bounds check for the four corners.
+        let d = &w.data[i..i + w.w + 2];
+        for (v, o) in v.iter_mut().zip([0, 1, w.w, w.w + 1]) {
+            v[l] = d[o];
+        }
+    }
+    let [v00, v10, v01, v11] = &v;
+    let [tx, ty] = &c.t;
+    let mut out = [0.0f32; L];
+    for l in 0..L {
+        out[l] = lerp(
+            lerp(v00[l], v10[l], tx[l]),
+            lerp(v01[l], v11[l], tx[l]),
+            ty[l],
+        );
+    }
+    out
 }
