@@ -349,15 +349,21 @@ impl Kernel<'_> {
             if n < 2 {
                 continue;
             }
-            // The largest i ≤ n − 2 with grid[i] < x: a count, vectorised over lanes.
-            for &v in &grid[1..n - 1] {
+            // The largest i ≤ n − 2 with grid[i] < x: a count, and grid[i], grid[i + 1]
+            // kept by selects as it grows (the grid is sorted, so the last value below
+            // x is grid[i]), vectorised over lanes: read back as grid[i] lane by lane,
+            // they were scalar loads.
+            let (mut p0, mut p1) = ([grid[0]; L], [grid[1]; L]);
+            for (&v, &next) in grid[1..n - 1].iter().zip(&grid[2..]) {
                 for l in 0..L {
-                    at[d][l] += usize::from(g.param[d][l] > v);
+                    let below = g.param[d][l] > v;
+                    at[d][l] += usize::from(below);
+                    p0[l] = if below { v } else { p0[l] };
+                    p1[l] = if below { next } else { p1[l] };
                 }
             }
             for l in 0..L {
-                let (p0, p1) = (grid[at[d][l]], grid[at[d][l] + 1]);
-                t[d][l] = ((g.param[d][l] - p0) / (p1 - p0)).clamp(0.0, 1.0);
+                t[d][l] = ((g.param[d][l] - p0[l]) / (p1[l] - p0[l])).clamp(0.0, 1.0);
             }
         }
         let n_theta = self.theta_i.len();
