@@ -45,6 +45,11 @@ const L: usize = LANES;
 #[repr(C, align(32))]
 pub(crate) struct VndfCell([f32; 8]);
 
+/// Four floats, aligned: the corners (v00, v10, v01, v11) of one value channel of a cell.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+pub(crate) struct Quad([f32; 4]);
+
 /// One value cell of an RGB file, corner-major: (r, g, b, 0) at v00, v10, v01 and v11.
 /// One 64-byte line, which a lane mixes over the corner slices as one vector and
 /// interpolates with the channels side by side (channel-major, the mix took one scalar
@@ -63,10 +68,9 @@ pub(crate) struct Packed {
     /// The marginal CDF before each cell row (0 for the first) and its total, per slice.
     marg_before: Vec<f32>,
     marg_total: Vec<f32>,
-    /// `slices × (h − 1) × (w − 1)` cells of the values of a spectral file, corner-major
-    /// as [`RgbCell`] (the `stride` wavelengths at v00, then at v10, v01 and v11); empty
-    /// for an RGB file.
-    values: Vec<f32>,
+    /// `slices × (h − 1) × (w − 1)` cells of the values of a spectral file, `stride`
+    /// quads a cell (one a wavelength); empty for an RGB file.
+    values: Vec<Quad>,
     stride: usize,
     /// The same cells of an RGB file; empty for a spectral one.
     rgb: Vec<RgbCell>,
@@ -128,8 +132,8 @@ impl Packed {
 
 /// The value cells: for each outer slice and cell, the four corners of each node of the
 /// last parameter (from [`Warp2D`]'s interleaved copy): as [`RgbCell`]s for an RGB file,
-/// else as 4 × `stride` floats a cell, corner by corner.
-fn pack_values(v: &Warp2D) -> (Vec<f32>, usize, Vec<RgbCell>) {
+/// else as `stride` [`Quad`]s a cell.
+fn pack_values(v: &Warp2D) -> (Vec<Quad>, usize, Vec<RgbCell>) {
     let (w, h) = (v.w, v.h);
     let k = v.params.last().map_or(1, Vec::len);
     let outer = v.interleaved.len() / (w * h * k);
@@ -138,7 +142,7 @@ fn pack_values(v: &Warp2D) -> (Vec<f32>, usize, Vec<RgbCell>) {
     if k == 3 {
         rgb = vec![RgbCell::default(); n];
     } else {
-        quads = vec![0.0; n * 4 * k];
+        quads = vec![Quad::default(); n * k];
     }
     for s in 0..outer {
         let il = &v.interleaved[s * w * h * k..(s + 1) * w * h * k];
@@ -153,9 +157,7 @@ fn pack_values(v: &Warp2D) -> (Vec<f32>, usize, Vec<RgbCell>) {
                             rgb[cell].0[4 * c + j] = x;
                         }
                     } else {
-                        for (c, &x) in at.iter().enumerate() {
-                            quads[(cell * 4 + c) * k + j] = x;
-                        }
+                        quads[cell * k + j] = Quad(at);
                     }
                 }
             }
@@ -478,44 +480,32 @@ impl Kernel<'_> {
         (first, c)
     }
 
-    /// Step 3b for one lane of a spectral file: the `out.len()` wavelengths of the
-    /// cells starting at `cells[at[k]]` (one a corner slice, corner-major) mixed with the
-    /// corner weights `wt` and interpolated at `t` in the cell, times `scale`: a chunk of
-    /// wavelengths at a time, as vectors over the wavelengths (a wavelength at a time,
-    /// it was scalar).
+    /// Step 3b: the value table's `k` values of the quads `q(j, corner)` at position
+    /// `t` in the cell, mixed with the corner weights `wt`, times `scale`, into `out`.
     #[inline(always)]
-    fn spectral_values<const NC: usize>(
-        cells: &[f32],
-        at: [usize; 4],
+    fn values<const NC: usize>(
+        &self,
+        q: impl Fn(usize, usize) -> Quad,
         t: [f32; 2],
         wt: &[f32; 4],
         scale: f32,
         out: &mut [f32],
     ) {
-        const CHUNK: usize = 16;
-        let k = out.len();
-        for (j0, o) in (0..k).step_by(CHUNK).zip(out.chunks_mut(CHUNK)) {
-            let n = o.len();
-            // The same sums, in the same order, as before: (0 + w₀ x₀) + w₁ x₁ …
-            let mut m = [[0.0f32; CHUNK]; 4];
-            for (&w, &i) in wt.iter().zip(&at).take(NC) {
-                for (c, m) in m.iter_mut().enumerate() {
-                    let x = &cells[i + c * k + j0..][..n];
-                    for (m, x) in m.iter_mut().zip(x) {
-                        *m += w * x;
-                    }
+        for (j, o) in out.iter_mut().enumerate() {
+            let mut m = [0.0f32; 4];
+            for (k, w) in wt.iter().enumerate().take(NC) {
+                for (m, x) in m.iter_mut().zip(q(j, k).0) {
+                    *m += w * x;
                 }
             }
-            let [a, b, c, d] = &m;
-            for (j, o) in o.iter_mut().enumerate() {
-                *o = lerp(lerp(a[j], b[j], t[0]), lerp(c[j], d[j], t[0]), t[1]) * scale;
-            }
+            let [a, b, c, d] = m;
+            *o = lerp(lerp(a, b, t[0]), lerp(c, d, t[0]), t[1]) * scale;
         }
     }
 
     /// Step 3b for a lane block whose value cells are `at`: an RGB file's a lane at a
     /// time, each [`RgbCell`] mixed over the corner slices and interpolated as vectors of
-    /// its channels; a spectral file's, lane by lane ([`spectral_values`](Self::spectral_values)).
+    /// its channels; a spectral file's, lane by lane over its [`Quad`]s.
     #[inline(always)]
     fn all_values<const NC: usize>(
         &self,
@@ -554,11 +544,11 @@ impl Kernel<'_> {
                 o.copy_from_slice(&v[..3]);
             }
         } else {
-            let cell = 4 * self.packed.stride;
+            let (vals, stride) = (&self.packed.values, self.packed.stride);
             for (l, o) in out.chunks_exact_mut(k).enumerate() {
-                Self::spectral_values::<NC>(
-                    &self.packed.values,
-                    off.map(|o| (first[l] + o * per) * cell),
+                let i = first[l] * stride;
+                self.values::<NC>(
+                    |j, k| vals[i + off[k] * per * stride + j],
                     [c.t[0][l], c.t[1][l]],
                     &p.w[l],
                     scale[l],
@@ -621,12 +611,7 @@ impl Kernel<'_> {
         for i in at.0 {
             for o in &off[..NC] {
                 if rgb.is_empty() {
-                    // Every line of the cell (4 × 33 wavelengths: 9 lines).
-                    let cell = 4 * stride;
-                    let x = &self.packed.values[(i + o * per) * cell..][..cell];
-                    for x in x.iter().step_by(16) {
-                        prefetch(x);
-                    }
+                    prefetch(&self.packed.values[(i + o * per) * stride]);
                 } else {
                     prefetch(&rgb[i + o * per]);
                 }
