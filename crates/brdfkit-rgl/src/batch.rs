@@ -425,8 +425,9 @@ impl Kernel<'_> {
 
     /// Step 3a, second half: the inverse VNDF warp at every lane's half vector
     /// (`Warp2D::invert_with`, the same arithmetic on the lanes' mixed [`VndfCell`]s),
-    /// into `pos`. The cells are turned into one array per field, so the arithmetic
-    /// runs over lanes (vectorised).
+    /// into `pos`. The arithmetic reads each lane's mixed record in place and runs over
+    /// lanes (vectorised); turned into one array per field first, the records were
+    /// written with AVX-512 scatters, slower than the arithmetic they fed.
     #[inline(always)]
     fn invert(&self, p: &Place, st: &Stage, pos: &mut [[f32; L]; 2]) {
         let v = self.vndf;
