@@ -50,6 +50,14 @@ pub(crate) struct VndfCell([f32; 8]);
 #[repr(C, align(16))]
 pub(crate) struct Quad([f32; 4]);
 
+/// One value cell of an RGB file, corner-major: (r, g, b, 0) at v00, v10, v01 and v11.
+/// One 64-byte line, which a lane mixes over the corner slices as one vector and
+/// interpolates with the channels side by side (channel-major, the mix took one scalar
+/// multiply-add per channel, corner and slice).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub(crate) struct RgbCell([f32; 16]);
+
 /// The tables rearranged by cell for the batch kernel, built once per file (lazily, on
 /// the first batch evaluation): the same f32 numbers as the [`Warp2D`]s, so the same
 /// results, with a cell's data together.
@@ -60,10 +68,12 @@ pub(crate) struct Packed {
     /// The marginal CDF before each cell row (0 for the first) and its total, per slice.
     marg_before: Vec<f32>,
     marg_total: Vec<f32>,
-    /// `slices × (h − 1) × (w − 1)` cells of the values, `stride` quads a cell (the
-    /// channels or wavelengths, RGB padded to 4 so a cell is one 64-byte line).
+    /// `slices × (h − 1) × (w − 1)` cells of the values of a spectral file, `stride`
+    /// quads a cell (one a wavelength); empty for an RGB file.
     values: Vec<Quad>,
     stride: usize,
+    /// The same cells of an RGB file; empty for a spectral one.
+    rgb: Vec<RgbCell>,
 }
 
 impl Packed {
@@ -108,39 +118,52 @@ impl Packed {
             })
             .collect();
         let marg_total = (0..slices).map(|s| marg(s, nm - 1)).collect();
-        let (values, stride) = pack_values(values);
+        let (values, stride, rgb) = pack_values(values);
         Packed {
             vndf: cells,
             marg_before,
             marg_total,
             values,
             stride,
+            rgb,
         }
     }
 }
 
 /// The value cells: for each outer slice and cell, the four corners of each node of the
-/// last parameter (from [`Warp2D`]'s interleaved copy).
-fn pack_values(v: &Warp2D) -> (Vec<Quad>, usize) {
+/// last parameter (from [`Warp2D`]'s interleaved copy): as [`RgbCell`]s for an RGB file,
+/// else as `stride` [`Quad`]s a cell.
+fn pack_values(v: &Warp2D) -> (Vec<Quad>, usize, Vec<RgbCell>) {
     let (w, h) = (v.w, v.h);
     let k = v.params.last().map_or(1, Vec::len);
-    let stride = if k == 3 { 4 } else { k };
     let outer = v.interleaved.len() / (w * h * k);
-    let mut out = vec![Quad::default(); outer * (h - 1) * (w - 1) * stride];
+    let n = outer * (h - 1) * (w - 1);
+    let (mut quads, mut rgb) = (Vec::new(), Vec::new());
+    if k == 3 {
+        rgb = vec![RgbCell::default(); n];
+    } else {
+        quads = vec![Quad::default(); n * k];
+    }
     for s in 0..outer {
         let il = &v.interleaved[s * w * h * k..(s + 1) * w * h * k];
         for y in 0..h - 1 {
             for x in 0..w - 1 {
                 let cell = (s * (h - 1) + y) * (w - 1) + x;
-                let i = y * w + x;
+                let corners = [0, 1, w, w + 1].map(|d| y * w + x + d);
                 for j in 0..k {
-                    let at = |c: usize| il[c * k + j];
-                    out[cell * stride + j] = Quad([at(i), at(i + 1), at(i + w), at(i + w + 1)]);
+                    let at = corners.map(|c| il[c * k + j]);
+                    if k == 3 {
+                        for (c, &x) in at.iter().enumerate() {
+                            rgb[cell].0[4 * c + j] = x;
+                        }
+                    } else {
+                        quads[cell * k + j] = Quad(at);
+                    }
                 }
             }
         }
     }
-    (out, stride)
+    (quads, k, rgb)
 }
 
 /// The per-file constants of the kernel.
@@ -177,9 +200,12 @@ struct Place {
     vndf: Cells,
 }
 
-/// Step 3a's gathered VNDF cells of a lane block.
-struct Stage<const NC: usize> {
-    vndf: [[VndfCell; NC]; L],
+/// Step 3a's VNDF cells of a lane block, each lane's mixed over its corner slices, and
+/// the marginal CDF before its row and the total, mixed the same way.
+struct Stage {
+    cell: [[f32; 8]; L],
+    before: [f32; L],
+    total: [f32; L],
 }
 
 /// Elevation of a unit vector, stable near the pole (`measured.cpp`'s `elevation`):
@@ -200,6 +226,16 @@ fn fold(x: f32, s: f32, mask: u32) -> f32 {
 #[inline(always)]
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
     a - a * t + b * t
+}
+
+/// [`lerp`] of four channels at once.
+#[inline(always)]
+fn lerp4(a: [f32; 4], b: [f32; 4], t: f32) -> [f32; 4] {
+    let mut o = [0.0; 4];
+    for j in 0..4 {
+        o[j] = lerp(a[j], b[j], t);
+    }
+    o
 }
 
 /// The cells of a lane block's positions on a grid: each lane's column and row and its
@@ -313,15 +349,21 @@ impl Kernel<'_> {
             if n < 2 {
                 continue;
             }
-            // The largest i ≤ n − 2 with grid[i] < x: a count, vectorised over lanes.
-            for &v in &grid[1..n - 1] {
+            // The largest i ≤ n − 2 with grid[i] < x: a count, and grid[i], grid[i + 1]
+            // kept by selects as it grows (the grid is sorted, so the last value below
+            // x is grid[i]), vectorised over lanes: read back as grid[i] lane by lane,
+            // they were scalar loads.
+            let (mut p0, mut p1) = ([grid[0]; L], [grid[1]; L]);
+            for (&v, &next) in grid[1..n - 1].iter().zip(&grid[2..]) {
                 for l in 0..L {
-                    at[d][l] += usize::from(g.param[d][l] > v);
+                    let below = g.param[d][l] > v;
+                    at[d][l] += usize::from(below);
+                    p0[l] = if below { v } else { p0[l] };
+                    p1[l] = if below { next } else { p1[l] };
                 }
             }
             for l in 0..L {
-                let (p0, p1) = (grid[at[d][l]], grid[at[d][l] + 1]);
-                t[d][l] = ((g.param[d][l] - p0) / (p1 - p0)).clamp(0.0, 1.0);
+                t[d][l] = ((g.param[d][l] - p0[l]) / (p1[l] - p0[l])).clamp(0.0, 1.0);
             }
         }
         let n_theta = self.theta_i.len();
@@ -352,65 +394,54 @@ impl Kernel<'_> {
         p.slice[l] * (h - 1) * (w - 1) + row * (w - 1) + col
     }
 
-    /// Step 3a, first half: every lane's VNDF cells (one per corner slice), loaded
-    /// before any is used so the lanes' cache misses overlap, with the lanes' cells and
-    /// positions in them.
+    /// Step 3a, first half: every lane's VNDF cells (one per corner slice) mixed with
+    /// the corner weights, a lane at a time: a [`VndfCell`] is one vector, so the mix
+    /// is a vector multiply and add per slice (mixed field by field over lanes, it took
+    /// one scalar multiply-add per field and slice). The lanes are independent, so
+    /// their loads (prefetched a block ahead) overlap.
     #[inline(always)]
-    fn gather_vndf<const NC: usize>(&self, p: &Place, off: &[usize; 4], st: &mut Stage<NC>) {
-        let per = (self.vndf.h - 1) * (self.vndf.w - 1);
+    fn gather_vndf<const NC: usize>(&self, p: &Place, off: &[usize; 4], st: &mut Stage) {
+        let v = self.vndf;
+        let per = (v.h - 1) * (v.w - 1);
+        let nm = v.h - 1;
         for l in 0..L {
-            let i = self.vndf_cell(p, l);
+            let (i, wt) = (self.vndf_cell(p, l), &p.w[l]);
+            // The same sums, in the same order, as before: (0 + w₀ x₀) + w₁ x₁ …
+            let mut m = [0.0f32; 8];
             for k in 0..NC {
-                st.vndf[l][k] = self.packed.vndf[i + off[k] * per];
+                for (m, x) in m.iter_mut().zip(&self.packed.vndf[i + off[k] * per].0) {
+                    *m += wt[k] * x;
+                }
+            }
+            st.cell[l] = m;
+            let s = p.slice[l];
+            let row = s * nm + p.vndf.row[l] as usize;
+            st.before[l] = mix::<NC>(&self.packed.marg_before, row, nm, off, wt);
+            if !v.normalized {
+                st.total[l] = mix::<NC>(&self.packed.marg_total, s, 1, off, wt);
             }
         }
     }
 
     /// Step 3a, second half: the inverse VNDF warp at every lane's half vector
-    /// (`Warp2D::invert_with`, the same arithmetic on the lanes' [`VndfCell`]s mixed
-    /// over the corner slices), into `pos`. The cells are mixed into one array per
-    /// field, so the arithmetic runs over lanes (vectorised).
+    /// (`Warp2D::invert_with`, the same arithmetic on the lanes' mixed [`VndfCell`]s),
+    /// into `pos`. The arithmetic reads each lane's mixed record in place and runs over
+    /// lanes (vectorised); turned into one array per field first, the records were
+    /// written with AVX-512 scatters, slower than the arithmetic they fed.
     #[inline(always)]
-    fn invert<const NC: usize>(
-        &self,
-        p: &Place,
-        off: &[usize; 4],
-        st: &Stage<NC>,
-        pos: &mut [[f32; L]; 2],
-    ) {
+    fn invert(&self, p: &Place, st: &Stage, pos: &mut [[f32; L]; 2]) {
         let v = self.vndf;
         let (w, h) = (v.w, v.h);
-        let mut m = [[0.0f32; L]; 8];
-        let (mut before, mut total) = ([0.0f32; L], [1.0f32; L]);
-        let nm = h - 1;
-        for l in 0..L {
-            let wt = &p.w[l];
-            for k in 0..NC {
-                for (j, x) in st.vndf[l][k].0.iter().enumerate() {
-                    m[j][l] += wt[k] * x;
-                }
-            }
-            let s = p.slice[l];
-            before[l] = mix::<NC>(
-                &self.packed.marg_before,
-                s * nm + p.vndf.row[l] as usize,
-                nm,
-                off,
-                wt,
-            );
-            if !v.normalized {
-                total[l] = mix::<NC>(&self.packed.marg_total, s, 1, off, wt);
-            }
-        }
         let (pw, ph) = (1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32);
-        let [v00, v10, v01, v11, b0, b1, r0, r1] = &m;
         let [tx, ty] = &p.vndf.t;
+        let (before, total) = (&st.before, &st.total);
         for l in 0..L {
-            let (c0, c1) = (lerp(v00[l], v01[l], ty[l]), lerp(v10[l], v11[l], ty[l]));
+            let [v00, v10, v01, v11, b0, b1, r0, r1] = st.cell[l];
+            let (c0, c1) = (lerp(v00, v01, ty[l]), lerp(v10, v11, ty[l]));
             let mut x = tx[l] * lerp(c0, c1, 0.5 * tx[l]) * pw;
-            x += lerp(b0[l], b1[l], ty[l]);
-            x /= lerp(r0[l], r1[l], ty[l]);
-            let mut y = ty[l] * lerp(r0[l], r1[l], 0.5 * ty[l]) * ph;
+            x += lerp(b0, b1, ty[l]);
+            x /= lerp(r0, r1, ty[l]);
+            let mut y = ty[l] * lerp(r0, r1, 0.5 * ty[l]) * ph;
             y += before[l];
             // 1 for a normalised VNDF (every `.bsdf`'s): an exact division.
             y /= total[l];
@@ -429,12 +460,14 @@ impl Kernel<'_> {
         let (n, s) = (self.ndf, self.sigma);
         let cn = cells([&g.um[0], &g.um[1]], n.w, n.h);
         let cs = cells([&g.uwi[0], &g.uwi[1]], s.w, s.h);
+        let (dn, ds) = (plain(n, &cn), plain(s, &cs));
         for l in 0..L {
-            scale[l] = plain(n, &cn, l) / (4.0 * plain(s, &cs, l)) * g.scale[l];
+            scale[l] = dn[l] / (4.0 * ds[l]) * g.scale[l];
         }
     }
 
-    /// The first quad of each lane's value cell (corner slice 0), and the cells.
+    /// Each lane's value cell in corner slice 0 (an index of [`Packed`]'s cells), and
+    /// the cells.
     #[inline(always)]
     fn value_cells(&self, pos: &[[f32; L]; 2], p: &Place) -> ([usize; L], Cells) {
         let v = self.values;
@@ -443,7 +476,7 @@ impl Kernel<'_> {
         let mut first = [0; L];
         for (l, f) in first.iter_mut().enumerate() {
             let cell = c.row[l] as usize * (v.w - 1) + c.col[l] as usize;
-            *f = (p.slice[l] * per + cell) * self.packed.stride;
+            *f = p.slice[l] * per + cell;
         }
         (first, c)
     }
@@ -471,9 +504,9 @@ impl Kernel<'_> {
         }
     }
 
-    /// Step 3b for a lane block whose value cells are `at`: RGB cells gathered for
-    /// every lane before any is used (as [`gather_vndf`](Self::gather_vndf)); a
-    /// spectral file's, lane by lane.
+    /// Step 3b for a lane block whose value cells are `at`: an RGB file's a lane at a
+    /// time, each [`RgbCell`] mixed over the corner slices and interpolated as vectors of
+    /// its channels; a spectral file's, lane by lane over its [`Quad`]s.
     #[inline(always)]
     fn all_values<const NC: usize>(
         &self,
@@ -484,41 +517,40 @@ impl Kernel<'_> {
         out: &mut [f32],
     ) {
         let k = out.len() / L;
-        let (per, stride) = (
-            (self.values.h - 1) * (self.values.w - 1),
-            self.packed.stride,
-        );
-        let vals = &self.packed.values;
+        let per = (self.values.h - 1) * (self.values.w - 1);
         let (first, c) = at;
-        let t = |l: usize| [c.t[0][l], c.t[1][l]];
-        if stride == 4 {
+        if !self.packed.rgb.is_empty() {
             debug_assert_eq!(k, 3);
-            // Mixed over the corner slices into one array per (channel, corner), so
-            // the interpolation runs over lanes (vectorised).
-            let mut m = [[[0.0f32; L]; 4]; 3];
+            let rgb = &self.packed.rgb;
+            let mut v = [[0.0f32; 4]; L];
             for l in 0..L {
-                for (k, w) in p.w[l].iter().enumerate().take(NC) {
-                    let i = first[l] + off[k] * per * stride;
-                    for (j, q) in vals[i..i + 3].iter().enumerate() {
-                        for (corner, x) in q.0.iter().enumerate() {
-                            m[j][corner][l] += w * x;
-                        }
+                // The same sums, in the same order, as Σ weight × corner slice per
+                // channel and corner: (0 + w₀ x₀) + w₁ x₁ …
+                let mut m = [[0.0f32; 4]; 4];
+                for (k, &w) in p.w[l].iter().enumerate().take(NC) {
+                    let cell = &rgb[first[l] + off[k] * per].0;
+                    for (m, x) in m.as_flattened_mut().iter_mut().zip(cell) {
+                        *m += w * x;
                     }
                 }
+                let (tx, ty) = (c.t[0][l], c.t[1][l]);
+                let [a, b, cc, d] = m;
+                let ab = lerp4(a, b, tx);
+                v[l] = lerp4(ab, lerp4(cc, d, tx), ty).map(|x| x * scale[l]);
             }
-            for (j, [a, b, cc, d]) in m.iter().enumerate() {
-                for l in 0..L {
-                    let (tx, ty) = (c.t[0][l], c.t[1][l]);
-                    out[l * 3 + j] =
-                        lerp(lerp(a[l], b[l], tx), lerp(cc[l], d[l], tx), ty) * scale[l];
-                }
+            // The channels of every lane computed as one vector (the fourth, the
+            // padding, dropped here: computed in place, the compiler split them into two
+            // and one).
+            for (o, v) in out.chunks_exact_mut(3).zip(&v) {
+                o.copy_from_slice(&v[..3]);
             }
         } else {
+            let (vals, stride) = (&self.packed.values, self.packed.stride);
             for (l, o) in out.chunks_exact_mut(k).enumerate() {
-                let i = first[l];
+                let i = first[l] * stride;
                 self.values::<NC>(
                     |j, k| vals[i + off[k] * per * stride + j],
-                    t(l),
+                    [c.t[0][l], c.t[1][l]],
                     &p.w[l],
                     scale[l],
                     o,
@@ -566,17 +598,24 @@ impl Kernel<'_> {
     fn back<const NC: usize>(&self, g: &Geo, p: &Place, out: &mut [f32]) {
         let off = self.offsets();
         let mut st = Stage {
-            vndf: [[VndfCell::default(); NC]; L],
+            cell: [[0.0; 8]; L],
+            before: [0.0; L],
+            total: [1.0; L],
         };
         self.gather_vndf::<NC>(p, &off, &mut st);
         let mut pos = [[0.0f32; L]; 2];
-        self.invert::<NC>(p, &off, &st, &mut pos);
+        self.invert(p, &st, &mut pos);
         // The value cells are fetched while the Jacobians are computed.
         let at = self.value_cells(&pos, p);
-        let per = (self.values.h - 1) * (self.values.w - 1) * self.packed.stride;
+        let per = (self.values.h - 1) * (self.values.w - 1);
+        let (rgb, stride) = (&self.packed.rgb, self.packed.stride);
         for i in at.0 {
             for o in &off[..NC] {
-                prefetch(&self.packed.values[i + o * per]);
+                if rgb.is_empty() {
+                    prefetch(&self.packed.values[(i + o * per) * stride]);
+                } else {
+                    prefetch(&rgb[i + o * per]);
+                }
             }
         }
         let mut scale = [0.0f32; L];
@@ -619,9 +658,12 @@ impl Kernel<'_> {
                 self.front_at::<NC>(rows, b + 1, next);
             }
             // The input rows a few blocks ahead (the hardware prefetcher alone left the
-            // row loads waiting on memory, `perf annotate`).
-            for r in rows.iter().skip((b + 4) * L).take(L).step_by(4) {
-                prefetch(r);
+            // row loads waiting on memory, `perf annotate`): every 64-byte line of them
+            // (a row is 48 bytes; one row in four left two lines in three unfetched).
+            let ahead = rows.get((b + 4) * L..).unwrap_or_default();
+            let ahead = ahead[..ahead.len().min(L)].as_flattened();
+            for x in ahead.iter().step_by(8) {
+                prefetch(x);
             }
             if o.len() == L * k {
                 self.back::<NC>(&cur.0, &cur.1, o);
@@ -683,12 +725,30 @@ fn prefetch<T>(x: &T) {
     let _ = x;
 }
 
-/// A table without parameters (`ndf`, `sigma`) in lane `l`'s cell of `c`
-/// (`Warp2D::eval_plain`).
+/// A table without parameters (`ndf`, `sigma`) in each lane's cell of `c`
+/// (`Warp2D::eval_plain`): the corners loaded lane by lane, then interpolated over the
+/// lanes (vectorised; a lane at a time, the interpolation and the Jacobian's division
+/// were scalar).
 #[inline(always)]
-fn plain(w: &Warp2D, c: &Cells, l: usize) -> f32 {
-    let i = c.row[l] as usize * w.w + c.col[l] as usize;
-    let [v00, v10, v01, v11] = [0, 1, w.w, w.w + 1].map(|o| w.data[i + o]);
-    let t = [c.t[0][l], c.t[1][l]];
-    lerp(lerp(v00, v10, t[0]), lerp(v01, v11, t[0]), t[1])
+fn plain(w: &Warp2D, c: &Cells) -> [f32; L] {
+    let mut v = [[0.0f32; L]; 4];
+    for l in 0..L {
+        let i = c.row[l] as usize * w.w + c.col[l] as usize;
+        // One bounds check for the four corners.
+        let d = &w.data[i..i + w.w + 2];
+        for (v, o) in v.iter_mut().zip([0, 1, w.w, w.w + 1]) {
+            v[l] = d[o];
+        }
+    }
+    let [v00, v10, v01, v11] = &v;
+    let [tx, ty] = &c.t;
+    let mut out = [0.0f32; L];
+    for l in 0..L {
+        out[l] = lerp(
+            lerp(v00[l], v10[l], tx[l]),
+            lerp(v01[l], v11[l], tx[l]),
+            ty[l],
+        );
+    }
+    out
 }
