@@ -65,24 +65,32 @@ impl Integrand for Sampled {
     };
 }
 
+/// A Gauss-Legendre rule: nodes and weights.
+type Rule = Arc<(Vec<f64>, Vec<f64>)>;
+
 /// The n-point Gauss-Legendre rule, computed once per n in the process (the arc rules
 /// have up to thousands of nodes, whose Newton iterations cost more than a cheap
 /// integral). [`gauss_legendre`]'s own values, so the same bits as the core's rules.
-fn rule(n: usize) -> Arc<(Vec<f64>, Vec<f64>)> {
-    static RULES: OnceLock<Mutex<HashMap<usize, Arc<(Vec<f64>, Vec<f64>)>>>> = OnceLock::new();
+/// Each n has its own cell: a thread that needs a rule another is computing waits for
+/// it instead of computing it too (the albedo integrals of a report start together and
+/// ask for the same few rules), and the map's lock is held only to find the cell.
+fn rule(n: usize) -> Rule {
+    static RULES: OnceLock<Mutex<HashMap<usize, Arc<OnceLock<Rule>>>>> = OnceLock::new();
     let rules = RULES.get_or_init(|| Mutex::new(HashMap::new()));
-    // A poisoned lock only means another thread panicked while inserting: compute.
-    if let Some(r) = rules.lock().ok().and_then(|m| m.get(&n).cloned()) {
-        return r;
+    // Rules above 2¹⁶ nodes (a direction within 0.02° of the horizon) are not kept; a
+    // poisoned lock only means another thread panicked while inserting: compute.
+    let cell = (n <= 1 << 16)
+        .then(|| {
+            rules
+                .lock()
+                .ok()
+                .map(|mut m| m.entry(n).or_default().clone())
+        })
+        .flatten();
+    match cell {
+        Some(c) => c.get_or_init(|| Arc::new(gauss_legendre(n))).clone(),
+        None => Arc::new(gauss_legendre(n)),
     }
-    let r = Arc::new(gauss_legendre(n));
-    // Rules above 2¹⁶ nodes (a direction within 0.02° of the horizon) are not kept.
-    if n <= 1 << 16
-        && let Ok(mut m) = rules.lock()
-    {
-        m.entry(n).or_insert_with(|| r.clone());
-    }
-    r
 }
 
 /// a(wo) = ∫ f(wi, wo) cos θi dωi by the rule `q`, exactly as
