@@ -366,8 +366,11 @@ mod tests {
     fn table_albedo_is_the_cores_to_the_bit() {
         let dims = Dims::new(12, 10, 20).unwrap();
         let t = MerlTable::from_fn(dims, |i, j, k| {
-            ((i + 2 * j + k) % 7 != 0)
-                .then(|| Rgb([0.1 + i as f64, 0.2 + j as f64, 0.3 + k as f64]))
+            ((i + 2 * j + k) % 7 != 0).then_some(Rgb([
+                0.1 + i as f64,
+                0.2 + j as f64,
+                0.3 + k as f64,
+            ]))
         })
         .unwrap();
         for theta in [0.0f64, 30.0, 75.0, 88.0] {
