@@ -29,8 +29,9 @@ use super::style::{PAGE_CSS, PANELS_CSS};
 use crate::compare::{CompareError, Kind, Representation};
 use base64::Engine;
 use brdfkit_core::direction::spherical;
-use brdfkit_core::{Rgb, Vec3};
-use brdfkit_merl::{Dims, Lookup, MerlTable};
+use brdfkit_core::{GeometryBatch, Rgb, Vec3};
+use brdfkit_fit::Fitted;
+use brdfkit_merl::{Dims, Lookup, MerlTable, cell_directions};
 use maud::{Markup, PreEscaped, html};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -106,13 +107,72 @@ fn on_view_grid(label: &str, r: &Representation) -> Result<MerlTable, CompareErr
                     source,
                 }
             })?;
-            Ok(Arc::unwrap_or_clone(r.tabulate(Path::new(label), dims)?))
+            model_on_grid(f, dims).map_err(|source| CompareError::Tabulate {
+                path: label.into(),
+                dims,
+                source,
+            })
         }
         other => Ok(Arc::unwrap_or_clone(
             other.tabulate(Path::new(label), dims)?,
         )),
     }
 }
+
+/// A model tabulated at the cells of `dims` (those whose directions are above the
+/// horizon; the others missing): [`Representation::tabulate`]'s table, with each
+/// channel model evaluated through its batch path (runs of [`GRID_RUN`] cells) instead
+/// of a pair at a time. The same directions ([`cell_directions`]) and the same values:
+/// a model's batch and pair paths agree to the bit.
+fn model_on_grid(f: &Fitted, dims: Dims) -> Result<MerlTable, brdfkit_merl::TableError> {
+    let n = dims.cells();
+    // Each cell's place among the cells above the horizon (`NONE` below it).
+    const NONE: usize = usize::MAX;
+    let cells: Vec<Option<([f64; 3], [f64; 3])>> = (0..n)
+        .into_par_iter()
+        .map(|idx| {
+            let (i, j, k) = dims.unflatten(idx);
+            let (_, wi, wo, above) = cell_directions(dims, i, j, k);
+            above.then_some(([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]))
+        })
+        .collect();
+    let mut place = vec![NONE; n];
+    let mut dirs = Vec::with_capacity(n);
+    for (p, c) in place.iter_mut().zip(&cells) {
+        if let Some(d) = c {
+            *p = dirs.len();
+            dirs.push(*d);
+        }
+    }
+    drop(cells);
+    let mut vals = vec![Rgb::ZERO; dirs.len()];
+    let shared = matches!(f, Fitted::Shared(_));
+    vals.par_chunks_mut(GRID_RUN)
+        .zip(dirs.par_chunks(GRID_RUN))
+        .for_each(|(out, run)| {
+            let mut geo = GeometryBatch::default();
+            geo.fill_with(run.len(), |k| run[k]);
+            let g = geo.as_slice();
+            f.channel_model(0).eval_batch(&g, out);
+            if !shared {
+                // Channel c from the channel-c model.
+                let mut tmp = vec![Rgb::ZERO; run.len()];
+                for c in 1..3 {
+                    f.channel_model(c).eval_batch(&g, &mut tmp);
+                    for (o, v) in out.iter_mut().zip(&tmp) {
+                        o[c] = v[c];
+                    }
+                }
+            }
+        });
+    MerlTable::from_fn(dims, |i, j, k| {
+        let p = place[dims.index(i, j, k)];
+        (p != NONE).then(|| vals[p])
+    })
+}
+
+/// Cells per batch of [`model_on_grid`].
+const GRID_RUN: usize = 4096;
 
 /// Per channel, the log range (lo, hi) of the grid's positive values.
 fn log_range(t: &MerlTable) -> [(f64, f64); 3] {
