@@ -121,58 +121,51 @@ fn on_view_grid(label: &str, r: &Representation) -> Result<MerlTable, CompareErr
 
 /// A model tabulated at the cells of `dims` (those whose directions are above the
 /// horizon; the others missing): [`Representation::tabulate`]'s table, with each
-/// channel model evaluated through its batch path (runs of [`GRID_RUN`] cells) instead
-/// of a pair at a time. The same directions ([`cell_directions`]) and the same values:
-/// a model's batch and pair paths agree to the bit.
+/// channel model evaluated through its batch path, a θh slab of cells at a time (in
+/// parallel), instead of a pair at a time. The same directions ([`cell_directions`])
+/// and the same values: a model's batch and pair paths agree to the bit.
 fn model_on_grid(f: &Fitted, dims: Dims) -> Result<MerlTable, brdfkit_merl::TableError> {
-    let n = dims.cells();
-    // Each cell's place among the cells above the horizon (`NONE` below it).
-    const NONE: usize = usize::MAX;
-    let cells: Vec<Option<([f64; 3], [f64; 3])>> = (0..n)
+    let slab = dims.theta_d() * dims.phi_d();
+    let slabs: Vec<Vec<Option<Rgb>>> = (0..dims.theta_h())
         .into_par_iter()
-        .map(|idx| {
-            let (i, j, k) = dims.unflatten(idx);
-            let (_, wi, wo, above) = cell_directions(dims, i, j, k);
-            above.then_some(([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]))
-        })
+        .map(|i| slab_values(f, dims, i, slab))
         .collect();
-    let mut place = vec![NONE; n];
-    let mut dirs = Vec::with_capacity(n);
-    for (p, c) in place.iter_mut().zip(&cells) {
-        if let Some(d) = c {
-            *p = dirs.len();
-            dirs.push(*d);
-        }
-    }
-    drop(cells);
-    let mut vals = vec![Rgb::ZERO; dirs.len()];
-    let shared = matches!(f, Fitted::Shared(_));
-    vals.par_chunks_mut(GRID_RUN)
-        .zip(dirs.par_chunks(GRID_RUN))
-        .for_each(|(out, run)| {
-            let mut geo = GeometryBatch::default();
-            geo.fill_with(run.len(), |k| run[k]);
-            let g = geo.as_slice();
-            f.channel_model(0).eval_batch(&g, out);
-            if !shared {
-                // Channel c from the channel-c model.
-                let mut tmp = vec![Rgb::ZERO; run.len()];
-                for c in 1..3 {
-                    f.channel_model(c).eval_batch(&g, &mut tmp);
-                    for (o, v) in out.iter_mut().zip(&tmp) {
-                        o[c] = v[c];
-                    }
-                }
-            }
-        });
-    MerlTable::from_fn(dims, |i, j, k| {
-        let p = place[dims.index(i, j, k)];
-        (p != NONE).then(|| vals[p])
-    })
+    MerlTable::from_fn(dims, |i, j, k| slabs[i][j * dims.phi_d() + k])
 }
 
-/// Cells per batch of [`model_on_grid`].
-const GRID_RUN: usize = 4096;
+/// [`model_on_grid`]'s values of θh slab `i` (`slab` cells, in index order).
+fn slab_values(f: &Fitted, dims: Dims, i: usize, slab: usize) -> Vec<Option<Rgb>> {
+    let mut up = Vec::with_capacity(slab);
+    let mut dirs = Vec::with_capacity(slab);
+    for j in 0..dims.theta_d() {
+        for k in 0..dims.phi_d() {
+            let (_, wi, wo, above) = cell_directions(dims, i, j, k);
+            up.push(above);
+            if above {
+                dirs.push(([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]));
+            }
+        }
+    }
+    let mut geo = GeometryBatch::default();
+    geo.fill_with(dirs.len(), |k| dirs[k]);
+    let g = geo.as_slice();
+    let mut vals = vec![Rgb::ZERO; dirs.len()];
+    f.channel_model(0).eval_batch(&g, &mut vals);
+    if !matches!(f, Fitted::Shared(_)) {
+        // Channel c from the channel-c model.
+        let mut tmp = vec![Rgb::ZERO; dirs.len()];
+        for c in 1..3 {
+            f.channel_model(c).eval_batch(&g, &mut tmp);
+            for (o, v) in vals.iter_mut().zip(&tmp) {
+                o[c] = v[c];
+            }
+        }
+    }
+    let mut next = vals.into_iter();
+    up.into_iter()
+        .map(|u| if u { next.next() } else { None })
+        .collect()
+}
 
 /// Per channel, the log range (lo, hi) of the grid's positive values.
 fn log_range(t: &MerlTable) -> [(f64, f64); 3] {
