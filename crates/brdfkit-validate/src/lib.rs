@@ -54,6 +54,7 @@ pub mod mitsuba;
 pub mod physical;
 pub mod quality;
 pub mod report;
+mod rings;
 pub mod table;
 
 pub use physical::{

@@ -435,6 +435,27 @@ pub fn albedo_converged(
     (a, p, c)
 }
 
+/// [`albedo_converged`] of a model, every integral a ring of nodes at a time through its
+/// batch path ([`crate::rings::model_albedo`]: the same bits); with `transposed`, the
+/// albedo a(wi) = ∫ f(w, wo) cos θo dωo (the [`Transposed`] model's).
+pub(crate) fn model_albedo_converged(
+    m: &dyn Model,
+    w: &Vec3,
+    choice: PoleChoice,
+    good_enough: f64,
+    transposed: bool,
+) -> (Rgb, QuadPole, f64) {
+    let guess = if transposed {
+        auto_pole(&Transposed(m), w)
+    } else {
+        auto_pole(m, w)
+    };
+    let (a, p, c, ()) = converged_with(w, choice, good_enough, guess, |q| {
+        (crate::rings::model_albedo(m, w, q, transposed), ())
+    });
+    (a, p, c)
+}
+
 /// The albedo curve of a BRDF in both readings, at the given polar angles and azimuths
 /// (in parallel). With `reciprocal` (the reciprocity check passed), a(wi) is a(wo) and
 /// is not integrated again.
@@ -446,6 +467,38 @@ pub fn albedo_curve(
     good_enough: f64,
     reciprocal: bool,
 ) -> Vec<AlbedoPoint> {
+    curve_of(thetas, phis, reciprocal, |w, transposed| {
+        if transposed {
+            albedo_converged(&Transposed(b), w, pole, good_enough)
+        } else {
+            albedo_converged(b, w, pole, good_enough)
+        }
+    })
+}
+
+/// [`albedo_curve`] of a model, through its batch path ([`model_albedo_converged`]:
+/// the same points).
+pub fn model_albedo_curve(
+    m: &dyn Model,
+    thetas: &[f64],
+    phis: &[f64],
+    pole: PoleChoice,
+    good_enough: f64,
+    reciprocal: bool,
+) -> Vec<AlbedoPoint> {
+    curve_of(thetas, phis, reciprocal, |w, transposed| {
+        model_albedo_converged(m, w, pole, good_enough, transposed)
+    })
+}
+
+/// The albedo curve at every (θ, φ) (in parallel), `albedo(w, transposed)` giving the
+/// converged albedo a(wo) at wo = w, or with `transposed` a(wi) at wi = w.
+fn curve_of(
+    thetas: &[f64],
+    phis: &[f64],
+    reciprocal: bool,
+    albedo: impl Fn(&Vec3, bool) -> (Rgb, QuadPole, f64) + Sync,
+) -> Vec<AlbedoPoint> {
     let dirs: Vec<(f64, f64)> = thetas
         .iter()
         .flat_map(|&t| phis.iter().map(move |&p| (t, p)))
@@ -453,11 +506,11 @@ pub fn albedo_curve(
     dirs.par_iter()
         .map(|&(theta, phi)| {
             let w = spherical(theta, phi);
-            let (a_wo, p_wo, c_wo) = albedo_converged(b, &w, pole, good_enough);
+            let (a_wo, p_wo, c_wo) = albedo(&w, false);
             let (a_wi, p_wi, c_wi) = if reciprocal {
                 (a_wo, p_wo, c_wo)
             } else {
-                albedo_converged(&Transposed(b), &w, pole, good_enough)
+                albedo(&w, true)
             };
             AlbedoPoint {
                 theta,
@@ -620,7 +673,7 @@ fn check_energy(m: &dyn Model, o: &CheckOptions, reciprocal: bool) -> EnergyChec
     };
     // A pole whose estimate is a hundredth of the bound is kept without trying others.
     let good_enough = 1e-2 * o.thresholds.convergence;
-    let curve = albedo_curve(m, &o.albedo_thetas, &phis, o.pole, good_enough, reciprocal);
+    let curve = model_albedo_curve(m, &o.albedo_thetas, &phis, o.pole, good_enough, reciprocal);
     let mut max = (f64::NEG_INFINITY, "a(wo)", 0.0);
     let mut conv: f64 = 0.0;
     for p in &curve {

@@ -16,7 +16,7 @@
 //!   by [`brdfkit_fit::fit`] on a stratified subset of the cells and scored on the
 //!   others; the ratio of held-out to training loss measures over-fitting.
 
-use crate::physical::{PoleChoice, albedo_converged, auto_pole, converged_with};
+use crate::physical::{PoleChoice, auto_pole, converged_with, model_albedo_converged};
 use crate::report::{deg, num, rgb};
 use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
@@ -734,7 +734,7 @@ fn albedo_comparison(
             for (c, m) in models.iter().enumerate() {
                 // Per-channel fits are three models; a shared one is integrated once
                 // per channel too (cheap next to the table's lookups).
-                fit[c] = albedo_converged(*m, &wo, PoleChoice::Auto, 1e-6).0[c];
+                fit[c] = model_albedo_converged(*m, &wo, PoleChoice::Auto, 1e-6, false).0[c];
             }
             let guess = auto_pole(&table_brdf(table, Lookup::Interpolated), &wo);
             let (_, _, _, (t, missing)) = converged_with(&wo, PoleChoice::Auto, 1e-4, guess, |q| {

@@ -24,14 +24,12 @@
 use crate::physical::{PoleChoice, QuadPole, auto_pole, converged_with};
 use crate::report::{Verdict, deg, num, rgb};
 use brdfkit_core::direction::spherical;
-use brdfkit_core::quadrature::{AlbedoQuadrature, directional_albedo};
+use brdfkit_core::quadrature::AlbedoQuadrature;
 use brdfkit_core::{Brdf, Rgb, Vec3};
 use brdfkit_merl::{Lookup, MerlTable, cell_directions};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The limits of the table checks.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -235,84 +233,23 @@ pub(crate) fn table_brdf(t: &MerlTable, mode: Lookup) -> impl Brdf + '_ {
     }
 }
 
-/// The table read as a BRDF (missing lookups 0) that notes, call by call, where it was
-/// asked and whether a sample was found: the indicator integral of [`table_albedo`]
-/// visits the same nodes in the same order, and replays the notes instead of looking
-/// the table up a second time ([`Replay`]).
-struct Recording<'a> {
-    t: &'a MerlTable,
-    mode: Lookup,
-    seen: Mutex<Vec<([f64; 3], bool)>>,
-}
-
-impl Brdf for Recording<'_> {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        let f = self.t.lookup(self.mode, wi, wo);
-        self.seen
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push(([wi.x, wi.y, wi.z], f.is_some()));
-        f.unwrap_or(Rgb::ZERO)
-    }
-}
-
-/// The validity indicator (1/π where a sample is found, else 0) from a [`Recording`]'s
-/// notes: the k-th call answers from the k-th note when it is asked at the same wi
-/// (`wo` is the same for the whole integral), and looks the table up otherwise, so the
-/// result is the indicator's whatever the order of the calls.
-struct Replay<'a> {
-    t: &'a MerlTable,
-    mode: Lookup,
-    seen: Vec<([f64; 3], bool)>,
-    next: AtomicUsize,
-}
-
-impl Brdf for Replay<'_> {
-    fn eval(&self, wi: &Vec3, wo: &Vec3) -> Rgb {
-        let k = self.next.fetch_add(1, Ordering::Relaxed);
-        let valid = match self.seen.get(k) {
-            Some((w, v)) if *w == [wi.x, wi.y, wi.z] => *v,
-            _ => self.t.lookup(self.mode, wi, wo).is_some(),
-        };
-        if valid {
-            Rgb::splat(1.0 / PI)
-        } else {
-            Rgb::ZERO
-        }
-    }
-}
-
 /// Albedo of the table at θo with the given rule: (filled albedo, missing weight).
 ///
 /// Two integrals over the same nodes: the table's values, and the validity indicator
-/// (the valid fraction of the cosine-weighted hemisphere); the second replays the
-/// lookups of the first (the cost of a lookup is most of an integral's).
+/// (the valid fraction of the cosine-weighted hemisphere), both from one lookup per
+/// node, a ring of nodes at a time ([`crate::rings::table_albedo_sums`]: the bits of
+/// [`directional_albedo`] over [`TableBrdf`] with and without `indicator`).
 pub(crate) fn table_albedo(
     t: &MerlTable,
     mode: Lookup,
     wo: &Vec3,
     q: &AlbedoQuadrature,
 ) -> (Option<Rgb>, f64) {
-    let rec = Recording {
-        t,
-        mode,
-        seen: Mutex::new(Vec::new()),
-    };
-    let f = directional_albedo(&rec, wo, q);
+    let s = crate::rings::table_albedo_sums(t, mode, wo, q);
     // ∫ (v/π) cos θi dωi: the valid fraction of the cosine-weighted hemisphere.
-    let v = directional_albedo(
-        &Replay {
-            t,
-            mode,
-            seen: rec.seen.into_inner().unwrap_or_else(|e| e.into_inner()),
-            next: AtomicUsize::new(0),
-        },
-        wo,
-        q,
-    )
-    .r();
+    let v = s.valid;
     if v > 0.0 {
-        (Some(f / v), (1.0 - v).max(0.0))
+        (Some(s.f / v), (1.0 - v).max(0.0))
     } else {
         (None, 1.0)
     }
@@ -582,11 +519,13 @@ crate::report::display_as_text!(TableReport);
 #[cfg(test)]
 mod tests {
     use super::*;
+    use brdfkit_core::quadrature::directional_albedo;
     use brdfkit_merl::Dims;
 
-    /// The replayed indicator integral is the looked-up one to the bit.
+    /// The one-pass value and indicator integrals are the two looked-up ones to the
+    /// bit.
     #[test]
-    fn table_albedo_replay_matches_two_lookup_passes() {
+    fn table_albedo_matches_two_lookup_passes() {
         let dims = Dims::new(16, 16, 32).unwrap();
         // Holes in the table, so the indicator is not 1 wherever a direction is up.
         let t = MerlTable::from_fn(dims, |i, j, k| {

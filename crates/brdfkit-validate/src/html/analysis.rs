@@ -1,7 +1,9 @@
 //! The figures behind the report's charts: θh slices, residual maps and albedo curves,
 //! computed over the table's own cells (the cells a fit sees).
 
-use crate::physical::{PhysicalReport, PoleChoice, albedo_converged, auto_pole, converged_with};
+use crate::physical::{
+    PhysicalReport, PoleChoice, auto_pole, converged_with, model_albedo_converged,
+};
 use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
 use brdfkit_core::rusinkiewicz::from_half_diff;
@@ -233,15 +235,17 @@ pub struct AlbedoCurves {
     pub models: Vec<Vec<Rgb>>,
 }
 
-/// The report's tolerance of a model's albedo ([`albedo_converged`]'s `good_enough`).
+/// The report's tolerance of a model's albedo
+/// ([`crate::physical::albedo_converged`]'s `good_enough`).
 const MODEL_ALBEDO_GOOD_ENOUGH: f64 = 1e-6;
 
 fn model_albedo(m: &dyn Model, theta_o: f64) -> Rgb {
-    albedo_converged(
+    model_albedo_converged(
         m,
         &spherical(theta_o, 0.0),
         PoleChoice::Auto,
         MODEL_ALBEDO_GOOD_ENOUGH,
+        false,
     )
     .0
 }

@@ -29,8 +29,9 @@ use super::style::{PAGE_CSS, PANELS_CSS};
 use crate::compare::{CompareError, Kind, Representation};
 use base64::Engine;
 use brdfkit_core::direction::spherical;
-use brdfkit_core::{Rgb, Vec3};
-use brdfkit_merl::{Dims, Lookup, MerlTable};
+use brdfkit_core::{GeometryBatch, Rgb, Vec3};
+use brdfkit_fit::Fitted;
+use brdfkit_merl::{Dims, Lookup, MerlTable, cell_directions};
 use maud::{Markup, PreEscaped, html};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -106,12 +107,64 @@ fn on_view_grid(label: &str, r: &Representation) -> Result<MerlTable, CompareErr
                     source,
                 }
             })?;
-            Ok(Arc::unwrap_or_clone(r.tabulate(Path::new(label), dims)?))
+            model_on_grid(f, dims).map_err(|source| CompareError::Tabulate {
+                path: label.into(),
+                dims,
+                source,
+            })
         }
         other => Ok(Arc::unwrap_or_clone(
             other.tabulate(Path::new(label), dims)?,
         )),
     }
+}
+
+/// A model tabulated at the cells of `dims` (those whose directions are above the
+/// horizon; the others missing): [`Representation::tabulate`]'s table, with each
+/// channel model evaluated through its batch path, a θh slab of cells at a time (in
+/// parallel), instead of a pair at a time. The same directions ([`cell_directions`])
+/// and the same values: a model's batch and pair paths agree to the bit.
+fn model_on_grid(f: &Fitted, dims: Dims) -> Result<MerlTable, brdfkit_merl::TableError> {
+    let slab = dims.theta_d() * dims.phi_d();
+    let slabs: Vec<Vec<Option<Rgb>>> = (0..dims.theta_h())
+        .into_par_iter()
+        .map(|i| slab_values(f, dims, i, slab))
+        .collect();
+    MerlTable::from_fn(dims, |i, j, k| slabs[i][j * dims.phi_d() + k])
+}
+
+/// [`model_on_grid`]'s values of θh slab `i` (`slab` cells, in index order).
+fn slab_values(f: &Fitted, dims: Dims, i: usize, slab: usize) -> Vec<Option<Rgb>> {
+    let mut up = Vec::with_capacity(slab);
+    let mut dirs = Vec::with_capacity(slab);
+    for j in 0..dims.theta_d() {
+        for k in 0..dims.phi_d() {
+            let (_, wi, wo, above) = cell_directions(dims, i, j, k);
+            up.push(above);
+            if above {
+                dirs.push(([wi.x, wi.y, wi.z], [wo.x, wo.y, wo.z]));
+            }
+        }
+    }
+    let mut geo = GeometryBatch::default();
+    geo.fill_with(dirs.len(), |k| dirs[k]);
+    let g = geo.as_slice();
+    let mut vals = vec![Rgb::ZERO; dirs.len()];
+    f.channel_model(0).eval_batch(&g, &mut vals);
+    if !matches!(f, Fitted::Shared(_)) {
+        // Channel c from the channel-c model.
+        let mut tmp = vec![Rgb::ZERO; dirs.len()];
+        for c in 1..3 {
+            f.channel_model(c).eval_batch(&g, &mut tmp);
+            for (o, v) in vals.iter_mut().zip(&tmp) {
+                o[c] = v[c];
+            }
+        }
+    }
+    let mut next = vals.into_iter();
+    up.into_iter()
+        .map(|u| if u { next.next() } else { None })
+        .collect()
 }
 
 /// Per channel, the log range (lo, hi) of the grid's positive values.
