@@ -476,7 +476,7 @@ pub fn albedo_curve(
     })
 }
 
-/// [`albedo_curve`] of a model, through its batch path ([`model_albedo_converged`]:
+/// [`albedo_curve`] of a model, through its batch path (`model_albedo_converged`:
 /// the same points).
 pub fn model_albedo_curve(
     m: &dyn Model,
