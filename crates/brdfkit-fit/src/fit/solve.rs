@@ -173,6 +173,12 @@ pub(super) fn run_start_with(
             let lmr = LevenbergMarquardt::new(config.tau, tol)
                 .stopping_early(lm.early)
                 .subsample_tolerance(config.subsample_ftol)
+                // Only a warm-up run (the one with the warm-up set's tolerance) extends
+                // the steps its model under-predicts (`LevenbergMarquardt::extending`):
+                // the exploration's runs rank the starts, and extended there they moved
+                // three two-lobe Lafortune fits of the database to worse basins
+                // (docs/performance.md, "Session 16").
+                .extending(config.subsample_ftol.is_some())
                 .resumed(lm.resume);
             let r = run!(lmr, LsState, |s: LsState| s.param(u0.clone()));
             early = r.solver.stopped_early.then(|| r.solver.memory());
