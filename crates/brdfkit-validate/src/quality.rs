@@ -32,9 +32,9 @@ use brdfkit_models::testing::SplitMix64;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-use std::cell::RefCell;
 use std::f64::consts::FRAC_PI_2;
 use std::ops::Range;
+use std::sync::Mutex;
 use thiserror::Error;
 
 /// Errors of the fit-quality computation.
@@ -318,8 +318,9 @@ fn kth_smallest<const K: usize>(v: &[f64], ranks: [usize; K]) -> [f64; K] {
 /// per thread instead of full-length planes.
 const BLOCK: usize = 4096;
 
-/// Blocks computed in parallel before their sums are taken in cell order.
-const WINDOW: usize = 16;
+/// Blocks computed in parallel before their sums are taken in cell order (their
+/// outputs, [`BlockOut`], are kept for the whole pass: 4 × 0.5 MB).
+const WINDOW: usize = 4;
 
 /// The band of an angle: the `b` with lo ≤ θ < hi, the last band closed and taking the
 /// round-off above 90° too (θ computed by acos of a dot product); `None` below the
@@ -557,17 +558,15 @@ struct BlockOut {
     rows: Vec<RowSums>,
 }
 
-/// A thread's working buffers of [`block_terms`], kept between blocks.
+/// The working buffers of one [`block_terms`] at a time, kept between blocks in the
+/// layout's pool (one a thread at work; freed with the layout, so that nothing of the
+/// pass outlives it).
 #[derive(Default)]
 struct BlockScratch {
     geometry: GeometryBatch,
     values: Vec<Rgb>,
     tmp: Vec<Rgb>,
     planes: [Vec<f64>; 4],
-}
-
-thread_local! {
-    static SCRATCH: RefCell<BlockScratch> = RefCell::new(BlockScratch::default());
 }
 
 /// What the passes of every model over one set of cells share: the blocks, where each
@@ -581,6 +580,7 @@ struct PassLayout {
     zero: usize,
     rel: Vec<f64>,
     outs: Vec<BlockOut>,
+    scratch: Mutex<Vec<BlockScratch>>,
 }
 
 impl PassLayout {
@@ -609,11 +609,20 @@ impl PassLayout {
             zero,
             rel: vec![0.0; totals.iter().sum()],
             outs: (0..WINDOW).map(|_| BlockOut::default()).collect(),
+            scratch: Mutex::new(Vec::new()),
         }
     }
 
     /// The relative-error array cut into each block's places, channel after channel.
-    fn pieces(&mut self) -> (Vec<[&mut [f64]; 3]>, &[Block], &mut [BlockOut]) {
+    #[allow(clippy::type_complexity)]
+    fn pieces(
+        &mut self,
+    ) -> (
+        Vec<[&mut [f64]; 3]>,
+        &[Block],
+        &mut [BlockOut],
+        &Mutex<Vec<BlockScratch>>,
+    ) {
         let totals = self.totals;
         let mut pieces: Vec<[&mut [f64]; 3]> = Vec::with_capacity(self.blocks.len());
         let (r, rest) = self.rel.split_at_mut(totals[0]);
@@ -627,7 +636,7 @@ impl PassLayout {
             pieces.push([r0, g0, b0]);
             planes = [r1, g1, b1];
         }
-        (pieces, &self.blocks, &mut self.outs)
+        (pieces, &self.blocks, &mut self.outs, &self.scratch)
     }
 
     /// The relative errors of the last pass: all, then each channel's.
@@ -714,7 +723,7 @@ fn cell_pass(
     let mut full = LossSums::new();
     let mut row_sums = rows.map(|r| vec![(0.0, 0, 0); r.len()]);
     {
-        let (pieces, blocks, outs) = layout.pieces();
+        let (pieces, blocks, outs, pool) = layout.pieces();
         let mut work = blocks.iter().zip(pieces);
         loop {
             let window: Vec<(&Block, [&mut [f64]; 3])> = work.by_ref().take(WINDOW).collect();
@@ -725,7 +734,16 @@ fn cell_pass(
             // In parallel: each block's loss differences d[cell][loss][channel] (and its
             // relative errors, into their places; its rows' residual sums).
             used.par_iter_mut().zip(window).for_each(|(out, (b, dst))| {
-                block_terms((models, same), data, cuts, (b, rows), dst, out)
+                // A poisoned pool only means a block panicked: start afresh.
+                let mut sc = pool
+                    .lock()
+                    .ok()
+                    .and_then(|mut p| p.pop())
+                    .unwrap_or_default();
+                block_terms((models, same), data, cuts, (b, rows), dst, (out, &mut sc));
+                if let Ok(mut p) = pool.lock() {
+                    p.push(sc);
+                }
             });
             let used = &*used;
             // In cell order: the sums, the θh bands beside the θd bands and the whole set
@@ -792,9 +810,9 @@ fn block_terms(
     cuts: &[BandCuts; 2],
     (b, rows): (&Block, Option<&CellRows>),
     dst: [&mut [f64]; 3],
-    out: &mut BlockOut,
+    (out, sc): (&mut BlockOut, &mut BlockScratch),
 ) {
-    SCRATCH.with_borrow_mut(|sc| {
+    {
         let BlockScratch {
             geometry,
             values,
@@ -844,7 +862,7 @@ fn block_terms(
             p.resize(len, 0.0);
         }
         loss_terms(data, (s, e), values, &gs, dst, planes, &mut out.terms);
-    });
+    }
 }
 
 /// The terms of `evaluate_losses` of cells `s..e` with the model's `values`, in its
