@@ -16,11 +16,12 @@
 //!   by [`brdfkit_fit::fit`] on a stratified subset of the cells and scored on the
 //!   others; the ratio of held-out to training loss measures over-fitting.
 
+use crate::html::analysis::{ResidualMap, RowSums, add_residual_cell, residual_map_of_rows};
 use crate::physical::{PoleChoice, auto_pole, converged_with, model_albedo_converged};
 use crate::report::{deg, num, rgb};
 use crate::table::{table_albedo, table_brdf};
 use brdfkit_core::direction::spherical;
-use brdfkit_core::{GeometryBatch, Model, ModelError, Rgb};
+use brdfkit_core::{GeomSlice, GeometryBatch, Model, ModelError, Rgb};
 use brdfkit_fit::data::STRATA;
 use brdfkit_fit::loss::{Lanes8, cbrt_all, ln_1p_all};
 use brdfkit_fit::{
@@ -32,6 +33,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::f64::consts::FRAC_PI_2;
+use std::ops::Range;
+use std::sync::Mutex;
 use thiserror::Error;
 
 /// Errors of the fit-quality computation.
@@ -310,12 +313,16 @@ fn kth_smallest<const K: usize>(v: &[f64], ranks: [usize; K]) -> [f64; K] {
     })
 }
 
-/// Cells per block of the per-cell pass below: a few buffers of this size per thread
-/// instead of full-length planes.
-const BLOCK: usize = 4096;
+/// Cells per block of the per-cell pass below (about: a block of the table's rows
+/// closes before the row that would take it past this): a few buffers of this size
+/// per thread instead of full-length planes. 2048, not 4096: the pass keeps its
+/// buffers ([`BlockOut`], [`BlockScratch`]) from block to block, and at this size they
+/// hold about 1.7 MB, so the report's peak memory is not raised by them.
+const BLOCK: usize = 2048;
 
-/// Blocks computed in parallel before their sums are taken in cell order.
-const WINDOW: usize = 16;
+/// Blocks computed in parallel before their sums are taken in cell order (their
+/// outputs, [`BlockOut`], are kept for the whole pass: 4 × 0.26 MB).
+const WINDOW: usize = 4;
 
 /// The band of an angle: the `b` with lo ≤ θ < hi, the last band closed and taking the
 /// round-off above 90° too (θ computed by acos of a dot product); `None` below the
@@ -466,27 +473,197 @@ impl LossSums {
     }
 }
 
-/// One block's first cell, its cells' terms (per cell, [`TERMS`] numbers: the loss
-/// differences `d[loss][channel]`, then the published metrics' weight factors
-/// [`Loss::cell_factor`], so the sums need no geometry) and their (θh, θd) bands
-/// ([`BandCuts::band`]).
-type BlockTerms = (usize, Vec<f64>, Vec<[u32; 2]>);
-
-/// Numbers a cell of [`BlockTerms`]: 4 losses × 3 channels, then 4 factors.
+/// Numbers a cell of [`BlockOut::terms`]: 4 losses × 3 channels, then 4 factors.
 const TERMS: usize = 16;
+
+/// The table's (θh, θd) rows among its cells, for the residual maps the quality pass
+/// computes on the way ([`fit_quality_and_maps`]): row r (θh slowest) holds the cells
+/// `starts[r]..starts[r + 1]` (none when every cell of the row is missing).
+struct CellRows {
+    starts: Vec<usize>,
+    bins: [usize; 2],
+}
+
+impl CellRows {
+    /// The rows of `table`'s valid cells in file order: the cells of
+    /// [`FitData::from_table`].
+    fn of(table: &MerlTable) -> Self {
+        let d = table.dims();
+        let mut starts = Vec::with_capacity(d.theta_h() * d.theta_d() + 1);
+        starts.push(0);
+        let mut n = 0;
+        for row in table.valid_mask().chunks(d.phi_d()) {
+            n += row.iter().filter(|v| **v).count();
+            starts.push(n);
+        }
+        CellRows {
+            starts,
+            bins: [d.theta_h(), d.theta_d()],
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.starts.len() - 1
+    }
+}
+
+/// A block of [`cell_pass`]: its cells, and the rows they make up when residual maps
+/// are computed (empty otherwise).
+struct Block {
+    cells: Range<usize>,
+    rows: Range<usize>,
+}
+
+/// The blocks of `n` cells: runs of [`BLOCK`] cells, or, with `rows`, runs of whole
+/// rows of at most [`BLOCK`] cells (a longer row alone), so that each row's residual
+/// sums are taken inside one block, cell by cell in order. Blocks only split the
+/// evaluation: every sum of the pass is taken in cell order whatever they are.
+fn blocks(n: usize, rows: Option<&CellRows>) -> Vec<Block> {
+    let Some(r) = rows else {
+        return (0..n.div_ceil(BLOCK))
+            .map(|k| Block {
+                cells: k * BLOCK..((k + 1) * BLOCK).min(n),
+                rows: 0..0,
+            })
+            .collect();
+    };
+    let mut out = Vec::new();
+    let mut first = 0;
+    for row in 0..r.len() {
+        if row > first && r.starts[row + 1] - r.starts[first] > BLOCK {
+            out.push(first..row);
+            first = row;
+        }
+    }
+    out.push(first..r.len());
+    out.into_iter()
+        .map(|rows| Block {
+            cells: r.starts[rows.start]..r.starts[rows.end],
+            rows,
+        })
+        .filter(|b| !b.cells.is_empty())
+        .collect()
+}
+
+/// What one block of [`cell_pass`] hands to the sums, in buffers kept from window to
+/// window and model to model (no fresh pages to fault in and zero a block): its first
+/// cell, its cells' terms (per cell, [`TERMS`] numbers: the loss differences
+/// `d[loss][channel]`, then the published metrics' weight factors
+/// [`Loss::cell_factor`], so the sums need no geometry), their (θh, θd) bands
+/// ([`BandCuts::band`]) and, for residual maps, its rows' sums from `first_row` on.
+#[derive(Default)]
+struct BlockOut {
+    start: usize,
+    terms: Vec<f64>,
+    bands: Vec<[u32; 2]>,
+    first_row: usize,
+    rows: Vec<RowSums>,
+}
+
+/// The working buffers of one [`block_terms`] at a time, kept between blocks in the
+/// layout's pool (one a thread at work; freed with the layout, so that nothing of the
+/// pass outlives it).
+#[derive(Default)]
+struct BlockScratch {
+    geometry: GeometryBatch,
+    values: Vec<Rgb>,
+    tmp: Vec<Rgb>,
+    planes: [Vec<f64>; 4],
+}
+
+/// What the passes of every model over one set of cells share: the blocks, where each
+/// block's relative errors go (positive measurements per block and channel), the
+/// cells measured as 0, and the buffers (the relative errors' array and the window's
+/// block outputs), reused from model to model.
+struct PassLayout {
+    blocks: Vec<Block>,
+    counts: Vec<[usize; 3]>,
+    totals: [usize; 3],
+    zero: usize,
+    rel: Vec<f64>,
+    outs: Vec<BlockOut>,
+    scratch: Mutex<Vec<BlockScratch>>,
+}
+
+impl PassLayout {
+    fn new(data: &FitData, rows: Option<&CellRows>) -> Self {
+        let vals = data.values();
+        let blocks = blocks(data.len(), rows);
+        let counts: Vec<[usize; 3]> = blocks
+            .par_iter()
+            .map(|b| {
+                [0, 1, 2].map(|c| {
+                    vals[c][b.cells.clone()]
+                        .iter()
+                        .filter(|m| **m > 0.0)
+                        .count()
+                })
+            })
+            .collect();
+        let totals = [0, 1, 2].map(|c| counts.iter().map(|k| k[c]).sum::<usize>());
+        let zero = (0..3)
+            .map(|c| vals[c].iter().filter(|m| **m == 0.0).count())
+            .sum();
+        PassLayout {
+            blocks,
+            counts,
+            totals,
+            zero,
+            rel: vec![0.0; totals.iter().sum()],
+            outs: (0..WINDOW).map(|_| BlockOut::default()).collect(),
+            scratch: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// The relative-error array cut into each block's places, channel after channel.
+    #[allow(clippy::type_complexity)]
+    fn pieces(
+        &mut self,
+    ) -> (
+        Vec<[&mut [f64]; 3]>,
+        &[Block],
+        &mut [BlockOut],
+        &Mutex<Vec<BlockScratch>>,
+    ) {
+        let totals = self.totals;
+        let mut pieces: Vec<[&mut [f64]; 3]> = Vec::with_capacity(self.blocks.len());
+        let (r, rest) = self.rel.split_at_mut(totals[0]);
+        let (gr, b) = rest.split_at_mut(totals[1]);
+        let mut planes = [r, gr, b];
+        for k in &self.counts {
+            let [r, gr, b] = planes;
+            let (r0, r1) = r.split_at_mut(k[0]);
+            let (g0, g1) = gr.split_at_mut(k[1]);
+            let (b0, b1) = b.split_at_mut(k[2]);
+            pieces.push([r0, g0, b0]);
+            planes = [r1, g1, b1];
+        }
+        (pieces, &self.blocks, &mut self.outs, &self.scratch)
+    }
+
+    /// The relative errors of the last pass: all, then each channel's.
+    fn rel_planes(&self) -> (&[f64], [&[f64]; 3]) {
+        let t = self.totals;
+        let rel = &self.rel[..];
+        (
+            rel,
+            [&rel[..t[0]], &rel[t[0]..t[0] + t[1]], &rel[t[0] + t[1]..]],
+        )
+    }
+}
 
 /// Adds the cells of a window's blocks, in cell order, to the sums of their band on
 /// `axis` (0: θh, 1: θd) and, when given, to `full`.
 fn add_window(
-    diffs: &[BlockTerms],
+    outs: &[BlockOut],
     axis: usize,
     sums: &mut [LossSums],
     mut full: Option<&mut LossSums>,
     weight: &(dyn Fn(usize) -> f64 + Sync),
 ) {
-    for (s, d, bands) in diffs {
-        for (k, (dk, b)) in d.chunks_exact(TERMS).zip(bands).enumerate() {
-            let m = s + k;
+    for o in outs {
+        for (k, (dk, b)) in o.terms.chunks_exact(TERMS).zip(&o.bands).enumerate() {
+            let m = o.start + k;
             let (dk, gk) = dk.split_at(12);
             let gk: [f64; 4] = gk.try_into().expect("four factors");
             if let Some(sum) = sums.get_mut(b[axis] as usize) {
@@ -506,6 +683,8 @@ struct CellPass {
     theta_h_bands: Vec<Band>,
     theta_d_bands: Vec<Band>,
     relative_error: RelativeErrors,
+    /// Every row's residual sums, when the rows were given.
+    rows: Option<Vec<RowSums>>,
 }
 
 /// Every per-cell figure of one model in one pass over the cells (`data` of a whole
@@ -515,59 +694,24 @@ struct CellPass {
 /// [`brdfkit_fit::evaluate_losses`], so every band's losses are those of
 /// `evaluate_losses` on the band's cells gathered into a set of their own (to the bit;
 /// a test holds them together) without gathering them. The relative errors of the
-/// cell channels measured above 0 are written straight into one array (each block's
-/// place counted first from the measurements).
+/// cell channels measured above 0 are written straight into the layout's array (each
+/// block's place counted once from the measurements). With `rows`, each row's residual
+/// sums (the residual maps' arithmetic, [`add_residual_cell`]) are taken from the same
+/// values, cell by cell in order inside the row's block.
 fn cell_pass(
     models: [&dyn Model; 3],
     data: &FitData,
     o: &QualityOptions,
     cuts: &[BandCuts; 2],
     all: bool,
+    (layout, rows): (&mut PassLayout, Option<&CellRows>),
 ) -> CellPass {
-    let n = data.len();
-    let vals = data.values();
     let measure = data.measure();
-    let nblocks = n.div_ceil(BLOCK);
     let same = std::ptr::addr_eq(models[0], models[1]) && std::ptr::addr_eq(models[1], models[2]);
     let weight = |m: usize| match o.weighting {
         Weighting::SolidAngle => measure[m],
         Weighting::Uniform => 1.0,
     };
-
-    // Relative errors: positive measurements per (block, channel) place each block's
-    // values in the one output array, channel after channel.
-    let counts: Vec<[usize; 3]> = (0..nblocks)
-        .into_par_iter()
-        .map(|k| {
-            let r = k * BLOCK..((k + 1) * BLOCK).min(n);
-            [0, 1, 2].map(|c| vals[c][r.clone()].iter().filter(|m| **m > 0.0).count())
-        })
-        .collect();
-    let totals = [0, 1, 2].map(|c| counts.iter().map(|k| k[c]).sum::<usize>());
-    let zero = (0..3)
-        .map(|c| vals[c].iter().filter(|m| **m == 0.0).count())
-        .sum();
-    let mut rel = vec![0.0; totals.iter().sum()];
-    let ranges = [
-        0..totals[0],
-        totals[0]..totals[0] + totals[1],
-        totals[0] + totals[1]..rel.len(),
-    ];
-    let mut pieces: Vec<[&mut [f64]; 3]> = Vec::with_capacity(nblocks);
-    {
-        let (r, rest) = rel.split_at_mut(totals[0]);
-        let (gr, b) = rest.split_at_mut(totals[1]);
-        let mut planes = [r, gr, b];
-        for k in &counts {
-            let [r, gr, b] = planes;
-            let (r0, r1) = r.split_at_mut(k[0]);
-            let (g0, g1) = gr.split_at_mut(k[1]);
-            let (b0, b1) = b.split_at_mut(k[2]);
-            pieces.push([r0, g0, b0]);
-            planes = [r1, g1, b1];
-        }
-    }
-
     let mut hs: Vec<LossSums> = o
         .theta_h_bands
         .windows(2)
@@ -579,24 +723,44 @@ fn cell_pass(
         .map(|_| LossSums::new())
         .collect();
     let mut full = LossSums::new();
-    let mut pieces = pieces.into_iter().enumerate();
-    loop {
-        let window: Vec<(usize, [&mut [f64]; 3])> = pieces.by_ref().take(WINDOW).collect();
-        if window.is_empty() {
-            break;
+    let mut row_sums = rows.map(|r| vec![(0.0, 0, 0); r.len()]);
+    {
+        let (pieces, blocks, outs, pool) = layout.pieces();
+        let mut work = blocks.iter().zip(pieces);
+        loop {
+            let window: Vec<(&Block, [&mut [f64]; 3])> = work.by_ref().take(WINDOW).collect();
+            if window.is_empty() {
+                break;
+            }
+            let used = &mut outs[..window.len()];
+            // In parallel: each block's loss differences d[cell][loss][channel] (and its
+            // relative errors, into their places; its rows' residual sums).
+            used.par_iter_mut().zip(window).for_each(|(out, (b, dst))| {
+                // A poisoned pool only means a block panicked: start afresh.
+                let mut sc = pool
+                    .lock()
+                    .ok()
+                    .and_then(|mut p| p.pop())
+                    .unwrap_or_default();
+                block_terms((models, same), data, cuts, (b, rows), dst, (out, &mut sc));
+                if let Ok(mut p) = pool.lock() {
+                    p.push(sc);
+                }
+            });
+            let used = &*used;
+            // In cell order: the sums, the θh bands beside the θd bands and the whole set
+            // (each sum is still taken cell by cell in cell order: the same bits).
+            rayon::join(
+                || add_window(used, 0, &mut hs, None, &weight),
+                || add_window(used, 1, &mut ds, all.then_some(&mut full), &weight),
+            );
+            if let Some(all_rows) = row_sums.as_mut() {
+                for out in used {
+                    all_rows[out.first_row..out.first_row + out.rows.len()]
+                        .copy_from_slice(&out.rows);
+                }
+            }
         }
-        // In parallel: each block's loss differences d[cell][loss][channel] (and its
-        // relative errors, into their places).
-        let diffs: Vec<BlockTerms> = window
-            .into_par_iter()
-            .map(|(k, dst)| block_terms(models, same, data, cuts, k, dst))
-            .collect();
-        // In cell order: the sums, the θh bands beside the θd bands and the whole set
-        // (each sum is still taken cell by cell in cell order: the same bits).
-        rayon::join(
-            || add_window(&diffs, 0, &mut hs, None, &weight),
-            || add_window(&diffs, 1, &mut ds, all.then_some(&mut full), &weight),
-        );
     }
     let bands = |edges: &[f64], sums: Vec<LossSums>| -> Vec<Band> {
         edges
@@ -610,79 +774,119 @@ fn cell_pass(
             })
             .collect()
     };
+    let (rel, planes) = layout.rel_planes();
     // The channels' selections beside the pool's.
     let (channels, overall) = rayon::join(
         || {
             let mut out = [None; 3];
             out.par_iter_mut()
-                .zip(ranges.clone())
-                .for_each(|(o, r)| *o = percentiles(&rel[r]));
+                .zip(planes)
+                .for_each(|(o, r)| *o = percentiles(r));
             out
         },
-        || percentiles(&rel),
+        || percentiles(rel),
     );
     let relative_error = RelativeErrors {
         channels,
         samples: rel.len(),
         overall,
-        zero_measured: zero,
+        zero_measured: layout.zero,
     };
     CellPass {
         losses: if all { full.finish() } else { None },
         theta_h_bands: bands(&o.theta_h_bands, hs),
         theta_d_bands: bands(&o.theta_d_bands, ds),
         relative_error,
+        rows: row_sums,
     }
 }
 
-/// One block of [`cell_pass`]: the loss differences d[cell][loss][channel] of its cells
-/// (the terms of `evaluate_losses`, in its order), the cells' θh and θd bands, and the
-/// relative errors of its cells measured above 0, written into `dst` (one slice per
-/// channel, placed by `cell_pass`). `same`: one model for the three channels.
+/// One block of [`cell_pass`] into `out`: the loss differences d[cell][loss][channel]
+/// of its cells (the terms of `evaluate_losses`, in its order), the cells' θh and θd
+/// bands, the relative errors of its cells measured above 0, written into `dst` (one
+/// slice per channel, placed by the layout), and with `rows` its rows' residual sums.
+/// `same`: one model for the three channels.
 fn block_terms(
-    models: [&dyn Model; 3],
-    same: bool,
+    (models, same): ([&dyn Model; 3], bool),
     data: &FitData,
     cuts: &[BandCuts; 2],
-    k: usize,
+    (b, rows): (&Block, Option<&CellRows>),
     dst: [&mut [f64]; 3],
-) -> BlockTerms {
-    let (n, vals) = (data.len(), data.values());
-    let s = k * BLOCK;
-    let e = (s + BLOCK).min(n);
-    let len = e - s;
-    // The block's geometry, computed here for a table's cells whose whole-set columns
-    // are not built (`FitData::geometry_of`: the same bits).
-    let mut scratch = GeometryBatch::default();
-    let gs = data.geometry_of(s..e, &mut scratch);
-    let mut out = vec![Rgb::ZERO; len];
-    let mut tmp = if same {
-        Vec::new()
-    } else {
-        vec![Rgb::ZERO; len]
-    };
-    models[0].eval_batch(&gs, &mut out);
-    if !same {
-        for c in 1..3 {
-            models[c].eval_batch(&gs, &mut tmp);
-            for (a, b) in out.iter_mut().zip(&tmp) {
-                a[c] = b[c];
+    (out, sc): (&mut BlockOut, &mut BlockScratch),
+) {
+    {
+        let BlockScratch {
+            geometry,
+            values,
+            tmp,
+            planes,
+        } = sc;
+        let vals = data.values();
+        let (s, e) = (b.cells.start, b.cells.end);
+        let len = e - s;
+        // The block's geometry, computed here for a table's cells whose whole-set columns
+        // are not built (`FitData::geometry_of`: the same bits).
+        let gs = data.geometry_of(s..e, geometry);
+        values.clear();
+        values.resize(len, Rgb::ZERO);
+        models[0].eval_batch(&gs, values);
+        if !same {
+            tmp.clear();
+            tmp.resize(len, Rgb::ZERO);
+            for c in 1..3 {
+                models[c].eval_batch(&gs, tmp);
+                for (a, b) in values.iter_mut().zip(tmp.iter()) {
+                    a[c] = b[c];
+                }
             }
         }
+        out.start = s;
+        // The cells' bands of θ = acos(z) as `FitData::theta_h` / `theta_d` compute it
+        // (no full-length angle arrays).
+        out.bands.clear();
+        out.bands
+            .extend((0..len).map(|k| [cuts[0].band(gs.h_z[k]), cuts[1].band(gs.cos_d[k])]));
+        if let Some(r) = rows {
+            // Each row's cells in order, from 0: `residual_map`'s sums to the bit.
+            out.first_row = b.rows.start;
+            out.rows.clear();
+            out.rows.extend(b.rows.clone().map(|row| {
+                let mut a = (0.0, 0, 0);
+                for q in r.starts[row]..r.starts[row + 1] {
+                    add_residual_cell(&mut a, &values[q - s], [0, 1, 2].map(|c| vals[c][q]));
+                }
+                a
+            }));
+        }
+        // Every term of every cell is written below.
+        out.terms.resize(len * TERMS, 0.0);
+        for p in planes.iter_mut() {
+            p.resize(len, 0.0);
+        }
+        loss_terms(data, (s, e), values, &gs, dst, planes, &mut out.terms);
     }
-    // The cells' bands of θ = acos(z) as `FitData::theta_h` / `theta_d` compute it
-    // (no full-length angle arrays).
-    let bands: Vec<[u32; 2]> = (0..len)
-        .map(|k| [cuts[0].band(gs.h_z[k]), cuts[1].band(gs.cos_d[k])])
-        .collect();
-    // The terms of `evaluate_losses`, in its order, a channel at a time in passes over
-    // plain slices: the cube roots and logarithms in its vectorised loops (`cbrt_all`,
-    // `ln_1p_all`: the scalar functions' bits), the measured roots from the stored
-    // targets when the fit built them (`FitData::cbrt_targets`: the same roots).
+}
+
+/// The terms of `evaluate_losses` of cells `s..e` with the model's `values`, in its
+/// order, a channel at a time in passes over plain slices: the cube roots and
+/// logarithms in its vectorised loops (`cbrt_all`, `ln_1p_all`: the scalar functions'
+/// bits), the measured roots from the stored targets when the fit built them
+/// (`FitData::cbrt_targets`: the same roots). `planes` are four scratch planes of the
+/// block's length; the relative errors go to `dst`.
+fn loss_terms(
+    data: &FitData,
+    (s, e): (usize, usize),
+    values: &[Rgb],
+    gs: &GeomSlice<'_>,
+    dst: [&mut [f64]; 3],
+    planes: &mut [Vec<f64>; 4],
+    d: &mut [f64],
+) {
+    let len = e - s;
+    let vals = data.values();
     let ci = gs.wi_z;
     let roots = data.cbrt_targets_if_built();
-    let [mut xm, mut xt, mut tm, mut lg] = [(); 4].map(|_| vec![0.0; len]);
-    let mut d = vec![0.0; len * TERMS];
+    let [xm, xt, tm, lg] = planes;
     for (k, dk) in d.chunks_exact_mut(TERMS).enumerate() {
         let f = Loss::PUBLISHED.map(|l| l.cell_factor(gs.wi_z[k], gs.wo_z[k]));
         dk[12..].copy_from_slice(&f);
@@ -691,7 +895,7 @@ fn block_terms(
         let fm = &vals[c][s..e];
         let mut q = 0;
         for k in 0..len {
-            let x = out[k][c];
+            let x = values[k][c];
             if fm[k] > 0.0 {
                 dst[q] = (x - fm[k]).abs() / fm[k];
                 q += 1;
@@ -703,14 +907,14 @@ fn block_terms(
             lg[k] = (xm[k] - xt[k]) / (1.0 + xt[k]);
         }
         debug_assert_eq!(q, dst.len());
-        tm.copy_from_slice(&xm);
-        cbrt_all(&mut tm);
-        ln_1p_all(&mut lg);
+        tm.copy_from_slice(xm);
+        cbrt_all(tm);
+        ln_1p_all(lg);
         let rt: &[f64] = match roots {
             Some(r) => &r[c][s..e],
             None => {
-                cbrt_all(&mut xt);
-                &xt
+                cbrt_all(xt);
+                xt
             }
         };
         for k in 0..len {
@@ -718,7 +922,6 @@ fn block_terms(
             d[k * TERMS + 9 + c] = lg[k];
         }
     }
-    (s, d, bands)
 }
 
 fn albedo_comparison(
@@ -844,63 +1047,110 @@ pub fn fit_quality_with(
     check_edges("theta_h_bands", &o.theta_h_bands)?;
     check_edges("theta_d_bands", &o.theta_d_bands)?;
     let data = FitData::from_table(table)?;
-    let mut r = fit_quality_of(table, &data, &[(fitted, None)], o)?;
+    let mut r = fit_quality_and_maps(table, &data, &[(fitted, None)], o, None)?.0;
     Ok(r.remove(0))
 }
 
 /// Fit quality of several fitted models against one table, on its cells `data`
 /// ([`FitData::from_table`] of `table`, built once by the caller and shared by every
-/// model). A model may come with its losses over exactly these cells under
-/// `o.weighting` (the fit's record has them: [`brdfkit_fit::FitRecord::losses_full`]);
-/// they are then used as they are instead of being evaluated again.
-pub(crate) fn fit_quality_of(
+/// model), and with `map_bins` every model's residual map on blocks of at most
+/// `map_bins` × `map_bins` (the report's). A model may come with its losses over
+/// exactly these cells under `o.weighting` (the fit's record has them:
+/// [`brdfkit_fit::FitRecord::losses_full`]); they are then used as they are instead of
+/// being evaluated again.
+///
+/// The maps are taken from the values the quality pass evaluates, the rows' sums in the
+/// same order: the maps of `html::analysis`'s reference `residual_map` to the bit (a
+/// test holds them together), without evaluating every model at every cell a second
+/// time. The blocks, the relative errors' array and the blocks' buffers are laid out
+/// once for all the models.
+pub(crate) fn fit_quality_and_maps(
     table: &MerlTable,
     data: &FitData,
     fits: &[(&Fitted, Option<&LossReport>)],
     o: &QualityOptions,
-) -> Result<Vec<QualityReport>, QualityError> {
+    map_bins: Option<usize>,
+) -> Result<(Vec<QualityReport>, Vec<ResidualMap>), QualityError> {
     check_edges("theta_h_bands", &o.theta_h_bands)?;
     check_edges("theta_d_bands", &o.theta_d_bands)?;
     let cuts = BandCuts::of(o);
-    fits.iter()
-        .map(|(fitted, known)| {
-            let models = models_of(fitted);
-            let pass = cell_pass(models, data, o, &cuts, known.is_none());
-            let losses = match (known, pass.losses) {
-                (Some(l), _) => **l,
-                (None, Some(l)) => l,
-                // A set without cells: the fitter's own report of it.
-                (None, None) => evaluate_losses(models, data, o.weighting),
-            };
-            let (theta_h_bands, theta_d_bands, relative_error) =
-                (pass.theta_h_bands, pass.theta_d_bands, pass.relative_error);
-            let albedo = albedo_comparison(models, table, &o.albedo_thetas);
-            let held_out = match &o.held_out {
-                Some(h) => {
-                    let family = brdfkit_models::from_json(&h.family)?;
-                    Some(held_out(
-                        family.as_ref(),
-                        data,
-                        &h.config,
-                        h.train_fraction,
-                        h.seed,
-                    )?)
-                }
-                None => None,
-            };
-            Ok(QualityReport {
-                model: fitted.to_json(),
-                weighting: o.weighting,
-                cells: data.len(),
-                losses,
-                theta_h_bands,
-                theta_d_bands,
-                relative_error,
-                albedo,
-                held_out,
-            })
-        })
-        .collect()
+    let rows = map_bins.map(|_| CellRows::of(table));
+    if let Some(r) = &rows
+        && r.starts[r.len()] != data.len()
+    {
+        return Err(QualityError::Option {
+            option: "cells",
+            reason: format!(
+                "{} cells given for a table with {} valid cells",
+                data.len(),
+                r.starts[r.len()]
+            ),
+        });
+    }
+    let mut layout = PassLayout::new(data, rows.as_ref());
+    let mut maps = Vec::new();
+    let mut reports = Vec::with_capacity(fits.len());
+    for (fitted, known) in fits {
+        let models = models_of(fitted);
+        let pass = cell_pass(
+            models,
+            data,
+            o,
+            &cuts,
+            known.is_none(),
+            (&mut layout, rows.as_ref()),
+        );
+        if let (Some(r), Some(sums), Some(bins)) = (&rows, &pass.rows, map_bins) {
+            maps.push(residual_map_of_rows(sums, r.bins, bins));
+        }
+        reports.push(quality_report(table, data, fitted, models, known, pass, o)?);
+    }
+    Ok((reports, maps))
+}
+
+/// One model's [`QualityReport`] from its cell pass: the losses (the known ones, or
+/// the pass's), the bands, the relative errors, the albedo comparison and the held-out
+/// fit when asked for.
+fn quality_report(
+    table: &MerlTable,
+    data: &FitData,
+    fitted: &Fitted,
+    models: [&dyn Model; 3],
+    known: &Option<&LossReport>,
+    pass: CellPass,
+    o: &QualityOptions,
+) -> Result<QualityReport, QualityError> {
+    let losses = match (known, pass.losses) {
+        (Some(l), _) => **l,
+        (None, Some(l)) => l,
+        // A set without cells: the fitter's own report of it.
+        (None, None) => evaluate_losses(models, data, o.weighting),
+    };
+    let albedo = albedo_comparison(models, table, &o.albedo_thetas);
+    let held_out = match &o.held_out {
+        Some(h) => {
+            let family = brdfkit_models::from_json(&h.family)?;
+            Some(held_out(
+                family.as_ref(),
+                data,
+                &h.config,
+                h.train_fraction,
+                h.seed,
+            )?)
+        }
+        None => None,
+    };
+    Ok(QualityReport {
+        model: fitted.to_json(),
+        weighting: o.weighting,
+        cells: data.len(),
+        losses,
+        theta_h_bands: pass.theta_h_bands,
+        theta_d_bands: pass.theta_d_bands,
+        relative_error: pass.relative_error,
+        albedo,
+        held_out,
+    })
 }
 
 fn loss_row(l: &LossReport, loss: Loss) -> String {
@@ -1100,7 +1350,14 @@ mod tests {
         // built (each block's computed where read), the later ones on the built columns
         // (the relative errors' check builds them): the same figures either way.
         let o = QualityOptions::default();
-        cell_pass(models_of(&fits()[0]), &data, &o, &BandCuts::of(&o), true);
+        cell_pass(
+            models_of(&fits()[0]),
+            &data,
+            &o,
+            &BandCuts::of(&o),
+            true,
+            (&mut PassLayout::new(&data, None), None),
+        );
         assert!(data.geometry_if_built().is_none());
         for w in [Weighting::SolidAngle, Weighting::Uniform] {
             let o = QualityOptions {
@@ -1109,12 +1366,26 @@ mod tests {
             };
             for f in fits() {
                 let models = models_of(&f);
-                let p = cell_pass(models, &data, &o, &BandCuts::of(&o), true);
+                let p = cell_pass(
+                    models,
+                    &data,
+                    &o,
+                    &BandCuts::of(&o),
+                    true,
+                    (&mut PassLayout::new(&data, None), None),
+                );
                 assert_eq!(p.losses, Some(evaluate_losses(models, &data, w)));
                 // With the fit's stored cube-root targets: the same figures.
                 let stored = data.clone();
                 stored.cbrt_targets();
-                let q = cell_pass(models, &stored, &o, &BandCuts::of(&o), true);
+                let q = cell_pass(
+                    models,
+                    &stored,
+                    &o,
+                    &BandCuts::of(&o),
+                    true,
+                    (&mut PassLayout::new(&stored, None), None),
+                );
                 assert!(stored.cbrt_targets_if_built().is_some());
                 assert_eq!(
                     (
@@ -1173,6 +1444,51 @@ mod tests {
                     assert_eq!(*got, sorted_percentiles(v));
                 }
             }
+        }
+    }
+
+    /// The report's pass (blocks of whole rows, the residual sums on the way, one
+    /// layout for every model) gives the figures of a pass of its own per model, and
+    /// the maps of the reference `residual_map` (its own evaluation), to the bit; with
+    /// a model 0 on part of the table (the floor and the zeros' count).
+    #[test]
+    fn report_pass_keeps_the_figures_and_gives_the_reference_maps() {
+        use crate::html::analysis::residual_map;
+        let t = table();
+        let data = FitData::from_table(&t).unwrap();
+        let o = QualityOptions {
+            albedo_thetas: Vec::new(),
+            ..QualityOptions::default()
+        };
+        let mut fs = fits();
+        fs.push(Fitted::Shared(
+            brdfkit_models::from_json_str(
+                r#"{"model": "lambert", "params": {"rho_d": [0.0, 0.3, 0.0]}}"#,
+            )
+            .unwrap(),
+        ));
+        let given: Vec<(&Fitted, Option<&LossReport>)> = fs.iter().map(|f| (f, None)).collect();
+        for bins in [45, 7, 1] {
+            let (reports, maps) = fit_quality_and_maps(&t, &data, &given, &o, Some(bins)).unwrap();
+            for ((f, r), m) in fs.iter().zip(&reports).zip(&maps) {
+                let alone = fit_quality_and_maps(&t, &data, &[(f, None)], &o, None)
+                    .unwrap()
+                    .0
+                    .remove(0);
+                assert_eq!(r, &alone);
+                assert_eq!(m, &residual_map(&t, &data, f, bins));
+            }
+            assert!(maps[2].model_zero > 0);
+        }
+        // Whole-row blocks hold every cell once, in order.
+        let rows = CellRows::of(&t);
+        let b = blocks(data.len(), Some(&rows));
+        assert!(b.len() > 1);
+        assert_eq!(b[0].cells.start, 0);
+        assert_eq!(b.last().unwrap().cells.end, data.len());
+        for w in b.windows(2) {
+            assert_eq!(w[0].cells.end, w[1].cells.start);
+            assert!(w[0].cells.len() <= BLOCK);
         }
     }
 

@@ -5,10 +5,14 @@ use crate::physical::{
     PhysicalReport, PoleChoice, auto_pole, converged_with, model_albedo_converged,
 };
 use crate::table::{table_albedo, table_brdf};
+#[cfg(test)]
+use brdfkit_core::GeometryBatch;
 use brdfkit_core::direction::spherical;
 use brdfkit_core::rusinkiewicz::from_half_diff;
-use brdfkit_core::{GeometryBatch, Model, Rgb};
-use brdfkit_fit::{FitData, Fitted};
+use brdfkit_core::{Model, Rgb};
+#[cfg(test)]
+use brdfkit_fit::FitData;
+use brdfkit_fit::Fitted;
 use brdfkit_merl::{Lookup, MerlTable};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -117,11 +121,76 @@ pub struct ResidualMap {
 /// every other cell in it; −6 (a factor of a million) is far beyond any colour scale.
 pub const LOG_RATIO_FLOOR: f64 = -6.0;
 
+/// One (θh, θd) row of the table's cells in a residual map: the sum of the log ratios
+/// of its cell channels with a positive measurement, their count, and the model zeros
+/// among them, each cell added in φd order ([`add_residual_cell`]).
+pub(crate) type RowSums = (f64, usize, usize);
+
+/// Adds one cell to its row's [`RowSums`]: the model's value `model` against the
+/// measured `meas`, channel by channel, each channel with a positive measurement
+/// entering as log10(f_model / f_measured), floored at [`LOG_RATIO_FLOOR`] (a model 0
+/// counted in the zeros and entered at the floor).
+#[inline]
+pub(crate) fn add_residual_cell(a: &mut RowSums, model: &Rgb, meas: [f64; 3]) {
+    for c in 0..3 {
+        if meas[c] > 0.0 {
+            let r = if model[c] > 0.0 {
+                (model[c] / meas[c]).log10().max(LOG_RATIO_FLOOR)
+            } else {
+                a.2 += 1;
+                LOG_RATIO_FLOOR
+            };
+            a.0 += r;
+            a.1 += 1;
+        }
+    }
+}
+
+/// The residual map of a table of `bins` = [θh, θd] bins from its rows' sums (`rows`,
+/// row-major: θh slowest, `bins[0] · bins[1]` entries), on blocks of at most
+/// `max_bins` × `max_bins`: each block's mean is its rows' sums added θh row by θh row,
+/// θd by θd inside each.
+pub(crate) fn residual_map_of_rows(
+    rows: &[RowSums],
+    bins: [usize; 2],
+    max_bins: usize,
+) -> ResidualMap {
+    let [nh, nd] = bins;
+    let max_bins = max_bins.max(1);
+    let bh = nh.div_ceil(max_bins);
+    let bd = nd.div_ceil(max_bins);
+    let (cols, rows_out) = (nh.div_ceil(bh), nd.div_ceil(bd));
+    let mut values = vec![None; cols * rows_out];
+    let mut model_zero = 0;
+    for r in 0..rows_out {
+        for c in 0..cols {
+            let (mut s, mut n) = (0.0, 0usize);
+            for i in c * bh..((c + 1) * bh).min(nh) {
+                for cell in &rows[i * nd + r * bd..i * nd + ((r + 1) * bd).min(nd)] {
+                    s += cell.0;
+                    n += cell.1;
+                    model_zero += cell.2;
+                }
+            }
+            values[r * cols + c] = (n > 0).then(|| s / n as f64);
+        }
+    }
+    ResidualMap {
+        cols,
+        rows: rows_out,
+        block: [bh, bd],
+        bins: [nh, nd],
+        values,
+        model_zero,
+    }
+}
+
 /// The residual map of `fitted` against `table`, on blocks of at most `max_bins` ×
-/// `max_bins`. `data` holds the table's cells ([`FitData::from_table`]): their
-/// geometry is evaluated in batches, one θh slab per parallel task, instead of
-/// rebuilding every cell's directions from its angles (the same directions, and the
-/// same values: a model's batch and pair paths agree to the bit).
+/// `max_bins`, by its own evaluation of the model: the reference of the report's maps,
+/// which the quality pass computes from the values it evaluates anyway
+/// ([`crate::quality`]'s `fit_quality_and_maps`). `data` holds the table's cells
+/// ([`FitData::from_table`]), evaluated a θh slab at a time.
+#[cfg(test)]
 pub(crate) fn residual_map(
     table: &MerlTable,
     data: &FitData,
@@ -130,10 +199,6 @@ pub(crate) fn residual_map(
 ) -> ResidualMap {
     let d = table.dims();
     let (nh, nd, np) = (d.theta_h(), d.theta_d(), d.phi_d());
-    let max_bins = max_bins.max(1);
-    let bh = nh.div_ceil(max_bins);
-    let bd = nd.div_ceil(max_bins);
-    let (cols, rows) = (nh.div_ceil(bh), nd.div_ceil(bd));
     let slab = nd * np;
     let mask = table.valid_mask();
     // The cells are the valid ones in file order (θh slowest): slab i's are a run.
@@ -150,74 +215,34 @@ pub(crate) fn residual_map(
     let models = [0, 1, 2].map(|c| fitted.channel_model(c));
     let same = matches!(fitted, Fitted::Shared(_));
     let vals = data.values();
-    // Per (i, j): (sum of log ratios, count, model zeros), in parallel over θh.
-    let per_ij: Vec<Vec<(f64, usize, usize)>> = runs
-        .into_par_iter()
-        .enumerate()
-        .map(|(i, (s, n))| {
-            // The model at the slab's cells: channel c from the channel-c model.
-            let mut f = vec![Rgb::ZERO; n];
-            let mut tmp = if same { Vec::new() } else { vec![Rgb::ZERO; n] };
-            // The slab's geometry, computed here for a table's cells whose whole-set
-            // columns are not built (`FitData::geometry_of`).
-            let mut scratch = GeometryBatch::default();
-            let gs = data.geometry_of(s..s + n, &mut scratch);
-            models[0].eval_batch(&gs, &mut f);
-            if !same {
-                for c in 1..3 {
-                    models[c].eval_batch(&gs, &mut tmp);
-                    for (a, b) in f.iter_mut().zip(&tmp) {
-                        a[c] = b[c];
-                    }
+    let mut rows: Vec<RowSums> = Vec::with_capacity(nh * nd);
+    for (i, (s, n)) in runs.into_iter().enumerate() {
+        // The model at the slab's cells: channel c from the channel-c model.
+        let mut f = vec![Rgb::ZERO; n];
+        let mut tmp = if same { Vec::new() } else { vec![Rgb::ZERO; n] };
+        let mut scratch = GeometryBatch::default();
+        let gs = data.geometry_of(s..s + n, &mut scratch);
+        models[0].eval_batch(&gs, &mut f);
+        if !same {
+            for c in 1..3 {
+                models[c].eval_batch(&gs, &mut tmp);
+                for (a, b) in f.iter_mut().zip(&tmp) {
+                    a[c] = b[c];
                 }
             }
-            let mut acc = vec![(0.0, 0, 0); nd];
-            let cells = mask[i * slab..(i + 1) * slab]
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| **v);
-            for (q, (x, _)) in cells.enumerate() {
-                let a = &mut acc[x / np];
-                for c in 0..3 {
-                    let meas = vals[c][s + q];
-                    if meas > 0.0 {
-                        let r = if f[q][c] > 0.0 {
-                            (f[q][c] / meas).log10().max(LOG_RATIO_FLOOR)
-                        } else {
-                            a.2 += 1;
-                            LOG_RATIO_FLOOR
-                        };
-                        a.0 += r;
-                        a.1 += 1;
-                    }
-                }
-            }
-            acc
-        })
-        .collect();
-    let mut values = vec![None; cols * rows];
-    let mut model_zero = 0;
-    for r in 0..rows {
-        for c in 0..cols {
-            let (mut s, mut n) = (0.0, 0usize);
-            for row in per_ij.iter().take(((c + 1) * bh).min(nh)).skip(c * bh) {
-                for cell in row.iter().take(((r + 1) * bd).min(nd)).skip(r * bd) {
-                    s += cell.0;
-                    n += cell.1;
-                    model_zero += cell.2;
-                }
-            }
-            values[r * cols + c] = (n > 0).then(|| s / n as f64);
         }
+        let mut acc = vec![(0.0, 0, 0); nd];
+        let cells = mask[i * slab..(i + 1) * slab]
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| **v);
+        for (q, (x, _)) in cells.enumerate() {
+            let meas = [0, 1, 2].map(|c| vals[c][s + q]);
+            add_residual_cell(&mut acc[x / np], &f[q], meas);
+        }
+        rows.extend(acc);
     }
-    ResidualMap {
-        cols,
-        rows,
-        block: [bh, bd],
-        bins: [nh, nd],
-        values,
-        model_zero,
-    }
+    residual_map_of_rows(&rows, [nh, nd], max_bins)
 }
 
 /// The directional albedo a(θo) = ∫ f(wi, wo) cos θi dωi (φo = 0) of the table and

@@ -43,7 +43,7 @@ pub use files::{AnyReport, HTML_FILE, JSON_FILE};
 pub use scattered::{ScatteredReport, ScatteredSide, build_any_report, build_scattered_report};
 
 use crate::physical::{CheckOptions, PhysicalReport, PoleChoice, check_model_with};
-use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_of};
+use crate::quality::{QualityError, QualityOptions, QualityReport, fit_quality_and_maps};
 use analysis::{AlbedoCurves, ResidualMap, Slice};
 use brdfkit_core::progress::{Event, Observe};
 use brdfkit_fit::{FitConfig, FitData, FitRecord, Fitted, LossReport, Weighting};
@@ -207,9 +207,11 @@ pub struct ModelDetail {
 /// Wall times of the report's parts (s).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timings {
-    /// Fit-quality measurements.
+    /// Fit-quality measurements (since session 16 with the residual maps, which take
+    /// the quality pass's values).
     pub quality_s: f64,
-    /// Slices and residual maps.
+    /// The slices (the residual maps before session 16; the name is kept for the
+    /// reports already written).
     pub slices_and_maps_s: f64,
     /// Albedo curves (the table's and the models' times added). The albedo, checks
     /// and renders run beside each other and beside the quality, the slices and the
@@ -495,15 +497,14 @@ fn cell_sections(
             (&f.fitted, losses)
         })
         .collect();
-    let quality = fit_quality_of(table, &cells, &known, &qopt)?;
+    // The residual maps come from the quality pass's own evaluation of every model at
+    // every cell (the same sums as a pass of their own, without the second evaluation).
+    let (quality, maps) =
+        fit_quality_and_maps(table, &cells, &known, &qopt, Some(o.residual_max_bins))?;
+    drop(cells);
     let quality_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let slices = analysis::slices(table, fitted, &o.slice_theta_d, o.slice_phi_d);
-    let maps: Vec<ResidualMap> = fitted
-        .iter()
-        .map(|f| analysis::residual_map(table, &cells, f, o.residual_max_bins))
-        .collect();
-    drop(cells);
     let slices_and_maps_s = t.elapsed().as_secs_f64();
     let (panels, panels_s) = timed(|| report_panels(table, table_name, fits));
     Ok(CellSections {
