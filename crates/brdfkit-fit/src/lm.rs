@@ -852,6 +852,19 @@ mod tests {
         assert_eq!(tail_stop(Some(1e-6), &uneven), None);
     }
 
+    /// The cost ½‖r‖² of a test problem whose `rj` gives its residuals and Jacobian.
+    macro_rules! half_square_cost {
+        ($t:ident) => {
+            impl CostFunction for $t {
+                type Param = DVector<f64>;
+                type Output = f64;
+                fn cost(&self, u: &DVector<f64>) -> Result<f64, Error> {
+                    Ok(0.5 * $t::rj(u).0.norm_squared())
+                }
+            }
+        };
+    }
+
     /// Rosenbrock as least squares: r = (10 (y − x²), 1 − x); minimum 0 at (1, 1).
     struct Rosen;
     impl Rosen {
@@ -875,13 +888,7 @@ mod tests {
             Ok(dense_normal_eq(Rosen::rj(u)))
         }
     }
-    impl CostFunction for Rosen {
-        type Param = DVector<f64>;
-        type Output = f64;
-        fn cost(&self, u: &DVector<f64>) -> Result<f64, Error> {
-            Ok(0.5 * Rosen::rj(u).0.norm_squared())
-        }
-    }
+    half_square_cost!(Rosen);
     impl Gradient for Rosen {
         type Param = DVector<f64>;
         type Gradient = DVector<f64>;
@@ -988,13 +995,7 @@ mod tests {
             Ok(dense_normal_eq(LargeResidual::rj(u)))
         }
     }
-    impl CostFunction for LargeResidual {
-        type Param = DVector<f64>;
-        type Output = f64;
-        fn cost(&self, u: &DVector<f64>) -> Result<f64, Error> {
-            Ok(0.5 * LargeResidual::rj(u).0.norm_squared())
-        }
-    }
+    half_square_cost!(LargeResidual);
 
     /// Extended steps reach the large-residual minimum in a few iterations where plain
     /// LM crawls on its linear tail, and both end at it.
@@ -1049,13 +1050,7 @@ mod tests {
             q == 0 && u.abs() > crate::reparam::U_ACTIVE
         }
     }
-    impl CostFunction for AtBound {
-        type Param = DVector<f64>;
-        type Output = f64;
-        fn cost(&self, u: &DVector<f64>) -> Result<f64, Error> {
-            Ok(0.5 * AtBound::rj(u).0.norm_squared())
-        }
-    }
+    half_square_cost!(AtBound);
 
     #[test]
     fn lm_stops_on_ftol_with_a_coordinate_at_its_bound() {
